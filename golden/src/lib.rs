@@ -1,1 +1,20 @@
-//! placeholder
+//! ercube's golden model: what the chip must compute, in floating point.
+//!
+//! The dataflow, module by module: [`volume`] (and [`load`], [`scenes`]) ->
+//! [`tf`] (classification) -> [`geometry`] (principal axis, regions, rays:
+//! the one source of truth shared with the pipeline) -> [`slices`] (the
+//! permuted slice stack) -> a method ([`slice_order`]: ER back-to-front and
+//! front-to-back, under/oversampling, box merge) -> [`warp::Baseplane`] ->
+//! [`warp`] -> [`image::Image`]; [`reference`] renders the same camera by
+//! image-order ray casting as ground truth, [`metrics`] compares images.
+
+pub mod camera;
+pub mod error;
+pub mod geometry;
+pub mod image;
+pub mod slices;
+pub mod tf;
+pub mod volume;
+pub mod warp;
+
+pub use error::{Error, Result};

@@ -1,0 +1,230 @@
+//! Transfer functions: piecewise-linear RGBA over the scalar range,
+//! tabulated to a lookup table for classification.
+//!
+//! Opacity is per unit of world length: a control point's `a` is the opacity
+//! of a segment one world unit long (one voxel at unit spacing). Renderers
+//! correct it for their step length `ds` as `1 - (1 - a)^ds`.
+
+use std::path::Path;
+
+use crate::error::{input, Error, Result};
+
+/// One control point: a scalar value and the colour and opacity there.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlPoint {
+    /// Scalar value (voxel units, e.g. 0..=255 for u8 volumes).
+    pub value: f64,
+    /// Red, green, blue (not premultiplied) and opacity per unit length, each in [0, 1].
+    pub rgba: [f64; 4],
+}
+
+/// A piecewise-linear transfer function; constant beyond its end points.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransferFunction {
+    /// Control points in non-decreasing order of `value`.
+    #[serde(rename = "point")]
+    pub points: Vec<ControlPoint>,
+}
+
+impl TransferFunction {
+    /// Builds a transfer function, checking that the points are finite,
+    /// ordered and in range.
+    pub fn new(points: Vec<ControlPoint>) -> Result<TransferFunction> {
+        let tf = TransferFunction { points };
+        tf.validate()?;
+        Ok(tf)
+    }
+
+    fn validate(&self) -> Result<()> {
+        if self.points.is_empty() {
+            return Err(input("transfer function has no control points"));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if !p.value.is_finite() {
+                return Err(input(format!("transfer function point {i}: value is not finite")));
+            }
+            if p.rgba.iter().any(|c| !(0.0..=1.0).contains(c)) {
+                return Err(input(format!(
+                    "transfer function point {i}: rgba {:?} must lie in [0, 1]",
+                    p.rgba
+                )));
+            }
+            if i > 0 && p.value < self.points[i - 1].value {
+                return Err(input(format!(
+                    "transfer function point {i}: value {} is below the previous {}",
+                    p.value,
+                    self.points[i - 1].value
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Parses the TOML form: `[[point]] value = 30  rgba = [1, 1, 1, 0]`, ...
+    pub fn from_toml_str(text: &str) -> Result<TransferFunction> {
+        let tf: TransferFunction = toml::from_str(text)
+            .map_err(|e| input(format!("transfer function: {}", one_line(&e.to_string()))))?;
+        tf.validate()?;
+        Ok(tf)
+    }
+
+    /// Reads a TOML transfer function file.
+    pub fn from_file(path: &Path) -> Result<TransferFunction> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::from_toml_str(&text).map_err(|e| Error::Format {
+            path: path.to_owned(),
+            msg: e.to_string(),
+        })
+    }
+
+    /// The TOML text of this transfer function (what `from_toml_str` reads).
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string(self).expect("a validated transfer function serialises")
+    }
+
+    /// Evaluates the function at scalar `s` (piecewise linear, clamped).
+    pub fn eval(&self, s: f64) -> [f64; 4] {
+        let pts = &self.points;
+        let first = pts[0];
+        if s <= first.value {
+            return first.rgba;
+        }
+        for w in pts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if s <= b.value {
+                if b.value == a.value {
+                    return b.rgba;
+                }
+                let t = (s - a.value) / (b.value - a.value);
+                return std::array::from_fn(|k| a.rgba[k] + t * (b.rgba[k] - a.rgba[k]));
+            }
+        }
+        pts[pts.len() - 1].rgba
+    }
+
+    /// Tabulates the function into `entries` entries spanning scalars
+    /// `0..=max_value`, the form both the golden model and the chip use.
+    pub fn table(&self, entries: usize, max_value: f64) -> Lut {
+        assert!(entries >= 2, "a lookup table needs at least two entries");
+        let step = max_value / (entries - 1) as f64;
+        let rgba = (0..entries)
+            .map(|i| {
+                let c = self.eval(i as f64 * step);
+                [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32]
+            })
+            .collect();
+        Lut {
+            rgba,
+            per_scalar: ((entries - 1) as f64 / max_value) as f32,
+        }
+    }
+}
+
+/// Keeps the first line of a parser message, for one-line errors.
+fn one_line(msg: &str) -> String {
+    msg.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// A tabulated transfer function: RGBA entries evenly spaced over the scalar
+/// range. Lookups of a non-integer position interpolate linearly between
+/// neighbouring entries (post-classification of an interpolated scalar).
+#[derive(Debug, Clone)]
+pub struct Lut {
+    /// Colour (not premultiplied) and opacity per unit length, per entry.
+    pub rgba: Vec<[f32; 4]>,
+    /// Table entries per scalar unit.
+    pub per_scalar: f32,
+}
+
+impl Lut {
+    /// The classified colour and opacity of scalar `s`.
+    #[inline]
+    pub fn lookup(&self, s: f32) -> [f32; 4] {
+        let last = self.rgba.len() - 1;
+        let f = (s * self.per_scalar).clamp(0.0, last as f32);
+        let i = (f as usize).min(last - 1);
+        let t = f - i as f32;
+        let (a, b) = (self.rgba[i], self.rgba[i + 1]);
+        [
+            a[0] + t * (b[0] - a[0]),
+            a[1] + t * (b[1] - a[1]),
+            a[2] + t * (b[2] - a[2]),
+            a[3] + t * (b[3] - a[3]),
+        ]
+    }
+
+    /// True when every entry has zero opacity (nothing can be seen).
+    pub fn is_transparent(&self) -> bool {
+        self.rgba.iter().all(|e| e[3] == 0.0)
+    }
+}
+
+/// Opacity of a step of length `ds` for opacity `a` per unit length:
+/// `1 - (1 - a)^ds`, computed without cancellation for small `a`.
+#[inline]
+pub fn correct_opacity(a: f32, ds: f32) -> f32 {
+    if a <= 0.0 {
+        0.0
+    } else if a >= 1.0 {
+        1.0
+    } else {
+        -((ds * (-a).ln_1p()).exp_m1())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> TransferFunction {
+        TransferFunction::new(vec![
+            ControlPoint { value: 30.0, rgba: [0.0, 0.0, 0.0, 0.0] },
+            ControlPoint { value: 150.0, rgba: [1.0, 1.0, 1.0, 1.0] },
+        ])
+        .unwrap()
+    }
+
+    #[test]
+    fn evaluates_piecewise_linear_and_clamps() {
+        let tf = ramp();
+        assert_eq!(tf.eval(0.0)[3], 0.0);
+        assert!((tf.eval(90.0)[3] - 0.5).abs() < 1e-12);
+        assert_eq!(tf.eval(1000.0)[3], 1.0);
+        let lut = tf.table(256, 255.0);
+        assert!((lut.lookup(90.0)[3] - 0.5).abs() < 1e-6);
+        assert!((lut.lookup(90.5)[3] - 60.5 / 120.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn toml_round_trip_and_errors() {
+        let tf = ramp();
+        let back = TransferFunction::from_toml_str(&tf.to_toml_string()).unwrap();
+        assert_eq!(tf, back);
+        let bad = "[[point]]\nvalue = 3\nrgba = [0, 0, 2, 0]\n";
+        let e = TransferFunction::from_toml_str(bad).unwrap_err().to_string();
+        assert!(e.contains("[0, 1]"), "{e}");
+        let order = "[[point]]\nvalue = 3\nrgba = [0,0,0,0]\n[[point]]\nvalue = 1\nrgba = [0,0,0,0]\n";
+        assert!(TransferFunction::from_toml_str(order).is_err());
+        assert!(TransferFunction::from_toml_str("[[point]]\nvalu = 3\n").is_err());
+        assert!(TransferFunction::from_toml_str("").is_err());
+    }
+
+    #[test]
+    fn opacity_correction_matches_the_closed_form() {
+        for &(a, ds) in &[(0.5f32, 1.0f32), (0.5, 2.0), (1e-4, 0.25), (0.99, 1.7)] {
+            let want = 1.0 - (1.0 - a as f64).powf(ds as f64);
+            assert!((correct_opacity(a, ds) as f64 - want).abs() < 1e-6 * want.max(1e-3));
+        }
+        assert_eq!(correct_opacity(0.0, 3.0), 0.0);
+        assert_eq!(correct_opacity(1.0, 0.1), 1.0);
+    }
+}
