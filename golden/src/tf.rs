@@ -162,6 +162,17 @@ impl Lut {
         ]
     }
 
+    /// [`Lut::lookup`] in `f64`, for the reference renderer.
+    #[inline]
+    pub fn lookup_f64(&self, s: f64) -> [f64; 4] {
+        let last = self.rgba.len() - 1;
+        let f = (s * self.per_scalar as f64).clamp(0.0, last as f64);
+        let i = (f as usize).min(last - 1);
+        let t = f - i as f64;
+        let (a, b) = (self.rgba[i], self.rgba[i + 1]);
+        std::array::from_fn(|k| a[k] as f64 + t * (b[k] as f64 - a[k] as f64))
+    }
+
     /// True when every entry has zero opacity (nothing can be seen).
     pub fn is_transparent(&self) -> bool {
         self.rgba.iter().all(|e| e[3] == 0.0)

@@ -1,0 +1,116 @@
+//! One frame, end to end: volume -> classify -> slices -> method ->
+//! baseplane -> warp -> image, or the reference ray caster for the same
+//! camera. The command line, the benchmarks and the tests all go through
+//! here, so every method sees the same view, stack and table.
+
+use std::str::FromStr;
+
+use crate::camera::Camera;
+use crate::error::{input, Result};
+use crate::geometry::View;
+use crate::image::Image;
+use crate::methods::{self, Method, Options, Output};
+use crate::reference::{self, RefOptions};
+use crate::slices::SliceStack;
+use crate::tf::{Lut, TransferFunction};
+use crate::volume::{Volume, VoxelType};
+use crate::warp::warp;
+
+/// Any golden rendering technique.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Technique {
+    /// A slice-order method.
+    Slice(Method),
+    /// The supersampled image-order reference.
+    Reference,
+}
+
+impl Technique {
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Slice(m) => m.name(),
+            Technique::Reference => "reference",
+        }
+    }
+}
+
+impl FromStr for Technique {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> Result<Technique> {
+        if s == "reference" {
+            return Ok(Technique::Reference);
+        }
+        s.parse::<Method>().map(Technique::Slice).map_err(|_| {
+            input(format!(
+                "unknown method '{s}': use reference, er, er-ftb, under, over or box"
+            ))
+        })
+    }
+}
+
+/// Table entries for a volume's scalar range: one per value for 8-bit
+/// data, 4096 (VolumePro's 12-bit index) for 16-bit data.
+pub fn lut_for(kind: VoxelType, tf: &TransferFunction) -> Lut {
+    match kind {
+        VoxelType::U8 => tf.table(256, 255.0),
+        VoxelType::U16 => tf.table(4096, 65535.0),
+    }
+}
+
+/// A camera placed against a volume, with the volume permuted for it.
+/// Build once per view and render any number of frames and methods.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The view geometry.
+    pub view: View,
+    /// The permuted, padded volume.
+    pub stack: SliceStack,
+}
+
+/// Distance in front of the eye where an eye inside the slab clips (voxels).
+pub const DEFAULT_NEAR: f64 = 1.0;
+
+impl Prepared {
+    /// Places `camera` against `volume`.
+    pub fn new(volume: &Volume, camera: &Camera) -> Result<Prepared> {
+        let view = View::new(volume.dims(), volume.spacing(), camera, DEFAULT_NEAR)?;
+        let stack = SliceStack::new(volume, &view.axes)?;
+        Ok(Prepared { view, stack })
+    }
+}
+
+/// Settings of every technique.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RenderOptions {
+    /// Slice-order options.
+    pub slice: Options,
+    /// Reference options.
+    pub reference: RefOptions,
+}
+
+/// One rendered frame.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// The final image.
+    pub image: Image,
+    /// Baseplane and counts of a slice-order method.
+    pub slice: Option<Output>,
+}
+
+/// Renders one frame of `prep` with `tech`.
+pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
+    match tech {
+        Technique::Reference => Ok(Frame {
+            image: reference::render(&prep.view, &prep.stack, lut, &opts.reference)?,
+            slice: None,
+        }),
+        Technique::Slice(m) => {
+            let out = methods::render(m, &prep.view, &prep.stack, lut, &opts.slice)?;
+            Ok(Frame {
+                image: warp(&prep.view, &out.baseplane),
+                slice: Some(out),
+            })
+        }
+    }
+}
