@@ -185,7 +185,9 @@ impl Camera {
         let centre = self.eye + f * (dist / fn_);
         let rp = r - normal * r.dot(normal);
         if rp.length() < 1e-9 {
-            return Err(input("the camera's right vector is perpendicular to the front plane"));
+            return Err(input(
+                "the camera's right vector is perpendicular to the front plane",
+            ));
         }
         let rp = rp.normalize();
         let mut up_p = normal.cross(rp);

@@ -46,7 +46,11 @@ impl AxisMap {
     /// View-space direction of index-space direction `d`.
     pub fn dir_to_view(&self, d: DVec3) -> DVec3 {
         let a = d.to_array();
-        let z = if self.flip_z { -a[self.perm[2]] } else { a[self.perm[2]] };
+        let z = if self.flip_z {
+            -a[self.perm[2]]
+        } else {
+            a[self.perm[2]]
+        };
         DVec3::new(a[self.perm[0]], a[self.perm[1]], z)
     }
 
@@ -148,7 +152,9 @@ impl View {
             }
         };
         let to_view_dir = |w: DVec3| {
-            axes.dir_to_view(DVec3::from_array(std::array::from_fn(|k| w[k] / spacing[k])))
+            axes.dir_to_view(DVec3::from_array(std::array::from_fn(|k| {
+                w[k] / spacing[k]
+            })))
         };
         let rays = PixelRays {
             eye,
@@ -394,7 +400,12 @@ impl Layout {
         Layout::finish(view, vec![0.0, (nz as f64 - 1.0).max(0.0)], grids, None)
     }
 
-    fn finish(view: &View, bounds: Vec<f64>, mut grids: Vec<RayGrid>, merge: Option<Merge>) -> Result<Layout> {
+    fn finish(
+        view: &View,
+        bounds: Vec<f64>,
+        mut grids: Vec<RayGrid>,
+        merge: Option<Merge>,
+    ) -> Result<Layout> {
         let (eye, d) = (view.eye, view.d);
         for i in (0..grids.len()).rev() {
             let g = &grids[i];

@@ -59,7 +59,10 @@ pub fn to8(v: f32) -> u8 {
 
 /// Writes `path` atomically: the bytes go to a temporary file in the same
 /// directory, which is renamed over `path` only once complete.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+pub fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
     let io = |source| Error::Io {
         path: path.to_owned(),
         source,
@@ -145,7 +148,9 @@ mod tests {
         Image::new(3, 2).write_npy(&p).unwrap();
         let bytes = std::fs::read(&p).unwrap();
         assert_eq!(bytes.len(), 128 + 3 * 2 * 4 * 4);
-        let failed = write_atomic(&dir.path().join("y"), |_| Err(std::io::Error::other("boom")));
+        let failed = write_atomic(&dir.path().join("y"), |_| {
+            Err(std::io::Error::other("boom"))
+        });
         assert!(failed.is_err());
         assert!(!dir.path().join("y").exists());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);

@@ -3,7 +3,7 @@
 //! The dataflow, module by module: [`volume`] (and [`load`], [`scenes`]) ->
 //! [`tf`] (classification) -> [`geometry`] (principal axis, regions, rays:
 //! the one source of truth shared with the pipeline) -> [`slices`] (the
-//! permuted slice stack) -> a method ([`slice_order`]: ER back-to-front and
+//! permuted slice stack) -> a method ([`methods`], built from [`sampling`] and [`merge`]: ER back-to-front and
 //! front-to-back, under/oversampling, box merge) -> [`warp::Baseplane`] ->
 //! [`warp`] -> [`image::Image`]; [`reference`] renders the same camera by
 //! image-order ray casting as ground truth, [`metrics`] compares images.
@@ -12,6 +12,14 @@ pub mod camera;
 pub mod error;
 pub mod geometry;
 pub mod image;
+pub mod load;
+pub mod merge;
+pub mod methods;
+pub mod metrics;
+pub mod reference;
+pub mod render;
+pub mod sampling;
+pub mod scenes;
 pub mod slices;
 pub mod tf;
 pub mod volume;

@@ -9,7 +9,7 @@ use std::str::FromStr;
 use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
 use crate::merge::{merge, split, Rgba};
-use crate::sampling::{sample_slice, Order};
+use crate::sampling::{sample_slice, Order, MAX_SUBSTEPS};
 use crate::slices::SliceStack;
 use crate::tf::Lut;
 use crate::warp::Baseplane;
@@ -31,7 +31,13 @@ pub enum Method {
 
 impl Method {
     /// Every slice-order method, in the order tables list them.
-    pub const ALL: [Method; 5] = [Method::Er, Method::ErFtb, Method::Under, Method::Over, Method::Box];
+    pub const ALL: [Method; 5] = [
+        Method::Er,
+        Method::ErFtb,
+        Method::Under,
+        Method::Over,
+        Method::Box,
+    ];
 
     /// The method's name on the command line.
     pub fn name(self) -> &'static str {
@@ -61,7 +67,11 @@ impl FromStr for Method {
         Method::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| input(format!("unknown method '{s}': use er, er-ftb, under, over or box")))
+            .ok_or_else(|| {
+                input(format!(
+                    "unknown method '{s}': use er, er-ftb, under, over or box"
+                ))
+            })
     }
 }
 
@@ -70,11 +80,39 @@ impl FromStr for Method {
 pub struct Options {
     /// Early ray termination threshold for `er-ftb` (1.0 disables it).
     pub terminate: f32,
+    /// Samples per slice crossing (see [`crate::sampling`]); 1 is the
+    /// paper's scheme.
+    pub substeps: u32,
 }
 
 impl Default for Options {
     fn default() -> Options {
-        Options { terminate: 0.99 }
+        Options {
+            terminate: 0.99,
+            substeps: DEFAULT_SUBSTEPS,
+        }
+    }
+}
+
+/// Default samples per slice crossing.
+pub const DEFAULT_SUBSTEPS: u32 = 2;
+
+impl Options {
+    /// Refuses options no method can run with.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.terminate.is_finite() && self.terminate > 0.0 && self.terminate <= 1.0) {
+            return Err(input(format!(
+                "termination threshold {} must lie in (0, 1]",
+                self.terminate
+            )));
+        }
+        if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
+            return Err(input(format!(
+                "substeps {} must be 1 to {MAX_SUBSTEPS}",
+                self.substeps
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -91,6 +129,8 @@ pub struct Stats {
     pub rays_per_region: Vec<u64>,
     /// Region boundaries at which rays were merged (or split).
     pub merges: u64,
+    /// Samples per slice crossing.
+    pub substeps: u32,
 }
 
 /// A slice-order render before the warp.
@@ -103,17 +143,25 @@ pub struct Output {
 }
 
 /// Renders `view` of `stack` with `method`.
-pub fn render(method: Method, view: &View, stack: &SliceStack, lut: &Lut, opts: &Options) -> Result<Output> {
+pub fn render(
+    method: Method,
+    view: &View,
+    stack: &SliceStack,
+    lut: &Lut,
+    opts: &Options,
+) -> Result<Output> {
+    opts.validate()?;
     let layout = method.layout(view)?;
     let mut stats = Stats {
+        substeps: opts.substeps,
         regions: layout.bounds.clone(),
         samples_per_slice: vec![0; view.dims[2]],
         rays_per_region: layout.grids.iter().map(|g| g.len() as u64).collect(),
         ..Stats::default()
     };
     let base = match method {
-        Method::ErFtb => front_to_back(&layout, view, stack, lut, opts.terminate, &mut stats),
-        _ => back_to_front(&layout, view, stack, lut, &mut stats),
+        Method::ErFtb => front_to_back(&layout, view, stack, lut, opts, &mut stats),
+        _ => back_to_front(&layout, view, stack, lut, opts.substeps, &mut stats),
     };
     stats.samples_total = stats.samples_per_slice.iter().sum();
     Ok(Output {
@@ -127,13 +175,29 @@ pub fn render(method: Method, view: &View, stack: &SliceStack, lut: &Lut, opts: 
 
 /// Back-to-front: each region's rays composite its slices from the rear,
 /// then merge into the next region's rays.
-fn back_to_front(layout: &Layout, view: &View, stack: &SliceStack, lut: &Lut, stats: &mut Stats) -> Vec<Rgba> {
+fn back_to_front(
+    layout: &Layout,
+    view: &View,
+    stack: &SliceStack,
+    lut: &Lut,
+    substeps: u32,
+    stats: &mut Stats,
+) -> Vec<Rgba> {
     let k = layout.grids.len();
     let mut buf = vec![[0f32; 4]; layout.grids[k - 1].len()];
     for i in (0..k).rev() {
         let grid = &layout.grids[i];
         for z in grid.slices.clone().rev() {
-            stats.samples_per_slice[z] += sample_slice(view, stack, lut, grid, &mut buf, z, Order::BackToFront);
+            stats.samples_per_slice[z] += sample_slice(
+                view,
+                stack,
+                lut,
+                grid,
+                &mut buf,
+                z,
+                Order::BackToFront,
+                substeps,
+            );
         }
         if i > 0 {
             let kind = layout.merge.expect("multi-region layouts merge");
@@ -156,10 +220,12 @@ fn front_to_back(
     view: &View,
     stack: &SliceStack,
     lut: &Lut,
-    terminate: f32,
+    opts: &Options,
     stats: &mut Stats,
 ) -> Vec<Rgba> {
-    let order = Order::FrontToBack { terminate };
+    let order = Order::FrontToBack {
+        terminate: opts.terminate,
+    };
     let k = layout.grids.len();
     let mut finals: Vec<Vec<Rgba>> = Vec::with_capacity(k);
     let mut inherited: Vec<Vec<Rgba>> = Vec::with_capacity(k);
@@ -174,7 +240,8 @@ fn front_to_back(
             inherited.push(vec![[0f32; 4]; grid.len()]);
         }
         for z in grid.slices.clone() {
-            stats.samples_per_slice[z] += sample_slice(view, stack, lut, grid, &mut buf, z, order);
+            stats.samples_per_slice[z] +=
+                sample_slice(view, stack, lut, grid, &mut buf, z, order, opts.substeps);
         }
         finals.push(buf.clone());
     }

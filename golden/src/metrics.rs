@@ -36,7 +36,11 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
     Ok(ImageError {
         max_abs_255: max as f64,
         rmse,
-        psnr: if rmse > 0.0 { -20.0 * rmse.log10() } else { f64::INFINITY },
+        psnr: if rmse > 0.0 {
+            -20.0 * rmse.log10()
+        } else {
+            f64::INFINITY
+        },
     })
 }
 

@@ -17,7 +17,8 @@ use crate::tf::Lut;
 pub struct RefOptions {
     /// Rays per pixel along each image axis (at least 4).
     pub rays_per_axis: usize,
-    /// Step along the ray in voxels (at most 1/4).
+    /// Longest step along the ray in voxels; each ray's path through the
+    /// volume is cut into equal steps no longer than this.
     pub step: f64,
     /// A ray stops once its remaining transmittance is below this; the
     /// error this makes is below it too (1e-6 is far under one 8-bit level).
@@ -106,10 +107,12 @@ fn cast(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions, dir: DVec
     if t0 >= t1 {
         return [0.0; 4];
     }
-    let len = dir.length();
-    let dt = opts.step / len;
+    // Equal steps of at most `opts.step` voxels that tile the ray's path
+    // through the volume exactly, so a uniform slab integrates exactly.
+    let steps = ((t1 - t0) * dir.length() / opts.step).ceil().max(1.0);
+    let dt = (t1 - t0) / steps;
+    let steps = steps as usize;
     let ds = view.world_length(dir.x * dt, dir.y * dt, dir.z * dt);
-    let steps = ((t1 - t0) / dt).floor() as usize;
     let mut acc = [0f64; 4];
     for n in 0..steps {
         let p = e + dir * (t0 + (n as f64 + 0.5) * dt);

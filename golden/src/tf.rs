@@ -43,7 +43,9 @@ impl TransferFunction {
         }
         for (i, p) in self.points.iter().enumerate() {
             if !p.value.is_finite() {
-                return Err(input(format!("transfer function point {i}: value is not finite")));
+                return Err(input(format!(
+                    "transfer function point {i}: value is not finite"
+                )));
             }
             if p.rgba.iter().any(|c| !(0.0..=1.0).contains(c)) {
                 return Err(input(format!(
@@ -198,8 +200,14 @@ mod tests {
 
     fn ramp() -> TransferFunction {
         TransferFunction::new(vec![
-            ControlPoint { value: 30.0, rgba: [0.0, 0.0, 0.0, 0.0] },
-            ControlPoint { value: 150.0, rgba: [1.0, 1.0, 1.0, 1.0] },
+            ControlPoint {
+                value: 30.0,
+                rgba: [0.0, 0.0, 0.0, 0.0],
+            },
+            ControlPoint {
+                value: 150.0,
+                rgba: [1.0, 1.0, 1.0, 1.0],
+            },
         ])
         .unwrap()
     }
@@ -221,9 +229,12 @@ mod tests {
         let back = TransferFunction::from_toml_str(&tf.to_toml_string()).unwrap();
         assert_eq!(tf, back);
         let bad = "[[point]]\nvalue = 3\nrgba = [0, 0, 2, 0]\n";
-        let e = TransferFunction::from_toml_str(bad).unwrap_err().to_string();
+        let e = TransferFunction::from_toml_str(bad)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("[0, 1]"), "{e}");
-        let order = "[[point]]\nvalue = 3\nrgba = [0,0,0,0]\n[[point]]\nvalue = 1\nrgba = [0,0,0,0]\n";
+        let order =
+            "[[point]]\nvalue = 3\nrgba = [0,0,0,0]\n[[point]]\nvalue = 1\nrgba = [0,0,0,0]\n";
         assert!(TransferFunction::from_toml_str(order).is_err());
         assert!(TransferFunction::from_toml_str("[[point]]\nvalu = 3\n").is_err());
         assert!(TransferFunction::from_toml_str("").is_err());

@@ -191,7 +191,9 @@ mod tests {
         })
         .unwrap();
         assert_eq!(v.get(2, 3, 0), 32);
-        assert_eq!(v.data()[1 + 3 * (2 + 4 * 1)], (1 + 20 + 100) as u16);
+        // Voxel (1, 2, 1) sits at 1 + 3 (2 + 4 * 1).
+        let (x, y, z) = (1, 2, 1);
+        assert_eq!(v.data()[x + 3 * (y + 4 * z)], (1 + 20 + 100) as u16);
         assert!(Volume::new([2, 2, 2], VoxelType::U8, vec![300; 8]).is_err());
         assert!(Volume::new([2, 2, 2], VoxelType::U8, vec![0; 7]).is_err());
     }

@@ -37,7 +37,11 @@ pub fn pixel_to_base(view: &View, grid: &BaseGrid) -> DMat3 {
     // homogeneous form is P d with P = [[D, 0, e_x], [0, D, e_y], [0, 0, 1]].
     let l = DMat3::from_cols(r.b, r.c, r.a);
     let (d, e) = (view.d, view.eye);
-    let p = DMat3::from_cols(DVec3::new(d, 0.0, 0.0), DVec3::new(0.0, d, 0.0), DVec3::new(e.x, e.y, 1.0));
+    let p = DMat3::from_cols(
+        DVec3::new(d, 0.0, 0.0),
+        DVec3::new(0.0, d, 0.0),
+        DVec3::new(e.x, e.y, 1.0),
+    );
     let s = 1.0 / grid.spacing;
     let to_samples = DMat3::from_cols(
         DVec3::new(s, 0.0, 0.0),
@@ -86,7 +90,11 @@ pub fn warp(view: &View, base: &Baseplane) -> Image {
                     continue;
                 }
                 let (u, v) = (q.x / q.z, q.y / q.z);
-                if !(u > -half - 1.0 && u < nx as f64 + half && v > -half - 1.0 && v < ny as f64 + half) {
+                if !(u > -half - 1.0
+                    && u < nx as f64 + half
+                    && v > -half - 1.0
+                    && v < ny as f64 + half)
+                {
                     continue;
                 }
                 let x0 = tent(u, half, wx);

@@ -1,0 +1,82 @@
+//! The command line: argument parsing, dispatch and the one-line error
+//! contract (every failure prints `ercube: error: ...` on one line and exits
+//! with status 2; nothing panics on bad input).
+
+mod args;
+mod compare;
+mod montage;
+mod progress;
+mod render;
+mod stats;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// ercube: a cycle- and bit-accurate model of a Cube-style perspective
+/// volume-rendering chip (ER-Perspective), beside its float golden model.
+#[derive(Debug, Parser)]
+#[command(name = "ercube", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Render one image of a scene or volume file with one method.
+    Render(render::RenderArgs),
+    /// Render with several methods, write each image, a labelled montage
+    /// and a table of time, samples and error against the reference.
+    Compare(compare::CompareArgs),
+    /// Compare every method on the embedded default scene (no files needed).
+    Demo(compare::DemoArgs),
+}
+
+/// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
+/// error worth a panic, so write failures are ignored.
+pub fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
+/// Parses the command line and runs it.
+pub fn run() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                let _ = e.print();
+                return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                    ExitCode::from(2)
+                } else {
+                    ExitCode::SUCCESS
+                };
+            }
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            let first = first.trim_start_matches("error: ");
+            eprintln!("ercube: error: {first} (see ercube --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Render(a) => render::run(&a),
+        Command::Compare(a) => compare::run(&a),
+        Command::Demo(a) => compare::demo(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let msg = format!("{e:#}");
+            eprintln!("ercube: error: {}", msg.replace('\n', " "));
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,35 @@
+//! Progress display: a spinner with elapsed time on stderr for anything
+//! that can take over a second, drawn only when stdout is a terminal (so
+//! scripts and CI logs stay clean).
+
+use std::io::IsTerminal;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// A running stage; cleared when dropped.
+pub struct Stage(ProgressBar);
+
+impl Stage {
+    /// Starts showing `msg` with a spinner and elapsed time.
+    pub fn start(msg: impl Into<String>) -> Stage {
+        let bar = if std::io::stdout().is_terminal() {
+            ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
+        } else {
+            ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden())
+        };
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        bar.set_message(msg.into());
+        bar.enable_steady_tick(Duration::from_millis(120));
+        Stage(bar)
+    }
+}
+
+impl Drop for Stage {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
+}

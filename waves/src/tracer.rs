@@ -1,0 +1,710 @@
+//! The probe registry and VCD writer used by the cycle model.
+
+use std::collections::HashSet;
+use std::fmt;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::ops::RangeInclusive;
+use std::path::{Path, PathBuf};
+
+use bitvec::prelude::*;
+use tempfile::NamedTempFile;
+use vcd::{IdCode, ReferenceIndex, ScopeType, TimescaleUnit, VarType};
+
+use crate::atomic::temp_beside;
+use crate::config::TraceConfig;
+use crate::error::WavesError;
+use crate::scope::{is_valid_name, ScopePath};
+
+/// VCD time units (ns) per clock cycle: cycle `c` starts at time `10 * c`.
+///
+/// Ten rather than one so that the optional `clk` signal can fall half-way
+/// through a cycle (time `10 * c + 5`), which GTKWave then draws as a
+/// recognisable 100 MHz clock with the timescale `1ns`.
+pub const TIME_UNITS_PER_CYCLE: u64 = 10;
+
+/// The widest signal accepted, in bits; far above any datapath of the chip,
+/// it only guards against a corrupted width eating memory.
+pub const MAX_WIDTH: u32 = 1 << 16;
+
+/// Largest cycle whose start, falling clock edge and end still fit in `u64`
+/// VCD time.
+const MAX_CYCLE: u64 = u64::MAX / TIME_UNITS_PER_CYCLE - 1;
+
+/// Name of the clock signal added in scope `top` by
+/// [`TraceConfig::with_clock`].
+pub const CLOCK_NAME: &str = "clk";
+
+/// Handle of a registered signal, returned by [`Tracer::register`].
+///
+/// Signals that the filters exclude (and all signals of a disabled tracer)
+/// get [`SignalId::NONE`], so that the model can keep setting them
+/// unconditionally at the cost of one compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SignalId(u32);
+
+impl SignalId {
+    /// The id of a signal that is not traced; setting it does nothing.
+    pub const NONE: SignalId = SignalId(u32::MAX);
+
+    /// Whether values set on this id reach the trace (if the cycle is in the
+    /// window). Lets a model skip computing an expensive probe value.
+    #[inline]
+    pub fn is_traced(self) -> bool {
+        self != SignalId::NONE
+    }
+}
+
+/// Description of one traced signal, as written in the VCD header.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SignalInfo {
+    /// The scope the signal lives in.
+    pub scope: ScopePath,
+    /// The signal's own name within its scope.
+    pub name: String,
+    /// Declared width in bits.
+    pub width: u32,
+}
+
+impl SignalInfo {
+    /// Dotted hierarchical name, e.g. `top.pe_3.acc`; the key of
+    /// [`crate::Trace::signal`].
+    pub fn full_name(&self) -> String {
+        format!("{}.{}", self.scope, self.name)
+    }
+
+    /// The name GTKWave gives the signal, e.g. `top.pe_3.acc[15:0]`:
+    /// vectors carry the `[msb:0]` range that the VCD header declares.
+    pub fn gtkwave_name(&self) -> String {
+        if self.width == 1 {
+            self.full_name()
+        } else {
+            format!("{}[{}:0]", self.full_name(), self.width - 1)
+        }
+    }
+}
+
+/// What a finished trace contains; returned by [`Tracer::finish`] and used to
+/// write a GTKWave save file ([`TraceInfo::write_gtkw`]).
+#[derive(Clone, Debug)]
+pub struct TraceInfo {
+    /// The VCD file written.
+    pub vcd_path: PathBuf,
+    /// The traced signals in header order (the clock first, if enabled).
+    pub signals: Vec<SignalInfo>,
+    /// First and last cycle actually sampled, `None` if no cycle was.
+    pub cycles: Option<RangeInclusive<u64>>,
+}
+
+/// Per-signal state needed on the hot path, kept small and apart from the
+/// names so that a sample touches as little memory as possible.
+struct Slot {
+    code: IdCode,
+    width: u32,
+    mask: u64,
+    last: u64,
+    written: bool,
+    /// Previous value of a signal wider than 64 bits.
+    wide: Option<BitVec<u64, Lsb0>>,
+}
+
+/// State of an enabled tracer; boxed so that a disabled [`Tracer`] is a few
+/// words.
+struct Active {
+    config: TraceConfig,
+    tmp: NamedTempFile,
+    out: vcd::Writer<BufWriter<File>>,
+    slots: Vec<Slot>,
+    info: Vec<SignalInfo>,
+    clock: Option<IdCode>,
+    header_written: bool,
+    cycle: Option<u64>,
+    first_cycle: Option<u64>,
+    time: u64,
+    /// Without a clock, the `#time` line is only written once something
+    /// changes in the cycle, so quiet cycles cost nothing in the file.
+    need_timestamp: bool,
+    error: Option<WavesError>,
+    line: Vec<u8>,
+    scratch: BitVec<u64, Lsb0>,
+}
+
+/// The probe registry and VCD writer.
+///
+/// Register every signal once with [`Tracer::register`] before the first
+/// [`Tracer::sample`]; then call `sample` once per clock cycle (cycles must
+/// not decrease) and set every traced signal's current value: the tracer
+/// writes only values that differ from the last one written, so the model
+/// need not track changes (and must not skip unchanged values, or the
+/// first cycle of the window would lack them).
+///
+/// Values that do not fit their declared width, I/O errors and decreasing
+/// cycles are not reported by `sample` (that would make the per-cycle call
+/// fallible); the first one stops tracing and is returned by
+/// [`Tracer::finish`], which then leaves no file behind. A tracer dropped
+/// without `finish` leaves no file either.
+pub struct Tracer {
+    // The window as start and length, so that "disabled or outside the
+    // window" is a single wrapping compare in `sample`.
+    start: u64,
+    len: u64,
+    active: Option<Box<Active>>,
+    names: HashSet<String>,
+}
+
+impl fmt::Debug for Tracer {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut d = f.debug_struct("Tracer");
+        match &self.active {
+            None => d.field("enabled", &false),
+            Some(a) => d
+                .field("path", &a.config.path)
+                .field("signals", &a.info.len())
+                .field("cycle", &a.cycle),
+        }
+        .finish_non_exhaustive()
+    }
+}
+
+impl Tracer {
+    /// A tracer that traces nothing and costs one branch per `sample`.
+    pub fn disabled() -> Self {
+        Tracer {
+            start: 0,
+            len: 0,
+            active: None,
+            names: HashSet::new(),
+        }
+    }
+
+    /// Starts a trace to `config.path()`.
+    ///
+    /// The data goes to a temporary file in the same directory, renamed
+    /// over the target by [`Tracer::finish`], so that a crashed or failed
+    /// run never leaves a truncated VCD under the expected name. The
+    /// directory must exist.
+    pub fn new(config: TraceConfig) -> Result<Self, WavesError> {
+        let tmp = temp_beside(&config.path)?;
+        let file = tmp
+            .as_file()
+            .try_clone()
+            .map_err(|e| WavesError::io("open", tmp.path(), e))?;
+
+        let (start, end) = (
+            *config.cycles.start(),
+            (*config.cycles.end()).min(MAX_CYCLE),
+        );
+        let len = if start > end { 0 } else { end - start + 1 };
+        let mut active = Box::new(Active {
+            tmp,
+            out: vcd::Writer::new(BufWriter::with_capacity(1 << 16, file)),
+            slots: Vec::new(),
+            info: Vec::new(),
+            clock: None,
+            header_written: false,
+            cycle: None,
+            first_cycle: None,
+            time: 0,
+            need_timestamp: false,
+            error: None,
+            line: Vec::with_capacity(128),
+            scratch: BitVec::new(),
+            config,
+        });
+        let mut names = HashSet::new();
+        if active.config.clock {
+            let top = ScopePath::top();
+            names.insert(format!("{top}.{CLOCK_NAME}"));
+            active.clock = Some(active.push_slot(top, CLOCK_NAME, 1));
+        }
+        Ok(Tracer {
+            start,
+            len,
+            active: Some(active),
+            names,
+        })
+    }
+
+    /// Whether this tracer writes a file at all.
+    pub fn is_enabled(&self) -> bool {
+        self.active.is_some()
+    }
+
+    /// Whether `sample(cycle, ..)` would record anything; for a model that
+    /// wants to skip preparing probe values outside the window.
+    #[inline]
+    pub fn is_active(&self, cycle: u64) -> bool {
+        cycle.wrapping_sub(self.start) < self.len
+    }
+
+    /// Declares signal `name` of `width` bits in `scope`.
+    ///
+    /// Names and widths are checked and duplicates rejected even when the
+    /// signal is filtered out or the tracer is disabled, so that a bad
+    /// probe declaration fails in every run, not only in traced ones.
+    /// Returns [`SignalId::NONE`] for signals that are not traced.
+    pub fn register(
+        &mut self,
+        scope: &ScopePath,
+        name: &str,
+        width: u32,
+    ) -> Result<SignalId, WavesError> {
+        let full = format!("{scope}.{name}");
+        if !is_valid_name(name) {
+            return Err(WavesError::InvalidName(name.to_string()));
+        }
+        if let Some(bad) = scope.parts().iter().find(|p| !is_valid_name(p)) {
+            return Err(WavesError::InvalidName(bad.clone()));
+        }
+        if width == 0 || width > MAX_WIDTH {
+            return Err(WavesError::InvalidWidth {
+                signal: full,
+                width,
+            });
+        }
+        let Some(a) = self.active.as_deref_mut() else {
+            return if self.names.insert(full.clone()) {
+                Ok(SignalId::NONE)
+            } else {
+                Err(WavesError::DuplicateSignal(full))
+            };
+        };
+        if a.header_written {
+            return Err(WavesError::LateRegistration(full));
+        }
+        if !self.names.insert(full.clone()) {
+            return Err(WavesError::DuplicateSignal(full));
+        }
+        if !a.config.selects(scope, name) {
+            return Ok(SignalId::NONE);
+        }
+        a.push_slot(scope.clone(), name, width);
+        // Ids index `slots`; u32::MAX is NONE and unreachable in practice
+        // (MAX_WIDTH bits times 4 G signals would not fit in memory).
+        Ok(SignalId((a.slots.len() - 1) as u32))
+    }
+
+    /// Records the values of cycle `cycle`: `f` is called with a
+    /// [`Sampler`] on which to set the values, but only if the tracer is
+    /// enabled and `cycle` is in the window. Otherwise this is one compare
+    /// and `f` is not called, so a closure that reads model state costs
+    /// nothing when tracing is off.
+    ///
+    /// Several calls for the same cycle are allowed (e.g. one per pipeline
+    /// stage); a later value of a signal in the same cycle replaces the
+    /// earlier one in viewers.
+    #[inline]
+    pub fn sample<F: FnOnce(&mut Sampler<'_>)>(&mut self, cycle: u64, f: F) {
+        if cycle.wrapping_sub(self.start) < self.len {
+            self.sample_in_window(cycle, f);
+        }
+    }
+
+    fn sample_in_window<F: FnOnce(&mut Sampler<'_>)>(&mut self, cycle: u64, f: F) {
+        let Some(a) = self.active.as_deref_mut() else {
+            return;
+        };
+        if a.begin_cycle(cycle) {
+            f(&mut Sampler { a });
+        }
+        if a.error.is_some() {
+            self.len = 0;
+        }
+    }
+
+    /// The first error met so far, if any (tracing has then stopped).
+    pub fn error(&self) -> Option<&WavesError> {
+        self.active.as_ref().and_then(|a| a.error.as_ref())
+    }
+
+    /// Completes the VCD and renames it to its final path.
+    ///
+    /// Returns `Ok(None)` for a disabled tracer, and the first error met
+    /// while sampling, if any (in which case no file is created).
+    pub fn finish(self) -> Result<Option<TraceInfo>, WavesError> {
+        let Some(mut a) = self.active else {
+            return Ok(None);
+        };
+        if let Some(e) = a.error.take() {
+            return Err(e);
+        }
+        let tmp_path = a.tmp.path().to_path_buf();
+        let io = |e: std::io::Error| WavesError::io("write trace", &tmp_path, e);
+        if !a.header_written {
+            a.write_header().map_err(io)?;
+        }
+        if let Some(c) = a.cycle {
+            a.close_cycle(c).map_err(io)?;
+            // A final timestamp gives the last cycle its full width in
+            // viewers instead of ending the trace at its first instant.
+            a.out
+                .timestamp((c + 1) * TIME_UNITS_PER_CYCLE)
+                .map_err(io)?;
+        }
+        a.out.flush().map_err(io)?;
+        let Active {
+            config,
+            tmp,
+            out,
+            info,
+            first_cycle,
+            cycle,
+            ..
+        } = *a;
+        drop(out);
+        let path = config.path;
+        tmp.persist(&path)
+            .map_err(|e| WavesError::io("rename trace to", &path, e.error))?;
+        Ok(Some(TraceInfo {
+            vcd_path: path,
+            signals: info,
+            cycles: first_cycle.zip(cycle).map(|(a, b)| a..=b),
+        }))
+    }
+
+    /// Path of the VCD file this tracer will create, if enabled.
+    pub fn path(&self) -> Option<&Path> {
+        self.active.as_ref().map(|a| a.config.path.as_path())
+    }
+}
+
+/// Sets the values of one cycle; handed to the closure of
+/// [`Tracer::sample`].
+///
+/// Ids must come from the same tracer; an id of another tracer may panic
+/// or set the wrong signal.
+pub struct Sampler<'a> {
+    a: &'a mut Active,
+}
+
+impl Sampler<'_> {
+    /// Sets an unsigned value. It must fit in the signal's width; a value
+    /// that does not is recorded as [`WavesError::ValueTooWide`] (returned
+    /// by [`Tracer::finish`]) rather than truncated, because a silently
+    /// masked probe would hide exactly the bugs the trace is for.
+    #[inline]
+    pub fn set(&mut self, id: SignalId, value: u64) {
+        if id.is_traced() {
+            self.a.set_u64(id.0 as usize, value, false);
+        }
+    }
+
+    /// Sets a 1-bit value (or 0/1 on a wider signal).
+    #[inline]
+    pub fn set_bool(&mut self, id: SignalId, value: bool) {
+        self.set(id, value as u64);
+    }
+
+    /// Sets a signed value, written in two's complement over the signal's
+    /// width; it must be representable in that width (e.g. -128..=127 for
+    /// 8 bits).
+    #[inline]
+    pub fn set_signed(&mut self, id: SignalId, value: i64) {
+        if id.is_traced() {
+            self.a.set_i64(id.0 as usize, value);
+        }
+    }
+
+    /// Sets a value given as bits, `bits[0]` being the least significant;
+    /// for signals wider than 64 bits. Bits beyond the slice are 0; set
+    /// bits beyond the declared width are an error as with [`Sampler::set`].
+    pub fn set_bits<T: BitStore, O: BitOrder>(&mut self, id: SignalId, bits: &BitSlice<T, O>) {
+        if id.is_traced() {
+            self.a.set_bits(id.0 as usize, bits);
+        }
+    }
+
+    /// The cycle being sampled.
+    pub fn cycle(&self) -> u64 {
+        self.a.cycle.unwrap_or_default()
+    }
+}
+
+impl Active {
+    fn push_slot(&mut self, scope: ScopePath, name: &str, width: u32) -> IdCode {
+        let code = IdCode::from(self.slots.len() as u64);
+        self.slots.push(Slot {
+            code,
+            width,
+            mask: if width >= 64 {
+                u64::MAX
+            } else {
+                (1 << width) - 1
+            },
+            last: 0,
+            written: false,
+            wide: (width > 64).then(BitVec::new),
+        });
+        self.info.push(SignalInfo {
+            scope,
+            name: name.to_string(),
+            width,
+        });
+        code
+    }
+
+    fn fail(&mut self, e: WavesError) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+    }
+
+    fn io_fail(&mut self, e: std::io::Error) {
+        let path = self.tmp.path().to_path_buf();
+        self.fail(WavesError::io("write trace", path, e));
+    }
+
+    fn too_wide(&mut self, i: usize, value: String) {
+        let e = WavesError::ValueTooWide {
+            signal: self.info[i].full_name(),
+            width: self.info[i].width,
+            cycle: self.cycle.unwrap_or_default(),
+            value,
+        };
+        self.fail(e);
+    }
+
+    /// Opens a new cycle (timestamps, clock edges); false if tracing must
+    /// not go on.
+    fn begin_cycle(&mut self, cycle: u64) -> bool {
+        if self.error.is_some() {
+            return false;
+        }
+        if !self.header_written {
+            if let Err(e) = self.write_header() {
+                self.io_fail(e);
+                return false;
+            }
+        }
+        match self.cycle {
+            Some(prev) if cycle == prev => return true,
+            Some(prev) if cycle < prev => {
+                self.fail(WavesError::CycleWentBackwards {
+                    cycle,
+                    previous: prev,
+                });
+                return false;
+            }
+            _ => {}
+        }
+        if cycle > MAX_CYCLE {
+            self.fail(WavesError::CycleTooLarge(cycle));
+            return false;
+        }
+        match self.advance_to(cycle) {
+            Ok(()) => true,
+            Err(e) => {
+                self.io_fail(e);
+                false
+            }
+        }
+    }
+
+    fn advance_to(&mut self, cycle: u64) -> std::io::Result<()> {
+        if let Some(prev) = self.cycle {
+            self.close_cycle(prev)?;
+        }
+        self.cycle = Some(cycle);
+        self.first_cycle.get_or_insert(cycle);
+        self.time = cycle * TIME_UNITS_PER_CYCLE;
+        if let Some(clk) = self.clock {
+            self.out.timestamp(self.time)?;
+            self.out.change_scalar(clk, true)?;
+            self.need_timestamp = false;
+        } else {
+            self.need_timestamp = true;
+        }
+        Ok(())
+    }
+
+    fn close_cycle(&mut self, cycle: u64) -> std::io::Result<()> {
+        if let Some(clk) = self.clock {
+            self.out
+                .timestamp(cycle * TIME_UNITS_PER_CYCLE + TIME_UNITS_PER_CYCLE / 2)?;
+            self.out.change_scalar(clk, false)?;
+        }
+        Ok(())
+    }
+
+    fn write_header(&mut self) -> std::io::Result<()> {
+        self.header_written = true;
+        let out = &mut self.out;
+        out.version(concat!("ercube waves ", env!("CARGO_PKG_VERSION")))?;
+        out.comment(&format!(
+            "one clock cycle = {TIME_UNITS_PER_CYCLE} time units: \
+             values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
+        ))?;
+        out.timescale(1, TimescaleUnit::NS)?;
+
+        // Scopes must be written as a tree, each opened once, while signals
+        // were registered in arbitrary order: group them first, keeping
+        // the order in which scopes and signals first appeared.
+        #[derive(Default)]
+        struct Node {
+            name: String,
+            vars: Vec<usize>,
+            children: Vec<Node>,
+        }
+        let mut root = Node::default();
+        for (i, info) in self.info.iter().enumerate() {
+            let mut node = &mut root;
+            for part in info.scope.parts() {
+                let pos = match node.children.iter().position(|c| &c.name == part) {
+                    Some(p) => p,
+                    None => {
+                        node.children.push(Node {
+                            name: part.clone(),
+                            ..Node::default()
+                        });
+                        node.children.len() - 1
+                    }
+                };
+                node = &mut node.children[pos];
+            }
+            node.vars.push(i);
+        }
+        fn write_node(
+            out: &mut vcd::Writer<BufWriter<File>>,
+            node: &Node,
+            slots: &[Slot],
+            info: &[SignalInfo],
+        ) -> std::io::Result<()> {
+            out.scope_def(ScopeType::Module, &node.name)?;
+            for &i in &node.vars {
+                let w = slots[i].width;
+                let index = (w > 1).then(|| ReferenceIndex::Range(w as i32 - 1, 0));
+                out.var_def(VarType::Wire, w, slots[i].code, &info[i].name, index)?;
+            }
+            for child in &node.children {
+                write_node(out, child, slots, info)?;
+            }
+            out.upscope()
+        }
+        for top in &root.children {
+            write_node(out, top, &self.slots, &self.info)?;
+        }
+        out.enddefinitions()
+    }
+
+    #[inline]
+    fn set_u64(&mut self, i: usize, value: u64, sign: bool) {
+        let slot = &mut self.slots[i];
+        if slot.wide.is_some() {
+            return self.set_wide_from_u64(i, value, sign);
+        }
+        if value & !slot.mask != 0 {
+            return self.too_wide(i, format!("{value:#x}"));
+        }
+        if slot.written && slot.last == value {
+            return;
+        }
+        slot.last = value;
+        slot.written = true;
+        if let Err(e) = self.emit_narrow(i) {
+            self.io_fail(e);
+        }
+    }
+
+    fn set_i64(&mut self, i: usize, value: i64) {
+        let width = self.slots[i].width;
+        if width < 64 {
+            let half = 1i64 << (width - 1);
+            if value < -half || value >= half {
+                return self.too_wide(i, format!("{value} (signed)"));
+            }
+        }
+        self.set_u64(i, (value as u64) & self.slots[i].mask, value < 0);
+    }
+
+    fn set_bits<T: BitStore, O: BitOrder>(&mut self, i: usize, bits: &BitSlice<T, O>) {
+        let width = self.slots[i].width as usize;
+        if let Some(high) = bits.last_one().filter(|&b| b >= width) {
+            return self.too_wide(i, format!("with bit {high} set"));
+        }
+        if self.slots[i].wide.is_none() {
+            let value = bits.iter_ones().fold(0u64, |v, b| v | 1 << b);
+            return self.set_u64(i, value, false);
+        }
+        let mut new = std::mem::take(&mut self.scratch);
+        new.clear();
+        new.extend(bits.iter().by_vals().take(width));
+        new.resize(width, false);
+        self.set_wide(i, new);
+    }
+
+    fn set_wide_from_u64(&mut self, i: usize, value: u64, sign: bool) {
+        let width = self.slots[i].width as usize;
+        let mut new = std::mem::take(&mut self.scratch);
+        new.clear();
+        new.resize(width, sign);
+        new[..64].store_le(value);
+        self.set_wide(i, new);
+    }
+
+    /// Takes `new` (the scratch buffer) and gives back the old value's
+    /// buffer as scratch, so wide signals allocate only at first use.
+    fn set_wide(&mut self, i: usize, mut new: BitVec<u64, Lsb0>) {
+        let slot = &mut self.slots[i];
+        let Some(last) = slot.wide.as_mut() else {
+            self.scratch = new;
+            return;
+        };
+        if slot.written && *last == new {
+            self.scratch = new;
+            return;
+        }
+        std::mem::swap(last, &mut new);
+        self.scratch = new;
+        slot.written = true;
+        if let Err(e) = self.emit_wide(i) {
+            self.io_fail(e);
+        }
+    }
+
+    fn timestamp_if_needed(&mut self) -> std::io::Result<()> {
+        if self.need_timestamp {
+            self.need_timestamp = false;
+            self.out.timestamp(self.time)?;
+        }
+        Ok(())
+    }
+
+    fn emit_narrow(&mut self, i: usize) -> std::io::Result<()> {
+        self.timestamp_if_needed()?;
+        let slot = &self.slots[i];
+        if slot.width == 1 {
+            return self.out.change_scalar(slot.code, slot.last != 0);
+        }
+        // `vcd::Writer::change_vector` formats each bit through `write!`;
+        // building the line here is several times faster and produces the
+        // same text.
+        let line = &mut self.line;
+        line.clear();
+        line.push(b'b');
+        line.extend(
+            (0..slot.width)
+                .rev()
+                .map(|b| b'0' + ((slot.last >> b) & 1) as u8),
+        );
+        line.push(b' ');
+        write!(line, "{}", slot.code)?;
+        line.push(b'\n');
+        self.out.writer().write_all(line)
+    }
+
+    fn emit_wide(&mut self, i: usize) -> std::io::Result<()> {
+        self.timestamp_if_needed()?;
+        let slot = &self.slots[i];
+        let Some(bits) = slot.wide.as_ref() else {
+            return Ok(());
+        };
+        let line = &mut self.line;
+        line.clear();
+        line.push(b'b');
+        line.extend(bits.iter().by_vals().rev().map(|b| b'0' + b as u8));
+        line.push(b' ');
+        write!(line, "{}", slot.code)?;
+        line.push(b'\n');
+        self.out.writer().write_all(line)
+    }
+}
