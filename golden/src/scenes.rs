@@ -36,14 +36,15 @@ const USAGE: &str = "use checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N]";
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scene {
     /// The ER-Perspective paper's checkerboard room (Kreeger et al.): a
-    /// floor (low y) of blue cubes and a left (low x) and a rear (high z,
-    /// far from an eye at z < 0) wall of white cubes, each one cube thick,
+    /// floor (low y) of blue cubes and a left (high x: on the image's left
+    /// for an eye at z < 0 looking along +z with up +y, since the camera is
+    /// right-handed) and a rear (high z) wall of white cubes, each one cube thick,
     /// made of `cube`^3-voxel cubes alternating filled/empty in a
     /// checkerboard. Filled floor voxels hold [`CHECKER_FLOOR`], filled wall
     /// voxels [`CHECKER_WALL`], air 0.
     ///
-    /// The cube grid is anchored at the room's closed corner (x = 0, y = 0,
-    /// z = n - 1), whose cube is filled, so the floor and both walls are
+    /// The cube grid is anchored at the room's closed corner (x = n - 1,
+    /// y = 0, z = n - 1), whose cube is filled, so the floor and both walls are
     /// exactly one cube thick and share one 3D parity (the pattern runs on
     /// without a seam where they meet; the floor runs under the walls).
     /// When `cube` does not divide `n`, the partial cubes fall on the open
@@ -115,7 +116,9 @@ impl Scene {
                     )));
                 }
                 Volume::from_fn(dims, VoxelType::U8, limit, |x, y, z| {
-                    checker_value(n, cube, x, y, z)
+                    // Mirrored in x: the side wall stands at high x, which a camera at
+                    // z < 0 with up +y shows on the image's left, as in the paper.
+                    checker_value(n, cube, n - 1 - x, y, z)
                 })
             }
             Scene::MarschnerLobb { n } => {
@@ -250,7 +253,7 @@ impl fmt::Display for Scene {
 }
 
 /// Names accepted by [`tf_preset`].
-pub const PRESETS: &[&str] = &["checker", "ml", "sphere", "impulse", "grey-ramp", "brain"];
+pub const PRESETS: &[&str] = &["checker", "checker-mono", "ml", "sphere", "impulse", "grey-ramp", "brain"];
 
 /// A named transfer-function preset, for 8-bit scalars (0..=255). Opacity is
 /// per unit length (per voxel at unit spacing), as everywhere in [`crate::tf`].
@@ -283,6 +286,16 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
             (CHECKER_WALL as f64, white, 0.9),
             (CHECKER_FLOOR as f64, blue, 0.9),
             (255.0, blue, 0.9),
+        ],
+        // One look for both materials, opacity rising monotonically to 0.9
+        // at the wall value: no interpolated value between air and a floor
+        // cube looks like another material, so the error figures measure
+        // ray sampling, not a thin skin that one sample per slice cannot
+        // resolve.
+        "checker-mono" => vec![
+            (0.0, white, 0.0),
+            (CHECKER_WALL as f64, white, 0.9),
+            (255.0, white, 0.9),
         ],
         "ml" => vec![
             (0.0, orange, 0.0),
@@ -390,6 +403,11 @@ mod tests {
         assert!(parse_err("checker::3").contains("'' is not a whole number"));
     }
 
+    /// Reads the checker in its unmirrored frame (side wall at x = 0).
+    fn g(v: &Volume, x: usize, y: usize, z: usize) -> u16 {
+        v.get(v.dims()[0] - 1 - x, y, z)
+    }
+
     #[test]
     fn checker_has_a_checkered_floor_and_walls() {
         let (n, c) = (32, 4);
@@ -398,25 +416,25 @@ mod tests {
         let last = n - 1;
         // The closed corner cube is filled floor; its floor neighbours in x
         // and z are empty, the next ones filled again.
-        assert_eq!(v.get(0, 0, last), CHECKER_FLOOR);
-        assert_eq!(v.get(c - 1, c - 1, last - (c - 1)), CHECKER_FLOOR);
-        assert_eq!(v.get(c, 0, last - c), CHECKER_FLOOR);
-        assert_eq!(v.get(2 * c, 0, last - 2 * c), CHECKER_FLOOR);
-        assert_eq!(v.get(2 * c + 1, 1, last - 2), CHECKER_FLOOR);
-        assert_eq!(v.get(2 * c, c - 1, 5), CHECKER_FLOOR);
-        assert_eq!(v.get(3 * c, c - 1, 5), 0);
+        assert_eq!(g(&v, 0, 0, last), CHECKER_FLOOR);
+        assert_eq!(g(&v, c - 1, c - 1, last - (c - 1)), CHECKER_FLOOR);
+        assert_eq!(g(&v, c, 0, last - c), CHECKER_FLOOR);
+        assert_eq!(g(&v, 2 * c, 0, last - 2 * c), CHECKER_FLOOR);
+        assert_eq!(g(&v, 2 * c + 1, 1, last - 2), CHECKER_FLOOR);
+        assert_eq!(g(&v, 2 * c, c - 1, 5), CHECKER_FLOOR);
+        assert_eq!(g(&v, 3 * c, c - 1, 5), 0);
         // Left wall (x < c) and rear wall (z > last - c) above the floor.
-        assert_eq!(v.get(0, c, last - c), CHECKER_WALL);
-        assert_eq!(v.get(c - 1, 2 * c, last - 2 * c), CHECKER_WALL);
-        assert_eq!(v.get(0, 2 * c, last - 3 * c), 0);
-        assert_eq!(v.get(c, c, last), CHECKER_WALL);
-        assert_eq!(v.get(2 * c, c, last), 0);
-        assert_eq!(v.get(3 * c, 5 * c, last - c + 1), CHECKER_WALL);
+        assert_eq!(g(&v, 0, c, last - c), CHECKER_WALL);
+        assert_eq!(g(&v, c - 1, 2 * c, last - 2 * c), CHECKER_WALL);
+        assert_eq!(g(&v, 0, 2 * c, last - 3 * c), 0);
+        assert_eq!(g(&v, c, c, last), CHECKER_WALL);
+        assert_eq!(g(&v, 2 * c, c, last), 0);
+        assert_eq!(g(&v, 3 * c, 5 * c, last - c + 1), CHECKER_WALL);
         // One cube thick: nothing in the room's interior.
         for z in 0..n - c {
             for y in c..n {
                 for x in c..n {
-                    assert_eq!(v.get(x, y, z), 0, "({x}, {y}, {z})");
+                    assert_eq!(g(&v, x, y, z), 0, "({x}, {y}, {z})");
                 }
             }
         }
@@ -431,11 +449,11 @@ mod tests {
     #[test]
     fn checker_with_partial_cubes_keeps_walls_one_cube_thick() {
         let v = build("checker:23:5");
-        assert_eq!(v.get(0, 0, 22), CHECKER_FLOOR);
-        assert_eq!(v.get(0, 7, 22 - 4), 0); // i + j + k = 0 + 1 + 0
-        assert_eq!(v.get(0, 12, 22), CHECKER_WALL);
+        assert_eq!(g(&v, 0, 0, 22), CHECKER_FLOOR);
+        assert_eq!(g(&v, 0, 7, 22 - 4), 0); // i + j + k = 0 + 1 + 0
+        assert_eq!(g(&v, 0, 12, 22), CHECKER_WALL);
         for (x, y, z) in [(5, 5, 17), (22, 22, 0), (10, 10, 10)] {
-            assert_eq!(v.get(x, y, z), 0);
+            assert_eq!(g(&v, x, y, z), 0);
         }
         let whole = build("checker:2:2");
         assert!(whole.data().iter().all(|&x| x == CHECKER_FLOOR));

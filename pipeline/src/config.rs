@@ -1,0 +1,1002 @@
+//! Run-time configuration of every datapath width of the PE array.
+//!
+//! A [`PipelineConfig`] is built in code (start from [`Default`]) or read
+//! from TOML with [`PipelineConfig::from_toml_str`]; each datapath register
+//! is a [`Format`] written as an inline table:
+//!
+//! ```toml
+//! alpha = { bits = 12, frac = 12, signed = false, quant = "RND", overflow = "SAT" }
+//! ```
+//!
+//! Keys left out of a TOML file keep their default, unknown keys are
+//! errors, and every config is checked by [`PipelineConfig::validate`],
+//! whose errors are one line naming the field, e.g.
+//! `alpha.frac = 20 exceeds alpha.bits = 16`.
+//! [`PipelineConfig::to_toml`] writes a complete, commented file that reads
+//! back to the same config, so `ercube` can dump the defaults for editing.
+
+use crate::fixed::{Format, FormatSpec, Overflow, Quant};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Largest supported PE count. The array is 1D and each PE owns a column of
+/// the slice buffer; 256 covers one PE per voxel column of a 256-wide
+/// volume and keeps PE indices in 8 bits.
+pub const MAX_PES: u16 = 256;
+
+/// Largest classification table. 2^16 entries index a full 16-bit sample;
+/// anything larger cannot be addressed by the widest voxel.
+pub const MAX_TABLE_ENTRIES: u32 = 1 << 16;
+
+/// Largest opacity-correction table, in address bits (alpha bits plus
+/// slope bits): 2^24 entries is already 16 M words of on-chip memory.
+pub const MAX_OPACITY_TABLE_BITS: u32 = 24;
+
+/// Widest voxel: volumes are stored as 8- or 16-bit words.
+pub const MAX_VOXEL_BITS: u8 = 16;
+
+/// Why a configuration cannot be used. Every message is one line and names
+/// the field.
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    /// A field's value is impossible or inconsistent with another field.
+    #[error("{message}")]
+    Invalid {
+        /// The TOML key at fault, e.g. `alpha`.
+        field: String,
+        /// The full one-line message, starting with the field name.
+        message: String,
+    },
+    /// The TOML text does not parse into the config's shape (syntax error,
+    /// unknown key, wrong type, unknown mode name).
+    #[error("TOML {0}")]
+    Toml(String),
+    /// The config file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl ConfigError {
+    /// The field at fault, for [`ConfigError::Invalid`].
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            ConfigError::Invalid { field, .. } => Some(field),
+            _ => None,
+        }
+    }
+}
+
+fn invalid(field: &str, message: String) -> ConfigError {
+    ConfigError::Invalid {
+        field: field.to_owned(),
+        message,
+    }
+}
+
+/// Widths of every datapath register of the PE array, and the array size.
+///
+/// The defaults model a VolumePro-class datapath (12-bit voxels and
+/// opacities, 8-bit colour) with enough position range for 1024³ volumes;
+/// each field's documentation says why its default was chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "RawConfig", into = "RawConfig")]
+pub struct PipelineConfig {
+    /// Voxel word as read from volume memory: unsigned integer, at most 16
+    /// bits, no fraction.
+    ///
+    /// Default `ufixed<12,12,TRN,SAT>`: 12 bits is the native CT word and
+    /// VolumePro's voxel width; SAT so that loading wider data clamps at
+    /// the top of the range instead of wrapping bright voxels to dark.
+    pub voxel: Format,
+    /// Ray position inside a slice, in voxel units: signed (rays start
+    /// outside the volume), with at least one fraction bit for the
+    /// interpolation weights.
+    ///
+    /// Default `fixed<28,12,RND,SAT>`: 12 integer bits including the sign
+    /// reach ±2047, i.e. a 1024-voxel extent with as much again of margin
+    /// for rays outside the volume; 16 fraction bits place a ray to 1/65536
+    /// voxel, so even a position advanced incrementally over 1024 slices
+    /// drifts by at most 1/128 voxel with RND (1/64 with TRN). SAT keeps a
+    /// ray far outside the volume outside instead of wrapping it into view.
+    pub position: Format,
+    /// Per-slice ray spacing `t`, with `0 < t <= 1`: unsigned, with at least
+    /// one integer bit so that `t = 1` is representable.
+    ///
+    /// Default `ufixed<25,1,RND,SAT>`: 24 fraction bits so that `t` times
+    /// 1024 slices is accurate to 1/32768 voxel with RND; SAT so that a
+    /// rounding overshoot above 1 clamps instead of wrapping to 0.
+    pub step: Format,
+    /// Bilinear interpolation weights, the fraction bits of a position:
+    /// unsigned, at most one integer bit.
+    ///
+    /// Default `ufixed<12,0,TRN,SAT>`: 12 bits keep the weight error below
+    /// one voxel LSB even across a full-range edge (4095 × 2^-12 < 1);
+    /// TRN because taking the top fraction wires of the position is free,
+    /// and rounding would need a carry into the integer (address) part.
+    pub weight: Format,
+    /// Interpolated sample: unsigned, with at least as many integer bits as
+    /// the voxel (a convex combination of voxels never exceeds the largest).
+    ///
+    /// Default `ufixed<16,12,RND,SAT>`: the 12 voxel bits plus 4 fraction
+    /// bits, so two interpolation stages keep sub-LSB detail for the
+    /// classification lookup.
+    pub sample: Format,
+    /// Classification table colour entries (each of R, G, B): unsigned
+    /// fraction with at most one integer bit.
+    ///
+    /// Default `ufixed<8,0,RND,SAT>`: 8 bits per channel as in VolumePro and
+    /// the 8-bit output image; SAT so that loading 1.0 gives 255/256
+    /// instead of wrapping to 0.
+    pub color: Format,
+    /// Classification table opacity entries: unsigned fraction with at most
+    /// one integer bit.
+    ///
+    /// Default `ufixed<12,0,RND,SAT>`: VolumePro's 12-bit alpha, enough to
+    /// represent the small per-sample opacities of thin, faint material.
+    pub alpha: Format,
+    /// Number of classification table entries: a power of two, indexed by
+    /// the top `log2(table_entries)` bits of the sample, so at most
+    /// `2^sample.bits`.
+    ///
+    /// Default 4096: one entry per 12-bit voxel value.
+    pub table_entries: u32,
+    /// Output of the opacity-correction table `1 - (1 - alpha)^(d/d0)`,
+    /// which adjusts opacity for the per-ray sample spacing: unsigned
+    /// fraction with at most one integer bit.
+    ///
+    /// Default `ufixed<12,0,RND,SAT>`: the same width as `alpha`, so
+    /// correction does not lose what classification provides.
+    pub opacity_corr: Format,
+    /// Address bits of the opacity-correction table that select the ray
+    /// slope (the sample-spacing ratio `d/d0`); the table has
+    /// `2^(alpha.bits + opacity_slope_bits)` entries.
+    ///
+    /// Default 6: 64 slope bins over the spacing range of a perspective
+    /// frustum; the table is 2^18 words with 12-bit alpha.
+    pub opacity_slope_bits: u8,
+    /// Compositing accumulator of colour: unsigned, with at least as many
+    /// fraction bits as `color`.
+    ///
+    /// Default `ufixed<16,0,RND,SAT>`: 8 guard bits over the colour so that
+    /// hundreds of faint contributions add up instead of each rounding to
+    /// zero; SAT so that a full ray stays white instead of wrapping black.
+    pub accum_color: Format,
+    /// Compositing accumulator of opacity: unsigned, with at least as many
+    /// fraction bits as `opacity_corr`.
+    ///
+    /// Default `ufixed<16,0,RND,SAT>`: 4 guard bits over the 12-bit alpha
+    /// for the same reason as `accum_color`; SAT so that opacity
+    /// approaching 1 stays there (early ray termination tests it).
+    pub accum_alpha: Format,
+    /// Intermediate of the Bartlett (tent-weighted) merge of neighbouring
+    /// rays' accumulators at an ER-Perspective region boundary: unsigned,
+    /// with at least the fraction and integer bits of both accumulators.
+    ///
+    /// Default `ufixed<20,4,RND,SAT>`: the accumulator plus 4 integer bits
+    /// of headroom, enough for the weighted sum of up to 16 full
+    /// accumulators before normalisation.
+    pub merge: Format,
+    /// Number of processing elements in the 1D array, `1..=256`.
+    ///
+    /// Default 16: a power of two dividing every power-of-two volume
+    /// width, so slices split into whole PE beats.
+    pub pes: u16,
+}
+
+fn fmt(bits: u8, frac: u8, signed: bool, quant: Quant, overflow: Overflow) -> Format {
+    match Format::new(bits, frac, signed, quant, overflow) {
+        Ok(f) => f,
+        // The defaults below are literals inside the valid range; the test
+        // `default_validates` builds every one of them.
+        Err(e) => unreachable!("invalid default format: {e}"),
+    }
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        use Overflow::Sat;
+        use Quant::{Rnd, Trn};
+        PipelineConfig {
+            voxel: fmt(12, 0, false, Trn, Sat),
+            position: fmt(28, 16, true, Rnd, Sat),
+            step: fmt(25, 24, false, Rnd, Sat),
+            weight: fmt(12, 12, false, Trn, Sat),
+            sample: fmt(16, 4, false, Rnd, Sat),
+            color: fmt(8, 8, false, Rnd, Sat),
+            alpha: fmt(12, 12, false, Rnd, Sat),
+            table_entries: 4096,
+            opacity_corr: fmt(12, 12, false, Rnd, Sat),
+            opacity_slope_bits: 6,
+            accum_color: fmt(16, 16, false, Rnd, Sat),
+            accum_alpha: fmt(16, 16, false, Rnd, Sat),
+            merge: fmt(20, 16, false, Rnd, Sat),
+            pes: 16,
+        }
+    }
+}
+
+/// One-line descriptions written above each key by
+/// [`PipelineConfig::to_toml`].
+const FIELD_DOCS: [(&str, &str); 14] = [
+    (
+        "voxel",
+        "voxel word from volume memory: unsigned, frac = 0, <= 16 bits",
+    ),
+    ("position", "ray position in voxel units: signed, frac >= 1"),
+    (
+        "step",
+        "per-slice ray spacing t in (0, 1]: unsigned, >= 1 integer bit",
+    ),
+    ("weight", "bilinear weights: unsigned, <= 1 integer bit"),
+    (
+        "sample",
+        "interpolated sample: unsigned, integer bits >= voxel.bits",
+    ),
+    (
+        "color",
+        "classification RGB entries: unsigned, <= 1 integer bit",
+    ),
+    (
+        "alpha",
+        "classification opacity entries: unsigned, <= 1 integer bit",
+    ),
+    (
+        "table_entries",
+        "classification table size: power of two, <= 2^sample.bits",
+    ),
+    (
+        "opacity_corr",
+        "opacity-correction table output: unsigned, <= 1 integer bit",
+    ),
+    (
+        "opacity_slope_bits",
+        "slope address bits of the opacity-correction table",
+    ),
+    (
+        "accum_color",
+        "colour accumulator: unsigned, frac >= color.frac",
+    ),
+    (
+        "accum_alpha",
+        "opacity accumulator: unsigned, frac >= opacity_corr.frac",
+    ),
+    (
+        "merge",
+        "Bartlett merge intermediate: unsigned, covers both accumulators",
+    ),
+    ("pes", "number of processing elements, 1..=256"),
+];
+
+impl PipelineConfig {
+    /// Parses and validates a TOML config. Missing keys keep their default.
+    pub fn from_toml_str(text: &str) -> Result<PipelineConfig, ConfigError> {
+        let raw: RawConfig = toml::from_str(text).map_err(|e| {
+            let message = e.message().replace('\n', " ");
+            let message = message.trim();
+            match e.span() {
+                Some(span) => {
+                    let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+                    ConfigError::Toml(format!("line {line}: {message}"))
+                }
+                None => ConfigError::Toml(message.to_owned()),
+            }
+        })?;
+        PipelineConfig::try_from(raw)
+    }
+
+    /// Reads, parses and validates a TOML config file.
+    pub fn from_toml_file(path: &Path) -> Result<PipelineConfig, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        PipelineConfig::from_toml_str(&text)
+    }
+
+    /// The complete config as commented TOML, one inline table per format,
+    /// which [`from_toml_str`](PipelineConfig::from_toml_str) reads back to
+    /// an equal config.
+    pub fn to_toml(&self) -> String {
+        let raw = RawConfig::from(*self);
+        let values: [String; 14] = [
+            raw.voxel.to_string(),
+            raw.position.to_string(),
+            raw.step.to_string(),
+            raw.weight.to_string(),
+            raw.sample.to_string(),
+            raw.color.to_string(),
+            raw.alpha.to_string(),
+            raw.table_entries.to_string(),
+            raw.opacity_corr.to_string(),
+            raw.opacity_slope_bits.to_string(),
+            raw.accum_color.to_string(),
+            raw.accum_alpha.to_string(),
+            raw.merge.to_string(),
+            raw.pes.to_string(),
+        ];
+        let mut out = String::from(
+            "# ercube pipeline datapath widths.\n\
+             # Each format: bits (1..=63), frac (0..=bits), signed,\n\
+             # quant = TRN | TRN_ZERO | RND | RND_ZERO | RND_MIN_INF | RND_INF | RND_CONV,\n\
+             # overflow = WRAP | SAT | SAT_ZERO | SAT_SYM (ap_fixed semantics).\n",
+        );
+        for ((key, doc), value) in FIELD_DOCS.iter().zip(values.iter()) {
+            // Writing to a String cannot fail.
+            let _ = write!(out, "\n# {doc}\n{key} = {value}\n");
+        }
+        out
+    }
+
+    /// The default config as commented TOML, for users to dump and edit.
+    pub fn default_toml() -> String {
+        PipelineConfig::default().to_toml()
+    }
+
+    /// Checks that the datapath can work: each field's signedness and
+    /// integer/fraction split suits its role, and related fields agree.
+    /// Returns the first problem found, as a one-line message naming the
+    /// field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let v = self.voxel;
+        if v.is_signed() {
+            return Err(invalid(
+                "voxel",
+                "voxel.signed = true, but voxels are unsigned words".into(),
+            ));
+        }
+        if v.frac() != 0 {
+            return Err(invalid(
+                "voxel",
+                format!(
+                    "voxel.frac = {}, but voxels are integers (frac = 0)",
+                    v.frac()
+                ),
+            ));
+        }
+        if v.bits() > MAX_VOXEL_BITS {
+            return Err(invalid(
+                "voxel",
+                format!(
+                    "voxel.bits = {} exceeds the {MAX_VOXEL_BITS}-bit volume word",
+                    v.bits()
+                ),
+            ));
+        }
+
+        let p = self.position;
+        if !p.is_signed() {
+            return Err(invalid(
+                "position",
+                "position.signed = false, but rays start outside the volume at negative coordinates"
+                    .into(),
+            ));
+        }
+        if p.frac() == 0 {
+            return Err(invalid(
+                "position",
+                "position.frac = 0 leaves no fraction bits for interpolation weights".into(),
+            ));
+        }
+        if p.int_bits() < 2 {
+            return Err(invalid(
+                "position",
+                format!(
+                    "position has {} integer bit(s) including the sign; at least 2 are needed to address a voxel",
+                    p.int_bits()
+                ),
+            ));
+        }
+
+        let s = self.step;
+        if s.is_signed() {
+            return Err(invalid("step", "step.signed = true, but 0 < t <= 1".into()));
+        }
+        if s.int_bits() < 1 {
+            return Err(invalid(
+                "step",
+                format!(
+                    "step.frac = {} equals step.bits, so t = 1 is not representable",
+                    s.frac()
+                ),
+            ));
+        }
+        if s.frac() == 0 {
+            return Err(invalid(
+                "step",
+                "step.frac = 0 leaves only t = 1; fractional spacing needs fraction bits".into(),
+            ));
+        }
+
+        fraction_field("weight", self.weight)?;
+
+        let sm = self.sample;
+        if sm.is_signed() {
+            return Err(invalid(
+                "sample",
+                "sample.signed = true, but samples index the classification table".into(),
+            ));
+        }
+        if sm.int_bits() < v.bits() {
+            return Err(invalid(
+                "sample",
+                format!(
+                    "sample has {} integer bits, fewer than voxel.bits = {}",
+                    sm.int_bits(),
+                    v.bits()
+                ),
+            ));
+        }
+
+        fraction_field("color", self.color)?;
+        fraction_field("alpha", self.alpha)?;
+
+        let n = self.table_entries;
+        if n < 2 || !n.is_power_of_two() || n > MAX_TABLE_ENTRIES {
+            return Err(invalid(
+                "table_entries",
+                format!("table_entries = {n} is not a power of two in 2..={MAX_TABLE_ENTRIES}"),
+            ));
+        }
+        if n.trailing_zeros() > u32::from(sm.bits()) {
+            return Err(invalid(
+                "table_entries",
+                format!(
+                    "table_entries = {n} needs {} index bits, more than sample.bits = {}",
+                    n.trailing_zeros(),
+                    sm.bits()
+                ),
+            ));
+        }
+
+        fraction_field("opacity_corr", self.opacity_corr)?;
+        let slope = u32::from(self.opacity_slope_bits);
+        let table_bits = u32::from(self.alpha.bits()) + slope;
+        if slope == 0 || table_bits > MAX_OPACITY_TABLE_BITS {
+            return Err(invalid(
+                "opacity_slope_bits",
+                format!(
+                    "opacity_slope_bits = {slope} must be >= 1 with alpha.bits + opacity_slope_bits <= {MAX_OPACITY_TABLE_BITS} (is {table_bits})"
+                ),
+            ));
+        }
+
+        accumulator("accum_color", self.accum_color, "color", self.color)?;
+        accumulator(
+            "accum_alpha",
+            self.accum_alpha,
+            "opacity_corr",
+            self.opacity_corr,
+        )?;
+
+        let m = self.merge;
+        if m.is_signed() {
+            return Err(invalid(
+                "merge",
+                "merge.signed = true, but Bartlett weights and accumulators are non-negative"
+                    .into(),
+            ));
+        }
+        for (name, acc) in [
+            ("accum_color", self.accum_color),
+            ("accum_alpha", self.accum_alpha),
+        ] {
+            if m.frac() < acc.frac() {
+                return Err(invalid(
+                    "merge",
+                    format!(
+                        "merge.frac = {} is below {name}.frac = {}",
+                        m.frac(),
+                        acc.frac()
+                    ),
+                ));
+            }
+            if m.int_bits() < acc.int_bits() {
+                return Err(invalid(
+                    "merge",
+                    format!(
+                        "merge has {} integer bits, fewer than {name}'s {}",
+                        m.int_bits(),
+                        acc.int_bits()
+                    ),
+                ));
+            }
+        }
+
+        if self.pes == 0 || self.pes > MAX_PES {
+            return Err(invalid(
+                "pes",
+                format!("pes = {} is outside 1..={MAX_PES}", self.pes),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The largest voxel coordinate the position format can hold exactly:
+    /// `2^(int_bits - 1) - 1` for a signed format.
+    pub fn max_position(&self) -> u64 {
+        let magnitude_bits = u32::from(self.position.int_bits()).saturating_sub(1);
+        (1u64 << magnitude_bits).saturating_sub(1)
+    }
+
+    /// Checks that positions can span a volume `extent` voxels wide along
+    /// any axis: sample positions run from 0 to `extent`, one past the last
+    /// voxel for the interpolation footprint.
+    pub fn check_extent(&self, extent: u32) -> Result<(), ConfigError> {
+        if u64::from(extent) > self.max_position() {
+            return Err(invalid(
+                "position",
+                format!(
+                    "position holds coordinates up to {}, below the volume extent {extent}",
+                    self.max_position()
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Checks a `[0, 1]`-valued field: unsigned, some fraction bits, and at
+/// most one integer bit (more would only waste width).
+fn fraction_field(name: &str, f: Format) -> Result<(), ConfigError> {
+    if f.is_signed() {
+        return Err(invalid(
+            name,
+            format!("{name}.signed = true, but {name} lies in [0, 1]"),
+        ));
+    }
+    if f.frac() == 0 {
+        return Err(invalid(
+            name,
+            format!("{name}.frac = 0, but {name} is a fraction in [0, 1]"),
+        ));
+    }
+    if f.int_bits() > 1 {
+        return Err(invalid(
+            name,
+            format!(
+                "{name} has {} integer bits; a value in [0, 1] needs at most 1",
+                f.int_bits()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a compositing accumulator against the input it accumulates.
+fn accumulator(
+    name: &str,
+    acc: Format,
+    input_name: &str,
+    input: Format,
+) -> Result<(), ConfigError> {
+    if acc.is_signed() {
+        return Err(invalid(
+            name,
+            format!("{name}.signed = true, but front-to-back compositing only adds"),
+        ));
+    }
+    if acc.frac() < input.frac() {
+        return Err(invalid(
+            name,
+            format!(
+                "{name}.frac = {} is below {input_name}.frac = {}: faint contributions would round to zero",
+                acc.frac(),
+                input.frac()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The unvalidated TOML/JSON shape of [`PipelineConfig`]. Integers are
+/// `i64` so that out-of-range values are reported as written.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawConfig {
+    voxel: FormatSpec,
+    position: FormatSpec,
+    step: FormatSpec,
+    weight: FormatSpec,
+    sample: FormatSpec,
+    color: FormatSpec,
+    alpha: FormatSpec,
+    table_entries: i64,
+    opacity_corr: FormatSpec,
+    opacity_slope_bits: i64,
+    accum_color: FormatSpec,
+    accum_alpha: FormatSpec,
+    merge: FormatSpec,
+    pes: i64,
+}
+
+impl Default for RawConfig {
+    fn default() -> Self {
+        PipelineConfig::default().into()
+    }
+}
+
+impl From<PipelineConfig> for RawConfig {
+    fn from(c: PipelineConfig) -> RawConfig {
+        RawConfig {
+            voxel: c.voxel.spec(),
+            position: c.position.spec(),
+            step: c.step.spec(),
+            weight: c.weight.spec(),
+            sample: c.sample.spec(),
+            color: c.color.spec(),
+            alpha: c.alpha.spec(),
+            table_entries: i64::from(c.table_entries),
+            opacity_corr: c.opacity_corr.spec(),
+            opacity_slope_bits: i64::from(c.opacity_slope_bits),
+            accum_color: c.accum_color.spec(),
+            accum_alpha: c.accum_alpha.spec(),
+            merge: c.merge.spec(),
+            pes: i64::from(c.pes),
+        }
+    }
+}
+
+fn format_field(name: &str, spec: FormatSpec) -> Result<Format, ConfigError> {
+    Format::try_from(spec).map_err(|e| invalid(name, e.describe(name)))
+}
+
+fn int_field<T: TryFrom<i64>>(name: &str, value: i64, range: &str) -> Result<T, ConfigError> {
+    T::try_from(value).map_err(|_| invalid(name, format!("{name} = {value} is outside {range}")))
+}
+
+impl TryFrom<RawConfig> for PipelineConfig {
+    type Error = ConfigError;
+
+    fn try_from(r: RawConfig) -> Result<PipelineConfig, ConfigError> {
+        let config = PipelineConfig {
+            voxel: format_field("voxel", r.voxel)?,
+            position: format_field("position", r.position)?,
+            step: format_field("step", r.step)?,
+            weight: format_field("weight", r.weight)?,
+            sample: format_field("sample", r.sample)?,
+            color: format_field("color", r.color)?,
+            alpha: format_field("alpha", r.alpha)?,
+            table_entries: int_field(
+                "table_entries",
+                r.table_entries,
+                &format!("2..={MAX_TABLE_ENTRIES}"),
+            )?,
+            opacity_corr: format_field("opacity_corr", r.opacity_corr)?,
+            opacity_slope_bits: int_field(
+                "opacity_slope_bits",
+                r.opacity_slope_bits,
+                &format!("1..={MAX_OPACITY_TABLE_BITS}"),
+            )?,
+            accum_color: format_field("accum_color", r.accum_color)?,
+            accum_alpha: format_field("accum_alpha", r.accum_alpha)?,
+            merge: format_field("merge", r.merge)?,
+            pes: int_field("pes", r.pes, &format!("1..={MAX_PES}"))?,
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(bits: i64, frac: i64, signed: bool) -> String {
+        format!("{{ bits = {bits}, frac = {frac}, signed = {signed}, quant = \"RND\", overflow = \"SAT\" }}")
+    }
+
+    /// Parses `key = value` on top of the defaults and returns the error.
+    fn error_for(key: &str, value: &str) -> ConfigError {
+        let text = format!("{key} = {value}\n");
+        match PipelineConfig::from_toml_str(&text) {
+            Ok(c) => panic!("{text} was accepted as {c:?}"),
+            Err(e) => e,
+        }
+    }
+
+    #[test]
+    fn default_validates() {
+        let c = PipelineConfig::default();
+        assert_eq!(c.validate().map_err(|e| e.to_string()), Ok(()));
+        // The defaults the field documentation states.
+        let shown: Vec<String> = [
+            c.voxel,
+            c.position,
+            c.step,
+            c.weight,
+            c.sample,
+            c.color,
+            c.alpha,
+            c.opacity_corr,
+            c.accum_color,
+            c.accum_alpha,
+            c.merge,
+        ]
+        .iter()
+        .map(|f| f.to_string())
+        .collect();
+        assert_eq!(
+            shown,
+            [
+                "ufixed<12,12,TRN,SAT>",
+                "fixed<28,12,RND,SAT>",
+                "ufixed<25,1,RND,SAT>",
+                "ufixed<12,0,TRN,SAT>",
+                "ufixed<16,12,RND,SAT>",
+                "ufixed<8,0,RND,SAT>",
+                "ufixed<12,0,RND,SAT>",
+                "ufixed<12,0,RND,SAT>",
+                "ufixed<16,0,RND,SAT>",
+                "ufixed<16,0,RND,SAT>",
+                "ufixed<20,4,RND,SAT>",
+            ]
+        );
+        assert_eq!(
+            (c.table_entries, c.opacity_slope_bits, c.pes),
+            (4096, 6, 16)
+        );
+        assert_eq!(c.position.int_bits(), 12);
+        assert_eq!(c.max_position(), 2047);
+        assert!(c.check_extent(1024).is_ok());
+        assert!(c.check_extent(2047).is_ok());
+        let e = c.check_extent(2048).unwrap_err();
+        assert_eq!(e.field(), Some("position"));
+        assert_eq!(
+            e.to_string(),
+            "position holds coordinates up to 2047, below the volume extent 2048"
+        );
+    }
+
+    #[test]
+    fn default_toml_round_trips() {
+        let text = PipelineConfig::default_toml();
+        assert!(text.contains(
+            r#"alpha = { bits = 12, frac = 12, signed = false, quant = "RND", overflow = "SAT" }"#
+        ));
+        assert!(text.contains("\npes = 16\n"));
+        assert_eq!(
+            PipelineConfig::from_toml_str(&text).unwrap(),
+            PipelineConfig::default()
+        );
+        // Every key is written, so the dump does not depend on defaults.
+        for (key, _) in FIELD_DOCS {
+            assert!(text.contains(&format!("\n{key} = ")), "{key} missing");
+        }
+    }
+
+    #[test]
+    fn edited_config_round_trips() {
+        let c = PipelineConfig {
+            voxel: Format::new(8, 0, false, Quant::Trn, Overflow::Wrap).unwrap(),
+            sample: Format::new(12, 4, false, Quant::RndConv, Overflow::Sat).unwrap(),
+            table_entries: 256,
+            alpha: Format::new(10, 10, false, Quant::RndZero, Overflow::SatZero).unwrap(),
+            pes: 256,
+            opacity_slope_bits: 14,
+            ..PipelineConfig::default()
+        };
+        c.validate().unwrap();
+        assert_eq!(PipelineConfig::from_toml_str(&c.to_toml()).unwrap(), c);
+        // serde through other front ends goes the same way.
+        let json = serde_json::to_string(&c).unwrap();
+        assert_eq!(serde_json::from_str::<PipelineConfig>(&json).unwrap(), c);
+        let plain = toml::to_string(&c).unwrap();
+        assert_eq!(PipelineConfig::from_toml_str(&plain).unwrap(), c);
+    }
+
+    #[test]
+    fn partial_toml_keeps_defaults() {
+        let c = PipelineConfig::from_toml_str(
+            "pes = 4\nalpha = { bits = 10, frac = 10, signed = false }\n",
+        )
+        .unwrap();
+        assert_eq!(c.pes, 4);
+        assert_eq!(c.alpha, Format::unsigned(10, 10).unwrap());
+        assert_eq!(c.position, PipelineConfig::default().position);
+        assert_eq!(
+            PipelineConfig::from_toml_str("").unwrap(),
+            PipelineConfig::default()
+        );
+    }
+
+    #[test]
+    fn format_errors_name_the_field() {
+        let e = error_for("alpha", &spec(16, 20, false));
+        assert_eq!(e.field(), Some("alpha"));
+        assert_eq!(e.to_string(), "alpha.frac = 20 exceeds alpha.bits = 16");
+        let e = error_for("merge", &spec(0, 0, false));
+        assert_eq!(e.to_string(), "merge.bits = 0 is outside 1..=63");
+        let e = error_for("position", &spec(64, 16, true));
+        assert_eq!(e.to_string(), "position.bits = 64 is outside 1..=63");
+        let e = error_for("color", &spec(8, -1, false));
+        assert_eq!(
+            e.to_string(),
+            "color.frac = -1 is negative; only 0 <= frac <= bits is supported"
+        );
+    }
+
+    #[test]
+    fn integer_errors_name_the_field() {
+        assert_eq!(
+            error_for("pes", "0").to_string(),
+            "pes = 0 is outside 1..=256"
+        );
+        assert_eq!(
+            error_for("pes", "257").to_string(),
+            "pes = 257 is outside 1..=256"
+        );
+        assert_eq!(
+            error_for("pes", "-3").to_string(),
+            "pes = -3 is outside 1..=256"
+        );
+        assert_eq!(
+            error_for("pes", "70000").to_string(),
+            "pes = 70000 is outside 1..=256"
+        );
+        assert_eq!(
+            error_for("table_entries", "1000").to_string(),
+            "table_entries = 1000 is not a power of two in 2..=65536"
+        );
+        assert_eq!(
+            error_for("table_entries", "-1").to_string(),
+            "table_entries = -1 is outside 2..=65536"
+        );
+        let e = error_for("opacity_slope_bits", "0");
+        assert_eq!(e.field(), Some("opacity_slope_bits"));
+        let e = error_for("opacity_slope_bits", "13");
+        assert_eq!(
+            e.to_string(),
+            "opacity_slope_bits = 13 must be >= 1 with alpha.bits + opacity_slope_bits <= 24 (is 25)"
+        );
+    }
+
+    #[test]
+    fn role_errors_name_the_field() {
+        let cases: [(&str, String, &str); 20] = [
+            ("voxel", spec(12, 0, true), "voxel.signed = true"),
+            ("voxel", spec(12, 2, false), "voxel.frac = 2"),
+            ("voxel", spec(20, 0, false), "voxel.bits = 20 exceeds"),
+            ("position", spec(28, 16, false), "position.signed = false"),
+            ("position", spec(28, 0, true), "position.frac = 0"),
+            (
+                "position",
+                spec(17, 16, true),
+                "position has 1 integer bit(s)",
+            ),
+            ("step", spec(25, 24, true), "step.signed = true"),
+            ("step", spec(24, 24, false), "t = 1 is not representable"),
+            ("step", spec(4, 0, false), "step.frac = 0"),
+            ("weight", spec(12, 10, false), "weight has 2 integer bits"),
+            ("weight", spec(12, 12, true), "weight.signed = true"),
+            (
+                "sample",
+                spec(14, 4, false),
+                "sample has 10 integer bits, fewer than voxel.bits = 12",
+            ),
+            ("sample", spec(16, 4, true), "sample.signed = true"),
+            ("color", spec(8, 0, false), "color.frac = 0"),
+            ("alpha", spec(12, 8, false), "alpha has 4 integer bits"),
+            (
+                "opacity_corr",
+                spec(12, 12, true),
+                "opacity_corr.signed = true",
+            ),
+            (
+                "accum_color",
+                spec(8, 4, false),
+                "accum_color.frac = 4 is below color.frac = 8",
+            ),
+            (
+                "accum_alpha",
+                spec(16, 10, false),
+                "accum_alpha.frac = 10 is below opacity_corr.frac = 12",
+            ),
+            (
+                "merge",
+                spec(20, 12, false),
+                "merge.frac = 12 is below accum_color.frac = 16",
+            ),
+            ("merge", spec(16, 16, true), "merge.signed = true"),
+        ];
+        for (key, value, needle) in cases {
+            let e = error_for(key, &value);
+            assert_eq!(e.field(), Some(key), "{key} = {value}: {e}");
+            let msg = e.to_string();
+            assert!(msg.starts_with(key), "{msg}");
+            assert!(msg.contains(needle), "{msg} lacks {needle}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+        // Cross-field: a narrow sample makes the default table too big.
+        let text = format!("sample = {}\n", spec(12, 0, false));
+        let c = PipelineConfig::from_toml_str(&text).unwrap();
+        assert_eq!(c.sample.bits(), 12);
+        let text = format!(
+            "voxel = {}\nsample = {}\n",
+            spec(8, 0, false),
+            spec(10, 2, false)
+        );
+        let e = PipelineConfig::from_toml_str(&text).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "table_entries = 4096 needs 12 index bits, more than sample.bits = 10"
+        );
+        // Merge integer headroom must cover the accumulators'.
+        let wide_alpha = Format::new(17, 16, false, Quant::Rnd, Overflow::Sat).unwrap();
+        let mut c = PipelineConfig {
+            accum_alpha: wide_alpha,
+            merge: wide_alpha,
+            ..PipelineConfig::default()
+        };
+        c.validate().unwrap();
+        c.merge = Format::new(16, 16, false, Quant::Rnd, Overflow::Sat).unwrap();
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "merge has 0 integer bits, fewer than accum_alpha's 1"
+        );
+    }
+
+    #[test]
+    fn code_built_configs_are_validated() {
+        let c = PipelineConfig {
+            pes: 0,
+            ..PipelineConfig::default()
+        };
+        assert_eq!(c.validate().unwrap_err().field(), Some("pes"));
+        let c = PipelineConfig {
+            table_entries: 1 << 17,
+            ..PipelineConfig::default()
+        };
+        assert_eq!(c.validate().unwrap_err().field(), Some("table_entries"));
+        // Deserialising through serde validates too.
+        let mut bad = serde_json::to_value(PipelineConfig::default()).unwrap();
+        bad["pes"] = serde_json::json!(0);
+        let err = serde_json::from_value::<PipelineConfig>(bad).unwrap_err();
+        assert!(err.to_string().contains("pes = 0"), "{err}");
+    }
+
+    #[test]
+    fn toml_shape_errors_are_one_line() {
+        let e = PipelineConfig::from_toml_str("pes = 4\nalpah = 3\n").unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, ConfigError::Toml(_)));
+        assert!(
+            msg.starts_with("TOML line 2: unknown field `alpah`"),
+            "{msg}"
+        );
+        assert!(!msg.contains('\n'), "{msg}");
+        let e = PipelineConfig::from_toml_str(
+            "alpha = { bits = 12, frac = 12, signed = false, quant = \"ROUND\" }",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("ROUND"), "{e}");
+        let e = PipelineConfig::from_toml_str("alpha = { bits = 12, frac = 12 }").unwrap_err();
+        assert!(e.to_string().contains("signed"), "{e}");
+        let e = PipelineConfig::from_toml_str("pes = \"many\"").unwrap_err();
+        assert!(e.to_string().starts_with("TOML line 1:"), "{e}");
+    }
+
+    #[test]
+    fn reads_files() {
+        let dir = std::env::temp_dir().join(format!("ercube-config-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("pipeline.toml");
+        std::fs::write(&path, PipelineConfig::default_toml()).unwrap();
+        assert_eq!(
+            PipelineConfig::from_toml_file(&path).unwrap(),
+            PipelineConfig::default()
+        );
+        let missing = dir.join("missing.toml");
+        let e = PipelineConfig::from_toml_file(&missing).unwrap_err();
+        assert!(matches!(e, ConfigError::Io { .. }));
+        assert!(e.to_string().starts_with("cannot read "), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

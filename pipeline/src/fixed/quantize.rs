@@ -1,0 +1,213 @@
+//! Assignment of an exact intermediate into a format: rounding, then
+//! overflow handling, as in `ap_fixed_base`'s converting constructor.
+
+use super::format::{Format, Overflow, Quant};
+use super::value::{Fx, Wide};
+use serde::{Deserialize, Serialize};
+
+/// The result of assigning a [`Wide`] into a [`Format`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Quantized {
+    /// The stored value.
+    pub value: Fx,
+    /// The rounded value did not fit and the overflow mode replaced it
+    /// (including `SAT_SYM` turning the most negative code into `-max`).
+    pub overflow: bool,
+    /// Nonzero fraction bits were dropped, i.e. the quantisation mode had
+    /// to decide something; the result may still be exact after
+    /// saturation by coincidence, which is not tracked.
+    pub inexact: bool,
+}
+
+/// Counters of assignment events, so the pipeline can report how often a
+/// register saturated or rounded. Counters saturate at `u64::MAX` instead
+/// of wrapping, so a report can never show fewer events than happened.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct QuantStats {
+    /// Number of assignments recorded.
+    pub assignments: u64,
+    /// Assignments whose value overflowed (see [`Quantized::overflow`]).
+    pub overflows: u64,
+    /// Assignments that dropped nonzero fraction bits.
+    pub inexact: u64,
+}
+
+impl QuantStats {
+    /// Counts one assignment.
+    pub fn record(&mut self, q: &Quantized) {
+        self.assignments = self.assignments.saturating_add(1);
+        self.overflows = self.overflows.saturating_add(u64::from(q.overflow));
+        self.inexact = self.inexact.saturating_add(u64::from(q.inexact));
+    }
+
+    /// Adds another set of counters, e.g. from a worker thread.
+    pub fn merge(&mut self, other: &QuantStats) {
+        self.assignments = self.assignments.saturating_add(other.assignments);
+        self.overflows = self.overflows.saturating_add(other.overflows);
+        self.inexact = self.inexact.saturating_add(other.inexact);
+    }
+}
+
+/// Bit `i` of `raw` in infinite two's complement: bits at and above 127
+/// repeat the sign.
+fn bit(raw: i128, i: u64) -> bool {
+    if i >= 127 {
+        raw < 0
+    } else {
+        (raw >> i) & 1 == 1
+    }
+}
+
+/// Whether any of bits `0..n` of `raw` (infinite two's complement) is set.
+fn any_below(raw: i128, n: u64) -> bool {
+    if n == 0 {
+        false
+    } else if n >= 128 {
+        // Bits 0..128 are all of the word; any higher bit copies the sign,
+        // which is set only if some lower bit is.
+        raw != 0
+    } else {
+        // 1 <= n <= 127: the mask is nonzero and the shift is in range.
+        (raw as u128) & (u128::MAX >> (128 - n)) != 0
+    }
+}
+
+/// `raw * 2^-k` rounded to an integer with `quant`, for `k >= 1`.
+/// Returns the rounded integer and whether dropped bits were nonzero.
+fn round_shift(raw: i128, k: u64, quant: Quant) -> (i128, bool) {
+    let neg = raw < 0;
+    let q = if k >= 127 {
+        // |raw| < 2^127 so the floor of raw / 2^k is 0 or -1.
+        if neg {
+            -1
+        } else {
+            0
+        }
+    } else {
+        raw >> k
+    };
+    let qb = bit(raw, k - 1);
+    let r = any_below(raw, k - 1);
+    let carry = match quant {
+        Quant::Trn => false,
+        Quant::TrnZero => neg && (qb || r),
+        Quant::Rnd => qb,
+        Quant::RndZero => qb && (neg || r),
+        Quant::RndMinInf => qb && r,
+        Quant::RndInf => qb && (!neg || r),
+        Quant::RndConv => qb && (q & 1 == 1 || r),
+    };
+    // k >= 1 gives |q| <= 2^126, so adding one cannot overflow i128.
+    (q.wrapping_add(i128::from(carry)), qb || r)
+}
+
+/// `raw * 2^s`. Returns the low 128 bits of the product and whether the
+/// exact product fits `i128`.
+fn shift_left(raw: i128, s: u64) -> (i128, bool) {
+    if raw == 0 || s == 0 {
+        return (raw, true);
+    }
+    if s >= 128 {
+        return (0, false);
+    }
+    // s < 128, so wrapping_shl shifts by exactly s and keeps the low bits;
+    // the product fits iff shifting back recovers raw.
+    let shifted = raw.wrapping_shl(s as u32);
+    (shifted, shifted >> s == raw)
+}
+
+/// Low `bits` bits of `v`, sign-extended when `signed` (`bits <= 63`).
+fn wrap(v: i128, bits: u8, signed: bool) -> i64 {
+    let low = (v as u128 as u64) & (u64::MAX >> (64 - u32::from(bits)));
+    if signed {
+        let up = 64 - u32::from(bits);
+        ((low << up) as i64) >> up
+    } else {
+        // bits <= 63, so low < 2^63 and the cast is lossless.
+        low as i64
+    }
+}
+
+impl Format {
+    /// Assigns an exact value into this format: rounds with
+    /// [`quant`](Format::quant) if fraction bits are dropped, then applies
+    /// [`overflow`](Format::overflow) if the rounded value is out of range.
+    ///
+    /// This is exact for every [`Wide`]: no intermediate step rounds.
+    pub fn quantize(&self, w: Wide) -> Quantized {
+        // i32 minus u8 in i64 cannot overflow.
+        let k = i64::from(w.frac) - i64::from(self.frac());
+        let (v, fits, inexact) = if k > 0 {
+            let (v, inexact) = round_shift(w.raw, k.unsigned_abs(), self.quant());
+            (v, true, inexact)
+        } else {
+            let (v, fits) = shift_left(w.raw, k.unsigned_abs());
+            (v, fits, false)
+        };
+        // A value too big for i128 has the sign of the source, since a left
+        // shift of an exact value preserves sign.
+        let neg = if fits { v < 0 } else { w.raw < 0 };
+        let max = i128::from(self.max_raw());
+        let min = if self.overflow() == Overflow::SatSym && self.is_signed() {
+            -max
+        } else {
+            i128::from(self.min_raw())
+        };
+        let above = if fits { v > max } else { !neg };
+        let below = if fits { v < min } else { neg };
+        let raw = if !(above || below) {
+            // min <= v <= max, which is inside i64.
+            v as i64
+        } else {
+            match self.overflow() {
+                Overflow::Wrap => wrap(v, self.bits(), self.is_signed()),
+                Overflow::Sat | Overflow::SatSym => {
+                    if above {
+                        self.max_raw()
+                    } else {
+                        min as i64
+                    }
+                }
+                Overflow::SatZero => 0,
+            }
+        };
+        Quantized {
+            value: Fx::from_raw_unchecked(raw, *self),
+            overflow: above || below,
+            inexact,
+        }
+    }
+
+    /// [`quantize`](Format::quantize), recording the event in `stats`.
+    pub fn assign(&self, w: impl Into<Wide>, stats: &mut QuantStats) -> Fx {
+        let q = self.quantize(w.into());
+        stats.record(&q);
+        q.value
+    }
+
+    /// Quantises a real number exactly (no intermediate rounding through a
+    /// narrower float), with this format's modes.
+    pub fn from_f64(&self, x: f64) -> Result<Quantized, super::FxError> {
+        Ok(self.quantize(Wide::from_f64(x)?))
+    }
+
+    /// Quantises an integer with this format's modes.
+    pub fn from_int(&self, i: i64) -> Quantized {
+        self.quantize(Wide::new(i128::from(i), 0))
+    }
+
+    /// The value zero.
+    pub fn zero(&self) -> Fx {
+        Fx::from_raw_unchecked(0, *self)
+    }
+
+    /// The smallest representable value.
+    pub fn min_value(&self) -> Fx {
+        Fx::from_raw_unchecked(self.min_raw(), *self)
+    }
+
+    /// The largest representable value.
+    pub fn max_value(&self) -> Fx {
+        Fx::from_raw_unchecked(self.max_raw(), *self)
+    }
+}
