@@ -53,8 +53,8 @@ impl FromStr for Technique {
 /// data, 4096 (VolumePro's 12-bit index) for 16-bit data.
 pub fn lut_for(kind: VoxelType, tf: &TransferFunction) -> Lut {
     match kind {
-        VoxelType::U8 => tf.table(256, 255.0),
-        VoxelType::U16 => tf.table(4096, 65535.0),
+        VoxelType::U8 => Lut::for_bits(tf, 256, 8),
+        VoxelType::U16 => Lut::for_bits(tf, 4096, 16),
     }
 }
 

@@ -148,6 +148,17 @@ pub struct Lut {
 }
 
 impl Lut {
+    /// A table of `entries` (a power of two) over `data_bits`-bit scalars,
+    /// with entries `2^(data_bits) / entries` scalar units apart, so that a
+    /// scalar's table position is a power-of-two scaling, as in hardware
+    /// (the last entry sits one spacing below `2^data_bits`; scalars above
+    /// it clamp to it).
+    pub fn for_bits(tf: &TransferFunction, entries: usize, data_bits: u32) -> Lut {
+        assert!(entries.is_power_of_two() && entries >= 2, "table entries must be a power of two");
+        let spacing = (1u64 << data_bits) as f64 / entries as f64;
+        tf.table(entries, (entries - 1) as f64 * spacing)
+    }
+
     /// The classified colour and opacity of scalar `s`.
     #[inline]
     pub fn lookup(&self, s: f32) -> [f32; 4] {

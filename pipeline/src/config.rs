@@ -30,9 +30,13 @@ pub const MAX_PES: u16 = 256;
 /// anything larger cannot be addressed by the widest voxel.
 pub const MAX_TABLE_ENTRIES: u32 = 1 << 16;
 
-/// Largest opacity-correction table, in address bits (alpha bits plus
-/// slope bits): 2^24 entries is already 16 M words of on-chip memory.
-pub const MAX_OPACITY_TABLE_BITS: u32 = 24;
+/// Largest exp table of the opacity-correction unit, in index bits:
+/// 2^16 entries, the same bound as the classification table.
+pub const MAX_EXP_TABLE_BITS: u8 = 16;
+
+/// Fewest integer bits of `log_transmittance`: `-log2` transmittances up to
+/// 16, i.e. transmittance down to 2^-16.
+pub const MIN_LOG_TRANSMITTANCE_INT_BITS: u8 = 4;
 
 /// Widest voxel: volumes are stored as 8- or 16-bit words.
 pub const MAX_VOXEL_BITS: u8 = 16;
@@ -84,8 +88,33 @@ fn invalid(field: &str, message: String) -> ConfigError {
 /// Widths of every datapath register of the PE array, and the array size.
 ///
 /// The defaults model a VolumePro-class datapath (12-bit voxels and
-/// opacities, 8-bit colour) with enough position range for 1024³ volumes;
-/// each field's documentation says why its default was chosen.
+/// opacities, 8 fraction bits of colour) with enough position range for
+/// 1024³ volumes; each field's documentation says why its default was
+/// chosen.
+///
+/// # Opacity correction
+///
+/// Classification opacities are for a unit sample spacing; a ray that
+/// crosses a slice step along a path of length `ds` voxels needs the
+/// corrected opacity `a' = 1 - (1 - a)^ds`. The opacity-correction unit
+/// computes it in the log domain, from four fields:
+///
+/// 1. `L = -log2(1 - a)`, read from a table indexed by the alpha code
+///    (`2^alpha.bits` entries), stored in [`log_transmittance`];
+/// 2. `p = L * ds`, with `ds` in the [`path`] format, assigned to
+///    [`log_transmittance`];
+/// 3. `T = 2^-p = 2^-int(p) * 2^-frac(p)`: an exp table indexed by the top
+///    [`exp_table_bits`] bits of `frac(p)`, linearly interpolated with the
+///    remaining fraction bits (interpolation weight in the [`weight`]
+///    format), entries and result in the [`opacity_corr`] format, then
+///    shifted right by `int(p)`;
+/// 4. `a' = 1 - T` in [`opacity_corr`].
+///
+/// [`log_transmittance`]: PipelineConfig::log_transmittance
+/// [`path`]: PipelineConfig::path
+/// [`exp_table_bits`]: PipelineConfig::exp_table_bits
+/// [`weight`]: PipelineConfig::weight
+/// [`opacity_corr`]: PipelineConfig::opacity_corr
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(try_from = "RawConfig", into = "RawConfig")]
 pub struct PipelineConfig {
@@ -121,6 +150,9 @@ pub struct PipelineConfig {
     /// one voxel LSB even across a full-range edge (4095 × 2^-12 < 1);
     /// TRN because taking the top fraction wires of the position is free,
     /// and rounding would need a carry into the integer (address) part.
+    /// The opacity-correction unit's exp-table interpolation weight (step 3
+    /// of [opacity correction](PipelineConfig#opacity-correction)) uses this
+    /// format too.
     pub weight: Format,
     /// Interpolated sample: unsigned, with at least as many integer bits as
     /// the voxel (a convex combination of voxels never exceeds the largest).
@@ -132,9 +164,11 @@ pub struct PipelineConfig {
     /// Classification table colour entries (each of R, G, B): unsigned
     /// fraction with at most one integer bit.
     ///
-    /// Default `ufixed<8,0,RND,SAT>`: 8 bits per channel as in VolumePro and
-    /// the 8-bit output image; SAT so that loading 1.0 gives 255/256
-    /// instead of wrapping to 0.
+    /// Default `ufixed<9,1,RND,SAT>`: 8 fraction bits per channel as in
+    /// VolumePro and the 8-bit output image, plus 1 integer bit so that
+    /// white (1.0) is exact; without it SAT capped white at 255/256, a full
+    /// grey level of error. SAT so that loading a value above 1 clamps
+    /// instead of wrapping.
     pub color: Format,
     /// Classification table opacity entries: unsigned fraction with at most
     /// one integer bit.
@@ -148,20 +182,48 @@ pub struct PipelineConfig {
     ///
     /// Default 4096: one entry per 12-bit voxel value.
     pub table_entries: u32,
-    /// Output of the opacity-correction table `1 - (1 - alpha)^(d/d0)`,
-    /// which adjusts opacity for the per-ray sample spacing: unsigned
-    /// fraction with at most one integer bit.
+    /// Ray path length per slice step, in voxels: `ds = |(dx/dz, dy/dz, 1)|`
+    /// (scaled by the voxel spacing), the exponent of
+    /// [opacity correction](PipelineConfig#opacity-correction) (step 2).
+    /// `ds` lies in `[1, 4)` for views up to about 140 degrees: unsigned,
+    /// with at least 2 integer bits and at least 1 fraction bit.
     ///
-    /// Default `ufixed<12,0,RND,SAT>`: the same width as `alpha`, so
-    /// correction does not lose what classification provides.
+    /// Default `ufixed<16,2,RND,SAT>`: 14 fraction bits give `ds` to 6e-5;
+    /// SAT so that a steeper ray clamps at about 4 instead of wrapping to a
+    /// short path.
+    pub path: Format,
+    /// Log-domain transmittance `-log2(1 - a)` per unit path (the table of
+    /// step 1 of [opacity correction](PipelineConfig#opacity-correction))
+    /// and per step (`p = L * ds`, step 2): unsigned, with at least 4
+    /// integer bits and enough to hold `-log2` of the smallest representable
+    /// transmittance `2^-alpha.frac`, i.e. integer bits >=
+    /// `ceil(log2(alpha.frac + 1))`, and at least `exp_table_bits` fraction
+    /// bits to index the exp table.
+    ///
+    /// Default `ufixed<20,5,RND,SAT>`: 5 integer bits reach 32, i.e.
+    /// transmittance down to 2^-32, below any `opacity_corr` LSB; 15
+    /// fraction bits leave 5 interpolation bits under the 10-bit exp-table
+    /// index. SAT so that a long path through dense material clamps at an
+    /// (already negligible) transmittance instead of wrapping to 1.
+    pub log_transmittance: Format,
+    /// Index bits of the exp table over `frac(p)` (step 3 of
+    /// [opacity correction](PipelineConfig#opacity-correction)); the table
+    /// has `2^exp_table_bits` entries. `1..=16`, and at most
+    /// `log_transmittance.frac`.
+    ///
+    /// Default 10: 1024 entries; linear interpolation of `2^-f` over a
+    /// 2^-10 step is accurate to below 3e-8, far under an `opacity_corr`
+    /// LSB.
+    pub exp_table_bits: u8,
+    /// Opacity-correction result `a' = 1 - (1 - a)^ds`, and also the exp
+    /// table entries and transmittance `T` it is computed from (steps 3 and
+    /// 4 of [opacity correction](PipelineConfig#opacity-correction)):
+    /// unsigned fraction with at most one integer bit.
+    ///
+    /// Default `ufixed<16,1,RND,SAT>`: 1 integer bit so that transmittance
+    /// 1.0 (`frac(p) = 0`) is exact; 15 fraction bits, 3 more than `alpha`,
+    /// so the correction does not lose what classification provides.
     pub opacity_corr: Format,
-    /// Address bits of the opacity-correction table that select the ray
-    /// slope (the sample-spacing ratio `d/d0`); the table has
-    /// `2^(alpha.bits + opacity_slope_bits)` entries.
-    ///
-    /// Default 6: 64 slope bins over the spacing range of a perspective
-    /// frustum; the table is 2^18 words with 12-bit alpha.
-    pub opacity_slope_bits: u8,
     /// Compositing accumulator of colour: unsigned, with at least as many
     /// fraction bits as `color`.
     ///
@@ -173,8 +235,9 @@ pub struct PipelineConfig {
     /// fraction bits as `opacity_corr`.
     ///
     /// Default `ufixed<16,0,RND,SAT>`: 4 guard bits over the 12-bit alpha
-    /// for the same reason as `accum_color`; SAT so that opacity
-    /// approaching 1 stays there (early ray termination tests it).
+    /// (1 over the 15 fraction bits of `opacity_corr`) for the same reason
+    /// as `accum_color`; SAT so that opacity approaching 1 stays there
+    /// (early ray termination tests it).
     pub accum_alpha: Format,
     /// Intermediate of the Bartlett (tent-weighted) merge of neighbouring
     /// rays' accumulators at an ER-Perspective region boundary: unsigned,
@@ -210,11 +273,13 @@ impl Default for PipelineConfig {
             step: fmt(25, 24, false, Rnd, Sat),
             weight: fmt(12, 12, false, Trn, Sat),
             sample: fmt(16, 4, false, Rnd, Sat),
-            color: fmt(8, 8, false, Rnd, Sat),
+            color: fmt(9, 8, false, Rnd, Sat),
             alpha: fmt(12, 12, false, Rnd, Sat),
             table_entries: 4096,
-            opacity_corr: fmt(12, 12, false, Rnd, Sat),
-            opacity_slope_bits: 6,
+            path: fmt(16, 14, false, Rnd, Sat),
+            log_transmittance: fmt(20, 15, false, Rnd, Sat),
+            exp_table_bits: 10,
+            opacity_corr: fmt(16, 15, false, Rnd, Sat),
             accum_color: fmt(16, 16, false, Rnd, Sat),
             accum_alpha: fmt(16, 16, false, Rnd, Sat),
             merge: fmt(20, 16, false, Rnd, Sat),
@@ -225,7 +290,7 @@ impl Default for PipelineConfig {
 
 /// One-line descriptions written above each key by
 /// [`PipelineConfig::to_toml`].
-const FIELD_DOCS: [(&str, &str); 14] = [
+const FIELD_DOCS: [(&str, &str); 16] = [
     (
         "voxel",
         "voxel word from volume memory: unsigned, frac = 0, <= 16 bits",
@@ -253,12 +318,20 @@ const FIELD_DOCS: [(&str, &str); 14] = [
         "classification table size: power of two, <= 2^sample.bits",
     ),
     (
-        "opacity_corr",
-        "opacity-correction table output: unsigned, <= 1 integer bit",
+        "path",
+        "ray path length per slice step, ds in [1, 4): unsigned, >= 2 integer bits, frac >= 1",
     ),
     (
-        "opacity_slope_bits",
-        "slope address bits of the opacity-correction table",
+        "log_transmittance",
+        "-log2(1 - alpha) and -log2 T per step: unsigned, >= 4 integer bits and 2^int > alpha.frac",
+    ),
+    (
+        "exp_table_bits",
+        "exp table index bits over frac(p): 1..=16, <= log_transmittance.frac",
+    ),
+    (
+        "opacity_corr",
+        "exp table, transmittance and corrected opacity: unsigned, <= 1 integer bit",
     ),
     (
         "accum_color",
@@ -306,7 +379,7 @@ impl PipelineConfig {
     /// an equal config.
     pub fn to_toml(&self) -> String {
         let raw = RawConfig::from(*self);
-        let values: [String; 14] = [
+        let values: [String; 16] = [
             raw.voxel.to_string(),
             raw.position.to_string(),
             raw.step.to_string(),
@@ -315,8 +388,10 @@ impl PipelineConfig {
             raw.color.to_string(),
             raw.alpha.to_string(),
             raw.table_entries.to_string(),
+            raw.path.to_string(),
+            raw.log_transmittance.to_string(),
+            raw.exp_table_bits.to_string(),
             raw.opacity_corr.to_string(),
-            raw.opacity_slope_bits.to_string(),
             raw.accum_color.to_string(),
             raw.accum_alpha.to_string(),
             raw.merge.to_string(),
@@ -456,17 +531,80 @@ impl PipelineConfig {
             ));
         }
 
-        fraction_field("opacity_corr", self.opacity_corr)?;
-        let slope = u32::from(self.opacity_slope_bits);
-        let table_bits = u32::from(self.alpha.bits()) + slope;
-        if slope == 0 || table_bits > MAX_OPACITY_TABLE_BITS {
+        let ds = self.path;
+        if ds.is_signed() {
             return Err(invalid(
-                "opacity_slope_bits",
+                "path",
+                "path.signed = true, but path lengths are positive".into(),
+            ));
+        }
+        if ds.int_bits() < 2 {
+            return Err(invalid(
+                "path",
                 format!(
-                    "opacity_slope_bits = {slope} must be >= 1 with alpha.bits + opacity_slope_bits <= {MAX_OPACITY_TABLE_BITS} (is {table_bits})"
+                    "path has {} integer bit(s); at least 2 are needed for ds in [1, 4)",
+                    ds.int_bits()
                 ),
             ));
         }
+        if ds.frac() == 0 {
+            return Err(invalid(
+                "path",
+                "path.frac = 0 leaves only integer path lengths; oblique rays need fraction bits"
+                    .into(),
+            ));
+        }
+
+        let lt = self.log_transmittance;
+        if lt.is_signed() {
+            return Err(invalid(
+                "log_transmittance",
+                "log_transmittance.signed = true, but -log2 of a transmittance in (0, 1] is non-negative"
+                    .into(),
+            ));
+        }
+        if lt.int_bits() < MIN_LOG_TRANSMITTANCE_INT_BITS {
+            return Err(invalid(
+                "log_transmittance",
+                format!(
+                    "log_transmittance has {} integer bit(s); at least {MIN_LOG_TRANSMITTANCE_INT_BITS} are needed",
+                    lt.int_bits()
+                ),
+            ));
+        }
+        // -log2 of the smallest transmittance, 2^-alpha.frac, is alpha.frac:
+        // it needs ceil(log2(alpha.frac + 1)) integer bits, its bit length.
+        let alpha_frac = self.alpha.frac();
+        let needed = u8::BITS - alpha_frac.leading_zeros();
+        if u32::from(lt.int_bits()) < needed {
+            return Err(invalid(
+                "log_transmittance",
+                format!(
+                    "log_transmittance has {} integer bits, but -log2 of the smallest transmittance 2^-{alpha_frac} (alpha.frac = {alpha_frac}) needs ceil(log2({})) = {needed}",
+                    lt.int_bits(),
+                    u32::from(alpha_frac) + 1
+                ),
+            ));
+        }
+
+        let e = self.exp_table_bits;
+        if e == 0 || e > MAX_EXP_TABLE_BITS {
+            return Err(invalid(
+                "exp_table_bits",
+                format!("exp_table_bits = {e} is outside 1..={MAX_EXP_TABLE_BITS}"),
+            ));
+        }
+        if e > lt.frac() {
+            return Err(invalid(
+                "exp_table_bits",
+                format!(
+                    "exp_table_bits = {e} exceeds log_transmittance.frac = {}: the exp table is indexed by fraction bits of p",
+                    lt.frac()
+                ),
+            ));
+        }
+
+        fraction_field("opacity_corr", self.opacity_corr)?;
 
         accumulator("accum_color", self.accum_color, "color", self.color)?;
         accumulator(
@@ -524,6 +662,26 @@ impl PipelineConfig {
     pub fn max_position(&self) -> u64 {
         let magnitude_bits = u32::from(self.position.int_bits()).saturating_sub(1);
         (1u64 << magnitude_bits).saturating_sub(1)
+    }
+
+    /// How a sample addresses the classification table: the table position
+    /// of a sample is `sample * 2^shift` with
+    /// `shift = log2(table_entries) - voxel.bits`, because the table spans
+    /// the voxel word's full range, one entry per `2^-shift` voxel units.
+    /// The integer part of that position is the entry index.
+    ///
+    /// ```
+    /// use pipeline::config::PipelineConfig;
+    ///
+    /// // Default: 4096 entries for 12-bit voxels, one entry per voxel value.
+    /// let c = PipelineConfig::default();
+    /// assert_eq!(c.table_shift(), 0);
+    /// // 256 entries: one entry per 16 voxel values.
+    /// let c = PipelineConfig { table_entries: 256, ..c };
+    /// assert_eq!(c.table_shift(), -4);
+    /// ```
+    pub fn table_shift(&self) -> i32 {
+        self.table_entries.trailing_zeros() as i32 - i32::from(self.voxel.bits())
     }
 
     /// Checks that positions can span a volume `extent` voxels wide along
@@ -609,8 +767,10 @@ struct RawConfig {
     color: FormatSpec,
     alpha: FormatSpec,
     table_entries: i64,
+    path: FormatSpec,
+    log_transmittance: FormatSpec,
+    exp_table_bits: i64,
     opacity_corr: FormatSpec,
-    opacity_slope_bits: i64,
     accum_color: FormatSpec,
     accum_alpha: FormatSpec,
     merge: FormatSpec,
@@ -634,8 +794,10 @@ impl From<PipelineConfig> for RawConfig {
             color: c.color.spec(),
             alpha: c.alpha.spec(),
             table_entries: i64::from(c.table_entries),
+            path: c.path.spec(),
+            log_transmittance: c.log_transmittance.spec(),
+            exp_table_bits: i64::from(c.exp_table_bits),
             opacity_corr: c.opacity_corr.spec(),
-            opacity_slope_bits: i64::from(c.opacity_slope_bits),
             accum_color: c.accum_color.spec(),
             accum_alpha: c.accum_alpha.spec(),
             merge: c.merge.spec(),
@@ -669,12 +831,14 @@ impl TryFrom<RawConfig> for PipelineConfig {
                 r.table_entries,
                 &format!("2..={MAX_TABLE_ENTRIES}"),
             )?,
-            opacity_corr: format_field("opacity_corr", r.opacity_corr)?,
-            opacity_slope_bits: int_field(
-                "opacity_slope_bits",
-                r.opacity_slope_bits,
-                &format!("1..={MAX_OPACITY_TABLE_BITS}"),
+            path: format_field("path", r.path)?,
+            log_transmittance: format_field("log_transmittance", r.log_transmittance)?,
+            exp_table_bits: int_field(
+                "exp_table_bits",
+                r.exp_table_bits,
+                &format!("1..={MAX_EXP_TABLE_BITS}"),
             )?,
+            opacity_corr: format_field("opacity_corr", r.opacity_corr)?,
             accum_color: format_field("accum_color", r.accum_color)?,
             accum_alpha: format_field("accum_alpha", r.accum_alpha)?,
             merge: format_field("merge", r.merge)?,
@@ -715,6 +879,8 @@ mod tests {
             c.sample,
             c.color,
             c.alpha,
+            c.path,
+            c.log_transmittance,
             c.opacity_corr,
             c.accum_color,
             c.accum_alpha,
@@ -731,18 +897,18 @@ mod tests {
                 "ufixed<25,1,RND,SAT>",
                 "ufixed<12,0,TRN,SAT>",
                 "ufixed<16,12,RND,SAT>",
-                "ufixed<8,0,RND,SAT>",
+                "ufixed<9,1,RND,SAT>",
                 "ufixed<12,0,RND,SAT>",
-                "ufixed<12,0,RND,SAT>",
+                "ufixed<16,2,RND,SAT>",
+                "ufixed<20,5,RND,SAT>",
+                "ufixed<16,1,RND,SAT>",
                 "ufixed<16,0,RND,SAT>",
                 "ufixed<16,0,RND,SAT>",
                 "ufixed<20,4,RND,SAT>",
             ]
         );
-        assert_eq!(
-            (c.table_entries, c.opacity_slope_bits, c.pes),
-            (4096, 6, 16)
-        );
+        assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));
+        assert_eq!(c.table_shift(), 0);
         assert_eq!(c.position.int_bits(), 12);
         assert_eq!(c.max_position(), 2047);
         assert!(c.check_extent(1024).is_ok());
@@ -762,6 +928,14 @@ mod tests {
             r#"alpha = { bits = 12, frac = 12, signed = false, quant = "RND", overflow = "SAT" }"#
         ));
         assert!(text.contains("\npes = 16\n"));
+        assert!(text.contains(
+            r#"path = { bits = 16, frac = 14, signed = false, quant = "RND", overflow = "SAT" }"#
+        ));
+        assert!(text.contains(
+            r#"log_transmittance = { bits = 20, frac = 15, signed = false, quant = "RND", overflow = "SAT" }"#
+        ));
+        assert!(text.contains("\nexp_table_bits = 10\n"));
+        assert!(!text.contains("opacity_slope_bits"));
         assert_eq!(
             PipelineConfig::from_toml_str(&text).unwrap(),
             PipelineConfig::default()
@@ -780,11 +954,20 @@ mod tests {
             table_entries: 256,
             alpha: Format::new(10, 10, false, Quant::RndZero, Overflow::SatZero).unwrap(),
             pes: 256,
-            opacity_slope_bits: 14,
+            path: Format::new(12, 9, false, Quant::Trn, Overflow::Sat).unwrap(),
+            log_transmittance: Format::new(24, 18, false, Quant::RndConv, Overflow::Wrap).unwrap(),
+            exp_table_bits: 16,
+            opacity_corr: Format::new(14, 14, false, Quant::Rnd, Overflow::Sat).unwrap(),
             ..PipelineConfig::default()
         };
         c.validate().unwrap();
-        assert_eq!(PipelineConfig::from_toml_str(&c.to_toml()).unwrap(), c);
+        assert_eq!(c.table_shift(), 0);
+        let text = c.to_toml();
+        assert!(text.contains("\nexp_table_bits = 16\n"), "{text}");
+        assert!(text.contains(
+            r#"log_transmittance = { bits = 24, frac = 18, signed = false, quant = "RND_CONV", overflow = "WRAP" }"#
+        ));
+        assert_eq!(PipelineConfig::from_toml_str(&text).unwrap(), c);
         // serde through other front ends goes the same way.
         let json = serde_json::to_string(&c).unwrap();
         assert_eq!(serde_json::from_str::<PipelineConfig>(&json).unwrap(), c);
@@ -849,18 +1032,25 @@ mod tests {
             error_for("table_entries", "-1").to_string(),
             "table_entries = -1 is outside 2..=65536"
         );
-        let e = error_for("opacity_slope_bits", "0");
-        assert_eq!(e.field(), Some("opacity_slope_bits"));
-        let e = error_for("opacity_slope_bits", "13");
-        assert_eq!(
-            e.to_string(),
-            "opacity_slope_bits = 13 must be >= 1 with alpha.bits + opacity_slope_bits <= 24 (is 25)"
+        for value in ["0", "17", "-1", "300"] {
+            let e = error_for("exp_table_bits", value);
+            assert_eq!(e.field(), Some("exp_table_bits"));
+            assert_eq!(
+                e.to_string(),
+                format!("exp_table_bits = {value} is outside 1..=16")
+            );
+        }
+        // The removed slope table is an unknown key now.
+        let e = error_for("opacity_slope_bits", "6");
+        assert!(
+            e.to_string().contains("unknown field `opacity_slope_bits`"),
+            "{e}"
         );
     }
 
     #[test]
     fn role_errors_name_the_field() {
-        let cases: [(&str, String, &str); 20] = [
+        let cases: [(&str, String, &str); 26] = [
             ("voxel", spec(12, 0, true), "voxel.signed = true"),
             ("voxel", spec(12, 2, false), "voxel.frac = 2"),
             ("voxel", spec(20, 0, false), "voxel.bits = 20 exceeds"),
@@ -884,6 +1074,28 @@ mod tests {
             ("sample", spec(16, 4, true), "sample.signed = true"),
             ("color", spec(8, 0, false), "color.frac = 0"),
             ("alpha", spec(12, 8, false), "alpha has 4 integer bits"),
+            ("path", spec(16, 14, true), "path.signed = true"),
+            (
+                "path",
+                spec(16, 15, false),
+                "path has 1 integer bit(s); at least 2 are needed",
+            ),
+            ("path", spec(4, 0, false), "path.frac = 0"),
+            (
+                "log_transmittance",
+                spec(20, 15, true),
+                "log_transmittance.signed = true",
+            ),
+            (
+                "log_transmittance",
+                spec(18, 15, false),
+                "log_transmittance has 3 integer bit(s); at least 4 are needed",
+            ),
+            (
+                "opacity_corr",
+                spec(16, 14, false),
+                "opacity_corr has 2 integer bits",
+            ),
             (
                 "opacity_corr",
                 spec(12, 12, true),
@@ -897,7 +1109,7 @@ mod tests {
             (
                 "accum_alpha",
                 spec(16, 10, false),
-                "accum_alpha.frac = 10 is below opacity_corr.frac = 12",
+                "accum_alpha.frac = 10 is below opacity_corr.frac = 15",
             ),
             (
                 "merge",
@@ -941,6 +1153,93 @@ mod tests {
             c.validate().unwrap_err().to_string(),
             "merge has 0 integer bits, fewer than accum_alpha's 1"
         );
+    }
+
+    #[test]
+    fn opacity_correction_cross_rules() {
+        // log_transmittance must hold -log2(2^-alpha.frac) = alpha.frac.
+        let text = format!("alpha = {}\n", spec(16, 16, false));
+        let c = PipelineConfig::from_toml_str(&text).unwrap();
+        assert_eq!(c.log_transmittance.int_bits(), 5);
+        let text = format!(
+            "alpha = {}\nlog_transmittance = {}\n",
+            spec(16, 16, false),
+            spec(19, 15, false)
+        );
+        let e = PipelineConfig::from_toml_str(&text).unwrap_err();
+        assert_eq!(e.field(), Some("log_transmittance"));
+        assert_eq!(
+            e.to_string(),
+            "log_transmittance has 4 integer bits, but -log2 of the smallest transmittance 2^-16 (alpha.frac = 16) needs ceil(log2(17)) = 5"
+        );
+        // alpha.frac = 15: -log2(2^-15) = 15 still fits 4 integer bits.
+        let text = format!(
+            "alpha = {}\nlog_transmittance = {}\n",
+            spec(15, 15, false),
+            spec(19, 15, false)
+        );
+        PipelineConfig::from_toml_str(&text).unwrap();
+
+        // The exp table is indexed by fraction bits of p.
+        let e = error_for("log_transmittance", &spec(14, 8, false));
+        assert_eq!(e.field(), Some("exp_table_bits"));
+        assert_eq!(
+            e.to_string(),
+            "exp_table_bits = 10 exceeds log_transmittance.frac = 8: the exp table is indexed by fraction bits of p"
+        );
+        let e = error_for("exp_table_bits", "16");
+        assert_eq!(
+            e.to_string(),
+            "exp_table_bits = 16 exceeds log_transmittance.frac = 15: the exp table is indexed by fraction bits of p"
+        );
+        let text = format!(
+            "exp_table_bits = 16\nlog_transmittance = {}\n",
+            spec(21, 16, false)
+        );
+        assert_eq!(
+            PipelineConfig::from_toml_str(&text).unwrap().exp_table_bits,
+            16
+        );
+        let c = PipelineConfig {
+            exp_table_bits: 0,
+            ..PipelineConfig::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "exp_table_bits = 0 is outside 1..=16"
+        );
+
+        // Every message is one line starting with the field it names.
+        for (key, value) in [
+            ("path", spec(16, 15, false)),
+            ("log_transmittance", spec(18, 15, false)),
+            ("log_transmittance", spec(14, 8, false)),
+            ("exp_table_bits", "0".to_owned()),
+            ("exp_table_bits", "16".to_owned()),
+        ] {
+            let e = error_for(key, &value);
+            let msg = e.to_string();
+            let field = e.field().unwrap();
+            assert!(msg.starts_with(field), "{msg}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+    }
+
+    #[test]
+    fn table_shift_spans_the_voxel_range() {
+        let c = PipelineConfig::default();
+        assert_eq!(c.table_shift(), 0);
+        let c = PipelineConfig {
+            table_entries: 1 << 16,
+            ..c
+        };
+        assert_eq!(c.table_shift(), 4);
+        let c = PipelineConfig {
+            voxel: Format::new(8, 0, false, Quant::Trn, Overflow::Sat).unwrap(),
+            table_entries: 2,
+            ..c
+        };
+        assert_eq!(c.table_shift(), -7);
     }
 
     #[test]

@@ -1,11 +1,27 @@
 //! Bit-accurate, cycle-level model of ercube's 1D processing-element array
 //! for ER-Perspective ray casting.
 //!
+//! The dataflow, module by module: [`host`] plans a frame from the golden
+//! geometry (regions, rays, slices: one source of truth) and loads voxel
+//! words; [`tables`] quantises the classification and opacity tables;
+//! [`array`] clocks the [`pe`]s through migrate, sample, merge and readout;
+//! each sample runs the [`datapath`] (position, bilinear, classify,
+//! correct, composite), the bit-exact mirror of `golden::sampling`. The
+//! baseplane comes out as raw accumulator words and, scaled to float, goes
+//! through the golden warp.
+//!
 //! [`fixed`] is the arithmetic every datapath register uses: declared
 //! formats with `ap_fixed` quantisation and overflow semantics, exact
 //! intermediates, event counters and bit packing. [`config`] holds the
 //! run-time choice of every datapath width ([`config::PipelineConfig`]),
 //! read from TOML and validated before a run.
 
+pub mod array;
 pub mod config;
+pub mod datapath;
 pub mod fixed;
+pub mod host;
+pub mod pe;
+pub mod tables;
+
+pub use array::{run_frame, Frame, RunError};

@@ -1,0 +1,587 @@
+//! The array and its controller: P PEs in a line, the clock loop of each
+//! stage (migrate, sample, merge, readout), the counters and the
+//! waveform probes. Column blocks: PE `k` owns voxel columns
+//! `k W .. (k + 1) W` (`W = ceil(nx / P)`, the last PEs may own fewer or
+//! none) of every slice, and holds every ray whose sample's base column
+//! `clamp(floor(x), 0, nx - 1)` falls in its block.
+//!
+//! Stage by stage, mirroring `golden::methods` back-to-front:
+//! - **migrate** (before each slice): rays whose base column moved to
+//!   another block travel one link per cycle, one ray per link and
+//!   direction per cycle, until every PE holds exactly its rays.
+//! - **sample**: the slice's ray rows in order; in cycle `c` of a row each
+//!   PE samples its `c`-th ray of that row, so a row takes as many cycles
+//!   as the busiest PE has rays (the rest idle). The voxel column right of
+//!   a block comes from the right neighbour's port, driven one cycle ahead.
+//! - **merge** (at each region boundary): the Bartlett merge, x pass then
+//!   y pass through a line buffer; edge parents come over the ports. It is
+//!   modelled at row granularity: one port exchange per parent row, and as
+//!   many cycles as the busiest PE has child columns (the y pass runs
+//!   pipelined behind the x pass).
+//! - **readout**: each PE streams its region-0 rays to the host, one per
+//!   cycle.
+
+use golden::geometry::View;
+use golden::volume::Volume;
+use golden::warp::Baseplane;
+use waves::{ScopePath, SignalId, Tracer};
+
+use crate::config::PipelineConfig;
+use crate::datapath::{Acc, Datapath};
+use crate::fixed::{Fx, QuantStats, Wide};
+use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
+use crate::pe::{Pe, PeCounters, Ports, RayColumn, SampleBus, StepError};
+use crate::tables::Tables;
+
+/// Cycles spent in each stage of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct StageCycles {
+    /// Ray migration before slices.
+    pub migrate: u64,
+    /// Sampling.
+    pub sample: u64,
+    /// Bartlett merges.
+    pub merge: u64,
+    /// Baseplane readout.
+    pub readout: u64,
+}
+
+/// A frame's results.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// The baseplane in float (accumulator words scaled), for the warp.
+    pub baseplane: Baseplane,
+    /// The baseplane's raw accumulator words, row-major, R G B A.
+    pub raw: Vec<[i64; 4]>,
+    /// Cycles per frame.
+    pub cycles: u64,
+    /// Cycles per stage.
+    pub stages: StageCycles,
+    /// Samples taken in all.
+    pub samples: u64,
+    /// Samples per slice, front (slice 0) to back.
+    pub samples_per_slice: Vec<u64>,
+    /// `samples / P`, the cycles of a perfectly busy array.
+    pub ideal_cycles: f64,
+    /// Per-PE counters.
+    pub pes: Vec<PeCounters>,
+    /// Merges performed.
+    pub merges: u64,
+    /// Quantisation events over the whole datapath.
+    pub quant: QuantStats,
+}
+
+impl Frame {
+    /// `ideal_cycles / cycles`.
+    pub fn utilization(&self) -> f64 {
+        if self.cycles == 0 {
+            0.0
+        } else {
+            self.ideal_cycles / self.cycles as f64
+        }
+    }
+}
+
+/// Why a frame failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Planning failed.
+    #[error("{0}")]
+    Plan(#[from] PlanError),
+    /// A PE's clock step failed.
+    #[error("{0}")]
+    Step(#[from] StepError),
+    /// The tables could not be built.
+    #[error("{0}")]
+    Fixed(#[from] crate::fixed::FxError),
+    /// The configuration does not fit the volume.
+    #[error("{0}")]
+    Config(#[from] crate::config::ConfigError),
+    /// Writing the waveform failed.
+    #[error("{0}")]
+    Waves(#[from] waves::WavesError),
+}
+
+/// Waveform signals of one PE.
+struct PeSignals {
+    busy: SignalId,
+    mx: SignalId,
+    sample: SignalId,
+    alpha: SignalId,
+    corrected: SignalId,
+    acc: [SignalId; 4],
+    rays_sent: SignalId,
+}
+
+/// The probes of a run.
+struct Probes {
+    tracer: Tracer,
+    stage: SignalId,
+    z: SignalId,
+    row: SignalId,
+    pes: Vec<PeSignals>,
+}
+
+impl Probes {
+    fn new(mut tracer: Tracer, p: usize, cfg: &PipelineConfig) -> Result<Probes, waves::WavesError> {
+        let ctrl = ScopePath::top().child("ctrl");
+        let stage = tracer.register(&ctrl, "stage", 2)?;
+        let z = tracer.register(&ctrl, "slice", 16)?;
+        let row = tracer.register(&ctrl, "row", 16)?;
+        let mut pes = Vec::with_capacity(p);
+        for k in 0..p {
+            let s = ScopePath::pe(k as u32);
+            let w = |f: crate::fixed::Format| u32::from(f.bits());
+            pes.push(PeSignals {
+                busy: tracer.register(&s, "busy", 1)?,
+                mx: tracer.register(&s, "ray_mx", 16)?,
+                sample: tracer.register(&s, "sample", w(cfg.sample))?,
+                alpha: tracer.register(&s, "alpha", w(cfg.alpha))?,
+                corrected: tracer.register(&s, "alpha_corr", w(cfg.opacity_corr))?,
+                acc: [
+                    tracer.register(&s, "acc_r", w(cfg.accum_color))?,
+                    tracer.register(&s, "acc_g", w(cfg.accum_color))?,
+                    tracer.register(&s, "acc_b", w(cfg.accum_color))?,
+                    tracer.register(&s, "acc_a", w(cfg.accum_alpha))?,
+                ],
+                rays_sent: tracer.register(&s, "rays_sent", 32)?,
+            });
+        }
+        Ok(Probes { tracer, stage, z, row, pes })
+    }
+}
+
+/// Stage codes on `top.ctrl.stage`.
+const STAGE_SAMPLE: u64 = 0;
+const STAGE_MIGRATE: u64 = 1;
+const STAGE_MERGE: u64 = 2;
+const STAGE_READOUT: u64 = 3;
+
+/// The PE array for one frame.
+pub struct Array {
+    dp: Datapath,
+    pes: Vec<Pe>,
+    ports: Vec<Ports>,
+    block: usize,
+    nx: usize,
+    cycle: u64,
+    stages: StageCycles,
+    samples_per_slice: Vec<u64>,
+    probes: Option<Probes>,
+    host_stats: QuantStats,
+    order: Vec<usize>,
+}
+
+impl Array {
+    /// Loads `volume` (seen through `view`) into `cfg.pes` PEs with the
+    /// classification table `lut`. `tracer` records waveforms (use
+    /// `Tracer::disabled()` for none).
+    pub fn new(
+        cfg: &PipelineConfig,
+        volume: &Volume,
+        lut: &golden::tf::Lut,
+        view: &View,
+        tracer: Tracer,
+    ) -> Result<Array, RunError> {
+        cfg.validate()?;
+        for &n in &view.dims {
+            cfg.check_extent(n as u32)?;
+        }
+        let tables = Tables::new(cfg, lut)?;
+        let dp = Datapath::new(*cfg, tables);
+        let mut host_stats = QuantStats::default();
+        let words = voxel_words(cfg, volume, view, &mut host_stats);
+        let p = usize::from(cfg.pes);
+        let nx = view.dims[0];
+        let block = nx.div_ceil(p);
+        let pes = (0..p)
+            .map(|k| {
+                let c0 = (k * block).min(nx);
+                let c1 = ((k + 1) * block).min(nx);
+                Pe::new(k, c0..c1, &words, view.dims)
+            })
+            .collect();
+        let probes = if tracer.is_enabled() {
+            Some(Probes::new(tracer, p, cfg)?)
+        } else {
+            None
+        };
+        Ok(Array {
+            dp,
+            pes,
+            ports: vec![Ports::default(); p],
+            block,
+            nx,
+            cycle: 0,
+            stages: StageCycles::default(),
+            samples_per_slice: vec![0; view.dims[2]],
+            probes,
+            host_stats,
+            order: (0..p).collect(),
+        })
+    }
+
+    /// Steps PEs in this order within a cycle (any order gives the same
+    /// result; tests use it to prove that).
+    pub fn set_step_order(&mut self, order: Vec<usize>) {
+        assert_eq!(order.len(), self.pes.len());
+        self.order = order;
+    }
+
+    /// The PE holding a ray whose base column is `x0`.
+    fn owner_of_column(&self, x0: i64) -> usize {
+        let c = x0.clamp(0, self.nx as i64 - 1) as usize;
+        (c / self.block).min(self.pes.len() - 1)
+    }
+
+    /// The owner of ray `mx` in `slice`, from the same fixed-point position
+    /// the PE computes.
+    fn owner(&self, slice: &SlicePlan, mx: i64) -> usize {
+        let mut st = QuantStats::default();
+        let x = self.dp.position(slice.a[0], slice.t[0], mx, &mut st).map(|x| self.dp.address(x, &mut st).0);
+        match x {
+            Ok(x0) => self.owner_of_column(x0),
+            Err(_) => self.pes.len() - 1,
+        }
+    }
+
+    /// Runs a frame of `view`.
+    pub fn run(mut self, view: &View) -> Result<Frame, RunError> {
+        let plan: FramePlan = plan(&self.dp.cfg, view)?;
+        self.host_stats.merge(&plan.stats);
+        let k = plan.regions.len();
+        let mut merges = 0;
+        for i in (0..k).rev() {
+            let region = &plan.regions[i];
+            if i == k - 1 {
+                self.distribute(region);
+            }
+            for slice in &region.slices {
+                self.migrate(slice)?;
+                self.sample(region, slice)?;
+            }
+            if i > 0 {
+                self.merge(region, &plan.regions[i - 1])?;
+                merges += 1;
+            }
+        }
+        let (base, raw) = self.readout(&plan.regions[0], view);
+        self.finish(base, raw, merges)
+    }
+
+    /// Creates the last region's (empty) rays in the PEs that sample them
+    /// first.
+    fn distribute(&mut self, region: &RegionPlan) {
+        let g = &region.grid;
+        let rows = g.counts()[1];
+        let first = region.slices.first();
+        for mx in g.lo[0]..=g.hi[0] {
+            let k = match first {
+                Some(s) => self.owner(s, mx),
+                None => 0,
+            };
+            self.pes[k].rays.push_back(RayColumn {
+                mx,
+                acc: vec![Acc::default(); rows],
+            });
+        }
+    }
+
+    fn trace(&mut self, stage: u64, z: usize, row: usize) {
+        let cycle = self.cycle;
+        let Some(pr) = self.probes.as_mut() else { return };
+        let pes = &self.pes;
+        pr.tracer.sample(cycle, |s| {
+            s.set(pr.stage, stage);
+            s.set(pr.z, z as u64 & 0xffff);
+            s.set(pr.row, row as u64 & 0xffff);
+            for (pe, sig) in pes.iter().zip(&pr.pes) {
+                let busy = stage == STAGE_SAMPLE && pe.counters.busy > 0 && pe.last_mx != i64::MIN;
+                s.set(sig.busy, u64::from(busy));
+                s.set(sig.mx, pe.last_mx as u64 & 0xffff);
+                s.set(sig.sample, pe.last.sample as u64);
+                s.set(sig.alpha, pe.last.alpha as u64);
+                s.set(sig.corrected, pe.last.corrected as u64);
+                s.set(sig.rays_sent, pe.counters.rays_sent & 0xffff_ffff);
+                let j = pe.active.0;
+                let acc = pe.rays.get(j).map(|c| c.acc.get(row).copied().unwrap_or_default());
+                let acc = acc.unwrap_or_default();
+                for ch in 0..4 {
+                    s.set(sig.acc[ch], acc.raw[ch] as u64);
+                }
+            }
+        });
+    }
+
+    /// Migration before `slice`: clocks until every ray sits in its owner.
+    fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
+        let owners: Vec<Vec<(i64, usize)>> = self
+            .pes
+            .iter()
+            .map(|pe| pe.rays.iter().map(|c| (c.mx, self.owner(slice, c.mx))).collect())
+            .collect();
+        let lookup = |mx: i64| -> Option<usize> {
+            owners.iter().flatten().find(|&&(m, _)| m == mx).map(|&(_, o)| o)
+        };
+        let _ = lookup;
+        for (pe, own) in self.pes.iter_mut().zip(&owners) {
+            let table: std::collections::HashMap<i64, usize> = own.iter().copied().collect();
+            pe.plan_moves(|mx| table[&mx]);
+        }
+        let mut cycles = 0u64;
+        loop {
+            if self.pes.iter().all(|p| p.settled()) && self.ports.iter().all(|p| p.left.ray.is_none() && p.right.ray.is_none()) {
+                break;
+            }
+            let prev = self.ports.clone();
+            let p = self.pes.len();
+            let mut next = vec![Ports::default(); p];
+            for &k in &self.order {
+                let none = Ports::default();
+                let from_left = if k > 0 { &prev[k - 1] } else { &none };
+                let from_right = if k + 1 < p { &prev[k + 1] } else { &none };
+                let dp = &self.dp;
+                let nx = self.nx;
+                let block = self.block;
+                let owner = |mx: i64| {
+                    let mut st = QuantStats::default();
+                    let x0 = dp
+                        .position(slice.a[0], slice.t[0], mx, &mut st)
+                        .map(|x| dp.address(x, &mut st).0)
+                        .unwrap_or(i64::MAX);
+                    let c = x0.clamp(0, nx as i64 - 1) as usize;
+                    (c / block).min(p - 1)
+                };
+                next[k] = self.pes[k].migrate_step(from_left, from_right, owner);
+            }
+            self.ports = next;
+            self.cycle += 1;
+            cycles += 1;
+            self.trace(STAGE_MIGRATE, slice.z, 0);
+        }
+        self.stages.migrate += cycles;
+        Ok(())
+    }
+
+    /// Samples one slice, row by row, cycle by cycle.
+    fn sample(&mut self, region: &RegionPlan, slice: &SlicePlan) -> Result<(), RunError> {
+        let (ylo, yhi) = slice.range[1];
+        let (xlo, xhi) = slice.range[0];
+        if ylo > yhi || xlo > xhi {
+            return Ok(());
+        }
+        let row_len = self.pes.iter_mut().map(|pe| pe.select(slice)).max().unwrap_or(0);
+        let counts: u64 = self.pes.iter().map(|pe| pe.active.1 as u64).sum();
+        self.samples_per_slice[slice.z] += counts * (yhi - ylo + 1) as u64;
+        if row_len == 0 {
+            return Ok(());
+        }
+        let ny = region_ny(self);
+        let glo = region.grid.lo[1];
+        let dp = &self.dp;
+        let mut st = QuantStats::default();
+        let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
+        for my in ylo..=yhi {
+            let y = dp.position(slice.a[1], slice.t[1], my, &mut st)?;
+            let (y0, wy) = dp.address(y, &mut st);
+            let last = ny as i64 - 1;
+            let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
+            let sy = dp.cfg.position.assign(Wide::from(region.slope_b[1]).checked_add(mt)?, &mut st);
+            rows.push((my, (y0.clamp(0, last) as usize, (y0 + 1).clamp(0, last) as usize, wy), sy));
+        }
+        self.host_stats.merge(&st);
+        let p = self.pes.len();
+        for (r, &(my, y, sy)) in rows.iter().enumerate() {
+            for cycle in 0..row_len {
+                let next = if cycle + 1 < row_len {
+                    Some((slice.z, y.0, y.1))
+                } else {
+                    rows.get(r + 1).map(|n| (slice.z, n.1 .0, n.1 .1))
+                };
+                let bus = SampleBus {
+                    slice,
+                    my,
+                    row: (my - glo) as usize,
+                    y,
+                    cycle,
+                    slope_yz: (sy, region.slope_z),
+                    slope_x: (region.slope_b[0], region.slope_k[0]),
+                    next,
+                };
+                let prev = std::mem::take(&mut self.ports);
+                let mut next_ports = vec![Ports::default(); p];
+                for &k in &self.order {
+                    let none = Ports::default();
+                    let from_right = if k + 1 < p { &prev[k + 1] } else { &none };
+                    next_ports[k] = self.pes[k].sample_step(&self.dp, &bus, from_right, self.nx)?;
+                }
+                self.ports = next_ports;
+                self.cycle += 1;
+                self.trace(STAGE_SAMPLE, slice.z, (my - glo) as usize);
+            }
+            self.stages.sample += row_len as u64;
+        }
+        Ok(())
+    }
+
+    /// Bartlett merge of `back`'s rays into `front`'s.
+    fn merge(&mut self, back: &RegionPlan, front: &RegionPlan) -> Result<(), RunError> {
+        let (bg, fg) = (&back.grid, &front.grid);
+        let prow = bg.counts()[1];
+        let frows = fg.counts()[1];
+        // Which child columns each PE computes: centre parent clamped into
+        // the parent rectangle, held by that PE.
+        let spans: Vec<Option<(i64, i64)>> = self.pes.iter().map(|pe| pe.span()).collect();
+        let mut children: Vec<Vec<i64>> = vec![Vec::new(); self.pes.len()];
+        for m in fg.lo[0]..=fg.hi[0] {
+            let centre = (2 * m).clamp(bg.lo[0], bg.hi[0]);
+            let k = spans
+                .iter()
+                .position(|s| matches!(s, Some((lo, hi)) if (*lo..=*hi).contains(&centre)))
+                .unwrap_or(0);
+            children[k].push(m);
+        }
+        let width = children.iter().map(Vec::len).max().unwrap_or(0) as u64;
+        // x pass, one parent row per step; the line buffer keeps every
+        // x-merged row for the y pass (three rows deep in hardware).
+        let p = self.pes.len();
+        let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); prow]; p];
+        for row in 0..prow {
+            let drive: Vec<Ports> = self.pes.iter().map(|pe| pe.merge_drive(row)).collect();
+            for &k in &self.order {
+                let none = Ports::default();
+                let from_left = if k > 0 { &drive[k - 1] } else { &none };
+                let from_right = if k + 1 < p { &drive[k + 1] } else { &none };
+                let mut line = Vec::new();
+                self.pes[k].merge_x(&self.dp, row, &children[k], from_left, from_right, &mut line);
+                lines[k][row] = line;
+            }
+            self.cycle += width;
+            self.trace(STAGE_MERGE, 0, row);
+        }
+        // y pass: child row r takes parent rows 2 r - 1 ..= 2 r + 1.
+        let (fc, fa, fm) = (self.dp.cfg.accum_color, self.dp.cfg.accum_alpha, self.dp.cfg.merge);
+        for k in 0..p {
+            let pe = &mut self.pes[k];
+            let mut cols: Vec<RayColumn> = children[k]
+                .iter()
+                .map(|&mx| RayColumn {
+                    mx,
+                    acc: vec![Acc::default(); frows],
+                })
+                .collect();
+            for (r, my) in (fg.lo[1]..=fg.hi[1]).enumerate() {
+                let at = |py: i64, c: usize, ch: usize| -> i64 {
+                    let row = py - bg.lo[1];
+                    if row < 0 || row >= prow as i64 {
+                        0
+                    } else {
+                        lines[k][row as usize][c][ch]
+                    }
+                };
+                for (c, col) in cols.iter_mut().enumerate() {
+                    for ch in 0..4 {
+                        let to = if ch < 3 { fc } else { fa };
+                        let v = self.dp.tent([at(2 * my - 1, c, ch), at(2 * my, c, ch), at(2 * my + 1, c, ch)], fm, to, &mut pe.stats);
+                        col.acc[r].raw[ch] = v.raw();
+                    }
+                }
+            }
+            pe.counters.merge_outputs += (cols.len() * frows) as u64;
+            pe.set_rays(cols);
+        }
+        // The y pass drains two rows behind the x pass.
+        self.cycle += 2 * width;
+        self.stages.merge += prow as u64 * width + 2 * width;
+        Ok(())
+    }
+
+    /// Streams region 0's rays out, one per PE per cycle.
+    fn readout(&mut self, region: &RegionPlan, view: &View) -> (Baseplane, Vec<[i64; 4]>) {
+        let g = &region.grid;
+        let [w, h] = g.counts();
+        let mut raw = vec![[0i64; 4]; w * h];
+        let mut most = 0;
+        for pe in &self.pes {
+            let mut n = 0;
+            for c in &pe.rays {
+                let x = (c.mx - g.lo[0]) as usize;
+                for (r, a) in c.acc.iter().enumerate() {
+                    raw[r * w + x] = a.raw;
+                    n += 1;
+                }
+            }
+            most = most.max(n);
+        }
+        self.cycle += most as u64;
+        self.stages.readout += most as u64;
+        self.trace(STAGE_READOUT, 0, 0);
+        let (fc, fa) = (self.dp.cfg.accum_color.lsb(), self.dp.cfg.accum_alpha.lsb());
+        let data = raw
+            .iter()
+            .map(|p| [(p[0] as f64 * fc) as f32, (p[1] as f64 * fc) as f32, (p[2] as f64 * fc) as f32, (p[3] as f64 * fa) as f32])
+            .collect();
+        let layout_base = golden::methods::Method::Er
+            .layout(view)
+            .map(|l| l.baseplane())
+            .expect("the plan's layout was built from the same view");
+        (
+            Baseplane {
+                grid: layout_base,
+                data,
+            },
+            raw,
+        )
+    }
+
+    fn finish(mut self, baseplane: Baseplane, raw: Vec<[i64; 4]>, merges: u64) -> Result<Frame, RunError> {
+        let mut quant = self.host_stats;
+        for pe in &self.pes {
+            quant.merge(&pe.stats);
+        }
+        let samples: u64 = self.pes.iter().map(|p| p.counters.samples).sum();
+        if let Some(pr) = self.probes.take() {
+            if let Some(info) = pr.tracer.finish()? {
+                let gtkw = info.vcd_path.with_extension("gtkw");
+                info.write_gtkw(&gtkw)?;
+            }
+        }
+        Ok(Frame {
+            baseplane,
+            raw,
+            cycles: self.cycle,
+            stages: self.stages,
+            samples,
+            samples_per_slice: self.samples_per_slice,
+            ideal_cycles: samples as f64 / self.pes.len() as f64,
+            pes: self.pes.iter().map(|p| p.counters).collect(),
+            merges,
+            quant,
+        })
+    }
+}
+
+fn region_ny(a: &Array) -> usize {
+    a.pes.first().map(|p| p.ny_rows()).unwrap_or(0)
+}
+
+impl Pe {
+    /// Rows of a slice in this PE's memory.
+    pub fn ny_rows(&self) -> usize {
+        self.ny_public()
+    }
+}
+
+/// Runs one frame: plans, loads, clocks and reads out.
+pub fn run_frame(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    view: &View,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    Array::new(cfg, volume, lut, view, tracer)?.run(view)
+}
+
+#[allow(dead_code)]
+fn _unused(_: Fx) {}

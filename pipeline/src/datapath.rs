@@ -1,0 +1,193 @@
+//! The PE's per-sample arithmetic, bit for bit: ray position, bilinear
+//! interpolation, classification, opacity correction and compositing, and
+//! the Bartlett merge. Each step mirrors its float counterpart in
+//! `golden::sampling` / `golden::merge` (same order of operations), and
+//! every value is assigned into a declared [`Format`] of the
+//! [`PipelineConfig`]: full-precision operators, quantise on assignment.
+
+use crate::config::PipelineConfig;
+use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::tables::Tables;
+
+/// One ray's compositing accumulators: premultiplied R, G, B and opacity,
+/// as raw words of `accum_color` / `accum_alpha`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct Acc {
+    /// Raw R, G, B, A words.
+    pub raw: [i64; 4],
+}
+
+/// What one sample computed, for waveforms and tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SampleTrace {
+    /// Interpolated sample, raw `sample` word.
+    pub sample: i64,
+    /// Classified opacity, raw `alpha` word.
+    pub alpha: i64,
+    /// Corrected opacity, raw `opacity_corr` word.
+    pub corrected: i64,
+}
+
+/// The fixed-point datapath: the configuration, its tables and the
+/// per-format saturation and rounding counters.
+#[derive(Debug, Clone)]
+pub struct Datapath {
+    /// Widths and modes.
+    pub cfg: PipelineConfig,
+    /// Classification and opacity tables.
+    pub tables: Tables,
+}
+
+/// `a + w (b - a)`, exactly, assigned into `out`.
+#[inline]
+pub fn lerp(a: Fx, b: Fx, w: Fx, out: Format, st: &mut QuantStats) -> Result<Fx, FxError> {
+    let d = b - a;
+    let wd = Wide::from(w).checked_mul(d)?;
+    Ok(out.assign(Wide::from(a).checked_add(wd)?, st))
+}
+
+/// Integer and fraction of a non-negative or negative fixed value at a
+/// given number of fraction bits: `(floor, fraction raw)`.
+#[inline]
+fn split(raw: i64, frac: u32) -> (i64, i64) {
+    (raw >> frac, raw & ((1i64 << frac) - 1))
+}
+
+impl Datapath {
+    /// Builds the datapath for `cfg` and its tables.
+    pub fn new(cfg: PipelineConfig, tables: Tables) -> Datapath {
+        Datapath { cfg, tables }
+    }
+
+    /// Ray position `a + m t` on one axis, in the `position` format (the
+    /// host broadcasts `a` in `position` and `t` in `step`).
+    #[inline]
+    pub fn position(&self, a: Fx, t: Fx, m: i64, st: &mut QuantStats) -> Result<Fx, FxError> {
+        let mt = Wide::new(i128::from(m), 0).checked_mul(t)?;
+        Ok(self.cfg.position.assign(Wide::from(a).checked_add(mt)?, st))
+    }
+
+    /// Voxel address and interpolation weight of a position:
+    /// `(floor(x), weight)`, the weight being the position's fraction
+    /// assigned into the `weight` format.
+    #[inline]
+    pub fn address(&self, x: Fx, st: &mut QuantStats) -> (i64, Fx) {
+        let f = u32::from(self.cfg.position.frac());
+        let (i, r) = split(x.raw(), f);
+        (i, self.cfg.weight.assign(Wide::new(i128::from(r), f as i32), st))
+    }
+
+    /// Bilinear interpolation of four voxel codes (`v[row][col]`, rows
+    /// `y0, y0 + 1`, columns `x0, x0 + 1`) with weights `wx`, `wy`: first
+    /// along x on both rows, then along y, as `golden::slices::bilinear`.
+    #[inline]
+    pub fn bilinear(&self, v: [[u16; 2]; 2], wx: Fx, wy: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+        let vf = self.cfg.voxel;
+        let vox = |c: u16| Fx::from_raw_unchecked(i64::from(c), vf);
+        let s = self.cfg.sample;
+        let top = lerp(vox(v[0][0]), vox(v[0][1]), wx, s, st)?;
+        let bot = lerp(vox(v[1][0]), vox(v[1][1]), wx, s, st)?;
+        lerp(top, bot, wy, s, st)
+    }
+
+    /// Classification: the sample's table position `sample * 2^shift`
+    /// splits into an entry index and a weight; colour and opacity are
+    /// interpolated between adjacent entries (a dual-port table), as
+    /// `golden::tf::Lut::lookup`.
+    #[inline]
+    pub fn classify(&self, s: Fx, st: &mut QuantStats) -> Result<([Fx; 3], Fx), FxError> {
+        let t = &self.tables;
+        let last = t.color.len() - 1;
+        let shift = self.cfg.table_shift();
+        let f = i32::from(self.cfg.sample.frac()) - shift;
+        let (i, w) = if f > 0 {
+            let (i, r) = split(s.raw(), f as u32);
+            (i, self.cfg.weight.assign(Wide::new(i128::from(r), f), st))
+        } else {
+            (s.raw() << (-f) as u32, self.cfg.weight.zero())
+        };
+        let i = i.max(0) as usize;
+        if i >= last {
+            return Ok((t.color[last], t.alpha[last]));
+        }
+        let c = self.cfg.color;
+        let rgb = [
+            lerp(t.color[i][0], t.color[i + 1][0], w, c, st)?,
+            lerp(t.color[i][1], t.color[i + 1][1], w, c, st)?,
+            lerp(t.color[i][2], t.color[i + 1][2], w, c, st)?,
+        ];
+        let a = lerp(t.alpha[i], t.alpha[i + 1], w, self.cfg.alpha, st)?;
+        Ok((rgb, a))
+    }
+
+    /// Opacity correction `1 - (1 - a)^ds` in the log domain:
+    /// `p = -log2(1 - a) ds`, `T = 2^-frac(p)` from the interpolated exp
+    /// table, shifted right by `int(p)`, and `a' = 1 - T`.
+    #[inline]
+    pub fn correct(&self, a: Fx, ds: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+        let t = &self.tables;
+        let lf = self.cfg.log_transmittance;
+        let oc = self.cfg.opacity_corr;
+        let code = (a.raw().max(0) as usize).min(t.log_t.len() - 1);
+        let p = lf.assign(t.log_t[code] * ds, st);
+        let fbits = u32::from(lf.frac());
+        let (int, frac) = split(p.raw(), fbits);
+        let e = u32::from(self.cfg.exp_table_bits);
+        let (idx, rem) = split(frac, fbits - e);
+        let w = self.cfg.weight.assign(Wide::new(i128::from(rem), (fbits - e) as i32), st);
+        let idx = idx as usize;
+        let tf = lerp(t.exp[idx], t.exp[idx + 1], w, oc, st)?;
+        let trans = if int >= 64 {
+            oc.zero()
+        } else {
+            oc.assign(tf >> int as u16, st)
+        };
+        let one = Wide::new(1, 0);
+        Ok(oc.assign(one.checked_sub(trans)?, st))
+    }
+
+    /// Back-to-front compositing of colour `c` with corrected opacity `a`:
+    /// `C = a c + (1 - a) C`, `A = a + (1 - a) A`.
+    #[inline]
+    pub fn composite_btf(&self, acc: &mut Acc, c: [Fx; 3], a: Fx, st: &mut QuantStats) -> Result<(), FxError> {
+        let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
+        let k = Wide::new(1, 0).checked_sub(a)?;
+        for ch in 0..3 {
+            let old = Fx::from_raw_unchecked(acc.raw[ch], fc);
+            let v = (a * c[ch]).checked_add(k.checked_mul(old)?)?;
+            acc.raw[ch] = fc.assign(v, st).raw();
+        }
+        let old = Fx::from_raw_unchecked(acc.raw[3], fa);
+        let v = Wide::from(a).checked_add(k.checked_mul(old)?)?;
+        acc.raw[3] = fa.assign(v, st).raw();
+        Ok(())
+    }
+
+    /// The ray's path length per slice step, `sqrt(sx^2 + sy^2 + sz^2)`
+    /// from its spacing-scaled slopes, truncated into the `path` format
+    /// (an exact integer square root).
+    #[inline]
+    pub fn path(&self, sx: Fx, sy: Fx, sz: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+        let sum = (sx * sx).checked_add(sy * sy)?.checked_add(sz * sz)?;
+        let pf = i32::from(self.cfg.path.frac());
+        // sqrt(raw 2^-f) 2^pf = sqrt(raw 2^(2 pf - f)).
+        let shift = 2 * pf - sum.frac;
+        let radicand = if shift >= 0 {
+            sum.checked_shl(shift as u32)?.raw
+        } else {
+            sum.raw >> (-shift) as u32
+        };
+        let root = (radicand.max(0) as u128).isqrt() as i128;
+        Ok(self.cfg.path.assign(Wide::new(root, pf), st))
+    }
+
+    /// One Bartlett tap row `(p[-1] + 2 p[0] + p[1]) / 4` of raw words in
+    /// format `from`, assigned into `to` (the x pass goes from an
+    /// accumulator into `merge`, the y pass from `merge` back).
+    #[inline]
+    pub fn tent(&self, p: [i64; 3], from: Format, to: Format, st: &mut QuantStats) -> Fx {
+        // Three words of at most 63 bits: the sum fits i128 trivially.
+        let sum = i128::from(p[0]) + 2 * i128::from(p[1]) + i128::from(p[2]);
+        to.assign(Wide::new(sum, i32::from(from.frac()) + 2), st)
+    }
+}
