@@ -253,7 +253,15 @@ impl fmt::Display for Scene {
 }
 
 /// Names accepted by [`tf_preset`].
-pub const PRESETS: &[&str] = &["checker", "checker-mono", "ml", "sphere", "impulse", "grey-ramp", "brain"];
+pub const PRESETS: &[&str] = &[
+    "checker",
+    "checker-mono",
+    "ml",
+    "sphere",
+    "impulse",
+    "grey-ramp",
+    "brain",
+];
 
 /// A named transfer-function preset, for 8-bit scalars (0..=255). Opacity is
 /// per unit length (per voxel at unit spacing), as everywhere in [`crate::tf`].

@@ -154,7 +154,10 @@ impl Lut {
     /// (the last entry sits one spacing below `2^data_bits`; scalars above
     /// it clamp to it).
     pub fn for_bits(tf: &TransferFunction, entries: usize, data_bits: u32) -> Lut {
-        assert!(entries.is_power_of_two() && entries >= 2, "table entries must be a power of two");
+        assert!(
+            entries.is_power_of_two() && entries >= 2,
+            "table entries must be a power of two"
+        );
         let spacing = (1u64 << data_bits) as f64 / entries as f64;
         tf.table(entries, (entries - 1) as f64 * spacing)
     }

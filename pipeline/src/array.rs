@@ -28,7 +28,7 @@ use waves::{ScopePath, SignalId, Tracer};
 
 use crate::config::PipelineConfig;
 use crate::datapath::{Acc, Datapath};
-use crate::fixed::{Fx, QuantStats, Wide};
+use crate::fixed::{QuantStats, Wide};
 use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
 use crate::pe::{Pe, PeCounters, Ports, RayColumn, SampleBus, StepError};
 use crate::tables::Tables;
@@ -106,6 +106,7 @@ pub enum RunError {
 struct PeSignals {
     busy: SignalId,
     mx: SignalId,
+    row: SignalId,
     sample: SignalId,
     alpha: SignalId,
     corrected: SignalId,
@@ -123,7 +124,11 @@ struct Probes {
 }
 
 impl Probes {
-    fn new(mut tracer: Tracer, p: usize, cfg: &PipelineConfig) -> Result<Probes, waves::WavesError> {
+    fn new(
+        mut tracer: Tracer,
+        p: usize,
+        cfg: &PipelineConfig,
+    ) -> Result<Probes, waves::WavesError> {
         let ctrl = ScopePath::top().child("ctrl");
         let stage = tracer.register(&ctrl, "stage", 2)?;
         let z = tracer.register(&ctrl, "slice", 16)?;
@@ -135,6 +140,7 @@ impl Probes {
             pes.push(PeSignals {
                 busy: tracer.register(&s, "busy", 1)?,
                 mx: tracer.register(&s, "ray_mx", 16)?,
+                row: tracer.register(&s, "ray_row", 16)?,
                 sample: tracer.register(&s, "sample", w(cfg.sample))?,
                 alpha: tracer.register(&s, "alpha", w(cfg.alpha))?,
                 corrected: tracer.register(&s, "alpha_corr", w(cfg.opacity_corr))?,
@@ -147,7 +153,13 @@ impl Probes {
                 rays_sent: tracer.register(&s, "rays_sent", 32)?,
             });
         }
-        Ok(Probes { tracer, stage, z, row, pes })
+        Ok(Probes {
+            tracer,
+            stage,
+            z,
+            row,
+            pes,
+        })
     }
 }
 
@@ -162,8 +174,10 @@ pub struct Array {
     dp: Datapath,
     pes: Vec<Pe>,
     ports: Vec<Ports>,
+    spare: Vec<Ports>,
     block: usize,
     nx: usize,
+    ny: usize,
     cycle: u64,
     stages: StageCycles,
     samples_per_slice: Vec<u64>,
@@ -210,8 +224,10 @@ impl Array {
             dp,
             pes,
             ports: vec![Ports::default(); p],
+            spare: vec![Ports::default(); p],
             block,
             nx,
+            ny: view.dims[1],
             cycle: 0,
             stages: StageCycles::default(),
             samples_per_slice: vec![0; view.dims[2]],
@@ -228,20 +244,14 @@ impl Array {
         self.order = order;
     }
 
-    /// The PE holding a ray whose base column is `x0`.
-    fn owner_of_column(&self, x0: i64) -> usize {
-        let c = x0.clamp(0, self.nx as i64 - 1) as usize;
-        (c / self.block).min(self.pes.len() - 1)
-    }
-
-    /// The owner of ray `mx` in `slice`, from the same fixed-point position
-    /// the PE computes.
-    fn owner(&self, slice: &SlicePlan, mx: i64) -> usize {
-        let mut st = QuantStats::default();
-        let x = self.dp.position(slice.a[0], slice.t[0], mx, &mut st).map(|x| self.dp.address(x, &mut st).0);
-        match x {
-            Ok(x0) => self.owner_of_column(x0),
-            Err(_) => self.pes.len() - 1,
+    /// Who holds which ray in `slice`.
+    fn owners<'a>(&'a self, slice: &'a SlicePlan) -> Owners<'a> {
+        Owners {
+            dp: &self.dp,
+            slice,
+            nx: self.nx,
+            block: self.block,
+            pes: self.pes.len(),
         }
     }
 
@@ -277,7 +287,7 @@ impl Array {
         let first = region.slices.first();
         for mx in g.lo[0]..=g.hi[0] {
             let k = match first {
-                Some(s) => self.owner(s, mx),
+                Some(s) => self.owners(s).of(mx),
                 None => 0,
             };
             self.pes[k].rays.push_back(RayColumn {
@@ -288,76 +298,74 @@ impl Array {
     }
 
     fn trace(&mut self, stage: u64, z: usize, row: usize) {
-        let cycle = self.cycle;
-        let Some(pr) = self.probes.as_mut() else { return };
-        let pes = &self.pes;
-        pr.tracer.sample(cycle, |s| {
-            s.set(pr.stage, stage);
-            s.set(pr.z, z as u64 & 0xffff);
-            s.set(pr.row, row as u64 & 0xffff);
-            for (pe, sig) in pes.iter().zip(&pr.pes) {
-                let busy = stage == STAGE_SAMPLE && pe.counters.busy > 0 && pe.last_mx != i64::MIN;
-                s.set(sig.busy, u64::from(busy));
-                s.set(sig.mx, pe.last_mx as u64 & 0xffff);
-                s.set(sig.sample, pe.last.sample as u64);
-                s.set(sig.alpha, pe.last.alpha as u64);
-                s.set(sig.corrected, pe.last.corrected as u64);
-                s.set(sig.rays_sent, pe.counters.rays_sent & 0xffff_ffff);
-                let j = pe.active.0;
-                let acc = pe.rays.get(j).map(|c| c.acc.get(row).copied().unwrap_or_default());
-                let acc = acc.unwrap_or_default();
-                for ch in 0..4 {
-                    s.set(sig.acc[ch], acc.raw[ch] as u64);
-                }
-            }
-        });
+        trace(&mut self.probes, &self.pes, self.cycle, stage, z, row);
     }
+}
 
+/// Records one cycle of every traced signal; a single branch when tracing
+/// is off.
+fn trace(probes: &mut Option<Probes>, pes: &[Pe], cycle: u64, stage: u64, z: usize, row: usize) {
+    let Some(pr) = probes.as_mut() else { return };
+    pr.tracer.sample(cycle, |s| {
+        s.set(pr.stage, stage);
+        s.set(pr.z, z as u64 & 0xffff);
+        s.set(pr.row, row as u64 & 0xffff);
+        for (pe, sig) in pes.iter().zip(&pr.pes) {
+            let l = &pe.last;
+            let busy = stage == STAGE_SAMPLE && l.busy;
+            s.set(sig.busy, u64::from(busy));
+            // Ray indices are traced as 16-bit two's complement.
+            s.set(sig.mx, l.mx as u64 & 0xffff);
+            s.set(sig.row, l.row as u64 & 0xffff);
+            s.set(sig.sample, l.sample as u64);
+            s.set(sig.alpha, l.alpha as u64);
+            s.set(sig.corrected, l.corrected as u64);
+            s.set(sig.rays_sent, pe.counters.rays_sent & 0xffff_ffff);
+            for ch in 0..4 {
+                s.set(sig.acc[ch], l.acc.raw[ch] as u64);
+            }
+        }
+    });
+}
+
+impl Array {
     /// Migration before `slice`: clocks until every ray sits in its owner.
     fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
-        let owners: Vec<Vec<(i64, usize)>> = self
-            .pes
-            .iter()
-            .map(|pe| pe.rays.iter().map(|c| (c.mx, self.owner(slice, c.mx))).collect())
-            .collect();
-        let lookup = |mx: i64| -> Option<usize> {
-            owners.iter().flatten().find(|&&(m, _)| m == mx).map(|&(_, o)| o)
+        let owners = Owners {
+            dp: &self.dp,
+            slice,
+            nx: self.nx,
+            block: self.block,
+            pes: self.pes.len(),
         };
-        let _ = lookup;
-        for (pe, own) in self.pes.iter_mut().zip(&owners) {
-            let table: std::collections::HashMap<i64, usize> = own.iter().copied().collect();
-            pe.plan_moves(|mx| table[&mx]);
+        for pe in &mut self.pes {
+            pe.plan_moves(|mx| owners.of(mx));
         }
+        let p = self.pes.len();
         let mut cycles = 0u64;
-        loop {
-            if self.pes.iter().all(|p| p.settled()) && self.ports.iter().all(|p| p.left.ray.is_none() && p.right.ray.is_none()) {
-                break;
-            }
-            let prev = self.ports.clone();
-            let p = self.pes.len();
-            let mut next = vec![Ports::default(); p];
+        while !(self.pes.iter().all(Pe::settled)
+            && self
+                .ports
+                .iter()
+                .all(|p| p.left.ray.is_none() && p.right.ray.is_none()))
+        {
+            let none = Ports::default();
             for &k in &self.order {
-                let none = Ports::default();
-                let from_left = if k > 0 { &prev[k - 1] } else { &none };
-                let from_right = if k + 1 < p { &prev[k + 1] } else { &none };
-                let dp = &self.dp;
-                let nx = self.nx;
-                let block = self.block;
-                let owner = |mx: i64| {
-                    let mut st = QuantStats::default();
-                    let x0 = dp
-                        .position(slice.a[0], slice.t[0], mx, &mut st)
-                        .map(|x| dp.address(x, &mut st).0)
-                        .unwrap_or(i64::MAX);
-                    let c = x0.clamp(0, nx as i64 - 1) as usize;
-                    (c / block).min(p - 1)
-                };
-                next[k] = self.pes[k].migrate_step(from_left, from_right, owner);
+                let from_left = if k > 0 { &self.ports[k - 1] } else { &none };
+                let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
+                self.spare[k] = self.pes[k].migrate_step(from_left, from_right, |mx| owners.of(mx));
             }
-            self.ports = next;
+            std::mem::swap(&mut self.ports, &mut self.spare);
             self.cycle += 1;
             cycles += 1;
-            self.trace(STAGE_MIGRATE, slice.z, 0);
+            trace(
+                &mut self.probes,
+                &self.pes,
+                self.cycle,
+                STAGE_MIGRATE,
+                slice.z,
+                0,
+            );
         }
         self.stages.migrate += cycles;
         Ok(())
@@ -370,13 +378,18 @@ impl Array {
         if ylo > yhi || xlo > xhi {
             return Ok(());
         }
-        let row_len = self.pes.iter_mut().map(|pe| pe.select(slice)).max().unwrap_or(0);
+        let row_len = self
+            .pes
+            .iter_mut()
+            .map(|pe| pe.select(slice))
+            .max()
+            .unwrap_or(0);
         let counts: u64 = self.pes.iter().map(|pe| pe.active.1 as u64).sum();
         self.samples_per_slice[slice.z] += counts * (yhi - ylo + 1) as u64;
         if row_len == 0 {
             return Ok(());
         }
-        let ny = region_ny(self);
+        let ny = self.ny;
         let glo = region.grid.lo[1];
         let dp = &self.dp;
         let mut st = QuantStats::default();
@@ -386,8 +399,19 @@ impl Array {
             let (y0, wy) = dp.address(y, &mut st);
             let last = ny as i64 - 1;
             let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
-            let sy = dp.cfg.position.assign(Wide::from(region.slope_b[1]).checked_add(mt)?, &mut st);
-            rows.push((my, (y0.clamp(0, last) as usize, (y0 + 1).clamp(0, last) as usize, wy), sy));
+            let sy = dp
+                .cfg
+                .position
+                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, &mut st);
+            rows.push((
+                my,
+                (
+                    y0.clamp(0, last) as usize,
+                    (y0 + 1).clamp(0, last) as usize,
+                    wy,
+                ),
+                sy,
+            ));
         }
         self.host_stats.merge(&st);
         let p = self.pes.len();
@@ -408,14 +432,14 @@ impl Array {
                     slope_x: (region.slope_b[0], region.slope_k[0]),
                     next,
                 };
-                let prev = std::mem::take(&mut self.ports);
-                let mut next_ports = vec![Ports::default(); p];
+                // Two-phase clock: every PE reads last cycle's port outputs
+                // (`ports`) and drives next cycle's (`spare`), then they swap.
+                let none = Ports::default();
                 for &k in &self.order {
-                    let none = Ports::default();
-                    let from_right = if k + 1 < p { &prev[k + 1] } else { &none };
-                    next_ports[k] = self.pes[k].sample_step(&self.dp, &bus, from_right, self.nx)?;
+                    let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
+                    self.spare[k] = self.pes[k].sample_step(&self.dp, &bus, from_right, self.nx)?;
                 }
-                self.ports = next_ports;
+                std::mem::swap(&mut self.ports, &mut self.spare);
                 self.cycle += 1;
                 self.trace(STAGE_SAMPLE, slice.z, (my - glo) as usize);
             }
@@ -453,14 +477,25 @@ impl Array {
                 let from_left = if k > 0 { &drive[k - 1] } else { &none };
                 let from_right = if k + 1 < p { &drive[k + 1] } else { &none };
                 let mut line = Vec::new();
-                self.pes[k].merge_x(&self.dp, row, &children[k], from_left, from_right, &mut line);
+                self.pes[k].merge_x(
+                    &self.dp,
+                    row,
+                    &children[k],
+                    from_left,
+                    from_right,
+                    &mut line,
+                );
                 lines[k][row] = line;
             }
             self.cycle += width;
             self.trace(STAGE_MERGE, 0, row);
         }
         // y pass: child row r takes parent rows 2 r - 1 ..= 2 r + 1.
-        let (fc, fa, fm) = (self.dp.cfg.accum_color, self.dp.cfg.accum_alpha, self.dp.cfg.merge);
+        let (fc, fa, fm) = (
+            self.dp.cfg.accum_color,
+            self.dp.cfg.accum_alpha,
+            self.dp.cfg.merge,
+        );
         for k in 0..p {
             let pe = &mut self.pes[k];
             let mut cols: Vec<RayColumn> = children[k]
@@ -482,7 +517,16 @@ impl Array {
                 for (c, col) in cols.iter_mut().enumerate() {
                     for ch in 0..4 {
                         let to = if ch < 3 { fc } else { fa };
-                        let v = self.dp.tent([at(2 * my - 1, c, ch), at(2 * my, c, ch), at(2 * my + 1, c, ch)], fm, to, &mut pe.stats);
+                        let v = self.dp.tent(
+                            [
+                                at(2 * my - 1, c, ch),
+                                at(2 * my, c, ch),
+                                at(2 * my + 1, c, ch),
+                            ],
+                            fm,
+                            to,
+                            &mut pe.stats,
+                        );
                         col.acc[r].raw[ch] = v.raw();
                     }
                 }
@@ -519,7 +563,14 @@ impl Array {
         let (fc, fa) = (self.dp.cfg.accum_color.lsb(), self.dp.cfg.accum_alpha.lsb());
         let data = raw
             .iter()
-            .map(|p| [(p[0] as f64 * fc) as f32, (p[1] as f64 * fc) as f32, (p[2] as f64 * fc) as f32, (p[3] as f64 * fa) as f32])
+            .map(|p| {
+                [
+                    (p[0] as f64 * fc) as f32,
+                    (p[1] as f64 * fc) as f32,
+                    (p[2] as f64 * fc) as f32,
+                    (p[3] as f64 * fa) as f32,
+                ]
+            })
             .collect();
         let layout_base = golden::methods::Method::Er
             .layout(view)
@@ -534,7 +585,12 @@ impl Array {
         )
     }
 
-    fn finish(mut self, baseplane: Baseplane, raw: Vec<[i64; 4]>, merges: u64) -> Result<Frame, RunError> {
+    fn finish(
+        mut self,
+        baseplane: Baseplane,
+        raw: Vec<[i64; 4]>,
+        merges: u64,
+    ) -> Result<Frame, RunError> {
         let mut quant = self.host_stats;
         for pe in &self.pes {
             quant.merge(&pe.stats);
@@ -561,17 +617,6 @@ impl Array {
     }
 }
 
-fn region_ny(a: &Array) -> usize {
-    a.pes.first().map(|p| p.ny_rows()).unwrap_or(0)
-}
-
-impl Pe {
-    /// Rows of a slice in this PE's memory.
-    pub fn ny_rows(&self) -> usize {
-        self.ny_public()
-    }
-}
-
 /// Runs one frame: plans, loads, clocks and reads out.
 pub fn run_frame(
     cfg: &PipelineConfig,
@@ -583,5 +628,29 @@ pub fn run_frame(
     Array::new(cfg, volume, lut, view, tracer)?.run(view)
 }
 
-#[allow(dead_code)]
-fn _unused(_: Fx) {}
+/// The owner function of one slice: the PE whose block holds the ray's
+/// base column, computed with the same fixed-point position a PE uses.
+struct Owners<'a> {
+    dp: &'a Datapath,
+    slice: &'a SlicePlan,
+    nx: usize,
+    block: usize,
+    pes: usize,
+}
+
+impl Owners<'_> {
+    fn of(&self, mx: i64) -> usize {
+        let mut st = QuantStats::default();
+        let s = self.slice;
+        match self.dp.position(s.a[0], s.t[0], mx, &mut st) {
+            Ok(x) => {
+                let x0 = self.dp.address(x, &mut st).0;
+                let c = x0.clamp(0, self.nx as i64 - 1) as usize;
+                (c / self.block).min(self.pes - 1)
+            }
+            // A position the model cannot form cannot be sampled either;
+            // park the ray at the far end.
+            Err(_) => self.pes - 1,
+        }
+    }
+}

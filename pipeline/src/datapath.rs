@@ -17,9 +17,17 @@ pub struct Acc {
     pub raw: [i64; 4],
 }
 
-/// What one sample computed, for waveforms and tests.
+/// What a PE did in its last sampling cycle, for waveforms and tests.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SampleTrace {
+    /// Whether the PE sampled (false: idle).
+    pub busy: bool,
+    /// Ray index along x.
+    pub mx: i64,
+    /// Row of the ray in the region's buffer.
+    pub row: usize,
+    /// The ray's accumulators after compositing.
+    pub acc: Acc,
     /// Interpolated sample, raw `sample` word.
     pub sample: i64,
     /// Classified opacity, raw `alpha` word.
@@ -74,14 +82,25 @@ impl Datapath {
     pub fn address(&self, x: Fx, st: &mut QuantStats) -> (i64, Fx) {
         let f = u32::from(self.cfg.position.frac());
         let (i, r) = split(x.raw(), f);
-        (i, self.cfg.weight.assign(Wide::new(i128::from(r), f as i32), st))
+        (
+            i,
+            self.cfg
+                .weight
+                .assign(Wide::new(i128::from(r), f as i32), st),
+        )
     }
 
     /// Bilinear interpolation of four voxel codes (`v[row][col]`, rows
     /// `y0, y0 + 1`, columns `x0, x0 + 1`) with weights `wx`, `wy`: first
     /// along x on both rows, then along y, as `golden::slices::bilinear`.
     #[inline]
-    pub fn bilinear(&self, v: [[u16; 2]; 2], wx: Fx, wy: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+    pub fn bilinear(
+        &self,
+        v: [[u16; 2]; 2],
+        wx: Fx,
+        wy: Fx,
+        st: &mut QuantStats,
+    ) -> Result<Fx, FxError> {
         let vf = self.cfg.voxel;
         let vox = |c: u16| Fx::from_raw_unchecked(i64::from(c), vf);
         let s = self.cfg.sample;
@@ -134,7 +153,10 @@ impl Datapath {
         let (int, frac) = split(p.raw(), fbits);
         let e = u32::from(self.cfg.exp_table_bits);
         let (idx, rem) = split(frac, fbits - e);
-        let w = self.cfg.weight.assign(Wide::new(i128::from(rem), (fbits - e) as i32), st);
+        let w = self
+            .cfg
+            .weight
+            .assign(Wide::new(i128::from(rem), (fbits - e) as i32), st);
         let idx = idx as usize;
         let tf = lerp(t.exp[idx], t.exp[idx + 1], w, oc, st)?;
         let trans = if int >= 64 {
@@ -149,7 +171,13 @@ impl Datapath {
     /// Back-to-front compositing of colour `c` with corrected opacity `a`:
     /// `C = a c + (1 - a) C`, `A = a + (1 - a) A`.
     #[inline]
-    pub fn composite_btf(&self, acc: &mut Acc, c: [Fx; 3], a: Fx, st: &mut QuantStats) -> Result<(), FxError> {
+    pub fn composite_btf(
+        &self,
+        acc: &mut Acc,
+        c: [Fx; 3],
+        a: Fx,
+        st: &mut QuantStats,
+    ) -> Result<(), FxError> {
         let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
         let k = Wide::new(1, 0).checked_sub(a)?;
         for ch in 0..3 {

@@ -70,14 +70,20 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
             q(cfg.position, (grid.phi[0] - e.x) * inv * sp[0], &mut st)?,
             q(cfg.position, (grid.phi[1] - e.y) * inv * sp[1], &mut st)?,
         ];
-        let slope_k = [q(cfg.step, inv * sp[0], &mut st)?, q(cfg.step, inv * sp[1], &mut st)?];
+        let slope_k = [
+            q(cfg.step, inv * sp[0], &mut st)?,
+            q(cfg.step, inv * sp[1], &mut st)?,
+        ];
         let slope_z = q(cfg.position, sp[2], &mut st)?;
         let mut slices = Vec::with_capacity(grid.slices.len());
         for z in grid.slices.clone().rev() {
             let (p, range) = slice_rays(view, grid, z);
             slices.push(SlicePlan {
                 z,
-                a: [q(cfg.position, p[0].a, &mut st)?, q(cfg.position, p[1].a, &mut st)?],
+                a: [
+                    q(cfg.position, p[0].a, &mut st)?,
+                    q(cfg.position, p[1].a, &mut st)?,
+                ],
                 t: [q(cfg.step, p[0].t, &mut st)?, q(cfg.step, p[1].t, &mut st)?],
                 range,
             });
@@ -100,7 +106,12 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
 /// Voxel words of the view-space volume, `[z][y][x]`: each scalar scaled
 /// to the `voxel` word (shifted up when the word is wider than the data,
 /// quantised down with the voxel format's rounding when narrower).
-pub fn voxel_words(cfg: &PipelineConfig, volume: &Volume, view: &View, st: &mut QuantStats) -> Vec<u16> {
+pub fn voxel_words(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    view: &View,
+    st: &mut QuantStats,
+) -> Vec<u16> {
     let [nx, ny, nz] = view.dims;
     let data_bits = volume.kind().bits() as i32;
     let shift = i32::from(cfg.voxel.bits()) - data_bits;

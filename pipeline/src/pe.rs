@@ -126,10 +126,8 @@ pub struct Pe {
     pub counters: PeCounters,
     /// Quantisation events.
     pub stats: QuantStats,
-    /// What the last sample computed (for waveforms).
+    /// What the last sampling cycle did (for waveforms).
     pub last: SampleTrace,
-    /// `mx` of the last sample.
-    pub last_mx: i64,
 }
 
 impl Pe {
@@ -158,13 +156,7 @@ impl Pe {
             counters: PeCounters::default(),
             stats: QuantStats::default(),
             last: SampleTrace::default(),
-            last_mx: 0,
         }
-    }
-
-    /// Rows per slice in memory.
-    pub fn ny_public(&self) -> usize {
-        self.ny
     }
 
     #[inline]
@@ -202,6 +194,7 @@ impl Pe {
         }
         if bus.cycle >= self.active.1 {
             self.counters.idle += 1;
+            self.last.busy = false;
             return Ok(out);
         }
         self.counters.busy += 1;
@@ -215,7 +208,11 @@ impl Pe {
         let last = nx as i64 - 1;
         let (c0, c1) = (x0.clamp(0, last) as usize, (x0 + 1).clamp(0, last) as usize);
         if !self.cols.contains(&c0) {
-            return Err(StepError::Ownership { pe: self.k, mx, column: c0 });
+            return Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c0,
+            });
         }
         let (y0, y1, wy) = bus.y;
         let left = [self.voxel(s.z, y0, c0), self.voxel(s.z, y1, c0)];
@@ -225,28 +222,39 @@ impl Pe {
             self.counters.edge_voxels += 2;
             from_right.left.edge
         } else {
-            return Err(StepError::Ownership { pe: self.k, mx, column: c1 });
+            return Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c1,
+            });
         };
         let st = &mut self.stats;
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
         let (rgb, alpha) = dp.classify(sample, st)?;
         let mut corrected = 0;
+        let row = bus.row;
         if alpha.raw() > 0 {
             let (b, k) = bus.slope_x;
             let mt = crate::fixed::Wide::new(i128::from(mx), 0).checked_mul(k)?;
-            let sx = dp.cfg.position.assign(crate::fixed::Wide::from(b).checked_add(mt)?, st);
+            let sx = dp
+                .cfg
+                .position
+                .assign(crate::fixed::Wide::from(b).checked_add(mt)?, st);
             let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
             let a = dp.correct(alpha, ds, st)?;
             corrected = a.raw();
-            let acc = &mut self.rays[j].acc[bus.row];
+            let acc = &mut self.rays[j].acc[row];
             dp.composite_btf(acc, rgb, a, st)?;
         }
         self.last = SampleTrace {
+            busy: true,
+            mx,
+            row,
+            acc: self.rays[j].acc[row],
             sample: sample.raw(),
             alpha: alpha.raw(),
             corrected,
         };
-        self.last_mx = mx;
         Ok(out)
     }
 
@@ -272,9 +280,16 @@ impl Pe {
     /// One migration clock: sends one ray each way, receives what the
     /// neighbours sent last cycle; a column that is whole joins the held
     /// columns (or moves on if its owner is further along).
-    pub fn migrate_step(&mut self, from_left: &Ports, from_right: &Ports, owner: impl Fn(i64) -> usize) -> Ports {
+    pub fn migrate_step(
+        &mut self,
+        from_left: &Ports,
+        from_right: &Ports,
+        owner: impl Fn(i64) -> usize,
+    ) -> Ports {
         let mut out = Ports::default();
-        for (incoming, from_left_side) in [(from_left.right.ray, true), (from_right.left.ray, false)] {
+        for (incoming, from_left_side) in
+            [(from_left.right.ray, true), (from_right.left.ray, false)]
+        {
             let Some(m) = incoming else { continue };
             self.counters.rays_received += 1;
             let pos = match self.incoming.iter().position(|c| c.mx == m.mx) {
@@ -337,12 +352,22 @@ impl Pe {
     /// Accumulators of held column `mx` at `row`, or the neighbours' edge
     /// rays when `mx` is just beyond the held span; empty rays otherwise.
     fn parent(&self, mx: i64, row: usize, from_left: &Ports, from_right: &Ports) -> Acc {
-        let Some((lo, hi)) = self.span() else { return Acc::default() };
+        let Some((lo, hi)) = self.span() else {
+            return Acc::default();
+        };
         if mx < lo {
-            return if mx == lo - 1 { from_left.right.edge_acc } else { Acc::default() };
+            return if mx == lo - 1 {
+                from_left.right.edge_acc
+            } else {
+                Acc::default()
+            };
         }
         if mx > hi {
-            return if mx == hi + 1 { from_right.left.edge_acc } else { Acc::default() };
+            return if mx == hi + 1 {
+                from_right.left.edge_acc
+            } else {
+                Acc::default()
+            };
         }
         self.rays[(mx - lo) as usize].acc[row]
     }
@@ -371,7 +396,14 @@ impl Pe {
             let mut out = [0i64; 4];
             for (ch, o) in out.iter_mut().enumerate() {
                 let f = if ch < 3 { fc } else { fa };
-                *o = dp.tent([p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]], f, fm, &mut self.stats).raw();
+                *o = dp
+                    .tent(
+                        [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]],
+                        f,
+                        fm,
+                        &mut self.stats,
+                    )
+                    .raw();
             }
             line.push(out);
         }

@@ -45,7 +45,11 @@ impl Tables {
                 let a = c as f64 * lsb;
                 // Full opacity has no finite logarithm: any value above the format
                 // saturates to its largest code.
-                let l = if a >= 1.0 { 1e9 } else { -(-a).ln_1p() / std::f64::consts::LN_2 };
+                let l = if a >= 1.0 {
+                    1e9
+                } else {
+                    -(-a).ln_1p() / std::f64::consts::LN_2
+                };
                 q(cfg.log_transmittance, l)
             })
             .collect::<Result<Vec<_>, _>>()?;

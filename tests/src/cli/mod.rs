@@ -5,6 +5,7 @@
 mod args;
 mod compare;
 mod montage;
+mod pipeline;
 mod progress;
 mod render;
 mod stats;

@@ -10,6 +10,7 @@ use golden::metrics::compare;
 use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
 use super::args::{with_threads, CameraArgs, SourceArgs, TfArgs};
+use super::pipeline::{self as pipe, PipelineArgs};
 use super::progress::Stage;
 use super::stats::{frame_json, write_json};
 
@@ -22,7 +23,7 @@ pub struct RenderArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub tf: TfArgs,
-    /// Method: reference, er, er-ftb, under, over or box.
+    /// Method: reference, er, er-ftb, under, over, box or pipeline.
     #[arg(long, default_value = "er")]
     pub method: String,
     /// Output PNG (RGB over black).
@@ -49,10 +50,16 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores); results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
+    #[command(flatten)]
+    pub pipeline: PipelineArgs,
 }
 
 /// Runs `ercube render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
+    if a.method == "pipeline" {
+        return with_threads(a.threads, || run_pipeline(a));
+    }
+    pipe::check_unused(&a.pipeline)?;
     with_threads(a.threads, || {
         let tech: Technique = a.method.parse()?;
         let opts = render_options(a.terminate, a.substeps)?;
@@ -130,4 +137,76 @@ pub fn render_options(terminate: f32, substeps: u32) -> Result<RenderOptions> {
     o.slice.substeps = substeps;
     o.slice.validate()?;
     Ok(o)
+}
+
+/// `ercube render --method pipeline`.
+fn run_pipeline(a: &RenderArgs) -> Result<()> {
+    let cfg = pipe::load_config(&a.pipeline)?;
+    let opts = render_options(a.terminate, a.substeps)?;
+    if opts.slice.substeps != 1 {
+        anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
+    }
+    let (vol, default_tf) = {
+        let _s = Stage::start("loading volume");
+        a.source.load()?
+    };
+    let tf = a.tf.resolve(default_tf)?;
+    let lut = pipe::pipeline_lut(&cfg, &vol, &tf);
+    let cam = a.camera.camera(&vol)?;
+    let prep = Prepared::new(&vol, &cam)?;
+    let run = {
+        let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
+        pipe::run(&a.pipeline, &cfg, &vol, &lut, &prep)?
+    };
+    let vs_golden = pipe::versus_golden(&prep, &lut, &run.image)?;
+    let err = if a.compare_reference {
+        let _s = Stage::start("rendering the reference");
+        let r = render(&prep, &lut, Technique::Reference, &opts)?;
+        Some(compare(&run.image, &r.image)?)
+    } else {
+        None
+    };
+    run.image.write_png(&a.out)?;
+    if let Some(p) = &a.npy {
+        run.image.write_npy(p)?;
+    }
+    if let Some(p) = &a.baseplane_npy {
+        run.frame.baseplane.to_image().write_npy(p)?;
+    }
+    if let Some(p) = &a.stats {
+        let frame = golden::render::Frame {
+            image: run.image.clone(),
+            slice: None,
+        };
+        let mut v = frame_json(
+            "pipeline",
+            &vol,
+            &prep.view,
+            cam.eye,
+            run.time_s,
+            &frame,
+            err.as_ref(),
+        );
+        let extra = pipe::stats_json(&cfg, &run, Some(vs_golden.clone()));
+        if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
+            for (k, val) in e {
+                o.insert(k.clone(), val.clone());
+            }
+        }
+        v["regions"] = serde_json::json!(prep.view.regions().bounds);
+        write_json(p, &v)?;
+    }
+    let f = &run.frame;
+    super::say(&format!(
+        "pipeline: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden er: max {} /255 -> {}",
+        cfg.pes,
+        f.cycles,
+        f.ideal_cycles,
+        f.utilization(),
+        f.samples,
+        run.time_s,
+        vs_golden["max_abs_255"],
+        a.out.display()
+    ));
+    Ok(())
 }
