@@ -88,11 +88,19 @@ impl PixelRays {
     }
 }
 
+/// Largest coordinate magnitude accepted: far beyond any volume, small
+/// enough that squared lengths stay finite.
+pub const MAX_COORD: f64 = 1e9;
+
 fn finite3(name: &str, v: DVec3) -> Result<()> {
-    if v.is_finite() {
-        Ok(())
-    } else {
+    if !v.is_finite() {
         Err(input(format!("{name} {v} is not finite")))
+    } else if v.abs().max_element() > MAX_COORD {
+        Err(input(format!(
+            "{name} {v} is absurdly far (coordinates up to {MAX_COORD:e})"
+        )))
+    } else {
+        Ok(())
     }
 }
 

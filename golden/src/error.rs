@@ -18,12 +18,14 @@ pub enum Error {
         msg: String,
     },
     /// Reading or writing a file failed at the operating-system level.
-    #[error("{path}: {source}")]
+    /// (The OS error is part of the message, not a separate cause, so a
+    /// chain printer states it once.)
+    #[error("{path}: {err}")]
     Io {
         /// The file involved.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        err: std::io::Error,
     },
     /// A request would allocate more than the configured memory limit.
     #[error("{what} needs {bytes} bytes, over the limit of {limit} bytes")]

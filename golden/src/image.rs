@@ -65,7 +65,7 @@ pub fn write_atomic(
 ) -> Result<()> {
     let io = |source| Error::Io {
         path: path.to_owned(),
-        source,
+        err: source,
     };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -76,6 +76,15 @@ pub fn write_atomic(
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w).map_err(io)?;
         w.flush().map_err(io)?;
+    }
+    // A temporary file is private (0600); the result should have the
+    // permissions of an ordinarily created file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))
+            .map_err(io)?;
     }
     tmp.persist(path).map_err(|e| io(e.error))?;
     Ok(())

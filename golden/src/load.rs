@@ -538,7 +538,7 @@ fn file_len(file: &File, path: &Path) -> Result<u64> {
 fn io_err(path: &Path, source: std::io::Error) -> Error {
     Error::Io {
         path: path.to_owned(),
-        source,
+        err: source,
     }
 }
 

@@ -76,7 +76,7 @@ impl TransferFunction {
     pub fn from_file(path: &Path) -> Result<TransferFunction> {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
             path: path.to_owned(),
-            source,
+            err: source,
         })?;
         Self::from_toml_str(&text).map_err(|e| Error::Format {
             path: path.to_owned(),

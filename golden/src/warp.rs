@@ -118,7 +118,8 @@ pub fn warp(view: &View, base: &Baseplane) -> Image {
                         }
                     }
                 }
-                *out = acc;
+                // The normalised f32 weights may sum to a hair over 1.
+                *out = acc.map(|v| v.min(1.0));
             }
         },
     );

@@ -415,6 +415,27 @@ impl Array {
         }
         self.host_stats.merge(&st);
         let p = self.pes.len();
+        // Prologue: one cycle in which every PE only drives its edge voxels
+        // for the first row (the previous stage's ports carried rays).
+        let (my0, y_first, sy0) = rows[0];
+        let setup = SampleBus {
+            slice,
+            my: my0,
+            row: (my0 - glo) as usize,
+            y: y_first,
+            cycle: usize::MAX,
+            slope_yz: (sy0, region.slope_z),
+            slope_x: (region.slope_b[0], region.slope_k[0]),
+            next: Some((slice.z, y_first.0, y_first.1)),
+        };
+        let none = Ports::default();
+        for &k in &self.order {
+            let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
+            self.spare[k] = self.pes[k].sample_step(&self.dp, &setup, from_right, self.nx)?;
+        }
+        std::mem::swap(&mut self.ports, &mut self.spare);
+        self.cycle += 1;
+        self.stages.sample += 1;
         for (r, &(my, y, sy)) in rows.iter().enumerate() {
             for cycle in 0..row_len {
                 let next = if cycle + 1 < row_len {
@@ -434,7 +455,6 @@ impl Array {
                 };
                 // Two-phase clock: every PE reads last cycle's port outputs
                 // (`ports`) and drives next cycle's (`spare`), then they swap.
-                let none = Ports::default();
                 for &k in &self.order {
                     let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
                     self.spare[k] = self.pes[k].sample_step(&self.dp, &bus, from_right, self.nx)?;

@@ -188,8 +188,10 @@ pub struct PipelineConfig {
     /// `ds` lies in `[1, 4)` for views up to about 140 degrees: unsigned,
     /// with at least 2 integer bits and at least 1 fraction bit.
     ///
-    /// Default `ufixed<16,2,RND,SAT>`: 14 fraction bits give `ds` to 6e-5;
-    /// SAT so that a steeper ray clamps at about 4 instead of wrapping to a
+    /// Default `ufixed<16,3,RND,SAT>`: up to 8, so views up to about 160
+    /// degrees across the volume fit (the paper's 127-degree view needs 3);
+    /// 13 fraction bits give `ds` to 1.2e-4;
+    /// SAT so that a steeper ray clamps at about 8 instead of wrapping to a
     /// short path.
     pub path: Format,
     /// Log-domain transmittance `-log2(1 - a)` per unit path (the table of
@@ -276,7 +278,7 @@ impl Default for PipelineConfig {
             color: fmt(9, 8, false, Rnd, Sat),
             alpha: fmt(12, 12, false, Rnd, Sat),
             table_entries: 4096,
-            path: fmt(16, 14, false, Rnd, Sat),
+            path: fmt(16, 13, false, Rnd, Sat),
             log_transmittance: fmt(20, 15, false, Rnd, Sat),
             exp_table_bits: 10,
             opacity_corr: fmt(16, 15, false, Rnd, Sat),
@@ -899,7 +901,7 @@ mod tests {
                 "ufixed<16,12,RND,SAT>",
                 "ufixed<9,1,RND,SAT>",
                 "ufixed<12,0,RND,SAT>",
-                "ufixed<16,2,RND,SAT>",
+                "ufixed<16,3,RND,SAT>",
                 "ufixed<20,5,RND,SAT>",
                 "ufixed<16,1,RND,SAT>",
                 "ufixed<16,0,RND,SAT>",
@@ -929,7 +931,7 @@ mod tests {
         ));
         assert!(text.contains("\npes = 16\n"));
         assert!(text.contains(
-            r#"path = { bits = 16, frac = 14, signed = false, quant = "RND", overflow = "SAT" }"#
+            r#"path = { bits = 16, frac = 13, signed = false, quant = "RND", overflow = "SAT" }"#
         ));
         assert!(text.contains(
             r#"log_transmittance = { bits = 20, frac = 15, signed = false, quant = "RND", overflow = "SAT" }"#

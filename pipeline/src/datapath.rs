@@ -200,8 +200,12 @@ impl Datapath {
         let pf = i32::from(self.cfg.path.frac());
         // sqrt(raw 2^-f) 2^pf = sqrt(raw 2^(2 pf - f)).
         let shift = 2 * pf - sum.frac;
+        // `Wide` shifts move the exponent, so align the raw word by hand.
         let radicand = if shift >= 0 {
-            sum.checked_shl(shift as u32)?.raw
+            1i128
+                .checked_shl(shift as u32)
+                .and_then(|m| sum.raw.checked_mul(m))
+                .ok_or(FxError::WideOverflow { op: "path length" })?
         } else {
             sum.raw >> (-shift) as u32
         };

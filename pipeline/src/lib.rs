@@ -17,6 +17,7 @@
 //! read from TOML and validated before a run.
 
 pub mod array;
+pub mod bound;
 pub mod config;
 pub mod datapath;
 pub mod fixed;

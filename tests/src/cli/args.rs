@@ -96,7 +96,7 @@ pub struct SourceArgs {
     #[arg(long, default_value_t = 0, requires = "raw_dims")]
     pub raw_offset: u64,
     /// Voxel spacing x,y,z in world units (overrides the file's).
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub spacing: Option<DVec3>,
 }
 
@@ -115,6 +115,11 @@ impl SourceArgs {
 
     /// Loads or builds the volume and names its default transfer function.
     pub fn load(&self) -> Result<(Volume, TransferFunction)> {
+        if self.scene.is_some() && self.raw_dims.is_some() {
+            bail!(
+                "--raw-dims, --raw-type and --raw-offset describe a --volume file, not a --scene"
+            );
+        }
         let (vol, tf) = match (&self.scene, &self.volume) {
             (Some(spec), None) => {
                 let scene: Scene = spec.parse()?;

@@ -60,10 +60,18 @@ pub fn run() -> ExitCode {
                     ExitCode::SUCCESS
                 };
             }
+            // clap spreads one error over several lines (the message, the
+            // arguments it names, a usage line): keep all but the usage.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            let first = first.trim_start_matches("error: ");
-            eprintln!("ercube: error: {first} (see ercube --help)");
+            let msg: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:"))
+                .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
+                .collect();
+            let msg = msg.join(" ");
+            let msg = msg.trim_start_matches("error: ");
+            eprintln!("ercube: error: {msg} (see ercube --help)");
             return ExitCode::from(2);
         }
     };

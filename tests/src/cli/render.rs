@@ -62,6 +62,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     pipe::check_unused(&a.pipeline)?;
     with_threads(a.threads, || {
         let tech: Technique = a.method.parse()?;
+        if tech == Technique::Reference && a.baseplane_npy.is_some() {
+            anyhow::bail!(
+                "--baseplane-npy needs a slice-order method; the reference has no baseplane"
+            );
+        }
         let opts = render_options(a.terminate, a.substeps)?;
         let (vol, default_tf) = {
             let _s = Stage::start("loading volume");

@@ -1,0 +1,178 @@
+//! The derived worst-case difference between the pipeline's image and the
+//! golden model's `er` image, per channel, from the datapath widths and a
+//! few facts about the data. No factor is tuned: each term is one
+//! quantisation or one propagated difference, in the order the datapath
+//! computes them (see [`crate::datapath`]).
+//!
+//! Notation: `q(F)` is a format's LSB and `r(F)` its assignment error,
+//! `q` for truncating modes and `q/2` for rounding ones; `e = 2^-24` is the
+//! golden model's `f32` rounding. Units: positions in voxels, samples in
+//! data units (u8: 0..255), colours and opacities in `[0, 1]`.
+//!
+//! 1. Position `x = A + m t`: the host rounds `A` (`position`) and `t`
+//!    (`step`), the PE rounds the sum: `ex = 2 r(position) + M r(step)`,
+//!    plus golden's `f32` position `X e` (`M` largest ray index, `X`
+//!    largest coordinate).
+//! 2. Sample: bilinear interpolation is `G`-Lipschitz along each axis
+//!    (`G` the largest difference of neighbouring voxels in a slice), the
+//!    weight truncation adds `r(weight)`, and three assignments into
+//!    `sample` add `r(sample)` each (only two reach the result, the top and
+//!    bottom rows are combined convexly):
+//!    `ds = Gx (ex + r(w)) + Gy (ey + r(w)) + 2 r(sample) 2^(b - w)`,
+//!    plus golden's `4 V e` (`V` the data range, `b`/`w` data and voxel bits).
+//! 3. Classification: table position `f = s 2^(e - b)` (`e` = log2 of the
+//!    entries); colour error `Sc (df + r(w)) + 2 r(color)` (entry rounding
+//!    and the assignment), with `Sc` the largest step between adjacent
+//!    entries; the same for opacity with `Sa` and `r(alpha)`.
+//! 4. Path length: slopes carry `es = 2 r(position) + M r(step)`, the norm
+//!    is 1-Lipschitz in each slope (`sqrt 2 es` for two), the integer
+//!    square root truncates (`q(path)`).
+//! 5. Opacity correction `a' = 1 - (1 - a)^ds`, for `ds >= 1`:
+//!    `d a'/d a <= ds_max`, `|d a'/d ds| <= 1/e`; the log table and the
+//!    product `p` round (`(1 + ds_max) r(log_t)`, scaled by `ln 2` through
+//!    `2^-p`), the exp table's entries, interpolation (`(ln 2)^2 h^2 / 8`,
+//!    `h = 2^-exp_table_bits`), weight, assignment and shift round
+//!    (`3 r(opacity_corr)` plus `ln 2 h r(weight)` when the weight drops
+//!    bits).
+//! 6. Compositing, back to front: `C' = a' c + (1 - a') C` gives
+//!    `|dC'| <= a' |dc| + |da'| + (1 - a') |dC| + r(accum)`. Unrolled over
+//!    a ray, the colour terms are weighted by `a'_k T_k` (`T_k` the
+//!    transmittance in front of sample `k`), which sum to at most 1, so the
+//!    colour difference counts once; the opacity terms are weighted by
+//!    `T_k <= 1` and add up per slice: `E = da' + r(accum)`. The same holds
+//!    for `A' = a' + (1 - a') A`.
+//! 7. A Bartlett merge is a convex combination (weights sum to at most 1)
+//!    with two roundings: `r(merge) + r(accum)`.
+//! 8. Accumulators saturate one LSB below 1: `q(accum)` once. The warp is
+//!    a convex combination in `f32` on both sides.
+//!
+//! Total: `B = dc + nz E + merges (r(merge) + r(accum)) + q(accum)` plus
+//! the golden `f32` terms.
+
+use crate::config::PipelineConfig;
+use crate::fixed::{Format, Quant};
+
+/// Facts about the data that the bound needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundInputs {
+    /// Largest difference between voxels adjacent along view x, and along
+    /// view y, in data units.
+    pub gradient: [f64; 2],
+    /// Largest step between adjacent classification entries: colour, opacity.
+    pub table_step: [f64; 2],
+    /// Largest ray index magnitude `|m|`.
+    pub max_index: f64,
+    /// Largest position magnitude in voxels.
+    pub max_coord: f64,
+    /// Largest path length per slice step (must be at least 1).
+    pub ds_max: f64,
+    /// Slices a ray can sample.
+    pub slices: usize,
+    /// Merges on a ray's way to the baseplane.
+    pub merges: usize,
+    /// Bits of the data (8 or 16).
+    pub data_bits: u32,
+}
+
+/// Assignment error of a format: one LSB when it truncates, half otherwise.
+pub fn r(f: Format) -> f64 {
+    match f.quant() {
+        Quant::Trn | Quant::TrnZero => f.lsb(),
+        _ => f.lsb() / 2.0,
+    }
+}
+
+/// The per-channel bound `B` on `|pipeline - golden er|` of the final
+/// image (and of the baseplane).
+pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
+    let e = 2f64.powi(-24);
+    let ln2 = std::f64::consts::LN_2;
+    let rw = r(cfg.weight);
+    // 1. positions.
+    let ex = 2.0 * r(cfg.position) + d.max_index * r(cfg.step) + d.max_coord * e;
+    // 2. sample, in data units.
+    let word = 2f64.powi(d.data_bits as i32 - i32::from(cfg.voxel.bits()));
+    let range = 2f64.powi(d.data_bits as i32);
+    let vox = if cfg.voxel.bits() as u32 >= d.data_bits {
+        0.0
+    } else {
+        r(cfg.voxel) * word
+    };
+    let ds = d.gradient[0] * (ex + rw)
+        + d.gradient[1] * (ex + rw)
+        + 2.0 * r(cfg.sample) * word
+        + vox
+        + 4.0 * range * e;
+    // 3. classification.
+    let entries = f64::from(cfg.table_entries);
+    let df = ds * entries / range;
+    let dc = d.table_step[0] * (df + rw) + 2.0 * r(cfg.color) + 3.0 * e;
+    let da = d.table_step[1] * (df + rw) + 2.0 * r(cfg.alpha) + 3.0 * e;
+    // 4. path length.
+    let es = 2.0 * r(cfg.position) + d.max_index * r(cfg.step);
+    let dpath = 2f64.sqrt() * es + cfg.path.lsb() + d.ds_max * 2.0 * e;
+    // 5. opacity correction.
+    let lt = cfg.log_transmittance;
+    let h = 2f64.powi(-i32::from(cfg.exp_table_bits));
+    let weight_drop =
+        i32::from(lt.frac()) - i32::from(cfg.exp_table_bits) > i32::from(cfg.weight.frac());
+    let oc = cfg.opacity_corr;
+    let mut dcorr = d.ds_max * da
+        + dpath / std::f64::consts::E
+        + ln2 * (1.0 + d.ds_max) * r(lt)
+        + 3.0 * r(oc)
+        + ln2 * ln2 * h * h / 8.0
+        + 4.0 * e;
+    if weight_drop {
+        dcorr += ln2 * h * rw;
+    }
+    if oc.int_bits() == 0 {
+        dcorr += r(oc);
+    }
+    // 6-8. compositing, merges, saturation, warp.
+    let racc = r(cfg.accum_color).max(r(cfg.accum_alpha));
+    let per_slice = dcorr + racc + 3.0 * e;
+    let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
+    dc + d.slices as f64 * per_slice
+        + d.merges as f64 * (r(cfg.merge) + racc + 3.0 * e)
+        + qacc
+        + 16.0 * e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_bits_never_loosen_the_bound() {
+        let d = BoundInputs {
+            gradient: [40.0, 40.0],
+            table_step: [0.01, 0.01],
+            max_index: 300.0,
+            max_coord: 260.0,
+            ds_max: 2.0,
+            slices: 64,
+            merges: 3,
+            data_bits: 8,
+        };
+        let base = PipelineConfig::default();
+        let b0 = error_bound(&base, &d);
+        let mut wide = base;
+        wide.weight = Format::new(14, 14, false, Quant::Trn, crate::fixed::Overflow::Sat).unwrap();
+        assert!(error_bound(&wide, &d) < b0);
+        let mut alpha = base;
+        alpha.alpha = Format::new(14, 14, false, Quant::Rnd, crate::fixed::Overflow::Sat).unwrap();
+        assert!(error_bound(&alpha, &d) < b0);
+        let mut flat = d;
+        flat.gradient = [0.0, 0.0];
+        assert!(error_bound(&base, &flat) < b0);
+        // Each slice adds the same per-slice term.
+        let mut deep = d;
+        deep.slices *= 2;
+        let grown = error_bound(&base, &deep) - b0;
+        let mut deeper = d;
+        deeper.slices *= 3;
+        let grown2 = error_bound(&base, &deeper) - b0;
+        assert!(grown > 0.0 && (grown2 - 2.0 * grown).abs() < 1e-9 * b0);
+    }
+}

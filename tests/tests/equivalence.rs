@@ -1,0 +1,383 @@
+//! Pipeline against golden `er`: every pixel channel within the bound
+//! derived from the widths (`pipeline::bound`), over random volumes, eyes,
+//! transfer functions, PE counts and widths; and within one grey level at
+//! the default widths on the paper's views and brainsmall.
+
+use glam::DVec3;
+use golden::camera::{Camera, ImagePlane};
+use golden::geometry::View;
+use golden::methods::Method;
+use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::tf::{ControlPoint, Lut, TransferFunction};
+use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
+use pipeline::bound::{error_bound, BoundInputs};
+use pipeline::config::PipelineConfig;
+use pipeline::fixed::{Format, Overflow, Quant};
+use proptest::prelude::*;
+
+/// The facts `error_bound` needs, measured on the data and the view.
+fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
+    let [nx, ny, nz] = view.dims;
+    let at = |x: usize, y: usize, z: usize| {
+        let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
+        f64::from(vol.get(i.x as usize, i.y as usize, i.z as usize))
+    };
+    let mut g = [0f64; 2];
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let v = at(x, y, z);
+                if x + 1 < nx {
+                    g[0] = g[0].max((at(x + 1, y, z) - v).abs());
+                }
+                if y + 1 < ny {
+                    g[1] = g[1].max((at(x, y + 1, z) - v).abs());
+                }
+            }
+        }
+    }
+    let mut step = [0f64; 2];
+    for w in lut.rgba.windows(2) {
+        for c in 0..3 {
+            step[0] = step[0].max(f64::from((w[1][c] - w[0][c]).abs()));
+        }
+        step[1] = step[1].max(f64::from((w[1][3] - w[0][3]).abs()));
+    }
+    let layout = Method::Er.layout(view).unwrap();
+    let mut max_index = 0f64;
+    let mut ds_max = 1f64;
+    for gr in &layout.grids {
+        if gr.is_empty() {
+            continue;
+        }
+        let inv = 1.0 / (gr.z_ref + view.d);
+        let mut s = [0f64; 2];
+        for a in 0..2 {
+            for m in [gr.lo[a], gr.hi[a]] {
+                max_index = max_index.max(m.unsigned_abs() as f64);
+                s[a] = s[a].max(((gr.phi[a] + m as f64 - view.eye[a]) * inv).abs());
+            }
+        }
+        ds_max = ds_max.max((s[0] * s[0] + s[1] * s[1] + 1.0).sqrt());
+    }
+    BoundInputs {
+        gradient: g,
+        table_step: step,
+        max_index,
+        max_coord: nx.max(ny) as f64,
+        ds_max,
+        slices: nz,
+        merges: layout.grids.len() - 1,
+        data_bits: vol.kind().bits(),
+    }
+}
+
+/// Largest per-channel difference between two float images.
+fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |c| (f64::from(p[c]) - f64::from(q[c])).abs()))
+        .fold(0.0, f64::max)
+}
+
+struct Case {
+    vol: Volume,
+    tf: TransferFunction,
+    eye: DVec3,
+    up: DVec3,
+    cfg: PipelineConfig,
+}
+
+/// Shrunk failures print what reproduces them, not a dump of the voxels.
+impl std::fmt::Debug for Case {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Case")
+            .field("dims", &self.vol.dims())
+            .field("value_range", &self.vol.value_range())
+            .field("tf", &self.tf.points)
+            .field("eye", &self.eye)
+            .field("up", &self.up)
+            .field("cfg", &self.cfg)
+            .finish()
+    }
+}
+
+fn run_case(c: &Case) -> Result<(f64, f64, f64), TestCaseError> {
+    let n = c.vol.dims();
+    let centre = DVec3::from_array(c.vol.center_world());
+    let cam = Camera::new(c.eye, centre, c.up, 50.0, 24, 20)
+        .map_err(|e| TestCaseError::reject(e.to_string()))?;
+    let prep = Prepared::new(&c.vol, &cam).map_err(|e| TestCaseError::reject(e.to_string()))?;
+    let lut = Lut::for_bits(&c.tf, c.cfg.table_entries as usize, c.vol.kind().bits());
+    let golden = render(
+        &prep,
+        &lut,
+        Technique::Slice(Method::Er),
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    let frame =
+        pipeline::run_frame(&c.cfg, &c.vol, &lut, &prep.view, waves::Tracer::disabled()).unwrap();
+    let image = golden::warp::warp(&prep.view, &frame.baseplane);
+    let gbase = &golden.slice.as_ref().unwrap().baseplane;
+    prop_assert_eq!(
+        &frame.samples_per_slice,
+        &golden.slice.as_ref().unwrap().stats.samples_per_slice
+    );
+    let inputs = bound_inputs(&c.vol, &lut, &prep.view);
+    // The bound assumes no path length saturates its format (a view
+    // steeper than the format's range is reported, not bounded).
+    let path_max = c.cfg.path.max_value().to_f64();
+    if inputs.ds_max >= path_max {
+        return Err(TestCaseError::reject(format!(
+            "ds_max {} beyond the path format",
+            inputs.ds_max
+        )));
+    }
+    let b = error_bound(&c.cfg, &inputs);
+    let d_base = max_diff(&frame.baseplane.data, &gbase.data);
+    let d_img = max_diff(&image.data, &golden.image.data);
+    prop_assert!(
+        d_base <= b,
+        "baseplane differs by {d_base}, bound {b}, dims {n:?}, eye {}",
+        c.eye
+    );
+    prop_assert!(
+        d_img <= b,
+        "image differs by {d_img}, bound {b}, dims {n:?}, eye {}",
+        c.eye
+    );
+    Ok((d_base, d_img, b))
+}
+
+fn format(bits: u8, frac: u8, quant: Quant) -> Format {
+    Format::new(bits, frac, false, quant, Overflow::Sat).unwrap()
+}
+
+/// Random widths around the defaults; `None` when they do not validate.
+fn widths(
+    pes: u16,
+    weight: u8,
+    sample_frac: u8,
+    alpha: u8,
+    color: u8,
+    accum: u8,
+    pos_frac: u8,
+) -> Option<PipelineConfig> {
+    let mut c = PipelineConfig::default();
+    c.pes = pes;
+    c.weight = format(weight, weight, Quant::Trn);
+    c.sample = format(12 + sample_frac, sample_frac, Quant::Rnd);
+    c.alpha = format(alpha, alpha, Quant::Rnd);
+    c.color = format(color + 1, color, Quant::Rnd);
+    c.accum_color = format(accum, accum, Quant::Rnd);
+    c.accum_alpha = format(accum, accum, Quant::Rnd);
+    c.merge = format(accum + 4, accum, Quant::Rnd);
+    c.position = Format::new(12 + pos_frac, pos_frac, true, Quant::Rnd, Overflow::Sat).unwrap();
+    c.validate().ok().map(|_| c)
+}
+
+fn volume(
+    dims: [usize; 3],
+    blobs: Vec<(f64, f64, f64, f64, f64)>,
+    noise: u16,
+    seed: u64,
+) -> Volume {
+    Volume::from_fn(dims, VoxelType::U8, DEFAULT_MEMORY_LIMIT, |x, y, z| {
+        let p = [
+            x as f64 / dims[0] as f64,
+            y as f64 / dims[1] as f64,
+            z as f64 / dims[2] as f64,
+        ];
+        let mut v = 0.0;
+        for &(cx, cy, cz, r, a) in &blobs {
+            let d2 = (p[0] - cx).powi(2) + (p[1] - cy).powi(2) + (p[2] - cz).powi(2);
+            v += a * (-d2 / (r * r)).exp();
+        }
+        // A cheap deterministic hash for the noise.
+        let h = (x as u64 * 73_856_093 ^ y as u64 * 19_349_663 ^ z as u64 * 83_492_791 ^ seed)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let n = if noise > 0 {
+            (h >> 40) % u64::from(noise)
+        } else {
+            0
+        };
+        (v.clamp(0.0, 255.0) as u64 + n).min(255) as u16
+    })
+    .unwrap()
+}
+
+fn tf(points: Vec<(f64, [f64; 4])>) -> TransferFunction {
+    let mut pts: Vec<ControlPoint> = points
+        .into_iter()
+        .map(|(value, rgba)| ControlPoint { value, rgba })
+        .collect();
+    pts.sort_by(|a, b| a.value.total_cmp(&b.value));
+    TransferFunction::new(pts).unwrap()
+}
+
+fn eye_for(dims: [usize; 3], side: usize, dist: f64, off: (f64, f64)) -> (DVec3, DVec3) {
+    let axis = side / 2;
+    let n = dims.map(|d| d as f64);
+    let mut e = [0.0; 3];
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    e[a] = off.0 * n[a];
+    e[b] = off.1 * n[b];
+    e[axis] = if side % 2 == 0 {
+        -dist
+    } else {
+        n[axis] - 1.0 + dist
+    };
+    let up = if axis == 1 { DVec3::Z } else { DVec3::Y };
+    (DVec3::from_array(e), up)
+}
+
+fn cases() -> impl Strategy<Value = Case> {
+    let dims = [8usize..=32, 8usize..=32, 8usize..=32];
+    let blobs = prop::collection::vec(
+        (
+            0.0..1.0f64,
+            0.0..1.0f64,
+            0.0..1.0f64,
+            0.1..0.6f64,
+            0.0..300.0f64,
+        ),
+        1..4,
+    );
+    let points = prop::collection::vec(
+        (
+            0.0..255.0f64,
+            [0.0..=1.0f64, 0.0..=1.0, 0.0..=1.0, 0.0..=1.0],
+        ),
+        2..6,
+    );
+    let eye = (0usize..6, 0.5..60.0f64, (-0.5..1.5f64, -0.5..1.5f64));
+    let bits = (
+        1u16..=12,
+        8u8..=14,
+        2u8..=8,
+        8u8..=14,
+        6u8..=10,
+        12u8..=20,
+        10u8..=20,
+    );
+    (dims, blobs, 0u16..40, any::<u64>(), points, eye, bits).prop_filter_map(
+        "widths must validate",
+        |(dims, blobs, noise, seed, points, (side, dist, off), w)| {
+            let cfg = widths(w.0, w.1, w.2, w.3, w.4, w.5, w.6)?;
+            let vol = volume(dims, blobs, noise, seed);
+            let (eye, up) = eye_for(dims, side, dist, off);
+            Some(Case {
+                vol,
+                tf: tf(points),
+                eye,
+                up,
+                cfg,
+            })
+        },
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Random small volumes, eyes on all sides, transfer functions, PE
+    /// counts and widths: the derived bound holds for every channel.
+    #[test]
+    fn pipeline_matches_golden_within_the_derived_bound(c in cases()) {
+        run_case(&c)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4096))]
+
+    /// The long run: `cargo test --release -p ercube --test equivalence -- --ignored`.
+    #[test]
+    #[ignore = "long run: 4096 cases"]
+    fn pipeline_matches_golden_long_run(c in cases()) {
+        run_case(&c)?;
+    }
+}
+
+/// The bound is not vacuous: on smooth data it is a small fraction of the
+/// range, and the measured differences stay well inside it.
+#[test]
+fn bound_is_informative_on_smooth_data() {
+    let c = Case {
+        vol: volume([24, 20, 28], vec![(0.5, 0.5, 0.5, 0.35, 250.0)], 0, 1),
+        tf: tf(vec![
+            (20.0, [1.0, 0.6, 0.2, 0.0]),
+            (200.0, [1.0, 1.0, 1.0, 0.6]),
+        ]),
+        eye: DVec3::new(11.0, 9.0, -12.0),
+        up: DVec3::Y,
+        cfg: PipelineConfig::default(),
+    };
+    let (d_base, d_img, b) = run_case(&c).unwrap();
+    eprintln!("smooth case: baseplane {d_base:.2e}, image {d_img:.2e}, bound {b:.2e}");
+    assert!(b < 0.1, "bound {b} is too loose to mean anything here");
+    assert!(d_img < b);
+}
+
+fn default_width_view(vol: &Volume, tf: &TransferFunction, cam: &Camera) -> f64 {
+    let cfg = PipelineConfig::default();
+    let lut = Lut::for_bits(tf, cfg.table_entries as usize, vol.kind().bits());
+    let prep = Prepared::new(vol, cam).unwrap();
+    let golden = render(
+        &prep,
+        &lut,
+        Technique::Slice(Method::Er),
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    let frame =
+        pipeline::run_frame(&cfg, vol, &lut, &prep.view, waves::Tracer::disabled()).unwrap();
+    let image = golden::warp::warp(&prep.view, &frame.baseplane);
+    golden::metrics::compare(&image, &golden.image)
+        .unwrap()
+        .max_abs_255
+}
+
+/// At the default widths the final 8-bit image is within one grey level of
+/// golden on the paper's two checkerboard views (128^3).
+#[test]
+fn default_widths_within_one_grey_level_on_the_checkerboard() {
+    let scene: golden::scenes::Scene = "checker:128".parse().unwrap();
+    let vol = scene.build(DEFAULT_MEMORY_LIMIT).unwrap();
+    for (d, fov) in [(32.0, 127.0), (64.0, 90.0)] {
+        let mut cam = Camera::new(
+            DVec3::new(64.0, 64.0, -d),
+            DVec3::splat(63.5),
+            DVec3::Y,
+            fov,
+            128,
+            128,
+        )
+        .unwrap();
+        cam.image_plane = ImagePlane::Front;
+        let m = default_width_view(&vol, &scene.preset(), &cam);
+        eprintln!("checker:128 eye z = -{d}, fov {fov}: max {m} /255");
+        assert!(m <= 1.0, "max difference {m} grey levels");
+    }
+}
+
+/// The same on brainsmall at the golden issue's view.
+#[test]
+fn default_widths_within_one_grey_level_on_brainsmall() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/brainsmall.den"
+    );
+    if !std::path::Path::new(path).exists() {
+        eprintln!("skipped: {path} is absent");
+        return;
+    }
+    let vol = golden::load::load_den(path.as_ref(), DEFAULT_MEMORY_LIMIT).unwrap();
+    let tf = golden::scenes::tf_preset("grey-ramp").unwrap();
+    let c = DVec3::from_array(vol.center_world());
+    let cam = Camera::new(DVec3::new(64.0, 64.0, -64.0), c, DVec3::Y, 90.0, 256, 256).unwrap();
+    let m = default_width_view(&vol, &tf, &cam);
+    eprintln!("brainsmall: max {m} /255");
+    assert!(m <= 1.0, "max difference {m} grey levels");
+}
