@@ -71,7 +71,10 @@ pub fn write_atomic(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+    // tempfile's error names its random temporary path; report the OS error
+    // against the path the user asked for instead.
+    let plain = |e: std::io::Error| e.raw_os_error().map(std::io::Error::from_raw_os_error).unwrap_or(e);
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| io(plain(e)))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w).map_err(io)?;
@@ -86,7 +89,7 @@ pub fn write_atomic(
             .set_permissions(std::fs::Permissions::from_mode(0o644))
             .map_err(io)?;
     }
-    tmp.persist(path).map_err(|e| io(e.error))?;
+    tmp.persist(path).map_err(|e| io(plain(e.error)))?;
     Ok(())
 }
 
