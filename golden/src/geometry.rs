@@ -7,7 +7,7 @@
 //! stack is at view-space `z`. Positions are voxel indices of the permuted
 //! volume (`x`, `y` in a slice, `z` the slice). Voxel `k` covers
 //! `[k - 1/2, k + 1/2)` on each axis; a sample counts as inside a slice when
-//! its `(x, y)` lies in `[-1/2, N - 1/2)`.
+//! its `(x, y)` lies in `[-1/2, N - 1/2]`.
 
 use glam::DVec3;
 
@@ -320,10 +320,14 @@ impl RayGrid {
     }
 }
 
-/// Ray indices `m` whose position `a + m t` lies in `[-1/2, n - 1/2)`.
+/// Ray indices `m` whose position `a + m t` lies in `[-1/2, n - 1/2]`.
+/// Closed on both faces, so that a ray exactly on the far face is kept as
+/// one exactly on the near face is (eyes on the half-voxel grid put rays on
+/// both faces; a half-open interval dropped the far one and halved the
+/// image's far edge).
 pub fn inside(p: Affine, n: usize) -> (i64, i64) {
     let lo = ((-0.5 - p.a) / p.t).ceil();
-    let hi = ((n as f64 - 0.5 - p.a) / p.t).ceil() - 1.0;
+    let hi = ((n as f64 - 0.5 - p.a) / p.t).floor();
     (clamp_index(lo), clamp_index(hi))
 }
 

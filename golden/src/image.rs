@@ -73,7 +73,13 @@ pub fn write_atomic(
     };
     // tempfile's error names its random temporary path; report the OS error
     // against the path the user asked for instead.
-    let plain = |e: std::io::Error| e.raw_os_error().map(std::io::Error::from_raw_os_error).unwrap_or(e);
+    let plain = |e: std::io::Error| {
+        let msg = e.to_string();
+        match msg.split_once(" at path ") {
+            Some((head, _)) => std::io::Error::new(e.kind(), head.to_string()),
+            None => e,
+        }
+    };
     let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| io(plain(e)))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());

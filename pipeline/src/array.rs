@@ -416,7 +416,8 @@ impl Array {
         self.host_stats.merge(&st);
         let p = self.pes.len();
         // Prologue: one cycle in which every PE only drives its edge voxels
-        // for the first row (the previous stage's ports carried rays).
+        // for the first row (the previous stage's ports carried rays). A
+        // lone PE has no neighbour to wait for.
         let (my0, y_first, sy0) = rows[0];
         let setup = SampleBus {
             slice,
@@ -429,13 +430,16 @@ impl Array {
             next: Some((slice.z, y_first.0, y_first.1)),
         };
         let none = Ports::default();
-        for &k in &self.order {
-            let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
-            self.spare[k] = self.pes[k].sample_step(&self.dp, &setup, from_right, self.nx)?;
+        if p > 1 {
+            for &k in &self.order {
+                let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
+                self.spare[k] = self.pes[k].sample_step(&self.dp, &setup, from_right, self.nx)?;
+            }
+            std::mem::swap(&mut self.ports, &mut self.spare);
+            self.cycle += 1;
+            self.stages.sample += 1;
+            self.trace(STAGE_SAMPLE, slice.z, setup.row);
         }
-        std::mem::swap(&mut self.ports, &mut self.spare);
-        self.cycle += 1;
-        self.stages.sample += 1;
         for (r, &(my, y, sy)) in rows.iter().enumerate() {
             for cycle in 0..row_len {
                 let next = if cycle + 1 < row_len {
@@ -489,8 +493,9 @@ impl Array {
         // x pass, one parent row per step; the line buffer keeps every
         // x-merged row for the y pass (three rows deep in hardware).
         let p = self.pes.len();
-        let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); prow]; p];
-        for row in 0..prow {
+        // lines[row][pe][child] = the x-merged R, G, B, A words.
+        let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); p]; prow];
+        for (row, row_lines) in lines.iter_mut().enumerate() {
             let drive: Vec<Ports> = self.pes.iter().map(|pe| pe.merge_drive(row)).collect();
             for &k in &self.order {
                 let none = Ports::default();
@@ -505,10 +510,12 @@ impl Array {
                     from_right,
                     &mut line,
                 );
-                lines[k][row] = line;
+                row_lines[k] = line;
             }
-            self.cycle += width;
-            self.trace(STAGE_MERGE, 0, row);
+            for _ in 0..width {
+                self.cycle += 1;
+                self.trace(STAGE_MERGE, 0, row);
+            }
         }
         // y pass: child row r takes parent rows 2 r - 1 ..= 2 r + 1.
         let (fc, fa, fm) = (
@@ -531,7 +538,7 @@ impl Array {
                     if row < 0 || row >= prow as i64 {
                         0
                     } else {
-                        lines[k][row as usize][c][ch]
+                        lines[row as usize][k][c][ch]
                     }
                 };
                 for (c, col) in cols.iter_mut().enumerate() {
@@ -555,7 +562,10 @@ impl Array {
             pe.set_rays(cols);
         }
         // The y pass drains two rows behind the x pass.
-        self.cycle += 2 * width;
+        for _ in 0..2 * width {
+            self.cycle += 1;
+            self.trace(STAGE_MERGE, 0, prow);
+        }
         self.stages.merge += prow as u64 * width + 2 * width;
         Ok(())
     }
@@ -577,9 +587,11 @@ impl Array {
             }
             most = most.max(n);
         }
-        self.cycle += most as u64;
+        for _ in 0..most {
+            self.cycle += 1;
+            self.trace(STAGE_READOUT, 0, 0);
+        }
         self.stages.readout += most as u64;
-        self.trace(STAGE_READOUT, 0, 0);
         let (fc, fa) = (self.dp.cfg.accum_color.lsb(), self.dp.cfg.accum_alpha.lsb());
         let data = raw
             .iter()

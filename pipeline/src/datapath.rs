@@ -180,10 +180,10 @@ impl Datapath {
     ) -> Result<(), FxError> {
         let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
         let k = Wide::new(1, 0).checked_sub(a)?;
-        for ch in 0..3 {
-            let old = Fx::from_raw_unchecked(acc.raw[ch], fc);
-            let v = (a * c[ch]).checked_add(k.checked_mul(old)?)?;
-            acc.raw[ch] = fc.assign(v, st).raw();
+        for (word, &colour) in acc.raw.iter_mut().zip(&c) {
+            let old = Fx::from_raw_unchecked(*word, fc);
+            let v = (a * colour).checked_add(k.checked_mul(old)?)?;
+            *word = fc.assign(v, st).raw();
         }
         let old = Fx::from_raw_unchecked(acc.raw[3], fa);
         let v = Wide::from(a).checked_add(k.checked_mul(old)?)?;

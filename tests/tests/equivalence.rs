@@ -38,8 +38,8 @@ fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
     }
     let mut step = [0f64; 2];
     for w in lut.rgba.windows(2) {
-        for c in 0..3 {
-            step[0] = step[0].max(f64::from((w[1][c] - w[0][c]).abs()));
+        for (a, b) in w[0][..3].iter().zip(&w[1][..3]) {
+            step[0] = step[0].max(f64::from((b - a).abs()));
         }
         step[1] = step[1].max(f64::from((w[1][3] - w[0][3]).abs()));
     }
@@ -52,10 +52,10 @@ fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
         }
         let inv = 1.0 / (gr.z_ref + view.d);
         let mut s = [0f64; 2];
-        for a in 0..2 {
+        for (a, slope) in s.iter_mut().enumerate() {
             for m in [gr.lo[a], gr.hi[a]] {
                 max_index = max_index.max(m.unsigned_abs() as f64);
-                s[a] = s[a].max(((gr.phi[a] + m as f64 - view.eye[a]) * inv).abs());
+                *slope = slope.max(((gr.phi[a] + m as f64 - view.eye[a]) * inv).abs());
             }
         }
         ds_max = ds_max.max((s[0] * s[0] + s[1] * s[1] + 1.0).sqrt());
@@ -164,16 +164,18 @@ fn widths(
     accum: u8,
     pos_frac: u8,
 ) -> Option<PipelineConfig> {
-    let mut c = PipelineConfig::default();
-    c.pes = pes;
-    c.weight = format(weight, weight, Quant::Trn);
-    c.sample = format(12 + sample_frac, sample_frac, Quant::Rnd);
-    c.alpha = format(alpha, alpha, Quant::Rnd);
-    c.color = format(color + 1, color, Quant::Rnd);
-    c.accum_color = format(accum, accum, Quant::Rnd);
-    c.accum_alpha = format(accum, accum, Quant::Rnd);
-    c.merge = format(accum + 4, accum, Quant::Rnd);
-    c.position = Format::new(12 + pos_frac, pos_frac, true, Quant::Rnd, Overflow::Sat).unwrap();
+    let c = PipelineConfig {
+        pes,
+        weight: format(weight, weight, Quant::Trn),
+        sample: format(12 + sample_frac, sample_frac, Quant::Rnd),
+        alpha: format(alpha, alpha, Quant::Rnd),
+        color: format(color + 1, color, Quant::Rnd),
+        accum_color: format(accum, accum, Quant::Rnd),
+        accum_alpha: format(accum, accum, Quant::Rnd),
+        merge: format(accum + 4, accum, Quant::Rnd),
+        position: Format::new(12 + pos_frac, pos_frac, true, Quant::Rnd, Overflow::Sat).unwrap(),
+        ..PipelineConfig::default()
+    };
     c.validate().ok().map(|_| c)
 }
 
@@ -195,8 +197,9 @@ fn volume(
             v += a * (-d2 / (r * r)).exp();
         }
         // A cheap deterministic hash for the noise.
-        let h = (x as u64 * 73_856_093 ^ y as u64 * 19_349_663 ^ z as u64 * 83_492_791 ^ seed)
-            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let h =
+            ((x as u64 * 73_856_093) ^ (y as u64 * 19_349_663) ^ (z as u64 * 83_492_791) ^ seed)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let n = if noise > 0 {
             (h >> 40) % u64::from(noise)
         } else {
@@ -223,7 +226,7 @@ fn eye_for(dims: [usize; 3], side: usize, dist: f64, off: (f64, f64)) -> (DVec3,
     let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
     e[a] = off.0 * n[a];
     e[b] = off.1 * n[b];
-    e[axis] = if side % 2 == 0 {
+    e[axis] = if side.is_multiple_of(2) {
         -dist
     } else {
         n[axis] - 1.0 + dist

@@ -26,10 +26,10 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Render one image of a scene or volume file with one method.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Render with several methods, write each image, a labelled montage
     /// and a table of time, samples and error against the reference.
-    Compare(compare::CompareArgs),
+    Compare(Box<compare::CompareArgs>),
     /// Compare every method on the embedded default scene (no files needed).
     Demo(compare::DemoArgs),
 }
