@@ -50,8 +50,40 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores); results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render this many frames and report the median time (the image is
+    /// the last frame's; every frame is identical).
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
+}
+
+/// Runs `f` `n` times (at least once), returning the last result and each
+/// run's wall-clock seconds.
+pub fn timed<T>(n: usize, mut f: impl FnMut() -> Result<T>) -> Result<(T, Vec<f64>)> {
+    if n == 0 || n > 100_000 {
+        anyhow::bail!("--repeat {n} must be 1 to 100000");
+    }
+    let mut times = Vec::with_capacity(n);
+    let mut last = None;
+    for _ in 0..n {
+        let t = Instant::now();
+        last = Some(f()?);
+        times.push(t.elapsed().as_secs_f64());
+    }
+    Ok((last.expect("at least one run"), times))
+}
+
+/// The median of a non-empty list.
+pub fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    }
 }
 
 /// Runs `ercube render`.
@@ -76,12 +108,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let lut = lut_for(vol.kind(), &tf);
         let cam = a.camera.camera(&vol)?;
         let prep = Prepared::new(&vol, &cam)?;
-        let t = Instant::now();
-        let frame = {
+        let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
-            render(&prep, &lut, tech, &opts)?
+            timed(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
         };
-        let time_s = t.elapsed().as_secs_f64();
+        let time_s = median(&times);
         let err = if a.compare_reference {
             let _s = Stage::start("rendering the reference");
             let r = render(&prep, &lut, Technique::Reference, &opts)?;
@@ -102,18 +133,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             }
         }
         if let Some(p) = &a.stats {
-            write_json(
-                p,
-                &frame_json(
-                    tech.name(),
-                    &vol,
-                    &prep.view,
-                    cam.eye,
-                    time_s,
-                    &frame,
-                    err.as_ref(),
-                ),
-            )?;
+            let mut v = frame_json(
+                tech.name(),
+                &vol,
+                &prep.view,
+                cam.eye,
+                time_s,
+                &frame,
+                err.as_ref(),
+            );
+            v["times_s"] = serde_json::json!(times);
+            write_json(p, &v)?;
         }
         let mut line = format!(
             "{}: {}x{} in {:.3} s, principal axis {}, D = {:.3}",
@@ -159,9 +189,13 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let lut = pipe::pipeline_lut(&cfg, &vol, &tf);
     let cam = a.camera.camera(&vol)?;
     let prep = Prepared::new(&vol, &cam)?;
-    let run = {
+    let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
-        pipe::run(&a.pipeline, &cfg, &vol, &lut, &prep)?
+        timed(a.repeat, || pipe::run(&a.pipeline, &cfg, &vol, &lut, &prep))?
+    };
+    let run = pipe::PipelineRun {
+        time_s: median(&times),
+        ..run
     };
     let vs_golden = pipe::versus_golden(&prep, &lut, &run.image)?;
     let err = if a.compare_reference {
@@ -199,6 +233,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             }
         }
         v["regions"] = serde_json::json!(prep.view.regions().bounds);
+        v["times_s"] = serde_json::json!(times);
         write_json(p, &v)?;
     }
     let f = &run.frame;
