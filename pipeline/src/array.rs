@@ -28,9 +28,9 @@ use waves::{ScopePath, SignalId, Tracer};
 
 use crate::config::PipelineConfig;
 use crate::datapath::{Acc, Datapath};
-use crate::fixed::{QuantStats, Wide};
+use crate::fixed::{Fx, QuantStats, Wide};
 use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
-use crate::pe::{Pe, PeCounters, Ports, RayColumn, SampleBus, StepError};
+use crate::pe::{Pe, PeCounters, Ports, RayColumn, RowBus, SampleBus, StepError};
 use crate::tables::Tables;
 
 /// Cycles spent in each stage of a frame.
@@ -184,6 +184,7 @@ pub struct Array {
     probes: Option<Probes>,
     host_stats: QuantStats,
     order: Vec<usize>,
+    clocked: bool,
 }
 
 impl Array {
@@ -234,7 +235,15 @@ impl Array {
             probes,
             host_stats,
             order: (0..p).collect(),
+            clocked: false,
         })
+    }
+
+    /// Steps the sampling stage cycle by cycle even without tracing (it
+    /// always does when tracing). By default an untraced run samples each
+    /// slice PE by PE, in parallel: the same bits and cycle counts, faster.
+    pub fn set_clocked(&mut self, on: bool) {
+        self.clocked = on;
     }
 
     /// Steps PEs in this order within a cycle (any order gives the same
@@ -415,6 +424,9 @@ impl Array {
         }
         self.host_stats.merge(&st);
         let p = self.pes.len();
+        if self.probes.is_none() && !self.clocked {
+            return self.sample_whole(region, slice, &rows, row_len);
+        }
         // Prologue: one cycle in which every PE only drives its edge voxels
         // for the first row (the previous stage's ports carried rays). A
         // lone PE has no neighbour to wait for.
@@ -469,6 +481,68 @@ impl Array {
             }
             self.stages.sample += row_len as u64;
         }
+        Ok(())
+    }
+
+    /// The sampling stage of one slice without per-cycle stepping: the
+    /// same arithmetic and counters as the clocked path (proved by the
+    /// tests), each PE's whole slice at once, PEs in parallel. Each PE
+    /// first produces the edge voxels it would drive in each row; each PE
+    /// then samples its rays with its right neighbour's.
+    fn sample_whole(
+        &mut self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+        rows: &[(i64, (usize, usize, Fx), Fx)],
+        row_len: usize,
+    ) -> Result<(), RunError> {
+        use rayon::prelude::*;
+        let p = self.pes.len();
+        let glo = region.grid.lo[1];
+        let buses: Vec<RowBus> = rows
+            .iter()
+            .map(|&(my, y, sy)| RowBus {
+                slice,
+                row: (my - glo) as usize,
+                y,
+                slope_yz: (sy, region.slope_z),
+                slope_x: (region.slope_b[0], region.slope_k[0]),
+            })
+            .collect();
+        // The rows the bus announces as next, in the clocked path's order:
+        // the prologue announces the first row (several PEs only); with
+        // rows one cycle long a lone PE never announces the first.
+        let skip = usize::from(p == 1 && row_len == 1);
+        let seq: Vec<(usize, usize, usize)> = buses
+            .iter()
+            .skip(skip)
+            .map(|b| (slice.z, b.y.0, b.y.1))
+            .collect();
+        let edges: Vec<Vec<[u16; 2]>> = self
+            .pes
+            .iter()
+            .map(|pe| pe.edges_for(slice.z, &buses))
+            .collect();
+        let dp = &self.dp;
+        let nx = self.nx;
+        let results: Vec<Result<(), StepError>> = self
+            .pes
+            .par_iter_mut()
+            .enumerate()
+            .map(|(k, pe)| {
+                pe.latch_edges(seq.iter().copied());
+                if p > 1 {
+                    pe.counters.idle += 1;
+                }
+                pe.sample_slice(dp, &buses, row_len, edges.get(k + 1).map(Vec::as_slice), nx)
+            })
+            .collect();
+        for r in results {
+            r?;
+        }
+        let cycles = u64::from(p > 1) + (rows.len() * row_len) as u64;
+        self.cycle += cycles;
+        self.stages.sample += cycles;
         Ok(())
     }
 

@@ -81,6 +81,34 @@ pub struct SampleBus<'a> {
     pub next: Option<(usize, usize, usize)>,
 }
 
+/// The part of the bus that is constant over a row.
+#[derive(Debug, Clone, Copy)]
+pub struct RowBus<'a> {
+    /// The slice being sampled.
+    pub slice: &'a SlicePlan,
+    /// Row in the region's buffer.
+    pub row: usize,
+    /// Clamped voxel rows `y0, y0 + 1` and the y weight.
+    pub y: (usize, usize, Fx),
+    /// Spacing-scaled y slope of the row and the region's z term.
+    pub slope_yz: (Fx, Fx),
+    /// Region slope constants on x.
+    pub slope_x: (Fx, Fx),
+}
+
+impl<'a> RowBus<'a> {
+    /// The row part of a cycle's bus.
+    pub fn of(b: &SampleBus<'a>) -> RowBus<'a> {
+        RowBus {
+            slice: b.slice,
+            row: b.row,
+            y: b.y,
+            slope_yz: b.slope_yz,
+            slope_x: b.slope_x,
+        }
+    }
+}
+
 /// Per-PE event counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct PeCounters {
@@ -128,6 +156,10 @@ pub struct Pe {
     pub stats: QuantStats,
     /// What the last sampling cycle did (for waveforms).
     pub last: SampleTrace,
+    /// Rows whose edge voxels the edge register holds.
+    edge_latch: Option<(usize, usize, usize)>,
+    /// The edge register.
+    edge_value: [u16; 2],
 }
 
 impl Pe {
@@ -156,6 +188,8 @@ impl Pe {
             counters: PeCounters::default(),
             stats: QuantStats::default(),
             last: SampleTrace::default(),
+            edge_latch: None,
+            edge_value: [0; 2],
         }
     }
 
@@ -176,6 +210,22 @@ impl Pe {
         self.active.1
     }
 
+    /// Drives the edge register: the voxels of this PE's first column at
+    /// the rows of `next` (the row sampled next cycle), read from memory
+    /// only when the row changes (the register holds its value otherwise).
+    #[inline]
+    fn drive_edge(&mut self, next: Option<(usize, usize, usize)>) -> [u16; 2] {
+        if let Some(n) = next {
+            if self.edge_latch != Some(n) && !self.cols.is_empty() {
+                let (z, y0, y1) = n;
+                let c0 = self.cols.start;
+                self.edge_value = [self.voxel(z, y0, c0), self.voxel(z, y1, c0)];
+                self.edge_latch = Some(n);
+            }
+        }
+        self.edge_value
+    }
+
     /// One sampling clock. `from_right` is what the right neighbour drove
     /// last cycle (its first column's voxels for this row).
     pub fn sample_step(
@@ -186,20 +236,30 @@ impl Pe {
         nx: usize,
     ) -> Result<Ports, StepError> {
         let mut out = Ports::default();
-        if let Some((z, y0, y1)) = bus.next {
-            if !self.cols.is_empty() {
-                let c0 = self.cols.start;
-                out.left.edge = [self.voxel(z, y0, c0), self.voxel(z, y1, c0)];
-            }
-        }
+        out.left.edge = self.drive_edge(bus.next);
         if bus.cycle >= self.active.1 {
             self.counters.idle += 1;
             self.last.busy = false;
             return Ok(out);
         }
+        let j = self.active.0 + bus.cycle;
+        self.last = self.sample_ray(dp, &RowBus::of(bus), j, from_right.left.edge, nx)?;
+        Ok(out)
+    }
+
+    /// The sample of held column `j` in the bus's row: the datapath of one
+    /// busy cycle, shared by the clocked and the whole-slice paths.
+    #[inline]
+    fn sample_ray(
+        &mut self,
+        dp: &Datapath,
+        bus: &RowBus,
+        j: usize,
+        edge_in: [u16; 2],
+        nx: usize,
+    ) -> Result<SampleTrace, StepError> {
         self.counters.busy += 1;
         self.counters.samples += 1;
-        let j = self.active.0 + bus.cycle;
         let mx = self.rays[j].mx;
         let s = bus.slice;
         let st = &mut self.stats;
@@ -220,7 +280,7 @@ impl Pe {
             [self.voxel(s.z, y0, c1), self.voxel(s.z, y1, c1)]
         } else if c1 == self.cols.end {
             self.counters.edge_voxels += 2;
-            from_right.left.edge
+            edge_in
         } else {
             return Err(StepError::Ownership {
                 pe: self.k,
@@ -246,7 +306,7 @@ impl Pe {
             let acc = &mut self.rays[j].acc[row];
             dp.composite_btf(acc, rgb, a, st)?;
         }
-        self.last = SampleTrace {
+        Ok(SampleTrace {
             busy: true,
             mx,
             row,
@@ -254,8 +314,53 @@ impl Pe {
             sample: sample.raw(),
             alpha: alpha.raw(),
             corrected,
-        };
-        Ok(out)
+        })
+    }
+
+    /// The edge voxels this PE presents during each of `rows` (its first
+    /// column at each row's voxel rows): what its left neighbour receives
+    /// over the port in that row. Reads nothing it would not drive anyway;
+    /// the reads are counted by [`Pe::latch_edges`].
+    pub fn edges_for(&self, z: usize, rows: &[RowBus]) -> Vec<[u16; 2]> {
+        if self.cols.is_empty() {
+            return vec![[0; 2]; rows.len()];
+        }
+        let w = self.cols.len();
+        let at = |y: usize| self.mem[(z * self.ny + y) * w];
+        rows.iter().map(|r| [at(r.y.0), at(r.y.1)]).collect()
+    }
+
+    /// Steps the edge register through `seq`, the rows the bus announces
+    /// as "next" in order, counting the memory reads the clocked path makes.
+    pub fn latch_edges(&mut self, seq: impl Iterator<Item = (usize, usize, usize)>) {
+        for n in seq {
+            self.drive_edge(Some(n));
+        }
+    }
+
+    /// Samples a whole slice without stepping cycle by cycle: row by row,
+    /// each of this PE's rays in order, with the right neighbour's edge
+    /// voxels for each row (`right_edges`, from [`Pe::edges_for`]). The
+    /// arithmetic and every counter equal the clocked path's (a test proves
+    /// it); only the interleaving of PEs within a cycle is gone, which no
+    /// result can observe because PEs share nothing within a cycle.
+    pub fn sample_slice(
+        &mut self,
+        dp: &Datapath,
+        rows: &[RowBus],
+        row_len: usize,
+        right_edges: Option<&[[u16; 2]]>,
+        nx: usize,
+    ) -> Result<(), StepError> {
+        let n = self.active.1;
+        for (r, bus) in rows.iter().enumerate() {
+            let edge = right_edges.map_or([0; 2], |e| e[r]);
+            for c in 0..n {
+                self.last = self.sample_ray(dp, bus, self.active.0 + c, edge, nx)?;
+            }
+            self.counters.idle += (row_len - n) as u64;
+        }
+        Ok(())
     }
 
     /// Queues every held column whose owner for the next slice is another
