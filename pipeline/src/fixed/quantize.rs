@@ -34,6 +34,7 @@ pub struct QuantStats {
 
 impl QuantStats {
     /// Counts one assignment.
+    #[inline]
     pub fn record(&mut self, q: &Quantized) {
         self.assignments = self.assignments.saturating_add(1);
         self.overflows = self.overflows.saturating_add(u64::from(q.overflow));
@@ -50,6 +51,7 @@ impl QuantStats {
 
 /// Bit `i` of `raw` in infinite two's complement: bits at and above 127
 /// repeat the sign.
+#[inline]
 fn bit(raw: i128, i: u64) -> bool {
     if i >= 127 {
         raw < 0
@@ -59,6 +61,7 @@ fn bit(raw: i128, i: u64) -> bool {
 }
 
 /// Whether any of bits `0..n` of `raw` (infinite two's complement) is set.
+#[inline]
 fn any_below(raw: i128, n: u64) -> bool {
     if n == 0 {
         false
@@ -74,6 +77,7 @@ fn any_below(raw: i128, n: u64) -> bool {
 
 /// `raw * 2^-k` rounded to an integer with `quant`, for `k >= 1`.
 /// Returns the rounded integer and whether dropped bits were nonzero.
+#[inline]
 fn round_shift(raw: i128, k: u64, quant: Quant) -> (i128, bool) {
     let neg = raw < 0;
     let q = if k >= 127 {
@@ -103,6 +107,7 @@ fn round_shift(raw: i128, k: u64, quant: Quant) -> (i128, bool) {
 
 /// `raw * 2^s`. Returns the low 128 bits of the product and whether the
 /// exact product fits `i128`.
+#[inline]
 fn shift_left(raw: i128, s: u64) -> (i128, bool) {
     if raw == 0 || s == 0 {
         return (raw, true);
@@ -117,6 +122,7 @@ fn shift_left(raw: i128, s: u64) -> (i128, bool) {
 }
 
 /// Low `bits` bits of `v`, sign-extended when `signed` (`bits <= 63`).
+#[inline]
 fn wrap(v: i128, bits: u8, signed: bool) -> i64 {
     let low = (v as u128 as u64) & (u64::MAX >> (64 - u32::from(bits)));
     if signed {
@@ -134,9 +140,32 @@ impl Format {
     /// [`overflow`](Format::overflow) if the rounded value is out of range.
     ///
     /// This is exact for every [`Wide`]: no intermediate step rounds.
+    #[inline]
     pub fn quantize(&self, w: Wide) -> Quantized {
         // i32 minus u8 in i64 cannot overflow.
         let k = i64::from(w.frac) - i64::from(self.frac());
+        // Fast path for the datapath's common case: TRN or RND dropping
+        // fraction bits, result in range. It computes what round_shift
+        // does for these two modes; anything else takes the general path.
+        if (1..127).contains(&k) {
+            let mask = (1i128 << k) - 1;
+            let q = match self.quant() {
+                Quant::Trn => Some(w.raw >> k),
+                // floor((raw / 2^(k-1) + 1) / 2) = floor(raw / 2^k + 1/2).
+                Quant::Rnd => (w.raw >> (k - 1)).checked_add(1).map(|v| v >> 1),
+                _ => None,
+            };
+            if let Some(q) = q {
+                if q >= i128::from(self.min_raw()) && q <= i128::from(self.max_raw()) {
+                    return Quantized {
+                        // In range, so it fits the format's i64 word.
+                        value: Fx::from_raw_unchecked(q as i64, *self),
+                        overflow: false,
+                        inexact: w.raw & mask != 0,
+                    };
+                }
+            }
+        }
         let (v, fits, inexact) = if k > 0 {
             let (v, inexact) = round_shift(w.raw, k.unsigned_abs(), self.quant());
             (v, true, inexact)
@@ -179,6 +208,7 @@ impl Format {
     }
 
     /// [`quantize`](Format::quantize), recording the event in `stats`.
+    #[inline]
     pub fn assign(&self, w: impl Into<Wide>, stats: &mut QuantStats) -> Fx {
         let q = self.quantize(w.into());
         stats.record(&q);

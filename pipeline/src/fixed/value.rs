@@ -33,6 +33,7 @@ impl Fx {
     }
 
     /// For callers that have just established the range invariant.
+    #[inline]
     pub(crate) fn from_raw_unchecked(raw: i64, format: Format) -> Fx {
         debug_assert!(raw >= format.min_raw() && raw <= format.max_raw());
         Fx { raw, format }
@@ -61,28 +62,33 @@ impl Fx {
     }
 
     /// The raw word (`value * 2^frac`).
+    #[inline]
     pub fn raw(self) -> i64 {
         self.raw
     }
 
     /// The format the value is stored in.
+    #[inline]
     pub fn format(self) -> Format {
         self.format
     }
 
     /// The value as a [`Wide`] with the same raw word and fraction.
+    #[inline]
     pub fn wide(self) -> Wide {
         Wide::new(i128::from(self.raw), i32::from(self.format.frac()))
     }
 
     /// The value as `f64`: exact when `bits <= 53`, otherwise the raw word
     /// is rounded to nearest (ties to even) by the integer-to-float cast.
+    #[inline]
     pub fn to_f64(self) -> f64 {
         self.raw as f64 * self.format.lsb()
     }
 
     /// The integer part, rounded toward −∞ (`floor`): the address bits of
     /// a position.
+    #[inline]
     pub fn int_part(self) -> i64 {
         self.raw >> self.format.frac()
     }
@@ -90,6 +96,7 @@ impl Fx {
     /// The fraction bits as an unsigned integer in `0..2^frac`: the
     /// interpolation weight bits of a position (`value - floor(value)` in
     /// units of the LSB).
+    #[inline]
     pub fn frac_part(self) -> u64 {
         let f = u32::from(self.format.frac());
         if f == 0 {
@@ -127,6 +134,7 @@ impl From<Fx> for Wide {
 /// Cannot overflow: both raw words are below `2^63` in magnitude and the
 /// shift is at most 63 (fractions are `0..=63`), so each result is below
 /// `2^126`.
+#[inline]
 fn align(a: Fx, b: Fx) -> (i128, i128, i32) {
     let fa = a.format.frac();
     let fb = b.format.frac();
@@ -140,6 +148,7 @@ fn align(a: Fx, b: Fx) -> (i128, i128, i32) {
 
 /// `format.frac() + offset`. Callers pass offsets of magnitude at most
 /// 65535 and fractions are at most 63, so the sum cannot overflow `i32`.
+#[inline]
 fn offset_frac(format: Format, offset: i32) -> i32 {
     i32::from(format.frac()) + offset
 }
@@ -148,6 +157,7 @@ impl Add for Fx {
     type Output = Wide;
     /// Exact sum. Aligned operands are below `2^126` (see `align`), so the
     /// sum is below `2^127` and `wrapping_add` never wraps.
+    #[inline]
     fn add(self, rhs: Fx) -> Wide {
         let (a, b, f) = align(self, rhs);
         Wide::new(a.wrapping_add(b), f)
@@ -157,6 +167,7 @@ impl Add for Fx {
 impl Sub for Fx {
     type Output = Wide;
     /// Exact difference; bounded like [`Add`].
+    #[inline]
     fn sub(self, rhs: Fx) -> Wide {
         let (a, b, f) = align(self, rhs);
         Wide::new(a.wrapping_sub(b), f)
@@ -168,6 +179,7 @@ impl Mul for Fx {
     /// Exact product with fraction `fa + fb`. Factors are at most `2^63` in
     /// magnitude, so the product is at most `2^126` and `wrapping_mul` never
     /// wraps.
+    #[inline]
     fn mul(self, rhs: Fx) -> Wide {
         let frac = offset_frac(self.format, i32::from(rhs.format.frac()));
         Wide::new(i128::from(self.raw).wrapping_mul(i128::from(rhs.raw)), frac)
@@ -223,6 +235,7 @@ pub struct Wide {
 }
 
 /// `x * 2^s`, or `None` if the exact product does not fit `i128`.
+#[inline]
 fn checked_scale(x: i128, s: u64) -> Option<i128> {
     if x == 0 || s == 0 {
         return Some(x);
@@ -236,6 +249,7 @@ fn checked_scale(x: i128, s: u64) -> Option<i128> {
 
 impl Wide {
     /// A value `raw * 2^-frac`.
+    #[inline]
     pub fn new(raw: i128, frac: i32) -> Wide {
         Wide { raw, frac }
     }
@@ -267,6 +281,7 @@ impl Wide {
 
     /// Approximate value: the raw word is rounded to 53 bits and the result
     /// can under- or overflow `f64` for extreme exponents.
+    #[inline]
     pub fn to_f64(self) -> f64 {
         // |raw| < 2^127, so beyond 2^±1300 the result is 0 or infinite
         // anyway; clamping keeps the exponent halves inside powi's range.
@@ -286,6 +301,7 @@ impl Wide {
     }
 
     /// Exact sum, or [`FxError::WideOverflow`].
+    #[inline]
     pub fn checked_add(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
         self.aligned(rhs)
@@ -294,6 +310,7 @@ impl Wide {
     }
 
     /// Exact difference, or [`FxError::WideOverflow`].
+    #[inline]
     pub fn checked_sub(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
         self.aligned(rhs)
@@ -302,6 +319,7 @@ impl Wide {
     }
 
     /// Exact product, or [`FxError::WideOverflow`].
+    #[inline]
     pub fn checked_mul(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
         match (
