@@ -113,25 +113,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             timed(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
         };
         let time_s = median(&times);
-        let err = if a.compare_reference {
-            let _s = Stage::start("rendering the reference");
-            let r = render(&prep, &lut, Technique::Reference, &opts)?;
-            Some(compare(&frame.image, &r.image)?)
-        } else {
-            None
-        };
-        frame.image.write_png(&a.out)?;
-        if let Some(p) = &a.npy {
-            frame.image.write_npy(p)?;
-        }
-        if let Some(p) = &a.baseplane_npy {
-            match &frame.slice {
-                Some(out) => out.baseplane.to_image().write_npy(p)?,
-                None => anyhow::bail!(
-                    "--baseplane-npy needs a slice-order method; the reference has no baseplane"
-                ),
-            }
-        }
+        let base = frame.slice.as_ref().map(|o| &o.baseplane);
+        let err = write_outputs(a, &prep, &lut, &opts, &frame.image, base)?;
         if let Some(p) = &a.stats {
             let mut v = frame_json(
                 tech.name(),
@@ -163,6 +146,34 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         super::say(&format!("{line} -> {}", a.out.display()));
         Ok(())
     })
+}
+
+/// The outputs every render writes: the PNG, `--npy`, `--baseplane-npy`,
+/// and (with `--compare-reference`) the error against the reference,
+/// which it returns.
+fn write_outputs(
+    a: &RenderArgs,
+    prep: &Prepared,
+    lut: &golden::tf::Lut,
+    opts: &RenderOptions,
+    image: &golden::image::Image,
+    baseplane: Option<&golden::warp::Baseplane>,
+) -> Result<Option<golden::metrics::ImageError>> {
+    let err = if a.compare_reference {
+        let _s = Stage::start("rendering the reference");
+        let r = render(prep, lut, Technique::Reference, opts)?;
+        Some(compare(image, &r.image)?)
+    } else {
+        None
+    };
+    image.write_png(&a.out)?;
+    if let Some(p) = &a.npy {
+        image.write_npy(p)?;
+    }
+    if let (Some(p), Some(b)) = (&a.baseplane_npy, baseplane) {
+        b.to_image().write_npy(p)?;
+    }
+    Ok(err)
 }
 
 /// Checks and builds the render options.
@@ -198,20 +209,14 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         ..run
     };
     let vs_golden = pipe::versus_golden(&prep, &lut, &run.image)?;
-    let err = if a.compare_reference {
-        let _s = Stage::start("rendering the reference");
-        let r = render(&prep, &lut, Technique::Reference, &opts)?;
-        Some(compare(&run.image, &r.image)?)
-    } else {
-        None
-    };
-    run.image.write_png(&a.out)?;
-    if let Some(p) = &a.npy {
-        run.image.write_npy(p)?;
-    }
-    if let Some(p) = &a.baseplane_npy {
-        run.frame.baseplane.to_image().write_npy(p)?;
-    }
+    let err = write_outputs(
+        a,
+        &prep,
+        &lut,
+        &opts,
+        &run.image,
+        Some(&run.frame.baseplane),
+    )?;
     if let Some(p) = &a.stats {
         let frame = golden::render::Frame {
             image: run.image.clone(),
