@@ -13,7 +13,8 @@
 //!   PE samples its `c`-th ray of that row, so a row takes as many cycles
 //!   as the busiest PE has rays (the rest idle). The voxel column right of
 //!   a block comes from the right neighbour's port, driven one cycle ahead.
-//! - **merge** (at each region boundary): the Bartlett merge, x pass then
+//! - **merge** (at each region boundary): after a migration to the rays'
+//!   positions on the boundary plane, the Bartlett merge, x pass then
 //!   y pass through a line buffer; edge parents come over the ports. It is
 //!   modelled at row granularity: one port exchange per parent row, and as
 //!   many cycles as the busiest PE has child columns (the y pass runs
@@ -280,6 +281,12 @@ impl Array {
                 self.sample(region, slice)?;
             }
             if i > 0 {
+                // Rays merge on the boundary plane: first bring each to the
+                // PE of its position there, so that every PE holds rays and
+                // a merge's neighbours are one link away even when regions
+                // without slices follow one another (eyes closer than half a
+                // voxel).
+                self.migrate(&region.front)?;
                 self.merge(region, &plan.regions[i - 1])?;
                 merges += 1;
             }

@@ -39,6 +39,10 @@ pub struct RegionPlan {
     pub slope_z: Fx,
     /// Slices, back to front.
     pub slices: Vec<SlicePlan>,
+    /// Ray positions on the region's front boundary `b_i` (no ranges: no
+    /// sampling happens there), where the rays merge into the next region's
+    /// and so where they must sit in the PE of their position.
+    pub front: SlicePlan,
 }
 
 /// Everything the host loads before a frame.
@@ -88,7 +92,21 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
                 range,
             });
         }
+        let b = layout.bounds[regions.len()];
+        let front = SlicePlan {
+            z: (b.ceil() as usize).min(view.dims[2].saturating_sub(1)),
+            a: [
+                q(cfg.position, grid.at(e, view.d, b, 0).a, &mut st)?,
+                q(cfg.position, grid.at(e, view.d, b, 1).a, &mut st)?,
+            ],
+            t: [
+                q(cfg.step, grid.at(e, view.d, b, 0).t, &mut st)?,
+                q(cfg.step, grid.at(e, view.d, b, 1).t, &mut st)?,
+            ],
+            range: [(0, -1); 2],
+        };
         regions.push(RegionPlan {
+            front,
             grid: grid.clone(),
             slope_b,
             slope_k,
