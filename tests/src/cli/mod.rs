@@ -3,9 +3,11 @@
 //! with status 2; nothing panics on bad input).
 
 mod args;
+mod bench;
 mod compare;
 mod montage;
 mod pipeline;
+mod plot;
 mod progress;
 mod render;
 mod stats;
@@ -32,6 +34,13 @@ enum Command {
     Compare(Box<compare::CompareArgs>),
     /// Compare every method on the embedded default scene (no files needed).
     Demo(compare::DemoArgs),
+    /// Time every method over a sweep of eye distances against the
+    /// reference; write a CSV, plots and a summary (or, with --report DIR,
+    /// the whole benchmark report).
+    Bench(Box<bench::BenchArgs>),
+    /// Run the pipeline over a grid of datapath widths and write its error
+    /// against golden er beside the total datapath bits.
+    SweepWidths(Box<bench::SweepArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -79,6 +88,8 @@ pub fn run() -> ExitCode {
         Command::Render(a) => render::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Demo(a) => compare::demo(&a),
+        Command::Bench(a) => bench::run(&a),
+        Command::SweepWidths(a) => bench::sweep_widths(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
