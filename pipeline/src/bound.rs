@@ -49,6 +49,12 @@
 //! Total: `B = dc + nz E + merges (r(merge) + r(accum)) + q(accum)` plus
 //! the golden `f32` terms.
 
+use glam::DVec3;
+use golden::geometry::View;
+use golden::methods::Method;
+use golden::tf::Lut;
+use golden::volume::Volume;
+
 use crate::config::PipelineConfig;
 use crate::fixed::{Format, Quant};
 
@@ -72,6 +78,65 @@ pub struct BoundInputs {
     pub merges: usize,
     /// Bits of the data (8 or 16).
     pub data_bits: u32,
+}
+
+impl BoundInputs {
+    /// Measures the facts on a volume seen through `view` with table `lut`:
+    /// the largest neighbour differences along view x and y, the largest
+    /// table steps, and from ER's ray layout the largest ray index, the
+    /// largest path length per slice step (spacing-scaled) and the merges.
+    pub fn measure(volume: &Volume, lut: &Lut, view: &View) -> golden::Result<BoundInputs> {
+        let [nx, ny, nz] = view.dims;
+        let at = |x: usize, y: usize, z: usize| {
+            let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
+            f64::from(volume.get(i.x as usize, i.y as usize, i.z as usize))
+        };
+        let mut gradient = [0f64; 2];
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let v = at(x, y, z);
+                    if x + 1 < nx {
+                        gradient[0] = gradient[0].max((at(x + 1, y, z) - v).abs());
+                    }
+                    if y + 1 < ny {
+                        gradient[1] = gradient[1].max((at(x, y + 1, z) - v).abs());
+                    }
+                }
+            }
+        }
+        let mut table_step = [0f64; 2];
+        for w in lut.rgba.windows(2) {
+            for (a, b) in w[0][..3].iter().zip(&w[1][..3]) {
+                table_step[0] = table_step[0].max(f64::from((b - a).abs()));
+            }
+            table_step[1] = table_step[1].max(f64::from((w[1][3] - w[0][3]).abs()));
+        }
+        let layout = Method::Er.layout(view)?;
+        let mut max_index = 0f64;
+        let mut ds_max = 1f64;
+        for g in layout.grids.iter().filter(|g| !g.is_empty()) {
+            let inv = 1.0 / (g.z_ref + view.d);
+            let mut slope = [0f64; 2];
+            for (a, s) in slope.iter_mut().enumerate() {
+                for m in [g.lo[a], g.hi[a]] {
+                    max_index = max_index.max(m.unsigned_abs() as f64);
+                    *s = s.max(((g.phi[a] + m as f64 - view.eye[a]) * inv).abs());
+                }
+            }
+            ds_max = ds_max.max(view.world_length(slope[0], slope[1], 1.0));
+        }
+        Ok(BoundInputs {
+            gradient,
+            table_step,
+            max_index,
+            max_coord: nx.max(ny) as f64,
+            ds_max,
+            slices: nz,
+            merges: layout.grids.len() - 1,
+            data_bits: volume.kind().bits(),
+        })
+    }
 }
 
 /// Assignment error of a format: one LSB when it truncates, half otherwise.

@@ -17,59 +17,7 @@ use proptest::prelude::*;
 
 /// The facts `error_bound` needs, measured on the data and the view.
 fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
-    let [nx, ny, nz] = view.dims;
-    let at = |x: usize, y: usize, z: usize| {
-        let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
-        f64::from(vol.get(i.x as usize, i.y as usize, i.z as usize))
-    };
-    let mut g = [0f64; 2];
-    for z in 0..nz {
-        for y in 0..ny {
-            for x in 0..nx {
-                let v = at(x, y, z);
-                if x + 1 < nx {
-                    g[0] = g[0].max((at(x + 1, y, z) - v).abs());
-                }
-                if y + 1 < ny {
-                    g[1] = g[1].max((at(x, y + 1, z) - v).abs());
-                }
-            }
-        }
-    }
-    let mut step = [0f64; 2];
-    for w in lut.rgba.windows(2) {
-        for (a, b) in w[0][..3].iter().zip(&w[1][..3]) {
-            step[0] = step[0].max(f64::from((b - a).abs()));
-        }
-        step[1] = step[1].max(f64::from((w[1][3] - w[0][3]).abs()));
-    }
-    let layout = Method::Er.layout(view).unwrap();
-    let mut max_index = 0f64;
-    let mut ds_max = 1f64;
-    for gr in &layout.grids {
-        if gr.is_empty() {
-            continue;
-        }
-        let inv = 1.0 / (gr.z_ref + view.d);
-        let mut s = [0f64; 2];
-        for (a, slope) in s.iter_mut().enumerate() {
-            for m in [gr.lo[a], gr.hi[a]] {
-                max_index = max_index.max(m.unsigned_abs() as f64);
-                *slope = slope.max(((gr.phi[a] + m as f64 - view.eye[a]) * inv).abs());
-            }
-        }
-        ds_max = ds_max.max((s[0] * s[0] + s[1] * s[1] + 1.0).sqrt());
-    }
-    BoundInputs {
-        gradient: g,
-        table_step: step,
-        max_index,
-        max_coord: nx.max(ny) as f64,
-        ds_max,
-        slices: nz,
-        merges: layout.grids.len() - 1,
-        data_bits: vol.kind().bits(),
-    }
+    BoundInputs::measure(vol, lut, view).expect("the view has an ER layout")
 }
 
 /// Largest per-channel difference between two float images.
