@@ -19,10 +19,12 @@
 pub mod array;
 pub mod bound;
 pub mod config;
+pub mod cost;
 pub mod datapath;
 pub mod fixed;
 pub mod host;
 pub mod pe;
+pub mod rtl;
 pub mod tables;
 
 pub use array::{run_frame, Frame, RunError};

@@ -155,7 +155,10 @@ impl Format {
                 Quant::Rnd => (w.raw >> (k - 1)).checked_add(1).map(|v| v >> 1),
                 _ => None,
             };
-            if let Some(q) = q {
+            // SAT_SYM's lower limit is -max, not min_raw: leave it to the
+            // general path.
+            let sym = self.overflow() == Overflow::SatSym && self.is_signed();
+            if let (Some(q), false) = (q, sym) {
                 if q >= i128::from(self.min_raw()) && q <= i128::from(self.max_raw()) {
                     return Quantized {
                         // In range, so it fits the format's i64 word.

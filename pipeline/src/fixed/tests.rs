@@ -881,3 +881,21 @@ fn pack_layout_and_errors() {
     );
     assert!(pack(s5, &[]).unwrap().is_empty());
 }
+
+/// SAT_SYM's lower limit is `-max`: a rounded value at `min_raw` must be
+/// flagged and clamped even when it drops fraction bits (the TRN/RND fast
+/// path must not take it).
+#[test]
+fn sat_sym_clamps_min_raw_after_rounding() {
+    for quant in [Quant::Trn, Quant::Rnd] {
+        let f = Format::new(1, 0, true, quant, Overflow::SatSym).unwrap();
+        // -1 exactly, carried with one fraction bit: raw -2 at frac 1.
+        let q = f.quantize(Wide::new(-2, 1));
+        assert_eq!(q.value.raw(), 0, "{quant:?}");
+        assert!(q.overflow, "{quant:?}");
+        let f = Format::new(8, 4, true, quant, Overflow::SatSym).unwrap();
+        let q = f.quantize(Wide::new(-128 * 4, 6));
+        assert_eq!(q.value.raw(), -127, "{quant:?}");
+        assert!(q.overflow);
+    }
+}

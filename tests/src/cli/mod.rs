@@ -5,6 +5,7 @@
 mod args;
 mod bench;
 mod compare;
+mod cost;
 mod montage;
 mod pipeline;
 mod plot;
@@ -41,6 +42,9 @@ enum Command {
     /// Run the pipeline over a grid of datapath widths and write its error
     /// against golden er beside the total datapath bits.
     SweepWidths(Box<bench::SweepArgs>),
+    /// FPGA cost of the PE array: resources per PE and in all, fit on
+    /// real parts, frame rate and voxel bandwidth from a pipeline run.
+    Cost(Box<cost::CostArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -88,6 +92,7 @@ pub fn run() -> ExitCode {
         Command::Render(a) => render::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Demo(a) => compare::demo(&a),
+        Command::Cost(a) => cost::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),
     };
