@@ -419,6 +419,25 @@ impl PipelineConfig {
         PipelineConfig::default().to_toml()
     }
 
+    /// Every register format with its field name, in declaration order.
+    pub fn formats(&self) -> [(&'static str, Format); 13] {
+        [
+            ("voxel", self.voxel),
+            ("position", self.position),
+            ("step", self.step),
+            ("weight", self.weight),
+            ("sample", self.sample),
+            ("color", self.color),
+            ("alpha", self.alpha),
+            ("path", self.path),
+            ("log_transmittance", self.log_transmittance),
+            ("opacity_corr", self.opacity_corr),
+            ("accum_color", self.accum_color),
+            ("accum_alpha", self.accum_alpha),
+            ("merge", self.merge),
+        ]
+    }
+
     /// Checks that the datapath can work: each field's signedness and
     /// integer/fraction split suits its role, and related fields agree.
     /// Returns the first problem found, as a one-line message naming the
@@ -875,24 +894,7 @@ mod tests {
         let c = PipelineConfig::default();
         assert_eq!(c.validate().map_err(|e| e.to_string()), Ok(()));
         // The defaults the field documentation states.
-        let shown: Vec<String> = [
-            c.voxel,
-            c.position,
-            c.step,
-            c.weight,
-            c.sample,
-            c.color,
-            c.alpha,
-            c.path,
-            c.log_transmittance,
-            c.opacity_corr,
-            c.accum_color,
-            c.accum_alpha,
-            c.merge,
-        ]
-        .iter()
-        .map(|f| f.to_string())
-        .collect();
+        let shown: Vec<String> = c.formats().iter().map(|(_, f)| f.to_string()).collect();
         assert_eq!(
             shown,
             [

@@ -180,24 +180,7 @@ impl Knob {
 
 /// The sum of the widths of every register format (see the module docs).
 pub fn total_bits(c: &PipelineConfig) -> u32 {
-    [
-        c.voxel,
-        c.position,
-        c.step,
-        c.weight,
-        c.sample,
-        c.color,
-        c.alpha,
-        c.path,
-        c.log_transmittance,
-        c.opacity_corr,
-        c.accum_color,
-        c.accum_alpha,
-        c.merge,
-    ]
-    .iter()
-    .map(|f| u32::from(f.bits()))
-    .sum()
+    c.formats().iter().map(|(_, f)| u32::from(f.bits())).sum()
 }
 
 /// Parses a knob's values: `A-B`, `A,B,...` or `none`.
