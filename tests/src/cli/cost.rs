@@ -23,7 +23,7 @@ use pipeline::cost::throughput::RunSummary;
 use pipeline::cost::Target;
 
 use super::args::{CameraArgs, SourceArgs, TfArgs};
-use super::pipeline::{self as pipe, PipelineArgs};
+use super::pipeline::{self as pipe, ConfigArgs};
 use super::progress::Stage;
 use super::stats::write_json;
 
@@ -46,12 +46,8 @@ pub struct CostArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub tf: TfArgs,
-    /// Pipeline configuration (TOML; missing keys keep their defaults).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// Number of PEs (overrides the configuration).
-    #[arg(long)]
-    pub pes: Option<u16>,
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
     /// FPGA family: xc7 (Artix-7), ecp5 or ice40 (UltraPlus).
     #[arg(long, value_parser = parse_target, default_value = "xc7")]
     pub target: Target,
@@ -136,14 +132,7 @@ pub fn run(a: &CostArgs) -> Result<()> {
     if !clock.is_finite() || clock <= 0.0 || clock > 2000.0 {
         bail!("--clock-mhz {clock} must be a clock above 0 and at most 2000 MHz");
     }
-    let cfg = pipe::load_config(&PipelineArgs {
-        config: a.config.clone(),
-        pes: a.pes,
-        vcd: None,
-        trace_pes: "0-3".into(),
-        trace_cycles: None,
-        raw_npy: None,
-    })?;
+    let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
     let defaulted = a.source.scene.is_none() && a.source.volume.is_none();
     let mut source = a.source.clone();

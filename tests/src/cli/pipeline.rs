@@ -18,15 +18,38 @@ use waves::{parse_cycle_window, PeFilter, TraceConfig, Tracer};
 
 use super::stats::error_json;
 
-/// Pipeline options of `ercube render`.
+/// The pipeline configuration on the command line, shared by every
+/// command that runs the PE array.
 #[derive(Debug, Clone, Args)]
-pub struct PipelineArgs {
+pub struct ConfigArgs {
     /// Pipeline configuration (TOML; missing keys keep their defaults).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Number of PEs (overrides the configuration).
     #[arg(long)]
     pub pes: Option<u16>,
+}
+
+impl ConfigArgs {
+    /// Loads the configuration with the command line's overrides.
+    pub fn load(&self) -> Result<PipelineConfig> {
+        let mut cfg = match &self.config {
+            Some(p) => PipelineConfig::from_toml_file(p)?,
+            None => PipelineConfig::default(),
+        };
+        if let Some(p) = self.pes {
+            cfg.pes = p;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// Pipeline options of `ercube render`.
+#[derive(Debug, Clone, Args)]
+pub struct PipelineArgs {
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
     /// Write a VCD waveform here (and a GTKWave save file beside it).
     #[arg(long)]
     pub vcd: Option<PathBuf>,
@@ -39,19 +62,6 @@ pub struct PipelineArgs {
     /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
     #[arg(long)]
     pub raw_npy: Option<PathBuf>,
-}
-
-/// Loads the configuration with the command line's overrides.
-pub fn load_config(a: &PipelineArgs) -> Result<PipelineConfig> {
-    let mut cfg = match &a.config {
-        Some(p) => PipelineConfig::from_toml_file(p)?,
-        None => PipelineConfig::default(),
-    };
-    if let Some(p) = a.pes {
-        cfg.pes = p;
-    }
-    cfg.validate()?;
-    Ok(cfg)
 }
 
 /// The classification table the pipeline and its golden comparison share.
@@ -156,7 +166,7 @@ pub fn versus_golden(prep: &Prepared, lut: &Lut, image: &golden::image::Image) -
 
 /// Refuses pipeline options on other methods.
 pub fn check_unused(a: &PipelineArgs) -> Result<()> {
-    if a.config.is_some() || a.pes.is_some() || a.vcd.is_some() || a.raw_npy.is_some() {
+    if a.cfg.config.is_some() || a.cfg.pes.is_some() || a.vcd.is_some() || a.raw_npy.is_some() {
         bail!("--config, --pes, --vcd and --raw-npy apply only to --method pipeline");
     }
     Ok(())

@@ -187,7 +187,7 @@ pub fn render_options(terminate: f32, substeps: u32) -> Result<RenderOptions> {
 
 /// `ercube render --method pipeline`.
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
-    let cfg = pipe::load_config(&a.pipeline)?;
+    let cfg = a.pipeline.cfg.load()?;
     let opts = render_options(a.terminate, a.substeps)?;
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");

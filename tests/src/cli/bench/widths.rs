@@ -22,6 +22,8 @@ use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 use golden::tf::Lut;
 use golden::volume::Volume;
 use pipeline::config::PipelineConfig;
+
+use crate::cli::pipeline::ConfigArgs;
 use pipeline::fixed::Format;
 
 use super::super::args::{with_threads, CameraArgs, SourceArgs, TfArgs};
@@ -66,12 +68,9 @@ pub struct SweepArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub tf: TfArgs,
-    /// Base pipeline configuration (TOML; default widths otherwise).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// Number of PEs (overrides the configuration; results do not depend on it).
-    #[arg(long)]
-    pub pes: Option<u16>,
+    /// Base configuration and PE count (results do not depend on the count).
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
     /// alpha = ufixed<B,0> for each B ("A-B", "A,B,..." or "none").
     #[arg(long, default_value = DEFAULT_ALPHA)]
     pub alpha_bits: String,
@@ -511,14 +510,7 @@ pub fn narrowest_within(rows: &[&WidthRow], limit: f64) -> Option<u8> {
 
 /// Loads, prepares and runs a sweep from the command line's arguments.
 pub fn sweep(a: &SweepArgs) -> Result<()> {
-    let mut base = match &a.config {
-        Some(p) => PipelineConfig::from_toml_file(p)?,
-        None => PipelineConfig::default(),
-    };
-    if let Some(p) = a.pes {
-        base.pes = p;
-    }
-    base.validate()?;
+    let base = a.cfg.load()?;
     let grid: Vec<(Knob, Vec<u8>)> = [
         (Knob::Alpha, "alpha-bits", &a.alpha_bits),
         (Knob::Accum, "accum-bits", &a.accum_bits),
