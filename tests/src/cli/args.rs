@@ -237,3 +237,35 @@ pub fn with_threads<T: Send>(
             .install(f),
     }
 }
+
+/// Options of the slice-order methods, shared by `render` and `compare`.
+#[derive(Debug, Clone, Args)]
+pub struct SliceArgs {
+    /// Early ray termination opacity for er-ftb (1 disables it).
+    #[arg(long, default_value_t = 0.99)]
+    pub terminate: f32,
+    /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
+    #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
+    pub substeps: u32,
+}
+
+impl SliceArgs {
+    /// Checks and builds the render options.
+    pub fn options(&self) -> Result<golden::render::RenderOptions> {
+        let mut o = golden::render::RenderOptions::default();
+        o.slice.terminate = self.terminate;
+        o.slice.substeps = self.substeps;
+        o.slice.validate()?;
+        Ok(o)
+    }
+}
+
+impl Default for SliceArgs {
+    fn default() -> SliceArgs {
+        let o = golden::methods::Options::default();
+        SliceArgs {
+            terminate: o.terminate,
+            substeps: o.substeps,
+        }
+    }
+}

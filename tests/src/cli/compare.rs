@@ -13,10 +13,9 @@ use glam::DVec3;
 use golden::metrics::{compare, ImageError};
 use golden::render::{lut_for, render, Frame, Prepared, Technique};
 
-use super::args::{with_threads, CameraArgs, PlaneArg, SourceArgs, TfArgs};
+use super::args::{with_threads, CameraArgs, PlaneArg, SliceArgs, SourceArgs, TfArgs};
 use super::montage::write_montage;
 use super::progress::Stage;
-use super::render::render_options;
 use super::stats::{error_json, write_json};
 
 /// Arguments of `ercube compare`.
@@ -34,12 +33,8 @@ pub struct CompareArgs {
     /// Directory for the images, montage, CSV and JSON.
     #[arg(long, default_value = "compare")]
     pub out_dir: PathBuf,
-    /// Early ray termination opacity for er-ftb (1 disables it).
-    #[arg(long, default_value_t = 0.99)]
-    pub terminate: f32,
-    /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
-    #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
-    pub substeps: u32,
+    #[command(flatten)]
+    pub slice: SliceArgs,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -72,7 +67,7 @@ pub fn run(a: &CompareArgs) -> Result<()> {
 }
 
 fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
-    let opts = render_options(a.terminate, a.substeps)?;
+    let opts = a.slice.options()?;
     let (vol, default_tf) = a.source.load()?;
     let tf = a.tf.resolve(default_tf)?;
     let lut = lut_for(vol.kind(), &tf);
@@ -205,8 +200,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         },
         methods: "er,er-ftb,under,over,box,reference".into(),
         out_dir: a.out_dir.clone(),
-        terminate: 0.99,
-        substeps: golden::methods::DEFAULT_SUBSTEPS,
+        slice: SliceArgs::default(),
         threads: None,
     };
     run(&args)

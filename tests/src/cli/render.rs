@@ -9,7 +9,7 @@ use clap::Args;
 use golden::metrics::compare;
 use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
-use super::args::{with_threads, CameraArgs, SourceArgs, TfArgs};
+use super::args::{with_threads, CameraArgs, SliceArgs, SourceArgs, TfArgs};
 use super::pipeline::{self as pipe, PipelineArgs};
 use super::progress::Stage;
 use super::stats::{frame_json, write_json};
@@ -41,12 +41,8 @@ pub struct RenderArgs {
     /// Also render the reference and report the error against it.
     #[arg(long)]
     pub compare_reference: bool,
-    /// Early ray termination opacity for er-ftb (1 disables it).
-    #[arg(long, default_value_t = 0.99)]
-    pub terminate: f32,
-    /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
-    #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
-    pub substeps: u32,
+    #[command(flatten)]
+    pub slice: SliceArgs,
     /// Worker threads (default: all cores); results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -99,7 +95,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 "--baseplane-npy needs a slice-order method; the reference has no baseplane"
             );
         }
-        let opts = render_options(a.terminate, a.substeps)?;
+        let opts = a.slice.options()?;
         let (vol, default_tf) = {
             let _s = Stage::start("loading volume");
             a.source.load()?
@@ -176,19 +172,10 @@ fn write_outputs(
     Ok(err)
 }
 
-/// Checks and builds the render options.
-pub fn render_options(terminate: f32, substeps: u32) -> Result<RenderOptions> {
-    let mut o = RenderOptions::default();
-    o.slice.terminate = terminate;
-    o.slice.substeps = substeps;
-    o.slice.validate()?;
-    Ok(o)
-}
-
 /// `ercube render --method pipeline`.
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let cfg = a.pipeline.cfg.load()?;
-    let opts = render_options(a.terminate, a.substeps)?;
+    let opts = a.slice.options()?;
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
