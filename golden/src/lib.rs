@@ -9,6 +9,7 @@
 //! image-order ray casting as ground truth, [`metrics`] compares images.
 
 pub mod camera;
+pub mod clip;
 pub mod error;
 pub mod geometry;
 pub mod image;
@@ -16,10 +17,12 @@ pub mod load;
 pub mod merge;
 pub mod methods;
 pub mod metrics;
+pub mod occupancy;
 pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod scenes;
+pub mod skip;
 pub mod slices;
 pub mod tf;
 pub mod volume;

@@ -5,13 +5,15 @@
 //!
 //! The pipeline's merge stage mirrors [`merge`]: same weights, same parity.
 
+use rayon::prelude::*;
+
 use crate::geometry::{Merge, RayGrid};
 
 /// One ray's accumulated state: premultiplied RGB and opacity.
 pub type Rgba = [f32; 4];
 
 /// Reads `buf` (over `grid`) at ray `(mx, my)`, empty outside the grid.
-#[inline]
+#[cfg(test)]
 fn at(buf: &[Rgba], grid: &RayGrid, mx: i64, my: i64) -> Rgba {
     if mx < grid.lo[0] || mx > grid.hi[0] || my < grid.lo[1] || my > grid.hi[1] {
         return [0.0; 4];
@@ -43,36 +45,42 @@ fn taps(kind: Merge) -> &'static [(i64, f32)] {
 /// which is how empty rays are added at the edges.
 pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Vec<Rgba> {
     let [fw, fh] = fgrid.counts();
+    let [bw, bh] = bgrid.counts();
     let taps = taps(kind);
-    // Pass 1, along x: for every back row, the x-merged values at front columns.
-    let brows = bgrid.counts()[1];
-    let mut tmp = vec![[0f32; 4]; fw * brows];
-    for r in 0..brows {
-        let my = bgrid.lo[1] + r as i64;
-        for (c, out) in tmp[r * fw..(r + 1) * fw].iter_mut().enumerate() {
-            let m = fgrid.lo[0] + c as i64;
-            for &(o, w) in taps {
-                madd(out, w, at(back, bgrid, 2 * m + o, my));
-            }
-        }
-    }
-    // Pass 2, along y.
-    let tgrid = RayGrid {
-        lo: [fgrid.lo[0], bgrid.lo[1]],
-        hi: [fgrid.hi[0], bgrid.hi[1]],
-        ..fgrid.clone()
-    };
     let mut out = vec![[0f32; 4]; fw * fh];
-    for r in 0..fh {
+    if fw == 0 || fh == 0 || bw == 0 || bh == 0 {
+        return out;
+    }
+    // Index of back ray `n` in a back row (or column), if inside the grid.
+    let inside = |n: i64, lo: i64, len: usize| {
+        let j = n - lo;
+        (0..len as i64).contains(&j).then_some(j as usize)
+    };
+    // Pass 1, along x: for every back row, the x-merged values at front columns.
+    let mut tmp = vec![[0f32; 4]; fw * bh];
+    tmp.par_chunks_mut(fw)
+        .zip(back.par_chunks(bw))
+        .for_each(|(line, src)| {
+            for (c, acc) in line.iter_mut().enumerate() {
+                let m = fgrid.lo[0] + c as i64;
+                for &(o, w) in taps {
+                    if let Some(j) = inside(2 * m + o, bgrid.lo[0], bw) {
+                        madd(acc, w, src[j]);
+                    }
+                }
+            }
+        });
+    // Pass 2, along y, row by row of the x-merged values.
+    out.par_chunks_mut(fw).enumerate().for_each(|(r, line)| {
         let m = fgrid.lo[1] + r as i64;
-        for c in 0..fw {
-            let mx = fgrid.lo[0] + c as i64;
-            let acc = &mut out[r * fw + c];
-            for &(o, w) in taps {
-                madd(acc, w, at(&tmp, &tgrid, mx, 2 * m + o));
+        for &(o, w) in taps {
+            if let Some(j) = inside(2 * m + o, bgrid.lo[1], bh) {
+                for (acc, v) in line.iter_mut().zip(&tmp[j * fw..(j + 1) * fw]) {
+                    madd(acc, w, *v);
+                }
             }
         }
-    }
+    });
     out
 }
 
@@ -82,6 +90,7 @@ pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Ve
 /// (bilinear interpolation; twice the transpose of the Bartlett merge).
 pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
     let [bw, bh] = bgrid.counts();
+    let [fw, fh] = fgrid.counts();
     let parents = |n: i64| -> [(i64, f32); 2] {
         if n.rem_euclid(2) == 0 {
             [(n.div_euclid(2), 1.0), (0, 0.0)]
@@ -90,23 +99,38 @@ pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
         }
     };
     let mut out = vec![[0f32; 4]; bw * bh];
-    for r in 0..bh {
-        let py = parents(bgrid.lo[1] + r as i64);
-        for c in 0..bw {
-            let px = parents(bgrid.lo[0] + c as i64);
-            let acc = &mut out[r * bw + c];
-            for &(my, wy) in &py {
-                if wy == 0.0 {
-                    continue;
+    if bw == 0 || fw == 0 || fh == 0 {
+        return out;
+    }
+    // Each back column's parents as indices into a front row.
+    let cols: Vec<[(usize, f32); 2]> = (0..bw)
+        .map(|c| {
+            parents(bgrid.lo[0] + c as i64).map(|(m, w)| {
+                let j = m - fgrid.lo[0];
+                if w != 0.0 && (0..fw as i64).contains(&j) {
+                    (j as usize, w)
+                } else {
+                    (0, 0.0)
                 }
-                for &(mx, wx) in &px {
+            })
+        })
+        .collect();
+    out.par_chunks_mut(bw).enumerate().for_each(|(r, line)| {
+        for (my, wy) in parents(bgrid.lo[1] + r as i64) {
+            let j = my - fgrid.lo[1];
+            if wy == 0.0 || !(0..fh as i64).contains(&j) {
+                continue;
+            }
+            let src = &front[j as usize * fw..(j as usize + 1) * fw];
+            for (acc, px) in line.iter_mut().zip(&cols) {
+                for &(i, wx) in px {
                     if wx != 0.0 {
-                        madd(acc, wx * wy, at(front, fgrid, mx, my));
+                        madd(acc, wx * wy, src[i]);
                     }
                 }
             }
         }
-    }
+    });
     out
 }
 

@@ -6,11 +6,15 @@
 
 use std::str::FromStr;
 
+use rayon::prelude::*;
+
 use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
 use crate::merge::{merge, split, Rgba};
-use crate::sampling::{sample_slice, Order, MAX_SUBSTEPS};
-use crate::slices::SliceStack;
+use crate::occupancy::Occupancy;
+use crate::render::Prepared;
+use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
+use crate::skip::{MaskSpec, SampleMask, Skips, GOLDEN_MARGIN};
 use crate::tf::Lut;
 use crate::warp::Baseplane;
 
@@ -83,6 +87,8 @@ pub struct Options {
     /// Samples per slice crossing (see [`crate::sampling`]); 1 is the
     /// paper's scheme.
     pub substeps: u32,
+    /// Empty-space skipping and culling (neither changes the image).
+    pub skips: Skips,
 }
 
 impl Default for Options {
@@ -90,6 +96,7 @@ impl Default for Options {
         Options {
             terminate: 0.99,
             substeps: DEFAULT_SUBSTEPS,
+            skips: Skips::default(),
         }
     }
 }
@@ -133,6 +140,26 @@ pub struct Stats {
     pub merges: u64,
     /// Samples per slice crossing.
     pub substeps: u32,
+    /// Slices skipped whole: empty, clipped away or behind the volume.
+    pub slices_skipped: u64,
+    /// Ray rows skipped in sampled slices: empty, clipped or terminated.
+    pub beams_skipped: u64,
+    /// Rays culled (cannot reach the image), summed over regions.
+    pub rays_culled: u64,
+    /// Regions behind the last visible slice, not run.
+    pub regions_skipped: u64,
+    /// Fraction of blocks occupied under the table (1 when not skipping).
+    pub occupied_blocks: f64,
+}
+
+impl Stats {
+    fn add(&mut self, slices: std::ops::Range<usize>, c: RegionCount) {
+        for (z, n) in slices.zip(c.samples) {
+            self.samples_per_slice[z] += n;
+        }
+        self.beams_skipped += c.beams_skipped;
+        self.slices_skipped += c.slices_skipped;
+    }
 }
 
 /// A slice-order render before the warp.
@@ -144,26 +171,68 @@ pub struct Output {
     pub stats: Stats,
 }
 
-/// Renders `view` of `stack` with `method`.
-pub fn render(
-    method: Method,
-    view: &View,
-    stack: &SliceStack,
-    lut: &Lut,
-    opts: &Options,
-) -> Result<Output> {
+/// Renders `prep` with `method`.
+pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Result<Output> {
     opts.validate()?;
+    let view = &prep.view;
     let layout = method.layout(view)?;
+    let occ = opts
+        .skips
+        .empty
+        .then(|| Occupancy::for_lut(&prep.blocks, lut));
+    let mask = SampleMask::new(
+        view,
+        &layout,
+        MaskSpec {
+            occupancy: occ.as_ref(),
+            clip: prep.clip.clone(),
+            cull: opts.skips.cull,
+            ftb: method == Method::ErFtb,
+            margin: GOLDEN_MARGIN,
+            substeps: opts.substeps,
+        },
+    );
     let mut stats = Stats {
         substeps: opts.substeps,
         regions: layout.bounds.clone(),
         samples_per_slice: vec![0; view.dims[2]],
         rays_per_region: layout.grids.iter().map(|g| g.len() as u64).collect(),
+        rays_culled: mask.culled_rays,
+        occupied_blocks: occ.as_ref().map_or(1.0, Occupancy::fraction),
         ..Stats::default()
     };
+    let order = match method {
+        Method::ErFtb => Order::FrontToBack {
+            terminate: opts.terminate,
+        },
+        _ => Order::BackToFront,
+    };
+    let pass = Pass {
+        view,
+        stack: &prep.stack,
+        lut,
+        mask: &mask,
+        order,
+        substeps: opts.substeps,
+    };
+    // Regions wholly behind the last visible slice composite nothing.
+    let runs = if opts.skips.cull {
+        let last = mask.last_visible_slice();
+        layout
+            .grids
+            .iter()
+            .rposition(|g| last.is_some_and(|z| g.slices.start <= z))
+            .map_or(1, |i| i + 1)
+    } else {
+        layout.grids.len()
+    };
+    stats.regions_skipped = (layout.grids.len() - runs) as u64;
+    for i in runs..layout.grids.len() {
+        stats.slices_skipped += layout.grids[i].slices.len() as u64;
+    }
     let base = match method {
-        Method::ErFtb => front_to_back(&layout, view, stack, lut, opts, &mut stats),
-        _ => back_to_front(&layout, view, stack, lut, opts.substeps, &mut stats),
+        Method::ErFtb => front_to_back(&layout, runs, &pass, &mut stats),
+        _ => back_to_front(&layout, runs, &pass, &mut stats),
     };
     stats.samples_total = stats.samples_per_slice.iter().sum();
     Ok(Output {
@@ -176,31 +245,13 @@ pub fn render(
 }
 
 /// Back-to-front: each region's rays composite its slices from the rear,
-/// then merge into the next region's rays.
-fn back_to_front(
-    layout: &Layout,
-    view: &View,
-    stack: &SliceStack,
-    lut: &Lut,
-    substeps: u32,
-    stats: &mut Stats,
-) -> Vec<Rgba> {
-    let k = layout.grids.len();
-    let mut buf = vec![[0f32; 4]; layout.grids[k - 1].len()];
-    for i in (0..k).rev() {
+/// then merge into the next region's rays. Only the first `runs` regions
+/// run; the rest would composite nothing.
+fn back_to_front(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -> Vec<Rgba> {
+    let mut buf = vec![[0f32; 4]; layout.grids[runs - 1].len()];
+    for i in (0..runs).rev() {
         let grid = &layout.grids[i];
-        for z in grid.slices.clone().rev() {
-            stats.samples_per_slice[z] += sample_slice(
-                view,
-                stack,
-                lut,
-                grid,
-                &mut buf,
-                z,
-                Order::BackToFront,
-                substeps,
-            );
-        }
+        stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
         if i > 0 {
             let kind = layout.merge.expect("multi-region layouts merge");
             buf = merge(kind, &buf, grid, &layout.grids[i - 1]);
@@ -217,51 +268,39 @@ fn back_to_front(
 /// inherited at the split). A ray whose children sample nothing keeps its
 /// state exactly, and with zero opacity in front the fold is the
 /// back-to-front merge cascade.
-fn front_to_back(
-    layout: &Layout,
-    view: &View,
-    stack: &SliceStack,
-    lut: &Lut,
-    opts: &Options,
-    stats: &mut Stats,
-) -> Vec<Rgba> {
-    let order = Order::FrontToBack {
-        terminate: opts.terminate,
-    };
-    let k = layout.grids.len();
-    let mut finals: Vec<Vec<Rgba>> = Vec::with_capacity(k);
-    let mut inherited: Vec<Vec<Rgba>> = Vec::with_capacity(k);
+fn front_to_back(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -> Vec<Rgba> {
+    // finals[i]: region i's rays after its last slice; inherited[i - 1]:
+    // what region i's rays received at the split (region 0 inherits zero).
+    let mut finals: Vec<Vec<Rgba>> = Vec::with_capacity(runs);
+    let mut inherited: Vec<Vec<Rgba>> = Vec::with_capacity(runs.saturating_sub(1));
     let mut buf = vec![[0f32; 4]; layout.grids[0].len()];
-    for i in 0..k {
+    for i in 0..runs {
         let grid = &layout.grids[i];
         if i > 0 {
-            buf = split(&buf, &layout.grids[i - 1], grid);
+            let next = split(&buf, &layout.grids[i - 1], grid);
+            finals.push(std::mem::replace(&mut buf, next));
             stats.merges += 1;
             inherited.push(buf.clone());
-        } else {
-            inherited.push(vec![[0f32; 4]; grid.len()]);
         }
-        for z in grid.slices.clone() {
-            stats.samples_per_slice[z] +=
-                sample_slice(view, stack, lut, grid, &mut buf, z, order, opts.substeps);
-        }
-        finals.push(buf.clone());
+        stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
     }
     let kind = layout.merge.expect("ER layouts merge");
-    let mut result = finals.pop().expect("at least one region");
-    for i in (1..k).rev() {
-        let added: Vec<Rgba> = result
-            .iter()
-            .zip(&inherited[i])
-            .map(|(r, h)| std::array::from_fn(|c| r[c] - h[c]))
-            .collect();
-        let folded = merge(kind, &added, &layout.grids[i], &layout.grids[i - 1]);
+    let mut result = buf;
+    for i in (1..runs).rev() {
+        // What region i's rays added behind their inheritance.
+        let inh = inherited.pop().expect("one inheritance per split");
+        result.par_iter_mut().zip(&inh).for_each(|(r, h)| {
+            for c in 0..4 {
+                r[c] -= h[c];
+            }
+        });
+        let folded = merge(kind, &result, &layout.grids[i], &layout.grids[i - 1]);
         result = finals.pop().expect("one final state per region");
-        for (r, f) in result.iter_mut().zip(folded) {
+        result.par_iter_mut().zip(&folded).for_each(|(r, f)| {
             for c in 0..4 {
                 r[c] += f[c];
             }
-        }
+        });
     }
     result
 }

@@ -6,6 +6,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::clip::ViewClip;
 use crate::error::{Error, Result};
 use crate::geometry::View;
 use crate::image::Image;
@@ -42,7 +43,13 @@ const MAX_RAY_BUFFER: u128 = 4 << 30;
 /// than the pixels (`q = rays_per_axis`), extended one pixel beyond the
 /// image so that every pixel's tent filter of one pixel radius sees all of
 /// its `2q x 2q` rays.
-pub fn render(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions) -> Result<Image> {
+pub fn render(
+    view: &View,
+    stack: &SliceStack,
+    clip: &ViewClip,
+    lut: &Lut,
+    opts: &RefOptions,
+) -> Result<Image> {
     let q = opts.rays_per_axis.max(1);
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let (rw, rh) = ((w + 2) * q, (h + 2) * q);
@@ -61,7 +68,7 @@ pub fn render(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions) -> 
     rays.par_chunks_mut(rw).enumerate().for_each(|(r, row)| {
         let py = ray_pos(r);
         for (c, out) in row.iter_mut().enumerate() {
-            *out = cast(view, stack, lut, opts, view.rays.dir(ray_pos(c), py));
+            *out = cast(view, stack, clip, lut, opts, view.rays.dir(ray_pos(c), py));
         }
     });
     // Tent weights of the 2q rays under one pixel, per axis.
@@ -89,7 +96,14 @@ pub fn render(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions) -> 
 }
 
 /// Casts one ray from the eye along view-space direction `dir`.
-fn cast(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions, dir: DVec3) -> [f64; 4] {
+fn cast(
+    view: &View,
+    stack: &SliceStack,
+    clip: &ViewClip,
+    lut: &Lut,
+    opts: &RefOptions,
+    dir: DVec3,
+) -> [f64; 4] {
     let e = view.eye;
     let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
     for k in 0..3 {
@@ -116,6 +130,10 @@ fn cast(view: &View, stack: &SliceStack, lut: &Lut, opts: &RefOptions, dir: DVec
     let mut acc = [0f64; 4];
     for n in 0..steps {
         let p = e + dir * (t0 + (n as f64 + 0.5) * dt);
+        // Clipping drops steps, never moves them: the same steps as unclipped.
+        if !clip.keeps(p.x, p.y, p.z) {
+            continue;
+        }
         let c = lut.lookup_f64(stack.trilinear(p.x, p.y, p.z));
         if c[3] <= 0.0 {
             continue;

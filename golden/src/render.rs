@@ -1,4 +1,5 @@
-//! One frame, end to end: volume -> classify -> slices -> method ->
+//! One frame, end to end: volume -> classify -> slices (and empty-space
+//! blocks) -> method ->
 //! baseplane -> warp -> image, or the reference ray caster for the same
 //! camera. The command line, the benchmarks and the tests all go through
 //! here, so every method sees the same view, stack and table.
@@ -6,10 +7,12 @@
 use std::str::FromStr;
 
 use crate::camera::Camera;
+use crate::clip::{check_planes, ClipPlane, ViewClip};
 use crate::error::{input, Result};
 use crate::geometry::View;
 use crate::image::Image;
 use crate::methods::{self, Method, Options, Output};
+use crate::occupancy::{MinMax, DEFAULT_BLOCK};
 use crate::reference::{self, RefOptions};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -58,25 +61,65 @@ pub fn lut_for(kind: VoxelType, tf: &TransferFunction) -> Lut {
     }
 }
 
-/// A camera placed against a volume, with the volume permuted for it.
-/// Build once per view and render any number of frames and methods.
+/// A camera placed against a volume, with the volume permuted for it, its
+/// empty-space blocks and the clip planes in view space. Build once per
+/// view and render any number of frames, tables and methods.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     /// The view geometry.
     pub view: View,
     /// The permuted, padded volume.
     pub stack: SliceStack,
+    /// Min-max blocks of the volume (index space).
+    pub blocks: MinMax,
+    /// Clip planes in view space.
+    pub clip: ViewClip,
 }
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
 
+/// How a volume is prepared for a camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrepareOptions {
+    /// Edge of the empty-space blocks in voxels.
+    pub block: usize,
+    /// Clip planes (world units).
+    pub clip: Vec<ClipPlane>,
+    /// The near plane: an eye on or inside the slab sees only slices at
+    /// least this far in front of it (voxels).
+    pub near: f64,
+}
+
+impl Default for PrepareOptions {
+    fn default() -> PrepareOptions {
+        PrepareOptions {
+            block: DEFAULT_BLOCK,
+            clip: Vec::new(),
+            near: DEFAULT_NEAR,
+        }
+    }
+}
+
 impl Prepared {
-    /// Places `camera` against `volume`.
+    /// Places `camera` against `volume` with the default options.
     pub fn new(volume: &Volume, camera: &Camera) -> Result<Prepared> {
-        let view = View::new(volume.dims(), volume.spacing(), camera, DEFAULT_NEAR)?;
+        Prepared::with(volume, camera, &PrepareOptions::default())
+    }
+
+    /// Places `camera` against `volume` with `opts`.
+    pub fn with(volume: &Volume, camera: &Camera, opts: &PrepareOptions) -> Result<Prepared> {
+        check_planes(&opts.clip)?;
+        let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
         let stack = SliceStack::new(volume, &view.axes)?;
-        Ok(Prepared { view, stack })
+        let blocks = MinMax::new(volume, opts.block)?;
+        let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
+        Ok(Prepared {
+            view,
+            stack,
+            blocks,
+            clip,
+        })
     }
 }
 
@@ -87,6 +130,20 @@ pub struct RenderOptions {
     pub slice: Options,
     /// Reference options.
     pub reference: RefOptions,
+}
+
+impl RenderOptions {
+    /// The defaults with no empty-space skipping or culling: every ray
+    /// samples every slice it crosses (for sample-count comparisons with
+    /// a renderer that does not skip).
+    pub fn unskipped() -> RenderOptions {
+        let mut o = RenderOptions::default();
+        o.slice.skips = crate::skip::Skips {
+            empty: false,
+            cull: false,
+        };
+        o
+    }
 }
 
 /// One rendered frame.
@@ -102,11 +159,11 @@ pub struct Frame {
 pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
     match tech {
         Technique::Reference => Ok(Frame {
-            image: reference::render(&prep.view, &prep.stack, lut, &opts.reference)?,
+            image: reference::render(&prep.view, &prep.stack, &prep.clip, lut, &opts.reference)?,
             slice: None,
         }),
         Technique::Slice(m) => {
-            let out = methods::render(m, &prep.view, &prep.stack, lut, &opts.slice)?;
+            let out = methods::render(m, prep, lut, &opts.slice)?;
             Ok(Frame {
                 image: warp(&prep.view, &out.baseplane),
                 slice: Some(out),

@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::geometry::{inside, Affine, RayGrid, View};
 use crate::merge::Rgba;
+use crate::skip::SampleMask;
 use crate::slices::SliceStack;
 use crate::tf::{correct_opacity, Lut};
 
@@ -27,7 +28,7 @@ pub enum Order {
     /// `C = c' + (1 - a') C`, `A = a' + (1 - a') A`.
     BackToFront,
     /// `C += (1 - A) c'`, `A += (1 - A) a'`; rays at or above `terminate`
-    /// opacity take no more samples (1.0 or more disables termination).
+    /// opacity take no more samples (1.0 disables termination).
     FrontToBack {
         /// Early-termination opacity threshold.
         terminate: f32,
@@ -48,74 +49,322 @@ pub fn slice_rays(view: &View, grid: &RayGrid, z: usize) -> ([Affine; 2], [(i64,
     (p, r)
 }
 
-/// Samples slice `z` for every ray of `grid` in `buf` with `substeps`
-/// samples per crossing and composites in `order`; returns the number of
-/// ray crossings sampled.
-#[allow(clippy::too_many_arguments)]
-pub fn sample_slice(
-    view: &View,
-    stack: &SliceStack,
-    lut: &Lut,
-    grid: &RayGrid,
-    buf: &mut [Rgba],
+/// What every slice of one frame shares.
+#[derive(Clone, Copy)]
+pub struct Pass<'a> {
+    /// The view.
+    pub view: &'a View,
+    /// The permuted volume.
+    pub stack: &'a SliceStack,
+    /// The classification table.
+    pub lut: &'a Lut,
+    /// Which rays sample which slices.
+    pub mask: &'a SampleMask,
+    /// Compositing direction.
+    pub order: Order,
+    /// Samples per slice crossing.
+    pub substeps: u32,
+}
+
+/// What sampling one region did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RegionCount {
+    /// Ray crossings sampled per slice of the region (`grid.slices` order).
+    pub samples: Vec<u64>,
+    /// Ray rows (beams) of sampled slices that sampled nothing because
+    /// their blocks are empty, their rays are clipped or all their rays
+    /// have terminated.
+    pub beams_skipped: u64,
+    /// Slices skipped whole (empty or clipped away).
+    pub slices_skipped: u64,
+}
+
+/// One slice of a region as every row sees it.
+struct SliceGeom<'a> {
     z: usize,
-    order: Order,
-    substeps: u32,
-) -> u64 {
-    let ([px, py], [(x0, x1), (y0, y1)]) = slice_rays(view, grid, z);
-    if x0 > x1 || y0 > y1 {
-        return 0;
+    px: Affine,
+    py: Affine,
+    /// Rays sampling the slice, per axis (after culling).
+    x: (i64, i64),
+    y: (i64, i64),
+    data: &'a [f32],
+    visible: bool,
+}
+
+/// The first live ray at or after `i` in one row's "next live ray" links
+/// (path compression: a row visits only live rays, and a row whose rays
+/// have all stopped costs one lookup).
+#[inline]
+fn find(next: &mut [u32], mut i: usize) -> usize {
+    let mut r = i;
+    while next[r] as usize != r {
+        r = next[r] as usize;
     }
+    while next[i] as usize != r {
+        let n = next[i] as usize;
+        next[i] = r as u32;
+        i = n;
+    }
+    r
+}
+
+/// Samples every slice of region `region` (`grid`, ray states in `buf`)
+/// for every ray the pass's mask keeps, with `substeps` samples per
+/// crossing, compositing in `order` (back to front: the region's slices
+/// from the rear). Rays of one region never meet until the region ends,
+/// so each ray row walks all the region's slices on its own: one parallel
+/// pass per region, and a row's rays stay in cache. Front to back, a ray
+/// at or above the termination threshold takes no more samples.
+pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba]) -> RegionCount {
+    let Pass {
+        view,
+        stack,
+        mask,
+        order,
+        ..
+    } = *pass;
+    let zs: Vec<usize> = match order {
+        Order::BackToFront => grid.slices.clone().rev().collect(),
+        Order::FrontToBack { .. } => grid.slices.clone().collect(),
+    };
+    let geo: Vec<SliceGeom> = zs
+        .iter()
+        .map(|&z| {
+            let ([px, py], range) = slice_rays(view, grid, z);
+            let [x, y] = mask.rays(region, range);
+            SliceGeom {
+                z,
+                px,
+                py,
+                x,
+                y,
+                data: stack.slice(z),
+                visible: mask.slice_visible(z),
+            }
+        })
+        .collect();
+    let n = zs.len();
+    let mut count = RegionCount {
+        samples: vec![0; grid.slices.len()],
+        slices_skipped: geo.iter().filter(|g| !g.visible).count() as u64,
+        beams_skipped: 0,
+    };
     let w = grid.counts()[0];
-    let slice = stack.slice(z);
-    let rows = (y0 - grid.lo[1]) as usize..(y1 - grid.lo[1] + 1) as usize;
-    let inv = 1.0 / (grid.z_ref + view.d);
-    let [sx, sy, sz] = view.spacing.map(|s| s as f32);
-    buf[rows.start * w..rows.end * w]
-        .par_chunks_mut(w)
-        .enumerate()
-        .map(|(r, row)| {
-            let my = y0 + r as i64;
-            let y = (py.a + my as f64 * py.t) as f32;
-            let slope_y = ((grid.phi[1] + my as f64 - view.eye.y) * inv) as f32;
-            let dy = (slope_y * sy).powi(2) + sz * sz;
-            let mut taken = 0u64;
-            for mx in x0..=x1 {
-                let ray = &mut row[(mx - grid.lo[0]) as usize];
-                if let Order::FrontToBack { terminate } = order {
-                    if ray[3] >= terminate {
-                        continue;
-                    }
+    if w == 0 || geo.iter().all(|g| !g.visible) {
+        return count;
+    }
+    // A threshold of 1 disables termination: even an opaque ray samples on
+    // (it composites nothing more), as in the pipeline.
+    let terminate = match order {
+        Order::FrontToBack { terminate } if terminate < 1.0 => terminate,
+        _ => f32::INFINITY,
+    };
+    let links = terminate.is_finite();
+    let at = |m: i64| (m - grid.lo[0]) as usize;
+    let row_pass = |acc: &mut RowScratch, r: usize, row: &mut [Rgba]| {
+        let RowScratch {
+            counts,
+            beams,
+            runs,
+            next,
+            ds,
+        } = acc;
+        let my = grid.lo[1] + r as i64;
+        ds.clear();
+        if links {
+            next.clear();
+            next.extend(row.iter().enumerate().map(|(i, ray)| {
+                if ray[3] >= terminate {
+                    i as u32 + 1
+                } else {
+                    i as u32
                 }
-                taken += 1;
-                let x = (px.a + mx as f64 * px.t) as f32;
-                let slope_x = ((grid.phi[0] + mx as f64 - view.eye.x) * inv) as f32;
-                // Path length per slice step, needed only for visible samples.
-                let ds = || ((slope_x * sx).powi(2) + dy).sqrt();
-                if substeps == 1 {
-                    let c = lut.lookup(stack.bilinear(slice, x, y));
-                    if c[3] > 0.0 {
-                        composite(ray, c, ds(), order);
-                    }
+            }));
+            next.push(w as u32);
+        }
+        for (s, g) in geo.iter().enumerate() {
+            if !g.visible || my < g.y.0 || my > g.y.1 || g.x.0 > g.x.1 {
+                continue;
+            }
+            let mut first = g.x.0;
+            if links {
+                // A row whose rays in range have all stopped is skipped.
+                let f = find(next, at(g.x.0));
+                if f > at(g.x.1) {
+                    *beams += 1;
                     continue;
                 }
-                for j in 0..substeps {
-                    // Back-to-front walks the substeps from the rear.
-                    let j = match order {
-                        Order::BackToFront => substeps - 1 - j,
-                        Order::FrontToBack { .. } => j,
-                    };
-                    let o = (j as f32 + 0.5) / substeps as f32 - 0.5;
-                    let s = stack.trilinear_f32(x + o * slope_x, y + o * slope_y, z as f32 + o);
-                    let c = lut.lookup(s);
-                    if c[3] > 0.0 {
-                        composite(ray, c, ds() / substeps as f32, order);
+                first = grid.lo[0] + f as i64;
+            }
+            let yf = g.py.a + my as f64 * g.py.t;
+            mask.row_runs(g.z, g.px, yf, (first, g.x.1), runs);
+            if runs.is_empty() {
+                *beams += 1;
+                continue;
+            }
+            if ds.is_empty() {
+                // A ray's path length per slice is constant over a region.
+                ds.extend((0..w).map(|c| RayRow::path(pass, grid, grid.lo[0] + c as i64, my)));
+            }
+            let ray_row = RayRow::new(pass, grid, g, my, yf, ds);
+            let mut taken = 0u64;
+            for &(m0, m1) in runs.iter() {
+                if !links {
+                    for mx in m0..=m1 {
+                        ray_row.sample(&mut row[at(mx)], mx);
                     }
+                    taken += (m1 - m0 + 1) as u64;
+                    continue;
+                }
+                let mut i = find(next, at(m0));
+                while i <= at(m1) {
+                    let ray = &mut row[i];
+                    ray_row.sample(ray, grid.lo[0] + i as i64);
+                    taken += 1;
+                    if ray[3] >= terminate {
+                        next[i] = i as u32 + 1;
+                    }
+                    i = find(next, i + 1);
                 }
             }
-            taken
-        })
-        .sum()
+            counts[s] += taken;
+        }
+    };
+    let (per_slice, beams) = buf
+        .par_chunks_mut(w)
+        .enumerate()
+        .fold(
+            || RowScratch {
+                counts: vec![0u64; n],
+                beams: 0,
+                runs: Vec::new(),
+                next: Vec::new(),
+                ds: Vec::new(),
+            },
+            |mut acc, (r, row)| {
+                row_pass(&mut acc, r, row);
+                acc
+            },
+        )
+        .map(|a| (a.counts, a.beams))
+        .reduce(
+            || (vec![0u64; n], 0),
+            |(mut a, x), (b, y)| {
+                a.iter_mut().zip(b).for_each(|(a, b)| *a += b);
+                (a, x + y)
+            },
+        );
+    for (g, c) in geo.iter().zip(per_slice) {
+        count.samples[g.z - grid.slices.start] = c;
+    }
+    count.beams_skipped = beams;
+    count
+}
+
+/// One worker's counts and scratch while it walks ray rows.
+struct RowScratch {
+    /// Samples per slice of the region.
+    counts: Vec<u64>,
+    /// Beams skipped.
+    beams: u64,
+    /// The current row's runs.
+    runs: Vec<(i64, i64)>,
+    /// The current row's "next live ray" links.
+    next: Vec<u32>,
+    /// The current row's path lengths per slice step, per ray.
+    ds: Vec<f32>,
+}
+
+/// One ray row crossing one slice: what its rays share.
+struct RayRow<'a> {
+    pass: &'a Pass<'a>,
+    grid: &'a RayGrid,
+    z: usize,
+    px: Affine,
+    data: &'a [f32],
+    y: f32,
+    slope_y: f32,
+    inv: f64,
+    /// Path length per slice step of each ray of the row.
+    ds: &'a [f32],
+}
+
+impl<'a> RayRow<'a> {
+    fn new(
+        pass: &'a Pass<'a>,
+        grid: &'a RayGrid,
+        g: &SliceGeom<'a>,
+        my: i64,
+        yf: f64,
+        ds: &'a [f32],
+    ) -> RayRow<'a> {
+        let view = pass.view;
+        let inv = 1.0 / (grid.z_ref + view.d);
+        let slope_y = ((grid.phi[1] + my as f64 - view.eye.y) * inv) as f32;
+        RayRow {
+            pass,
+            grid,
+            z: g.z,
+            px: g.px,
+            data: g.data,
+            y: yf as f32,
+            slope_y,
+            inv,
+            ds,
+        }
+    }
+
+    /// Ray `(mx, my)`'s world path length per slice step (its slopes are
+    /// constant over the region).
+    fn path(pass: &Pass, grid: &RayGrid, mx: i64, my: i64) -> f32 {
+        let view = pass.view;
+        let inv = 1.0 / (grid.z_ref + view.d);
+        let [sx, sy, sz] = view.spacing.map(|s| s as f32);
+        let slope_x = ((grid.phi[0] + mx as f64 - view.eye.x) * inv) as f32;
+        let slope_y = ((grid.phi[1] + my as f64 - view.eye.y) * inv) as f32;
+        ((slope_x * sx).powi(2) + ((slope_y * sy).powi(2) + sz * sz)).sqrt()
+    }
+
+    /// Ray `mx`'s samples in this slice, composited into `ray`.
+    #[inline(always)]
+    fn sample(&self, ray: &mut Rgba, mx: i64) {
+        let Pass {
+            view,
+            stack,
+            lut,
+            mask,
+            order,
+            substeps,
+        } = *self.pass;
+        let (y, slope_y, z) = (self.y, self.slope_y, self.z);
+        let x = (self.px.a + mx as f64 * self.px.t) as f32;
+        let ds = self.ds[(mx - self.grid.lo[0]) as usize];
+        if substeps == 1 {
+            let c = lut.lookup(stack.bilinear(self.data, x, y));
+            if c[3] > 0.0 {
+                composite(ray, c, ds, order);
+            }
+            return;
+        }
+        let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
+        let clip = mask.clip();
+        for j in 0..substeps {
+            // Back-to-front walks the substeps from the rear.
+            let j = match order {
+                Order::BackToFront => substeps - 1 - j,
+                Order::FrontToBack { .. } => j,
+            };
+            let o = (j as f32 + 0.5) / substeps as f32 - 0.5;
+            let p = [x + o * slope_x, y + o * slope_y, z as f32 + o];
+            if !clip.is_empty() && !clip.keeps(p[0].into(), p[1].into(), p[2].into()) {
+                continue;
+            }
+            let c = lut.lookup(stack.trilinear_f32(p[0], p[1], p[2]));
+            if c[3] > 0.0 {
+                composite(ray, c, ds / substeps as f32, order);
+            }
+        }
+    }
 }
 
 /// Composites one classified sample `c` over a path of length `ds`.

@@ -189,6 +189,12 @@ impl Lut {
         std::array::from_fn(|k| a[k] as f64 + t * (b[k] as f64 - a[k] as f64))
     }
 
+    /// The entries with non-zero opacity, for range queries of the
+    /// empty-space map ([`crate::occupancy`]).
+    pub fn visible_ranges(&self) -> crate::occupancy::VisibleEntries {
+        crate::occupancy::VisibleEntries::new(self.rgba.iter().map(|e| e[3]), self.per_scalar)
+    }
+
     /// True when every entry has zero opacity (nothing can be seen).
     pub fn is_transparent(&self) -> bool {
         self.rgba.iter().all(|e| e[3] == 0.0)

@@ -21,18 +21,52 @@
 //!   pipelined behind the x pass).
 //! - **readout**: each PE streams its region-0 rays to the host, one per
 //!   cycle.
+//!
+//! Front to back (`order = "front-to-back"`, mirroring golden `er-ftb`),
+//! the same stages walk the regions from the front, with two more:
+//! - **sample** composites `C += (1 - A) a c`, `A += (1 - A) a`, and sets a
+//!   ray's termination flag once its opacity word reaches the threshold. A
+//!   row runs for as many cycles as the busiest PE has *live* rays in it;
+//!   terminated rays are skipped without a cycle, and a row in which every
+//!   PE's rays are terminated costs nothing (the PEs report their live
+//!   counts at the start of a row).
+//! - **split** (at each region boundary, after a migration to the rays'
+//!   positions on the boundary plane, one voxel apart there): the bilinear
+//!   split, the merge's adjoint, x pass then y pass through a line buffer;
+//!   a child is computed by the PE holding its parent `floor(n / 2)`, the
+//!   other parent comes over the port. Each PE keeps its parents' final
+//!   states for the fold, and each child carries what it inherited.
+//! - **fold** (after the last region, boundary by boundary from the back):
+//!   the back region's rays go to the PE that kept their split parent's
+//!   final state; each PE forms the differences `result - inherited`, runs
+//!   them through the Bartlett merge (x pass, port exchange, y pass, as the
+//!   merge) and adds its kept final states: `result_(i-1) = final_(i-1) +
+//!   merge(result_i - inherited_i)`. The results live in `merge` words
+//!   (they can exceed 1), so the front-to-back baseplane's raw words are
+//!   `merge` words ([`Frame::raw_format`]).
+//!
+//! Memory this costs (not in `crate::cost`'s inventory, which sizes the
+//! back-to-front PE): the compositing buffer twice as wide (accumulators
+//! plus inherited state, and a flag bit), and the kept final states, about
+//! `(W + 1)(ny + 1)` rays per region boundary per PE.
 
 use golden::geometry::View;
 use golden::volume::Volume;
 use golden::warp::Baseplane;
 use waves::{ScopePath, SignalId, Tracer};
 
-use crate::config::PipelineConfig;
+use std::sync::Arc;
+
+use crate::config::{Order, PipelineConfig};
 use crate::datapath::{Acc, Datapath};
-use crate::fixed::{Fx, QuantStats, Wide};
+use crate::fixed::{Format, Fx, QuantStats, Wide};
 use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
-use crate::pe::{Pe, PeCounters, Ports, RayColumn, RowBus, SampleBus, StepError};
+use crate::pe::{
+    FtbState, Pe, PeCounters, Ports, RayColumn, RowBus, RowRuns, SampleBus, StepError,
+};
+use crate::skip::SkipCounts;
 use crate::tables::Tables;
+use golden::skip::SampleMask;
 
 /// Cycles spent in each stage of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -45,6 +79,21 @@ pub struct StageCycles {
     pub merge: u64,
     /// Baseplane readout.
     pub readout: u64,
+    /// Front to back: bilinear splits (left out of the JSON when zero, so
+    /// a back-to-front frame reports the four stages it has).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub split: u64,
+    /// Front to back: the fold (merges of differences and adds).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub fold: u64,
+    /// Slices skipped whole by the controller, one cycle each (left out of
+    /// the JSON when zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub skip: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 /// A frame's results.
@@ -52,8 +101,15 @@ pub struct StageCycles {
 pub struct Frame {
     /// The baseplane in float (accumulator words scaled), for the warp.
     pub baseplane: Baseplane,
-    /// The baseplane's raw accumulator words, row-major, R G B A.
+    /// The baseplane's raw words, row-major, R G B A, in
+    /// [`Frame::raw_format`].
     pub raw: Vec<[i64; 4]>,
+    /// Formats of the raw words (colour, opacity): the accumulators back to
+    /// front; front to back the fold's `merge` words (the accumulators when
+    /// there is one region and so no fold).
+    pub raw_format: [Format; 2],
+    /// The compositing order the frame ran in.
+    pub order: Order,
     /// Cycles per frame.
     pub cycles: u64,
     /// Cycles per stage.
@@ -70,6 +126,16 @@ pub struct Frame {
     pub merges: u64,
     /// Quantisation events over the whole datapath.
     pub quant: QuantStats,
+    /// Front to back: samples not taken because their ray was terminated.
+    pub terminated_samples: u64,
+    /// Sampling cycles saved within sampled slices by termination and by
+    /// the rows' runs (empty space, clipping), against the same slices with
+    /// every active ray sampled (rows as long as the busiest PE's active
+    /// rays, and each slice's prologue). Skipped slices and regions save
+    /// more; compare with a run without skipping for the total.
+    pub cycles_saved: u64,
+    /// What the controller skipped.
+    pub skipped: SkipCounts,
 }
 
 impl Frame {
@@ -113,6 +179,8 @@ struct PeSignals {
     corrected: SignalId,
     acc: [SignalId; 4],
     rays_sent: SignalId,
+    /// Front to back only (back-to-front waveforms stay as they were).
+    terminated: Option<SignalId>,
 }
 
 /// The probes of a run.
@@ -152,6 +220,11 @@ impl Probes {
                     tracer.register(&s, "acc_a", w(cfg.accum_alpha))?,
                 ],
                 rays_sent: tracer.register(&s, "rays_sent", 32)?,
+                terminated: if cfg.order == Order::FrontToBack {
+                    Some(tracer.register(&s, "terminated", 1)?)
+                } else {
+                    None
+                },
             });
         }
         Ok(Probes {
@@ -164,7 +237,8 @@ impl Probes {
     }
 }
 
-/// Stage codes on `top.ctrl.stage`.
+/// Stage codes on `top.ctrl.stage` (front to back, the split and the fold
+/// show as merge: both are row-granular boundary passes).
 const STAGE_SAMPLE: u64 = 0;
 const STAGE_MIGRATE: u64 = 1;
 const STAGE_MERGE: u64 = 2;
@@ -172,7 +246,8 @@ const STAGE_READOUT: u64 = 3;
 
 /// The PE array for one frame.
 pub struct Array {
-    dp: Datapath,
+    /// Shared so that owner functions can borrow it while the PEs step.
+    dp: Arc<Datapath>,
     pes: Vec<Pe>,
     ports: Vec<Ports>,
     spare: Vec<Ports>,
@@ -186,6 +261,19 @@ pub struct Array {
     host_stats: QuantStats,
     order: Vec<usize>,
     clocked: bool,
+    cycles_saved: u64,
+    /// What the controller skips, when it skips (see [`Array::set_skipping`]).
+    skip: Option<Skipper>,
+    /// The current slice's runs per row (reused).
+    runs: RowRuns,
+    run_tmp: Vec<(i64, i64)>,
+    skipped: SkipCounts,
+}
+
+/// The controller's skipping state for one frame.
+struct Skipper {
+    mask: SampleMask,
+    view: View,
 }
 
 impl Array {
@@ -204,7 +292,7 @@ impl Array {
             cfg.check_extent(n as u32)?;
         }
         let tables = Tables::new(cfg, lut)?;
-        let dp = Datapath::new(*cfg, tables);
+        let dp = Arc::new(Datapath::new(*cfg, tables));
         let mut host_stats = QuantStats::default();
         let words = voxel_words(cfg, volume, view, &mut host_stats);
         let p = usize::from(cfg.pes);
@@ -237,6 +325,69 @@ impl Array {
             host_stats,
             order: (0..p).collect(),
             clocked: false,
+            cycles_saved: 0,
+            skip: None,
+            runs: RowRuns::default(),
+            run_tmp: Vec::new(),
+            skipped: SkipCounts::default(),
+        })
+    }
+
+    /// Skips what `mask` (golden's planner over this pipeline's occupancy
+    /// memory, see [`crate::skip`]) leaves out of a frame of `view`: empty
+    /// and clipped-away slices cost one cycle each (the controller reads
+    /// the slice's summary bit and moves on, without migrating), rows and
+    /// runs of rays outside the mask cost nothing (the controller plans a
+    /// row's runs while the previous row samples; the PEs compare ray
+    /// indices with the broadcast runs), culled rays are held and migrate
+    /// but never sample, and regions behind the last visible slice do not
+    /// run.
+    pub fn set_skipping(&mut self, mask: SampleMask, counts: SkipCounts, view: &View) {
+        self.skipped = SkipCounts {
+            rays_culled: mask.culled_rays,
+            ..counts
+        };
+        self.skip = Some(Skipper {
+            mask,
+            view: view.clone(),
+        });
+    }
+
+    /// Regions to run, front ones first: all, or up to the one holding the
+    /// last visible slice (the rest would composite nothing).
+    fn regions_to_run(&mut self, plan: &FramePlan) -> usize {
+        let k = plan.regions.len();
+        let Some(sk) = &self.skip else { return k };
+        let last = sk.mask.last_visible_slice();
+        let runs = plan
+            .regions
+            .iter()
+            .rposition(|r| last.is_some_and(|z| r.grid.slices.start <= z))
+            .map_or(1, |i| i + 1);
+        self.skipped.regions = (k - runs) as u64;
+        self.skipped.slices += plan.regions[runs..]
+            .iter()
+            .map(|r| r.slices.len() as u64)
+            .sum::<u64>();
+        runs
+    }
+
+    /// The slice as the controller runs it: `None` when skipped whole
+    /// (one cycle), else with its ray ranges narrowed by culling.
+    fn visit(&mut self, i: usize, slice: &SlicePlan) -> Option<SlicePlan> {
+        let Some(sk) = &self.skip else {
+            return Some(*slice);
+        };
+        if !sk.mask.slice_visible(slice.z) {
+            self.skipped.slices += 1;
+            self.cycle += 1;
+            self.stages.skip += 1;
+            self.trace(STAGE_SAMPLE, slice.z, 0);
+            return None;
+        }
+        Some(SlicePlan {
+            range: sk.mask.rays(i, slice.range),
+            ..*slice
         })
     }
 
@@ -254,10 +405,11 @@ impl Array {
         self.order = order;
     }
 
-    /// Who holds which ray in `slice`.
-    fn owners<'a>(&'a self, slice: &'a SlicePlan) -> Owners<'a> {
+    /// Who holds which ray in `slice`, computed with `dp` (the array's
+    /// datapath, borrowed apart from the array so the PEs can step).
+    fn owners<'a>(&self, dp: &'a Datapath, slice: &'a SlicePlan) -> Owners<'a> {
         Owners {
-            dp: &self.dp,
+            dp,
             slice,
             nx: self.nx,
             block: self.block,
@@ -265,11 +417,14 @@ impl Array {
         }
     }
 
-    /// Runs a frame of `view`.
+    /// Runs a frame of `view`, in the configuration's compositing order.
     pub fn run(mut self, view: &View) -> Result<Frame, RunError> {
         let plan: FramePlan = plan(&self.dp.cfg, view)?;
         self.host_stats.merge(&plan.stats);
-        let k = plan.regions.len();
+        if self.dp.cfg.order == Order::FrontToBack {
+            return self.run_ftb(&plan, view);
+        }
+        let k = self.regions_to_run(&plan);
         let mut merges = 0;
         for i in (0..k).rev() {
             let region = &plan.regions[i];
@@ -277,8 +432,11 @@ impl Array {
                 self.distribute(region);
             }
             for slice in &region.slices {
-                self.migrate(slice)?;
-                self.sample(region, slice)?;
+                let Some(slice) = self.visit(i, slice) else {
+                    continue;
+                };
+                self.migrate(&slice)?;
+                self.sample(region, &slice)?;
             }
             if i > 0 {
                 // Rays merge on the boundary plane: first bring each to the
@@ -291,8 +449,69 @@ impl Array {
                 merges += 1;
             }
         }
-        let (base, raw) = self.readout(&plan.regions[0], view);
-        self.finish(base, raw, merges)
+        let fmt = [self.dp.cfg.accum_color, self.dp.cfg.accum_alpha];
+        let (base, raw) = self.readout(&plan.regions[0], view, fmt);
+        self.finish(base, raw, fmt, merges)
+    }
+
+    /// Front to back: regions from the front, a split at each boundary,
+    /// then the fold from the back.
+    fn run_ftb(mut self, plan: &FramePlan, view: &View) -> Result<Frame, RunError> {
+        let k = self.regions_to_run(plan);
+        self.distribute_ftb(&plan.regions[0]);
+        let mut merges = 0;
+        for i in 0..k {
+            let region = &plan.regions[i];
+            if i > 0 {
+                // Parents split on the boundary plane, one voxel apart:
+                // every PE in their span holds some, so each child's second
+                // parent is held or one link away.
+                let front = &plan.regions[i - 1];
+                self.migrate(&front.rear)?;
+                self.split(front, region)?;
+                merges += 1;
+            }
+            for slice in region.slices.iter().rev() {
+                let Some(slice) = self.visit(i, slice) else {
+                    continue;
+                };
+                self.migrate(&slice)?;
+                self.sample(region, &slice)?;
+            }
+        }
+        let acc = [self.dp.cfg.accum_color, self.dp.cfg.accum_alpha];
+        let merge = [self.dp.cfg.merge, self.dp.cfg.merge];
+        let mut fmt = acc;
+        for i in (1..k).rev() {
+            let (back, front) = (&plan.regions[i], &plan.regions[i - 1]);
+            // Each back ray goes to the PE that kept its split parent's
+            // final state, where its difference joins the merge.
+            let dp = Arc::clone(&self.dp);
+            let owners = self.owners(&dp, &front.rear);
+            let (lo, hi) = (front.grid.lo[0], front.grid.hi[0]);
+            self.migrate_by(front.rear.z, |n| owners.of(clamp(n.div_euclid(2), lo, hi)))?;
+            self.fold(back, front, fmt)?;
+            fmt = merge;
+        }
+        let (base, raw) = self.readout(&plan.regions[0], view, fmt);
+        self.finish(base, raw, fmt, merges)
+    }
+
+    /// Front to back: creates region 0's (empty, live) rays in the PEs
+    /// that sample them first.
+    fn distribute_ftb(&mut self, region: &RegionPlan) {
+        let g = &region.grid;
+        let rows = g.counts()[1];
+        let dp = Arc::clone(&self.dp);
+        let first = region.slices.last().map(|s| self.owners(&dp, s));
+        for mx in g.lo[0]..=g.hi[0] {
+            let k = first.as_ref().map_or(0, |o| o.of(mx));
+            self.pes[k].rays.push_back(RayColumn {
+                mx,
+                acc: vec![Acc::default(); rows],
+                ftb: vec![FtbState::default(); rows],
+            });
+        }
     }
 
     /// Creates the last region's (empty) rays in the PEs that sample them
@@ -300,15 +519,14 @@ impl Array {
     fn distribute(&mut self, region: &RegionPlan) {
         let g = &region.grid;
         let rows = g.counts()[1];
-        let first = region.slices.first();
+        let dp = Arc::clone(&self.dp);
+        let first = region.slices.first().map(|s| self.owners(&dp, s));
         for mx in g.lo[0]..=g.hi[0] {
-            let k = match first {
-                Some(s) => self.owners(s).of(mx),
-                None => 0,
-            };
+            let k = first.as_ref().map_or(0, |o| o.of(mx));
             self.pes[k].rays.push_back(RayColumn {
                 mx,
                 acc: vec![Acc::default(); rows],
+                ftb: Vec::new(),
             });
         }
     }
@@ -340,6 +558,9 @@ fn trace(probes: &mut Option<Probes>, pes: &[Pe], cycle: u64, stage: u64, z: usi
             for ch in 0..4 {
                 s.set(sig.acc[ch], l.acc.raw[ch] as u64);
             }
+            if let Some(t) = sig.terminated {
+                s.set(t, u64::from(busy && l.terminated));
+            }
         }
     });
 }
@@ -347,15 +568,16 @@ fn trace(probes: &mut Option<Probes>, pes: &[Pe], cycle: u64, stage: u64, z: usi
 impl Array {
     /// Migration before `slice`: clocks until every ray sits in its owner.
     fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
-        let owners = Owners {
-            dp: &self.dp,
-            slice,
-            nx: self.nx,
-            block: self.block,
-            pes: self.pes.len(),
-        };
+        let dp = Arc::clone(&self.dp);
+        let owners = self.owners(&dp, slice);
+        self.migrate_by(slice.z, |mx| owners.of(mx))
+    }
+
+    /// Migration to the owners `owner` gives (traced at slice `z`): clocks
+    /// until every ray sits in its owner.
+    fn migrate_by(&mut self, z: usize, owner: impl Fn(i64) -> usize) -> Result<(), RunError> {
         for pe in &mut self.pes {
-            pe.plan_moves(|mx| owners.of(mx));
+            pe.plan_moves(&owner);
         }
         let p = self.pes.len();
         let mut cycles = 0u64;
@@ -369,19 +591,12 @@ impl Array {
             for &k in &self.order {
                 let from_left = if k > 0 { &self.ports[k - 1] } else { &none };
                 let from_right = if k + 1 < p { &self.ports[k + 1] } else { &none };
-                self.spare[k] = self.pes[k].migrate_step(from_left, from_right, |mx| owners.of(mx));
+                self.spare[k] = self.pes[k].migrate_step(from_left, from_right, &owner);
             }
             std::mem::swap(&mut self.ports, &mut self.spare);
             self.cycle += 1;
             cycles += 1;
-            trace(
-                &mut self.probes,
-                &self.pes,
-                self.cycle,
-                STAGE_MIGRATE,
-                slice.z,
-                0,
-            );
+            trace(&mut self.probes, &self.pes, self.cycle, STAGE_MIGRATE, z, 0);
         }
         self.stages.migrate += cycles;
         Ok(())
@@ -400,16 +615,71 @@ impl Array {
             .map(|pe| pe.select(slice))
             .max()
             .unwrap_or(0);
-        let counts: u64 = self.pes.iter().map(|pe| pe.active.1 as u64).sum();
-        self.samples_per_slice[slice.z] += counts * (yhi - ylo + 1) as u64;
-        if row_len == 0 {
+        let nrows = (yhi - ylo + 1) as usize;
+        let glo = region.grid.lo[1];
+        let p = self.pes.len();
+        let ftb = self.dp.cfg.order == Order::FrontToBack;
+        // The controller's runs per row: the whole slice range, or what the
+        // occupancy memory and the clip planes leave (golden's planner, on
+        // the exact geometry the host holds).
+        let mut runs = std::mem::take(&mut self.runs);
+        runs.clear();
+        match &self.skip {
+            None => (0..nrows).for_each(|_| runs.push_row(&[(xlo, xhi)])),
+            Some(sk) => {
+                let ([px, py], _) = golden::sampling::slice_rays(&sk.view, &region.grid, slice.z);
+                let mut tmp = std::mem::take(&mut self.run_tmp);
+                for my in ylo..=yhi {
+                    let y = py.a + my as f64 * py.t;
+                    sk.mask.row_runs(slice.z, px, y, (xlo, xhi), &mut tmp);
+                    runs.push_row(&tmp);
+                }
+                self.run_tmp = tmp;
+            }
+        }
+        // Cycles of each row: as many as the busiest PE has scheduled rays
+        // (in the runs, and front to back live).
+        let mut taken = 0u64;
+        let lens: Vec<usize> = (0..nrows)
+            .map(|r| {
+                let row = (ylo + r as i64 - glo) as usize;
+                self.pes.iter().fold(0, |most, pe| {
+                    let n = pe.count_in_row(row, runs.row(r), ftb);
+                    taken += n as u64;
+                    most.max(n)
+                })
+            })
+            .collect();
+        self.samples_per_slice[slice.z] += taken;
+        self.skipped.beams += lens.iter().filter(|&&n| n == 0).count() as u64;
+        let full = if row_len == 0 {
+            0
+        } else {
+            u64::from(p > 1) + (nrows * row_len) as u64
+        };
+        let sum: usize = lens.iter().sum();
+        let took = if sum == 0 {
+            0
+        } else {
+            u64::from(p > 1) + sum as u64
+        };
+        self.cycles_saved += full - took;
+        if sum == 0 {
+            // Nothing to sample (empty, clipped or terminated): no cycle, no
+            // read; the schedules only count the terminated rays.
+            for r in 0..nrows {
+                let row = (ylo + r as i64 - glo) as usize;
+                for pe in &mut self.pes {
+                    pe.begin_row(row, runs.row(r), ftb);
+                }
+            }
+            self.runs = runs;
             return Ok(());
         }
         let ny = self.ny;
-        let glo = region.grid.lo[1];
         let dp = &self.dp;
         let mut st = QuantStats::default();
-        let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
+        let mut rows = Vec::with_capacity(nrows);
         for my in ylo..=yhi {
             let y = dp.position(slice.a[1], slice.t[1], my, &mut st)?;
             let (y0, wy) = dp.address(y, &mut st);
@@ -430,14 +700,18 @@ impl Array {
             ));
         }
         self.host_stats.merge(&st);
-        let p = self.pes.len();
         if self.probes.is_none() && !self.clocked {
-            return self.sample_whole(region, slice, &rows, row_len);
+            let r = self.sample_whole(region, slice, &rows, &runs, &lens);
+            self.runs = runs;
+            return r;
         }
+        // The rows that take cycles, and for each the next one (whose edge
+        // voxels the PEs drive during its last cycle).
+        let sampled: Vec<usize> = (0..nrows).filter(|&r| lens[r] > 0).collect();
         // Prologue: one cycle in which every PE only drives its edge voxels
         // for the first row (the previous stage's ports carried rays). A
         // lone PE has no neighbour to wait for.
-        let (my0, y_first, sy0) = rows[0];
+        let (my0, y_first, sy0) = rows[sampled[0]];
         let setup = SampleBus {
             slice,
             my: my0,
@@ -459,17 +733,31 @@ impl Array {
             self.stages.sample += 1;
             self.trace(STAGE_SAMPLE, slice.z, setup.row);
         }
+        let mut following = sampled.iter().skip(1);
         for (r, &(my, y, sy)) in rows.iter().enumerate() {
-            for cycle in 0..row_len {
-                let next = if cycle + 1 < row_len {
+            let row = (my - glo) as usize;
+            // Each PE schedules its rays in the row's runs (front to back
+            // its live ones, counting the rest).
+            for pe in &mut self.pes {
+                pe.begin_row(row, runs.row(r), ftb);
+            }
+            let len = lens[r];
+            if len == 0 {
+                continue;
+            }
+            let after = following
+                .next()
+                .map(|&n| (slice.z, rows[n].1 .0, rows[n].1 .1));
+            for cycle in 0..len {
+                let next = if cycle + 1 < len {
                     Some((slice.z, y.0, y.1))
                 } else {
-                    rows.get(r + 1).map(|n| (slice.z, n.1 .0, n.1 .1))
+                    after
                 };
                 let bus = SampleBus {
                     slice,
                     my,
-                    row: (my - glo) as usize,
+                    row,
                     y,
                     cycle,
                     slope_yz: (sy, region.slope_z),
@@ -484,10 +772,11 @@ impl Array {
                 }
                 std::mem::swap(&mut self.ports, &mut self.spare);
                 self.cycle += 1;
-                self.trace(STAGE_SAMPLE, slice.z, (my - glo) as usize);
+                self.trace(STAGE_SAMPLE, slice.z, row);
             }
-            self.stages.sample += row_len as u64;
+            self.stages.sample += len as u64;
         }
+        self.runs = runs;
         Ok(())
     }
 
@@ -495,13 +784,15 @@ impl Array {
     /// same arithmetic and counters as the clocked path (proved by the
     /// tests), each PE's whole slice at once, PEs in parallel. Each PE
     /// first produces the edge voxels it would drive in each row; each PE
-    /// then samples its rays with its right neighbour's.
+    /// then samples its rays with its right neighbour's. `lens` holds each
+    /// row's cycles (front to back, rows of 0 cycles are skipped).
     fn sample_whole(
         &mut self,
         region: &RegionPlan,
         slice: &SlicePlan,
         rows: &[(i64, (usize, usize, Fx), Fx)],
-        row_len: usize,
+        runs: &RowRuns,
+        lens: &[usize],
     ) -> Result<(), RunError> {
         use rayon::prelude::*;
         let p = self.pes.len();
@@ -519,11 +810,14 @@ impl Array {
         // The rows the bus announces as next, in the clocked path's order:
         // the prologue announces the first row (several PEs only); with
         // rows one cycle long a lone PE never announces the first.
-        let skip = usize::from(p == 1 && row_len == 1);
+        let first = lens.iter().position(|&n| n > 0).unwrap_or(0);
+        let skip = usize::from(p == 1 && lens[first] == 1);
         let seq: Vec<(usize, usize, usize)> = buses
             .iter()
+            .zip(lens)
+            .filter(|(_, &n)| n > 0)
             .skip(skip)
-            .map(|b| (slice.z, b.y.0, b.y.1))
+            .map(|(b, _)| (slice.z, b.y.0, b.y.1))
             .collect();
         let edges: Vec<Vec<[u16; 2]>> = self
             .pes
@@ -541,13 +835,20 @@ impl Array {
                 if p > 1 {
                     pe.counters.idle += 1;
                 }
-                pe.sample_slice(dp, &buses, row_len, edges.get(k + 1).map(Vec::as_slice), nx)
+                pe.sample_slice(
+                    dp,
+                    &buses,
+                    runs,
+                    lens,
+                    edges.get(k + 1).map(Vec::as_slice),
+                    nx,
+                )
             })
             .collect();
         for r in results {
             r?;
         }
-        let cycles = u64::from(p > 1) + (rows.len() * row_len) as u64;
+        let cycles = u64::from(p > 1) + lens.iter().sum::<usize>() as u64;
         self.cycle += cycles;
         self.stages.sample += cycles;
         Ok(())
@@ -611,6 +912,7 @@ impl Array {
                 .map(|&mx| RayColumn {
                     mx,
                     acc: vec![Acc::default(); frows],
+                    ftb: Vec::new(),
                 })
                 .collect();
             for (r, my) in (fg.lo[1]..=fg.hi[1]).enumerate() {
@@ -651,8 +953,199 @@ impl Array {
         Ok(())
     }
 
-    /// Streams region 0's rays out, one per PE per cycle.
-    fn readout(&mut self, region: &RegionPlan, view: &View) -> (Baseplane, Vec<[i64; 4]>) {
+    /// Front to back: the bilinear split of `front`'s rays (on their rear
+    /// plane) into `back`'s, the merge's adjoint. Back ray `n` continues
+    /// front ray `n / 2` when `n` is even and takes the mean of front rays
+    /// `floor(n / 2)` and `floor(n / 2) + 1` when odd, per axis. Like the
+    /// merge it runs at row granularity: an x pass per parent row into the
+    /// line buffer (the right neighbour's first column over the port), a y
+    /// pass behind it (child rows take parent row `floor(my / 2)` and the
+    /// next, from the PE's own buffer). One child is written per PE per
+    /// cycle, so it takes the child rows times the busiest PE's child
+    /// columns, plus a row of latency (an odd child row needs the next
+    /// parent row). Each PE keeps its parents' final states for the fold
+    /// and gives each child its initial state as its inheritance.
+    fn split(&mut self, front: &RegionPlan, back: &RegionPlan) -> Result<(), RunError> {
+        let (fg, bg) = (&front.grid, &back.grid);
+        let prow = fg.counts()[1];
+        let brows = bg.counts()[1];
+        let p = self.pes.len();
+        let dp = Arc::clone(&self.dp);
+        let spans: Vec<Option<(i64, i64)>> = self.pes.iter().map(|pe| pe.span()).collect();
+        let mut children: Vec<Vec<i64>> = vec![Vec::new(); p];
+        for n in bg.lo[0]..=bg.hi[0] {
+            let parent = clamp(n.div_euclid(2), fg.lo[0], fg.hi[0]);
+            let k = spans
+                .iter()
+                .position(|s| matches!(s, Some((lo, hi)) if (*lo..=*hi).contains(&parent)))
+                .unwrap_or(0);
+            children[k].push(n);
+        }
+        let width = children.iter().map(Vec::len).max().unwrap_or(0) as u64;
+        // x pass: lines[parent row][pe][child] = the x-split R, G, B, A words.
+        let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); p]; prow];
+        let grid = (fg.lo[0], fg.hi[0]);
+        for (row, row_lines) in lines.iter_mut().enumerate() {
+            let drive: Vec<Ports> = self.pes.iter().map(|pe| pe.split_drive(row)).collect();
+            for &k in &self.order {
+                let none = Ports::default();
+                let from_right = if k + 1 < p { &drive[k + 1] } else { &none };
+                let mut line = Vec::new();
+                self.pes[k].split_x(&dp, row, &children[k], grid, from_right, &mut line)?;
+                row_lines[k] = line;
+            }
+        }
+        // y pass, per PE from its own line buffer.
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        for k in 0..p {
+            let pe = &mut self.pes[k];
+            let mut cols: Vec<RayColumn> = children[k]
+                .iter()
+                .map(|&mx| RayColumn {
+                    mx,
+                    acc: vec![Acc::default(); brows],
+                    ftb: vec![FtbState::default(); brows],
+                })
+                .collect();
+            for (r, my) in (bg.lo[1]..=bg.hi[1]).enumerate() {
+                let at = |py: i64, c: usize, ch: usize| -> i64 {
+                    let row = py - fg.lo[1];
+                    if row < 0 || row >= prow as i64 {
+                        0
+                    } else {
+                        lines[row as usize][k][c][ch]
+                    }
+                };
+                let py = my.div_euclid(2);
+                let py2 = py + my.rem_euclid(2);
+                for (c, col) in cols.iter_mut().enumerate() {
+                    for ch in 0..4 {
+                        let to = if ch < 3 { fc } else { fa };
+                        let v = dp.halve([at(py, c, ch), at(py2, c, ch)], fm, to, &mut pe.stats);
+                        col.acc[r].raw[ch] = v.raw();
+                    }
+                    col.ftb[r] = FtbState {
+                        inh: col.acc[r],
+                        // A child of terminated parents is terminated: the
+                        // comparator checks every child as it is written.
+                        done: dp.terminated(&col.acc[r]),
+                    };
+                }
+            }
+            pe.counters.split_outputs += (cols.len() * brows) as u64;
+            let parents = std::mem::take(&mut pe.rays);
+            pe.finals.push(parents.into());
+            pe.set_rays(cols);
+        }
+        let cycles = brows as u64 * width + width;
+        for c in 0..cycles {
+            self.cycle += 1;
+            self.trace(STAGE_MERGE, 0, (c / width.max(1)) as usize);
+        }
+        self.stages.split += cycles;
+        Ok(())
+    }
+
+    /// Front to back: one step of the fold, `back`'s rays (results in
+    /// formats `rf`: colour, opacity) into `front`'s, whose final states
+    /// the PEs kept at the split: `result = final + merge(result_back -
+    /// inherited_back)`. The merge is the back-to-front one (x pass with
+    /// the left neighbour's last difference over the port, y pass behind
+    /// it, row granularity, the same cycles: back rows times the busiest
+    /// PE's children, plus two rows of drain); the difference is formed
+    /// as a row enters the x pass and the add as a child leaves the y
+    /// pass, each in the pipeline without a cycle of its own. Differences,
+    /// merge passes and results are `merge` words.
+    fn fold(
+        &mut self,
+        back: &RegionPlan,
+        front: &RegionPlan,
+        rf: [Format; 2],
+    ) -> Result<(), RunError> {
+        let (bg, fg) = (&back.grid, &front.grid);
+        let brows = bg.counts()[1];
+        let frows = fg.counts()[1];
+        let p = self.pes.len();
+        let dp = Arc::clone(&self.dp);
+        let width = self
+            .pes
+            .iter()
+            .map(|pe| pe.finals.last().map_or(0, Vec::len))
+            .max()
+            .unwrap_or(0) as u64;
+        let grid = (bg.lo[0], bg.hi[0]);
+        let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); p]; brows];
+        for (row, row_lines) in lines.iter_mut().enumerate() {
+            let drive: Vec<Ports> = self
+                .pes
+                .iter_mut()
+                .map(|pe| pe.fold_prepare(&dp, row, rf))
+                .collect();
+            for &k in &self.order {
+                let none = Ports::default();
+                let from_left = if k > 0 { &drive[k - 1] } else { &none };
+                let mut line = Vec::new();
+                self.pes[k].fold_x(&dp, grid, from_left, &mut line)?;
+                row_lines[k] = line;
+            }
+            for _ in 0..width {
+                self.cycle += 1;
+                self.trace(STAGE_MERGE, 0, row);
+            }
+        }
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        for (k, pe) in self.pes.iter_mut().enumerate() {
+            let kept = pe.finals.pop().unwrap_or_default();
+            let mut cols = Vec::with_capacity(kept.len());
+            for (c, fin) in kept.into_iter().enumerate() {
+                let mut acc = vec![Acc::default(); frows];
+                for (r, my) in (fg.lo[1]..=fg.hi[1]).enumerate() {
+                    let at = |py: i64, ch: usize| -> i64 {
+                        let row = py - bg.lo[1];
+                        if row < 0 || row >= brows as i64 {
+                            0
+                        } else {
+                            lines[row as usize][k][c][ch]
+                        }
+                    };
+                    for ch in 0..4 {
+                        let merged = dp.tent(
+                            [at(2 * my - 1, ch), at(2 * my, ch), at(2 * my + 1, ch)],
+                            fm,
+                            fm,
+                            &mut pe.stats,
+                        );
+                        let ff = if ch < 3 { fc } else { fa };
+                        acc[r].raw[ch] = dp
+                            .fold_add(fin.acc[r].raw[ch], ff, merged.raw(), &mut pe.stats)
+                            .raw();
+                    }
+                }
+                cols.push(RayColumn {
+                    mx: fin.mx,
+                    acc,
+                    ftb: fin.ftb,
+                });
+            }
+            pe.counters.merge_outputs += (cols.len() * frows) as u64;
+            pe.set_rays(cols);
+        }
+        for _ in 0..2 * width {
+            self.cycle += 1;
+            self.trace(STAGE_MERGE, 0, brows);
+        }
+        self.stages.fold += brows as u64 * width + 2 * width;
+        Ok(())
+    }
+
+    /// Streams region 0's rays out, one per PE per cycle; `fmt` gives the
+    /// words' formats (colour, opacity).
+    fn readout(
+        &mut self,
+        region: &RegionPlan,
+        view: &View,
+        fmt: [Format; 2],
+    ) -> (Baseplane, Vec<[i64; 4]>) {
         let g = &region.grid;
         let [w, h] = g.counts();
         let mut raw = vec![[0i64; 4]; w * h];
@@ -673,7 +1166,7 @@ impl Array {
             self.trace(STAGE_READOUT, 0, 0);
         }
         self.stages.readout += most as u64;
-        let (fc, fa) = (self.dp.cfg.accum_color.lsb(), self.dp.cfg.accum_alpha.lsb());
+        let (fc, fa) = (fmt[0].lsb(), fmt[1].lsb());
         let data = raw
             .iter()
             .map(|p| {
@@ -702,6 +1195,7 @@ impl Array {
         mut self,
         baseplane: Baseplane,
         raw: Vec<[i64; 4]>,
+        raw_format: [Format; 2],
         merges: u64,
     ) -> Result<Frame, RunError> {
         let mut quant = self.host_stats;
@@ -715,9 +1209,15 @@ impl Array {
                 info.write_gtkw(&gtkw)?;
             }
         }
+        let terminated_samples = self.pes.iter().map(|p| p.counters.terminated).sum();
         Ok(Frame {
             baseplane,
             raw,
+            raw_format,
+            order: self.dp.cfg.order,
+            terminated_samples,
+            cycles_saved: self.cycles_saved,
+            skipped: self.skipped,
             cycles: self.cycle,
             stages: self.stages,
             samples,
@@ -739,6 +1239,41 @@ pub fn run_frame(
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
     Array::new(cfg, volume, lut, view, tracer)?.run(view)
+}
+
+/// Runs one frame of `prep` with the controller skipping what `skips`
+/// allows and clipping to `prep`'s planes: the occupancy memory is built
+/// from the volume's min-max blocks (`occupancy_block` voxels) and this
+/// pipeline's classification table (see [`crate::skip`]).
+pub fn run_frame_with(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    let mut array = Array::new(cfg, volume, lut, &prep.view, tracer)?;
+    let block = usize::from(cfg.occupancy_block);
+    let mm = if prep.blocks.block == block {
+        prep.blocks.clone()
+    } else {
+        golden::occupancy::MinMax::new(volume, block)
+            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?
+    };
+    let layout = golden::methods::Method::Er
+        .layout(&prep.view)
+        .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
+    let (mask, counts) =
+        crate::skip::plan_mask(&array.dp, &mm, volume.kind().bits(), prep, &layout, skips);
+    array.set_skipping(mask, counts, &prep.view);
+    array.run(&prep.view)
+}
+
+/// `v` clamped into `lo..=hi`; `lo` when the range is empty (an empty
+/// grid), where `i64::clamp` would panic.
+fn clamp(v: i64, lo: i64, hi: i64) -> i64 {
+    v.min(hi).max(lo)
 }
 
 /// The owner function of one slice: the PE whose block holds the ray's

@@ -48,6 +48,54 @@
 //!
 //! Total: `B = dc + nz E + merges (r(merge) + r(accum)) + q(accum)` plus
 //! the golden `f32` terms.
+//!
+//! # Front to back ([`ftb_error_bound`], against golden `er-ftb`)
+//!
+//! Terms 1 to 5 (the sample: position, interpolation, classification,
+//! path, opacity correction) are the same. What differs:
+//!
+//! 6'. Compositing, front to back: `C' = C + (1 - A) a c`,
+//!    `A' = A + (1 - A) a`. For fixed samples a region's composite is
+//!    *affine* in the state it starts from: `C_end = C_0 + (1 - A_0) R`,
+//!    `A_end = A_0 + (1 - A_0)(1 - T)` (`R` the region's own back-to-front
+//!    colour, `T` its transmittance, both in `[0, 1]`). So an error `dC`,
+//!    `dA` in the state at any step reaches the region's end as
+//!    `dC - R dA` (at most `|dC| + |dA|`) and `T dA` (at most `|dA|`).
+//!    Each sample injects its opacity difference (at most `da'`, in both
+//!    channels), its colour difference weighted by `(1 - A) a'` (these sum
+//!    to the opacity the region adds, at most `1 + n r(accum_alpha)` with
+//!    the roundings), and two roundings: `r(accum_color)` into colour,
+//!    `r(accum_alpha)` into opacity *and*, through `- R dA`, into colour.
+//!    Saturation one LSB below 1 clips at most `q(accum)` of what a region
+//!    adds. A region of `n_i` slices therefore adds to its rays, from an
+//!    exact start, at most
+//!    `Lc_i = n_i (da' + r(accum_color) + r(accum_alpha)) + dc (1 + n_i r(accum_alpha)) + q(accum)`
+//!    in colour and `La_i = n_i (da' + r(accum_alpha)) + q(accum)` in
+//!    opacity.
+//! 7'. Split: every child is a convex combination of at most four parents
+//!    (weights 1, 1/2, 1/4), so a parent error passes at most as is, plus
+//!    two roundings: the x pass into `merge` and the y pass into the
+//!    accumulator, `rho = r(merge) + r(accum)`. The opacity error region
+//!    `i` inherits is then at most `IA_i = sum_(j < i) La_j + i rho`.
+//! 8'. Fold: `result_0 = final_0 + sum_(i >= 1) M^i (final_i - inh_i)`
+//!    (`M` the Bartlett merge, a convex combination). By 6' the colour
+//!    error of `final_i - inh_i` is that region's own `Lc_i` plus
+//!    `- R_i dA(inh_i)`: the inherited colour error cancels exactly in the
+//!    difference, the inherited opacity error counts once, at most `IA_i`.
+//!    The difference and the add are exact (both operands lie on `merge`'s
+//!    grid, validated, and the values are non-negative and in range: the
+//!    pipeline's words only grow); each merge rounds twice (x and y pass
+//!    into `merge`): `2 r(merge)` per boundary.
+//!
+//! Total: `B = sum_i Lc_i + sum_(i >= 1) IA_i + (K - 1) 2 r(merge)` plus the
+//! golden `f32` terms (a few `e` per operation on values below 2). The
+//! opacity channel's bound is the same with `La_i` and the factor
+//! `1 - T <= 1` in place of `R`, so `B` covers all four channels. The
+//! `sum IA_i` term grows with the regions: an opacity rounding in region
+//! `j` shifts what every later region contributes, and a per-region bound
+//! cannot see that those contributions share one transmittance (along one
+//! ray they add up to at most 1), because the split and the fold mix
+//! neighbouring rays. It assumes early ray termination is off.
 
 use glam::DVec3;
 use golden::geometry::View;
@@ -139,6 +187,17 @@ impl BoundInputs {
     }
 }
 
+/// Slices each region of `view` can sample, front (region 0) to back: the
+/// `n_i` of [`ftb_error_bound`].
+pub fn region_slices(view: &View) -> golden::Result<Vec<usize>> {
+    Ok(Method::ErFtb
+        .layout(view)?
+        .grids
+        .iter()
+        .map(|g| g.slices.len())
+        .collect())
+}
+
 /// Assignment error of a format: one LSB when it truncates, half otherwise.
 pub fn r(f: Format) -> f64 {
     match f.quant() {
@@ -147,9 +206,65 @@ pub fn r(f: Format) -> f64 {
     }
 }
 
+/// Per-sample error terms shared by both orders (steps 1 to 5).
+struct SampleTerms {
+    /// Colour difference of a classified sample.
+    dc: f64,
+    /// Corrected-opacity difference of a sample.
+    dcorr: f64,
+}
+
 /// The per-channel bound `B` on `|pipeline - golden er|` of the final
 /// image (and of the baseplane).
 pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
+    let e = 2f64.powi(-24);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d);
+    // 6-8. compositing, merges, saturation, warp.
+    let racc = r(cfg.accum_color).max(r(cfg.accum_alpha));
+    let per_slice = dcorr + racc + 3.0 * e;
+    let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
+    dc + d.slices as f64 * per_slice
+        + d.merges as f64 * (r(cfg.merge) + racc + 3.0 * e)
+        + qacc
+        + 16.0 * e
+}
+
+/// The per-channel bound `B` on `|pipeline - golden er-ftb|` of the final
+/// image and the baseplane, front to back without early ray termination
+/// (steps 6' to 8' of the module documentation). `regions[i]` is the
+/// number of slices region `i` can sample ([`region_slices`]); `d.slices`
+/// and `d.merges` are not used.
+pub fn ftb_error_bound(cfg: &PipelineConfig, d: &BoundInputs, regions: &[usize]) -> f64 {
+    let e = 2f64.powi(-24);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d);
+    let (rc, ra, rm) = (r(cfg.accum_color), r(cfg.accum_alpha), r(cfg.merge));
+    let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
+    // 6'. per sample: k = (1 - A) a, then C += k c and A += k in f32.
+    let ec = dcorr + rc + ra + 6.0 * e;
+    let ea = dcorr + ra + 4.0 * e;
+    // 7'. a split: two roundings, and golden's weighted f32 sum.
+    let rho = rm + ra + 4.0 * e;
+    let mut total = 0.0;
+    let mut inherited = 0.0;
+    for (i, &n) in regions.iter().enumerate() {
+        let n = n as f64;
+        let lc = n * ec + dc * (1.0 + n * ra) + qacc;
+        let la = n * ea + qacc;
+        if i > 0 {
+            inherited += rho;
+            // 8'. the inherited opacity error, once, and the fold's merge.
+            total += inherited + 2.0 * rm + 16.0 * e;
+        }
+        total += lc;
+        inherited += la;
+    }
+    // The warp: a convex combination in f32 on both sides.
+    total + 16.0 * e
+}
+
+/// Steps 1 to 5: the colour and corrected-opacity differences of one
+/// sample.
+fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs) -> SampleTerms {
     let e = 2f64.powi(-24);
     let ln2 = std::f64::consts::LN_2;
     let rw = r(cfg.weight);
@@ -194,14 +309,7 @@ pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
     if oc.int_bits() == 0 {
         dcorr += r(oc);
     }
-    // 6-8. compositing, merges, saturation, warp.
-    let racc = r(cfg.accum_color).max(r(cfg.accum_alpha));
-    let per_slice = dcorr + racc + 3.0 * e;
-    let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
-    dc + d.slices as f64 * per_slice
-        + d.merges as f64 * (r(cfg.merge) + racc + 3.0 * e)
-        + qacc
-        + 16.0 * e
+    SampleTerms { dc, dcorr }
 }
 
 #[cfg(test)]
@@ -239,5 +347,41 @@ mod tests {
         deeper.slices *= 3;
         let grown2 = error_bound(&base, &deeper) - b0;
         assert!(grown > 0.0 && (grown2 - 2.0 * grown).abs() < 1e-9 * b0);
+    }
+
+    #[test]
+    fn ftb_bound_terms() {
+        let d = BoundInputs {
+            gradient: [40.0, 40.0],
+            table_step: [0.01, 0.01],
+            max_index: 300.0,
+            max_coord: 260.0,
+            ds_max: 2.0,
+            slices: 64,
+            merges: 3,
+            data_bits: 8,
+        };
+        let base = PipelineConfig::default();
+        let regions = [4, 8, 16, 36];
+        let b0 = ftb_error_bound(&base, &d, &regions);
+        // One region of all the slices is the back-to-front bound's
+        // structure with two accumulator roundings per slice and no merge.
+        let one = ftb_error_bound(&base, &d, &[64]);
+        assert!(one < b0);
+        // Wider formats never loosen it.
+        let mut wide = base;
+        wide.merge = Format::new(24, 20, false, Quant::Rnd, crate::fixed::Overflow::Sat).unwrap();
+        assert!(ftb_error_bound(&wide, &d, &regions) < b0);
+        let mut acc = base;
+        acc.accum_alpha =
+            Format::new(20, 20, false, Quant::Rnd, crate::fixed::Overflow::Sat).unwrap();
+        assert!(ftb_error_bound(&acc, &d, &regions) < b0);
+        // An opacity error in region j counts again in every later region:
+        // moving slices to the front costs more than keeping them behind.
+        let front_heavy = ftb_error_bound(&base, &d, &[36, 16, 8, 4]);
+        assert!(front_heavy > b0);
+        // Above the back-to-front bound of the same frame (two roundings
+        // per sample, the inherited errors, the split roundings).
+        assert!(b0 > error_bound(&base, &d));
     }
 }

@@ -15,7 +15,7 @@
 //! [`PipelineConfig::to_toml`] writes a complete, commented file that reads
 //! back to the same config, so `ercube` can dump the defaults for editing.
 
-use crate::fixed::{Format, FormatSpec, Overflow, Quant};
+use crate::fixed::{Format, FormatSpec, Overflow, Quant, MAX_BITS};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -115,7 +115,7 @@ fn invalid(field: &str, message: String) -> ConfigError {
 /// [`exp_table_bits`]: PipelineConfig::exp_table_bits
 /// [`weight`]: PipelineConfig::weight
 /// [`opacity_corr`]: PipelineConfig::opacity_corr
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawConfig", into = "RawConfig")]
 pub struct PipelineConfig {
     /// Voxel word as read from volume memory: unsigned integer, at most 16
@@ -256,6 +256,56 @@ pub struct PipelineConfig {
     /// Default 16: a power of two dividing every power-of-two volume
     /// width, so slices split into whole PE beats.
     pub pes: u16,
+    /// Compositing order: `back-to-front` (golden `er`: merge at region
+    /// boundaries) or `front-to-back` (golden `er-ftb`: split at region
+    /// boundaries, fold at the end, early ray termination).
+    ///
+    /// Default `back-to-front`, the model's original mode, bit for bit.
+    pub order: Order,
+    /// Early ray termination threshold of the front-to-back order, as a
+    /// fraction of full opacity in `(0, 1]`: a ray whose opacity word
+    /// reaches it takes no more samples. 1 disables termination. The
+    /// controller quantises it *up* to the `accum_alpha` grid
+    /// ([`PipelineConfig::termination_raw`]), so a terminated ray's
+    /// opacity is never below the fraction asked for.
+    ///
+    /// Default 1 (off): termination trades up to `1 - terminate` per pixel
+    /// for speed, a choice the user makes. Ignored back to front.
+    pub terminate: f64,
+    /// Edge in voxels of the blocks of the controller's occupancy memory
+    /// (one bit per block: may a sample in it be visible?), a power of two
+    /// from 2 to 64.
+    ///
+    /// Default 16: 4 kbit for a 256^3 volume, one block RAM.
+    pub occupancy_block: u16,
+}
+
+// `terminate` is the only float field, and every validated config has a
+// finite one (NaN is refused), so equality is an equivalence on them.
+impl Eq for PipelineConfig {}
+
+/// The compositing order of the PE array.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Order {
+    /// ER back-to-front: rays composite from the rear, merge at each region
+    /// boundary (golden `er`).
+    #[default]
+    BackToFront,
+    /// ER front-to-back: rays composite from the front, split at each
+    /// region boundary, fold back to one baseplane at the end (golden
+    /// `er-ftb`), with early ray termination.
+    FrontToBack,
+}
+
+impl Order {
+    /// The name in TOML and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Order::BackToFront => "back-to-front",
+            Order::FrontToBack => "front-to-back",
+        }
+    }
 }
 
 fn fmt(bits: u8, frac: u8, signed: bool, quant: Quant, overflow: Overflow) -> Format {
@@ -288,13 +338,16 @@ impl Default for PipelineConfig {
             accum_alpha: fmt(16, 16, false, Rnd, Sat),
             merge: fmt(20, 16, false, Rnd, Sat),
             pes: 16,
+            order: Order::BackToFront,
+            terminate: 1.0,
+            occupancy_block: 16,
         }
     }
 }
 
 /// One-line descriptions written above each key by
 /// [`PipelineConfig::to_toml`].
-const FIELD_DOCS: [(&str, &str); 16] = [
+const FIELD_DOCS: [(&str, &str); 19] = [
     (
         "voxel",
         "voxel word from volume memory: unsigned, frac = 0, <= 16 bits",
@@ -350,6 +403,18 @@ const FIELD_DOCS: [(&str, &str); 16] = [
         "Bartlett merge intermediate: unsigned, covers both accumulators",
     ),
     ("pes", "number of processing elements, 1..=256"),
+    (
+        "order",
+        "compositing order: \"back-to-front\" (merge) or \"front-to-back\" (split, fold, termination)",
+    ),
+    (
+        "terminate",
+        "front-to-back early ray termination opacity in (0, 1]; 1 disables it",
+    ),
+    (
+        "occupancy_block",
+        "edge of the occupancy memory's empty-space blocks in voxels: a power of two, 2..=64",
+    ),
 ];
 
 impl PipelineConfig {
@@ -383,7 +448,7 @@ impl PipelineConfig {
     /// an equal config.
     pub fn to_toml(&self) -> String {
         let raw = RawConfig::from(*self);
-        let values: [String; 16] = [
+        let values: [String; 19] = [
             raw.voxel.to_string(),
             raw.position.to_string(),
             raw.step.to_string(),
@@ -400,6 +465,10 @@ impl PipelineConfig {
             raw.accum_alpha.to_string(),
             raw.merge.to_string(),
             raw.pes.to_string(),
+            format!("\"{}\"", raw.order.name()),
+            // `{:?}` keeps the decimal point, so TOML reads a float back.
+            format!("{:?}", raw.terminate),
+            raw.occupancy_block.to_string(),
         ];
         let mut out = String::from(
             "# ercube pipeline datapath widths.\n\
@@ -677,7 +746,53 @@ impl PipelineConfig {
                 format!("pes = {} is outside 1..={MAX_PES}", self.pes),
             ));
         }
+
+        let b = self.occupancy_block;
+        if !(b.is_power_of_two() && (2..=64).contains(&b)) {
+            return Err(invalid(
+                "occupancy_block",
+                format!("occupancy_block = {b} is not a power of two from 2 to 64"),
+            ));
+        }
+        let t = self.terminate;
+        if !(t.is_finite() && t > 0.0 && t <= 1.0) {
+            return Err(invalid(
+                "terminate",
+                format!("terminate = {t} is outside (0, 1] (1 disables early ray termination)"),
+            ));
+        }
+        // The fold adds what a ray's children added behind it to the ray's
+        // own state, which can pass 1 (by up to 7/16 per boundary where
+        // neighbouring rays differ); the fold keeps its words in `merge`.
+        if self.order == Order::FrontToBack && m.int_bits() < 1 {
+            return Err(invalid(
+                "merge",
+                "merge has 0 integer bits, but order = \"front-to-back\" folds results above 1 into it"
+                    .into(),
+            ));
+        }
         Ok(())
+    }
+
+    /// The early-termination threshold as a raw `accum_alpha` word, rounded
+    /// up (`ceil(terminate / lsb)`): a ray is terminated once its opacity
+    /// word is at least this. `None` when termination is off
+    /// (`terminate = 1`, or back to front). The threshold may lie above the
+    /// format's largest word, in which case no ray ever reaches it.
+    pub fn termination_raw(&self) -> Option<i64> {
+        if self.order != Order::FrontToBack || self.terminate >= 1.0 {
+            return None;
+        }
+        // ceil(x) = -floor(-x): truncate the negated fraction in a signed
+        // format with accum_alpha's fraction bits and a wide integer part
+        // (63 bits hold -1 <= -x < 0 at any accum_alpha.frac <= 62; at 63
+        // the format is exactly [-1, 1)).
+        let frac = self.accum_alpha.frac();
+        let neg = Format::new(MAX_BITS, frac, true, Quant::Trn, Overflow::Sat)
+            .ok()?
+            .from_f64(-self.terminate)
+            .ok()?;
+        Some(-neg.value.raw())
     }
 
     /// The largest voxel coordinate the position format can hold exactly:
@@ -798,6 +913,9 @@ struct RawConfig {
     accum_alpha: FormatSpec,
     merge: FormatSpec,
     pes: i64,
+    order: Order,
+    terminate: f64,
+    occupancy_block: i64,
 }
 
 impl Default for RawConfig {
@@ -825,6 +943,9 @@ impl From<PipelineConfig> for RawConfig {
             accum_alpha: c.accum_alpha.spec(),
             merge: c.merge.spec(),
             pes: i64::from(c.pes),
+            order: c.order,
+            terminate: c.terminate,
+            occupancy_block: i64::from(c.occupancy_block),
         }
     }
 }
@@ -866,6 +987,9 @@ impl TryFrom<RawConfig> for PipelineConfig {
             accum_alpha: format_field("accum_alpha", r.accum_alpha)?,
             merge: format_field("merge", r.merge)?,
             pes: int_field("pes", r.pes, &format!("1..={MAX_PES}"))?,
+            order: r.order,
+            terminate: r.terminate,
+            occupancy_block: int_field("occupancy_block", r.occupancy_block, "2..=64")?,
         };
         config.validate()?;
         Ok(config)
@@ -1286,6 +1410,75 @@ mod tests {
         assert!(e.to_string().contains("signed"), "{e}");
         let e = PipelineConfig::from_toml_str("pes = \"many\"").unwrap_err();
         assert!(e.to_string().starts_with("TOML line 1:"), "{e}");
+    }
+
+    #[test]
+    fn order_and_termination_round_trip_and_validate() {
+        let c = PipelineConfig::default();
+        assert_eq!((c.order, c.terminate), (Order::BackToFront, 1.0));
+        assert_eq!(c.termination_raw(), None);
+        let text = c.to_toml();
+        assert!(text.contains("\norder = \"back-to-front\"\n"), "{text}");
+        assert!(text.contains("\nterminate = 1.0\n"), "{text}");
+        let f =
+            PipelineConfig::from_toml_str("order = \"front-to-back\"\nterminate = 0.99\n").unwrap();
+        assert_eq!((f.order, f.terminate), (Order::FrontToBack, 0.99));
+        assert_eq!(PipelineConfig::from_toml_str(&f.to_toml()).unwrap(), f);
+        // Rounded up to the 16-bit accumulator: ceil(0.99 * 65536) = 64881.
+        assert_eq!(f.termination_raw(), Some(64881));
+        let raw = f.termination_raw().map_or(0.0, |r| r as f64);
+        assert!(raw / 65536.0 >= 0.99 && (raw - 1.0) / 65536.0 < 0.99);
+        // Exactly representable thresholds stay put; 1 is off.
+        let half = PipelineConfig {
+            terminate: 0.5,
+            ..f
+        };
+        assert_eq!(half.termination_raw(), Some(32768));
+        assert_eq!(
+            PipelineConfig {
+                terminate: 1.0,
+                ..f
+            }
+            .termination_raw(),
+            None
+        );
+        // Back to front ignores the threshold.
+        assert_eq!(
+            PipelineConfig {
+                order: Order::BackToFront,
+                ..half
+            }
+            .termination_raw(),
+            None
+        );
+        for bad in ["0", "1.5", "-0.2", "nan", "inf"] {
+            let e = error_for("terminate", bad);
+            assert_eq!(e.field(), Some("terminate"), "{bad}: {e}");
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with("terminate = ") && msg.contains("(0, 1]"),
+                "{msg}"
+            );
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+        let e = error_for("order", "\"sideways\"");
+        assert!(matches!(e, ConfigError::Toml(_)), "{e}");
+        assert!(e.to_string().contains("sideways"), "{e}");
+        // The fold needs an integer bit in `merge`.
+        let no_int = Format::new(16, 16, false, Quant::Rnd, Overflow::Sat).unwrap();
+        let c = PipelineConfig {
+            merge: no_int,
+            ..PipelineConfig::default()
+        };
+        c.validate().unwrap();
+        let e = PipelineConfig {
+            order: Order::FrontToBack,
+            ..c
+        }
+        .validate()
+        .unwrap_err();
+        assert_eq!(e.field(), Some("merge"));
+        assert!(e.to_string().starts_with("merge has 0 integer bits"), "{e}");
     }
 
     #[test]

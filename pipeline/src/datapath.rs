@@ -34,6 +34,9 @@ pub struct SampleTrace {
     pub alpha: i64,
     /// Corrected opacity, raw `opacity_corr` word.
     pub corrected: i64,
+    /// Front to back: this sample brought the ray's opacity to the
+    /// termination threshold, so the ray's termination flag was set.
+    pub terminated: bool,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the
@@ -44,6 +47,9 @@ pub struct Datapath {
     pub cfg: PipelineConfig,
     /// Classification and opacity tables.
     pub tables: Tables,
+    /// The early-termination comparator's constant, a raw `accum_alpha`
+    /// word ([`PipelineConfig::termination_raw`]), fixed per frame.
+    threshold: Option<i64>,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -64,7 +70,19 @@ fn split(raw: i64, frac: u32) -> (i64, i64) {
 impl Datapath {
     /// Builds the datapath for `cfg` and its tables.
     pub fn new(cfg: PipelineConfig, tables: Tables) -> Datapath {
-        Datapath { cfg, tables }
+        Datapath {
+            threshold: cfg.termination_raw(),
+            cfg,
+            tables,
+        }
+    }
+
+    /// The termination comparator: whether a ray whose opacity word is
+    /// `acc.raw[3]` takes no more samples (a compare against a per-frame
+    /// constant; never when termination is off).
+    #[inline]
+    pub fn terminated(&self, acc: &Acc) -> bool {
+        self.threshold.is_some_and(|t| acc.raw[3] >= t)
     }
 
     /// Ray position `a + m t` on one axis, in the `position` format (the
@@ -189,6 +207,71 @@ impl Datapath {
         let v = Wide::from(a).checked_add(k.checked_mul(old)?)?;
         acc.raw[3] = fa.assign(v, st).raw();
         Ok(())
+    }
+
+    /// Front-to-back compositing of colour `c` with corrected opacity `a`:
+    /// `k = (1 - A) a` (exact, not a register: it feeds four
+    /// multiply-adds), `C += k c` into `accum_color`, `A += k` into
+    /// `accum_alpha`, as `golden::sampling` composites front to back. Two
+    /// roundings per sample (colour and opacity), each the accumulator's
+    /// mode; with a monotone rounding and no wrap-around, neither word
+    /// ever decreases (the fold's differences rely on it).
+    #[inline]
+    pub fn composite_ftb(
+        &self,
+        acc: &mut Acc,
+        c: [Fx; 3],
+        a: Fx,
+        st: &mut QuantStats,
+    ) -> Result<(), FxError> {
+        let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
+        let old_a = Fx::from_raw_unchecked(acc.raw[3], fa);
+        let k = Wide::new(1, 0).checked_sub(old_a)?.checked_mul(a)?;
+        for (word, &colour) in acc.raw.iter_mut().zip(&c) {
+            let old = Fx::from_raw_unchecked(*word, fc);
+            let v = Wide::from(old).checked_add(k.checked_mul(colour)?)?;
+            *word = fc.assign(v, st).raw();
+        }
+        let v = Wide::from(old_a).checked_add(k)?;
+        acc.raw[3] = fa.assign(v, st).raw();
+        Ok(())
+    }
+
+    /// One tap pair of the bilinear split, `(p[0] + p[1]) / 2` of raw
+    /// words in format `from`, assigned into `to` (the x pass goes from an
+    /// accumulator into `merge`, the y pass from `merge` back). A child on
+    /// its parent's line passes `p[0] = p[1]`, which is exact whenever
+    /// `to` holds `from`'s grid.
+    #[inline]
+    pub fn halve(&self, p: [i64; 2], from: Format, to: Format, st: &mut QuantStats) -> Fx {
+        // Two words of at most 63 bits: the sum fits i128 trivially.
+        let sum = i128::from(p[0]) + i128::from(p[1]);
+        to.assign(Wide::new(sum, i32::from(from.frac()) + 1), st)
+    }
+
+    /// The fold's difference `result - inherited` (what a ray's samples
+    /// and its children added behind the boundary), from a result word in
+    /// `rf` and an inherited accumulator word in `inf`, into `merge`. Exact
+    /// while it fits: `merge` has at least both formats' fraction bits
+    /// (validated), and the difference is non-negative because front-to-
+    /// back words only grow; a negative one (a wrap-around) would clamp to
+    /// zero with `merge`'s unsigned overflow and be counted.
+    #[inline]
+    pub fn fold_diff(&self, r: i64, rf: Format, inh: i64, inf: Format, st: &mut QuantStats) -> Fx {
+        let d = Fx::from_raw_unchecked(r, rf) - Fx::from_raw_unchecked(inh, inf);
+        self.cfg.merge.assign(d, st)
+    }
+
+    /// The fold's add `final + merged`: a ray's own final accumulator word
+    /// (format `ff`) plus the merged differences of its children (a
+    /// `merge` word), into `merge`. Exact while it fits, for the same
+    /// reason as [`Datapath::fold_diff`]; above `merge`'s range it
+    /// saturates (counted).
+    #[inline]
+    pub fn fold_add(&self, f: i64, ff: Format, merged: i64, st: &mut QuantStats) -> Fx {
+        let m = self.cfg.merge;
+        let s = Fx::from_raw_unchecked(f, ff) + Fx::from_raw_unchecked(merged, m);
+        m.assign(s, st)
     }
 
     /// The ray's path length per slice step, `sqrt(sx^2 + sy^2 + sz^2)`

@@ -43,6 +43,10 @@ pub struct RegionPlan {
     /// sampling happens there), where the rays merge into the next region's
     /// and so where they must sit in the PE of their position.
     pub front: SlicePlan,
+    /// Ray positions on the region's rear boundary `b_(i+1)`, where front
+    /// to back the rays split into the next region's (they are one voxel
+    /// apart there, so every voxel column in their span holds one).
+    pub rear: SlicePlan,
 }
 
 /// Everything the host loads before a frame.
@@ -56,7 +60,7 @@ pub struct FramePlan {
     pub stats: QuantStats,
 }
 
-/// Plans a frame of `view` for ER back-to-front.
+/// Plans a frame of `view` for ER (both orders share the layout).
 pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
     let layout: Layout = Method::Er.layout(view).map_err(PlanError::Golden)?;
     let mut st = QuantStats::default();
@@ -92,21 +96,31 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
                 range,
             });
         }
-        let b = layout.bounds[regions.len()];
-        let front = SlicePlan {
-            z: (b.ceil() as usize).min(view.dims[2].saturating_sub(1)),
-            a: [
-                q(cfg.position, grid.at(e, view.d, b, 0).a, &mut st)?,
-                q(cfg.position, grid.at(e, view.d, b, 1).a, &mut st)?,
-            ],
-            t: [
-                q(cfg.step, grid.at(e, view.d, b, 0).t, &mut st)?,
-                q(cfg.step, grid.at(e, view.d, b, 1).t, &mut st)?,
-            ],
-            range: [(0, -1); 2],
+        let boundary = |b: f64, st: &mut QuantStats| -> Result<SlicePlan, FxError> {
+            Ok(SlicePlan {
+                z: (b.ceil() as usize).min(view.dims[2].saturating_sub(1)),
+                a: [
+                    q(cfg.position, grid.at(e, view.d, b, 0).a, st)?,
+                    q(cfg.position, grid.at(e, view.d, b, 1).a, st)?,
+                ],
+                t: [
+                    q(cfg.step, grid.at(e, view.d, b, 0).t, st)?,
+                    q(cfg.step, grid.at(e, view.d, b, 1).t, st)?,
+                ],
+                range: [(0, -1); 2],
+            })
+        };
+        let front = boundary(layout.bounds[regions.len()], &mut st)?;
+        // Quantised only front to back, so back to front the host's
+        // counters stay as they were.
+        let rear = if cfg.order == crate::config::Order::FrontToBack {
+            boundary(layout.bounds[regions.len() + 1], &mut st)?
+        } else {
+            front
         };
         regions.push(RegionPlan {
             front,
+            rear,
             grid: grid.clone(),
             slope_b,
             slope_k,

@@ -25,6 +25,7 @@ pub mod fixed;
 pub mod host;
 pub mod pe;
 pub mod rtl;
+pub mod skip;
 pub mod tables;
 
-pub use array::{run_frame, Frame, RunError};
+pub use array::{run_frame, run_frame_with, Frame, RunError};

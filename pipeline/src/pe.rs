@@ -11,8 +11,9 @@
 
 use std::collections::VecDeque;
 
+use crate::config::Order;
 use crate::datapath::{Acc, Datapath, SampleTrace};
-use crate::fixed::{Fx, FxError, QuantStats};
+use crate::fixed::{Format, Fx, FxError, QuantStats};
 use crate::host::SlicePlan;
 
 /// A column of rays (one ray index `mx`, every row of the region).
@@ -22,6 +23,23 @@ pub struct RayColumn {
     pub mx: i64,
     /// Accumulators of rows `lo_y ..= hi_y` of the region.
     pub acc: Vec<Acc>,
+    /// Front to back, per row: what the ray inherited at the split and its
+    /// termination flag; empty back to front.
+    pub ftb: Vec<FtbState>,
+}
+
+/// What a front-to-back ray carries beside its accumulators, in the
+/// compositing buffer and over the links: the state it inherited at its
+/// region's split (the fold subtracts it from the ray's result) and its
+/// termination flag (set once its opacity word reaches the threshold, read
+/// to skip it). One more accumulator word set and one bit per ray: the
+/// front-to-back compositing buffer is twice as wide.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FtbState {
+    /// Accumulators inherited at the split (zero in region 0).
+    pub inh: Acc,
+    /// Early ray termination flag.
+    pub done: bool,
 }
 
 /// A ray in transit over a link.
@@ -35,6 +53,9 @@ pub struct RayMove {
     pub rows: u32,
     /// The ray's accumulators.
     pub acc: Acc,
+    /// Front to back: its inherited state and flag, on a link as wide as
+    /// both (so a move still takes one cycle).
+    pub ftb: Option<FtbState>,
 }
 
 /// What a PE drives towards one neighbour in a cycle.
@@ -46,6 +67,10 @@ pub struct Port {
     pub edge: [u16; 2],
     /// Edge ray of a merge row.
     pub edge_acc: Acc,
+    /// Front to back: the index `mx` of the edge ray on `edge_acc` (the
+    /// split and the fold check it; the back-to-front merge leaves it
+    /// `None`).
+    pub edge_mx: Option<i64>,
     /// A ray migrating to the neighbour.
     pub ray: Option<RayMove>,
 }
@@ -79,6 +104,35 @@ pub struct SampleBus<'a> {
     /// Voxel rows and slice of the row sampled next cycle (for the edge
     /// voxels this PE drives now).
     pub next: Option<(usize, usize, usize)>,
+}
+
+/// The runs of ray indices each row of a slice samples, as the controller
+/// broadcasts them (mirroring `golden::skip::SampleMask::row_runs`): one
+/// flat list with per-row offsets, reused from slice to slice.
+#[derive(Debug, Clone, Default)]
+pub struct RowRuns {
+    runs: Vec<(i64, i64)>,
+    starts: Vec<usize>,
+}
+
+impl RowRuns {
+    /// Forgets every row.
+    pub fn clear(&mut self) {
+        self.runs.clear();
+        self.starts.clear();
+    }
+
+    /// Appends the next row's runs (ascending, disjoint).
+    pub fn push_row(&mut self, runs: &[(i64, i64)]) {
+        self.starts.push(self.runs.len());
+        self.runs.extend_from_slice(runs);
+    }
+
+    /// Row `r`'s runs.
+    pub fn row(&self, r: usize) -> &[(i64, i64)] {
+        let end = self.starts.get(r + 1).copied().unwrap_or(self.runs.len());
+        &self.runs[self.starts[r]..end]
+    }
 }
 
 /// The part of the bus that is constant over a row.
@@ -126,8 +180,12 @@ pub struct PeCounters {
     pub rays_sent: u64,
     /// Rays received from a neighbour.
     pub rays_received: u64,
-    /// Merge outputs computed (child rays).
+    /// Merge outputs computed (child rays; front to back, the fold's).
     pub merge_outputs: u64,
+    /// Front to back: split outputs computed (child rays).
+    pub split_outputs: u64,
+    /// Front to back: samples not taken because the ray was terminated.
+    pub terminated: u64,
 }
 
 /// One processing element.
@@ -160,6 +218,18 @@ pub struct Pe {
     edge_latch: Option<(usize, usize, usize)>,
     /// The edge register.
     edge_value: [u16; 2],
+    /// The held columns (indices into `rays`) sampled in the current row,
+    /// in order: the row's schedule, one per cycle.
+    row_live: Vec<usize>,
+    /// Front to back: the final states of the rays this PE held at each
+    /// split (one entry per boundary passed, innermost last), kept for the
+    /// fold. With the inherited states this is the front-to-back mode's
+    /// memory cost: every region's rays, about `(W + 1)(ny + 1)` per region
+    /// boundary per PE, on top of the twice-as-wide compositing buffer.
+    pub finals: Vec<Vec<RayColumn>>,
+    /// Front to back: the fold's differences of the current row, one per
+    /// held column (raw `merge` words).
+    dline: Vec<[i64; 4]>,
 }
 
 impl Pe {
@@ -190,6 +260,9 @@ impl Pe {
             last: SampleTrace::default(),
             edge_latch: None,
             edge_value: [0; 2],
+            row_live: Vec::new(),
+            finals: Vec::new(),
+            dline: Vec::new(),
         }
     }
 
@@ -237,14 +310,67 @@ impl Pe {
     ) -> Result<Ports, StepError> {
         let mut out = Ports::default();
         out.left.edge = self.drive_edge(bus.next);
-        if bus.cycle >= self.active.1 {
+        if bus.cycle >= self.row_live.len() {
             self.counters.idle += 1;
             self.last.busy = false;
             return Ok(out);
         }
-        let j = self.active.0 + bus.cycle;
+        let j = self.row_live[bus.cycle];
         self.last = self.sample_ray(dp, &RowBus::of(bus), j, from_right.left.edge, nx)?;
         Ok(out)
+    }
+
+    /// Visits the held columns this PE samples in `row`: the active
+    /// columns whose index lies in one of the row's `runs` (ascending: what
+    /// the controller broadcasts from the occupancy memory and the clip
+    /// planes, a comparator pair per PE), front to back only those whose
+    /// termination flag is clear. Calls `take(j)` for each, in order, and
+    /// returns how many in-run columns were terminated.
+    fn schedule(
+        &self,
+        row: usize,
+        runs: &[(i64, i64)],
+        ftb: bool,
+        mut take: impl FnMut(usize),
+    ) -> u64 {
+        let (first, n) = self.active;
+        let mut terminated = 0;
+        let mut run = runs.iter().peekable();
+        for j in first..first + n {
+            let mx = self.rays[j].mx;
+            while run.next_if(|r| r.1 < mx).is_some() {}
+            let Some(&&(lo, _)) = run.peek() else { break };
+            if mx < lo {
+                continue;
+            }
+            if ftb && self.rays[j].ftb[row].done {
+                terminated += 1;
+            } else {
+                take(j);
+            }
+        }
+        terminated
+    }
+
+    /// How many columns this PE samples in `row` (see [`Pe::begin_row`]).
+    /// The PE reports it at the start of the row; the controller runs the
+    /// row for as many cycles as the largest report (an AND of "done"
+    /// lines in hardware, the one signal besides the broadcast that is not
+    /// nearest-neighbour).
+    pub fn count_in_row(&self, row: usize, runs: &[(i64, i64)], ftb: bool) -> usize {
+        let mut n = 0;
+        self.schedule(row, runs, ftb, |_| n += 1);
+        n
+    }
+
+    /// Schedules `row`: its columns inside the row's runs (front to back
+    /// only the live ones), one per cycle; rays left out cost no cycle.
+    /// Counts the terminated ones.
+    pub fn begin_row(&mut self, row: usize, runs: &[(i64, i64)], ftb: bool) {
+        let mut live = std::mem::take(&mut self.row_live);
+        live.clear();
+        self.counters.terminated += self.schedule(row, runs, ftb, |j| live.push(j));
+        self.row_live = live;
     }
 
     /// The sample of held column `j` in the bus's row: the datapath of one
@@ -292,6 +418,7 @@ impl Pe {
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
         let (rgb, alpha) = dp.classify(sample, st)?;
         let mut corrected = 0;
+        let mut terminated = false;
         let row = bus.row;
         if alpha.raw() > 0 {
             let (b, k) = bus.slope_x;
@@ -303,8 +430,16 @@ impl Pe {
             let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
             let a = dp.correct(alpha, ds, st)?;
             corrected = a.raw();
-            let acc = &mut self.rays[j].acc[row];
-            dp.composite_btf(acc, rgb, a, st)?;
+            let ray = &mut self.rays[j];
+            if dp.cfg.order == Order::FrontToBack {
+                dp.composite_ftb(&mut ray.acc[row], rgb, a, st)?;
+                // The comparator behind the accumulator sets the flag the
+                // next slice's schedule reads.
+                terminated = dp.terminated(&ray.acc[row]);
+                ray.ftb[row].done = terminated;
+            } else {
+                dp.composite_btf(&mut ray.acc[row], rgb, a, st)?;
+            }
         }
         Ok(SampleTrace {
             busy: true,
@@ -314,6 +449,7 @@ impl Pe {
             sample: sample.raw(),
             alpha: alpha.raw(),
             corrected,
+            terminated,
         })
     }
 
@@ -344,21 +480,33 @@ impl Pe {
     /// arithmetic and every counter equal the clocked path's (a test proves
     /// it); only the interleaving of PEs within a cycle is gone, which no
     /// result can observe because PEs share nothing within a cycle.
+    ///
+    /// `lens[r]` is row `r`'s length in cycles (the busiest PE's count);
+    /// rows of length 0 are skipped, and each row samples only its
+    /// scheduled columns ([`Pe::begin_row`] with `runs.row(r)`), in order,
+    /// as the clocked schedule does.
     pub fn sample_slice(
         &mut self,
         dp: &Datapath,
         rows: &[RowBus],
-        row_len: usize,
+        runs: &RowRuns,
+        lens: &[usize],
         right_edges: Option<&[[u16; 2]]>,
         nx: usize,
     ) -> Result<(), StepError> {
-        let n = self.active.1;
+        let ftb = dp.cfg.order == Order::FrontToBack;
         for (r, bus) in rows.iter().enumerate() {
-            let edge = right_edges.map_or([0; 2], |e| e[r]);
-            for c in 0..n {
-                self.last = self.sample_ray(dp, bus, self.active.0 + c, edge, nx)?;
+            self.begin_row(bus.row, runs.row(r), ftb);
+            if lens[r] == 0 {
+                continue;
             }
-            self.counters.idle += (row_len - n) as u64;
+            let edge = right_edges.map_or([0; 2], |e| e[r]);
+            let live = std::mem::take(&mut self.row_live);
+            for &j in &live {
+                self.last = self.sample_ray(dp, bus, j, edge, nx)?;
+            }
+            self.counters.idle += (lens[r] - live.len()) as u64;
+            self.row_live = live;
         }
         Ok(())
     }
@@ -403,11 +551,15 @@ impl Pe {
                     self.incoming.push(RayColumn {
                         mx: m.mx,
                         acc: Vec::with_capacity(m.rows as usize),
+                        ftb: Vec::with_capacity(if m.ftb.is_some() { m.rows as usize } else { 0 }),
                     });
                     self.incoming.len() - 1
                 }
             };
             self.incoming[pos].acc.push(m.acc);
+            if let Some(f) = m.ftb {
+                self.incoming[pos].ftb.push(f);
+            }
             if self.incoming[pos].acc.len() == m.rows as usize {
                 let col = self.incoming.swap_remove(pos);
                 let dest = owner(col.mx);
@@ -518,6 +670,159 @@ impl Pe {
     pub fn set_rays(&mut self, cols: Vec<RayColumn>) {
         self.rays = cols.into();
     }
+
+    /// Front to back: drives this PE's first held column of split row
+    /// `row`, with its index, to the left neighbour (whose last odd child
+    /// averages it with its own last column).
+    pub fn split_drive(&self, row: usize) -> Ports {
+        let mut out = Ports::default();
+        if let Some(f) = self.rays.front() {
+            out.left.edge_acc = f.acc[row];
+            out.left.edge_mx = Some(f.mx);
+        }
+        out
+    }
+
+    /// Front to back: a parent of the split, front ray `mx` at `row`:
+    /// held here, or the right neighbour's first column on its port, or
+    /// empty outside the parent rectangle `grid` (inclusive).
+    fn split_parent(
+        &self,
+        mx: i64,
+        row: usize,
+        grid: (i64, i64),
+        from_right: &Ports,
+    ) -> Result<Acc, StepError> {
+        if mx < grid.0 || mx > grid.1 {
+            return Ok(Acc::default());
+        }
+        if let Some((lo, hi)) = self.span() {
+            if (lo..=hi).contains(&mx) {
+                return Ok(self.rays[(mx - lo) as usize].acc[row]);
+            }
+        }
+        if from_right.left.edge_mx == Some(mx) {
+            return Ok(from_right.left.edge_acc);
+        }
+        Err(StepError::Unreachable { pe: self.k, mx })
+    }
+
+    /// Front to back: x pass of split row `row` (the adjoint of
+    /// [`Pe::merge_x`]): for each child column `n` this PE computes, the
+    /// mean of parents `floor(n / 2)` and `floor(n / 2) + (n mod 2)` (an
+    /// even child continues its parent), from the accumulators into `line`
+    /// (raw `merge` words, R, G, B, A). Children are those whose parent
+    /// `clamp(floor(n / 2), lo, hi)` of the parent rectangle `grid` this
+    /// PE holds, so the second parent is held here or is the right
+    /// neighbour's first column.
+    pub fn split_x(
+        &mut self,
+        dp: &Datapath,
+        row: usize,
+        children: &[i64],
+        grid: (i64, i64),
+        from_right: &Ports,
+        line: &mut Vec<[i64; 4]>,
+    ) -> Result<(), StepError> {
+        line.clear();
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        for &n in children {
+            let m = n.div_euclid(2);
+            let a = self.split_parent(m, row, grid, from_right)?;
+            let b = if n.rem_euclid(2) == 0 {
+                a
+            } else {
+                self.split_parent(m + 1, row, grid, from_right)?
+            };
+            let mut out = [0i64; 4];
+            for (ch, o) in out.iter_mut().enumerate() {
+                let f = if ch < 3 { fc } else { fa };
+                *o = dp
+                    .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.stats)
+                    .raw();
+            }
+            line.push(out);
+        }
+        Ok(())
+    }
+
+    /// Front to back: the fold's differences of back row `row`, result
+    /// minus inherited state (results in `rf`: colour, opacity; inherited
+    /// states in the accumulators), for every held column, into `merge`
+    /// words; drives the last, with its index, to the right neighbour
+    /// (whose first child's left tap it is).
+    pub fn fold_prepare(&mut self, dp: &Datapath, row: usize, rf: [Format; 2]) -> Ports {
+        let (fc, fa) = (dp.cfg.accum_color, dp.cfg.accum_alpha);
+        self.dline.clear();
+        for c in &self.rays {
+            let (r, h) = (c.acc[row].raw, c.ftb[row].inh.raw);
+            let mut d = [0i64; 4];
+            for (ch, o) in d.iter_mut().enumerate() {
+                let (f, hf) = if ch < 3 { (rf[0], fc) } else { (rf[1], fa) };
+                *o = dp.fold_diff(r[ch], f, h[ch], hf, &mut self.stats).raw();
+            }
+            self.dline.push(d);
+        }
+        let mut out = Ports::default();
+        if let (Some(c), Some(d)) = (self.rays.back(), self.dline.last()) {
+            out.right.edge_acc = Acc { raw: *d };
+            out.right.edge_mx = Some(c.mx);
+        }
+        out
+    }
+
+    /// Front to back: a tap of the fold's x pass, back ray `n`'s difference
+    /// in the current row: held here, or the left neighbour's last column
+    /// on its port, or empty outside the back rectangle `grid`.
+    fn fold_tap(&self, n: i64, grid: (i64, i64), from_left: &Ports) -> Result<[i64; 4], StepError> {
+        if n < grid.0 || n > grid.1 {
+            return Ok([0; 4]);
+        }
+        if let Some((lo, hi)) = self.span() {
+            if (lo..=hi).contains(&n) {
+                return Ok(self.dline[(n - lo) as usize]);
+            }
+        }
+        if from_left.right.edge_mx == Some(n) {
+            return Ok(from_left.right.edge_acc.raw);
+        }
+        Err(StepError::Unreachable { pe: self.k, mx: n })
+    }
+
+    /// Front to back: x pass of fold row `row` (after
+    /// [`Pe::fold_prepare`]): for each front ray `m` whose final state this
+    /// PE kept at the split, the tent of back rays `2m - 1 ..= 2m + 1`'s
+    /// differences into `line` (raw `merge` words). The back rays were
+    /// brought to the PE of their split parent `clamp(floor(n / 2))`, so
+    /// `2m` and `2m + 1` are held here and `2m - 1` is here or the left
+    /// neighbour's last column.
+    pub fn fold_x(
+        &mut self,
+        dp: &Datapath,
+        grid: (i64, i64),
+        from_left: &Ports,
+        line: &mut Vec<[i64; 4]>,
+    ) -> Result<(), StepError> {
+        line.clear();
+        let fm = dp.cfg.merge;
+        let kept = self.finals.last().map_or(0, Vec::len);
+        for i in 0..kept {
+            let m = self.finals.last().map_or(0, |f| f[i].mx);
+            let p = [
+                self.fold_tap(2 * m - 1, grid, from_left)?,
+                self.fold_tap(2 * m, grid, from_left)?,
+                self.fold_tap(2 * m + 1, grid, from_left)?,
+            ];
+            let mut out = [0i64; 4];
+            for (ch, o) in out.iter_mut().enumerate() {
+                *o = dp
+                    .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut self.stats)
+                    .raw();
+            }
+            line.push(out);
+        }
+        Ok(())
+    }
 }
 
 /// Splits a column into ray moves, row by row.
@@ -529,6 +834,7 @@ fn queue(q: &mut VecDeque<RayMove>, c: RayColumn) {
             row: row as u32,
             rows,
             acc,
+            ftb: c.ftb.get(row).copied(),
         });
     }
 }
@@ -545,6 +851,15 @@ pub enum StepError {
         mx: i64,
         /// The column.
         column: usize,
+    },
+    /// A split or fold needed a ray that is neither held by the PE nor on
+    /// a neighbour's port (the array's ownership rule was broken).
+    #[error("PE {pe} needs ray {mx} for a split or fold but cannot reach it")]
+    Unreachable {
+        /// The PE.
+        pe: usize,
+        /// The ray.
+        mx: i64,
     },
     /// An intermediate outgrew the 128-bit model.
     #[error("{0}")]

@@ -1,9 +1,10 @@
 //! Criterion benches of the hot paths (`cargo bench`):
 //!
-//! - golden: sampling and compositing one ER slice (`sample_slice`, every
-//!   ray of a region crossing one slice: bilinear sample, classification,
-//!   opacity correction, compositing), and the Bartlett merge of one
-//!   region boundary;
+//! - golden: sampling and compositing one ER region (`sample_region`,
+//!   every ray of the back region crossing each of its slices: bilinear
+//!   sample, classification, opacity correction, compositing; nothing
+//!   skipped, so it times the per-sample cost), and the Bartlett merge of
+//!   one region boundary;
 //! - pipeline: one busy PE cycle of the fixed-point datapath (position,
 //!   address, bilinear, classify, path length, opacity correction,
 //!   compositing) over a row of rays of a real frame plan, and one clock of
@@ -23,8 +24,9 @@ use golden::camera::{Camera, ImagePlane};
 use golden::geometry::{Merge, View};
 use golden::methods::Method;
 use golden::render::{lut_for, Prepared};
-use golden::sampling::{sample_slice, Order};
+use golden::sampling::{sample_region, Order, Pass};
 use golden::scenes::Scene;
+use golden::skip::SampleMask;
 use golden::tf::Lut;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::config::PipelineConfig;
@@ -50,34 +52,23 @@ fn golden_benches(c: &mut Criterion) {
     let layout = Method::Er.layout(&prep.view).expect("layout");
     let k = layout.grids.len() - 1;
     let grid = &layout.grids[k];
-    let z = (grid.slices.start + grid.slices.end) / 2;
     let mut buf = vec![[0f32; 4]; grid.len()];
-    let n = sample_slice(
-        &prep.view,
-        &prep.stack,
-        &lut,
-        grid,
-        &mut buf,
-        z,
-        Order::BackToFront,
-        1,
-    );
+    // Every ray samples: the per-sample cost, not what skipping saves.
+    let mask = SampleMask::everything(&prep.view, &layout, prep.clip.clone(), 1);
+    let pass = Pass {
+        view: &prep.view,
+        stack: &prep.stack,
+        lut: &lut,
+        mask: &mask,
+        order: Order::BackToFront,
+        substeps: 1,
+    };
+    let n: u64 = sample_region(&pass, k, grid, &mut buf).samples.iter().sum();
     let mut g = c.benchmark_group("golden");
     g.sample_size(30);
     g.throughput(Throughput::Elements(n));
-    g.bench_function("sample_slice_er_btf", |b| {
-        b.iter(|| {
-            black_box(sample_slice(
-                &prep.view,
-                &prep.stack,
-                &lut,
-                grid,
-                &mut buf,
-                black_box(z),
-                Order::BackToFront,
-                1,
-            ))
-        })
+    g.bench_function("sample_region_er_btf", |b| {
+        b.iter(|| black_box(sample_region(&pass, black_box(k), grid, &mut buf)))
     });
     // The front region's merge: the back region's rays into region k - 1's.
     if k >= 1 {

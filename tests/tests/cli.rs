@@ -815,6 +815,14 @@ fn bad_input_gives_one_line_errors() {
         (format!("{s} --fov 180"), "field of view"),
         (format!("{s} --fov -5"), "field of view"),
         (format!("{s} --fov 200"), "field of view"),
+        (format!("{s} --block 3"), "block size"),
+        (format!("{s} --block 128"), "block size"),
+        (format!("{s} --clip 1,2,3"), "clip plane"),
+        (format!("{s} --clip 0,0,0,1"), "clip plane"),
+        (format!("{s} --clip 0,0,1,inf"), "clip plane"),
+        (format!("{s} {}", "--clip 0,0,1,0 ".repeat(7)), "at most 6"),
+        (format!("{s} --near 0"), "near"),
+        (format!("{s} --near nan"), "near"),
         (format!("{s} --eye 3,4,-20 --look-at 3,4,-20"), "look-at"),
         // The default eye is straight in front of the volume along z.
         (format!("{s} --up 0,0,1"), "parallel"),
@@ -1206,4 +1214,58 @@ fn demo_runs_without_inputs() {
     // The demo's image is the checkerboard room, not an empty frame.
     let er = read_png(&d.join("D/er.png"));
     assert!(er.pixels().filter(|p| p.0 != [0, 0, 0]).count() > 1000);
+}
+
+/// Skipping is on by default and off-switchable; the image is the same
+/// bits either way (float `.npy`), the stats say what was skipped, and a
+/// clip plane through the volume changes the image.
+#[test]
+fn skipping_flags_keep_the_image_and_report_counts() {
+    let dir = tempdir();
+    let d = dir.path();
+    let base = "render --scene sphere:48 --block 4 --size 48x40 --eye 23.5,23.5,-30 --fov 70";
+    for m in ["er", "er-ftb", "over"] {
+        let term = if m == "er-ftb" { " --terminate 1" } else { "" };
+        ercube(
+            d,
+            &format!("{base} --method {m}{term} --npy on.npy --stats on.json --out on.png"),
+        )
+        .ok();
+        ercube(
+            d,
+            &format!("{base} --method {m}{term} --no-skip-empty --no-cull --npy off.npy --stats off.json --out off.png"),
+        )
+        .ok();
+        let (on, off) = (read_npy(&d.join("on.npy")), read_npy(&d.join("off.npy")));
+        assert_eq!(on.values, off.values, "{m}: skipping changed the image");
+        let json = |f: &str| -> Value {
+            serde_json::from_str(&std::fs::read_to_string(d.join(f)).unwrap()).unwrap()
+        };
+        let (son, soff) = (json("on.json"), json("off.json"));
+        let samples = |v: &Value| v["samples_total"].as_u64().unwrap();
+        assert!(
+            samples(&son) * 2 < samples(&soff),
+            "{m}: {} vs {}",
+            samples(&son),
+            samples(&soff)
+        );
+        assert!(
+            son["skipped"]["beams"].as_u64().unwrap() > 0,
+            "{m}: {}",
+            son["skipped"]
+        );
+        assert_eq!(soff["skipped"]["beams"].as_u64(), Some(0));
+        let occ = son["skipped"]["occupied_blocks"].as_f64().unwrap();
+        assert!(occ > 0.0 && occ < 1.0, "{m}: occupied {occ}");
+    }
+    ercube(
+        d,
+        &format!("{base} --clip 1,0,0,-24 --npy clip.npy --out clip.png"),
+    )
+    .ok();
+    ercube(d, &format!("{base} --npy whole.npy --out whole.png")).ok();
+    assert_ne!(
+        read_npy(&d.join("clip.npy")).values,
+        read_npy(&d.join("whole.npy")).values
+    );
 }

@@ -61,7 +61,7 @@ fn run_case(c: &Case) -> Result<(f64, f64, f64), TestCaseError> {
         &prep,
         &lut,
         Technique::Slice(Method::Er),
-        &RenderOptions::default(),
+        &RenderOptions::unskipped(),
     )
     .unwrap();
     let frame =
@@ -279,7 +279,7 @@ fn default_width_view(vol: &Volume, tf: &TransferFunction, cam: &Camera) -> f64 
         &prep,
         &lut,
         Technique::Slice(Method::Er),
-        &RenderOptions::default(),
+        &RenderOptions::unskipped(),
     )
     .unwrap();
     let frame =

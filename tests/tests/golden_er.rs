@@ -86,13 +86,19 @@ fn prepare(vol: &Volume, cam: &Camera) -> Prepared {
 }
 
 fn slice_render(m: Method, p: &Prepared, l: &Lut, opts: &Options) -> Output {
-    methods::render(m, &p.view, &p.stack, l, opts).unwrap()
+    methods::render(m, p, l, opts).unwrap()
 }
 
+/// Options with nothing skipped: these tests count and compare every
+/// ray's samples (skipping is tested in `skipping.rs`).
 fn opts(terminate: f32, substeps: u32) -> Options {
     Options {
         terminate,
         substeps,
+        skips: golden::skip::Skips {
+            empty: false,
+            cull: false,
+        },
     }
 }
 

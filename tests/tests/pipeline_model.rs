@@ -208,7 +208,7 @@ fn golden_er(s: &Subject, prep: &Prepared) -> golden::methods::Output {
         prep,
         &s.lut,
         Technique::Slice(Method::Er),
-        &RenderOptions::default(),
+        &RenderOptions::unskipped(),
     )
     .expect("golden er renders")
     .slice

@@ -153,7 +153,7 @@ fn pipeline_vs_golden(
         prep,
         lut,
         Technique::Slice(Method::Er),
-        &RenderOptions::default(),
+        &RenderOptions::unskipped(),
     )
     .unwrap();
     let gout = g.slice.as_ref().unwrap();
@@ -270,6 +270,7 @@ fn long_accumulation_golden(n: usize) {
     let no_termination = Options {
         terminate: 1.0,
         substeps: 1,
+        ..Options::default()
     };
     for a in [1e-4, 0.02, 0.999, 1.0 - 1e-6] {
         // The model sees the f32 table entry, so the closed form uses it.
@@ -279,7 +280,7 @@ fn long_accumulation_golden(n: usize) {
         let want = closed_form(a32, n as f64);
         let tol = accumulation_tolerance(a32, n);
         for m in Method::ALL {
-            let out = methods::render(m, &prep.view, &prep.stack, &lut, &no_termination).unwrap();
+            let out = methods::render(m, &prep, &lut, &no_termination).unwrap();
             let base = &out.baseplane;
             let got = base.data[centre_sample(&base.grid)];
             assert!(got.iter().all(|v| v.is_finite()));
@@ -469,7 +470,7 @@ fn check_extreme_view(vol: &Volume, lut: &Lut, cam: &Camera, what: &str, tally: 
     let [nx, ny, nz] = prep.view.dims;
     tally.views += 1;
     for m in Method::ALL {
-        let frame = match render(&prep, lut, Technique::Slice(m), &RenderOptions::default()) {
+        let frame = match render(&prep, lut, Technique::Slice(m), &RenderOptions::unskipped()) {
             Ok(f) => f,
             Err(golden::Error::TooLarge { .. }) if m == Method::Over => continue,
             Err(e) => panic!("{what}: {} failed: {e}", m.name()),
@@ -1183,6 +1184,7 @@ fn run_wild(w: &Wild) -> Result<(), TestCaseError> {
         slice: Options {
             terminate: w.terminate,
             substeps: w.substeps,
+            ..Options::default()
         },
         ..RenderOptions::default()
     };

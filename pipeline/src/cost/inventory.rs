@@ -196,6 +196,21 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     u.push(Unit::Reg { bits: pn });
     items.push(Item::new("position", "ray x: A + m t", 1, u.clone()));
     items.push(Item::new("position", "slope x: b + m k", 1, u));
+    // The row's schedule: is the held ray's index inside the broadcast run
+    // (empty-space skipping), and is its termination flag clear.
+    items.push(Item::new(
+        "position",
+        "schedule: ray index in run",
+        1,
+        vec![
+            Unit::Cmp {
+                width: RAY_INDEX_BITS,
+            },
+            Unit::Cmp {
+                width: RAY_INDEX_BITS,
+            },
+        ],
+    ));
     // Address: floor(x) clamped into the volume (two compares and a mux
     // per tap), the right tap one column on, the local column in the
     // block, whether it is the neighbour's edge column; the weight is the
@@ -763,7 +778,38 @@ pub fn controller_inventory(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     addr.push(Unit::Reg {
         bits: 2 * row_bits + fmt_bits(cfg.weight),
     });
+    // Empty-space skipping: one bit per block of the volume, and the row's
+    // runs (a block edge's ray index, `(x_edge - A) / t`, as a multiply by
+    // the host's `1 / t`, one edge per cycle while the previous row
+    // samples).
+    let b = u64::from(cfg.occupancy_block);
+    let blocks: u64 = geo
+        .dims
+        .iter()
+        .map(|&n| (n as u64).saturating_sub(1) / b + 1)
+        .product();
+    let runs = MulAdd::new(pos, pos, cfg.step.into(), cfg.position);
+    let mut run_units = runs.units();
+    run_units.push(Unit::Reg {
+        bits: 2 * RAY_INDEX_BITS,
+    });
     vec![
+        Item::new(
+            "controller",
+            "occupancy memory (1 bit per block)",
+            1,
+            vec![Unit::Mem {
+                depth: blocks,
+                width: 1,
+                ports: MemPorts::Sdp,
+            }],
+        ),
+        Item::new(
+            "controller",
+            "row runs: block edge to ray index",
+            1,
+            run_units,
+        ),
         Item::new("controller", "row y: A + m t", 1, u.clone()),
         Item::new("controller", "row slope y: b + m k", 1, u),
         Item::new("controller", "row address and weight", 1, addr),

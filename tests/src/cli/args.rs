@@ -9,8 +9,11 @@ use clap::Args;
 use glam::DVec3;
 
 use golden::camera::{Camera, ImagePlane};
+use golden::clip::ClipPlane;
 use golden::load::{load_auto, RawSpec, RawType};
+use golden::render::{PrepareOptions, Prepared};
 use golden::scenes::{tf_preset, Scene};
+use golden::skip::Skips;
 use golden::tf::TransferFunction;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 
@@ -238,7 +241,7 @@ pub fn with_threads<T: Send>(
     }
 }
 
-/// Options of the slice-order methods, shared by `render` and `compare`.
+/// Options of the renderers, shared by `render` and `compare`.
 #[derive(Debug, Clone, Args)]
 pub struct SliceArgs {
     /// Early ray termination opacity for er-ftb (1 disables it).
@@ -247,6 +250,28 @@ pub struct SliceArgs {
     /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
     #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
     pub substeps: u32,
+    /// Sample empty space too (skipping it never changes the image).
+    #[arg(long)]
+    pub no_skip_empty: bool,
+    /// Sample rays that cannot reach the image and regions behind the
+    /// volume too (culling never changes the image).
+    #[arg(long)]
+    pub no_cull: bool,
+    /// Edge of the empty-space blocks in voxels (power of two, 2..64).
+    #[arg(long, default_value_t = golden::occupancy::DEFAULT_BLOCK)]
+    pub block: usize,
+    /// Clip plane nx,ny,nz,d in world units: keeps n.p + d >= 0
+    /// (repeat for up to 6 planes).
+    #[arg(long, value_parser = parse_clip, allow_hyphen_values = true)]
+    pub clip: Vec<ClipPlane>,
+    /// Near plane: an eye on or inside the volume's slab sees only slices
+    /// at least this many voxels in front of it.
+    #[arg(long, default_value_t = golden::render::DEFAULT_NEAR)]
+    pub near: f64,
+}
+
+fn parse_clip(s: &str) -> std::result::Result<ClipPlane, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
 }
 
 impl SliceArgs {
@@ -255,17 +280,46 @@ impl SliceArgs {
         let mut o = golden::render::RenderOptions::default();
         o.slice.terminate = self.terminate;
         o.slice.substeps = self.substeps;
+        o.slice.skips = Skips {
+            empty: !self.no_skip_empty,
+            cull: !self.no_cull,
+        };
         o.slice.validate()?;
         Ok(o)
+    }
+
+    /// Checks and builds how the volume is prepared for a camera.
+    pub fn prepare(&self) -> Result<PrepareOptions> {
+        golden::occupancy::check_block(self.block)?;
+        golden::clip::check_planes(&self.clip)?;
+        if !(self.near.is_finite() && self.near > 0.0) {
+            bail!("--near {} must be a positive number of voxels", self.near);
+        }
+        Ok(PrepareOptions {
+            block: self.block,
+            clip: self.clip.clone(),
+            near: self.near,
+        })
+    }
+
+    /// Prepares `vol` for `cam` with these options.
+    pub fn prepared(&self, vol: &Volume, cam: &Camera) -> Result<Prepared> {
+        Ok(Prepared::with(vol, cam, &self.prepare()?)?)
     }
 }
 
 impl Default for SliceArgs {
     fn default() -> SliceArgs {
         let o = golden::methods::Options::default();
+        let p = PrepareOptions::default();
         SliceArgs {
             terminate: o.terminate,
             substeps: o.substeps,
+            no_skip_empty: !o.skips.empty,
+            no_cull: !o.skips.cull,
+            block: p.block,
+            clip: p.clip,
+            near: p.near,
         }
     }
 }

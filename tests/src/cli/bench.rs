@@ -58,7 +58,8 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub tf: TfArgs,
     /// Comma-separated methods: reference, under, over, box, er, er-ftb,
-    /// pipeline (default widths) or pipeline:FILE.toml (widths from FILE).
+    /// pipeline (default widths), pipeline-ftb (front to back, default
+    /// widths) or pipeline:FILE.toml (widths from FILE).
     #[arg(long, default_value = "reference,under,over,box,er,er-ftb,pipeline")]
     pub methods: String,
     /// Comma-separated eye distances D in voxels (eye to slice 0).
@@ -130,8 +131,18 @@ impl BenchMethod {
 pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
     let mut out: Vec<BenchMethod> = Vec::new();
     for tok in s.split(',').map(str::trim) {
-        let m = if tok == "pipeline" || tok.starts_with("pipeline:") {
+        let m = if tok == "pipeline" || tok == "pipeline-ftb" || tok.starts_with("pipeline:") {
             let (label, mut cfg) = match tok.strip_prefix("pipeline:") {
+                // Front to back at golden er-ftb's default threshold, so the
+                // two run the same samples.
+                None if tok == "pipeline-ftb" => (
+                    tok.to_string(),
+                    PipelineConfig {
+                        order: pipeline::config::Order::FrontToBack,
+                        terminate: f64::from(golden::methods::Options::default().terminate),
+                        ..PipelineConfig::default()
+                    },
+                ),
                 None => ("pipeline".to_string(), PipelineConfig::default()),
                 Some(path) => {
                     let p = Path::new(path);
@@ -152,7 +163,7 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
         } else {
             let t: Technique = tok.parse().map_err(|_| {
                 anyhow::anyhow!(
-                    "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, pipeline or pipeline:FILE.toml"
+                    "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, pipeline, pipeline-ftb or pipeline:FILE.toml"
                 )
             })?;
             BenchMethod::Golden(t)
@@ -487,11 +498,15 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
                     Lut::for_bits(&case.tf, cfg.table_entries as usize, case.vol.kind().bits())
                 });
                 bar.set_message(format!("{} D={d}: golden er for {label}", case.label));
+                // The golden method the pipeline mirrors (er-ftb at its
+                // threshold, front to back).
+                let mut o = opts;
+                o.slice.terminate = cfg.terminate as f32;
                 let er = render(
                     &prep,
                     plut,
-                    Technique::Slice(golden::methods::Method::Er),
-                    &opts,
+                    Technique::Slice(crate::cli::pipeline::golden_method(cfg)),
+                    &o,
                 )?;
                 er_for.insert(label.clone(), er.image);
                 bar.inc(1);
@@ -591,7 +606,10 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
         }
         if let Some(er) = spans.get("er") {
             for m in &case.methods {
-                if let BenchMethod::Pipeline { label, .. } = m {
+                if let BenchMethod::Pipeline { label, cfg } = m {
+                    if cfg.order != pipeline::config::Order::BackToFront {
+                        continue;
+                    }
                     if let Some(p) = spans.get(label) {
                         let same = p == er;
                         pipeline_matches_er = Some(pipeline_matches_er.unwrap_or(true) && same);

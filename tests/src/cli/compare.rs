@@ -72,7 +72,7 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
     let tf = a.tf.resolve(default_tf)?;
     let lut = lut_for(vol.kind(), &tf);
     let cam = a.camera.camera(&vol)?;
-    let prep = Prepared::new(&vol, &cam)?;
+    let prep = a.slice.prepared(&vol, &cam)?;
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
 

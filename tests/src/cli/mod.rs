@@ -11,6 +11,7 @@ mod pipeline;
 mod plot;
 mod progress;
 mod render;
+mod skipbench;
 mod stats;
 
 use std::process::ExitCode;
@@ -45,6 +46,9 @@ enum Command {
     /// FPGA cost of the PE array: resources per PE and in all, fit on
     /// real parts, frame rate and voxel bandwidth from a pipeline run.
     Cost(Box<cost::CostArgs>),
+    /// Measure what each kind of skipping saves (golden time, pipeline
+    /// cycles) on four scenes; write the "Skipping" section of the report.
+    SkipBench(Box<skipbench::SkipBenchArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -95,6 +99,7 @@ pub fn run() -> ExitCode {
         Command::Cost(a) => cost::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),
+        Command::SkipBench(a) => skipbench::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

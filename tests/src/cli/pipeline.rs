@@ -1,4 +1,5 @@
-//! `ercube render --method pipeline`: the bit-accurate PE array model, its
+//! `ercube render --method pipeline` (and `pipeline-ftb`, the front-to-back
+//! order with early ray termination): the bit-accurate PE array model, its
 //! cycle counts, raw accumulator words and waveforms.
 
 use std::path::{Path, PathBuf};
@@ -8,12 +9,13 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::{json, Value};
 
+use golden::methods::Method;
 use golden::metrics::compare;
 use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::tf::Lut;
 use golden::volume::Volume;
 use golden::warp::warp;
-use pipeline::config::PipelineConfig;
+use pipeline::config::{Order, PipelineConfig};
 use waves::{parse_cycle_window, PeFilter, TraceConfig, Tracer};
 
 use super::stats::error_json;
@@ -42,6 +44,30 @@ impl ConfigArgs {
         }
         cfg.validate()?;
         Ok(cfg)
+    }
+}
+
+/// The pipeline methods of `ercube render --method`.
+pub const METHODS: [&str; 2] = ["pipeline", "pipeline-ftb"];
+
+/// Sets the order a pipeline method names: `pipeline-ftb` runs front to
+/// back with `--terminate`'s threshold (which replaces the configuration's
+/// `terminate`); `pipeline` runs the configuration as it is.
+pub fn apply_method(cfg: &mut PipelineConfig, method: &str, terminate: f32) -> Result<()> {
+    if method == "pipeline-ftb" {
+        cfg.order = Order::FrontToBack;
+        cfg.terminate = f64::from(terminate);
+        cfg.validate()?;
+    }
+    Ok(())
+}
+
+/// The golden method a configuration mirrors: `er` back to front, `er-ftb`
+/// front to back.
+pub fn golden_method(cfg: &PipelineConfig) -> Method {
+    match cfg.order {
+        Order::BackToFront => Method::Er,
+        Order::FrontToBack => Method::ErFtb,
     }
 }
 
@@ -95,17 +121,19 @@ pub struct PipelineRun {
     pub time_s: f64,
 }
 
-/// Renders `prep` through the pipeline.
+/// Renders `prep` through the pipeline, the controller skipping what
+/// `skips` allows and clipping to `prep`'s planes.
 pub fn run(
     a: &PipelineArgs,
     cfg: &PipelineConfig,
     vol: &Volume,
     lut: &Lut,
     prep: &Prepared,
+    skips: golden::skip::Skips,
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
-    let frame = pipeline::run_frame(cfg, vol, lut, &prep.view, tr)?;
+    let frame = pipeline::run_frame_with(cfg, vol, lut, prep, skips, tr)?;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {
@@ -133,11 +161,24 @@ fn write_raw_npy(path: &Path, f: &pipeline::Frame) -> Result<()> {
     .with_context(|| format!("writing {}", path.display()))
 }
 
-/// The pipeline's part of the stats JSON, and its error against golden er
-/// and (optionally) the reference.
+/// The pipeline's part of the stats JSON, and its error against the golden
+/// method it mirrors (`error_vs_golden`, naming the method; back to front
+/// also as `error_vs_golden_er`).
 pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Value>) -> Value {
     let f = &run.frame;
+    let btf = cfg.order == Order::BackToFront;
+    let named = vs_golden.clone().map(|mut v| {
+        v["method"] = json!(golden_method(cfg).name());
+        v
+    });
     json!({
+        "order": cfg.order.name(),
+        "terminate": cfg.terminate,
+        "terminated_samples": f.terminated_samples,
+        "cycles_saved": f.cycles_saved,
+        "skipped": f.skipped,
+        "raw_format": [f.raw_format[0].to_string(), f.raw_format[1].to_string()],
+        "error_vs_golden": named,
         "cycles": f.cycles,
         "ideal_cycles": f.ideal_cycles,
         "utilization": f.utilization(),
@@ -149,25 +190,33 @@ pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Val
         "quantization": f.quant,
         "pe_cycles_per_second": f.cycles as f64 * f64::from(cfg.pes) / run.time_s.max(1e-12),
         "config": serde_json::to_value(cfg).unwrap_or(Value::Null),
-        "error_vs_golden_er": vs_golden,
+        "error_vs_golden_er": if btf { vs_golden } else { None },
     })
 }
 
-/// Compares the pipeline's image with golden `er` using the same table.
-pub fn versus_golden(prep: &Prepared, lut: &Lut, image: &golden::image::Image) -> Result<Value> {
-    let g = render(
-        prep,
-        lut,
-        Technique::Slice(golden::methods::Method::Er),
-        &RenderOptions::default(),
-    )?;
+/// Compares the pipeline's image with the golden method it mirrors
+/// ([`golden_method`]: `er`, or `er-ftb` at the same threshold) using the
+/// same table.
+pub fn versus_golden(
+    prep: &Prepared,
+    lut: &Lut,
+    image: &golden::image::Image,
+    cfg: &PipelineConfig,
+) -> Result<Value> {
+    let mut opts = RenderOptions::default();
+    // The configuration's threshold was validated in (0, 1]; f32 is what
+    // golden compares in.
+    opts.slice.terminate = cfg.terminate as f32;
+    let g = render(prep, lut, Technique::Slice(golden_method(cfg)), &opts)?;
     Ok(error_json(&compare(image, &g.image)?))
 }
 
 /// Refuses pipeline options on other methods.
 pub fn check_unused(a: &PipelineArgs) -> Result<()> {
     if a.cfg.config.is_some() || a.cfg.pes.is_some() || a.vcd.is_some() || a.raw_npy.is_some() {
-        bail!("--config, --pes, --vcd and --raw-npy apply only to --method pipeline");
+        bail!(
+            "--config, --pes, --vcd and --raw-npy apply only to --method pipeline or pipeline-ftb"
+        );
     }
     Ok(())
 }

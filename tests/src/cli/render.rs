@@ -23,7 +23,7 @@ pub struct RenderArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub tf: TfArgs,
-    /// Method: reference, er, er-ftb, under, over, box or pipeline.
+    /// Method: reference, er, er-ftb, under, over, box, pipeline or pipeline-ftb.
     #[arg(long, default_value = "er")]
     pub method: String,
     /// Output PNG (RGB over black).
@@ -84,7 +84,7 @@ pub fn median(v: &[f64]) -> f64 {
 
 /// Runs `ercube render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
-    if a.method == "pipeline" {
+    if pipe::METHODS.contains(&a.method.as_str()) {
         return with_threads(a.threads, || run_pipeline(a));
     }
     pipe::check_unused(&a.pipeline)?;
@@ -103,7 +103,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let tf = a.tf.resolve(default_tf)?;
         let lut = lut_for(vol.kind(), &tf);
         let cam = a.camera.camera(&vol)?;
-        let prep = Prepared::new(&vol, &cam)?;
+        let prep = a.slice.prepared(&vol, &cam)?;
         let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
             timed(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
@@ -172,9 +172,10 @@ fn write_outputs(
     Ok(err)
 }
 
-/// `ercube render --method pipeline`.
+/// `ercube render --method pipeline` or `pipeline-ftb`.
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
-    let cfg = a.pipeline.cfg.load()?;
+    let mut cfg = a.pipeline.cfg.load()?;
+    pipe::apply_method(&mut cfg, &a.method, a.slice.terminate)?;
     let opts = a.slice.options()?;
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
@@ -186,16 +187,18 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let tf = a.tf.resolve(default_tf)?;
     let lut = pipe::pipeline_lut(&cfg, &vol, &tf);
     let cam = a.camera.camera(&vol)?;
-    let prep = Prepared::new(&vol, &cam)?;
+    let prep = a.slice.prepared(&vol, &cam)?;
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
-        timed(a.repeat, || pipe::run(&a.pipeline, &cfg, &vol, &lut, &prep))?
+        timed(a.repeat, || {
+            pipe::run(&a.pipeline, &cfg, &vol, &lut, &prep, opts.slice.skips)
+        })?
     };
     let run = pipe::PipelineRun {
         time_s: median(&times),
         ..run
     };
-    let vs_golden = pipe::versus_golden(&prep, &lut, &run.image)?;
+    let vs_golden = pipe::versus_golden(&prep, &lut, &run.image, &cfg)?;
     let err = write_outputs(
         a,
         &prep,
@@ -210,7 +213,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             slice: None,
         };
         let mut v = frame_json(
-            "pipeline",
+            &a.method,
             &vol,
             &prep.view,
             cam.eye,
@@ -230,13 +233,15 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     }
     let f = &run.frame;
     super::say(&format!(
-        "pipeline: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden er: max {} /255 -> {}",
+        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 -> {}",
+        a.method,
         cfg.pes,
         f.cycles,
         f.ideal_cycles,
         f.utilization(),
         f.samples,
         run.time_s,
+        pipe::golden_method(&cfg).name(),
         vs_golden["max_abs_255"],
         a.out.display()
     ));

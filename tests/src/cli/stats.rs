@@ -40,6 +40,13 @@ pub fn frame_json(
         v["samples_per_slice"] = json!(s.samples_per_slice);
         v["rays_per_region"] = json!(s.rays_per_region);
         v["merges"] = json!(s.merges);
+        v["skipped"] = json!({
+            "slices": s.slices_skipped,
+            "beams": s.beams_skipped,
+            "rays_culled": s.rays_culled,
+            "regions": s.regions_skipped,
+            "occupied_blocks": s.occupied_blocks,
+        });
         v["baseplane"] = json!({
             "size": out.baseplane.grid.counts,
             "origin": out.baseplane.grid.origin,

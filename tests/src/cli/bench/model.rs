@@ -59,7 +59,7 @@ impl Model {
         match name {
             "over" => Some(Model::Over),
             "under" => Some(Model::Under),
-            "er" | "er-ftb" | "box" | "pipeline" => Some(Model::Er),
+            "er" | "er-ftb" | "box" | "pipeline" | "pipeline-ftb" => Some(Model::Er),
             _ => None,
         }
         .or_else(|| name.starts_with("pipeline:").then_some(Model::Er))

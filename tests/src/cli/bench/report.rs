@@ -1,7 +1,7 @@
 //! `ercube bench --report DIR`: the fixed plan behind `docs/benchmarks.md`
 //! (the paper's two views of the 256^3 checkerboard, a Figure 9 distance
-//! sweep on Marschner-Lobb 125^3, brainsmall, and two width sweeps of the
-//! pipeline), written as `DIR/benchmarks.md` with its CSVs and plots under
+//! sweep on Marschner-Lobb 125^3, brainsmall, two width sweeps of the
+//! pipeline, and what skipping saves), written as `DIR/benchmarks.md` with its CSVs and plots under
 //! `DIR/bench/`.
 
 use std::fmt::Write as _;
@@ -264,6 +264,22 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
             started.elapsed().as_secs_f64()
         ));
     }
+
+    // The skipping section, as `ercube skip-bench` writes it.
+    let skip = crate::cli::skipbench::SkipBenchArgs {
+        frames,
+        report: dir.to_path_buf(),
+        n: 256,
+        brainsmall: a.brainsmall.clone(),
+        no_pipeline: false,
+        threads: None,
+    };
+    md.push('\n');
+    md.push_str(&crate::cli::skipbench::section(&skip)?);
+    super::super::say(&format!(
+        "skipping: done ({:.0} s so far)",
+        started.elapsed().as_secs_f64()
+    ));
 
     writeln!(
         md,

@@ -1,0 +1,239 @@
+//! Empty-space structure: a min-max block grid over the volume, built once
+//! per volume, and the occupancy map the transfer function makes of it,
+//! rebuilt (cheaply: one table query per block) whenever the table changes.
+//!
+//! Block `b` on an axis covers voxels `b B ..= b B + B`: neighbouring
+//! blocks overlap by one voxel, so every interpolation cell whose base
+//! voxel lies in block `b` (`floor(position) / B == b`, clamped into the
+//! volume) reads only voxels of block `b`, the replicated edge padding
+//! included. A block is empty when the table gives zero opacity to every
+//! scalar in its `[min, max]`; since linear interpolation (bilinear,
+//! trilinear, and the table's own) never leaves the range of what it
+//! interpolates, no sample in an empty block can be visible and skipping
+//! it leaves the image bit for bit unchanged.
+//!
+//! [`ViewOccupancy`] re-indexes the map for one view (principal axis,
+//! flip and near clip), which is what the slice-order methods and the
+//! pipeline's occupancy memory query.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::error::{input, Result};
+use crate::geometry::AxisMap;
+use crate::tf::Lut;
+use crate::volume::Volume;
+
+/// Default block edge in voxels.
+pub const DEFAULT_BLOCK: usize = 8;
+
+/// Block edges the structure accepts: powers of two from 2 to 64 (a power
+/// of two makes a voxel's block a shift, as in the pipeline's controller).
+pub fn check_block(block: usize) -> Result<()> {
+    if !(block.is_power_of_two() && (2..=64).contains(&block)) {
+        return Err(input(format!(
+            "block size {block} must be a power of two from 2 to 64"
+        )));
+    }
+    Ok(())
+}
+
+/// Per-block scalar minimum and maximum, index space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MinMax {
+    /// Block edge `B` in voxels.
+    pub block: usize,
+    /// Blocks per index axis.
+    pub counts: [usize; 3],
+    /// `(min, max)` per block, x fastest.
+    pub range: Vec<(u16, u16)>,
+}
+
+impl MinMax {
+    /// Scans `volume` once (in parallel over z-slabs of blocks).
+    pub fn new(volume: &Volume, block: usize) -> Result<MinMax> {
+        check_block(block)?;
+        let dims = volume.dims();
+        let counts: [usize; 3] = std::array::from_fn(|k| (dims[k] - 1) / block + 1);
+        let data = volume.data();
+        let (sx, sxy) = (dims[0], dims[0] * dims[1]);
+        let mut range = vec![(u16::MAX, 0u16); counts[0] * counts[1] * counts[2]];
+        let span = |b: usize, n: usize| b * block..(b * block + block + 1).min(n);
+        range
+            .par_chunks_mut(counts[0] * counts[1])
+            .enumerate()
+            .for_each(|(bz, slab)| {
+                for z in span(bz, dims[2]) {
+                    for by in 0..counts[1] {
+                        for y in span(by, dims[1]) {
+                            let line = &data[z * sxy + y * sx..z * sxy + y * sx + dims[0]];
+                            for (bx, r) in slab[by * counts[0]..(by + 1) * counts[0]]
+                                .iter_mut()
+                                .enumerate()
+                            {
+                                for &v in &line[span(bx, dims[0])] {
+                                    r.0 = r.0.min(v);
+                                    r.1 = r.1.max(v);
+                                }
+                            }
+                        }
+                    }
+                }
+            });
+        Ok(MinMax {
+            block,
+            counts,
+            range,
+        })
+    }
+}
+
+/// One bit per block: may any sample in the block be visible?
+#[derive(Debug, Clone, PartialEq)]
+pub struct Occupancy {
+    /// Block edge `B` in voxels.
+    pub block: usize,
+    /// Blocks per index axis.
+    pub counts: [usize; 3],
+    /// Occupied flags, x fastest.
+    pub bits: Vec<bool>,
+}
+
+impl Occupancy {
+    /// Occupancy under the golden table `lut`.
+    pub fn for_lut(mm: &MinMax, lut: &Lut) -> Occupancy {
+        let visible = lut.visible_ranges();
+        Occupancy::from_fn(mm, |lo, hi| visible.any(lo, hi))
+    }
+
+    /// Occupancy under any classifier: `visible(min, max)` must be true
+    /// when any scalar in `[min, max]` may get a non-zero opacity.
+    pub fn from_fn(mm: &MinMax, visible: impl Fn(u16, u16) -> bool) -> Occupancy {
+        Occupancy {
+            block: mm.block,
+            counts: mm.counts,
+            bits: mm.range.iter().map(|&(lo, hi)| visible(lo, hi)).collect(),
+        }
+    }
+
+    /// Fraction of blocks occupied.
+    pub fn fraction(&self) -> f64 {
+        let n = self.bits.iter().filter(|&&b| b).count();
+        n as f64 / self.bits.len().max(1) as f64
+    }
+}
+
+/// Which table entries are visible, as a prefix count for `O(1)` range
+/// queries over scalars.
+#[derive(Debug, Clone)]
+pub struct VisibleEntries {
+    per_scalar: f32,
+    last: usize,
+    prefix: Vec<u32>,
+}
+
+impl VisibleEntries {
+    /// Builds the prefix count of entries with non-zero opacity.
+    pub fn new(alpha: impl Iterator<Item = f32>, per_scalar: f32) -> VisibleEntries {
+        let mut prefix = vec![0u32];
+        for a in alpha {
+            let n = *prefix.last().expect("non-empty") + u32::from(a != 0.0);
+            prefix.push(n);
+        }
+        VisibleEntries {
+            per_scalar,
+            last: prefix.len() - 2,
+            prefix,
+        }
+    }
+
+    /// True when some scalar in `[lo, hi]` looks up a non-zero opacity:
+    /// the entries [`Lut::lookup`] interpolates for `lo` and `hi` bound the
+    /// ones it uses in between, since its index is monotonic in the scalar.
+    pub fn any(&self, lo: u16, hi: u16) -> bool {
+        let index = |s: u16| {
+            let f = (f32::from(s) * self.per_scalar).clamp(0.0, self.last as f32);
+            (f as usize).min(self.last.saturating_sub(1))
+        };
+        let (i0, i1) = (index(lo), (index(hi) + 1).min(self.last));
+        self.prefix[i1 + 1] > self.prefix[i0]
+    }
+}
+
+/// The occupancy map seen from one view: block rows along the view's `x`,
+/// `y` and slices along its principal axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewOccupancy {
+    /// Block edge `B` in voxels.
+    pub block: usize,
+    /// Blocks along view `x` and `y`.
+    pub counts: [usize; 2],
+    /// Index-space block slab (along the principal axis) of each slice.
+    pub slab_of_slice: Vec<usize>,
+    /// Occupied flags, `[slab][by][bx]`.
+    bits: Vec<bool>,
+    /// Any occupied block per `[slab][by]`.
+    row_any: Vec<bool>,
+    /// Any occupied block per slab.
+    slab_any: Vec<bool>,
+}
+
+impl ViewOccupancy {
+    /// Re-indexes `occ` for the view space of `axes` with `nz` rendered slices.
+    pub fn new(occ: &Occupancy, axes: &AxisMap, nz: usize) -> ViewOccupancy {
+        let p = axes.perm;
+        let counts = [occ.counts[p[0]], occ.counts[p[1]]];
+        let slabs = occ.counts[p[2]];
+        let mut bits = vec![false; slabs * counts[0] * counts[1]];
+        for s in 0..slabs {
+            for by in 0..counts[1] {
+                for bx in 0..counts[0] {
+                    let mut b = [0usize; 3];
+                    b[p[0]] = bx;
+                    b[p[1]] = by;
+                    b[p[2]] = s;
+                    let i = (b[2] * occ.counts[1] + b[1]) * occ.counts[0] + b[0];
+                    bits[(s * counts[1] + by) * counts[0] + bx] = occ.bits[i];
+                }
+            }
+        }
+        let row_any: Vec<bool> = bits.chunks(counts[0]).map(|r| r.contains(&true)).collect();
+        let slab_any = row_any
+            .chunks(counts[1])
+            .map(|r| r.contains(&true))
+            .collect();
+        let slab_of_slice = (0..nz)
+            .map(|z| axes.to_index(DVec3::new(0.0, 0.0, z as f64))[p[2]] as usize / occ.block)
+            .collect();
+        ViewOccupancy {
+            block: occ.block,
+            counts,
+            slab_of_slice,
+            bits,
+            row_any,
+            slab_any,
+        }
+    }
+
+    /// True when slice `z` crosses an occupied block.
+    #[inline]
+    pub fn slice_any(&self, z: usize) -> bool {
+        self.slab_any[self.slab_of_slice[z]]
+    }
+
+    /// True when any block of slab rows `by` in `rows` of slice `z` is occupied.
+    #[inline]
+    pub fn rows_any(&self, z: usize, rows: std::ops::RangeInclusive<usize>) -> bool {
+        let s = self.slab_of_slice[z];
+        rows.into_iter()
+            .any(|by| self.row_any[s * self.counts[1] + by])
+    }
+
+    /// True when block `bx` in block rows `rows` of slice `z` is occupied.
+    #[inline]
+    pub fn block(&self, z: usize, rows: std::ops::RangeInclusive<usize>, bx: usize) -> bool {
+        let s = self.slab_of_slice[z];
+        rows.into_iter()
+            .any(|by| self.bits[(s * self.counts[1] + by) * self.counts[0] + bx])
+    }
+}
