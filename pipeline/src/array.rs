@@ -458,7 +458,7 @@ impl Array {
     /// then the fold from the back.
     fn run_ftb(mut self, plan: &FramePlan, view: &View) -> Result<Frame, RunError> {
         let k = self.regions_to_run(plan);
-        self.distribute_ftb(&plan.regions[0]);
+        self.distribute(&plan.regions[0]);
         let mut merges = 0;
         for i in 0..k {
             let region = &plan.regions[i];
@@ -497,36 +497,31 @@ impl Array {
         self.finish(base, raw, fmt, merges)
     }
 
-    /// Front to back: creates region 0's (empty, live) rays in the PEs
-    /// that sample them first.
-    fn distribute_ftb(&mut self, region: &RegionPlan) {
-        let g = &region.grid;
-        let rows = g.counts()[1];
-        let dp = Arc::clone(&self.dp);
-        let first = region.slices.last().map(|s| self.owners(&dp, s));
-        for mx in g.lo[0]..=g.hi[0] {
-            let k = first.as_ref().map_or(0, |o| o.of(mx));
-            self.pes[k].rays.push_back(RayColumn {
-                mx,
-                acc: vec![Acc::default(); rows],
-                ftb: vec![FtbState::default(); rows],
-            });
-        }
-    }
-
-    /// Creates the last region's (empty) rays in the PEs that sample them
-    /// first.
+    /// Creates a region's (empty, live) rays in the PEs that sample them
+    /// first: region 0's front to back (from its front slice), the last
+    /// region's back to front (from its rear slice).
     fn distribute(&mut self, region: &RegionPlan) {
         let g = &region.grid;
         let rows = g.counts()[1];
+        let ftb = self.dp.cfg.order == Order::FrontToBack;
         let dp = Arc::clone(&self.dp);
-        let first = region.slices.first().map(|s| self.owners(&dp, s));
+        // Slices are planned back to front.
+        let first = if ftb {
+            region.slices.last()
+        } else {
+            region.slices.first()
+        };
+        let first = first.map(|s| self.owners(&dp, s));
         for mx in g.lo[0]..=g.hi[0] {
             let k = first.as_ref().map_or(0, |o| o.of(mx));
             self.pes[k].rays.push_back(RayColumn {
                 mx,
                 acc: vec![Acc::default(); rows],
-                ftb: Vec::new(),
+                ftb: if ftb {
+                    vec![FtbState::default(); rows]
+                } else {
+                    Vec::new()
+                },
             });
         }
     }

@@ -25,14 +25,17 @@ use golden::geometry::View;
 use golden::methods::Method;
 use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::skip::Skips;
-use golden::tf::{ControlPoint, Lut, TransferFunction};
-use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
+use golden::tf::{Lut, TransferFunction};
+use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::array::{Array, Frame, StageCycles};
 use pipeline::bound::{ftb_error_bound, region_slices, BoundInputs};
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::fixed::{Format, Overflow, Quant, QuantStats};
+use pipeline::fixed::{Quant, QuantStats};
 use pipeline::pe::PeCounters;
 use proptest::prelude::*;
+
+mod common;
+use common::{eye_for, format, tf};
 use waves::{PeFilter, Trace, TraceConfig, Tracer};
 
 const BIN: &str = env!("CARGO_BIN_EXE_ercube");
@@ -260,10 +263,6 @@ fn run_case(c: &Case) -> Result<Measured, TestCaseError> {
     })
 }
 
-fn format(bits: u8, frac: u8, quant: Quant) -> Format {
-    Format::new(bits, frac, false, quant, Overflow::Sat).unwrap()
-}
-
 /// Random widths around the defaults; `None` when they do not validate.
 fn widths(pes: u16, weight: u8, alpha: u8, color: u8, accum: u8) -> Option<PipelineConfig> {
     let c = PipelineConfig {
@@ -280,77 +279,10 @@ fn widths(pes: u16, weight: u8, alpha: u8, color: u8, accum: u8) -> Option<Pipel
     c.validate().ok().map(|_| c)
 }
 
-fn volume(dims: [usize; 3], blobs: &[(f64, f64, f64, f64, f64)], noise: u16, seed: u64) -> Volume {
-    Volume::from_fn(dims, VoxelType::U8, DEFAULT_MEMORY_LIMIT, |x, y, z| {
-        let p = [
-            x as f64 / dims[0] as f64,
-            y as f64 / dims[1] as f64,
-            z as f64 / dims[2] as f64,
-        ];
-        let mut v = 0.0;
-        for &(cx, cy, cz, r, a) in blobs {
-            let d2 = (p[0] - cx).powi(2) + (p[1] - cy).powi(2) + (p[2] - cz).powi(2);
-            v += a * (-d2 / (r * r)).exp();
-        }
-        let h =
-            ((x as u64 * 73_856_093) ^ (y as u64 * 19_349_663) ^ (z as u64 * 83_492_791) ^ seed)
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let n = if noise > 0 {
-            (h >> 40) % u64::from(noise)
-        } else {
-            0
-        };
-        (v.clamp(0.0, 255.0) as u64 + n).min(255) as u16
-    })
-    .unwrap()
-}
-
-fn tf(points: Vec<(f64, [f64; 4])>) -> TransferFunction {
-    let mut pts: Vec<ControlPoint> = points
-        .into_iter()
-        .map(|(value, rgba)| ControlPoint { value, rgba })
-        .collect();
-    pts.sort_by(|a, b| a.value.total_cmp(&b.value));
-    TransferFunction::new(pts).unwrap()
-}
-
-/// An eye outside face `side` (axis `side / 2`, low or high), `dist` from
-/// it, offset across it by fractions `off` of the volume.
-fn eye_for(dims: [usize; 3], side: usize, dist: f64, off: (f64, f64)) -> (DVec3, DVec3) {
-    let axis = side / 2;
-    let n = dims.map(|d| d as f64);
-    let mut e = [0.0; 3];
-    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-    e[a] = off.0 * n[a];
-    e[b] = off.1 * n[b];
-    e[axis] = if side.is_multiple_of(2) {
-        -dist
-    } else {
-        n[axis] - 1.0 + dist
-    };
-    let up = if axis == 1 { DVec3::Z } else { DVec3::Y };
-    (DVec3::from_array(e), up)
-}
-
 fn cases() -> impl Strategy<Value = Case> {
     let dims = [8usize..=28, 8usize..=28, 8usize..=28];
-    let blobs = prop::collection::vec(
-        (
-            0.0..1.0f64,
-            0.0..1.0f64,
-            0.0..1.0f64,
-            0.1..0.6f64,
-            0.0..300.0f64,
-        ),
-        1..4,
-    );
-    let points = prop::collection::vec(
-        (
-            0.0..255.0f64,
-            [0.0..=1.0f64, 0.0..=1.0, 0.0..=1.0, 0.0..=1.0],
-        ),
-        2..6,
-    );
+    let blobs = common::blob_strategy();
+    let points = common::tf_points_strategy();
     // Eyes from half a voxel (many regions) to far (one region).
     let eye = (0usize..6, 0.5..60.0f64, (-0.5..1.5f64, -0.5..1.5f64));
     let bits = (1u16..=12, 8u8..=14, 8u8..=14, 6u8..=10, 12u8..=20);
@@ -371,8 +303,8 @@ fn cases() -> impl Strategy<Value = Case> {
                 let cfg = widths(w.0, w.1, w.2, w.3, w.4)?;
                 let (eye, up) = eye_for(dims, side, dist, off);
                 Some(Case {
-                    vol: volume(dims, &blobs, noise, seed),
-                    tf: tf(points),
+                    vol: common::blobs(dims, &blobs, noise, seed),
+                    tf: tf(&points),
                     eye,
                     up,
                     cfg,
@@ -412,11 +344,8 @@ proptest! {
 #[test]
 fn ftb_bound_is_informative_on_smooth_data() {
     let c = Case {
-        vol: volume([24, 20, 28], &[(0.5, 0.5, 0.5, 0.35, 250.0)], 0, 1),
-        tf: tf(vec![
-            (20.0, [1.0, 0.6, 0.2, 0.0]),
-            (200.0, [1.0, 1.0, 1.0, 0.6]),
-        ]),
+        vol: common::blobs([24, 20, 28], &[(0.5, 0.5, 0.5, 0.35, 250.0)], 0, 1),
+        tf: tf(&[(20.0, [1.0, 0.6, 0.2, 0.0]), (200.0, [1.0, 1.0, 1.0, 0.6])]),
         eye: DVec3::new(11.0, 9.0, -4.0),
         up: DVec3::Y,
         cfg: ftb(PipelineConfig::default(), 1.0),

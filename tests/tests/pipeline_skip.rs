@@ -23,7 +23,7 @@ use proptest::prelude::*;
 use waves::Tracer;
 
 mod common;
-use common::{sparse, tf};
+use common::{eye_and_look, sparse, tf};
 
 const OFF: Skips = Skips {
     empty: false,
@@ -153,14 +153,7 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
     }
     let vol = sparse(c.dims, c.blobs, c.seed);
     let lut = lut(&cfg, c.threshold);
-    let n = c.dims.map(|d| d as f64);
-    let centre = DVec3::new(n[0] - 1.0, n[1] - 1.0, n[2] - 1.0) * 0.5;
-    let (axis, far) = (c.side / 2, !c.side.is_multiple_of(2));
-    let mut eye = centre;
-    eye[axis] = if far { n[axis] - 1.0 + c.dist } else { -c.dist };
-    let mut look = centre;
-    look[(axis + 1) % 3] += c.look[0] * n[(axis + 1) % 3];
-    look[(axis + 2) % 3] += c.look[1] * n[(axis + 2) % 3];
+    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
     let prep = Prepared::new(&vol, &camera(eye, look, c.fov))
         .map_err(|e| TestCaseError::reject(e.to_string()))?;
     for &n in &prep.view.dims {

@@ -20,7 +20,7 @@ use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
 use proptest::prelude::*;
 
 mod common;
-use common::{hash, sparse, table};
+use common::{eye_and_look, hash, sparse, table};
 
 const OFF: Skips = Skips {
     empty: false,
@@ -121,20 +121,7 @@ fn cases() -> impl Strategy<Value = Case> {
 /// The eye `dist` voxels outside face `side`, looking at a point offset
 /// across the volume (so that narrow views see only part of it).
 fn case_camera(c: &Case) -> Camera {
-    let n = c.dims.map(|d| d as f64);
-    let centre = DVec3::new(n[0] - 1.0, n[1] - 1.0, n[2] - 1.0) * 0.5;
-    let axis = c.side / 2;
-    let sign = if c.side.is_multiple_of(2) { -1.0 } else { 1.0 };
-    let mut eye = centre;
-    eye[axis] = if sign < 0.0 {
-        -c.dist
-    } else {
-        n[axis] - 1.0 + c.dist
-    };
-    let mut look = centre;
-    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-    look[a] += c.offset[0] * n[a];
-    look[b] += c.offset[1] * n[b];
+    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.offset);
     camera(eye, look, c.fov, c.front)
 }
 

@@ -1,9 +1,12 @@
 //! Helpers shared by the skipping tests (golden and pipeline).
 #![allow(dead_code)]
 
+use glam::DVec3;
 use golden::render::lut_for;
 use golden::tf::{ControlPoint, Lut, TransferFunction};
 use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
+use pipeline::fixed::{Format, Overflow, Quant};
+use proptest::prelude::*;
 
 /// A 64-bit mix (splitmix64's finaliser): deterministic pseudo-random bits.
 pub fn hash(mut x: u64) -> u64 {
@@ -40,18 +43,119 @@ pub fn sparse(dims: [usize; 3], blobs: usize, seed: u64) -> Volume {
     .expect("volume")
 }
 
-/// A transfer function from `(value, rgba)` control points.
+/// A transfer function from `(value, rgba)` control points in any order.
 pub fn tf(points: &[(f64, [f64; 4])]) -> TransferFunction {
-    TransferFunction::new(
-        points
-            .iter()
-            .map(|&(value, rgba)| ControlPoint { value, rgba })
-            .collect(),
-    )
-    .expect("tf")
+    let mut pts: Vec<ControlPoint> = points
+        .iter()
+        .map(|&(value, rgba)| ControlPoint { value, rgba })
+        .collect();
+    pts.sort_by(|a, b| a.value.total_cmp(&b.value));
+    TransferFunction::new(pts).expect("tf")
+}
+
+/// Gaussian blobs `(cx, cy, cz, r, amplitude)` (centres and radii as
+/// fractions of the volume) plus hashed noise below `noise`: smooth data
+/// with a controllable rough part.
+pub fn blobs(
+    dims: [usize; 3],
+    blobs: &[(f64, f64, f64, f64, f64)],
+    noise: u16,
+    seed: u64,
+) -> Volume {
+    Volume::from_fn(dims, VoxelType::U8, DEFAULT_MEMORY_LIMIT, |x, y, z| {
+        let p = [
+            x as f64 / dims[0] as f64,
+            y as f64 / dims[1] as f64,
+            z as f64 / dims[2] as f64,
+        ];
+        let mut v = 0.0;
+        for &(cx, cy, cz, r, a) in blobs {
+            let d2 = (p[0] - cx).powi(2) + (p[1] - cy).powi(2) + (p[2] - cz).powi(2);
+            v += a * (-d2 / (r * r)).exp();
+        }
+        let h =
+            ((x as u64 * 73_856_093) ^ (y as u64 * 19_349_663) ^ (z as u64 * 83_492_791) ^ seed)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let n = if noise > 0 {
+            (h >> 40) % u64::from(noise)
+        } else {
+            0
+        };
+        (v.clamp(0.0, 255.0) as u64 + n).min(255) as u16
+    })
+    .expect("volume")
+}
+
+/// An eye outside face `side` (axis `side / 2`, low or high), `dist` from
+/// it, offset across it by fractions `off` of the volume, and an up vector
+/// not parallel to the view.
+pub fn eye_for(dims: [usize; 3], side: usize, dist: f64, off: (f64, f64)) -> (DVec3, DVec3) {
+    let axis = side / 2;
+    let n = dims.map(|d| d as f64);
+    let mut e = [0.0; 3];
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    e[a] = off.0 * n[a];
+    e[b] = off.1 * n[b];
+    e[axis] = if side.is_multiple_of(2) {
+        -dist
+    } else {
+        n[axis] - 1.0 + dist
+    };
+    let up = if axis == 1 { DVec3::Z } else { DVec3::Y };
+    (DVec3::from_array(e), up)
+}
+
+/// An unsigned saturating format of `bits` bits, `frac` of them fraction.
+pub fn format(bits: u8, frac: u8, quant: Quant) -> Format {
+    Format::new(bits, frac, false, quant, Overflow::Sat).expect("format")
 }
 
 /// Golden's table of [`tf`] for 8-bit data.
 pub fn table(points: &[(f64, [f64; 4])]) -> Lut {
     lut_for(VoxelType::U8, &tf(points))
+}
+
+/// An eye `dist` voxels outside face `side` of a `dims` volume, on the
+/// line through its centre, looking at the centre moved across the face by
+/// fractions `look` of the volume (narrow views then see only part of it).
+pub fn eye_and_look(dims: [usize; 3], side: usize, dist: f64, look: [f64; 2]) -> (DVec3, DVec3) {
+    let n = dims.map(|d| d as f64);
+    let centre = DVec3::new(n[0] - 1.0, n[1] - 1.0, n[2] - 1.0) * 0.5;
+    let axis = side / 2;
+    let mut eye = centre;
+    eye[axis] = if side.is_multiple_of(2) {
+        -dist
+    } else {
+        n[axis] - 1.0 + dist
+    };
+    let mut at = centre;
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    at[a] += look[0] * n[a];
+    at[b] += look[1] * n[b];
+    (eye, at)
+}
+
+/// Random Gaussian blobs for [`blobs`]: one to three of them.
+pub fn blob_strategy() -> impl Strategy<Value = Vec<(f64, f64, f64, f64, f64)>> {
+    prop::collection::vec(
+        (
+            0.0..1.0f64,
+            0.0..1.0f64,
+            0.0..1.0f64,
+            0.1..0.6f64,
+            0.0..300.0f64,
+        ),
+        1..4,
+    )
+}
+
+/// Random transfer-function control points for [`tf`]: two to five.
+pub fn tf_points_strategy() -> impl Strategy<Value = Vec<(f64, [f64; 4])>> {
+    prop::collection::vec(
+        (
+            0.0..255.0f64,
+            [0.0..=1.0f64, 0.0..=1.0, 0.0..=1.0, 0.0..=1.0],
+        ),
+        2..6,
+    )
 }
