@@ -5,12 +5,59 @@
 //!
 //! The pipeline's merge stage mirrors [`merge`]: same weights, same parity.
 
+use std::cell::RefCell;
+
 use rayon::prelude::*;
 
 use crate::geometry::{Merge, RayGrid};
 
 /// One ray's accumulated state: premultiplied RGB and opacity.
 pub type Rgba = [f32; 4];
+
+thread_local! {
+    /// Ray buffers of finished frames, kept for later frames on this
+    /// thread: a fresh megabyte costs hundreds of page faults (several
+    /// milliseconds a frame in a virtual machine, more than a region's
+    /// merge), a recycled one a memset.
+    static SPARE: RefCell<Vec<Vec<Rgba>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Spare buffers kept per thread.
+const MAX_SPARE: usize = 12;
+
+/// An empty buffer with room for `n` states, recycled when one is spare.
+pub fn with_room(n: usize) -> Vec<Rgba> {
+    let mut v = SPARE
+        .with(|s| {
+            let mut s = s.borrow_mut();
+            let i = s.iter().position(|b| b.capacity() >= n)?;
+            Some(s.swap_remove(i))
+        })
+        .unwrap_or_default();
+    v.clear();
+    v.reserve(n);
+    v
+}
+
+/// `n` empty states (zeros), in a recycled buffer when one is spare.
+pub fn zeroed(n: usize) -> Vec<Rgba> {
+    let mut v = with_room(n);
+    v.resize(n, [0.0; 4]);
+    v
+}
+
+/// Gives a buffer back for later frames on this thread.
+pub fn recycle(v: Vec<Rgba>) {
+    if v.capacity() == 0 {
+        return;
+    }
+    SPARE.with(|s| {
+        let mut s = s.borrow_mut();
+        if s.len() < MAX_SPARE {
+            s.push(v);
+        }
+    });
+}
 
 /// Reads `buf` (over `grid`) at ray `(mx, my)`, empty outside the grid.
 #[cfg(test)]
@@ -47,7 +94,7 @@ pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Ve
     let [fw, fh] = fgrid.counts();
     let [bw, bh] = bgrid.counts();
     let taps = taps(kind);
-    let mut out = vec![[0f32; 4]; fw * fh];
+    let mut out = zeroed(fw * fh);
     if fw == 0 || fh == 0 || bw == 0 || bh == 0 {
         return out;
     }
@@ -57,7 +104,7 @@ pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Ve
         (0..len as i64).contains(&j).then_some(j as usize)
     };
     // Pass 1, along x: for every back row, the x-merged values at front columns.
-    let mut tmp = vec![[0f32; 4]; fw * bh];
+    let mut tmp = zeroed(fw * bh);
     tmp.par_chunks_mut(fw)
         .zip(back.par_chunks(bw))
         .for_each(|(line, src)| {
@@ -81,6 +128,7 @@ pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Ve
             }
         }
     });
+    recycle(tmp);
     out
 }
 
@@ -98,7 +146,7 @@ pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
             [(n.div_euclid(2), 0.5), (n.div_euclid(2) + 1, 0.5)]
         }
     };
-    let mut out = vec![[0f32; 4]; bw * bh];
+    let mut out = zeroed(bw * bh);
     if bw == 0 || fw == 0 || fh == 0 {
         return out;
     }

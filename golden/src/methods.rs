@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
-use crate::merge::{merge, split, Rgba};
+use crate::merge::{merge, recycle, split, with_room, zeroed, Rgba};
 use crate::occupancy::Occupancy;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
@@ -248,13 +248,14 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
 /// then merge into the next region's rays. Only the first `runs` regions
 /// run; the rest would composite nothing.
 fn back_to_front(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -> Vec<Rgba> {
-    let mut buf = vec![[0f32; 4]; layout.grids[runs - 1].len()];
+    let mut buf = zeroed(layout.grids[runs - 1].len());
     for i in (0..runs).rev() {
         let grid = &layout.grids[i];
         stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
         if i > 0 {
             let kind = layout.merge.expect("multi-region layouts merge");
-            buf = merge(kind, &buf, grid, &layout.grids[i - 1]);
+            let next = merge(kind, &buf, grid, &layout.grids[i - 1]);
+            recycle(std::mem::replace(&mut buf, next));
             stats.merges += 1;
         }
     }
@@ -273,14 +274,16 @@ fn front_to_back(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -
     // what region i's rays received at the split (region 0 inherits zero).
     let mut finals: Vec<Vec<Rgba>> = Vec::with_capacity(runs);
     let mut inherited: Vec<Vec<Rgba>> = Vec::with_capacity(runs.saturating_sub(1));
-    let mut buf = vec![[0f32; 4]; layout.grids[0].len()];
+    let mut buf = zeroed(layout.grids[0].len());
     for i in 0..runs {
         let grid = &layout.grids[i];
         if i > 0 {
             let next = split(&buf, &layout.grids[i - 1], grid);
             finals.push(std::mem::replace(&mut buf, next));
             stats.merges += 1;
-            inherited.push(buf.clone());
+            let mut copy = with_room(buf.len());
+            copy.extend_from_slice(&buf);
+            inherited.push(copy);
         }
         stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
     }
@@ -295,12 +298,17 @@ fn front_to_back(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -
             }
         });
         let folded = merge(kind, &result, &layout.grids[i], &layout.grids[i - 1]);
-        result = finals.pop().expect("one final state per region");
+        recycle(inh);
+        recycle(std::mem::replace(
+            &mut result,
+            finals.pop().expect("one final state per region"),
+        ));
         result.par_iter_mut().zip(&folded).for_each(|(r, f)| {
             for c in 0..4 {
                 r[c] += f[c];
             }
         });
+        recycle(folded);
     }
     result
 }

@@ -155,6 +155,18 @@ pub struct Frame {
     pub slice: Option<Output>,
 }
 
+impl Frame {
+    /// Gives the frame's buffers back to this thread's pool, for the next
+    /// frame (a renderer drawing frame after frame touches fresh memory
+    /// once instead of every frame).
+    pub fn recycle(self) {
+        crate::merge::recycle(self.image.data);
+        if let Some(out) = self.slice {
+            crate::merge::recycle(out.baseplane.data);
+        }
+    }
+}
+
 /// Renders one frame of `prep` with `tech`.
 pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
     match tech {

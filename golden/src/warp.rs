@@ -53,13 +53,16 @@ pub fn pixel_to_base(view: &View, grid: &BaseGrid) -> DMat3 {
 
 /// Normalised tent weights of half-width `h` (in samples) around `u`, over
 /// every integer `k` with `|u - k| < h`; returns the first `k`.
+#[inline]
 fn tent(u: f64, h: f64, w: &mut Vec<f32>) -> i64 {
     w.clear();
     let k0 = floor(u - h) + 1;
     let k1 = -floor(-(u + h)) - 1;
+    // A multiply, not a division per tap (exact for ER's h = 2).
+    let inv_h = 1.0 / h;
     let mut sum = 0.0;
     for k in k0..=k1 {
-        let x = 1.0 - (u - k as f64).abs() / h;
+        let x = 1.0 - (u - k as f64).abs() * inv_h;
         let x = x.max(0.0);
         sum += x;
         w.push(x as f32);
@@ -88,7 +91,13 @@ pub fn warp(view: &View, base: &Baseplane) -> Image {
     let m = pixel_to_base(view, &base.grid);
     let half = 1.0 / base.grid.spacing;
     let [nx, ny] = base.grid.counts;
-    let mut img = Image::new(w, h);
+    // The image's buffer comes from the ray-buffer pool (see
+    // `crate::merge::recycle`; a caller done with a frame can give it back).
+    let mut img = Image {
+        width: w,
+        height: h,
+        data: crate::merge::zeroed(w * h),
+    };
     img.data.par_chunks_mut(w).enumerate().for_each_init(
         || (Vec::new(), Vec::new()),
         |(wx, wy), (j, row)| {

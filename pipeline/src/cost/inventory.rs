@@ -110,7 +110,8 @@ impl Item {
     }
 }
 
-/// The array's geometry: view-space volume dimensions and PE count.
+/// The array's geometry: view-space volume dimensions, PE count and the
+/// view's regions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Geometry {
     /// View-space dimensions `[nx, ny, nz]` (x across the PEs, z along
@@ -118,9 +119,23 @@ pub struct Geometry {
     pub dims: [usize; 3],
     /// PEs.
     pub pes: u16,
+    /// Exponential regions `K` of the view (front to back keeps the final
+    /// states of `K - 1` boundaries for the fold).
+    pub regions: u32,
 }
 
 impl Geometry {
+    /// The geometry of `pes` PEs for a volume of `dims` seen from half its
+    /// depth in front (the eye the report's tables assume).
+    pub fn new(dims: [usize; 3], pes: u16) -> Geometry {
+        let d = (dims[2] as f64 / 2.0).max(golden::geometry::MIN_D);
+        Geometry {
+            dims,
+            pes,
+            regions: golden::geometry::Regions::new(d, dims[2]).count() as u32,
+        }
+    }
+
     /// Columns per PE, `W = ceil(nx / P)`.
     pub fn block(&self) -> u64 {
         (self.dims[0] as u64).div_ceil(u64::from(self.pes.max(1)))
@@ -587,7 +602,7 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         ),
         Item::new(
             "memories",
-            "occupancy (slot -> ray column)",
+            "column map (slot -> ray column)",
             1,
             vec![mem(2 * w + 1, RAY_INDEX_BITS + 1, MemPorts::Sdp)],
         ),
@@ -608,6 +623,27 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             )],
         ),
     ];
+    if cfg.order == crate::config::Order::FrontToBack {
+        // Each ray also carries what it inherited at the split and its
+        // termination flag; each PE keeps its rays' final states at every
+        // split for the fold, about `(W + 1)(ny + 1)` per boundary.
+        items.push(Item::new(
+            "memories",
+            "inherited state + termination flag (front to back)",
+            2,
+            vec![mem(geo.rays_per_pe().div_ceil(2), acc + 1, MemPorts::Sdp)],
+        ));
+        items.push(Item::new(
+            "memories",
+            "kept final states, K - 1 boundaries (front to back)",
+            1,
+            vec![mem(
+                (w + 1) * (ny + 1) * u64::from(geo.regions.saturating_sub(1)),
+                acc,
+                MemPorts::Sdp,
+            )],
+        ));
+    }
     items.retain(|i| {
         !i.units
             .iter()
@@ -831,10 +867,7 @@ mod tests {
     #[test]
     fn default_pe_on_xc7() {
         let cfg = PipelineConfig::default();
-        let geo = Geometry {
-            dims: [128, 128, 128],
-            pes: 16,
-        };
+        let geo = Geometry::new([128, 128, 128], 16);
         let pe = pe_inventory(&cfg, &geo);
         let r = pe.cost(Target::Xc7);
         // 2 + 2 (ray and slope), 3 (bilinear), 4 (classification),

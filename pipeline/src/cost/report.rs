@@ -158,12 +158,7 @@ fn fitting(parts: &[Part], r: &Resources) -> Vec<&'static str> {
 /// The most PEs of `cfg` that fit `part` for a volume of `dims`.
 pub fn max_pes(cfg: &PipelineConfig, dims: [usize; 3], part: &Part) -> MaxPes {
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
-    let fit_at = |p: u16| {
-        fit(
-            part,
-            &array_cost(cfg, &Geometry { dims, pes: p }, part.target),
-        )
-    };
+    let fit_at = |p: u16| fit(part, &array_cost(cfg, &Geometry::new(dims, p), part.target));
     let best = (1..=top).filter(|&p| fit_at(p).fits).max().unwrap_or(0);
     let limit = if best == top {
         "nothing up to one PE per column"
@@ -222,10 +217,7 @@ pub fn build(
     let mut scaling = Vec::new();
     for n in SCALE_N {
         for p in SCALE_P {
-            let g = Geometry {
-                dims: [n, n, n],
-                pes: p,
-            };
+            let g = Geometry::new([n, n, n], p);
             let b = bound_cycles(&g);
             let r = array_cost(cfg, &g, target);
             scaling.push(ScaleRow {

@@ -120,6 +120,7 @@ fn run_at(
         Geometry {
             dims: prep.view.dims,
             pes,
+            regions: plan.regions.len() as u32,
         },
         &frame,
         &plan,

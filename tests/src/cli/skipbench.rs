@@ -27,7 +27,7 @@ use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::config::{Order, PipelineConfig};
 
 use super::args::with_threads;
-use super::render::{median, timed};
+use super::render::{median, timed_frames};
 
 /// Arguments of `ercube skip-bench`.
 #[derive(Debug, Args)]
@@ -214,7 +214,7 @@ fn measure(a: &SkipBenchArgs, case: &Case, rows: &mut Vec<Row>) -> Result<()> {
             },
             ..RenderOptions::default()
         };
-        let (frame, times) = timed(a.frames, || {
+        let (frame, times) = timed_frames(a.frames, || {
             Ok(render(&prep, &lut, Technique::Slice(m), &opts)?)
         })?;
         let t = median(&times);
