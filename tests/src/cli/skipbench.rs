@@ -1,6 +1,7 @@
-//! `ercube skip-bench`: what each kind of skipping saves, on four scenes
-//! that need it to different degrees (brainsmall with transparent air, the
-//! mostly empty checkerboard, a sphere shell, the dense Marschner-Lobb):
+//! `ercube skip-bench`: what each kind of skipping saves, on scenes that
+//! need it to different degrees (brainsmall with transparent air, also
+//! seen narrowly, the mostly empty checkerboard, a sphere shell, the dense
+//! Marschner-Lobb):
 //! golden time and samples, and pipeline cycles, with and without each
 //! skip, and how far each skipped image is from the unskipped one (0 where
 //! the skip cannot change the image). Writes `DIR/bench/skip/skip.csv`
@@ -86,13 +87,26 @@ fn cases(a: &SkipBenchArgs, notes: &mut Vec<String>) -> Result<Vec<Case>> {
     match load_auto(&a.brainsmall, None, DEFAULT_MEMORY_LIMIT) {
         Ok(vol) => {
             let c = DVec3::from_array(vol.center_world());
+            let eye = DVec3::new(c.x, c.y, -64.0);
+            // A narrow view of one side: culling's case.
+            let side = DVec3::new(c.x * 0.4, c.y, c.z);
             out.push(Case {
-                key: "brainsmall".into(),
-                about: "brainsmall (128x128x84, `grey-ramp`: air transparent), eye 64 voxels in front of the centre, 90 degrees, 256x256".into(),
-                cam: Camera::new(DVec3::new(c.x, c.y, -64.0), c, DVec3::Y, 90.0, 256, 256)?,
-                vol,
+                key: "brainsmall-narrow".into(),
+                about: "brainsmall, the same eye looking at (0.4 x, y, z) of the centre with a 30-degree field of view, 256x256: most rays miss the image".into(),
+                cam: Camera::new(eye, side, DVec3::Y, 30.0, 256, 256)?,
+                vol: vol.clone(),
                 tf: tf_preset("grey-ramp")?,
             });
+            out.insert(
+                0,
+                Case {
+                    key: "brainsmall".into(),
+                    about: "brainsmall (128x128x84, `grey-ramp`: air transparent), eye 64 voxels in front of the centre, 90 degrees, 256x256".into(),
+                    cam: Camera::new(eye, c, DVec3::Y, 90.0, 256, 256)?,
+                    vol,
+                    tf: tf_preset("grey-ramp")?,
+                },
+            );
         }
         Err(e) => notes.push(format!("brainsmall left out: {e}")),
     }
