@@ -493,6 +493,13 @@ impl Array {
             self.fold(back, front, fmt)?;
             fmt = merge;
         }
+        // The fold leaves region 0's rays where their parents sat on the
+        // region-1 boundary (the rays beyond the volume's sides piled into
+        // the end PEs); bring them back to their slice-0 owners so the
+        // readout streams from every PE.
+        if let Some(front) = plan.regions[0].slices.last() {
+            self.migrate(front)?;
+        }
         let (base, raw) = self.readout(&plan.regions[0], view, fmt);
         self.finish(base, raw, fmt, merges)
     }

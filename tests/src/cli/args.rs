@@ -257,9 +257,11 @@ pub struct SliceArgs {
     /// volume too (culling never changes the image).
     #[arg(long)]
     pub no_cull: bool,
-    /// Edge of the empty-space blocks in voxels (power of two, 2..64).
-    #[arg(long, default_value_t = golden::occupancy::DEFAULT_BLOCK)]
-    pub block: usize,
+    /// Edge of the empty-space blocks in voxels (power of two, 2..64;
+    /// default 8 in golden, the config's `occupancy_block` (16) in the
+    /// pipeline).
+    #[arg(long)]
+    pub block: Option<usize>,
     /// Clip plane nx,ny,nz,d in world units: keeps n.p + d >= 0
     /// (repeat for up to 6 planes).
     #[arg(long, value_parser = parse_clip, allow_hyphen_values = true)]
@@ -290,13 +292,14 @@ impl SliceArgs {
 
     /// Checks and builds how the volume is prepared for a camera.
     pub fn prepare(&self) -> Result<PrepareOptions> {
-        golden::occupancy::check_block(self.block)?;
+        let block = self.block.unwrap_or(golden::occupancy::DEFAULT_BLOCK);
+        golden::occupancy::check_block(block)?;
         golden::clip::check_planes(&self.clip)?;
         if !(self.near.is_finite() && self.near > 0.0) {
             bail!("--near {} must be a positive number of voxels", self.near);
         }
         Ok(PrepareOptions {
-            block: self.block,
+            block,
             clip: self.clip.clone(),
             near: self.near,
         })
@@ -317,7 +320,7 @@ impl Default for SliceArgs {
             substeps: o.substeps,
             no_skip_empty: !o.skips.empty,
             no_cull: !o.skips.cull,
-            block: p.block,
+            block: None,
             clip: p.clip,
             near: p.near,
         }

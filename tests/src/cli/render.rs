@@ -199,7 +199,18 @@ fn write_outputs(
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let mut cfg = a.pipeline.cfg.load()?;
     pipe::apply_method(&mut cfg, &a.method, a.slice.terminate)?;
-    let opts = a.slice.options()?;
+    // --block sizes the occupancy memory's blocks; golden's view of the
+    // volume then uses the same blocks.
+    let mut slice = a.slice.clone();
+    match slice.block {
+        Some(b) => {
+            golden::occupancy::check_block(b)?;
+            cfg.occupancy_block = b as u16;
+        }
+        None => slice.block = Some(usize::from(cfg.occupancy_block)),
+    }
+    cfg.validate()?;
+    let opts = slice.options()?;
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
@@ -210,7 +221,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let tf = a.tf.resolve(default_tf)?;
     let lut = pipe::pipeline_lut(&cfg, &vol, &tf);
     let cam = a.camera.camera(&vol)?;
-    let prep = a.slice.prepared(&vol, &cam)?;
+    let prep = slice.prepared(&vol, &cam)?;
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         timed(a.repeat, || {
