@@ -199,7 +199,7 @@ impl Probes {
         cfg: &PipelineConfig,
     ) -> Result<Probes, waves::WavesError> {
         let ctrl = ScopePath::top().child("ctrl");
-        let stage = tracer.register(&ctrl, "stage", 2)?;
+        let stage = tracer.register(&ctrl, "stage", 3)?;
         let z = tracer.register(&ctrl, "slice", 16)?;
         let row = tracer.register(&ctrl, "row", 16)?;
         let mut pes = Vec::with_capacity(p);
@@ -243,6 +243,10 @@ const STAGE_SAMPLE: u64 = 0;
 const STAGE_MIGRATE: u64 = 1;
 const STAGE_MERGE: u64 = 2;
 const STAGE_READOUT: u64 = 3;
+/// A slice the controller skips (its occupancy bits are all clear).
+const STAGE_SKIP: u64 = 4;
+const STAGE_SPLIT: u64 = 5;
+const STAGE_FOLD: u64 = 6;
 
 /// The PE array for one frame.
 pub struct Array {
@@ -382,7 +386,7 @@ impl Array {
             self.skipped.slices += 1;
             self.cycle += 1;
             self.stages.skip += 1;
-            self.trace(STAGE_SAMPLE, slice.z, 0);
+            self.trace(STAGE_SKIP, slice.z, 0);
             return None;
         }
         Some(SlicePlan {
@@ -1042,7 +1046,7 @@ impl Array {
         let cycles = brows as u64 * width + width;
         for c in 0..cycles {
             self.cycle += 1;
-            self.trace(STAGE_MERGE, 0, (c / width.max(1)) as usize);
+            self.trace(STAGE_SPLIT, 0, (c / width.max(1)) as usize);
         }
         self.stages.split += cycles;
         Ok(())
@@ -1092,7 +1096,7 @@ impl Array {
             }
             for _ in 0..width {
                 self.cycle += 1;
-                self.trace(STAGE_MERGE, 0, row);
+                self.trace(STAGE_FOLD, 0, row);
             }
         }
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
@@ -1134,7 +1138,7 @@ impl Array {
         }
         for _ in 0..2 * width {
             self.cycle += 1;
-            self.trace(STAGE_MERGE, 0, brows);
+            self.trace(STAGE_FOLD, 0, brows);
         }
         self.stages.fold += brows as u64 * width + 2 * width;
         Ok(())

@@ -347,3 +347,65 @@ fn bad_occupancy_block_is_refused() {
         );
     }
 }
+
+/// The waveform shows what the controller skipped: `top.ctrl.stage` is 4
+/// for exactly as many cycles as slices were skipped, each at the slice
+/// the controller reports on `top.ctrl.slice`, and never 4 without
+/// skipping.
+#[test]
+fn waveform_shows_skipped_slices() {
+    use waves::{PeFilter, TraceConfig};
+    let vol = sparse([24, 20, 40], 1, 33);
+    let cfg = PipelineConfig {
+        pes: 3,
+        occupancy_block: 4,
+        ..PipelineConfig::default()
+    };
+    let lut = lut(&cfg, 50.0);
+    let prep = Prepared::new(
+        &vol,
+        &camera(
+            DVec3::new(11.5, 9.5, -20.0),
+            DVec3::new(11.5, 9.5, 19.5),
+            60.0,
+        ),
+    )
+    .expect("view");
+    let dir = tempfile::tempdir().expect("tempdir");
+    for skips in [Skips::default(), OFF] {
+        let vcd = dir.path().join("skip.vcd");
+        let tracer =
+            Tracer::new(TraceConfig::new(&vcd).with_pes(PeFilter::parse("0").expect("pes")))
+                .expect("tracer");
+        let f = run_frame_with(&cfg, &vol, &lut, &prep, skips, tracer).expect("frame");
+        let trace = waves::Trace::read(&vcd).expect("vcd");
+        let stage = trace.signal("top.ctrl.stage").expect("stage");
+        let slice = trace.signal("top.ctrl.slice").expect("slice");
+        let at: Vec<u64> = (1..=f.cycles)
+            .filter(|&c| stage.u64_at_cycle(c) == Some(4))
+            .map(|c| slice.u64_at_cycle(c).expect("slice traced"))
+            .collect();
+        let skipped = at.len() as u64;
+        println!(
+            "skips {skips:?}: {} slices skipped ({} regions not run), {skipped} skip cycles traced",
+            f.skipped.slices, f.skipped.regions
+        );
+        assert_eq!(skipped, f.stages.skip);
+        // One cycle per skipped slice, each a different slice; regions not
+        // run skip theirs without a cycle.
+        let mut distinct = at.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert_eq!(distinct.len(), at.len(), "a slice skipped twice: {at:?}");
+        if f.skipped.regions == 0 {
+            assert_eq!(f.stages.skip, f.skipped.slices);
+        } else {
+            assert!(f.stages.skip < f.skipped.slices);
+        }
+        if skips == OFF {
+            assert_eq!(skipped, 0);
+        } else {
+            assert!(skipped > 0, "this volume has empty slabs");
+        }
+    }
+}
