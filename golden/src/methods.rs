@@ -176,15 +176,12 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
     opts.validate()?;
     let view = &prep.view;
     let layout = method.layout(view)?;
-    let occ = opts
-        .skips
-        .empty
-        .then(|| Occupancy::for_lut(&prep.blocks, lut));
+    let occ = opts.skips.empty.then(|| prep.occupancy_for(lut));
     let mask = SampleMask::new(
         view,
         &layout,
         MaskSpec {
-            occupancy: occ.as_ref(),
+            occupancy: occ.as_deref(),
             clip: prep.clip.clone(),
             cull: opts.skips.cull,
             ftb: method == Method::ErFtb,
@@ -198,7 +195,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         samples_per_slice: vec![0; view.dims[2]],
         rays_per_region: layout.grids.iter().map(|g| g.len() as u64).collect(),
         rays_culled: mask.culled_rays,
-        occupied_blocks: occ.as_ref().map_or(1.0, Occupancy::fraction),
+        occupied_blocks: occ.as_deref().map_or(1.0, Occupancy::fraction),
         ..Stats::default()
     };
     let order = match method {

@@ -123,6 +123,19 @@ impl Occupancy {
     }
 }
 
+/// A key of what a table says about visibility: its opacities and scalar
+/// scaling. Two tables with one key give one occupancy map.
+pub fn table_key(lut: &Lut) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    lut.per_scalar.to_bits().hash(&mut h);
+    lut.rgba.len().hash(&mut h);
+    for e in &lut.rgba {
+        e[3].to_bits().hash(&mut h);
+    }
+    h.finish()
+}
+
 /// Which table entries are visible, as a prefix count for `O(1)` range
 /// queries over scalars.
 #[derive(Debug, Clone)]

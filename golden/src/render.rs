@@ -5,6 +5,7 @@
 //! here, so every method sees the same view, stack and table.
 
 use std::str::FromStr;
+use std::sync::{Arc, Mutex};
 
 use crate::camera::Camera;
 use crate::clip::{check_planes, ClipPlane, ViewClip};
@@ -12,7 +13,7 @@ use crate::error::{input, Result};
 use crate::geometry::View;
 use crate::image::Image;
 use crate::methods::{self, Method, Options, Output};
-use crate::occupancy::{MinMax, DEFAULT_BLOCK};
+use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::reference::{self, RefOptions};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -74,6 +75,9 @@ pub struct Prepared {
     pub blocks: MinMax,
     /// Clip planes in view space.
     pub clip: ViewClip,
+    /// The occupancy map of the last table used, by the table's key: the
+    /// map is rebuilt only when the transfer function changes.
+    occupancy: Arc<Mutex<Option<(u64, Arc<Occupancy>)>>>,
 }
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
@@ -119,7 +123,29 @@ impl Prepared {
             stack,
             blocks,
             clip,
+            occupancy: Arc::default(),
         })
+    }
+
+    /// The occupancy map of the blocks under `lut`: the map built for the
+    /// last table when `lut` classifies like it (same opacities), else a
+    /// new one, kept for the next frame.
+    pub fn occupancy_for(&self, lut: &Lut) -> Arc<Occupancy> {
+        let key = table_key(lut);
+        // A poisoned lock only means another frame panicked mid-update;
+        // the cache is then rebuilt.
+        let mut cached = self
+            .occupancy
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match &*cached {
+            Some((k, occ)) if *k == key => Arc::clone(occ),
+            _ => {
+                let occ = Arc::new(Occupancy::for_lut(&self.blocks, lut));
+                *cached = Some((key, Arc::clone(&occ)));
+                occ
+            }
+        }
     }
 }
 

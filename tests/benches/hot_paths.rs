@@ -4,7 +4,8 @@
 //!   every ray of the back region crossing each of its slices: bilinear
 //!   sample, classification, opacity correction, compositing; nothing
 //!   skipped, so it times the per-sample cost), and the Bartlett merge of
-//!   one region boundary;
+//!   one region boundary, and re-classifying the empty-space blocks after
+//!   a transfer-function change;
 //! - pipeline: one busy PE cycle of the fixed-point datapath (position,
 //!   address, bilinear, classify, path length, opacity correction,
 //!   compositing) over a row of rays of a real frame plan, and one clock of
@@ -83,6 +84,19 @@ fn golden_benches(c: &mut Criterion) {
                     &layout.grids[k - 1],
                 ))
             })
+        });
+    }
+    // Re-classifying the empty-space blocks after a transfer-function
+    // change: one table query per block (here 8^3 blocks of a 64^3 volume,
+    // and of a 256^3 one).
+    for n in [64usize, 256] {
+        let vol = golden::scenes::Scene::Sphere { n }
+            .build(golden::volume::DEFAULT_MEMORY_LIMIT)
+            .expect("scene");
+        let mm = golden::occupancy::MinMax::new(&vol, 8).expect("blocks");
+        g.throughput(Throughput::Elements(mm.range.len() as u64));
+        g.bench_function(format!("occupancy_for_lut_{n}"), |b| {
+            b.iter(|| black_box(golden::occupancy::Occupancy::for_lut(&mm, &lut)))
         });
     }
     g.finish();

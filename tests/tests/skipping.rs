@@ -519,3 +519,46 @@ fn occupancy_is_conservative_and_tight() {
         occ.fraction()
     );
 }
+
+/// The occupancy map is rebuilt only when the table's opacities change:
+/// the same table (or one differing only in colour) reuses the map, a new
+/// opacity ramp gets a new, correct one.
+#[test]
+fn occupancy_is_rebuilt_only_when_the_table_changes() {
+    let vol = sparse([20, 18, 22], 3, 4);
+    let cam = camera(
+        DVec3::new(9.5, 8.5, -15.0),
+        DVec3::new(9.5, 8.5, 10.5),
+        60.0,
+        false,
+    );
+    let prep = Prepared::new(&vol, &cam).expect("view");
+    let a = table(&[
+        (0.0, [0.0; 4]),
+        (60.0, [1.0, 0.0, 0.0, 0.0]),
+        (255.0, [1.0, 0.0, 0.0, 1.0]),
+    ]);
+    let a_recoloured = table(&[
+        (0.0, [0.0; 4]),
+        (60.0, [0.0, 1.0, 0.0, 0.0]),
+        (255.0, [0.0, 1.0, 1.0, 1.0]),
+    ]);
+    // Opaque air, transparent tissue: every block holds some air.
+    let b = table(&[
+        (0.0, [1.0; 4]),
+        (10.0, [1.0; 4]),
+        (11.0, [0.0; 4]),
+        (255.0, [0.0; 4]),
+    ]);
+    let first = prep.occupancy_for(&a);
+    assert!(std::sync::Arc::ptr_eq(&first, &prep.occupancy_for(&a)));
+    assert!(std::sync::Arc::ptr_eq(
+        &first,
+        &prep.occupancy_for(&a_recoloured)
+    ));
+    let other = prep.occupancy_for(&b);
+    assert!(!std::sync::Arc::ptr_eq(&first, &other));
+    assert_eq!(*other, Occupancy::for_lut(&prep.blocks, &b));
+    assert_ne!(*other, *first, "the two ramps see different blocks");
+    assert_eq!(*prep.occupancy_for(&a), *first);
+}
