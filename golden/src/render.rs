@@ -77,8 +77,11 @@ pub struct Prepared {
     pub clip: ViewClip,
     /// The occupancy map of the last table used, by the table's key: the
     /// map is rebuilt only when the transfer function changes.
-    occupancy: Arc<Mutex<Option<(u64, Arc<Occupancy>)>>>,
+    occupancy: Arc<Mutex<Option<KeyedOccupancy>>>,
 }
+
+/// An occupancy map and the key of the table it was built for.
+type KeyedOccupancy = (u64, Arc<Occupancy>);
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
