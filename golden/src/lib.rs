@@ -3,10 +3,13 @@
 //! The dataflow, module by module: [`volume`] (and [`load`], [`scenes`]) ->
 //! [`tf`] (classification) -> [`geometry`] (principal axis, regions, rays:
 //! the one source of truth shared with the pipeline) -> [`slices`] (the
-//! permuted slice stack) -> a method ([`methods`], built from [`sampling`] and [`merge`]: ER back-to-front and
-//! front-to-back, under/oversampling, box merge) -> [`warp::Baseplane`] ->
-//! [`warp`] -> [`image::Image`]; [`reference`] renders the same camera by
-//! image-order ray casting as ground truth, [`metrics`] compares images.
+//! permuted slice stack) and [`occupancy`] (min-max blocks, empty space)
+//! -> [`skip`] (which samples a frame takes: empty space, culling,
+//! [`clip`] planes) -> a method ([`methods`], built from [`sampling`] and
+//! [`merge`]: ER back-to-front and front-to-back, under/oversampling, box
+//! merge) -> [`warp::Baseplane`] -> [`warp`] -> [`image::Image`];
+//! [`mod@reference`] renders the same camera by image-order ray casting as
+//! ground truth, [`metrics`] compares images.
 
 pub mod camera;
 pub mod clip;

@@ -1,6 +1,7 @@
-//! One slice of one region: every ray of the region that crosses the slice
+//! One region's slices: every ray of the region that crosses a slice
 //! samples the volume there, classifies the sample post-interpolation,
-//! corrects its opacity for the ray's step length and composites it.
+//! corrects its opacity for the ray's step length and composites it, for
+//! the rays and slices the frame's [`SampleMask`] keeps.
 //!
 //! With one substep (the paper's scheme) a ray takes one bilinear sample
 //! where it crosses slice `z`. With `k > 1` substeps it takes `k` samples
@@ -11,7 +12,7 @@
 //! reconstruction puts between slices (a hard-edged cube's face is seen as
 //! a step at the half-way plane); two substeps remove most of that bias.
 //!
-//! The pipeline's PEs mirror [`sample_slice`] sample for sample: the same
+//! The pipeline's PEs mirror [`sample_region`] sample for sample: the same
 //! rays (from [`crate::geometry`]), positions, slopes and compositing order.
 
 use rayon::prelude::*;
@@ -49,7 +50,7 @@ pub fn slice_rays(view: &View, grid: &RayGrid, z: usize) -> ([Affine; 2], [(i64,
     (p, r)
 }
 
-/// What every slice of one frame shares.
+/// What every region of one frame shares.
 #[derive(Clone, Copy)]
 pub struct Pass<'a> {
     /// The view.

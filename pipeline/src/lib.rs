@@ -3,8 +3,11 @@
 //!
 //! The dataflow, module by module: [`host`] plans a frame from the golden
 //! geometry (regions, rays, slices: one source of truth) and loads voxel
-//! words; [`tables`] quantises the classification and opacity tables;
-//! [`array`] clocks the [`pe`]s through migrate, sample, merge and readout;
+//! words; [`skip`] builds the controller's occupancy memory and plans which
+//! samples a frame takes (golden's planner, one source of truth);
+//! [`tables`] quantises the classification and opacity tables;
+//! [`mod@array`] clocks the [`pe`]s through migrate, sample, merge (front to
+//! back: split and fold) and readout;
 //! each sample runs the [`datapath`] (position, bilinear, classify,
 //! correct, composite), the bit-exact mirror of `golden::sampling`. The
 //! baseplane comes out as raw accumulator words and, scaled to float, goes
