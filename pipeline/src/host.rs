@@ -145,16 +145,14 @@ pub fn voxel_words(
     st: &mut QuantStats,
 ) -> Vec<u16> {
     let [nx, ny, nz] = view.dims;
-    let data_bits = volume.kind().bits() as i32;
-    let shift = i32::from(cfg.voxel.bits()) - data_bits;
+    let data_bits = volume.kind().bits();
     let mut out = Vec::with_capacity(nx * ny * nz);
     for z in 0..nz {
         for y in 0..ny {
             for x in 0..nx {
                 let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
                 let v = volume.get(i.x as usize, i.y as usize, i.z as usize);
-                let w = crate::fixed::Wide::new(i128::from(v), -shift);
-                out.push(cfg.voxel.assign(w, st).raw() as u16);
+                out.push(crate::skip::voxel_word(cfg, v, data_bits, st));
             }
         }
     }
