@@ -212,17 +212,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         order,
         substeps: opts.substeps,
     };
-    // Regions wholly behind the last visible slice composite nothing.
-    let runs = if opts.skips.cull {
-        let last = mask.last_visible_slice();
-        layout
-            .grids
-            .iter()
-            .rposition(|g| last.is_some_and(|z| g.slices.start <= z))
-            .map_or(1, |i| i + 1)
-    } else {
-        layout.grids.len()
-    };
+    let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;
     for i in runs..layout.grids.len() {
         stats.slices_skipped += layout.grids[i].slices.len() as u64;

@@ -75,6 +75,8 @@ pub struct SampleMask {
     dims: [usize; 3],
     margin: f64,
     substeps: u32,
+    /// Regions to run, front ones first.
+    regions: usize,
     /// Rays removed by culling, summed over regions.
     pub culled_rays: u64,
 }
@@ -111,15 +113,33 @@ impl SampleMask {
             .zip(&keep)
             .map(|(f, k)| count(f) - count(k))
             .sum();
-        SampleMask {
+        let mut mask = SampleMask {
             occ,
             clip,
             keep,
             dims: view.dims,
             margin,
             substeps,
+            regions: layout.grids.len(),
             culled_rays,
+        };
+        if cull {
+            // Regions wholly behind the last visible slice composite nothing.
+            let last = mask.last_visible_slice();
+            mask.regions = layout
+                .grids
+                .iter()
+                .rposition(|g| last.is_some_and(|z| g.slices.start <= z))
+                .map_or(1, |i| i + 1);
         }
+        mask
+    }
+
+    /// How many regions, front ones first, a frame runs: with culling,
+    /// none behind the last visible slice (at least region 0, which
+    /// carries the baseplane).
+    pub fn regions_to_run(&self) -> usize {
+        self.regions
     }
 
     /// A mask that skips nothing (clip planes still apply).

@@ -362,12 +362,7 @@ impl Array {
     fn regions_to_run(&mut self, plan: &FramePlan) -> usize {
         let k = plan.regions.len();
         let Some(sk) = &self.skip else { return k };
-        let last = sk.mask.last_visible_slice();
-        let runs = plan
-            .regions
-            .iter()
-            .rposition(|r| last.is_some_and(|z| r.grid.slices.start <= z))
-            .map_or(1, |i| i + 1);
+        let runs = sk.mask.regions_to_run();
         self.skipped.regions = (k - runs) as u64;
         self.skipped.slices += plan.regions[runs..]
             .iter()
@@ -384,9 +379,8 @@ impl Array {
         };
         if !sk.mask.slice_visible(slice.z) {
             self.skipped.slices += 1;
-            self.cycle += 1;
             self.stages.skip += 1;
-            self.trace(STAGE_SKIP, slice.z, 0);
+            self.advance(STAGE_SKIP, slice.z, 0, 1);
             return None;
         }
         Some(SlicePlan {
@@ -539,6 +533,15 @@ impl Array {
 
     fn trace(&mut self, stage: u64, z: usize, row: usize) {
         trace(&mut self.probes, &self.pes, self.cycle, stage, z, row);
+    }
+
+    /// `n` cycles in which only the controller's state shows: the stage,
+    /// slice and row, traced each cycle.
+    fn advance(&mut self, stage: u64, z: usize, row: usize, n: u64) {
+        for _ in 0..n {
+            self.cycle += 1;
+            self.trace(stage, z, row);
+        }
     }
 }
 
@@ -900,10 +903,7 @@ impl Array {
                 );
                 row_lines[k] = line;
             }
-            for _ in 0..width {
-                self.cycle += 1;
-                self.trace(STAGE_MERGE, 0, row);
-            }
+            self.advance(STAGE_MERGE, 0, row, width);
         }
         // y pass: child row r takes parent rows 2 r - 1 ..= 2 r + 1.
         let (fc, fa, fm) = (
@@ -951,10 +951,7 @@ impl Array {
             pe.set_rays(cols);
         }
         // The y pass drains two rows behind the x pass.
-        for _ in 0..2 * width {
-            self.cycle += 1;
-            self.trace(STAGE_MERGE, 0, prow);
-        }
+        self.advance(STAGE_MERGE, 0, prow, 2 * width);
         self.stages.merge += prow as u64 * width + 2 * width;
         Ok(())
     }
@@ -1094,10 +1091,7 @@ impl Array {
                 self.pes[k].fold_x(&dp, grid, from_left, &mut line)?;
                 row_lines[k] = line;
             }
-            for _ in 0..width {
-                self.cycle += 1;
-                self.trace(STAGE_FOLD, 0, row);
-            }
+            self.advance(STAGE_FOLD, 0, row, width);
         }
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         for (k, pe) in self.pes.iter_mut().enumerate() {
@@ -1136,10 +1130,7 @@ impl Array {
             pe.counters.merge_outputs += (cols.len() * frows) as u64;
             pe.set_rays(cols);
         }
-        for _ in 0..2 * width {
-            self.cycle += 1;
-            self.trace(STAGE_FOLD, 0, brows);
-        }
+        self.advance(STAGE_FOLD, 0, brows, 2 * width);
         self.stages.fold += brows as u64 * width + 2 * width;
         Ok(())
     }
@@ -1167,10 +1158,7 @@ impl Array {
             }
             most = most.max(n);
         }
-        for _ in 0..most {
-            self.cycle += 1;
-            self.trace(STAGE_READOUT, 0, 0);
-        }
+        self.advance(STAGE_READOUT, 0, 0, most as u64);
         self.stages.readout += most as u64;
         let (fc, fa) = (fmt[0].lsb(), fmt[1].lsb());
         let data = raw

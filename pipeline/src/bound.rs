@@ -316,9 +316,9 @@ fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs) -> SampleTerms {
 mod tests {
     use super::*;
 
-    #[test]
-    fn more_bits_never_loosen_the_bound() {
-        let d = BoundInputs {
+    /// Data facts of a typical 256-wide view.
+    fn inputs() -> BoundInputs {
+        BoundInputs {
             gradient: [40.0, 40.0],
             table_step: [0.01, 0.01],
             max_index: 300.0,
@@ -327,7 +327,12 @@ mod tests {
             slices: 64,
             merges: 3,
             data_bits: 8,
-        };
+        }
+    }
+
+    #[test]
+    fn more_bits_never_loosen_the_bound() {
+        let d = inputs();
         let base = PipelineConfig::default();
         let b0 = error_bound(&base, &d);
         let mut wide = base;
@@ -351,16 +356,7 @@ mod tests {
 
     #[test]
     fn ftb_bound_terms() {
-        let d = BoundInputs {
-            gradient: [40.0, 40.0],
-            table_step: [0.01, 0.01],
-            max_index: 300.0,
-            max_coord: 260.0,
-            ds_max: 2.0,
-            slices: 64,
-            merges: 3,
-            data_bits: 8,
-        };
+        let d = inputs();
         let base = PipelineConfig::default();
         let regions = [4, 8, 16, 36];
         let b0 = ftb_error_bound(&base, &d, &regions);

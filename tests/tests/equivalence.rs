@@ -16,19 +16,11 @@ use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 
 mod common;
-use common::{eye_for, format, tf};
+use common::{eye_for, format, max_diff, tf};
 
 /// The facts `error_bound` needs, measured on the data and the view.
 fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
     BoundInputs::measure(vol, lut, view).expect("the view has an ER layout")
-}
-
-/// Largest per-channel difference between two float images.
-fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| (0..4).map(move |c| (f64::from(p[c]) - f64::from(q[c])).abs()))
-        .fold(0.0, f64::max)
 }
 
 struct Case {

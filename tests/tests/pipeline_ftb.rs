@@ -27,15 +27,14 @@ use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::skip::Skips;
 use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
-use pipeline::array::{Array, Frame, StageCycles};
+use pipeline::array::{Array, Frame};
 use pipeline::bound::{ftb_error_bound, region_slices, BoundInputs};
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::fixed::{Quant, QuantStats};
-use pipeline::pe::PeCounters;
+use pipeline::fixed::Quant;
 use proptest::prelude::*;
 
 mod common;
-use common::{eye_for, format, tf};
+use common::{eye_for, format, max_diff, signature, tf};
 use waves::{PeFilter, Trace, TraceConfig, Tracer};
 
 const BIN: &str = env!("CARGO_BIN_EXE_ercube");
@@ -79,44 +78,6 @@ fn run_frame(
         a.set_clocked(true);
     }
     a.run(view).expect("frame runs")
-}
-
-/// Largest per-channel difference between two float images.
-fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| (0..4).map(move |c| (f64::from(p[c]) - f64::from(q[c])).abs()))
-        .fold(0.0, f64::max)
-}
-
-/// Everything a frame reports that the sampling path or the step order
-/// could conceivably change.
-#[derive(Debug, PartialEq)]
-struct Signature {
-    raw: Vec<[i64; 4]>,
-    cycles: u64,
-    stages: StageCycles,
-    pes: Vec<PeCounters>,
-    samples_per_slice: Vec<u64>,
-    merges: u64,
-    quant: QuantStats,
-    terminated: u64,
-    saved: u64,
-}
-
-fn signature(f: &Frame) -> Signature {
-    Signature {
-        raw: f.raw.clone(),
-        cycles: f.cycles,
-        stages: f.stages,
-        pes: f.pes.clone(),
-        samples_per_slice: f.samples_per_slice.clone(),
-        merges: f.merges,
-        quant: f.quant,
-        terminated: f.terminated_samples,
-        saved: f.cycles_saved,
-    }
 }
 
 /// Scene `spec` with its preset, tabulated for the default widths.

@@ -32,14 +32,16 @@ use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::scenes::Scene;
 use golden::tf::Lut;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
-use pipeline::array::{Array, Frame, StageCycles};
+use pipeline::array::{Array, Frame};
 use pipeline::config::PipelineConfig;
 use pipeline::datapath::Datapath;
 use pipeline::fixed::{Format, Overflow, Quant, QuantStats};
 use pipeline::host::plan;
-use pipeline::pe::PeCounters;
 use pipeline::tables::Tables;
 use waves::{PeFilter, Trace, TraceConfig, Tracer, TIME_UNITS_PER_CYCLE};
+
+mod common;
+use common::signature;
 
 const BIN: &str = env!("CARGO_BIN_EXE_ercube");
 
@@ -161,31 +163,6 @@ fn run_with(
 /// Runs one untraced frame in the natural step order.
 fn run(cfg: &PipelineConfig, s: &Subject, prep: &Prepared) -> Frame {
     run_with(cfg, s, prep, None, Tracer::disabled())
-}
-
-/// Everything a frame reports that the step order or tracing could
-/// conceivably change.
-#[derive(Debug, PartialEq)]
-struct Signature {
-    raw: Vec<[i64; 4]>,
-    cycles: u64,
-    stages: StageCycles,
-    pes: Vec<PeCounters>,
-    samples_per_slice: Vec<u64>,
-    merges: u64,
-    quant: QuantStats,
-}
-
-fn signature(f: &Frame) -> Signature {
-    Signature {
-        raw: f.raw.clone(),
-        cycles: f.cycles,
-        stages: f.stages,
-        pes: f.pes.clone(),
-        samples_per_slice: f.samples_per_slice.clone(),
-        merges: f.merges,
-        quant: f.quant,
-    }
 }
 
 /// A pseudo-random permutation of `0..n` (xorshift Fisher-Yates), so a

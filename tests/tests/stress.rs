@@ -29,6 +29,9 @@ use pipeline::tables::Tables;
 use proptest::prelude::*;
 use waves::Tracer;
 
+mod common;
+use common::max_diff;
+
 /// Unit roundoff of `f32` (round to nearest): `2^-24`.
 const U: f64 = 1.0 / 16_777_216.0;
 
@@ -119,15 +122,6 @@ fn eye_at(dims: [usize; 3], axis: usize, positive: bool, d: f64, off: [f64; 2]) 
 /// The facts `error_bound` needs, measured on the data and the view.
 fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
     BoundInputs::measure(vol, lut, view).expect("the view has an ER layout")
-}
-
-/// Largest per-channel difference between two float buffers.
-fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| (0..4).map(move |c| (f64::from(p[c]) - f64::from(q[c])).abs()))
-        .fold(0.0, f64::max)
 }
 
 /// The first value of `img` that is not finite or lies outside [0, 1].

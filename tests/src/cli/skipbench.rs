@@ -211,14 +211,57 @@ fn pipeline_plan() -> Vec<(&'static str, Order, f64, Skips)> {
     ]
 }
 
-fn diff(a: &Image, b: &Image) -> f64 {
-    compare(a, b).map_or(f64::INFINITY, |e| e.max_abs_255)
+/// What one configuration measured: its image, its cost (golden
+/// milliseconds or pipeline cycles) and its counts.
+struct Run {
+    image: Image,
+    cost: f64,
+    samples: u64,
+    slices: u64,
+    beams: u64,
+    culled: u64,
+}
+
+/// The unskipped run of a method (its plan's first): image and cost.
+type Base = Option<(Image, f64)>;
+
+/// `run`'s table row, against `base`; an unskipped run becomes the base.
+fn row(
+    case: &Case,
+    what: &str,
+    run: Run,
+    unskipped: bool,
+    base: &mut Base,
+    golden: bool,
+) -> Result<Row> {
+    if unskipped {
+        *base = Some((run.image.clone(), run.cost));
+    }
+    let (img0, cost0) = base.as_ref().context("the unskipped run comes first")?;
+    let max_diff_255 = compare(&run.image, img0).map_or(f64::INFINITY, |e| e.max_abs_255);
+    let unit = if golden { "ms" } else { "cycles" };
+    super::say(&format!(
+        "{}: {what}: {:.2} {unit}, {} samples",
+        case.key, run.cost, run.samples
+    ));
+    Ok(Row {
+        case: case.key.clone(),
+        what: what.into(),
+        time_ms: golden.then_some(run.cost),
+        cycles: (!golden).then_some(run.cost as u64),
+        samples: run.samples,
+        speedup: cost0 / run.cost.max(1e-12),
+        max_diff_255,
+        slices_skipped: run.slices,
+        beams_skipped: run.beams,
+        rays_culled: run.culled,
+    })
 }
 
 fn measure(a: &SkipBenchArgs, case: &Case, rows: &mut Vec<Row>) -> Result<()> {
     let prep = Prepared::new(&case.vol, &case.cam)?;
     let lut = lut_for(case.vol.kind(), &case.tf);
-    let mut base: Option<(Image, f64, u64)> = None;
+    let mut base = None;
     for (what, m, terminate, skips) in golden_plan() {
         let opts = RenderOptions {
             slice: Options {
@@ -231,35 +274,22 @@ fn measure(a: &SkipBenchArgs, case: &Case, rows: &mut Vec<Row>) -> Result<()> {
         let (frame, times) = timed_frames(a.frames, || {
             Ok(render(&prep, &lut, Technique::Slice(m), &opts)?)
         })?;
-        let t = median(&times);
         let s = &frame.slice.as_ref().context("a slice-order frame")?.stats;
-        if skips == OFF && terminate >= 1.0 {
-            base = Some((frame.image.clone(), t, s.samples_total));
-        }
-        let (img0, t0, _) = base.as_ref().context("the unskipped frame runs first")?;
-        rows.push(Row {
-            case: case.key.clone(),
-            what: what.into(),
-            time_ms: Some(t * 1e3),
-            cycles: None,
+        let run = Run {
+            cost: median(&times) * 1e3,
             samples: s.samples_total,
-            speedup: t0 / t,
-            max_diff_255: diff(&frame.image, img0),
-            slices_skipped: s.slices_skipped,
-            beams_skipped: s.beams_skipped,
-            rays_culled: s.rays_culled,
-        });
-        super::say(&format!(
-            "{}: {what}: {:.2} ms, {} samples",
-            case.key,
-            t * 1e3,
-            s.samples_total
-        ));
+            slices: s.slices_skipped,
+            beams: s.beams_skipped,
+            culled: s.rays_culled,
+            image: frame.image,
+        };
+        let unskipped = skips == OFF && terminate >= 1.0;
+        rows.push(row(case, what, run, unskipped, &mut base, true)?);
     }
     if a.no_pipeline {
         return Ok(());
     }
-    let mut base: Option<(Image, u64)> = None;
+    let mut base = None;
     for (what, order, terminate, skips) in pipeline_plan() {
         let cfg = PipelineConfig {
             order,
@@ -275,27 +305,16 @@ fn measure(a: &SkipBenchArgs, case: &Case, rows: &mut Vec<Row>) -> Result<()> {
             skips,
             waves::Tracer::disabled(),
         )?;
-        let img = golden::warp::warp(&prep.view, &f.baseplane);
-        if skips == OFF && terminate >= 1.0 {
-            base = Some((img.clone(), f.cycles));
-        }
-        let (img0, c0) = base.as_ref().context("the unskipped frame runs first")?;
-        rows.push(Row {
-            case: case.key.clone(),
-            what: what.into(),
-            time_ms: None,
-            cycles: Some(f.cycles),
+        let run = Run {
+            image: golden::warp::warp(&prep.view, &f.baseplane),
+            cost: f.cycles as f64,
             samples: f.samples,
-            speedup: *c0 as f64 / f.cycles.max(1) as f64,
-            max_diff_255: diff(&img, img0),
-            slices_skipped: f.skipped.slices,
-            beams_skipped: f.skipped.beams,
-            rays_culled: f.skipped.rays_culled,
-        });
-        super::say(&format!(
-            "{}: {what}: {} cycles, {} samples",
-            case.key, f.cycles, f.samples
-        ));
+            slices: f.skipped.slices,
+            beams: f.skipped.beams,
+            culled: f.skipped.rays_culled,
+        };
+        let unskipped = skips == OFF && terminate >= 1.0;
+        rows.push(row(case, what, run, unskipped, &mut base, false)?);
     }
     Ok(())
 }

@@ -159,3 +159,45 @@ pub fn tf_points_strategy() -> impl Strategy<Value = Vec<(f64, [f64; 4])>> {
         2..6,
     )
 }
+
+/// Largest per-channel difference between two float RGBA buffers.
+pub fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |c| (f64::from(p[c]) - f64::from(q[c])).abs()))
+        .fold(0.0, f64::max)
+}
+
+/// Everything a pipeline frame reports that the sampling path, the PE
+/// step order or tracing could conceivably change (fields named after the
+/// frame's).
+#[derive(Debug, PartialEq)]
+pub struct Signature {
+    pub raw: Vec<[i64; 4]>,
+    pub cycles: u64,
+    pub stages: pipeline::array::StageCycles,
+    pub pes: Vec<pipeline::pe::PeCounters>,
+    pub samples_per_slice: Vec<u64>,
+    pub merges: u64,
+    pub quant: pipeline::fixed::QuantStats,
+    pub terminated: u64,
+    pub saved: u64,
+    pub skipped: pipeline::skip::SkipCounts,
+}
+
+/// The [`Signature`] of a frame.
+pub fn signature(f: &pipeline::Frame) -> Signature {
+    Signature {
+        raw: f.raw.clone(),
+        cycles: f.cycles,
+        stages: f.stages,
+        pes: f.pes.clone(),
+        samples_per_slice: f.samples_per_slice.clone(),
+        merges: f.merges,
+        quant: f.quant,
+        terminated: f.terminated_samples,
+        saved: f.cycles_saved,
+        skipped: f.skipped,
+    }
+}
