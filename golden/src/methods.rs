@@ -103,7 +103,7 @@ impl Default for Options {
 
 /// Default samples per slice crossing: one, the paper's scheme and the
 /// chip's. Two substeps trade twice the samples for much less error on
-/// hard-edged data (see [`crate::sampling`] and the README).
+/// hard-edged data (see [`crate::sampling`] and docs/golden.md).
 pub const DEFAULT_SUBSTEPS: u32 = 1;
 
 impl Options {

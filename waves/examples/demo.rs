@@ -28,7 +28,7 @@ fn main() -> Result<(), waves::WavesError> {
                 let product = (cycle * (k as u64 + 3)) & 0xff_ffff;
                 acc[k] = (acc[k] + product) & 0xffff;
                 s.set(a, acc[k]);
-                s.set_bool(v, (cycle + k as u64) % 4 != 0);
+                s.set_bool(v, !(cycle + k as u64).is_multiple_of(4));
                 s.set(p, product);
             }
         });

@@ -9,7 +9,7 @@
 //! block's minimum widths become soft (LUT) multipliers. Vivado and
 //! Radiant decompose the same way (a 25x18 signed block needs two blocks
 //! for an 18x18 unsigned product); the synthesis test in
-//! `tests/tests/cost.rs` checks the counts against yosys.
+//! `pipeline/tests/it/cost.rs` checks the counts against yosys.
 
 use super::target::Target;
 use serde::Serialize;

@@ -14,7 +14,7 @@
 //!
 //! The models are structural and their constants come from yosys 0.23:
 //! `crate::rtl` emits the PE's units as small Verilog modules built from
-//! the same [`shapes`], and `tests/tests/cost.rs` synthesizes them
+//! the same [`shapes`], and `pipeline/tests/it/cost.rs` synthesizes them
 //! (`synth_xilinx`, `synth_ice40 -dsp`) and checks the estimate: DSP and
 //! block-RAM counts exactly, LUTs and flip-flops within 25%.
 

@@ -247,7 +247,7 @@ pub fn build(
             if target == Target::Xc7 { "RAMB18 halves of a RAMB36" } else { "blocks" }
         ),
         "Worst-case cycles count sampling only (every slice at (2W+1)(2ny+1) rays per PE); migration, merges and readout add a few percent in measured runs. 'Scaled' rows multiply the bound by this run's ratio of measured to bound cycles.".to_owned(),
-        "Resource models are calibrated against yosys 0.23 (synth_xilinx, synth_ice40 -dsp) on the PE's units at three width settings (tests/tests/cost.rs); vendor tools differ in packing, and place-and-route needs headroom (plan for 70-80% LUT use).".to_owned(),
+        "Resource models are calibrated against yosys 0.23 (synth_xilinx, synth_ice40 -dsp) on the PE's units at three width settings (pipeline/tests/it/cost.rs); vendor tools differ in packing, and place-and-route needs headroom (plan for 70-80% LUT use).".to_owned(),
     ];
     CostReport {
         target,

@@ -5,7 +5,7 @@
 //! [`super::dsp`], a memory is the mapping of [`super::memory`]. The
 //! constants (LUTs per bit of a subtractor on iCE40, of a saturation
 //! multiplexer, ...) are the ones yosys 0.23 produces for these shapes;
-//! `tests/tests/cost.rs` re-synthesises the PE's units and checks the sums.
+//! `pipeline/tests/it/cost.rs` re-synthesises the PE's units and checks the sums.
 
 use super::dsp::{decompose, DspLimits, MulNode};
 use super::memory::{map_memory, MemPorts};

@@ -10,7 +10,7 @@
 //! on assignment into each declared format. Every module carries the list
 //! of estimator [`Unit`]s it is made of, built from the same
 //! [`crate::cost::shapes`] that size the Verilog, so the estimate and the
-//! synthesis result describe the same hardware. `tests/tests/cost.rs`
+//! synthesis result describe the same hardware. `pipeline/tests/it/cost.rs`
 //! synthesizes them with yosys (`synth_xilinx`, `synth_ice40 -dsp`) and
 //! compares.
 //!

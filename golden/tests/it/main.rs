@@ -1,0 +1,11 @@
+//! The golden model's integration tests, one binary (it links once):
+//! the conventions every method shares (`foundation`), ER-Perspective's
+//! properties and the paper's figures (`figures`), and skipping
+//! (`skipping`).
+
+#[path = "../../../tests/support/scenes.rs"]
+mod scenes;
+
+mod figures;
+mod foundation;
+mod skipping;

@@ -1,0 +1,20 @@
+//! The pipeline model's integration tests, one binary (it links once):
+//! the array's structure, cycle accounting and waveforms (`model`), front
+//! to back (`ftb`), skipping (`skip`), equivalence with golden within the
+//! derived bound (`equivalence`), numerical stress (`stress`) and the cost
+//! estimator against yosys (`cost`). What runs the `ercube` program is in
+//! the root `tests/it/`.
+
+#[path = "../../../tests/support/chip.rs"]
+mod chip;
+#[path = "../../../tests/support/scenes.rs"]
+mod scenes;
+#[path = "../../../tests/support/tools.rs"]
+mod tools;
+
+mod cost;
+mod equivalence;
+mod ftb;
+mod model;
+mod skip;
+mod stress;

@@ -1,0 +1,407 @@
+//! Skipping in the pipeline: the controller's occupancy memory, row runs,
+//! culling and regions behind the volume never change a raw baseplane
+//! word (empty space) or a final pixel (culling), in either compositing
+//! order, at random widths; they save cycles; the clocked and whole-slice
+//! paths agree with skipping on; and with golden's planner over the same
+//! blocks the pipeline takes exactly golden's samples, clip planes
+//! included.
+//!
+//! `cargo test --release -p pipeline --test it -- skip::`; the long run:
+//! `cargo test --release -p pipeline --test it -- --ignored skip::`.
+
+use glam::DVec3;
+use golden::camera::Camera;
+use golden::methods::Method;
+use golden::render::{render, PrepareOptions, Prepared, RenderOptions, Technique};
+use golden::skip::Skips;
+use golden::tf::Lut;
+use golden::volume::Volume;
+use pipeline::array::{run_frame_with, Array, Frame};
+use pipeline::config::{Order, PipelineConfig};
+use pipeline::fixed::{Format, Overflow, Quant};
+use proptest::prelude::*;
+use waves::Tracer;
+
+use crate::chip::signature;
+use crate::scenes::{eye_and_look, sparse, tf};
+
+const OFF: Skips = Skips {
+    empty: false,
+    cull: false,
+};
+const EMPTY: Skips = Skips {
+    empty: true,
+    cull: false,
+};
+
+fn lut(cfg: &PipelineConfig, threshold: f64) -> Lut {
+    let t = tf(&[
+        (0.0, [0.0; 4]),
+        (threshold, [0.2, 0.4, 0.9, 0.0]),
+        (threshold + 50.0, [1.0, 0.7, 0.3, 0.6]),
+        (255.0, [1.0, 1.0, 1.0, 0.95]),
+    ]);
+    Lut::for_bits(&t, cfg.table_entries as usize, 8)
+}
+
+fn camera(eye: DVec3, look: DVec3, fov: f64) -> Camera {
+    let f = (look - eye).normalize();
+    let up = if f.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
+    Camera::new(eye, look, up, fov, 36, 30).expect("camera")
+}
+
+fn run(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared, skips: Skips) -> Frame {
+    run_frame_with(cfg, vol, lut, prep, skips, Tracer::disabled()).expect("frame runs")
+}
+
+fn image_bits(prep: &Prepared, f: &Frame) -> Vec<[u32; 4]> {
+    golden::warp::warp(&prep.view, &f.baseplane)
+        .data
+        .iter()
+        .map(|p| p.map(f32::to_bits))
+        .collect()
+}
+
+#[derive(Debug, Clone)]
+struct Case {
+    dims: [usize; 3],
+    blobs: usize,
+    seed: u64,
+    threshold: f64,
+    side: usize,
+    dist: f64,
+    look: [f64; 2],
+    fov: f64,
+    pes: u16,
+    block: u16,
+    position_frac: u8,
+    ftb: bool,
+}
+
+fn cases() -> impl Strategy<Value = Case> {
+    (
+        (
+            prop::array::uniform3(6usize..24),
+            1usize..4,
+            any::<u64>(),
+            20.0..120.0f64,
+        ),
+        (
+            0usize..6,
+            prop_oneof![0.4..4.0f64, 4.0..50.0],
+            prop::array::uniform2(-0.6..0.6f64),
+            12.0..120.0f64,
+        ),
+        (
+            1u16..9,
+            prop::sample::select(vec![2u16, 4, 8, 16]),
+            prop_oneof![Just(16u8), 4u8..12],
+            any::<bool>(),
+        ),
+    )
+        .prop_map(
+            |(
+                (dims, blobs, seed, threshold),
+                (side, dist, look, fov),
+                (pes, block, position_frac, ftb),
+            )| Case {
+                dims,
+                blobs,
+                seed,
+                threshold,
+                side,
+                dist,
+                look,
+                fov,
+                pes,
+                block,
+                position_frac,
+                ftb,
+            },
+        )
+}
+
+fn config(c: &Case) -> PipelineConfig {
+    let d = PipelineConfig::default();
+    // Coarse position fractions move fixed-point rays across block edges:
+    // the controller's margin must cover them.
+    let position = Format::new(
+        12 + c.position_frac,
+        c.position_frac,
+        true,
+        Quant::Rnd,
+        Overflow::Sat,
+    )
+    .unwrap_or(d.position);
+    PipelineConfig {
+        pes: c.pes,
+        occupancy_block: c.block,
+        position,
+        order: if c.ftb {
+            Order::FrontToBack
+        } else {
+            Order::BackToFront
+        },
+        ..d
+    }
+}
+
+fn check(c: &Case) -> Result<(), TestCaseError> {
+    let cfg = config(c);
+    if cfg.validate().is_err() {
+        return Err(TestCaseError::reject("widths"));
+    }
+    let vol = sparse(c.dims, c.blobs, c.seed);
+    let lut = lut(&cfg, c.threshold);
+    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
+    let prep = Prepared::new(&vol, &camera(eye, look, c.fov))
+        .map_err(|e| TestCaseError::reject(e.to_string()))?;
+    for &n in &prep.view.dims {
+        if cfg.check_extent(n as u32).is_err() {
+            return Err(TestCaseError::reject("extent"));
+        }
+    }
+    let off = run(&cfg, &vol, &lut, &prep, OFF);
+    let empty = run(&cfg, &vol, &lut, &prep, EMPTY);
+    prop_assert_eq!(
+        &empty.raw,
+        &off.raw,
+        "empty-space skipping changed a raw word"
+    );
+    prop_assert!(empty.samples <= off.samples && empty.cycles <= off.cycles + empty.skipped.slices);
+    let all = run(&cfg, &vol, &lut, &prep, Skips::default());
+    prop_assert_eq!(
+        image_bits(&prep, &all),
+        image_bits(&prep, &off),
+        "culling changed a pixel"
+    );
+    prop_assert!(all.samples <= empty.samples);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    /// Skipping never changes a raw word (empty space) or a pixel
+    /// (culling), back to front and front to back, at random widths,
+    /// block sizes and PE counts.
+    #[test]
+    fn pipeline_skipping_is_bit_identical(c in cases()) {
+        check(&c)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+    /// The long run of [`pipeline_skipping_is_bit_identical`].
+    #[test]
+    #[ignore]
+    fn pipeline_skipping_is_bit_identical_long(c in cases()) {
+        check(&c)?;
+    }
+}
+
+/// A sparse volume seen at the default widths: the controller skips
+/// slices and rows and the frame takes fewer cycles, the clocked path
+/// agrees with the whole-slice path bit for bit and cycle for cycle, and
+/// termination with skipping equals termination without it.
+#[test]
+fn skipping_saves_cycles_and_paths_agree() {
+    let vol = sparse([40, 36, 48], 2, 21);
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let cfg = PipelineConfig {
+            order,
+            terminate: if order == Order::FrontToBack {
+                0.95
+            } else {
+                1.0
+            },
+            occupancy_block: 4,
+            pes: 5,
+            ..PipelineConfig::default()
+        };
+        let lut = lut(&cfg, 50.0);
+        let prep = Prepared::new(
+            &vol,
+            &camera(
+                DVec3::new(19.5, 17.5, -24.0),
+                DVec3::new(19.5, 17.5, 23.5),
+                70.0,
+            ),
+        )
+        .expect("view");
+        let off = run(&cfg, &vol, &lut, &prep, OFF);
+        let on = run(&cfg, &vol, &lut, &prep, Skips::default());
+        println!(
+            "{}: cycles {} -> {} ({:.2}x), samples {} -> {}, slices skipped {}, beams {}, occupancy {} bits ({:.3} set)",
+            order.name(),
+            off.cycles,
+            on.cycles,
+            off.cycles as f64 / on.cycles as f64,
+            off.samples,
+            on.samples,
+            on.skipped.slices,
+            on.skipped.beams,
+            on.skipped.occupancy_bits,
+            on.skipped.occupied
+        );
+        assert!(
+            on.cycles * 3 < off.cycles * 2,
+            "{}: {} vs {}",
+            order.name(),
+            on.cycles,
+            off.cycles
+        );
+        assert!(on.skipped.slices > 0 && on.skipped.beams > 0);
+        assert_eq!(on.skipped.occupancy_bits, 10 * 9 * 12);
+        assert_eq!(image_bits(&prep, &on), image_bits(&prep, &off));
+        // The clocked path, PEs stepped in reverse order.
+        let layout = Method::Er.layout(&prep.view).expect("layout");
+        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
+        let dp = pipeline::datapath::Datapath::new(
+            cfg,
+            pipeline::tables::Tables::new(&cfg, &lut).expect("tables"),
+        );
+        let (mask, counts) =
+            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
+        let mut a = Array::new(&cfg, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
+        a.set_skipping(mask, counts, &prep.view);
+        a.set_clocked(true);
+        a.set_step_order((0..5).rev().collect());
+        let clocked = a.run(&prep.view).expect("clocked frame");
+        assert_eq!(signature(&clocked), signature(&on));
+    }
+}
+
+/// With golden's planner over the same blocks, the pipeline samples
+/// exactly what golden samples, slice by slice, with a clip plane too,
+/// and its image stays within one grey level of golden's.
+#[test]
+fn pipeline_takes_goldens_samples_with_skipping_and_clipping() {
+    let vol = sparse([32, 28, 36], 3, 5);
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let cfg = PipelineConfig {
+            order,
+            occupancy_block: 8,
+            ..PipelineConfig::default()
+        };
+        let lut = lut(&cfg, 45.0);
+        let cam = camera(
+            DVec3::new(-20.0, 12.0, 10.0),
+            DVec3::new(15.5, 13.5, 17.5),
+            60.0,
+        );
+        for clip in [vec![], vec!["1,0.3,-0.2,-12".parse().expect("plane")]] {
+            let popts = PrepareOptions {
+                block: 8,
+                clip,
+                ..PrepareOptions::default()
+            };
+            let prep = Prepared::with(&vol, &cam, &popts).expect("view");
+            let frame = run(&cfg, &vol, &lut, &prep, Skips::default());
+            let method = if order == Order::FrontToBack {
+                Method::ErFtb
+            } else {
+                Method::Er
+            };
+            let mut o = RenderOptions::default();
+            o.slice.terminate = 1.0;
+            let g = render(&prep, &lut, Technique::Slice(method), &o).expect("golden");
+            let gs = &g.slice.as_ref().expect("slice").stats;
+            assert_eq!(
+                frame.samples_per_slice,
+                gs.samples_per_slice,
+                "{} clip {}",
+                order.name(),
+                !popts.clip.is_empty()
+            );
+            let img = golden::warp::warp(&prep.view, &frame.baseplane);
+            let e = golden::metrics::compare(&img, &g.image).expect("same size");
+            assert!(
+                e.max_abs_255 <= 1.0,
+                "{}: {} grey levels",
+                order.name(),
+                e.max_abs_255
+            );
+        }
+    }
+}
+
+/// A bad occupancy block size is refused with one line naming the field.
+#[test]
+fn bad_occupancy_block_is_refused() {
+    for bad in [
+        "occupancy_block = 3",
+        "occupancy_block = 128",
+        "occupancy_block = 0",
+    ] {
+        let e = PipelineConfig::from_toml_str(bad)
+            .expect_err(bad)
+            .to_string();
+        assert!(
+            e.contains("occupancy_block") && !e.contains('\n'),
+            "{bad}: {e}"
+        );
+    }
+}
+
+/// The waveform shows what the controller skipped: `top.ctrl.stage` is 4
+/// for exactly as many cycles as slices were skipped, each at the slice
+/// the controller reports on `top.ctrl.slice`, and never 4 without
+/// skipping.
+#[test]
+fn waveform_shows_skipped_slices() {
+    use waves::{PeFilter, TraceConfig};
+    let vol = sparse([24, 20, 40], 1, 33);
+    let cfg = PipelineConfig {
+        pes: 3,
+        occupancy_block: 4,
+        ..PipelineConfig::default()
+    };
+    let lut = lut(&cfg, 50.0);
+    let prep = Prepared::new(
+        &vol,
+        &camera(
+            DVec3::new(11.5, 9.5, -20.0),
+            DVec3::new(11.5, 9.5, 19.5),
+            60.0,
+        ),
+    )
+    .expect("view");
+    let dir = tempfile::tempdir().expect("tempdir");
+    for skips in [Skips::default(), OFF] {
+        let vcd = dir.path().join("skip.vcd");
+        let tracer =
+            Tracer::new(TraceConfig::new(&vcd).with_pes(PeFilter::parse("0").expect("pes")))
+                .expect("tracer");
+        let f = run_frame_with(&cfg, &vol, &lut, &prep, skips, tracer).expect("frame");
+        let trace = waves::Trace::read(&vcd).expect("vcd");
+        let stage = trace.signal("top.ctrl.stage").expect("stage");
+        let slice = trace.signal("top.ctrl.slice").expect("slice");
+        let at: Vec<u64> = (1..=f.cycles)
+            .filter(|&c| stage.u64_at_cycle(c) == Some(4))
+            .map(|c| slice.u64_at_cycle(c).expect("slice traced"))
+            .collect();
+        let skipped = at.len() as u64;
+        println!(
+            "skips {skips:?}: {} slices skipped ({} regions not run), {skipped} skip cycles traced",
+            f.skipped.slices, f.skipped.regions
+        );
+        assert_eq!(skipped, f.stages.skip);
+        // One cycle per skipped slice, each a different slice; regions not
+        // run skip theirs without a cycle.
+        let mut distinct = at.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert_eq!(distinct.len(), at.len(), "a slice skipped twice: {at:?}");
+        if f.skipped.regions == 0 {
+            assert_eq!(f.stages.skip, f.skipped.slices);
+        } else {
+            assert!(f.stages.skip < f.skipped.slices);
+        }
+        if skips == OFF {
+            assert_eq!(skipped, 0);
+        } else {
+            assert!(skipped > 0, "this volume has empty slabs");
+        }
+    }
+}

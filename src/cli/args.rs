@@ -1,0 +1,355 @@
+//! Arguments shared by the commands: where the volume comes from, the
+//! camera and the transfer function, each turned into golden-model values
+//! with a one-line error for anything malformed.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use glam::DVec3;
+
+use golden::camera::{Camera, ImagePlane};
+use golden::clip::ClipPlane;
+use golden::load::{load_auto, RawSpec, RawType};
+use golden::render::{PrepareOptions, Prepared};
+use golden::scenes::{tf_preset, Scene};
+use golden::skip::Skips;
+use golden::tf::TransferFunction;
+use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
+
+/// Parses `x,y,z` into three finite numbers.
+pub fn parse_vec3(s: &str) -> std::result::Result<DVec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("'{s}' is not three comma-separated numbers x,y,z"));
+    }
+    let mut v = [0.0; 3];
+    for (k, p) in parts.iter().enumerate() {
+        let x: f64 = p
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{p}' in '{s}' is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("'{p}' in '{s}' is not finite"));
+        }
+        v[k] = x;
+    }
+    Ok(DVec3::from_array(v))
+}
+
+/// Parses `WxH` into a positive image size.
+pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not a size WxH such as 256x256"))?;
+    let p = |t: &str| -> std::result::Result<u32, String> {
+        let n: u32 = t
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{t}' in size '{s}' is not a whole number"))?;
+        if n == 0 || n > golden::camera::MAX_IMAGE_EDGE {
+            return Err(format!(
+                "image size '{s}': each side must be 1 to {}",
+                golden::camera::MAX_IMAGE_EDGE
+            ));
+        }
+        Ok(n)
+    };
+    Ok([p(w)?, p(h)?])
+}
+
+/// Parses `X,Y,Z` voxel counts.
+fn parse_dims(s: &str) -> std::result::Result<[usize; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "'{s}' is not three comma-separated dimensions X,Y,Z"
+        ));
+    }
+    let mut d = [0; 3];
+    for (k, p) in parts.iter().enumerate() {
+        d[k] = p
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{p}' in '{s}' is not a whole number"))?;
+    }
+    Ok(d)
+}
+
+fn parse_raw_type(s: &str) -> std::result::Result<RawType, String> {
+    s.parse::<RawType>().map_err(|e| e.to_string())
+}
+
+/// Where the volume comes from.
+#[derive(Debug, Clone, Args)]
+pub struct SourceArgs {
+    /// Synthetic scene: checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N].
+    #[arg(long, conflicts_with = "volume")]
+    pub scene: Option<String>,
+    /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), or raw with --raw-dims.
+    #[arg(long)]
+    pub volume: Option<PathBuf>,
+    /// Raw volume dimensions X,Y,Z (x fastest).
+    #[arg(long, value_parser = parse_dims, requires = "volume")]
+    pub raw_dims: Option<[usize; 3]>,
+    /// Raw voxel type: u8, u16le or u16be.
+    #[arg(long, value_parser = parse_raw_type, default_value = "u8", requires = "raw_dims")]
+    pub raw_type: RawType,
+    /// Bytes to skip before the raw voxels.
+    #[arg(long, default_value_t = 0, requires = "raw_dims")]
+    pub raw_offset: u64,
+    /// Voxel spacing x,y,z in world units (overrides the file's).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub spacing: Option<DVec3>,
+}
+
+impl SourceArgs {
+    /// A short name for tables and file names.
+    pub fn label(&self) -> String {
+        match (&self.scene, &self.volume) {
+            (Some(s), _) => s.clone(),
+            (None, Some(p)) => p
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            _ => "volume".into(),
+        }
+    }
+
+    /// Loads or builds the volume and names its default transfer function.
+    pub fn load(&self) -> Result<(Volume, TransferFunction)> {
+        if self.scene.is_some() && self.raw_dims.is_some() {
+            bail!(
+                "--raw-dims, --raw-type and --raw-offset describe a --volume file, not a --scene"
+            );
+        }
+        let (vol, tf) = match (&self.scene, &self.volume) {
+            (Some(spec), None) => {
+                let scene: Scene = spec.parse()?;
+                (scene.build(DEFAULT_MEMORY_LIMIT)?, scene.preset())
+            }
+            (None, Some(path)) => {
+                let raw = self.raw_dims.map(|dims| RawSpec {
+                    dims,
+                    kind: self.raw_type,
+                    offset: self.raw_offset,
+                });
+                (
+                    load_auto(path, raw.as_ref(), DEFAULT_MEMORY_LIMIT)?,
+                    tf_preset("grey-ramp")?,
+                )
+            }
+            (None, None) => bail!("no volume: give --scene SPEC or --volume FILE"),
+            (Some(_), Some(_)) => bail!("give either --scene or --volume, not both"),
+        };
+        let vol = match self.spacing {
+            Some(s) => vol.with_spacing(s.to_array())?,
+            None => vol,
+        };
+        Ok((vol, tf))
+    }
+}
+
+/// Which plane the final image lies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlaneArg {
+    /// An ordinary perspective image.
+    Camera,
+    /// The volume's front face (the paper's figures).
+    Front,
+}
+
+/// One view of one volume: where the volume comes from, the camera and
+/// the transfer function, which every command that renders a view takes.
+#[derive(Debug, Clone, Args)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub source: SourceArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub tf: TfArgs,
+}
+
+impl ViewArgs {
+    /// Loads the volume, then resolves its transfer function and places
+    /// the camera against it (in that order, so the first bad argument is
+    /// the one reported).
+    pub fn load(&self) -> Result<(Volume, TransferFunction, Camera)> {
+        let (vol, default_tf) = {
+            let _s = super::progress::Stage::start("loading volume");
+            self.source.load()?
+        };
+        let tf = self.tf.resolve(default_tf)?;
+        let cam = self.camera.camera(&vol)?;
+        Ok((vol, tf, cam))
+    }
+}
+
+/// The camera.
+#[derive(Debug, Clone, Args)]
+pub struct CameraArgs {
+    /// Eye position x,y,z in world units (voxels at unit spacing).
+    /// Default: in front of the volume's z = 0 face, 1.5 volume depths away.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<DVec3>,
+    /// Point looked at (default: the volume centre).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<DVec3>,
+    /// Up direction.
+    #[arg(long, value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
+    pub up: DVec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    #[arg(long, default_value_t = 60.0, allow_hyphen_values = true)]
+    pub fov: f64,
+    /// Image size WxH.
+    #[arg(long, value_parser = parse_size, default_value = "256x256")]
+    pub size: [u32; 2],
+    /// Image plane: an ordinary camera, or the volume's front face.
+    #[arg(long, value_enum, default_value_t = PlaneArg::Camera)]
+    pub image_plane: PlaneArg,
+}
+
+impl CameraArgs {
+    /// The camera for `vol`.
+    pub fn camera(&self, vol: &Volume) -> Result<Camera> {
+        let centre = DVec3::from_array(vol.center_world());
+        let look = self.look_at.unwrap_or(centre);
+        let eye = self.eye.unwrap_or_else(|| {
+            let depth = (0..3)
+                .map(|k| vol.dims()[k] as f64 * vol.spacing()[k])
+                .fold(0.0, f64::max);
+            centre - DVec3::Z * (centre.z + 1.5 * depth)
+        });
+        let mut cam = Camera::new(eye, look, self.up, self.fov, self.size[0], self.size[1])?;
+        cam.image_plane = match self.image_plane {
+            PlaneArg::Camera => ImagePlane::Camera,
+            PlaneArg::Front => ImagePlane::Front,
+        };
+        Ok(cam)
+    }
+}
+
+/// The transfer function.
+#[derive(Debug, Clone, Args)]
+pub struct TfArgs {
+    /// Named preset (checker, ml, sphere, impulse, grey-ramp, ...).
+    #[arg(long, conflicts_with = "tf_file")]
+    pub tf: Option<String>,
+    /// TOML file of control points ([[point]] value = .. rgba = [r, g, b, a]).
+    #[arg(long)]
+    pub tf_file: Option<PathBuf>,
+}
+
+impl TfArgs {
+    /// The chosen transfer function, or `default`.
+    pub fn resolve(&self, default: TransferFunction) -> Result<TransferFunction> {
+        Ok(match (&self.tf, &self.tf_file) {
+            (Some(name), _) => tf_preset(name)?,
+            (None, Some(path)) => TransferFunction::from_file(path)?,
+            (None, None) => default,
+        })
+    }
+}
+
+/// Runs `f` on a thread pool of `threads` workers (all cores when `None`).
+pub fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> Result<T> + Send,
+) -> Result<T> {
+    match threads {
+        None => f(),
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("cannot start the thread pool")?
+            .install(f),
+    }
+}
+
+/// Options of the renderers, shared by `render` and `compare`.
+#[derive(Debug, Clone, Args)]
+pub struct SliceArgs {
+    /// Early ray termination opacity for er-ftb (1 disables it).
+    #[arg(long, default_value_t = 0.99)]
+    pub terminate: f32,
+    /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
+    #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
+    pub substeps: u32,
+    /// Sample empty space too (skipping it never changes the image).
+    #[arg(long)]
+    pub no_skip_empty: bool,
+    /// Sample rays that cannot reach the image and regions behind the
+    /// volume too (culling never changes the image).
+    #[arg(long)]
+    pub no_cull: bool,
+    /// Edge of the empty-space blocks in voxels (power of two, 2..64;
+    /// default 8 in golden, the config's `occupancy_block` (16) in the
+    /// pipeline).
+    #[arg(long)]
+    pub block: Option<usize>,
+    /// Clip plane nx,ny,nz,d in world units: keeps n.p + d >= 0
+    /// (repeat for up to 6 planes).
+    #[arg(long, value_parser = parse_clip, allow_hyphen_values = true)]
+    pub clip: Vec<ClipPlane>,
+    /// Near plane: an eye on or inside the volume's slab sees only slices
+    /// at least this many voxels in front of it.
+    #[arg(long, default_value_t = golden::render::DEFAULT_NEAR)]
+    pub near: f64,
+}
+
+fn parse_clip(s: &str) -> std::result::Result<ClipPlane, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
+}
+
+impl SliceArgs {
+    /// Checks and builds the render options.
+    pub fn options(&self) -> Result<golden::render::RenderOptions> {
+        let mut o = golden::render::RenderOptions::default();
+        o.slice.terminate = self.terminate;
+        o.slice.substeps = self.substeps;
+        o.slice.skips = Skips {
+            empty: !self.no_skip_empty,
+            cull: !self.no_cull,
+        };
+        o.slice.validate()?;
+        Ok(o)
+    }
+
+    /// Checks and builds how the volume is prepared for a camera.
+    pub fn prepare(&self) -> Result<PrepareOptions> {
+        let block = self.block.unwrap_or(golden::occupancy::DEFAULT_BLOCK);
+        golden::occupancy::check_block(block)?;
+        golden::clip::check_planes(&self.clip)?;
+        if !(self.near.is_finite() && self.near > 0.0) {
+            bail!("--near {} must be a positive number of voxels", self.near);
+        }
+        Ok(PrepareOptions {
+            block,
+            clip: self.clip.clone(),
+            near: self.near,
+        })
+    }
+
+    /// Prepares `vol` for `cam` with these options.
+    pub fn prepared(&self, vol: &Volume, cam: &Camera) -> Result<Prepared> {
+        Ok(Prepared::with(vol, cam, &self.prepare()?)?)
+    }
+}
+
+impl Default for SliceArgs {
+    fn default() -> SliceArgs {
+        let o = golden::methods::Options::default();
+        let p = PrepareOptions::default();
+        SliceArgs {
+            terminate: o.terminate,
+            substeps: o.substeps,
+            no_skip_empty: !o.skips.empty,
+            no_cull: !o.skips.cull,
+            block: None,
+            clip: p.clip,
+            near: p.near,
+        }
+    }
+}

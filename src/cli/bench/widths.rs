@@ -1,0 +1,586 @@
+//! `ercube sweep-widths`: the pipeline over a grid of datapath widths on
+//! one view, each width varied alone around the base configuration,
+//! writing the error against golden `er` (same classification table) and
+//! against the reference beside the total datapath bits, as CSV, a plot
+//! and a markdown summary.
+//!
+//! **Total datapath bits** is the sum of the widths of the configuration's
+//! 13 register formats (voxel, position, step, weight, sample, color,
+//! alpha, path, log_transmittance, opacity_corr, accum_color, accum_alpha,
+//! merge), each counted once: a proxy of the datapath's register and
+//! arithmetic width, not an area model.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+
+use golden::metrics::{compare, ImageError};
+use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
+use golden::tf::Lut;
+use golden::volume::Volume;
+use pipeline::config::PipelineConfig;
+
+use crate::cli::chip::ConfigArgs;
+use pipeline::fixed::Format;
+
+use super::super::args::{with_threads, ViewArgs};
+use super::super::plot::{write_charts, Chart, Kind, Series};
+use super::progress;
+
+/// Default values swept of each knob: from where the image visibly breaks
+/// to well past each default.
+pub const DEFAULT_ALPHA: &str = "4-16";
+/// See [`DEFAULT_ALPHA`].
+pub const DEFAULT_ACCUM: &str = "8-24";
+/// See [`DEFAULT_ALPHA`].
+pub const DEFAULT_POSITION: &str = "4-20";
+/// See [`DEFAULT_ALPHA`].
+pub const DEFAULT_WEIGHT: &str = "3-14";
+/// See [`DEFAULT_ALPHA`].
+pub const DEFAULT_COLOR: &str = "3-10";
+/// See [`DEFAULT_ALPHA`].
+pub const DEFAULT_SAMPLE: &str = "0-6";
+
+/// The default grid of every knob.
+pub fn default_grid() -> Vec<(Knob, Vec<u8>)> {
+    [
+        (Knob::Alpha, DEFAULT_ALPHA),
+        (Knob::Accum, DEFAULT_ACCUM),
+        (Knob::Position, DEFAULT_POSITION),
+        (Knob::Weight, DEFAULT_WEIGHT),
+        (Knob::Color, DEFAULT_COLOR),
+        (Knob::Sample, DEFAULT_SAMPLE),
+    ]
+    .into_iter()
+    .map(|(k, r)| (k, parse_values(k.name(), r).expect("valid default range")))
+    .collect()
+}
+
+/// Arguments of `ercube sweep-widths`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Base configuration and PE count (results do not depend on the count).
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
+    /// alpha = ufixed<B,0> for each B ("A-B", "A,B,..." or "none").
+    #[arg(long, default_value = DEFAULT_ALPHA)]
+    pub alpha_bits: String,
+    /// accum_color = accum_alpha = ufixed<B,0>, with merge = ufixed<B+4,4>
+    /// and opacity_corr's fraction cut to B when B is below it.
+    #[arg(long, default_value = DEFAULT_ACCUM)]
+    pub accum_bits: String,
+    /// Fraction bits F of position (integer bits kept).
+    #[arg(long, default_value = DEFAULT_POSITION)]
+    pub position_frac: String,
+    /// weight = ufixed<B,0> (interpolation and exp-table weights).
+    #[arg(long, default_value = DEFAULT_WEIGHT)]
+    pub weight_bits: String,
+    /// Fraction bits F of the colour table entries, color = ufixed<F+1,1>.
+    #[arg(long, default_value = DEFAULT_COLOR)]
+    pub color_frac: String,
+    /// Fraction bits F of the interpolated sample (integer bits kept).
+    #[arg(long, default_value = DEFAULT_SAMPLE)]
+    pub sample_frac: String,
+    /// Directory for widths.csv, widths.png and widths.md.
+    #[arg(long, default_value = "sweep-widths")]
+    pub out_dir: PathBuf,
+    /// Worker threads (default: all cores); results are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// A width that the sweep varies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Knob {
+    /// Classified opacity bits.
+    Alpha,
+    /// Accumulator bits (colour and opacity together).
+    Accum,
+    /// Position fraction bits.
+    Position,
+    /// Weight bits.
+    Weight,
+    /// Colour entry fraction bits.
+    Color,
+    /// Sample fraction bits.
+    Sample,
+}
+
+impl Knob {
+    /// Name in the CSV and the plot.
+    pub fn name(self) -> &'static str {
+        match self {
+            Knob::Alpha => "alpha bits",
+            Knob::Accum => "accumulator bits",
+            Knob::Position => "position fraction bits",
+            Knob::Weight => "weight bits",
+            Knob::Color => "colour fraction bits",
+            Knob::Sample => "sample fraction bits",
+        }
+    }
+
+    /// The knob's value in `cfg`.
+    pub fn value(self, cfg: &PipelineConfig) -> u8 {
+        match self {
+            Knob::Alpha => cfg.alpha.bits(),
+            Knob::Accum => cfg.accum_color.bits(),
+            Knob::Position => cfg.position.frac(),
+            Knob::Weight => cfg.weight.bits(),
+            Knob::Color => cfg.color.frac(),
+            Knob::Sample => cfg.sample.frac(),
+        }
+    }
+
+    /// `base` with this knob set to `v` (and the fields it drags along).
+    pub fn apply(self, base: &PipelineConfig, v: u8) -> Result<PipelineConfig> {
+        let like = |f: Format, bits: u8, frac: u8| -> Result<Format> {
+            Format::new(bits, frac, f.is_signed(), f.quant(), f.overflow())
+                .map_err(|e| anyhow::anyhow!("{}", e.describe(self.name())))
+        };
+        let mut c = *base;
+        match self {
+            Knob::Alpha => c.alpha = like(c.alpha, v, v)?,
+            Knob::Accum => {
+                c.accum_color = like(c.accum_color, v, v)?;
+                c.accum_alpha = like(c.accum_alpha, v, v)?;
+                let m_int = c.merge.int_bits();
+                c.merge = like(c.merge, v.saturating_add(m_int), v)?;
+                let oc_frac = c.opacity_corr.frac().min(v);
+                let oc_int = c.opacity_corr.int_bits();
+                c.opacity_corr = like(c.opacity_corr, oc_frac + oc_int, oc_frac)?;
+            }
+            Knob::Position => {
+                let int = c.position.int_bits();
+                c.position = like(c.position, int.saturating_add(v), v)?;
+            }
+            Knob::Weight => c.weight = like(c.weight, v, v)?,
+            Knob::Color => {
+                let int = c.color.int_bits();
+                c.color = like(c.color, int.saturating_add(v), v)?;
+            }
+            Knob::Sample => {
+                let int = c.sample.int_bits();
+                c.sample = like(c.sample, int.saturating_add(v), v)?;
+            }
+        }
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+/// The sum of the widths of every register format (see the module docs).
+pub fn total_bits(c: &PipelineConfig) -> u32 {
+    c.formats().iter().map(|(_, f)| u32::from(f.bits())).sum()
+}
+
+/// Parses a knob's values: `A-B`, `A,B,...` or `none`.
+pub fn parse_values(flag: &str, s: &str) -> Result<Vec<u8>> {
+    let s = s.trim();
+    if s == "none" || s.is_empty() {
+        return Ok(Vec::new());
+    }
+    let num = |t: &str| -> Result<u8> {
+        t.trim()
+            .parse::<u8>()
+            .ok()
+            .filter(|&v| v <= 63)
+            .ok_or_else(|| anyhow::anyhow!("--{flag}: '{t}' is not a width from 0 to 63"))
+    };
+    if let Some((a, b)) = s.split_once('-') {
+        let (a, b) = (num(a)?, num(b)?);
+        if a > b {
+            bail!("--{flag}: range {a}-{b} runs backwards");
+        }
+        return Ok((a..=b).collect());
+    }
+    s.split(',').map(num).collect()
+}
+
+/// One run of the sweep.
+#[derive(Debug, Clone)]
+pub struct WidthRow {
+    /// The knob varied (`None`: the base configuration).
+    pub knob: Option<Knob>,
+    /// Its value.
+    pub value: u8,
+    /// Total datapath bits.
+    pub total_bits: u32,
+    /// Why it did not run.
+    pub skipped: Option<String>,
+    /// Against golden er with the same table.
+    pub vs_er: Option<ImageError>,
+    /// Against the reference.
+    pub vs_ref: Option<ImageError>,
+    /// Assignments that overflowed (saturated or wrapped).
+    pub overflows: u64,
+    /// Cycles of the frame.
+    pub cycles: u64,
+    /// Seconds of the model's frame.
+    pub time_s: f64,
+}
+
+/// A sweep on one view.
+pub struct Sweep {
+    /// Name of the scene and view, for titles.
+    pub label: String,
+    /// The base configuration.
+    pub base: PipelineConfig,
+    /// The values of each knob.
+    pub grid: Vec<(Knob, Vec<u8>)>,
+}
+
+/// What a sweep measured.
+pub struct SweepResult {
+    /// Base first, then knob by knob.
+    pub rows: Vec<WidthRow>,
+    /// Golden er's own error against the reference, for scale.
+    pub er_vs_ref: ImageError,
+}
+
+/// Runs the sweep on a prepared view.
+pub fn run_sweep(
+    sw: &Sweep,
+    vol: &Volume,
+    tf: &golden::tf::TransferFunction,
+    prep: &Prepared,
+) -> Result<SweepResult> {
+    let opts = RenderOptions::default();
+    let runs = 1 + sw.grid.iter().map(|g| g.1.len()).sum::<usize>();
+    let bar = progress(runs as u64 + 2);
+    bar.set_message(format!("{}: reference", sw.label));
+    let reference = render(prep, &lut_for(vol.kind(), tf), Technique::Reference, &opts)?.image;
+    bar.inc(1);
+    let lut = Lut::for_bits(tf, sw.base.table_entries as usize, vol.kind().bits());
+    let er = render(
+        prep,
+        &lut,
+        Technique::Slice(golden::methods::Method::Er),
+        &opts,
+    )?
+    .image;
+    bar.inc(1);
+    let er_vs_ref = compare(&er, &reference)?;
+    let mut jobs: Vec<(Option<Knob>, u8)> = vec![(None, 0)];
+    for (k, vs) in &sw.grid {
+        jobs.extend(vs.iter().map(|&v| (Some(*k), v)));
+    }
+    let mut rows = Vec::new();
+    for (knob, v) in jobs {
+        let name = knob.map_or("base", Knob::name);
+        bar.set_message(format!("{}: {name} {v}", sw.label));
+        let cfg = match knob {
+            None => Ok(sw.base),
+            Some(k) => k.apply(&sw.base, v),
+        };
+        let mut row = WidthRow {
+            knob,
+            value: knob.map_or(0, |k| k.value(&sw.base)),
+            total_bits: 0,
+            skipped: None,
+            vs_er: None,
+            vs_ref: None,
+            overflows: 0,
+            cycles: 0,
+            time_s: 0.0,
+        };
+        if knob.is_some() {
+            row.value = v;
+        }
+        match cfg {
+            Err(e) => row.skipped = Some(format!("{e:#}")),
+            Ok(cfg) => {
+                row.total_bits = total_bits(&cfg);
+                let t = Instant::now();
+                match pipeline::run_frame(&cfg, vol, &lut, &prep.view, waves::Tracer::disabled()) {
+                    Ok(f) => {
+                        row.time_s = t.elapsed().as_secs_f64();
+                        let image = golden::warp::warp(&prep.view, &f.baseplane);
+                        row.vs_er = Some(compare(&image, &er)?);
+                        row.vs_ref = Some(compare(&image, &reference)?);
+                        row.overflows = f.quant.overflows;
+                        row.cycles = f.cycles;
+                    }
+                    Err(e) => row.skipped = Some(e.to_string()),
+                }
+            }
+        }
+        rows.push(row);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(SweepResult { rows, er_vs_ref })
+}
+
+/// The CSV of a sweep.
+pub fn csv(res: &SweepResult) -> String {
+    let mut s = String::from(
+        "knob,value,total_bits,status,note,vs_er_max_abs_255,vs_er_rmse,vs_er_psnr,vs_ref_max_abs_255,vs_ref_rmse,overflows,cycles,time_s\n",
+    );
+    let e =
+        |x: Option<ImageError>, f: fn(&ImageError) -> String| x.as_ref().map(f).unwrap_or_default();
+    for r in &res.rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.6}",
+            r.knob.map_or("base", Knob::name),
+            r.value,
+            r.total_bits,
+            if r.skipped.is_some() { "skipped" } else { "ok" },
+            r.skipped.as_deref().unwrap_or("").replace([',', '"'], ";"),
+            e(r.vs_er, |x| x.max_abs_255.to_string()),
+            e(r.vs_er, |x| format!("{:.8}", x.rmse)),
+            e(r.vs_er, |x| if x.psnr.is_finite() {
+                format!("{:.3}", x.psnr)
+            } else {
+                "inf".into()
+            }),
+            e(r.vs_ref, |x| x.max_abs_255.to_string()),
+            e(r.vs_ref, |x| format!("{:.6}", x.rmse)),
+            r.overflows,
+            r.cycles,
+            r.time_s,
+        );
+    }
+    s
+}
+
+/// Writes widths.csv and widths.png into `dir`.
+pub fn write_sweep(dir: &Path, sw: &Sweep, res: &SweepResult) -> Result<()> {
+    let text = csv(res);
+    golden::image::write_atomic(&dir.join("widths.csv"), |w| w.write_all(text.as_bytes()))?;
+    let mut max_series = Vec::new();
+    let mut rmse_series = Vec::new();
+    // One distinct colour per knob (tab10's first six).
+    const COLORS: [plotters::style::RGBColor; 6] = [
+        plotters::style::RGBColor(31, 119, 180),
+        plotters::style::RGBColor(255, 127, 14),
+        plotters::style::RGBColor(44, 160, 44),
+        plotters::style::RGBColor(214, 39, 40),
+        plotters::style::RGBColor(148, 103, 189),
+        plotters::style::RGBColor(140, 86, 75),
+    ];
+    for (i, (k, _)) in sw.grid.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        let rs: Vec<&WidthRow> = res
+            .rows
+            .iter()
+            .filter(|r| r.knob == Some(*k) && r.vs_er.is_some())
+            .collect();
+        if rs.is_empty() {
+            continue;
+        }
+        let pts = |f: fn(&ImageError) -> f64| -> Vec<(f64, f64)> {
+            rs.iter()
+                .filter_map(|r| Some((f64::from(r.total_bits), f(r.vs_er.as_ref()?))))
+                .collect()
+        };
+        max_series.push(
+            Series::new(k.name(), pts(|e| e.max_abs_255), Kind::LinePoints).with_color(color),
+        );
+        rmse_series
+            .push(Series::new(k.name(), pts(|e| e.rmse), Kind::LinePoints).with_color(color));
+    }
+    if let Some(b) = res.rows.iter().find(|r| r.knob.is_none()) {
+        if let Some(e) = b.vs_er {
+            let x = f64::from(b.total_bits);
+            let black = plotters::style::RGBColor(0, 0, 0);
+            max_series.push(
+                Series::new("defaults", vec![(x, e.max_abs_255)], Kind::Points).with_color(black),
+            );
+            rmse_series
+                .push(Series::new("defaults", vec![(x, e.rmse)], Kind::Points).with_color(black));
+        }
+    }
+    let xs: Vec<f64> = res
+        .rows
+        .iter()
+        .filter(|r| r.vs_er.is_some())
+        .map(|r| f64::from(r.total_bits))
+        .collect();
+    if let (Some(lo), Some(hi)) = (
+        xs.iter().copied().reduce(f64::min),
+        xs.iter().copied().reduce(f64::max),
+    ) {
+        rmse_series.push(
+            Series::new(
+                "golden er vs reference",
+                vec![(lo, res.er_vs_ref.rmse), (hi, res.er_vs_ref.rmse)],
+                Kind::Dashed,
+            )
+            .with_color(plotters::style::RGBColor(110, 110, 110)),
+        );
+        max_series.push(
+            Series::new("1 grey level", vec![(lo, 1.0), (hi, 1.0)], Kind::Dashed)
+                .with_color(plotters::style::RGBColor(110, 110, 110)),
+        );
+    }
+    write_charts(
+        &dir.join("widths.png"),
+        &[
+            Chart {
+                title: format!("{}: largest difference from golden er", sw.label),
+                x_label: "total datapath bits".into(),
+                y_label: "max |pipeline - golden er| (of 255)".into(),
+                x_log: false,
+                y_log: false,
+                series: max_series,
+            },
+            Chart {
+                title: format!("{}: RMSE from golden er", sw.label),
+                x_label: "total datapath bits".into(),
+                y_label: "RMSE against golden er".into(),
+                x_log: false,
+                y_log: true,
+                series: rmse_series,
+            },
+        ],
+        (800, 560),
+    )?;
+    Ok(())
+}
+
+/// The markdown summary of a sweep: per knob, the error at each value and
+/// the narrowest value within one grey level of golden er.
+pub fn summary(sw: &Sweep, res: &SweepResult, img: &str) -> String {
+    let mut s = String::new();
+    let base = res.rows.iter().find(|r| r.knob.is_none());
+    if let Some(b) = base {
+        let _ = write!(s, "Base configuration: {} datapath bits", b.total_bits);
+        if let Some(e) = b.vs_er {
+            let _ = write!(
+                s,
+                ", largest difference from golden er {} of 255 (RMSE {:.2e})",
+                e.max_abs_255, e.rmse
+            );
+        }
+        let _ = writeln!(
+            s,
+            "; golden er itself is {:.4} RMSE ({} of 255) from the reference.\n",
+            res.er_vs_ref.rmse, res.er_vs_ref.max_abs_255
+        );
+    }
+    let _ = writeln!(
+        s,
+        "| width | default | narrowest within 1 grey level | values: max of 255 (RMSE vs golden er) |\n| --- | --- | --- | --- |"
+    );
+    for (k, _) in &sw.grid {
+        let rs: Vec<&WidthRow> = res.rows.iter().filter(|r| r.knob == Some(*k)).collect();
+        let ok = narrowest_within(&rs, 1.0);
+        let cells: Vec<String> = rs
+            .iter()
+            .map(|r| match (&r.skipped, r.vs_er) {
+                (Some(_), _) | (_, None) => format!("{}: invalid", r.value),
+                (None, Some(e)) => format!("{}: {} ({:.1e})", r.value, e.max_abs_255, e.rmse),
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            k.name(),
+            k.value(&sw.base),
+            ok.map_or("none".to_string(), |v| v.to_string()),
+            cells.join(", ")
+        );
+    }
+    let _ = writeln!(s, "\n![widths]({img}widths.png)");
+    s
+}
+
+/// The smallest value from which every larger value stays within `limit`
+/// grey levels of golden er.
+pub fn narrowest_within(rows: &[&WidthRow], limit: f64) -> Option<u8> {
+    let mut best = None;
+    for r in rows.iter().rev() {
+        match r.vs_er {
+            Some(e) if r.skipped.is_none() && e.max_abs_255 <= limit => best = Some(r.value),
+            _ => break,
+        }
+    }
+    best
+}
+
+/// Loads, prepares and runs a sweep from the command line's arguments.
+pub fn sweep(a: &SweepArgs) -> Result<()> {
+    let base = a.cfg.load()?;
+    let grid: Vec<(Knob, Vec<u8>)> = [
+        (Knob::Alpha, "alpha-bits", &a.alpha_bits),
+        (Knob::Accum, "accum-bits", &a.accum_bits),
+        (Knob::Position, "position-frac", &a.position_frac),
+        (Knob::Weight, "weight-bits", &a.weight_bits),
+        (Knob::Color, "color-frac", &a.color_frac),
+        (Knob::Sample, "sample-frac", &a.sample_frac),
+    ]
+    .into_iter()
+    .map(|(k, flag, s)| Ok((k, parse_values(flag, s)?)))
+    .collect::<Result<Vec<_>>>()?
+    .into_iter()
+    .filter(|(_, v)| !v.is_empty())
+    .collect();
+    with_threads(a.threads, || {
+        let (vol, tf, cam) = a.view.load()?;
+        let prep = Prepared::new(&vol, &cam)?;
+        std::fs::create_dir_all(&a.out_dir)
+            .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+        let sw = Sweep {
+            label: a.view.source.label(),
+            base,
+            grid,
+        };
+        let res = run_sweep(&sw, &vol, &tf, &prep)?;
+        write_sweep(&a.out_dir, &sw, &res)?;
+        let md = format!(
+            "# Pipeline widths on {}\n\n`{}`\n\n{}",
+            sw.label,
+            super::command_line(),
+            summary(&sw, &res, "")
+        );
+        golden::image::write_atomic(&a.out_dir.join("widths.md"), |w| w.write_all(md.as_bytes()))?;
+        super::super::say(md.trim_end());
+        super::super::say(&format!("wrote {}", a.out_dir.display()));
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn knobs_drag_their_dependants() {
+        let base = PipelineConfig::default();
+        assert_eq!(total_bits(&base), 218);
+        let c = Knob::Accum.apply(&base, 12).unwrap();
+        assert_eq!(c.opacity_corr.frac(), 12);
+        assert_eq!(c.merge.frac(), 12);
+        assert_eq!(c.merge.int_bits(), base.merge.int_bits());
+        let c = Knob::Accum.apply(&base, 24).unwrap();
+        assert_eq!(c.opacity_corr, base.opacity_corr);
+        let c = Knob::Position.apply(&base, 8).unwrap();
+        assert_eq!(c.position.int_bits(), base.position.int_bits());
+        for k in [
+            Knob::Alpha,
+            Knob::Accum,
+            Knob::Position,
+            Knob::Weight,
+            Knob::Color,
+            Knob::Sample,
+        ] {
+            assert_eq!(k.apply(&base, k.value(&base)).unwrap(), base, "{k:?}");
+        }
+        assert!(Knob::Alpha.apply(&base, 70).is_err());
+    }
+
+    #[test]
+    fn value_lists() {
+        assert_eq!(parse_values("x", "8-10").unwrap(), vec![8, 9, 10]);
+        assert_eq!(parse_values("x", "8,12").unwrap(), vec![8, 12]);
+        assert!(parse_values("x", "none").unwrap().is_empty());
+        assert!(parse_values("x", "10-8").is_err());
+        assert!(parse_values("x", "99").is_err());
+    }
+}

@@ -1,0 +1,220 @@
+//! `ercube render --method pipeline` (and `pipeline-ftb`, the front-to-back
+//! order with early ray termination): the bit-accurate PE array model, its
+//! cycle counts, raw accumulator words and waveforms.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde_json::{json, Value};
+
+use golden::methods::Method;
+use golden::metrics::compare;
+use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::tf::Lut;
+use golden::volume::Volume;
+use golden::warp::warp;
+use pipeline::config::{Order, PipelineConfig};
+use waves::{parse_cycle_window, PeFilter, TraceConfig, Tracer};
+
+use super::method::MethodArg;
+use super::stats::error_json;
+
+/// The pipeline configuration on the command line, shared by every
+/// command that runs the PE array.
+#[derive(Debug, Clone, Args)]
+pub struct ConfigArgs {
+    /// Pipeline configuration (TOML; missing keys keep their defaults).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Number of PEs (overrides the configuration).
+    #[arg(long)]
+    pub pes: Option<u16>,
+}
+
+impl ConfigArgs {
+    /// Loads the configuration with the command line's overrides.
+    pub fn load(&self) -> Result<PipelineConfig> {
+        let mut cfg = match &self.config {
+            Some(p) => PipelineConfig::from_toml_file(p)?,
+            None => PipelineConfig::default(),
+        };
+        if let Some(p) = self.pes {
+            cfg.pes = p;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// Sets the order a pipeline method names: `pipeline-ftb` runs front to
+/// back with `--terminate`'s threshold (which replaces the configuration's
+/// `terminate`); `pipeline` runs the configuration as it is.
+pub fn apply_method(cfg: &mut PipelineConfig, method: MethodArg, terminate: f32) -> Result<()> {
+    if method.pipeline_order() == Some(Order::FrontToBack) {
+        cfg.order = Order::FrontToBack;
+        cfg.terminate = f64::from(terminate);
+        cfg.validate()?;
+    }
+    Ok(())
+}
+
+/// The golden method a configuration mirrors: `er` back to front, `er-ftb`
+/// front to back.
+pub fn golden_method(cfg: &PipelineConfig) -> Method {
+    match cfg.order {
+        Order::BackToFront => Method::Er,
+        Order::FrontToBack => Method::ErFtb,
+    }
+}
+
+/// Pipeline options of `ercube render`.
+#[derive(Debug, Clone, Args)]
+pub struct PipelineArgs {
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
+    /// Write a VCD waveform here (and a GTKWave save file beside it).
+    #[arg(long)]
+    pub vcd: Option<PathBuf>,
+    /// PEs to trace: "all", or a list such as 0-3,8.
+    #[arg(long, default_value = "0-3", requires = "vcd")]
+    pub trace_pes: String,
+    /// Cycle window to trace: A-B (inclusive), A.., or ..=B.
+    #[arg(long, requires = "vcd")]
+    pub trace_cycles: Option<String>,
+    /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
+    #[arg(long)]
+    pub raw_npy: Option<PathBuf>,
+}
+
+/// The classification table the pipeline and its golden comparison share.
+pub fn pipeline_lut(cfg: &PipelineConfig, vol: &Volume, tf: &golden::tf::TransferFunction) -> Lut {
+    Lut::for_bits(tf, cfg.table_entries as usize, vol.kind().bits())
+}
+
+fn tracer(a: &PipelineArgs) -> Result<Tracer> {
+    let Some(path) = &a.vcd else {
+        return Ok(Tracer::disabled());
+    };
+    let mut tc = TraceConfig::new(path).with_pes(PeFilter::parse(&a.trace_pes)?);
+    if let Some(w) = &a.trace_cycles {
+        // Accept the README's A-B as well as Rust-style ranges.
+        let spec = match w.split_once('-') {
+            Some((x, y)) if !x.is_empty() && !y.is_empty() => format!("{x}..={y}"),
+            _ => w.clone(),
+        };
+        tc = tc.with_cycles(parse_cycle_window(&spec)?);
+    }
+    Ok(Tracer::new(tc)?)
+}
+
+/// What a pipeline render produced.
+pub struct PipelineRun {
+    /// The final image (warped in float by the driver).
+    pub image: golden::image::Image,
+    /// The frame: baseplane, raw words, counters.
+    pub frame: pipeline::Frame,
+    /// Wall-clock seconds of the frame.
+    pub time_s: f64,
+}
+
+/// Renders `prep` through the pipeline, the controller skipping what
+/// `skips` allows and clipping to `prep`'s planes.
+pub fn run(
+    a: &PipelineArgs,
+    cfg: &PipelineConfig,
+    vol: &Volume,
+    lut: &Lut,
+    prep: &Prepared,
+    skips: golden::skip::Skips,
+) -> Result<PipelineRun> {
+    let tr = tracer(a)?;
+    let t = Instant::now();
+    let frame = pipeline::run_frame_with(cfg, vol, lut, prep, skips, tr)?;
+    let time_s = t.elapsed().as_secs_f64();
+    let image = warp(&prep.view, &frame.baseplane);
+    if let Some(p) = &a.raw_npy {
+        write_raw_npy(p, &frame)?;
+    }
+    Ok(PipelineRun {
+        image,
+        frame,
+        time_s,
+    })
+}
+
+/// Raw accumulator words as int64 `H x W x 4`.
+fn write_raw_npy(path: &Path, f: &pipeline::Frame) -> Result<()> {
+    let [w, h] = f.baseplane.grid.counts;
+    golden::image::write_atomic(path, |out| {
+        out.write_all(&golden::image::npy_header("<i8", &[h, w, 4]))?;
+        for p in &f.raw {
+            for v in p {
+                out.write_all(&v.to_le_bytes())?;
+            }
+        }
+        Ok(())
+    })
+    .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The pipeline's part of the stats JSON, and its error against the golden
+/// method it mirrors (`error_vs_golden`, naming the method; back to front
+/// also as `error_vs_golden_er`).
+pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Value>) -> Value {
+    let f = &run.frame;
+    let btf = cfg.order == Order::BackToFront;
+    let named = vs_golden.clone().map(|mut v| {
+        v["method"] = json!(golden_method(cfg).name());
+        v
+    });
+    json!({
+        "order": cfg.order.name(),
+        "terminate": cfg.terminate,
+        "terminated_samples": f.terminated_samples,
+        "cycles_saved": f.cycles_saved,
+        "skipped": f.skipped,
+        "raw_format": [f.raw_format[0].to_string(), f.raw_format[1].to_string()],
+        "error_vs_golden": named,
+        "cycles": f.cycles,
+        "ideal_cycles": f.ideal_cycles,
+        "utilization": f.utilization(),
+        "stages": f.stages,
+        "samples_total": f.samples,
+        "samples_per_slice": f.samples_per_slice,
+        "merges": f.merges,
+        "pes": f.pes,
+        "quantization": f.quant,
+        "pe_cycles_per_second": f.cycles as f64 * f64::from(cfg.pes) / run.time_s.max(1e-12),
+        "config": serde_json::to_value(cfg).unwrap_or(Value::Null),
+        "error_vs_golden_er": if btf { vs_golden } else { None },
+    })
+}
+
+/// Compares the pipeline's image with the golden method it mirrors
+/// ([`golden_method`]: `er`, or `er-ftb` at the same threshold) using the
+/// same table.
+pub fn versus_golden(
+    prep: &Prepared,
+    lut: &Lut,
+    image: &golden::image::Image,
+    cfg: &PipelineConfig,
+) -> Result<Value> {
+    let mut opts = RenderOptions::default();
+    // The configuration's threshold was validated in (0, 1]; f32 is what
+    // golden compares in.
+    opts.slice.terminate = cfg.terminate as f32;
+    let g = render(prep, lut, Technique::Slice(golden_method(cfg)), &opts)?;
+    Ok(error_json(&compare(image, &g.image)?))
+}
+
+/// Refuses pipeline options on other methods.
+pub fn check_unused(a: &PipelineArgs) -> Result<()> {
+    if a.cfg.config.is_some() || a.cfg.pes.is_some() || a.vcd.is_some() || a.raw_npy.is_some() {
+        bail!(
+            "--config, --pes, --vcd and --raw-npy apply only to --method pipeline or pipeline-ftb"
+        );
+    }
+    Ok(())
+}

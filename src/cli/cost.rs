@@ -1,0 +1,195 @@
+//! `ercube cost`: what the PE array costs on an FPGA and how fast it runs.
+//!
+//! The resources come from `pipeline::cost` (per-unit models calibrated
+//! against yosys); the cycles per frame from an actual pipeline run of the
+//! scene and view, at the configured `P` and at each `P` of a sweep.
+//! Without `--scene` or `--volume` the run uses the built-in checkerboard
+//! `checker:128` seen from `(64, 64, -64)` (unless `--eye` is given), the
+//! pipeline's measured speed (docs/pipeline.md): about a second of simulation per `P` on two
+//! cores. The field of view does not change the cycles (the rays are laid
+//! out by the eye and the volume; the fov only shapes the warped image).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use glam::DVec3;
+
+use golden::render::Prepared;
+use pipeline::config::{PipelineConfig, MAX_PES};
+use pipeline::cost::inventory::Geometry;
+use pipeline::cost::report::build;
+use pipeline::cost::throughput::RunSummary;
+use pipeline::cost::Target;
+
+use super::args::{CameraArgs, SourceArgs, TfArgs};
+use super::chip::{self, ConfigArgs};
+use super::progress::Stage;
+use super::stats::write_json;
+
+/// The scene when neither `--scene` nor `--volume` is given.
+const DEFAULT_SCENE: &str = "checker:128";
+/// Its eye, unless `--eye` is given: 64 voxels in front of the middle of
+/// the front face, so the view has two regions and a merge.
+const DEFAULT_EYE: [f64; 3] = [64.0, 64.0, -64.0];
+
+fn parse_target(s: &str) -> std::result::Result<Target, String> {
+    s.parse()
+}
+
+/// Arguments of `ercube cost`.
+#[derive(Debug, Args)]
+pub struct CostArgs {
+    #[command(flatten)]
+    pub source: SourceArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub tf: TfArgs,
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
+    /// FPGA family: xc7 (Artix-7), ecp5 or ice40 (UltraPlus).
+    #[arg(long, value_parser = parse_target, default_value = "xc7")]
+    pub target: Target,
+    /// Clock in MHz (an assumption, not a timing result). Default: 200 on
+    /// xc7, 150 on ecp5, 48 on ice40.
+    #[arg(long, allow_hyphen_values = true)]
+    pub clock_mhz: Option<f64>,
+    /// PE counts to run and cost as a sweep, e.g. 8,16,32,64; "none" skips it.
+    #[arg(long, default_value = "8,16,32,64")]
+    pub sweep_pes: String,
+    /// Write the report as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the calibration Verilog modules (one .v per unit) into this directory.
+    #[arg(long)]
+    pub verilog_dir: Option<PathBuf>,
+}
+
+/// The default clock of a family: a comfortable rate for a DSP-heavy,
+/// fully pipelined datapath on a mid speed grade (not a timing result).
+fn default_clock(t: Target) -> f64 {
+    match t {
+        Target::Xc7 => 200.0,
+        Target::Ecp5 => 150.0,
+        Target::Ice40 => 48.0,
+    }
+}
+
+fn parse_sweep(s: &str) -> Result<Vec<u16>> {
+    let s = s.trim();
+    if s.eq_ignore_ascii_case("none") || s.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut out = Vec::new();
+    for part in s.split(',') {
+        let p: u16 = part
+            .trim()
+            .parse()
+            .ok()
+            .filter(|p| (1..=MAX_PES).contains(p))
+            .with_context(|| {
+                format!(
+                    "--sweep-pes: '{}' is not a PE count 1..={MAX_PES}",
+                    part.trim()
+                )
+            })?;
+        if !out.contains(&p) {
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+/// Runs one frame at `pes` PEs and summarises it.
+fn run_at(
+    cfg: &PipelineConfig,
+    pes: u16,
+    vol: &golden::volume::Volume,
+    lut: &golden::tf::Lut,
+    prep: &Prepared,
+    label: &str,
+) -> Result<RunSummary> {
+    let cfg = PipelineConfig { pes, ..*cfg };
+    cfg.validate()?;
+    let _s = Stage::start(format!("clocking {pes} PEs"));
+    let frame = pipeline::run_frame(&cfg, vol, lut, &prep.view, waves::Tracer::disabled())?;
+    let plan = pipeline::host::plan(&cfg, &prep.view)?;
+    Ok(RunSummary::new(
+        label,
+        Geometry {
+            dims: prep.view.dims,
+            pes,
+            regions: plan.regions.len() as u32,
+        },
+        &frame,
+        &plan,
+    ))
+}
+
+/// Runs `ercube cost`.
+pub fn run(a: &CostArgs) -> Result<()> {
+    let clock = a.clock_mhz.unwrap_or_else(|| default_clock(a.target));
+    if !clock.is_finite() || clock <= 0.0 || clock > 2000.0 {
+        bail!("--clock-mhz {clock} must be a clock above 0 and at most 2000 MHz");
+    }
+    let cfg = a.cfg.load()?;
+    let sweep = parse_sweep(&a.sweep_pes)?;
+    let defaulted = a.source.scene.is_none() && a.source.volume.is_none();
+    let mut source = a.source.clone();
+    let mut camera = a.camera.clone();
+    if defaulted {
+        source.scene = Some(DEFAULT_SCENE.to_owned());
+        if camera.eye.is_none() {
+            camera.eye = Some(DVec3::from_array(DEFAULT_EYE));
+        }
+    }
+    if let Some(dir) = &a.verilog_dir {
+        write_verilog(dir, &cfg)?;
+    }
+    let (vol, default_tf) = {
+        let _s = Stage::start("loading volume");
+        source.load()?
+    };
+    let tf = a.tf.resolve(default_tf)?;
+    let lut = chip::pipeline_lut(&cfg, &vol, &tf);
+    let cam = camera.camera(&vol)?;
+    let prep = Prepared::new(&vol, &cam)?;
+    // The field of view only shapes the warp's output image: the slice
+    // order rays, and so the cycles, depend on the eye and the volume.
+    let label = format!(
+        "{}, eye ({}, {}, {})",
+        source.label(),
+        cam.eye.x,
+        cam.eye.y,
+        cam.eye.z
+    );
+    let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, &label)?;
+    let mut runs = Vec::new();
+    for &p in &sweep {
+        if p == cfg.pes {
+            runs.push(main.clone());
+        } else {
+            runs.push(run_at(&cfg, p, &vol, &lut, &prep, &label)?);
+        }
+    }
+    let report = build(&cfg, a.target, clock, main, &runs);
+    super::say(report.text().trim_end());
+    if let Some(p) = &a.json {
+        let v = serde_json::to_value(&report).context("serialising the report")?;
+        write_json(p, &v)?;
+    }
+    Ok(())
+}
+
+/// Writes each calibration module as `<name>.v` into `dir`.
+fn write_verilog(dir: &std::path::Path, cfg: &PipelineConfig) -> Result<()> {
+    let mods = pipeline::rtl::calibration_modules(cfg)?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for m in &mods {
+        let path = dir.join(format!("{}.v", m.name));
+        golden::image::write_atomic(&path, |w| w.write_all(m.verilog.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,113 @@
+//! The command line: argument parsing, dispatch and the one-line error
+//! contract (every failure prints `ercube: error: ...` on one line and exits
+//! with status 2; nothing panics on bad input).
+
+mod args;
+mod bench;
+mod chip;
+mod compare;
+mod cost;
+mod method;
+mod montage;
+mod plot;
+mod progress;
+mod render;
+mod skipbench;
+mod stats;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// ercube: a cycle- and bit-accurate model of a Cube-style perspective
+/// volume-rendering chip (ER-Perspective), beside its float golden model.
+#[derive(Debug, Parser)]
+#[command(name = "ercube", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Render one image of a scene or volume file with one method.
+    Render(Box<render::RenderArgs>),
+    /// Render with several methods, write each image, a labelled montage
+    /// and a table of time, samples and error against the reference.
+    Compare(Box<compare::CompareArgs>),
+    /// Compare every method on the embedded default scene (no files needed).
+    Demo(compare::DemoArgs),
+    /// Time every method over a sweep of eye distances against the
+    /// reference; write a CSV, plots and a summary (or, with --report DIR,
+    /// the whole benchmark report).
+    Bench(Box<bench::BenchArgs>),
+    /// Run the pipeline over a grid of datapath widths and write its error
+    /// against golden er beside the total datapath bits.
+    SweepWidths(Box<bench::SweepArgs>),
+    /// FPGA cost of the PE array: resources per PE and in all, fit on
+    /// real parts, frame rate and voxel bandwidth from a pipeline run.
+    Cost(Box<cost::CostArgs>),
+    /// Measure what each kind of skipping saves (golden time, pipeline
+    /// cycles) on four scenes; write the "Skipping" section of the report.
+    SkipBench(Box<skipbench::SkipBenchArgs>),
+}
+
+/// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
+/// error worth a panic, so write failures are ignored.
+pub fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
+/// Parses the command line and runs it.
+pub fn run() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                let _ = e.print();
+                return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                    ExitCode::from(2)
+                } else {
+                    ExitCode::SUCCESS
+                };
+            }
+            // clap spreads one error over several lines (the message, the
+            // arguments it names, a usage line): keep all but the usage.
+            let text = e.to_string();
+            let msg: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:"))
+                .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
+                .collect();
+            let msg = msg.join(" ");
+            let msg = msg.trim_start_matches("error: ");
+            eprintln!("ercube: error: {msg} (see ercube --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Render(a) => render::run(&a),
+        Command::Compare(a) => compare::run(&a),
+        Command::Demo(a) => compare::demo(&a),
+        Command::Cost(a) => cost::run(&a),
+        Command::Bench(a) => bench::run(&a),
+        Command::SweepWidths(a) => bench::sweep_widths(&a),
+        Command::SkipBench(a) => skipbench::run(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let msg = format!("{e:#}");
+            eprintln!("ercube: error: {}", msg.replace('\n', " "));
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,257 @@
+//! `ercube render`: one image of a volume with one method.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Result;
+use clap::Args;
+
+use golden::metrics::compare;
+use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
+
+use super::args::{with_threads, SliceArgs, ViewArgs};
+use super::chip::{self, PipelineArgs};
+use super::method::MethodArg;
+use super::progress::Stage;
+use super::stats::{frame_json, median, write_json};
+
+/// Arguments of `ercube render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Method.
+    #[arg(long, value_enum, default_value = "er")]
+    pub method: MethodArg,
+    /// Output PNG (RGB over black).
+    #[arg(long, default_value = "render.png")]
+    pub out: PathBuf,
+    /// Write statistics as JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Write the final RGBA image as float32 H x W x 4 .npy here.
+    #[arg(long)]
+    pub npy: Option<PathBuf>,
+    /// Write the baseplane image (before the warp) as float32 .npy here.
+    #[arg(long)]
+    pub baseplane_npy: Option<PathBuf>,
+    /// Also render the reference and report the error against it.
+    #[arg(long)]
+    pub compare_reference: bool,
+    #[command(flatten)]
+    pub slice: SliceArgs,
+    /// Worker threads (default: all cores); results are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Render this many frames and report the median time (the image is
+    /// the last frame's; every frame is identical).
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    #[command(flatten)]
+    pub pipeline: PipelineArgs,
+}
+
+/// Runs `f` `n` times (at least once), returning the last result and each
+/// run's wall-clock seconds.
+pub fn timed<T>(n: usize, f: impl FnMut() -> Result<T>) -> Result<(T, Vec<f64>)> {
+    timed_with(n, f, drop)
+}
+
+/// [`timed`] for golden frames: each frame but the last gives its buffers
+/// back before the next starts (untimed), as a renderer drawing frame
+/// after frame does.
+pub fn timed_frames(
+    n: usize,
+    f: impl FnMut() -> Result<golden::render::Frame>,
+) -> Result<(golden::render::Frame, Vec<f64>)> {
+    timed_with(n, f, golden::render::Frame::recycle)
+}
+
+/// [`timed`], handing each result but the last to `done` before the next
+/// run starts.
+fn timed_with<T>(
+    n: usize,
+    mut f: impl FnMut() -> Result<T>,
+    mut done: impl FnMut(T),
+) -> Result<(T, Vec<f64>)> {
+    if n == 0 || n > 100_000 {
+        anyhow::bail!("--repeat {n} must be 1 to 100000");
+    }
+    let mut times = Vec::with_capacity(n);
+    let mut last = None;
+    for _ in 0..n {
+        if let Some(prev) = last.take() {
+            done(prev);
+        }
+        let t = Instant::now();
+        last = Some(f()?);
+        times.push(t.elapsed().as_secs_f64());
+    }
+    Ok((last.expect("at least one run"), times))
+}
+
+/// Runs `ercube render`.
+pub fn run(a: &RenderArgs) -> Result<()> {
+    let Some(tech) = a.method.technique() else {
+        return with_threads(a.threads, || run_pipeline(a));
+    };
+    chip::check_unused(&a.pipeline)?;
+    with_threads(a.threads, || {
+        if tech == Technique::Reference && a.baseplane_npy.is_some() {
+            anyhow::bail!(
+                "--baseplane-npy needs a slice-order method; the reference has no baseplane"
+            );
+        }
+        let opts = a.slice.options()?;
+        let (vol, tf, cam) = a.view.load()?;
+        let lut = lut_for(vol.kind(), &tf);
+        let prep = a.slice.prepared(&vol, &cam)?;
+        let (frame, times) = {
+            let _s = Stage::start(format!("rendering with {}", tech.name()));
+            timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
+        };
+        let time_s = median(&times);
+        let base = frame.slice.as_ref().map(|o| &o.baseplane);
+        let err = write_outputs(a, &prep, &lut, &opts, &frame.image, base)?;
+        if let Some(p) = &a.stats {
+            let mut v = frame_json(
+                tech.name(),
+                &vol,
+                &prep.view,
+                cam.eye,
+                time_s,
+                &frame,
+                err.as_ref(),
+            );
+            v["times_s"] = serde_json::json!(times);
+            write_json(p, &v)?;
+        }
+        let mut line = format!(
+            "{}: {}x{} in {:.3} s, principal axis {}, D = {:.3}",
+            tech.name(),
+            cam.width,
+            cam.height,
+            time_s,
+            prep.view.axes.label(),
+            prep.view.d
+        );
+        if let Some(e) = err {
+            line += &format!(
+                ", vs reference: max {} /255, rmse {:.5}, psnr {:.2} dB",
+                e.max_abs_255, e.rmse, e.psnr
+            );
+        }
+        super::say(&format!("{line} -> {}", a.out.display()));
+        Ok(())
+    })
+}
+
+/// The outputs every render writes: the PNG, `--npy`, `--baseplane-npy`,
+/// and (with `--compare-reference`) the error against the reference,
+/// which it returns.
+fn write_outputs(
+    a: &RenderArgs,
+    prep: &Prepared,
+    lut: &golden::tf::Lut,
+    opts: &RenderOptions,
+    image: &golden::image::Image,
+    baseplane: Option<&golden::warp::Baseplane>,
+) -> Result<Option<golden::metrics::ImageError>> {
+    let err = if a.compare_reference {
+        let _s = Stage::start("rendering the reference");
+        let r = render(prep, lut, Technique::Reference, opts)?;
+        Some(compare(image, &r.image)?)
+    } else {
+        None
+    };
+    image.write_png(&a.out)?;
+    if let Some(p) = &a.npy {
+        image.write_npy(p)?;
+    }
+    if let (Some(p), Some(b)) = (&a.baseplane_npy, baseplane) {
+        b.to_image().write_npy(p)?;
+    }
+    Ok(err)
+}
+
+/// `ercube render --method pipeline` or `pipeline-ftb`.
+fn run_pipeline(a: &RenderArgs) -> Result<()> {
+    let mut cfg = a.pipeline.cfg.load()?;
+    chip::apply_method(&mut cfg, a.method, a.slice.terminate)?;
+    // --block sizes the occupancy memory's blocks; golden's view of the
+    // volume then uses the same blocks.
+    let mut slice = a.slice.clone();
+    match slice.block {
+        Some(b) => {
+            golden::occupancy::check_block(b)?;
+            cfg.occupancy_block = b as u16;
+        }
+        None => slice.block = Some(usize::from(cfg.occupancy_block)),
+    }
+    cfg.validate()?;
+    let opts = slice.options()?;
+    if opts.slice.substeps != 1 {
+        anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
+    }
+    let (vol, tf, cam) = a.view.load()?;
+    let lut = chip::pipeline_lut(&cfg, &vol, &tf);
+    let prep = slice.prepared(&vol, &cam)?;
+    let (run, times) = {
+        let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
+        timed(a.repeat, || {
+            chip::run(&a.pipeline, &cfg, &vol, &lut, &prep, opts.slice.skips)
+        })?
+    };
+    let run = chip::PipelineRun {
+        time_s: median(&times),
+        ..run
+    };
+    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg)?;
+    let err = write_outputs(
+        a,
+        &prep,
+        &lut,
+        &opts,
+        &run.image,
+        Some(&run.frame.baseplane),
+    )?;
+    if let Some(p) = &a.stats {
+        let frame = golden::render::Frame {
+            image: run.image.clone(),
+            slice: None,
+        };
+        let mut v = frame_json(
+            a.method.name(),
+            &vol,
+            &prep.view,
+            cam.eye,
+            run.time_s,
+            &frame,
+            err.as_ref(),
+        );
+        let extra = chip::stats_json(&cfg, &run, Some(vs_golden.clone()));
+        if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
+            for (k, val) in e {
+                o.insert(k.clone(), val.clone());
+            }
+        }
+        v["regions"] = serde_json::json!(prep.view.regions().bounds);
+        v["times_s"] = serde_json::json!(times);
+        write_json(p, &v)?;
+    }
+    let f = &run.frame;
+    super::say(&format!(
+        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 -> {}",
+        a.method.name(),
+        cfg.pes,
+        f.cycles,
+        f.ideal_cycles,
+        f.utilization(),
+        f.samples,
+        run.time_s,
+        chip::golden_method(&cfg).name(),
+        vs_golden["max_abs_255"],
+        a.out.display()
+    ));
+    Ok(())
+}

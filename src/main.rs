@@ -1,0 +1,11 @@
+//! `ercube`: render volumes with ER-Perspective and its baselines, compare
+//! them against a supersampled reference, run the bit- and cycle-accurate
+//! model of the PE array (raw words, cycle counts, waveforms), estimate
+//! its FPGA cost, and benchmark all of it. Run `ercube --help` for the
+//! commands.
+
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::run()
+}

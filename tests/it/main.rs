@@ -1,0 +1,17 @@
+//! The `ercube` program's integration tests, one binary (it links once):
+//! the command-line contract (`cli`), the benchmark commands (`bench`) and
+//! the PE array run through the program (`array`). Each crate's own
+//! tests live beside it (`golden/tests/it`, `pipeline/tests/it`,
+//! `waves/tests/it`); the helpers all of them share are in
+//! `tests/support/`.
+
+#[path = "../support/bin.rs"]
+mod bin;
+#[path = "../support/chip.rs"]
+mod chip;
+#[path = "../support/scenes.rs"]
+mod scenes;
+
+mod array;
+mod bench;
+mod cli;
