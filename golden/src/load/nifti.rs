@@ -3,10 +3,10 @@
 use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 
-use super::decode::{decode, decode_f32, rescale_f32};
-use super::{data_err, format_err, from_file, io_err, open, RawType};
+use super::decode::{read_scalars, Scalar};
+use super::{data_err, format_err, from_file, io_err, open, spacing_or_one};
 use crate::error::{Error, Result};
-use crate::volume::{check_dims, Volume, VoxelType};
+use crate::volume::{check_dims, Volume};
 
 /// Size of a NIfTI-1 header; the voxel data of a `.nii` starts at or after
 /// byte 352 (header plus the 4-byte extension flag).
@@ -28,7 +28,8 @@ const NIFTI_TYPES: &str = "use uint8, int16, uint16 or float32";
 /// accepted, since the header states the size itself. Header-only
 /// `.hdr`/`.img` pairs and NIfTI-2 are refused.
 ///
-/// Datatypes and how they become voxels:
+/// Datatypes and how they become voxels (the rule every loader shares, so
+/// the same data through NRRD or MetaImage gives the same volume):
 /// - `uint8`: kept as is ([`VoxelType::U8`]).
 /// - `uint16`: kept as is ([`VoxelType::U16`]).
 /// - `int16`: kept as is when no voxel is negative; otherwise every voxel is
@@ -47,6 +48,9 @@ const NIFTI_TYPES: &str = "use uint8, int16, uint16 or float32";
 ///
 /// Memory: the limit is checked against 2 bytes per voxel (the volume), or
 /// 6 for `float32`, whose voxels are held as `f32` until the range is known.
+///
+/// [`VoxelType::U8`]: crate::volume::VoxelType::U8
+/// [`VoxelType::U16`]: crate::volume::VoxelType::U16
 pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
     let file = open(path)?;
     let mut buffered = BufReader::new(file);
@@ -100,11 +104,11 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
         ))
     })?;
     use nifti::NiftiType as T;
-    let (stored, elem, peak) = match datatype {
-        T::Uint8 => (Stored::U8, 1, 2),
-        T::Uint16 => (Stored::U16, 2, 2),
-        T::Int16 => (Stored::I16, 2, 2),
-        T::Float32 => (Stored::F32, 4, 6),
+    let scalar = match datatype {
+        T::Uint8 => Scalar::U8,
+        T::Uint16 => Scalar::U16,
+        T::Int16 => Scalar::I16,
+        T::Float32 => Scalar::F32,
         other => {
             let code = header.datatype;
             return Err(fmt(format!(
@@ -112,6 +116,7 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
             )));
         }
     };
+    let elem = scalar.bytes();
     if header.bitpix as i64 != 8 * elem as i64 {
         return Err(fmt(format!(
             "bitpix {} disagrees with datatype {datatype:?} ({} bits)",
@@ -126,7 +131,7 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
         )));
     }
     let offset = offset as u64;
-    let count = check_dims(dims, peak, limit).map_err(|e| from_file(path, e))?;
+    let count = check_dims(dims, scalar.peak(), limit).map_err(|e| from_file(path, e))?;
 
     // Skip the extension flag and any extensions.
     let skip = offset - NIFTI_HEADER;
@@ -140,50 +145,9 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
     }
 
     let big = header.endianness == nifti::Endianness::Big;
-    let u16_enc = if big { RawType::U16Be } else { RawType::U16Le };
-    let (kind, data) = match stored {
-        Stored::U8 => (
-            VoxelType::U8,
-            decode(path, reader, count, RawType::U8, offset)?,
-        ),
-        Stored::U16 => (
-            VoxelType::U16,
-            decode(path, reader, count, u16_enc, offset)?,
-        ),
-        Stored::I16 => {
-            let mut data = decode(path, reader, count, u16_enc, offset)?;
-            // Bits were stored as read; reinterpret as i16 to find the floor.
-            let min = data.iter().map(|&v| v as i16).min().unwrap_or(0);
-            if min < 0 {
-                for v in &mut data {
-                    *v = (*v as i16 as i32 - min as i32) as u16;
-                }
-            }
-            (VoxelType::U16, data)
-        }
-        Stored::F32 => {
-            let floats = decode_f32(path, reader, count, big, offset)?;
-            (VoxelType::U16, rescale_f32(&floats))
-        }
-    };
-    let spacing = [1, 2, 3].map(|k| {
-        let s = (header.pixdim[k] as f64).abs();
-        if s.is_finite() && s > 0.0 {
-            s
-        } else {
-            1.0
-        }
-    });
+    let (kind, data) = read_scalars(path, reader, count, scalar, big, offset)?;
+    let spacing = [1, 2, 3].map(|k| spacing_or_one(header.pixdim[k] as f64));
     Volume::new(dims, kind, data)?.with_spacing(spacing)
-}
-
-/// The NIfTI datatypes we accept, as stored in the file.
-#[derive(Debug, Clone, Copy)]
-enum Stored {
-    U8,
-    U16,
-    I16,
-    F32,
 }
 
 fn nifti_err(path: &Path, e: nifti::NiftiError) -> Error {
@@ -205,7 +169,7 @@ fn nifti_err(path: &Path, e: nifti::NiftiError) -> Error {
 pub(super) mod tests {
     use super::*;
     use crate::load::tests::{assert_err, gzip, pattern, write};
-    use crate::volume::DEFAULT_MEMORY_LIMIT;
+    use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 
     /// Fields of a hand-written NIfTI-1 file.
     #[derive(Clone)]
