@@ -86,7 +86,8 @@ pub struct SourceArgs {
     /// Synthetic scene: checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N].
     #[arg(long, conflicts_with = "volume")]
     pub scene: Option<String>,
-    /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), or raw with --raw-dims.
+    /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), .nrrd/.nhdr (NRRD), .mha/.mhd
+    /// (MetaImage), .tif/.tiff or a folder of TIFF slices, or raw with --raw-dims.
     #[arg(long)]
     pub volume: Option<PathBuf>,
     /// Raw volume dimensions X,Y,Z (x fastest).

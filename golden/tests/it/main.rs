@@ -7,5 +7,6 @@
 mod scenes;
 
 mod figures;
+mod formats;
 mod foundation;
 mod skipping;

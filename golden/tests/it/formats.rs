@@ -1,0 +1,155 @@
+//! Every fixture of `tests/data` (written by pynrrd, SimpleITK, tifffile and
+//! nibabel; see `make_fixtures.py`) loads to the same volume as the others
+//! of its type, and to the voxels the script's formulas give, computed
+//! here again.
+
+use std::path::{Path, PathBuf};
+
+use golden::load::{load_auto, read_meta, read_nrrd};
+use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
+
+const DIMS: [usize; 3] = [12, 10, 7];
+const SPACING: [f64; 3] = [0.5, 0.75, 1.25];
+const ORIGIN: [f64; 3] = [-3.0, 2.5, 10.0];
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// The script's formulas, x fastest.
+fn formula(kind: &str) -> Vec<f64> {
+    let mut out = Vec::new();
+    for z in 0..DIMS[2] as i64 {
+        for y in 0..DIMS[1] as i64 {
+            for x in 0..DIMS[0] as i64 {
+                let u16v = (1000 * x + 300 * y + 5000 * z + 17 * x * y * z) % 65536;
+                out.push(match kind {
+                    "u8" => ((7 * x + 13 * y + 29 * z + x * y) % 256) as f64,
+                    "u16" => u16v as f64,
+                    "i16" => (u16v / 2 - 16000) as f64,
+                    "f32" => (x - 2 * y) as f64 * 0.25 + z as f64 * 0.125,
+                    _ => unreachable!(),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The voxels the shared mapping rule gives for `kind`: unsigned kept,
+/// signed offset by minus the minimum, float mapped onto 0..=65535.
+fn expected(kind: &str) -> (VoxelType, Vec<u16>) {
+    let vals = formula(kind);
+    let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let data = match kind {
+        "u8" | "u16" => vals.iter().map(|&v| v as u16).collect(),
+        "i16" => vals.iter().map(|&v| (v - lo.min(0.0)) as u16).collect(),
+        _ => vals
+            .iter()
+            .map(|&v| ((v - lo) * (65535.0 / (hi - lo))).round() as u16)
+            .collect(),
+    };
+    let kind = if kind == "u8" {
+        VoxelType::U8
+    } else {
+        VoxelType::U16
+    };
+    (kind, data)
+}
+
+/// The fixtures of one type, and whether each carries the spacing.
+fn fixtures(kind: &str) -> Vec<(String, bool)> {
+    let mut names: Vec<(String, bool)> = [
+        ".nrrd",
+        "_gz.nrrd",
+        "_be.nrrd",
+        "_det.nhdr",
+        "_detgz.nhdr",
+        ".mha",
+        ".mhd",
+        "_z.mhd",
+        ".nii",
+    ]
+    .iter()
+    .map(|s| (format!("vol_{kind}{s}"), true))
+    .collect();
+    if kind == "u8" || kind == "u16" {
+        names.push((format!("vol_{kind}.tif"), false));
+        names.push((format!("vol_{kind}_pages"), false));
+    }
+    names
+}
+
+fn load(name: &str) -> Volume {
+    load_auto(&data(name), None, DEFAULT_MEMORY_LIMIT).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn every_fixture_loads_to_the_formula() {
+    let mut loaded = 0;
+    for kind in ["u8", "u16", "i16", "f32"] {
+        let (want_kind, want) = expected(kind);
+        let list = fixtures(kind);
+        let first = load(&list[0].0);
+        for (name, spaced) in &list {
+            let v = load(name);
+            assert_eq!(v.dims(), DIMS, "{name}");
+            assert_eq!(v.kind(), want_kind, "{name}");
+            assert!(
+                v.data() == &want[..],
+                "{name}: voxels differ from the formula"
+            );
+            let spacing = if *spaced { SPACING } else { [1.0; 3] };
+            assert_eq!(v.spacing(), spacing, "{name}");
+            // Bit-identical to the first fixture of its type.
+            assert_eq!(
+                (v.dims(), v.kind(), v.data()),
+                (first.dims(), first.kind(), first.data()),
+                "{name}"
+            );
+            loaded += 1;
+        }
+    }
+    assert_eq!(loaded, 4 * 9 + 2 * 2);
+}
+
+#[test]
+fn nrrd_and_metaimage_placement_is_kept() {
+    for name in ["vol_u8.nrrd", "vol_i16_detgz.nhdr", "vol_f32_gz.nrrd"] {
+        let l = read_nrrd(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
+        assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
+    }
+    // Per-axis spacings carry no placement.
+    let l = read_nrrd(&data("vol_u16_be.nrrd"), DEFAULT_MEMORY_LIMIT).unwrap();
+    assert_eq!((l.origin, l.axes), (None, None));
+    for name in ["vol_u16.mha", "vol_f32.mhd", "vol_u8_z.mhd"] {
+        let l = read_meta(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
+        assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
+        assert_eq!(l.volume.spacing(), SPACING);
+    }
+}
+
+#[test]
+fn fixtures_are_small() {
+    for entry in walk(&data("")) {
+        let size = std::fs::metadata(&entry).unwrap().len();
+        assert!(size < 20_000, "{} is {size} bytes", entry.display());
+    }
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
