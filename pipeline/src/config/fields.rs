@@ -1,0 +1,348 @@
+//! The field table: every field of [`PipelineConfig`], described once.
+//!
+//! Each entry gives the field's rustdoc, type, default, the range an
+//! integer's conversion error names, the comment above its key in a TOML
+//! dump, and the rule [`PipelineConfig::validate`] checks it with (in
+//! `rules.rs`). [`config_fields!`] expands the table; the order of the
+//! entries is the order of the struct, of a TOML dump, of serde's output,
+//! of [`PipelineConfig::formats`] and of the checks.
+
+use super::rules;
+use super::schema::config_fields;
+use super::{Order, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
+use crate::fixed::Overflow::Sat;
+use crate::fixed::Quant::{Rnd, Trn};
+use crate::fixed::{Format, Overflow, Quant};
+
+/// A default format. Only the table's literals reach it.
+fn fmt(bits: u8, frac: u8, signed: bool, quant: Quant, overflow: Overflow) -> Format {
+    match Format::new(bits, frac, signed, quant, overflow) {
+        Ok(f) => f,
+        // The defaults are literals inside the valid range; the test
+        // `default_validates` builds every one of them.
+        Err(e) => unreachable!("invalid default format: {e}"),
+    }
+}
+
+config_fields! {
+    /// Widths of every datapath register of the PE array, and the array size.
+    ///
+    /// The defaults model a VolumePro-class datapath (12-bit voxels and
+    /// opacities, 8 fraction bits of colour) with enough position range for
+    /// 1024³ volumes; each field's documentation says why its default was
+    /// chosen.
+    ///
+    /// # Opacity correction
+    ///
+    /// Classification opacities are for a unit sample spacing; a ray that
+    /// crosses a slice step along a path of length `ds` voxels needs the
+    /// corrected opacity `a' = 1 - (1 - a)^ds`. The opacity-correction unit
+    /// computes it in the log domain, from four fields:
+    ///
+    /// 1. `L = -log2(1 - a)`, read from a table indexed by the alpha code
+    ///    (`2^alpha.bits` entries), stored in [`log_transmittance`];
+    /// 2. `p = L * ds`, with `ds` in the [`path`] format, assigned to
+    ///    [`log_transmittance`];
+    /// 3. `T = 2^-p = 2^-int(p) * 2^-frac(p)`: an exp table indexed by the top
+    ///    [`exp_table_bits`] bits of `frac(p)`, linearly interpolated with the
+    ///    remaining fraction bits (interpolation weight in the [`weight`]
+    ///    format), entries and result in the [`opacity_corr`] format, then
+    ///    shifted right by `int(p)`;
+    /// 4. `a' = 1 - T` in [`opacity_corr`].
+    ///
+    /// [`log_transmittance`]: PipelineConfig::log_transmittance
+    /// [`path`]: PipelineConfig::path
+    /// [`exp_table_bits`]: PipelineConfig::exp_table_bits
+    /// [`weight`]: PipelineConfig::weight
+    /// [`opacity_corr`]: PipelineConfig::opacity_corr
+    pub struct PipelineConfig {
+        /// Voxel word as read from volume memory: unsigned integer, at most 16
+        /// bits, no fraction.
+        ///
+        /// Default `ufixed<12,12,TRN,SAT>`: 12 bits is the native CT word and
+        /// VolumePro's voxel width; SAT so that loading wider data clamps at
+        /// the top of the range instead of wrapping bright voxels to dark.
+        pub voxel: Format {
+            default: fmt(12, 0, false, Trn, Sat),
+            toml: "voxel word from volume memory: unsigned, frac = 0, <= 16 bits",
+            check: rules::voxel,
+        },
+        /// Ray position inside a slice, in voxel units: signed (rays start
+        /// outside the volume), with at least one fraction bit for the
+        /// interpolation weights.
+        ///
+        /// Default `fixed<28,12,RND,SAT>`: 12 integer bits including the sign
+        /// reach ±2047, i.e. a 1024-voxel extent with as much again of margin
+        /// for rays outside the volume; 16 fraction bits place a ray to 1/65536
+        /// voxel, so even a position advanced incrementally over 1024 slices
+        /// drifts by at most 1/128 voxel with RND (1/64 with TRN). SAT keeps a
+        /// ray far outside the volume outside instead of wrapping it into view.
+        pub position: Format {
+            default: fmt(28, 16, true, Rnd, Sat),
+            toml: "ray position in voxel units: signed, frac >= 1",
+            check: rules::position,
+        },
+        /// Per-slice ray spacing `t`, with `0 < t <= 1`: unsigned, with at least
+        /// one integer bit so that `t = 1` is representable.
+        ///
+        /// Default `ufixed<25,1,RND,SAT>`: 24 fraction bits so that `t` times
+        /// 1024 slices is accurate to 1/32768 voxel with RND; SAT so that a
+        /// rounding overshoot above 1 clamps instead of wrapping to 0.
+        pub step: Format {
+            default: fmt(25, 24, false, Rnd, Sat),
+            toml: "per-slice ray spacing t in (0, 1]: unsigned, >= 1 integer bit",
+            check: rules::step,
+        },
+        /// Bilinear interpolation weights, the fraction bits of a position:
+        /// unsigned, at most one integer bit.
+        ///
+        /// Default `ufixed<12,0,TRN,SAT>`: 12 bits keep the weight error below
+        /// one voxel LSB even across a full-range edge (4095 × 2^-12 < 1);
+        /// TRN because taking the top fraction wires of the position is free,
+        /// and rounding would need a carry into the integer (address) part.
+        /// The opacity-correction unit's exp-table interpolation weight (step 3
+        /// of [opacity correction](PipelineConfig#opacity-correction)) uses this
+        /// format too.
+        pub weight: Format {
+            default: fmt(12, 12, false, Trn, Sat),
+            toml: "bilinear weights: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Interpolated sample: unsigned, with at least as many integer bits as
+        /// the voxel (a convex combination of voxels never exceeds the largest).
+        ///
+        /// Default `ufixed<16,12,RND,SAT>`: the 12 voxel bits plus 4 fraction
+        /// bits, so two interpolation stages keep sub-LSB detail for the
+        /// classification lookup.
+        pub sample: Format {
+            default: fmt(16, 4, false, Rnd, Sat),
+            toml: "interpolated sample: unsigned, integer bits >= voxel.bits",
+            check: rules::sample,
+        },
+        /// Classification table colour entries (each of R, G, B): unsigned
+        /// fraction with at most one integer bit.
+        ///
+        /// Default `ufixed<9,1,RND,SAT>`: 8 fraction bits per channel as in
+        /// VolumePro and the 8-bit output image, plus 1 integer bit so that
+        /// white (1.0) is exact; without it SAT capped white at 255/256, a full
+        /// grey level of error. SAT so that loading a value above 1 clamps
+        /// instead of wrapping.
+        pub color: Format {
+            default: fmt(9, 8, false, Rnd, Sat),
+            toml: "classification RGB entries: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Classification table opacity entries: unsigned fraction with at most
+        /// one integer bit.
+        ///
+        /// Default `ufixed<12,0,RND,SAT>`: VolumePro's 12-bit alpha. Opacities
+        /// below half an LSB (2^-13 per unit length) round to zero: a medium of
+        /// opacity 1e-4 per voxel vanishes (1024 such slices would reach 0.097);
+        /// widen `alpha` for faint material.
+        pub alpha: Format {
+            default: fmt(12, 12, false, Rnd, Sat),
+            toml: "classification opacity entries: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Number of classification table entries: a power of two, indexed by
+        /// the top `log2(table_entries)` bits of the sample, so at most
+        /// `2^sample.bits`.
+        ///
+        /// Default 4096: one entry per 12-bit voxel value.
+        pub table_entries: u32 {
+            default: 4096,
+            range: 2..=MAX_TABLE_ENTRIES,
+            toml: "classification table size: power of two, <= 2^sample.bits",
+            check: rules::table_entries,
+        },
+        /// Ray path length per slice step, in voxels: `ds = |(dx/dz, dy/dz, 1)|`
+        /// (scaled by the voxel spacing), the exponent of
+        /// [opacity correction](PipelineConfig#opacity-correction) (step 2).
+        /// `ds` lies in `[1, 4)` for views up to about 140 degrees: unsigned,
+        /// with at least 2 integer bits and at least 1 fraction bit.
+        ///
+        /// Default `ufixed<16,3,RND,SAT>`: up to 8, so views up to about 160
+        /// degrees across the volume fit (the paper's 127-degree view needs 3);
+        /// 13 fraction bits give `ds` to 1.2e-4;
+        /// SAT so that a steeper ray clamps at about 8 instead of wrapping to a
+        /// short path.
+        pub path: Format {
+            default: fmt(16, 13, false, Rnd, Sat),
+            toml: "ray path length per slice step, ds in [1, 4): unsigned, >= 2 integer bits, frac >= 1",
+            check: rules::path,
+        },
+        /// Log-domain transmittance `-log2(1 - a)` per unit path (the table of
+        /// step 1 of [opacity correction](PipelineConfig#opacity-correction))
+        /// and per step (`p = L * ds`, step 2): unsigned, with at least 4
+        /// integer bits and enough to hold `-log2` of the smallest representable
+        /// transmittance `2^-alpha.frac`, i.e. integer bits >=
+        /// `ceil(log2(alpha.frac + 1))`, and at least `exp_table_bits` fraction
+        /// bits to index the exp table.
+        ///
+        /// Default `ufixed<20,5,RND,SAT>`: 5 integer bits reach 32, i.e.
+        /// transmittance down to 2^-32, below any `opacity_corr` LSB; 15
+        /// fraction bits leave 5 interpolation bits under the 10-bit exp-table
+        /// index. SAT so that a long path through dense material clamps at an
+        /// (already negligible) transmittance instead of wrapping to 1.
+        pub log_transmittance: Format {
+            default: fmt(20, 15, false, Rnd, Sat),
+            toml: "-log2(1 - alpha) and -log2 T per step: unsigned, >= 4 integer bits and 2^int > alpha.frac",
+            check: rules::log_transmittance,
+        },
+        /// Index bits of the exp table over `frac(p)` (step 3 of
+        /// [opacity correction](PipelineConfig#opacity-correction)); the table
+        /// has `2^exp_table_bits` entries. `1..=16`, and at most
+        /// `log_transmittance.frac`.
+        ///
+        /// Default 10: 1024 entries; linear interpolation of `2^-f` over a
+        /// 2^-10 step is accurate to below 3e-8, far under an `opacity_corr`
+        /// LSB.
+        pub exp_table_bits: u8 {
+            default: 10,
+            range: 1..=MAX_EXP_TABLE_BITS,
+            toml: "exp table index bits over frac(p): 1..=16, <= log_transmittance.frac",
+            check: rules::exp_table_bits,
+        },
+        /// Opacity-correction result `a' = 1 - (1 - a)^ds`, and also the exp
+        /// table entries and transmittance `T` it is computed from (steps 3 and
+        /// 4 of [opacity correction](PipelineConfig#opacity-correction)):
+        /// unsigned fraction with at most one integer bit.
+        ///
+        /// Default `ufixed<16,1,RND,SAT>`: 1 integer bit so that transmittance
+        /// 1.0 (`frac(p) = 0`) is exact; 15 fraction bits, 3 more than `alpha`,
+        /// so the correction does not lose what classification provides.
+        pub opacity_corr: Format {
+            default: fmt(16, 15, false, Rnd, Sat),
+            toml: "exp table, transmittance and corrected opacity: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Compositing accumulator of colour: unsigned, with at least as many
+        /// fraction bits as `color`.
+        ///
+        /// Default `ufixed<16,0,RND,SAT>`: 8 guard bits over the colour so that
+        /// hundreds of faint contributions add up instead of each rounding to
+        /// zero; SAT so that a full ray stays white instead of wrapping black.
+        pub accum_color: Format {
+            default: fmt(16, 16, false, Rnd, Sat),
+            toml: "colour accumulator: unsigned, frac >= color.frac",
+            check: rules::accum_color,
+        },
+        /// Compositing accumulator of opacity: unsigned, with at least as many
+        /// fraction bits as `opacity_corr`.
+        ///
+        /// Default `ufixed<16,0,RND,SAT>`: 4 guard bits over the 12-bit alpha
+        /// (1 over the 15 fraction bits of `opacity_corr`) for the same reason
+        /// as `accum_color`; SAT so that opacity approaching 1 stays there
+        /// (early ray termination tests it).
+        pub accum_alpha: Format {
+            default: fmt(16, 16, false, Rnd, Sat),
+            toml: "opacity accumulator: unsigned, frac >= opacity_corr.frac",
+            check: rules::accum_alpha,
+        },
+        /// Intermediate of the Bartlett (tent-weighted) merge of neighbouring
+        /// rays' accumulators at an ER-Perspective region boundary: unsigned,
+        /// with at least the fraction and integer bits of both accumulators.
+        ///
+        /// Default `ufixed<20,4,RND,SAT>`: the accumulator plus 4 integer bits
+        /// of headroom, enough for the weighted sum of up to 16 full
+        /// accumulators before normalisation.
+        pub merge: Format {
+            default: fmt(20, 16, false, Rnd, Sat),
+            toml: "Bartlett merge intermediate: unsigned, covers both accumulators",
+            check: rules::merge,
+        },
+        /// Number of processing elements in the 1D array, `1..=256`.
+        ///
+        /// Default 16: a power of two dividing every power-of-two volume
+        /// width, so slices split into whole PE beats.
+        pub pes: u16 {
+            default: 16,
+            range: 1..=MAX_PES,
+            toml: "number of processing elements, 1..=256",
+            check: rules::pes,
+        },
+        /// Compositing order: `back-to-front` (golden `er`: merge at region
+        /// boundaries) or `front-to-back` (golden `er-ftb`: split at region
+        /// boundaries, fold at the end, early ray termination).
+        ///
+        /// Default `back-to-front`, the model's original mode, bit for bit.
+        pub order: Order {
+            default: Order::BackToFront,
+            toml: "compositing order: \"back-to-front\" (merge) or \"front-to-back\" (split, fold, termination)",
+        },
+        /// Early ray termination threshold of the front-to-back order, as a
+        /// fraction of full opacity in `(0, 1]`: a ray whose opacity word
+        /// reaches it takes no more samples. 1 disables termination. The
+        /// controller quantises it *up* to the `accum_alpha` grid
+        /// ([`PipelineConfig::termination_raw`]), so a terminated ray's
+        /// opacity is never below the fraction asked for.
+        ///
+        /// Default 1 (off): termination trades up to `1 - terminate` per pixel
+        /// for speed, a choice the user makes. Ignored back to front.
+        // No `check`: `validate` checks `terminate` after the table, i.e.
+        // after `occupancy_block`, the order the rules have always run in,
+        // so a config wrong in both keeps reporting `occupancy_block`.
+        pub terminate: f64 {
+            default: 1.0,
+            toml: "front-to-back early ray termination opacity in (0, 1]; 1 disables it",
+        },
+        /// Edge in voxels of the blocks of the controller's occupancy memory
+        /// (one bit per block: may a sample in it be visible?), a power of two
+        /// from 2 to 64.
+        ///
+        /// Default 16: 4 kbit for a 256^3 volume, one block RAM.
+        pub occupancy_block: u16 {
+            default: 16,
+            range: 2..=64,
+            toml: "edge of the occupancy memory's empty-space blocks in voxels: a power of two, 2..=64",
+            check: rules::occupancy_block,
+        },
+    }
+}
+
+// `terminate` is the only float field, and every validated config has a
+// finite one (NaN is refused), so equality is an equivalence on them.
+impl Eq for PipelineConfig {}
+
+#[cfg(test)]
+mod tests {
+    use super::PipelineConfig;
+
+    #[test]
+    fn default_validates() {
+        let c = PipelineConfig::default();
+        assert_eq!(c.validate().map_err(|e| e.to_string()), Ok(()));
+        // The defaults the field documentation states.
+        let shown: Vec<String> = c.formats().iter().map(|(_, f)| f.to_string()).collect();
+        assert_eq!(
+            shown,
+            [
+                "ufixed<12,12,TRN,SAT>",
+                "fixed<28,12,RND,SAT>",
+                "ufixed<25,1,RND,SAT>",
+                "ufixed<12,0,TRN,SAT>",
+                "ufixed<16,12,RND,SAT>",
+                "ufixed<9,1,RND,SAT>",
+                "ufixed<12,0,RND,SAT>",
+                "ufixed<16,3,RND,SAT>",
+                "ufixed<20,5,RND,SAT>",
+                "ufixed<16,1,RND,SAT>",
+                "ufixed<16,0,RND,SAT>",
+                "ufixed<16,0,RND,SAT>",
+                "ufixed<20,4,RND,SAT>",
+            ]
+        );
+        assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));
+        assert_eq!(c.table_shift(), 0);
+        assert_eq!(c.position.int_bits(), 12);
+        assert_eq!(c.max_position(), 2047);
+        assert!(c.check_extent(1024).is_ok());
+        assert!(c.check_extent(2047).is_ok());
+        let e = c.check_extent(2048).unwrap_err();
+        assert_eq!(e.field(), Some("position"));
+        assert_eq!(
+            e.to_string(),
+            "position holds coordinates up to 2047, below the volume extent 2048"
+        );
+    }
+}
