@@ -22,7 +22,7 @@ use pipeline::cost::report::build;
 use pipeline::cost::throughput::RunSummary;
 use pipeline::cost::Target;
 
-use super::args::{CameraArgs, SourceArgs, TfArgs};
+use super::args::ViewArgs;
 use super::chip::{self, ConfigArgs};
 use super::progress::Stage;
 use super::stats::write_json;
@@ -41,11 +41,7 @@ fn parse_target(s: &str) -> std::result::Result<Target, String> {
 #[derive(Debug, Args)]
 pub struct CostArgs {
     #[command(flatten)]
-    pub source: SourceArgs,
-    #[command(flatten)]
-    pub camera: CameraArgs,
-    #[command(flatten)]
-    pub tf: TfArgs,
+    pub view: ViewArgs,
     #[command(flatten)]
     pub cfg: ConfigArgs,
     /// FPGA family: xc7 (Artix-7), ecp5 or ice40 (UltraPlus).
@@ -135,31 +131,25 @@ pub fn run(a: &CostArgs) -> Result<()> {
     }
     let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
-    let defaulted = a.source.scene.is_none() && a.source.volume.is_none();
-    let mut source = a.source.clone();
-    let mut camera = a.camera.clone();
+    let mut view = a.view.clone();
+    let defaulted = view.source.scene.is_none() && view.source.volume.is_none();
     if defaulted {
-        source.scene = Some(DEFAULT_SCENE.to_owned());
-        if camera.eye.is_none() {
-            camera.eye = Some(DVec3::from_array(DEFAULT_EYE));
+        view.source.scene = Some(DEFAULT_SCENE.to_owned());
+        if view.camera.eye.is_none() {
+            view.camera.eye = Some(DVec3::from_array(DEFAULT_EYE));
         }
     }
     if let Some(dir) = &a.verilog_dir {
         write_verilog(dir, &cfg)?;
     }
-    let (vol, default_tf) = {
-        let _s = Stage::start("loading volume");
-        source.load()?
-    };
-    let tf = a.tf.resolve(default_tf)?;
+    let (vol, tf, cam) = view.load()?;
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
-    let cam = camera.camera(&vol)?;
     let prep = Prepared::new(&vol, &cam)?;
     // The field of view only shapes the warp's output image: the slice
     // order rays, and so the cycles, depend on the eye and the volume.
     let label = format!(
         "{}, eye ({}, {}, {})",
-        source.label(),
+        view.source.label(),
         cam.eye.x,
         cam.eye.y,
         cam.eye.z

@@ -57,6 +57,27 @@ pub fn smooth_case(eye: DVec3, cfg: PipelineConfig, terminate: f64) -> Case {
     }
 }
 
+/// Golden `er` (nothing skipped) and the pipeline's frame of the same
+/// view and table, and the pipeline's baseplane warped to the image.
+pub fn er_and_pipeline(
+    cfg: &PipelineConfig,
+    vol: &Volume,
+    lut: &Lut,
+    prep: &golden::render::Prepared,
+) -> (golden::render::Frame, pipeline::Frame, golden::image::Image) {
+    let golden = golden::render::render(
+        prep,
+        lut,
+        golden::render::Technique::Slice(golden::methods::Method::Er),
+        &golden::render::RenderOptions::unskipped(),
+    )
+    .expect("golden er renders");
+    let frame = pipeline::run_frame(cfg, vol, lut, &prep.view, waves::Tracer::disabled())
+        .expect("pipeline frame");
+    let image = golden::warp::warp(&prep.view, &frame.baseplane);
+    (golden, frame, image)
+}
+
 /// The default configuration with `pes` PEs.
 pub fn config(pes: u16) -> PipelineConfig {
     PipelineConfig {

@@ -227,3 +227,24 @@ pub fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
 pub fn max_diff_f32(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
     max_diff(a, b) as f32
 }
+
+/// The paper's two views of the 128^3 checkerboard, image on the front
+/// face: D = 32 at 127 degrees and D = 64 at 90, 128x128.
+pub fn checker128_views() -> Vec<(f64, f64, golden::camera::Camera)> {
+    [(32.0, 127.0), (64.0, 90.0)]
+        .into_iter()
+        .map(|(d, fov)| {
+            let mut cam = golden::camera::Camera::new(
+                DVec3::new(64.0, 64.0, -d),
+                DVec3::splat(63.5),
+                DVec3::Y,
+                fov,
+                128,
+                128,
+            )
+            .expect("camera");
+            cam.image_plane = golden::camera::ImagePlane::Front;
+            (d, fov, cam)
+        })
+        .collect()
+}

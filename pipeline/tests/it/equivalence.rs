@@ -4,10 +4,9 @@
 //! the default widths on the paper's views and brainsmall.
 
 use glam::DVec3;
-use golden::camera::{Camera, ImagePlane};
+use golden::camera::Camera;
 use golden::geometry::View;
-use golden::methods::Method;
-use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::render::Prepared;
 use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::bound::{error_bound, BoundInputs};
@@ -15,8 +14,8 @@ use pipeline::config::PipelineConfig;
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 
-use crate::chip::{format, smooth_case, Case};
-use crate::scenes::{eye_for, max_diff, tf};
+use crate::chip::{er_and_pipeline, format, smooth_case, Case};
+use crate::scenes::{checker128_views, eye_for, max_diff, tf};
 
 /// The facts `error_bound` needs, measured on the data and the view.
 fn bound_inputs(vol: &Volume, lut: &Lut, view: &View) -> BoundInputs {
@@ -30,16 +29,7 @@ fn run_case(c: &Case) -> Result<(f64, f64, f64), TestCaseError> {
         .map_err(|e| TestCaseError::reject(e.to_string()))?;
     let prep = Prepared::new(&c.vol, &cam).map_err(|e| TestCaseError::reject(e.to_string()))?;
     let lut = Lut::for_bits(&c.tf, c.cfg.table_entries as usize, c.vol.kind().bits());
-    let golden = render(
-        &prep,
-        &lut,
-        Technique::Slice(Method::Er),
-        &RenderOptions::unskipped(),
-    )
-    .unwrap();
-    let frame =
-        pipeline::run_frame(&c.cfg, &c.vol, &lut, &prep.view, waves::Tracer::disabled()).unwrap();
-    let image = golden::warp::warp(&prep.view, &frame.baseplane);
+    let (golden, frame, image) = er_and_pipeline(&c.cfg, &c.vol, &lut, &prep);
     let gbase = &golden.slice.as_ref().unwrap().baseplane;
     prop_assert_eq!(
         &frame.samples_per_slice,
@@ -165,16 +155,7 @@ fn default_width_view(vol: &Volume, tf: &TransferFunction, cam: &Camera) -> f64 
     let cfg = PipelineConfig::default();
     let lut = Lut::for_bits(tf, cfg.table_entries as usize, vol.kind().bits());
     let prep = Prepared::new(vol, cam).unwrap();
-    let golden = render(
-        &prep,
-        &lut,
-        Technique::Slice(Method::Er),
-        &RenderOptions::unskipped(),
-    )
-    .unwrap();
-    let frame =
-        pipeline::run_frame(&cfg, vol, &lut, &prep.view, waves::Tracer::disabled()).unwrap();
-    let image = golden::warp::warp(&prep.view, &frame.baseplane);
+    let (golden, _, image) = er_and_pipeline(&cfg, vol, &lut, &prep);
     golden::metrics::compare(&image, &golden.image)
         .unwrap()
         .max_abs_255
@@ -186,17 +167,7 @@ fn default_width_view(vol: &Volume, tf: &TransferFunction, cam: &Camera) -> f64 
 fn default_widths_within_one_grey_level_on_the_checkerboard() {
     let scene: golden::scenes::Scene = "checker:128".parse().unwrap();
     let vol = scene.build(DEFAULT_MEMORY_LIMIT).unwrap();
-    for (d, fov) in [(32.0, 127.0), (64.0, 90.0)] {
-        let mut cam = Camera::new(
-            DVec3::new(64.0, 64.0, -d),
-            DVec3::splat(63.5),
-            DVec3::Y,
-            fov,
-            128,
-            128,
-        )
-        .unwrap();
-        cam.image_plane = ImagePlane::Front;
+    for (d, fov, cam) in checker128_views() {
         let m = default_width_view(&vol, &scene.preset(), &cam);
         eprintln!("checker:128 eye z = -{d}, fov {fov}: max {m} /255");
         assert!(m <= 1.0, "max difference {m} grey levels");

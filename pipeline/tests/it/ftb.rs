@@ -18,7 +18,7 @@
 //! sample counts are those of the plain method (neither changes an image).
 
 use glam::DVec3;
-use golden::camera::{Camera, ImagePlane};
+use golden::camera::Camera;
 use golden::geometry::View;
 use golden::methods::Method;
 use golden::render::{render, Prepared, RenderOptions, Technique};
@@ -32,7 +32,7 @@ use pipeline::fixed::Quant;
 use proptest::prelude::*;
 
 use crate::chip::{format, signature, smooth_case, Case};
-use crate::scenes::{eye_for, max_diff, tf};
+use crate::scenes::{checker128_views, eye_for, max_diff, tf};
 use waves::{PeFilter, Trace, TraceConfig, Tracer};
 
 // ---------------------------------------------------------------------------
@@ -309,17 +309,7 @@ fn default_widths_within_one_grey_level_on_the_checkerboard() {
     let vol = s.build(DEFAULT_MEMORY_LIMIT).unwrap();
     let cfg = PipelineConfig::default();
     let lut = Lut::for_bits(&s.preset(), cfg.table_entries as usize, vol.kind().bits());
-    for (d, fov) in [(32.0, 127.0), (64.0, 90.0)] {
-        let mut cam = Camera::new(
-            DVec3::new(64.0, 64.0, -d),
-            DVec3::splat(63.5),
-            DVec3::Y,
-            fov,
-            128,
-            128,
-        )
-        .unwrap();
-        cam.image_plane = ImagePlane::Front;
+    for (d, fov, cam) in checker128_views() {
         let prep = Prepared::new(&vol, &cam).unwrap();
         for t in [1.0f32, 0.99] {
             let golden = golden_ftb(&prep, &lut, t);
