@@ -37,11 +37,13 @@ pub fn have(tool: &str, package: &str, what: &str) -> bool {
     }
     // Written to the process's stderr directly: libtest captures only the
     // print macros, and a skip nobody sees is a silent one.
-    let _ = writeln!(
-        std::io::stderr(),
+    // One write of the whole line, so that tests skipping in parallel do
+    // not interleave their words.
+    let line = format!(
         "skipped {what}: {tool} is not on PATH (Debian: apt-get install {package}; \
-         .ci/run installs it and sets ERCUBE_REQUIRE_TOOLS=1)"
+         .ci/run installs it and sets ERCUBE_REQUIRE_TOOLS=1)\n"
     );
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
     false
 }
 
