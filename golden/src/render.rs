@@ -69,8 +69,9 @@ pub fn lut_for(kind: VoxelType, tf: &TransferFunction) -> Lut {
 pub struct Prepared {
     /// The view geometry.
     pub view: View,
-    /// The permuted, padded volume.
-    pub stack: SliceStack,
+    /// The permuted, padded volume (shared by the views of a camera path
+    /// that keep the principal axis, see [`Prepared::moved`]).
+    pub stack: Arc<SliceStack>,
     /// Min-max blocks of the volume (index space).
     pub blocks: MinMax,
     /// Clip planes in view space.
@@ -118,7 +119,7 @@ impl Prepared {
     pub fn with(volume: &Volume, camera: &Camera, opts: &PrepareOptions) -> Result<Prepared> {
         check_planes(&opts.clip)?;
         let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        let stack = SliceStack::new(volume, &view.axes)?;
+        let stack = Arc::new(SliceStack::new(volume, &view.axes)?);
         let blocks = MinMax::new(volume, opts.block)?;
         let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
         Ok(Prepared {
@@ -128,6 +129,46 @@ impl Prepared {
             clip,
             occupancy: Arc::default(),
         })
+    }
+
+    /// `volume` (the one this was prepared from) seen by another camera,
+    /// reusing what does not depend on the camera: the min-max blocks and
+    /// the occupancy cache (they depend on the volume and the table only)
+    /// when the block size is unchanged, and the permuted slice stack when
+    /// the principal axis is unchanged. A camera path pays for those once;
+    /// the result is the same as [`Prepared::with`]'s.
+    pub fn moved(
+        &self,
+        volume: &Volume,
+        camera: &Camera,
+        opts: &PrepareOptions,
+    ) -> Result<Prepared> {
+        check_planes(&opts.clip)?;
+        let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
+        let stack = if view.axes == self.view.axes {
+            Arc::clone(&self.stack)
+        } else {
+            Arc::new(SliceStack::new(volume, &view.axes)?)
+        };
+        let (blocks, occupancy) = if self.blocks.block == opts.block {
+            (self.blocks.clone(), Arc::clone(&self.occupancy))
+        } else {
+            (MinMax::new(volume, opts.block)?, Arc::default())
+        };
+        let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
+        Ok(Prepared {
+            view,
+            stack,
+            blocks,
+            clip,
+            occupancy,
+        })
+    }
+
+    /// Whether `other` shares this one's slice stack (no permutation was
+    /// paid for it).
+    pub fn shares_stack(&self, other: &Prepared) -> bool {
+        Arc::ptr_eq(&self.stack, &other.stack)
     }
 
     /// The occupancy map of the blocks under `lut`: the map built for the

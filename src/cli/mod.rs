@@ -2,6 +2,7 @@
 //! contract (every failure prints `ercube: error: ...` on one line and exits
 //! with status 2; nothing panics on bad input).
 
+mod animate;
 mod args;
 mod bench;
 mod chip;
@@ -37,6 +38,9 @@ enum Command {
     Compare(Box<compare::CompareArgs>),
     /// Compare every method on the embedded default scene (no files needed).
     Demo(compare::DemoArgs),
+    /// Render a camera path (an orbit or a file of eyes) frame by frame,
+    /// reusing what the camera does not change; PNG frames and a GIF.
+    Animate(Box<animate::AnimateArgs>),
     /// Time every method over a sweep of eye distances against the
     /// reference; write a CSV, plots and a summary (or, with --report DIR,
     /// the whole benchmark report).
@@ -97,6 +101,7 @@ pub fn run() -> ExitCode {
         Command::Render(a) => render::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Demo(a) => compare::demo(&a),
+        Command::Animate(a) => animate::run(&a),
         Command::Cost(a) => cost::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),

@@ -12,6 +12,7 @@ mod chip;
 #[path = "../support/scenes.rs"]
 mod scenes;
 
+mod animate;
 mod array;
 mod bench;
 mod cli;

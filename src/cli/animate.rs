@@ -1,0 +1,228 @@
+//! `ercube animate`: a camera path rendered frame by frame with one golden
+//! method, reusing across frames what the camera does not change (seed
+//! 001's caching): the loaded volume and its classification table are
+//! built once, the min-max blocks and the occupancy map once per volume
+//! and table, and the permuted slice stack once per principal axis
+//! ([`golden::render::Prepared::moved`]). `--no-reuse` prepares every frame
+//! from scratch, which is what the reuse is measured against.
+//!
+//! The path is an orbit (`--orbit DEG`: the eye turns about the look-at
+//! point around the up vector, `DEG` over the whole path, in `--frames`
+//! equal steps) or a file of eyes (`--path F`, one `x,y,z` per line, or
+//! `x,y,z look x,y,z` to move the look-at point too; `#` starts a comment).
+//! The output folder gets one PNG per frame and an animated GIF of them.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use glam::{DMat3, DVec3};
+use golden::camera::Camera;
+use golden::render::{lut_for, render, Prepared};
+use image::codecs::gif::{GifEncoder, Repeat};
+use image::{Delay, Frame, RgbaImage};
+
+use super::args::{parse_vec3, with_threads, SliceArgs, ViewArgs};
+use super::bench::progress;
+use super::method::MethodArg;
+use super::stats::{median, write_json};
+
+/// Most frames one path may have (a path file's lines count too).
+const MAX_FRAMES: usize = 10_000;
+
+/// Arguments of `ercube animate`.
+#[derive(Debug, Args)]
+pub struct AnimateArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Golden method (the pipeline methods are not animated yet).
+    #[arg(long, value_enum, default_value = "er")]
+    pub method: MethodArg,
+    /// Degrees the eye orbits about the look-at point, around the up
+    /// vector, over the whole path (default 360 unless --path is given).
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "path")]
+    pub orbit: Option<f64>,
+    /// A file of eyes, one `x,y,z` (or `x,y,z look x,y,z`) per line.
+    #[arg(long)]
+    pub path: Option<PathBuf>,
+    /// Frames of an orbit.
+    #[arg(long, default_value_t = 36)]
+    pub frames: usize,
+    /// Folder for the frames (frame_0000.png, ...), the GIF and the stats.
+    #[arg(long, default_value = "animate")]
+    pub out_dir: PathBuf,
+    /// Milliseconds each frame shows in the GIF.
+    #[arg(long, default_value_t = 80)]
+    pub frame_ms: u32,
+    /// Prepare every frame from scratch (to measure what reuse saves).
+    #[arg(long)]
+    pub no_reuse: bool,
+    #[command(flatten)]
+    pub slice: SliceArgs,
+    /// Worker threads (default: all cores); frames are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// The eyes (and look-at points) of the path.
+fn path_of(a: &AnimateArgs, first: &Camera) -> Result<Vec<(DVec3, DVec3)>> {
+    if let Some(p) = &a.path {
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("cannot read --path {}", p.display()))?;
+        let mut out = Vec::new();
+        for (n, line) in text.lines().enumerate() {
+            let line = line.split('#').next().unwrap_or("").trim();
+            if line.is_empty() {
+                continue;
+            }
+            let bad = |e: String| anyhow::anyhow!("{} line {}: {e}", p.display(), n + 1);
+            let (eye, look) = match line.split_once(" look ") {
+                Some((e, l)) => (
+                    parse_vec3(e.trim()).map_err(bad)?,
+                    parse_vec3(l.trim()).map_err(bad)?,
+                ),
+                None => (parse_vec3(line).map_err(bad)?, first.look_at),
+            };
+            out.push((eye, look));
+            if out.len() > MAX_FRAMES {
+                bail!("{} holds more than {MAX_FRAMES} eyes", p.display());
+            }
+        }
+        if out.is_empty() {
+            bail!("{} holds no eye", p.display());
+        }
+        return Ok(out);
+    }
+    if a.frames == 0 || a.frames > MAX_FRAMES {
+        bail!("--frames {} must be 1 to {MAX_FRAMES}", a.frames);
+    }
+    let deg = a.orbit.unwrap_or(360.0);
+    if !deg.is_finite() || deg.abs() > 36_000.0 {
+        bail!("--orbit {deg} must be a finite angle of at most 36000 degrees");
+    }
+    let axis = first.up.normalize();
+    let arm = first.eye - first.look_at;
+    Ok((0..a.frames)
+        .map(|i| {
+            let turn = (deg * i as f64 / a.frames as f64).to_radians();
+            (
+                first.look_at + DMat3::from_axis_angle(axis, turn) * arm,
+                first.look_at,
+            )
+        })
+        .collect())
+}
+
+/// Runs `ercube animate`.
+pub fn run(a: &AnimateArgs) -> Result<()> {
+    let Some(tech) = a.method.technique() else {
+        bail!(
+            "animate renders the golden methods; {} is not animated yet",
+            a.method.name()
+        );
+    };
+    if !(1..=10_000).contains(&a.frame_ms) {
+        bail!("--frame-ms {} must be 1 to 10000", a.frame_ms);
+    }
+    with_threads(a.threads, || animate(a, tech))
+}
+
+fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
+    let opts = a.slice.options()?;
+    let prep_opts = a.slice.prepare()?;
+    let t0 = Instant::now();
+    let (vol, tf, first) = a.view.load()?;
+    let lut = lut_for(vol.kind(), &tf);
+    let load_s = t0.elapsed().as_secs_f64();
+    let path = path_of(a, &first)?;
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let bar = progress(path.len() as u64);
+    let mut prev: Option<Prepared> = None;
+    let mut frames = Vec::with_capacity(path.len());
+    let mut times = Vec::with_capacity(path.len());
+    let mut prepare_times = Vec::with_capacity(path.len());
+    let mut stacks_reused = 0;
+    for (i, &(eye, look)) in path.iter().enumerate() {
+        let t = Instant::now();
+        // Camera::new validates each eye (an eye on the look-at point, or
+        // one looking along the up vector, is refused for that frame).
+        let mut cam = Camera::new(
+            eye,
+            look,
+            first.up,
+            first.fov_deg,
+            first.width,
+            first.height,
+        )
+        .with_context(|| format!("frame {i}"))?;
+        cam.image_plane = first.image_plane;
+        let prep = match (&prev, a.no_reuse) {
+            (Some(p), false) => p.moved(&vol, &cam, &prep_opts)?,
+            _ => Prepared::with(&vol, &cam, &prep_opts)?,
+        };
+        if prev.as_ref().is_some_and(|p| p.shares_stack(&prep)) {
+            stacks_reused += 1;
+        }
+        prepare_times.push(t.elapsed().as_secs_f64());
+        let frame = render(&prep, &lut, tech, &opts).with_context(|| format!("frame {i}"))?;
+        times.push(t.elapsed().as_secs_f64());
+        frame
+            .image
+            .write_png(&a.out_dir.join(format!("frame_{i:04}.png")))?;
+        frames.push(frame.image);
+        prev = Some(prep);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    write_gif(&a.out_dir.join("animation.gif"), &frames, a.frame_ms)?;
+    let rest = &times[1.min(times.len())..];
+    let stats = serde_json::json!({
+        "method": a.method.name(),
+        "frames": path.len(),
+        "reuse": !a.no_reuse,
+        "load_s": load_s,
+        "first_frame_s": times[0],
+        "median_frame_s": if rest.is_empty() { times[0] } else { median(rest) },
+        "median_prepare_s": median(&prepare_times),
+        "stacks_reused": stacks_reused,
+        "times_s": times,
+        "eyes": path.iter().map(|(e, _)| e.to_array()).collect::<Vec<_>>(),
+    });
+    write_json(&a.out_dir.join("animate.json"), &stats)?;
+    super::say(&format!(
+        "{}: {} frames, first {:.3} s, then median {:.3} s a frame (prepare {:.4} s; {} of {} slice stacks reused) -> {}",
+        a.method.name(),
+        path.len(),
+        times[0],
+        stats["median_frame_s"].as_f64().unwrap_or(f64::NAN),
+        stats["median_prepare_s"].as_f64().unwrap_or(f64::NAN),
+        stacks_reused,
+        path.len().saturating_sub(1),
+        a.out_dir.display()
+    ));
+    Ok(())
+}
+
+/// Writes the frames as a looping animated GIF, atomically.
+fn write_gif(path: &Path, frames: &[golden::image::Image], frame_ms: u32) -> Result<()> {
+    golden::image::write_atomic(path, |w| {
+        let mut enc = GifEncoder::new_with_speed(w, 10);
+        enc.set_repeat(Repeat::Infinite)
+            .map_err(std::io::Error::other)?;
+        for img in frames {
+            let rgb = img.to_rgb8();
+            let rgba: Vec<u8> = rgb
+                .chunks_exact(3)
+                .flat_map(|p| [p[0], p[1], p[2], 255])
+                .collect();
+            let buf = RgbaImage::from_raw(img.width as u32, img.height as u32, rgba)
+                .ok_or_else(|| std::io::Error::other("frame size"))?;
+            let frame = Frame::from_parts(buf, 0, 0, Delay::from_numer_denom_ms(frame_ms, 1));
+            enc.encode_frame(frame).map_err(std::io::Error::other)?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
