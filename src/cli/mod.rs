@@ -10,6 +10,7 @@ mod compare;
 mod cost;
 mod method;
 mod montage;
+mod peer;
 mod plot;
 mod progress;
 mod render;
@@ -51,6 +52,10 @@ enum Command {
     /// FPGA cost of the PE array: resources per PE and in all, fit on
     /// real parts, frame rate and voxel bandwidth from a pipeline run.
     Cost(Box<cost::CostArgs>),
+    /// Render one view with ercube's methods and with a peer renderer
+    /// (VTK), timing each and comparing it with ercube's reference;
+    /// write a table, an error-against-time plot and the images.
+    Peer(Box<peer::PeerArgs>),
     /// Measure what each kind of skipping saves (golden time, pipeline
     /// cycles) on four scenes; write the "Skipping" section of the report.
     SkipBench(Box<skipbench::SkipBenchArgs>),
@@ -106,6 +111,7 @@ pub fn run() -> ExitCode {
         Command::Bench(a) => bench::run(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),
         Command::SkipBench(a) => skipbench::run(&a),
+        Command::Peer(a) => peer::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

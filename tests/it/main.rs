@@ -1,6 +1,7 @@
 //! The `ercube` program's integration tests, one binary (it links once):
-//! the command-line contract (`cli`), the benchmark commands (`bench`) and
-//! the PE array run through the program (`array`). Each crate's own
+//! the command-line contract (`cli`), the benchmark commands (`bench`),
+//! the PE array run through the program (`array`) and the peer renderer
+//! comparison (`peers`, VTK when a Python has it). Each crate's own
 //! tests live beside it (`golden/tests/it`, `pipeline/tests/it`,
 //! `waves/tests/it`); the helpers all of them share are in
 //! `tests/support/`.
@@ -16,3 +17,4 @@ mod animate;
 mod array;
 mod bench;
 mod cli;
+mod peers;

@@ -49,7 +49,7 @@ pub use run::{progress, run_case};
 use summary::console_table;
 pub use summary::summary;
 pub use widths::{sweep as sweep_widths, SweepArgs};
-pub use write::{points, write_case};
+pub use write::{pareto, points, write_case};
 
 /// Arguments of `ercube bench`.
 #[derive(Debug, Args)]

@@ -1,0 +1,665 @@
+//! `ercube peer vtk`: one view rendered by ercube's methods and by a peer
+//! renderer (VTK's `vtkFixedPointVolumeRayCastMapper`, driven by
+//! `bench/peers/vtk.py`), each timed and compared with ercube's reference;
+//! writes a table (`peer.csv`, `peer.json`, `summary.md`), an
+//! error-against-time plot and every image (docs/peers.md).
+//!
+//! The peer sees exactly ercube's voxels (the loaded or built volume is
+//! exported as raw), the same transfer function (its control points as
+//! TOML) and the same camera; the script matches ercube's conventions
+//! (voxel centres, cell faces, image rows, opacity per unit length) and
+//! checks them with `--self-test`. Its image comes back as `.npy` and is
+//! compared here, with the same metric as every other method.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::Deserialize;
+
+use golden::camera::{Camera, ImagePlane};
+use golden::image::Image;
+use golden::metrics::{compare, ImageError};
+use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
+use golden::volume::{Volume, VoxelType};
+
+use super::args::{with_threads, ViewArgs};
+use super::bench::pareto;
+use super::method::MethodArg;
+use super::montage::write_montage;
+use super::plot::{write_chart, Chart, Kind, Series};
+use super::progress::Stage;
+
+/// The peers `ercube peer` can drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PeerName {
+    /// VTK 9's CPU ray caster, `vtkFixedPointVolumeRayCastMapper`.
+    Vtk,
+}
+
+/// Arguments of `ercube peer`.
+#[derive(Debug, Args)]
+pub struct PeerArgs {
+    /// The peer renderer.
+    #[arg(value_enum)]
+    pub peer: PeerName,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Comma-separated golden methods, each NAME or NAME:SUBSTEPS
+    /// (e.g. er-ftb:2 is er-ftb with --substeps 2); the reference is
+    /// always rendered for the errors.
+    #[arg(long, default_value = "reference,er,er-ftb,er-ftb:2,over")]
+    pub methods: String,
+    /// Timed frames per method, after one warm-up frame (the reference:
+    /// one frame).
+    #[arg(long, default_value_t = 5)]
+    pub frames: usize,
+    /// Directory for the table, plot and images.
+    #[arg(long, default_value = "peer")]
+    pub out_dir: PathBuf,
+    /// Worker threads of ercube and of the peer (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Python interpreter that starts the peer's script (the script makes
+    /// its own venv with vtk and numpy when this one has none).
+    #[arg(long, default_value = "python3")]
+    pub python: PathBuf,
+    /// The peer's script (default: bench/peers/vtk.py of this repository).
+    #[arg(long)]
+    pub script: Option<PathBuf>,
+    /// The peer's ray step in world units.
+    #[arg(long, default_value_t = 0.5)]
+    pub sample_distance: f64,
+}
+
+/// One golden method of the comparison: a technique and its substeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MethodSpec {
+    /// The technique.
+    pub tech: Technique,
+    /// Samples per slice crossing (slice-order methods).
+    pub substeps: u32,
+}
+
+impl MethodSpec {
+    /// Name in tables and plots: the method, with `:S` for substeps S > 1.
+    pub fn label(&self) -> String {
+        if self.substeps > 1 {
+            format!("{}:{}", self.tech.name(), self.substeps)
+        } else {
+            self.tech.name().to_string()
+        }
+    }
+}
+
+/// Parses `--methods` of `ercube peer`.
+pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
+    let mut out: Vec<MethodSpec> = Vec::new();
+    for tok in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+        let (name, sub) = match tok.split_once(':') {
+            Some((n, k)) => {
+                let k: u32 = k
+                    .parse()
+                    .ok()
+                    .filter(|&k| (1..=64).contains(&k))
+                    .with_context(|| {
+                        format!("--methods '{tok}': substeps must be a whole number 1 to 64")
+                    })?;
+                (n, k)
+            }
+            None => (tok, golden::methods::DEFAULT_SUBSTEPS),
+        };
+        let Some(tech) = MethodArg::parse(name).and_then(MethodArg::technique) else {
+            bail!(
+                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS"
+            );
+        };
+        if tech == Technique::Reference && tok.contains(':') {
+            bail!("--methods '{tok}': the reference takes no substeps");
+        }
+        let m = MethodSpec {
+            tech,
+            substeps: sub,
+        };
+        if out.iter().any(|o| o.label() == m.label()) {
+            bail!("method '{}' is listed twice in --methods", m.label());
+        }
+        out.push(m);
+    }
+    if out.is_empty() {
+        bail!("--methods names no method");
+    }
+    Ok(out)
+}
+
+/// What the peer's script prints on stdout (one JSON object).
+#[derive(Debug, Clone, Deserialize)]
+pub struct PeerReport {
+    /// Median seconds per frame.
+    pub time_s: f64,
+    /// Every timed frame.
+    #[serde(default)]
+    pub times_s: Vec<f64>,
+    /// The peer's version.
+    #[serde(default)]
+    pub vtk_version: String,
+    /// The render window class that worked (EGL, OSMesa, X).
+    #[serde(default)]
+    pub backend: String,
+    /// The mapper.
+    #[serde(default)]
+    pub mapper: String,
+    /// Threads it used.
+    #[serde(default)]
+    pub threads: usize,
+}
+
+/// Reads the last line of the script's stdout that is a JSON object.
+pub fn parse_peer_report(stdout: &str) -> Result<PeerReport> {
+    let line = stdout
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('{'))
+        .context("the peer printed no JSON report")?;
+    let r: PeerReport =
+        serde_json::from_str(line).context("the peer's JSON report is malformed")?;
+    if !(r.time_s.is_finite() && r.time_s >= 0.0) {
+        bail!("the peer's time_s {} is not a time", r.time_s);
+    }
+    Ok(r)
+}
+
+/// Reads a float32 `H x W x 4` `.npy` (as `ercube render --npy` and the
+/// peer write it) into an image.
+pub fn read_npy_image(bytes: &[u8]) -> Result<Image> {
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        bail!("not a .npy file");
+    }
+    let (hlen, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        v => bail!(".npy version {v} is not supported"),
+    };
+    let header = bytes
+        .get(start..start + hlen)
+        .and_then(|h| std::str::from_utf8(h).ok())
+        .context(".npy header is truncated")?;
+    let field = |key: &str| -> Option<&str> {
+        let i = header.find(&format!("'{key}'"))? + key.len() + 2;
+        Some(header[i..].trim_start().strip_prefix(':')?.trim_start())
+    };
+    let descr = field("descr").context(".npy header has no descr")?;
+    if !descr.starts_with("'<f4'") {
+        bail!(
+            ".npy holds {} values, float32 ('<f4') expected",
+            descr.split(',').next().unwrap_or(descr)
+        );
+    }
+    if !field("fortran_order").is_some_and(|f| f.starts_with("False")) {
+        bail!(".npy is in Fortran order; C order expected");
+    }
+    let shape = field("shape").context(".npy header has no shape")?;
+    let inner = shape
+        .strip_prefix('(')
+        .and_then(|s| s.split_once(')'))
+        .map(|(s, _)| s)
+        .context(".npy shape is malformed")?;
+    let dims: Vec<usize> = inner
+        .split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .map(|t| t.parse::<usize>())
+        .collect::<std::result::Result<_, _>>()
+        .context(".npy shape is malformed")?;
+    let [h, w, 4] = dims[..] else {
+        bail!(".npy shape {dims:?} is not H x W x 4");
+    };
+    let data = &bytes[start + hlen..];
+    if data.len() != h * w * 16 {
+        bail!(
+            ".npy has {} data bytes, {} expected for {h}x{w}x4",
+            data.len(),
+            h * w * 16
+        );
+    }
+    let px = data
+        .chunks_exact(16)
+        .map(|c| {
+            std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
+        })
+        .collect();
+    Ok(Image {
+        width: w,
+        height: h,
+        data: px,
+    })
+}
+
+/// One row of the table.
+#[derive(Debug, Clone)]
+pub struct PeerRow {
+    /// Method label (`vtk` for the peer).
+    pub method: String,
+    /// Median seconds per frame.
+    pub time_s: f64,
+    /// Frames timed.
+    pub frames: usize,
+    /// Error against the reference.
+    pub err: ImageError,
+}
+
+/// The markdown table of the rows.
+pub fn markdown_table(rows: &[PeerRow]) -> String {
+    let mut s = String::from(
+        "| method | median s/frame | frames | RMSE vs reference | max of 255 | PSNR dB |\n| --- | --- | --- | --- | --- | --- |\n",
+    );
+    for r in rows {
+        let psnr = if r.err.psnr.is_finite() {
+            format!("{:.1}", r.err.psnr)
+        } else {
+            "-".into()
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {} | {:.4} | {} | {psnr} |",
+            r.method, r.time_s, r.frames, r.err.rmse, r.err.max_abs_255
+        );
+    }
+    s
+}
+
+fn script_path(a: &PeerArgs) -> Result<PathBuf> {
+    let p = match &a.script {
+        Some(p) => p.clone(),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/vtk.py"),
+    };
+    if !p.is_file() {
+        bail!(
+            "peer vtk: no script at {} (give --script bench/peers/vtk.py)",
+            p.display()
+        );
+    }
+    Ok(p)
+}
+
+/// Writes the volume's voxels as raw (u8, or u16 little-endian), x fastest.
+fn write_raw(path: &Path, vol: &Volume) -> Result<&'static str> {
+    let (kind, bytes): (&str, Vec<u8>) = match vol.kind() {
+        VoxelType::U8 => ("u8", vol.data().iter().map(|&v| v as u8).collect()),
+        VoxelType::U16 => (
+            "u16le",
+            vol.data().iter().flat_map(|v| v.to_le_bytes()).collect(),
+        ),
+    };
+    golden::image::write_atomic(path, |w| w.write_all(&bytes))?;
+    Ok(kind)
+}
+
+fn vec3(v: [f64; 3]) -> String {
+    format!("{},{},{}", v[0], v[1], v[2])
+}
+
+/// Runs the peer's script on the exported view; returns its report and image.
+fn run_peer(
+    a: &PeerArgs,
+    vol: &Volume,
+    cam: &Camera,
+    tf_toml: &str,
+    threads: usize,
+) -> Result<(PeerReport, Image)> {
+    let script = script_path(a)?;
+    let dir = a.out_dir.join("peer-input");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let raw = dir.join("volume.raw");
+    let kind = write_raw(&raw, vol)?;
+    let tf = dir.join("tf.toml");
+    golden::image::write_atomic(&tf, |w| w.write_all(tf_toml.as_bytes()))?;
+    let d = vol.dims();
+    let npy = a.out_dir.join("vtk.npy");
+    let mut cmd = Command::new(&a.python);
+    cmd.arg(&script)
+        .arg("--volume")
+        .arg(&raw)
+        .args(["--raw-dims", &format!("{},{},{}", d[0], d[1], d[2])])
+        .args(["--raw-type", kind])
+        .args(["--spacing", &vec3(vol.spacing())])
+        .args(["--eye", &vec3(cam.eye.to_array())])
+        .args(["--look-at", &vec3(cam.look_at.to_array())])
+        .args(["--up", &vec3(cam.up.to_array())])
+        .args(["--fov", &cam.fov_deg.to_string()])
+        .args(["--size", &format!("{}x{}", cam.width, cam.height)])
+        .arg("--tf-file")
+        .arg(&tf)
+        .args(["--frames", &a.frames.to_string()])
+        .args(["--threads", &threads.to_string()])
+        .args(["--sample-distance", &a.sample_distance.to_string()])
+        .arg("--npy")
+        .arg(&npy)
+        .arg("--png")
+        .arg(a.out_dir.join("vtk.png"));
+    let out = cmd.output().with_context(|| {
+        format!(
+            "peer vtk: cannot run {} (give --python)",
+            a.python.display()
+        )
+    })?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let line = stderr
+            .lines()
+            .rev()
+            .map(str::trim)
+            .find(|l| l.contains("error"))
+            .or_else(|| stderr.lines().rev().map(str::trim).find(|l| !l.is_empty()))
+            .unwrap_or("no message");
+        bail!("peer vtk failed ({}): {line}", out.status);
+    }
+    let report = parse_peer_report(&stdout)?;
+    let bytes = std::fs::read(&npy).with_context(|| format!("cannot read {}", npy.display()))?;
+    let img = read_npy_image(&bytes).with_context(|| format!("{}", npy.display()))?;
+    if (img.width, img.height) != (cam.width as usize, cam.height as usize) {
+        bail!(
+            "peer vtk wrote a {}x{} image for a {}x{} view",
+            img.width,
+            img.height,
+            cam.width,
+            cam.height
+        );
+    }
+    Ok((report, img))
+}
+
+/// Runs `ercube peer`.
+pub fn run(a: &PeerArgs) -> Result<()> {
+    if a.frames == 0 || a.frames > 1000 {
+        bail!("--frames {} must be 1 to 1000", a.frames);
+    }
+    if !(a.sample_distance.is_finite() && a.sample_distance > 0.0) {
+        bail!(
+            "--sample-distance {} must be a positive length",
+            a.sample_distance
+        );
+    }
+    let methods = parse_peer_methods(&a.methods)?;
+    with_threads(a.threads, || compare_with_peer(a, &methods))
+}
+
+fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
+    let (vol, tf, cam) = a.view.load()?;
+    if cam.image_plane != ImagePlane::Camera {
+        bail!("the peer renders an ordinary camera: drop --image-plane front");
+    }
+    script_path(a)?;
+    let threads = rayon::current_num_threads();
+    let lut = lut_for(vol.kind(), &tf);
+    let prep = Prepared::new(&vol, &cam)?;
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+
+    let (reference, ref_time) = {
+        let _s = Stage::start("rendering the reference");
+        let t = Instant::now();
+        let f = render(&prep, &lut, Technique::Reference, &RenderOptions::default())?;
+        (f.image, t.elapsed().as_secs_f64())
+    };
+    reference.write_png(&a.out_dir.join("reference.png"))?;
+    reference.write_npy(&a.out_dir.join("reference.npy"))?;
+    let mut rows = Vec::new();
+    let mut images: Vec<(String, Image)> = Vec::new();
+    for m in methods.iter().filter(|m| m.tech != Technique::Reference) {
+        let _s = Stage::start(format!("rendering with {}", m.label()));
+        let mut opts = RenderOptions::default();
+        opts.slice.substeps = m.substeps;
+        opts.slice.validate()?;
+        render(&prep, &lut, m.tech, &opts)?.recycle(); // warm-up
+        let mut times = Vec::with_capacity(a.frames);
+        let mut last = None;
+        for _ in 0..a.frames {
+            let t = Instant::now();
+            let f = render(&prep, &lut, m.tech, &opts)?;
+            times.push(t.elapsed().as_secs_f64());
+            if let Some(old) = last.replace(f) {
+                old.recycle();
+            }
+        }
+        let img = last.expect("at least one frame").image;
+        rows.push(PeerRow {
+            method: m.label(),
+            time_s: median(&mut times),
+            frames: a.frames,
+            err: compare(&img, &reference)?,
+        });
+        img.write_png(
+            &a.out_dir
+                .join(format!("{}.png", m.label().replace(':', "-s"))),
+        )?;
+        images.push((m.label(), img));
+    }
+    let (report, vtk_img) = {
+        let _s = Stage::start("rendering with vtk");
+        run_peer(a, &vol, &cam, &tf.to_toml_string(), threads)?
+    };
+    rows.push(PeerRow {
+        method: "vtk".into(),
+        time_s: report.time_s,
+        frames: a.frames,
+        err: compare(&vtk_img, &reference)?,
+    });
+    if methods.iter().any(|m| m.tech == Technique::Reference) {
+        rows.push(PeerRow {
+            method: "reference".into(),
+            time_s: ref_time,
+            frames: 1,
+            err: compare(&reference, &reference)?,
+        });
+    }
+    images.push(("vtk".into(), vtk_img));
+    images.push(("reference".into(), reference));
+    write_outputs(a, &vol, &cam, &rows, &report, threads, &images)
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
+fn write_outputs(
+    a: &PeerArgs,
+    vol: &Volume,
+    cam: &Camera,
+    rows: &[PeerRow],
+    report: &PeerReport,
+    threads: usize,
+    images: &[(String, Image)],
+) -> Result<()> {
+    let label = a.view.source.label();
+    let d = vol.dims();
+    let view = format!(
+        "{label} ({}x{}x{}, spacing {:?}), eye {:?} looking at {:?}, up {:?}, {} degrees, {}x{}",
+        d[0],
+        d[1],
+        d[2],
+        vol.spacing(),
+        cam.eye.to_array(),
+        cam.look_at.to_array(),
+        cam.up.to_array(),
+        cam.fov_deg,
+        cam.width,
+        cam.height
+    );
+    let peer = format!(
+        "VTK {} `{}` ({}, offscreen), {} threads, sample distance {} world units, image sample distance 1, \
+         opacity unit distance 1",
+        report.vtk_version, report.mapper, report.backend, report.threads, a.sample_distance
+    );
+    let mut csv = String::from("method,time_s,frames,rmse,max_abs_255,psnr\n");
+    for r in rows {
+        writeln!(
+            csv,
+            "{},{:.6},{},{:.6},{},{:.3}",
+            r.method, r.time_s, r.frames, r.err.rmse, r.err.max_abs_255, r.err.psnr
+        )?;
+    }
+    golden::image::write_atomic(&a.out_dir.join("peer.csv"), |w| w.write_all(csv.as_bytes()))?;
+    let json = serde_json::json!({
+        "view": view,
+        "peer": {"name": "vtk", "version": report.vtk_version, "backend": report.backend,
+                 "mapper": report.mapper, "threads": report.threads,
+                 "sample_distance": a.sample_distance, "times_s": report.times_s},
+        "ercube_threads": threads,
+        "rows": rows.iter().map(|r| serde_json::json!({
+            "method": r.method, "time_s": r.time_s, "frames": r.frames,
+            "error_vs_reference": super::stats::error_json(&r.err),
+        })).collect::<Vec<_>>(),
+    });
+    super::stats::write_json(&a.out_dir.join("peer.json"), &json)?;
+
+    // Error against time, with the Pareto front of the measured points.
+    let mut series = Vec::new();
+    let mut all = Vec::new();
+    for r in rows.iter().filter(|r| r.err.rmse > 0.0) {
+        all.push((r.time_s, r.err.rmse));
+        let s = Series::new(r.method.clone(), vec![(r.time_s, r.err.rmse)], Kind::Points);
+        series.push(if r.method.contains(':') {
+            s.with_color(plotters::style::RGBColor(23, 190, 207))
+        } else if r.method == "vtk" {
+            s.with_color(plotters::style::RGBColor(227, 119, 194))
+        } else {
+            s
+        });
+    }
+    let front = pareto(&all);
+    if front.len() > 1 {
+        series.push(
+            Series::new("Pareto front", front, Kind::Line)
+                .with_color(plotters::style::RGBColor(90, 90, 90)),
+        );
+    }
+    write_chart(
+        &a.out_dir.join("error_vs_time.png"),
+        &Chart {
+            title: format!("{label}: ercube and VTK, error against time"),
+            x_label: format!(
+                "median seconds per frame ({} frames, {threads} threads)",
+                a.frames
+            ),
+            y_label: "RMSE against ercube's reference".into(),
+            x_log: true,
+            y_log: true,
+            series,
+        },
+        (720, 560),
+    )?;
+    let labelled: Vec<(String, &Image)> = images.iter().map(|(l, i)| (l.clone(), i)).collect();
+    write_montage(&a.out_dir.join("montage.png"), &labelled)?;
+
+    let md = format!(
+        "# {label}: ercube against VTK\n\n\
+         Generated by `{}`.\n\n**View:** {view}.\n\n**Peer:** {peer}.\n\n\
+         **ercube:** {threads} rayon threads; each method's median of {} frames after a warm-up \
+         frame, the reference one frame; every error is against ercube's reference.\n\n{}\n\
+         ![error against time](error_vs_time.png)\n",
+        super::bench::command_line(),
+        a.frames,
+        markdown_table(rows)
+    );
+    golden::image::write_atomic(&a.out_dir.join("summary.md"), |w| {
+        w.write_all(md.as_bytes())
+    })?;
+    super::say(&format!(
+        "{view}\n{peer}\n{}",
+        markdown_table(rows).trim_end()
+    ));
+    super::say(&format!("wrote {}", a.out_dir.display()));
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_tokens() {
+        let m = parse_peer_methods("reference, er,er-ftb:2,over").unwrap();
+        assert_eq!(m.len(), 4);
+        assert_eq!(m[2].label(), "er-ftb:2");
+        assert_eq!(m[2].substeps, 2);
+        assert_eq!(m[1].label(), "er");
+        assert!(parse_peer_methods("er,er").is_err());
+        assert!(parse_peer_methods("er:0").is_err());
+        assert!(parse_peer_methods("er:x").is_err());
+        assert!(parse_peer_methods("pipeline").is_err());
+        assert!(parse_peer_methods("reference:2").is_err());
+        assert!(parse_peer_methods("").is_err());
+    }
+
+    #[test]
+    fn npy_round_trip_and_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.npy");
+        let mut img = Image::new(3, 2);
+        img.data[4] = [0.25, 0.5, 0.75, 1.0];
+        img.write_npy(&p).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        assert_eq!(read_npy_image(&bytes).unwrap(), img);
+        assert!(read_npy_image(&bytes[..bytes.len() - 4]).is_err());
+        assert!(read_npy_image(b"nonsense!!!!").is_err());
+        let mut f8 = golden::image::npy_header("<f8", &[2, 3, 4]);
+        f8.extend(vec![0u8; 2 * 3 * 4 * 8]);
+        assert!(read_npy_image(&f8)
+            .unwrap_err()
+            .to_string()
+            .contains("float32"));
+        let mut rgb = golden::image::npy_header("<f4", &[2, 3, 3]);
+        rgb.extend(vec![0u8; 2 * 3 * 3 * 4]);
+        assert!(read_npy_image(&rgb).is_err());
+        // numpy's own header layout (no trailing comma after the shape).
+        let mut np = b"\x93NUMPY\x01\x00".to_vec();
+        let h = "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 1, 4)}          \n";
+        np.extend((h.len() as u16).to_le_bytes());
+        np.extend(h.as_bytes());
+        np.extend([0u8; 16]);
+        assert_eq!(read_npy_image(&np).unwrap().width, 1);
+    }
+
+    #[test]
+    fn peer_report_and_table() {
+        let out = "vtk.py: making the venv\n{\"peer\": \"vtk\", \"time_s\": 0.015, \"times_s\": [0.015], \"vtk_version\": \"9.7.2\", \"backend\": \"vtkEGLRenderWindow\", \"mapper\": \"m\", \"threads\": 2}\n";
+        let r = parse_peer_report(out).unwrap();
+        assert_eq!(r.threads, 2);
+        assert_eq!(r.backend, "vtkEGLRenderWindow");
+        assert!(parse_peer_report("nothing").is_err());
+        assert!(parse_peer_report("{\"time_s\": -1}").is_err());
+        assert!(parse_peer_report("{\"times\": 1}").is_err());
+        let err = ImageError {
+            max_abs_255: 12.0,
+            rmse: 0.0027,
+            psnr: 51.4,
+        };
+        let t = markdown_table(&[PeerRow {
+            method: "vtk".into(),
+            time_s: 0.0153,
+            frames: 5,
+            err,
+        }]);
+        assert!(
+            t.contains("| vtk | 0.0153 | 5 | 0.0027 | 12 | 51.4 |"),
+            "{t}"
+        );
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
+}

@@ -1,0 +1,208 @@
+//! `ercube peer vtk` (docs/peers.md): VTK renders the same view as ercube.
+//! The tests that need VTK run when a Python with `vtk` and `numpy` can be
+//! found (the script's venv `bench/peers/.venv`, else `python3`); otherwise
+//! they print one line and pass, whatever `ERCUBE_REQUIRE_TOOLS` says (CI
+//! has no VTK venv), unless `ERCUBE_REQUIRE_VTK=1`, which makes a missing
+//! VTK a failure.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::bin::{describe, ercube};
+
+fn script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/vtk.py")
+}
+
+/// A Python that imports vtk and numpy, or `None` (said on stderr) to skip.
+fn vtk_python(what: &str) -> Option<PathBuf> {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/.venv/bin/python");
+    for py in [venv, PathBuf::from("python3")] {
+        let ok = Command::new(&py)
+            .args(["-c", "import vtkmodules.vtkRenderingVolume, numpy"])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if ok {
+            return Some(py);
+        }
+    }
+    if std::env::var("ERCUBE_REQUIRE_VTK").as_deref() == Ok("1") {
+        panic!("no Python with vtk and numpy and ERCUBE_REQUIRE_VTK=1: run python3 bench/peers/vtk.py --self-test once (it makes bench/peers/.venv)");
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipped {what}: no Python with vtk and numpy (python3 bench/peers/vtk.py --self-test makes bench/peers/.venv; ERCUBE_REQUIRE_VTK=1 makes this a failure)"
+    );
+    None
+}
+
+/// An `H x W x 4` float32 `.npy` as written by ercube and the script.
+fn read_npy(path: &Path) -> (usize, usize, Vec<f32>) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(&b[..6], b"\x93NUMPY");
+    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let header = std::str::from_utf8(&b[10..10 + hlen]).unwrap();
+    assert!(header.contains("'<f4'"), "{header}");
+    let shape = header.split("'shape': (").nth(1).unwrap();
+    let dims: Vec<usize> = shape
+        .split(')')
+        .next()
+        .unwrap()
+        .split(',')
+        .filter_map(|t| t.trim().parse().ok())
+        .collect();
+    assert_eq!(dims.len(), 3);
+    assert_eq!(dims[2], 4);
+    let v = b[10 + hlen..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    (dims[0], dims[1], v)
+}
+
+/// Brightness-weighted centre (column, row) of an image.
+fn centroid(h: usize, w: usize, v: &[f32]) -> (f64, f64) {
+    let (mut s, mut si, mut sj) = (0.0, 0.0, 0.0);
+    for j in 0..h {
+        for i in 0..w {
+            let p = &v[(j * w + i) * 4..(j * w + i) * 4 + 3];
+            let l = f64::from(p[0] + p[1] + p[2]);
+            s += l;
+            si += l * i as f64;
+            sj += l * j as f64;
+        }
+    }
+    assert!(s > 0.0, "the image is black");
+    (si / s, sj / s)
+}
+
+#[test]
+fn the_script_puts_a_bright_voxel_where_ercubes_camera_does() {
+    let Some(py) = vtk_python("the VTK convention self-test") else {
+        return;
+    };
+    let out = Command::new(&py)
+        .arg(script())
+        .arg("--self-test")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("\"self_test\": \"pass\""),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn peer_vtk_renders_the_same_view_on_a_tiny_volume() {
+    let Some(py) = vtk_python("ercube peer vtk") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    // One bright voxel at high x, low y: left of centre, low in the image.
+    let n = 24;
+    let mut vox = vec![0u8; n * n * n];
+    vox[(12 * n + 7) * n + 17] = 255;
+    std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
+    let args = [
+        "peer",
+        "vtk",
+        "--volume",
+        "v.raw",
+        "--raw-dims",
+        "24,24,24",
+        "--eye",
+        "11.5,11.5,-24",
+        "--fov",
+        "60",
+        "--size",
+        "64x64",
+        "--methods",
+        "reference,er,er-ftb:2",
+        "--frames",
+        "1",
+        "--threads",
+        "2",
+        "--out-dir",
+        "out",
+        "--python",
+    ];
+    let mut args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    args.push(py.to_string_lossy().into_owned());
+    args.push("--script".into());
+    args.push(script().to_string_lossy().into_owned());
+    let out = ercube(dir.path(), &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let o = dir.path().join("out");
+    for f in [
+        "peer.csv",
+        "peer.json",
+        "summary.md",
+        "error_vs_time.png",
+        "montage.png",
+        "vtk.png",
+    ] {
+        assert!(o.join(f).is_file(), "no {f}");
+    }
+    let csv = std::fs::read_to_string(o.join("peer.csv")).unwrap();
+    let methods: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(methods, ["er", "er-ftb:2", "vtk", "reference"], "{csv}");
+    let vtk_rmse: f64 = csv
+        .lines()
+        .find(|l| l.starts_with("vtk,"))
+        .and_then(|l| l.split(',').nth(3))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        vtk_rmse < 0.02,
+        "VTK is {vtk_rmse} RMSE from the reference\n{csv}"
+    );
+    let (h, w, r) = read_npy(&o.join("reference.npy"));
+    let (h2, w2, v) = read_npy(&o.join("vtk.npy"));
+    assert_eq!((h, w), (h2, w2));
+    let (cr, cv) = (centroid(h, w, &r), centroid(h, w, &v));
+    assert!(
+        cr.0 < w as f64 / 2.0 && cr.1 > h as f64 / 2.0,
+        "reference at {cr:?}"
+    );
+    assert!(
+        (cr.0 - cv.0).abs() < 0.5 && (cr.1 - cv.1).abs() < 0.5,
+        "the bright voxel is at {cr:?} in ercube's reference, {cv:?} in VTK's image"
+    );
+}
+
+#[test]
+fn a_missing_python_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "peer",
+        "vtk",
+        "--scene",
+        "impulse:8",
+        "--size",
+        "8x8",
+        "--methods",
+        "er",
+        "--frames",
+        "1",
+        "--out-dir",
+        "out",
+        "--python",
+        "/nonexistent/python3",
+    ];
+    let out = ercube(dir.path(), &args);
+    assert_eq!(out.status.code(), Some(2), "{}", describe(&args, &out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("peer vtk: cannot run /nonexistent/python3"),
+        "{err}"
+    );
+}
