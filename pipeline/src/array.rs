@@ -53,7 +53,7 @@
 use golden::geometry::View;
 use golden::volume::Volume;
 use golden::warp::Baseplane;
-use waves::{ScopePath, SignalId, Tracer};
+use waves::Tracer;
 
 use std::sync::Arc;
 
@@ -64,6 +64,7 @@ use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan
 use crate::pe::{
     FtbState, Pe, PeCounters, Ports, RayColumn, RowBus, RowRuns, SampleBus, StepError,
 };
+use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
 use crate::tables::Tables;
 use golden::skip::SampleMask;
@@ -168,85 +169,6 @@ pub enum RunError {
     #[error("{0}")]
     Waves(#[from] waves::WavesError),
 }
-
-/// Waveform signals of one PE.
-struct PeSignals {
-    busy: SignalId,
-    mx: SignalId,
-    row: SignalId,
-    sample: SignalId,
-    alpha: SignalId,
-    corrected: SignalId,
-    acc: [SignalId; 4],
-    rays_sent: SignalId,
-    /// Front to back only (back-to-front waveforms stay as they were).
-    terminated: Option<SignalId>,
-}
-
-/// The probes of a run.
-struct Probes {
-    tracer: Tracer,
-    stage: SignalId,
-    z: SignalId,
-    row: SignalId,
-    pes: Vec<PeSignals>,
-}
-
-impl Probes {
-    fn new(
-        mut tracer: Tracer,
-        p: usize,
-        cfg: &PipelineConfig,
-    ) -> Result<Probes, waves::WavesError> {
-        let ctrl = ScopePath::top().child("ctrl");
-        let stage = tracer.register(&ctrl, "stage", 3)?;
-        let z = tracer.register(&ctrl, "slice", 16)?;
-        let row = tracer.register(&ctrl, "row", 16)?;
-        let mut pes = Vec::with_capacity(p);
-        for k in 0..p {
-            let s = ScopePath::pe(k as u32);
-            let w = |f: crate::fixed::Format| u32::from(f.bits());
-            pes.push(PeSignals {
-                busy: tracer.register(&s, "busy", 1)?,
-                mx: tracer.register(&s, "ray_mx", 16)?,
-                row: tracer.register(&s, "ray_row", 16)?,
-                sample: tracer.register(&s, "sample", w(cfg.sample))?,
-                alpha: tracer.register(&s, "alpha", w(cfg.alpha))?,
-                corrected: tracer.register(&s, "alpha_corr", w(cfg.opacity_corr))?,
-                acc: [
-                    tracer.register(&s, "acc_r", w(cfg.accum_color))?,
-                    tracer.register(&s, "acc_g", w(cfg.accum_color))?,
-                    tracer.register(&s, "acc_b", w(cfg.accum_color))?,
-                    tracer.register(&s, "acc_a", w(cfg.accum_alpha))?,
-                ],
-                rays_sent: tracer.register(&s, "rays_sent", 32)?,
-                terminated: if cfg.order == Order::FrontToBack {
-                    Some(tracer.register(&s, "terminated", 1)?)
-                } else {
-                    None
-                },
-            });
-        }
-        Ok(Probes {
-            tracer,
-            stage,
-            z,
-            row,
-            pes,
-        })
-    }
-}
-
-/// Stage codes on `top.ctrl.stage` (front to back, the split and the fold
-/// show as merge: both are row-granular boundary passes).
-const STAGE_SAMPLE: u64 = 0;
-const STAGE_MIGRATE: u64 = 1;
-const STAGE_MERGE: u64 = 2;
-const STAGE_READOUT: u64 = 3;
-/// A slice the controller skips (its occupancy bits are all clear).
-const STAGE_SKIP: u64 = 4;
-const STAGE_SPLIT: u64 = 5;
-const STAGE_FOLD: u64 = 6;
 
 /// The PE array for one frame.
 pub struct Array {
@@ -380,7 +302,7 @@ impl Array {
         if !sk.mask.slice_visible(slice.z) {
             self.skipped.slices += 1;
             self.stages.skip += 1;
-            self.advance(STAGE_SKIP, slice.z, 0, 1);
+            self.advance(Stage::Skip, slice.z, 0, 1);
             return None;
         }
         Some(SlicePlan {
@@ -531,47 +453,57 @@ impl Array {
         }
     }
 
-    fn trace(&mut self, stage: u64, z: usize, row: usize) {
-        trace(&mut self.probes, &self.pes, self.cycle, stage, z, row);
+    /// Traces the current cycle with the committed port outputs
+    /// `self.ports` (migration and sampling drive them).
+    fn trace(&mut self, stage: Stage, z: usize, row: usize) {
+        trace(
+            &mut self.probes,
+            &self.pes,
+            &self.ports,
+            self.cycle,
+            stage,
+            z,
+            row,
+        );
     }
 
     /// `n` cycles in which only the controller's state shows: the stage,
-    /// slice and row, traced each cycle.
-    fn advance(&mut self, stage: u64, z: usize, row: usize, n: u64) {
+    /// slice and row, traced each cycle; no PE drives a link.
+    fn advance(&mut self, stage: Stage, z: usize, row: usize, n: u64) {
+        self.advance_driving(stage, z, row, n, &[]);
+    }
+
+    /// `n` cycles in which the PEs hold `ports` on their links (a merge,
+    /// split or fold row's edge rays; empty: nothing driven).
+    fn advance_driving(&mut self, stage: Stage, z: usize, row: usize, n: u64, ports: &[Ports]) {
         for _ in 0..n {
             self.cycle += 1;
-            self.trace(stage, z, row);
+            trace(
+                &mut self.probes,
+                &self.pes,
+                ports,
+                self.cycle,
+                stage,
+                z,
+                row,
+            );
         }
     }
 }
 
-/// Records one cycle of every traced signal; a single branch when tracing
-/// is off.
-fn trace(probes: &mut Option<Probes>, pes: &[Pe], cycle: u64, stage: u64, z: usize, row: usize) {
+/// Records one cycle of every traced signal, `ports` being what the PEs
+/// drove on their links in it; a single branch when tracing is off.
+fn trace(
+    probes: &mut Option<Probes>,
+    pes: &[Pe],
+    ports: &[Ports],
+    cycle: u64,
+    stage: Stage,
+    slice: usize,
+    row: usize,
+) {
     let Some(pr) = probes.as_mut() else { return };
-    pr.tracer.sample(cycle, |s| {
-        s.set(pr.stage, stage);
-        s.set(pr.z, z as u64 & 0xffff);
-        s.set(pr.row, row as u64 & 0xffff);
-        for (pe, sig) in pes.iter().zip(&pr.pes) {
-            let l = &pe.last;
-            let busy = stage == STAGE_SAMPLE && l.busy;
-            s.set(sig.busy, u64::from(busy));
-            // Ray indices are traced as 16-bit two's complement.
-            s.set(sig.mx, l.mx as u64 & 0xffff);
-            s.set(sig.row, l.row as u64 & 0xffff);
-            s.set(sig.sample, l.sample as u64);
-            s.set(sig.alpha, l.alpha as u64);
-            s.set(sig.corrected, l.corrected as u64);
-            s.set(sig.rays_sent, pe.counters.rays_sent & 0xffff_ffff);
-            for ch in 0..4 {
-                s.set(sig.acc[ch], l.acc.raw[ch] as u64);
-            }
-            if let Some(t) = sig.terminated {
-                s.set(t, u64::from(busy && l.terminated));
-            }
-        }
-    });
+    pr.sample(cycle, pes, ports, Ctrl { stage, slice, row });
 }
 
 impl Array {
@@ -605,7 +537,7 @@ impl Array {
             std::mem::swap(&mut self.ports, &mut self.spare);
             self.cycle += 1;
             cycles += 1;
-            trace(&mut self.probes, &self.pes, self.cycle, STAGE_MIGRATE, z, 0);
+            self.trace(Stage::Migrate, z, 0);
         }
         self.stages.migrate += cycles;
         Ok(())
@@ -740,7 +672,7 @@ impl Array {
             std::mem::swap(&mut self.ports, &mut self.spare);
             self.cycle += 1;
             self.stages.sample += 1;
-            self.trace(STAGE_SAMPLE, slice.z, setup.row);
+            self.trace(Stage::Sample, slice.z, setup.row);
         }
         let mut following = sampled.iter().skip(1);
         for (r, &(my, y, sy)) in rows.iter().enumerate() {
@@ -781,7 +713,7 @@ impl Array {
                 }
                 std::mem::swap(&mut self.ports, &mut self.spare);
                 self.cycle += 1;
-                self.trace(STAGE_SAMPLE, slice.z, row);
+                self.trace(Stage::Sample, slice.z, row);
             }
             self.stages.sample += len as u64;
         }
@@ -903,7 +835,7 @@ impl Array {
                 );
                 row_lines[k] = line;
             }
-            self.advance(STAGE_MERGE, 0, row, width);
+            self.advance_driving(Stage::Merge, 0, row, width, &drive);
         }
         // y pass: child row r takes parent rows 2 r - 1 ..= 2 r + 1.
         let (fc, fa, fm) = (
@@ -951,7 +883,7 @@ impl Array {
             pe.set_rays(cols);
         }
         // The y pass drains two rows behind the x pass.
-        self.advance(STAGE_MERGE, 0, prow, 2 * width);
+        self.advance(Stage::Merge, 0, prow, 2 * width);
         self.stages.merge += prow as u64 * width + 2 * width;
         Ok(())
     }
@@ -988,6 +920,8 @@ impl Array {
         // x pass: lines[parent row][pe][child] = the x-split R, G, B, A words.
         let mut lines: Vec<Vec<Vec<[i64; 4]>>> = vec![vec![Vec::new(); p]; prow];
         let grid = (fg.lo[0], fg.hi[0]);
+        // The ports of each parent row, kept for the waveforms only.
+        let mut drives: Vec<Vec<Ports>> = Vec::new();
         for (row, row_lines) in lines.iter_mut().enumerate() {
             let drive: Vec<Ports> = self.pes.iter().map(|pe| pe.split_drive(row)).collect();
             for &k in &self.order {
@@ -996,6 +930,9 @@ impl Array {
                 let mut line = Vec::new();
                 self.pes[k].split_x(&dp, row, &children[k], grid, from_right, &mut line)?;
                 row_lines[k] = line;
+            }
+            if self.probes.is_some() {
+                drives.push(drive);
             }
         }
         // y pass, per PE from its own line buffer.
@@ -1042,8 +979,12 @@ impl Array {
         }
         let cycles = brows as u64 * width + width;
         for c in 0..cycles {
-            self.cycle += 1;
-            self.trace(STAGE_SPLIT, 0, (c / width.max(1)) as usize);
+            // Child row r is written from parent rows r / 2 and the next:
+            // its cycles show parent row r / 2 on the links (the last row
+            // of latency, none).
+            let r = (c / width.max(1)) as usize;
+            let shown = drives.get(r / 2).filter(|_| r < brows);
+            self.advance_driving(Stage::Split, 0, r, 1, shown.map_or(&[], Vec::as_slice));
         }
         self.stages.split += cycles;
         Ok(())
@@ -1091,7 +1032,7 @@ impl Array {
                 self.pes[k].fold_x(&dp, grid, from_left, &mut line)?;
                 row_lines[k] = line;
             }
-            self.advance(STAGE_FOLD, 0, row, width);
+            self.advance_driving(Stage::Fold, 0, row, width, &drive);
         }
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         for (k, pe) in self.pes.iter_mut().enumerate() {
@@ -1130,7 +1071,7 @@ impl Array {
             pe.counters.merge_outputs += (cols.len() * frows) as u64;
             pe.set_rays(cols);
         }
-        self.advance(STAGE_FOLD, 0, brows, 2 * width);
+        self.advance(Stage::Fold, 0, brows, 2 * width);
         self.stages.fold += brows as u64 * width + 2 * width;
         Ok(())
     }
@@ -1158,7 +1099,7 @@ impl Array {
             }
             most = most.max(n);
         }
-        self.advance(STAGE_READOUT, 0, 0, most as u64);
+        self.advance(Stage::Readout, 0, 0, most as u64);
         self.stages.readout += most as u64;
         let (fc, fa) = (fmt[0].lsb(), fmt[1].lsb());
         let data = raw
@@ -1198,9 +1139,17 @@ impl Array {
         }
         let samples: u64 = self.pes.iter().map(|p| p.counters.samples).sum();
         if let Some(pr) = self.probes.take() {
-            if let Some(info) = pr.tracer.finish()? {
-                let gtkw = info.vcd_path.with_extension("gtkw");
-                info.write_gtkw(&gtkw)?;
+            if let Some(info) = pr.finish()? {
+                // A save file beside each dump, opening it (one for both
+                // when they share a name: the VCD's).
+                let mut written = Vec::new();
+                for dump in [&info.vcd_path, &info.fst_path].into_iter().flatten() {
+                    let gtkw = dump.with_extension("gtkw");
+                    if !written.contains(&gtkw) {
+                        info.write_gtkw_for(&gtkw, dump)?;
+                        written.push(gtkw);
+                    }
+                }
             }
         }
         let terminated_samples = self.pes.iter().map(|p| p.counters.terminated).sum();

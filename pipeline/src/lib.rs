@@ -13,6 +13,8 @@
 //! baseplane comes out as raw accumulator words and, scaled to float, goes
 //! through the golden warp.
 //!
+//! [`probes`] declares the array's waveform signals, one table per scope.
+//!
 //! [`fixed`] is the arithmetic every datapath register uses: declared
 //! formats with `ap_fixed` quantisation and overflow semantics, exact
 //! intermediates, event counters and bit packing. [`config`] holds the
@@ -27,6 +29,7 @@ pub mod datapath;
 pub mod fixed;
 pub mod host;
 pub mod pe;
+pub mod probes;
 pub mod rtl;
 pub mod skip;
 pub mod tables;

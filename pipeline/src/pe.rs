@@ -65,11 +65,15 @@ pub struct Port {
     /// `y0, y0 + 1` of the row sampled next cycle; in a merge, the edge
     /// ray's accumulators instead (see [`Port::edge_acc`]).
     pub edge: [u16; 2],
+    /// Whether `edge` holds voxels for a row still to be sampled (the
+    /// neighbour reads them next cycle); only the waveforms read it.
+    pub edge_valid: bool,
     /// Edge ray of a merge row.
     pub edge_acc: Acc,
-    /// Front to back: the index `mx` of the edge ray on `edge_acc` (the
-    /// split and the fold check it; the back-to-front merge leaves it
-    /// `None`).
+    /// The index `mx` of the edge ray on `edge_acc`, `None` when no edge
+    /// ray is driven: the valid of the parent crossing the link (the
+    /// split and the fold check the index; the back-to-front merge finds
+    /// its parents by position and sets it for the waveforms only).
     pub edge_mx: Option<i64>,
     /// A ray migrating to the neighbour.
     pub ray: Option<RayMove>,
@@ -310,6 +314,7 @@ impl Pe {
     ) -> Result<Ports, StepError> {
         let mut out = Ports::default();
         out.left.edge = self.drive_edge(bus.next);
+        out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
         if bus.cycle >= self.row_live.len() {
             self.counters.idle += 1;
             self.last.busy = false;
@@ -596,7 +601,9 @@ impl Pe {
         let mut out = Ports::default();
         if let (Some(f), Some(l)) = (self.rays.front(), self.rays.back()) {
             out.left.edge_acc = f.acc[row];
+            out.left.edge_mx = Some(f.mx);
             out.right.edge_acc = l.acc[row];
+            out.right.edge_mx = Some(l.mx);
         }
         out
     }

@@ -71,18 +71,28 @@ pub fn golden_method(cfg: &PipelineConfig) -> Method {
 
 /// Pipeline options of `ercube render`.
 #[derive(Debug, Clone, Args)]
+#[command(group(clap::ArgGroup::new("trace_out").args(["vcd", "fst"]).multiple(true)))]
 pub struct PipelineArgs {
     #[command(flatten)]
     pub cfg: ConfigArgs,
     /// Write a VCD waveform here (and a GTKWave save file beside it).
     #[arg(long)]
     pub vcd: Option<PathBuf>,
+    /// Write an FST waveform here (GTKWave's compressed format, an order
+    /// of magnitude smaller than VCD; and a save file beside it).
+    #[arg(long)]
+    pub fst: Option<PathBuf>,
     /// PEs to trace: "all", or a list such as 0-3,8.
-    #[arg(long, default_value = "0-3", requires = "vcd")]
+    #[arg(long, default_value = "0-3", requires = "trace_out")]
     pub trace_pes: String,
     /// Cycle window to trace: A-B (inclusive), A.., or ..=B.
-    #[arg(long, requires = "vcd")]
+    #[arg(long, requires = "trace_out")]
     pub trace_cycles: Option<String>,
+    /// Signal groups to trace, comma-separated: ctrl, ports (the link
+    /// ports: rays, edge voxels, merge parents), datapath, acc; or all.
+    /// Default: ctrl,datapath,acc.
+    #[arg(long, requires = "trace_out")]
+    pub trace_signals: Option<String>,
     /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
     #[arg(long)]
     pub raw_npy: Option<PathBuf>,
@@ -94,10 +104,20 @@ pub fn pipeline_lut(cfg: &PipelineConfig, vol: &Volume, tf: &golden::tf::Transfe
 }
 
 fn tracer(a: &PipelineArgs) -> Result<Tracer> {
-    let Some(path) = &a.vcd else {
-        return Ok(Tracer::disabled());
+    let groups = match &a.trace_signals {
+        Some(text) => Some(pipeline::probes::parse_groups(text).map_err(anyhow::Error::msg)?),
+        None => None,
     };
-    let mut tc = TraceConfig::new(path).with_pes(PeFilter::parse(&a.trace_pes)?);
+    let tc = match (&a.vcd, &a.fst) {
+        (None, None) => return Ok(Tracer::disabled()),
+        (Some(v), None) => TraceConfig::new(v),
+        (None, Some(f)) => TraceConfig::new_fst(f),
+        (Some(v), Some(f)) => TraceConfig::new(v).with_fst(f),
+    };
+    let mut tc = tc.with_pes(PeFilter::parse(&a.trace_pes)?);
+    if let Some(g) = groups {
+        tc = tc.with_groups(g);
+    }
     if let Some(w) = &a.trace_cycles {
         // Accept the README's A-B as well as Rust-style ranges.
         let spec = match w.split_once('-') {

@@ -175,6 +175,55 @@ fn cli_pipeline_render_writes_everything() {
 /// `ercube render --method pipeline-ftb` reports its error against golden
 /// er-ftb at the same threshold and its termination counters, and refuses
 /// a threshold outside (0, 1] with one line.
+/// `--fst` with `--trace-signals`: the FST, its save file and the stage
+/// filter are written, the VCD of the same run holds exactly the selected
+/// groups, and the FST is the smaller file.
+#[test]
+fn cli_writes_fst_and_selects_signal_groups() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let args = [
+        "render",
+        "--scene",
+        "sphere:24",
+        "--size",
+        "32x32",
+        "--method",
+        "pipeline",
+        "--pes",
+        "4",
+        "--vcd",
+        "w.vcd",
+        "--fst",
+        "f.fst",
+        "--trace-signals",
+        "ctrl,ports",
+        "--out",
+        "p.png",
+    ];
+    let out = ercube(dir.path(), &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let p = |name: &str| dir.path().join(name);
+    for f in [
+        "w.vcd",
+        "w.gtkw",
+        "w.stage.txt",
+        "f.fst",
+        "f.gtkw",
+        "f.stage.txt",
+    ] {
+        assert!(p(f).exists(), "{f} missing: {}", describe(&args, &out));
+    }
+    let fst_gtkw = std::fs::read_to_string(p("f.gtkw")).expect("f.gtkw");
+    assert!(fst_gtkw.contains("f.fst\""), "{fst_gtkw}");
+    let trace = Trace::read(p("w.vcd")).expect("VCD reads");
+    let names: Vec<&str> = trace.names().collect();
+    assert!(names.contains(&"top.ctrl.stage"));
+    assert!(names.contains(&"top.pe_3.left.ray_valid"));
+    assert!(!names.contains(&"top.pe_0.acc_r"), "acc is not selected");
+    let size = |f: &str| std::fs::metadata(p(f)).expect("size").len();
+    assert!(size("f.fst") < size("w.vcd"));
+}
+
 #[test]
 fn cli_renders_pipeline_ftb() {
     let dir = tempfile::tempdir().unwrap();

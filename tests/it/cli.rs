@@ -794,6 +794,10 @@ fn bad_input_gives_one_line_errors() {
         (format!("{s} --fov 180"), "field of view"),
         (format!("{s} --fov -5"), "field of view"),
         (format!("{s} --fov 200"), "field of view"),
+        (
+            format!("{s} --method pipeline --pes 4 --vcd w.vcd --trace-signals ctrl,bogus"),
+            "signal group",
+        ),
         (format!("{s} --block 3"), "block size"),
         (format!("{s} --block 128"), "block size"),
         (format!("{s} --clip 1,2,3"), "clip plane"),

@@ -154,7 +154,8 @@ pub fn check_gtkw(vcd: &Path) -> usize {
     let names: std::collections::BTreeSet<&str> = trace.names().collect();
     let mut named = std::collections::BTreeSet::new();
     for line in text.lines() {
-        if line.is_empty() || line.starts_with(['[', '*', '@', '-']) {
+        // `^N file` lines name a trace's translate filter file.
+        if line.is_empty() || line.starts_with(['[', '*', '@', '-', '^']) {
             continue;
         }
         // Vectors carry GTKWave's `[msb:0]`; the reader's names do not.

@@ -35,6 +35,6 @@ fn main() -> Result<(), waves::WavesError> {
     }
     let info = tracer.finish()?.expect("tracing is on");
     info.write_gtkw(dir.join("demo.gtkw"))?;
-    println!("wrote {} and demo.gtkw", info.vcd_path.display());
+    println!("wrote {} and demo.gtkw", info.dump_path().display());
     Ok(())
 }

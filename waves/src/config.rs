@@ -97,14 +97,32 @@ pub fn parse_cycle_window(text: &str) -> Result<RangeInclusive<u64>, WavesError>
     Ok(start..=end)
 }
 
+/// A named group of signals that a model declares (e.g. a chip's `ctrl`,
+/// `datapath`, `ports`), selected as a whole by
+/// [`TraceConfig::with_groups`]; signals declared through
+/// [`crate::Tracer::register_in`] belong to one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Group {
+    /// The name a selection uses.
+    pub name: &'static str,
+    /// Whether the group is traced when no selection is given: models
+    /// keep bulky groups off by default so that a plain trace stays small.
+    pub default: bool,
+}
+
 /// Options of a trace. Built with [`TraceConfig::new`] and the `with_*`
-/// methods; the defaults trace everything.
+/// methods; the defaults trace every signal (of every group on by default)
+/// into one VCD.
 #[derive(Clone, Debug)]
 pub struct TraceConfig {
-    pub(crate) path: PathBuf,
+    /// The VCD file, if one is written.
+    pub(crate) path: Option<PathBuf>,
+    /// The FST file, if one is written.
+    pub(crate) fst: Option<PathBuf>,
     pub(crate) pes: PeFilter,
     pub(crate) cycles: RangeInclusive<u64>,
     pub(crate) signals: Vec<String>,
+    pub(crate) groups: Option<BTreeSet<String>>,
     pub(crate) clock: bool,
 }
 
@@ -112,11 +130,50 @@ impl TraceConfig {
     /// Trace everything into the VCD file `path`, with a `top.clk` signal.
     pub fn new(path: impl Into<PathBuf>) -> Self {
         TraceConfig {
-            path: path.into(),
+            path: Some(path.into()),
+            fst: None,
             pes: PeFilter::All,
             cycles: 0..=u64::MAX,
             signals: Vec::new(),
+            groups: None,
             clock: true,
+        }
+    }
+
+    /// Trace everything into the FST file `path` only (no VCD).
+    pub fn new_fst(path: impl Into<PathBuf>) -> Self {
+        TraceConfig {
+            path: None,
+            fst: Some(path.into()),
+            ..TraceConfig::new(PathBuf::new())
+        }
+    }
+
+    /// Also write the same values as FST to `path`: one record, two
+    /// files, so a test or a designer can compare them.
+    pub fn with_fst(mut self, path: impl Into<PathBuf>) -> Self {
+        self.fst = Some(path.into());
+        self
+    }
+
+    /// Trace only the signals of these groups (and the ungrouped ones);
+    /// without this call, the groups on by default ([`Group::default`]).
+    /// Which names exist is the model's business: it checks them
+    /// ([`crate::Tracer::selected_groups`]).
+    pub fn with_groups<I, S>(mut self, groups: I) -> Self
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        self.groups = Some(groups.into_iter().map(Into::into).collect());
+        self
+    }
+
+    /// Whether the signals of `group` are traced.
+    pub fn selects_group(&self, group: &Group) -> bool {
+        match &self.groups {
+            None => group.default,
+            Some(set) => set.contains(group.name),
         }
     }
 
@@ -154,9 +211,14 @@ impl TraceConfig {
         self
     }
 
-    /// The VCD file that [`crate::Tracer::finish`] creates.
-    pub fn path(&self) -> &Path {
-        &self.path
+    /// The VCD file that [`crate::Tracer::finish`] creates, if any.
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// The FST file that [`crate::Tracer::finish`] creates, if any.
+    pub fn fst_path(&self) -> Option<&Path> {
+        self.fst.as_deref()
     }
 
     /// Whether a signal `name` in `scope` is selected by the PE and name

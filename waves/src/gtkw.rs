@@ -1,8 +1,9 @@
-//! GTKWave save files (`.gtkw`) that open a trace with one group per scope.
+//! GTKWave save files (`.gtkw`) that open a trace with one group per scope,
+//! and the translate filter files that show enumerations by name.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::atomic::temp_beside;
 use crate::error::WavesError;
@@ -14,6 +15,7 @@ const TR_HEX: u32 = 0x2;
 const TR_BIN: u32 = 0x8;
 const TR_RJUSTIFY: u32 = 0x20;
 const TR_BLANK: u32 = 0x200;
+const TR_FTRANSLATED: u32 = 0x2000;
 const TR_GRP_BEGIN: u32 = 0x80_0000;
 const TR_GRP_END: u32 = 0x100_0000;
 
@@ -33,7 +35,62 @@ impl TraceInfo {
     /// because GTKWave resolves a relative one against its own working
     /// directory, not the save file's.
     pub fn gtkw_text(&self) -> String {
-        let dump = std::path::absolute(&self.vcd_path).unwrap_or_else(|_| self.vcd_path.clone());
+        self.gtkw_text_with(self.dump_path(), &[], &[])
+    }
+
+    /// The file a save file opens: the VCD if one was written, else the
+    /// FST.
+    pub fn dump_path(&self) -> &Path {
+        self.vcd_path
+            .as_deref()
+            .or(self.fst_path.as_deref())
+            .unwrap_or(Path::new(""))
+    }
+
+    /// The translate filter files of the enumerations for a save file at
+    /// `gtkw`: `<stem>.<signal>.txt` beside it (`run.stage.txt` for
+    /// `top.ctrl.stage` in `run.gtkw`), one `value name` line per value,
+    /// the value in hex as GTKWave prints a vector. Signals with the same
+    /// names share a file; returns, per signal, its file's index in the
+    /// list, and the list of (path, text).
+    pub fn filter_files(&self, gtkw: &Path) -> (Vec<Option<usize>>, Vec<(PathBuf, String)>) {
+        let stem = gtkw.file_stem().unwrap_or_default().to_string_lossy();
+        let mut files: Vec<(PathBuf, String)> = Vec::new();
+        let mut of = Vec::with_capacity(self.signals.len());
+        for sig in &self.signals {
+            if sig.names.is_empty() {
+                of.push(None);
+                continue;
+            }
+            let mut text = format!("# values of {}, written by ercube waves\n", sig.full_name());
+            let body: String = sig
+                .names
+                .iter()
+                .map(|(v, n)| format!("{v:X} {n}\n"))
+                .collect();
+            text.push_str(&body);
+            // One file per distinct table: the first signal names it; a
+            // different table under the same leaf name takes the full name.
+            if let Some(i) = files.iter().position(|(_, t)| t.ends_with(&body)) {
+                of.push(Some(i));
+                continue;
+            }
+            let mut path = gtkw.with_file_name(format!("{stem}.{}.txt", sig.name));
+            if files.iter().any(|(p, _)| *p == path) {
+                let full = sig.full_name().replace('.', "_");
+                path = gtkw.with_file_name(format!("{stem}.{full}.txt"));
+            }
+            files.push((path, text));
+            of.push(Some(files.len() - 1));
+        }
+        (of, files)
+    }
+
+    /// The save file's text opening `dump`, signal `i` shown through
+    /// filter file `files[filters[i]]` if that is set (absolute paths:
+    /// GTKWave resolves them against its working directory).
+    fn gtkw_text_with(&self, dump: &Path, filters: &[Option<usize>], files: &[PathBuf]) -> String {
+        let dump = std::path::absolute(dump).unwrap_or_else(|_| dump.to_path_buf());
         let mut s = String::new();
         let _ = writeln!(s, "[*] GTKWave save file written by ercube waves");
         let _ = writeln!(s, "[dumpfile] \"{}\"", dump.display());
@@ -63,41 +120,70 @@ impl TraceInfo {
         }
         // GTKWave keeps the last `@flags` line for the traces that follow,
         // so one is written only when the flags change.
-        let mut flags = None;
-        let mut set_flags = |s: &mut String, f: u32| {
-            if flags != Some(f) {
+        fn set_flags(s: &mut String, flags: &mut Option<u32>, f: u32) {
+            if *flags != Some(f) {
                 let _ = writeln!(s, "@{f:x}");
-                flags = Some(f);
+                *flags = Some(f);
             }
-        };
-        let signal_flags = |i: usize| {
+        }
+        let mut flags = None;
+        let filter = |i: usize| filters.get(i).copied().flatten();
+        // GTKWave's own order: flags, then `^<n> <filter file>` (n counts
+        // the files from 1), then the trace (`write_save_helper` in its
+        // savefile.c).
+        let trace = |s: &mut String, flags: &mut Option<u32>, i: usize| {
             let radix = if self.signals[i].width == 1 {
                 TR_BIN
             } else {
                 TR_HEX
             };
-            TR_RJUSTIFY | radix
+            let f = filter(i);
+            let translated = if f.is_some() { TR_FTRANSLATED } else { 0 };
+            set_flags(s, flags, TR_RJUSTIFY | radix | translated);
+            if let Some(n) = f {
+                let p = &files[n];
+                let p = std::path::absolute(p).unwrap_or_else(|_| p.clone());
+                let _ = writeln!(s, "^{} {}", n + 1, p.display());
+            }
+            let _ = writeln!(s, "{}", self.signals[i].gtkwave_name());
         };
         for &i in &ungrouped {
-            set_flags(&mut s, signal_flags(i));
-            let _ = writeln!(s, "{}", self.signals[i].gtkwave_name());
+            trace(&mut s, &mut flags, i);
         }
         for (name, members) in &groups {
-            set_flags(&mut s, TR_GRP_BEGIN | TR_BLANK);
+            set_flags(&mut s, &mut flags, TR_GRP_BEGIN | TR_BLANK);
             let _ = writeln!(s, "-{name}");
             for &i in members {
-                set_flags(&mut s, signal_flags(i));
-                let _ = writeln!(s, "{}", self.signals[i].gtkwave_name());
+                trace(&mut s, &mut flags, i);
             }
-            set_flags(&mut s, TR_GRP_END | TR_BLANK);
+            set_flags(&mut s, &mut flags, TR_GRP_END | TR_BLANK);
             let _ = writeln!(s, "-{name}");
         }
         s
     }
 
-    /// Writes [`TraceInfo::gtkw_text`] to `path` (atomically, like the VCD).
+    /// Writes a save file to `path` opening [`TraceInfo::dump_path`]
+    /// (atomically, like the trace), and the translate filter files of
+    /// its enumerations beside it ([`TraceInfo::filter_files`]).
     pub fn write_gtkw(&self, path: impl AsRef<Path>) -> Result<(), WavesError> {
-        write_atomically(path.as_ref(), self.gtkw_text().as_bytes())
+        self.write_gtkw_for(path, self.dump_path())
+    }
+
+    /// As [`TraceInfo::write_gtkw`], opening `dump` (e.g. the FST of a
+    /// trace that wrote both).
+    pub fn write_gtkw_for(
+        &self,
+        path: impl AsRef<Path>,
+        dump: impl AsRef<Path>,
+    ) -> Result<(), WavesError> {
+        let path = path.as_ref();
+        let (of, files) = self.filter_files(path);
+        for (p, text) in &files {
+            write_atomically(p, text.as_bytes())?;
+        }
+        let paths: Vec<PathBuf> = files.into_iter().map(|(p, _)| p).collect();
+        let text = self.gtkw_text_with(dump.as_ref(), &of, &paths);
+        write_atomically(path, text.as_bytes())
     }
 }
 
@@ -124,9 +210,11 @@ mod tests {
             scope,
             name: name.into(),
             width,
+            names: Vec::new(),
         };
         let info = TraceInfo {
-            vcd_path: "/tmp/t/x.vcd".into(),
+            vcd_path: Some("/tmp/t/x.vcd".into()),
+            fst_path: None,
             signals: vec![
                 sig(ScopePath::top(), "clk", 1),
                 sig(ScopePath::pe(0), "acc", 16),

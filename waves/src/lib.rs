@@ -1,6 +1,7 @@
 //! Signal probes for the ercube cycle model: a registry of hierarchical
-//! signals, a VCD writer that costs one branch per cycle when off, a VCD
-//! reader for tests, and GTKWave save files.
+//! signals, a VCD and FST writer that costs one branch per cycle when off,
+//! a VCD reader for tests, and GTKWave save files with translate filters
+//! for enumerations.
 //!
 //! # Conventions
 //!
@@ -59,10 +60,11 @@ mod error;
 mod gtkw;
 mod read;
 mod scope;
+mod sinks;
 mod tracer;
 
 pub use bitvec;
-pub use config::{parse_cycle_window, PeFilter, TraceConfig};
+pub use config::{parse_cycle_window, Group, PeFilter, TraceConfig};
 pub use error::WavesError;
 pub use read::{Change, SignalTrace, Trace, WaveValue};
 pub use scope::{pe_scope_name, ScopePath, TOP};

@@ -1,20 +1,16 @@
 //! The probe registry and VCD writer used by the cycle model.
 
-use std::collections::HashSet;
+use std::collections::{BTreeSet, HashSet};
 use std::fmt;
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 use bitvec::prelude::*;
-use tempfile::NamedTempFile;
-use vcd::{IdCode, ReferenceIndex, ScopeType, TimescaleUnit, VarType};
 
-use crate::atomic::temp_beside;
-use crate::config::TraceConfig;
+use crate::config::{Group, TraceConfig};
 use crate::error::WavesError;
 use crate::scope::{is_valid_name, ScopePath};
+use crate::sinks::Sinks;
 
 /// VCD time units (ns) per clock cycle: cycle `c` starts at time `10 * c`.
 ///
@@ -64,6 +60,10 @@ pub struct SignalInfo {
     pub name: String,
     /// Declared width in bits.
     pub width: u32,
+    /// Names of the signal's values, for an enumeration (see
+    /// [`Tracer::register_enum`]): viewers show them through a translate
+    /// filter file ([`TraceInfo::write_gtkw`]). Empty for plain numbers.
+    pub names: Vec<(u64, String)>,
 }
 
 impl SignalInfo {
@@ -88,8 +88,10 @@ impl SignalInfo {
 /// write a GTKWave save file ([`TraceInfo::write_gtkw`]).
 #[derive(Clone, Debug)]
 pub struct TraceInfo {
-    /// The VCD file written.
-    pub vcd_path: PathBuf,
+    /// The VCD file written, if one was asked for.
+    pub vcd_path: Option<PathBuf>,
+    /// The FST file written, if one was asked for.
+    pub fst_path: Option<PathBuf>,
     /// The traced signals in header order (the clock first, if enabled).
     pub signals: Vec<SignalInfo>,
     /// First and last cycle actually sampled, `None` if no cycle was.
@@ -99,7 +101,6 @@ pub struct TraceInfo {
 /// Per-signal state needed on the hot path, kept small and apart from the
 /// names so that a sample touches as little memory as possible.
 struct Slot {
-    code: IdCode,
     width: u32,
     mask: u64,
     last: u64,
@@ -112,11 +113,10 @@ struct Slot {
 /// words.
 struct Active {
     config: TraceConfig,
-    tmp: NamedTempFile,
-    out: vcd::Writer<BufWriter<File>>,
+    sinks: Sinks,
     slots: Vec<Slot>,
     info: Vec<SignalInfo>,
-    clock: Option<IdCode>,
+    clock: Option<usize>,
     header_written: bool,
     cycle: Option<u64>,
     first_cycle: Option<u64>,
@@ -125,7 +125,6 @@ struct Active {
     /// changes in the cycle, so quiet cycles cost nothing in the file.
     need_timestamp: bool,
     error: Option<WavesError>,
-    line: Vec<u8>,
     scratch: BitVec<u64, Lsb0>,
 }
 
@@ -184,11 +183,7 @@ impl Tracer {
     /// run never leaves a truncated VCD under the expected name. The
     /// directory must exist.
     pub fn new(config: TraceConfig) -> Result<Self, WavesError> {
-        let tmp = temp_beside(&config.path)?;
-        let file = tmp
-            .as_file()
-            .try_clone()
-            .map_err(|e| WavesError::io("open", tmp.path(), e))?;
+        let sinks = Sinks::open(config.path.as_deref(), config.fst.as_deref())?;
 
         let (start, end) = (
             *config.cycles.start(),
@@ -196,8 +191,7 @@ impl Tracer {
         );
         let len = if start > end { 0 } else { end - start + 1 };
         let mut active = Box::new(Active {
-            tmp,
-            out: vcd::Writer::new(BufWriter::with_capacity(1 << 16, file)),
+            sinks,
             slots: Vec::new(),
             info: Vec::new(),
             clock: None,
@@ -207,7 +201,6 @@ impl Tracer {
             time: 0,
             need_timestamp: false,
             error: None,
-            line: Vec::with_capacity(128),
             scratch: BitVec::new(),
             config,
         });
@@ -215,7 +208,7 @@ impl Tracer {
         if active.config.clock {
             let top = ScopePath::top();
             names.insert(format!("{top}.{CLOCK_NAME}"));
-            active.clock = Some(active.push_slot(top, CLOCK_NAME, 1));
+            active.clock = Some(active.push_slot(top, CLOCK_NAME, 1, Vec::new()));
         }
         Ok(Tracer {
             start,
@@ -249,6 +242,50 @@ impl Tracer {
         name: &str,
         width: u32,
     ) -> Result<SignalId, WavesError> {
+        self.declare(None, scope, name, width, &[])
+    }
+
+    /// Declares a signal of `group` (see [`TraceConfig::with_groups`]):
+    /// traced only when the group is selected, or, with no selection, when
+    /// the group is on by default. Otherwise as [`Tracer::register`].
+    pub fn register_in(
+        &mut self,
+        group: &Group,
+        scope: &ScopePath,
+        name: &str,
+        width: u32,
+    ) -> Result<SignalId, WavesError> {
+        self.declare(Some(group), scope, name, width, &[])
+    }
+
+    /// Declares an enumeration: a signal of `group` whose values have
+    /// `names` (value, name). The file holds the numbers; the names reach
+    /// viewers through the translate filter file that
+    /// [`TraceInfo::write_gtkw`] writes beside the save file.
+    pub fn register_enum_in(
+        &mut self,
+        group: &Group,
+        scope: &ScopePath,
+        name: &str,
+        width: u32,
+        names: &[(u64, &str)],
+    ) -> Result<SignalId, WavesError> {
+        self.declare(Some(group), scope, name, width, names)
+    }
+
+    /// The groups the configuration selects, `None` for the defaults.
+    pub fn selected_groups(&self) -> Option<&BTreeSet<String>> {
+        self.active.as_ref().and_then(|a| a.config.groups.as_ref())
+    }
+
+    fn declare(
+        &mut self,
+        group: Option<&Group>,
+        scope: &ScopePath,
+        name: &str,
+        width: u32,
+        names: &[(u64, &str)],
+    ) -> Result<SignalId, WavesError> {
         let full = format!("{scope}.{name}");
         if !is_valid_name(name) {
             return Err(WavesError::InvalidName(name.to_string()));
@@ -275,10 +312,11 @@ impl Tracer {
         if !self.names.insert(full.clone()) {
             return Err(WavesError::DuplicateSignal(full));
         }
-        if !a.config.selects(scope, name) {
+        if !a.config.selects(scope, name) || !group.is_none_or(|g| a.config.selects_group(g)) {
             return Ok(SignalId::NONE);
         }
-        a.push_slot(scope.clone(), name, width);
+        let names = names.iter().map(|&(v, n)| (v, n.to_string())).collect();
+        a.push_slot(scope.clone(), name, width, names);
         // Ids index `slots`; u32::MAX is NONE and unreachable in practice
         // (MAX_WIDTH bits times 4 G signals would not fit in memory).
         Ok(SignalId((a.slots.len() - 1) as u32))
@@ -317,7 +355,7 @@ impl Tracer {
         self.active.as_ref().and_then(|a| a.error.as_ref())
     }
 
-    /// Completes the VCD and renames it to its final path.
+    /// Completes the files (VCD, FST) and renames them to their final paths.
     ///
     /// Returns `Ok(None)` for a disabled tracer, and the first error met
     /// while sampling, if any (in which case no file is created).
@@ -328,43 +366,38 @@ impl Tracer {
         if let Some(e) = a.error.take() {
             return Err(e);
         }
-        let tmp_path = a.tmp.path().to_path_buf();
+        let tmp_path = a.sinks.error_path();
         let io = |e: std::io::Error| WavesError::io("write trace", &tmp_path, e);
         if !a.header_written {
             a.write_header().map_err(io)?;
         }
+        let mut end = None;
         if let Some(c) = a.cycle {
             a.close_cycle(c).map_err(io)?;
             // A final timestamp gives the last cycle its full width in
             // viewers instead of ending the trace at its first instant.
-            a.out
-                .timestamp((c + 1) * TIME_UNITS_PER_CYCLE)
-                .map_err(io)?;
+            end = Some((c + 1) * TIME_UNITS_PER_CYCLE);
         }
-        a.out.flush().map_err(io)?;
         let Active {
-            config,
-            tmp,
-            out,
+            sinks,
             info,
             first_cycle,
             cycle,
             ..
         } = *a;
-        drop(out);
-        let path = config.path;
-        tmp.persist(&path)
-            .map_err(|e| WavesError::io("rename trace to", &path, e.error))?;
+        let written = sinks.finish(end)?;
         Ok(Some(TraceInfo {
-            vcd_path: path,
+            vcd_path: written.vcd,
+            fst_path: written.fst,
             signals: info,
             cycles: first_cycle.zip(cycle).map(|(a, b)| a..=b),
         }))
     }
 
-    /// Path of the VCD file this tracer will create, if enabled.
+    /// Path of the first file this tracer will create (the VCD if it
+    /// writes one, else the FST), if enabled.
     pub fn path(&self) -> Option<&Path> {
-        self.active.as_ref().map(|a| a.config.path.as_path())
+        self.active.as_ref().map(|a| a.sinks.path())
     }
 }
 
@@ -421,10 +454,14 @@ impl Sampler<'_> {
 }
 
 impl Active {
-    fn push_slot(&mut self, scope: ScopePath, name: &str, width: u32) -> IdCode {
-        let code = IdCode::from(self.slots.len() as u64);
+    fn push_slot(
+        &mut self,
+        scope: ScopePath,
+        name: &str,
+        width: u32,
+        names: Vec<(u64, String)>,
+    ) -> usize {
         self.slots.push(Slot {
-            code,
             width,
             mask: if width >= 64 {
                 u64::MAX
@@ -439,8 +476,9 @@ impl Active {
             scope,
             name: name.to_string(),
             width,
+            names,
         });
-        code
+        self.slots.len() - 1
     }
 
     fn fail(&mut self, e: WavesError) {
@@ -450,7 +488,7 @@ impl Active {
     }
 
     fn io_fail(&mut self, e: std::io::Error) {
-        let path = self.tmp.path().to_path_buf();
+        let path = self.sinks.error_path();
         self.fail(WavesError::io("write trace", path, e));
     }
 
@@ -508,8 +546,10 @@ impl Active {
         self.first_cycle.get_or_insert(cycle);
         self.time = cycle * TIME_UNITS_PER_CYCLE;
         if let Some(clk) = self.clock {
-            self.out.timestamp(self.time)?;
-            self.out.change_scalar(clk, true)?;
+            self.sinks.timestamp(self.time)?;
+            self.sinks.bits.clear();
+            self.sinks.bits.push(b'1');
+            self.sinks.change(clk)?;
             self.need_timestamp = false;
         } else {
             self.need_timestamp = true;
@@ -519,71 +559,18 @@ impl Active {
 
     fn close_cycle(&mut self, cycle: u64) -> std::io::Result<()> {
         if let Some(clk) = self.clock {
-            self.out
+            self.sinks
                 .timestamp(cycle * TIME_UNITS_PER_CYCLE + TIME_UNITS_PER_CYCLE / 2)?;
-            self.out.change_scalar(clk, false)?;
+            self.sinks.bits.clear();
+            self.sinks.bits.push(b'0');
+            self.sinks.change(clk)?;
         }
         Ok(())
     }
 
     fn write_header(&mut self) -> std::io::Result<()> {
         self.header_written = true;
-        let out = &mut self.out;
-        out.version(concat!("ercube waves ", env!("CARGO_PKG_VERSION")))?;
-        out.comment(&format!(
-            "one clock cycle = {TIME_UNITS_PER_CYCLE} time units: \
-             values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
-        ))?;
-        out.timescale(1, TimescaleUnit::NS)?;
-
-        // Scopes must be written as a tree, each opened once, while signals
-        // were registered in arbitrary order: group them first, keeping
-        // the order in which scopes and signals first appeared.
-        #[derive(Default)]
-        struct Node {
-            name: String,
-            vars: Vec<usize>,
-            children: Vec<Node>,
-        }
-        let mut root = Node::default();
-        for (i, info) in self.info.iter().enumerate() {
-            let mut node = &mut root;
-            for part in info.scope.parts() {
-                let pos = match node.children.iter().position(|c| &c.name == part) {
-                    Some(p) => p,
-                    None => {
-                        node.children.push(Node {
-                            name: part.clone(),
-                            ..Node::default()
-                        });
-                        node.children.len() - 1
-                    }
-                };
-                node = &mut node.children[pos];
-            }
-            node.vars.push(i);
-        }
-        fn write_node(
-            out: &mut vcd::Writer<BufWriter<File>>,
-            node: &Node,
-            slots: &[Slot],
-            info: &[SignalInfo],
-        ) -> std::io::Result<()> {
-            out.scope_def(ScopeType::Module, &node.name)?;
-            for &i in &node.vars {
-                let w = slots[i].width;
-                let index = (w > 1).then(|| ReferenceIndex::Range(w as i32 - 1, 0));
-                out.var_def(VarType::Wire, w, slots[i].code, &info[i].name, index)?;
-            }
-            for child in &node.children {
-                write_node(out, child, slots, info)?;
-            }
-            out.upscope()
-        }
-        for top in &root.children {
-            write_node(out, top, &self.slots, &self.info)?;
-        }
-        out.enddefinitions()
+        self.sinks.header(&self.info)
     }
 
     #[inline]
@@ -664,7 +651,7 @@ impl Active {
     fn timestamp_if_needed(&mut self) -> std::io::Result<()> {
         if self.need_timestamp {
             self.need_timestamp = false;
-            self.out.timestamp(self.time)?;
+            self.sinks.timestamp(self.time)?;
         }
         Ok(())
     }
@@ -672,39 +659,24 @@ impl Active {
     fn emit_narrow(&mut self, i: usize) -> std::io::Result<()> {
         self.timestamp_if_needed()?;
         let slot = &self.slots[i];
-        if slot.width == 1 {
-            return self.out.change_scalar(slot.code, slot.last != 0);
-        }
-        // `vcd::Writer::change_vector` formats each bit through `write!`;
-        // building the line here is several times faster and produces the
-        // same text.
-        let line = &mut self.line;
-        line.clear();
-        line.push(b'b');
-        line.extend(
+        let bits = &mut self.sinks.bits;
+        bits.clear();
+        bits.extend(
             (0..slot.width)
                 .rev()
                 .map(|b| b'0' + ((slot.last >> b) & 1) as u8),
         );
-        line.push(b' ');
-        write!(line, "{}", slot.code)?;
-        line.push(b'\n');
-        self.out.writer().write_all(line)
+        self.sinks.change(i)
     }
 
     fn emit_wide(&mut self, i: usize) -> std::io::Result<()> {
         self.timestamp_if_needed()?;
-        let slot = &self.slots[i];
-        let Some(bits) = slot.wide.as_ref() else {
+        let Some(wide) = self.slots[i].wide.as_ref() else {
             return Ok(());
         };
-        let line = &mut self.line;
-        line.clear();
-        line.push(b'b');
-        line.extend(bits.iter().by_vals().rev().map(|b| b'0' + b as u8));
-        line.push(b' ');
-        write!(line, "{}", slot.code)?;
-        line.push(b'\n');
-        self.out.writer().write_all(line)
+        let bits = &mut self.sinks.bits;
+        bits.clear();
+        bits.extend(wide.iter().by_vals().rev().map(|b| b'0' + b as u8));
+        self.sinks.change(i)
     }
 }

@@ -2,7 +2,7 @@
 //! the array's structure, cycle accounting and waveforms (`model`), front
 //! to back (`ftb`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
-//! estimator against yosys (`cost`). What runs the `ercube` program is in
+//! estimator against yosys (`cost`), and the waveforms beyond the default set (`traces`). What runs the `ercube` program is in
 //! the root `tests/it/`.
 
 #[path = "../../../tests/support/chip.rs"]
@@ -18,3 +18,4 @@ mod ftb;
 mod model;
 mod skip;
 mod stress;
+mod traces;

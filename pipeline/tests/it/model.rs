@@ -33,6 +33,7 @@ use pipeline::config::PipelineConfig;
 use pipeline::datapath::Datapath;
 use pipeline::fixed::{Format, Overflow, Quant, QuantStats};
 use pipeline::host::plan;
+use pipeline::probes::Stage;
 use pipeline::tables::Tables;
 use waves::{PeFilter, Trace, TraceConfig, Tracer, TIME_UNITS_PER_CYCLE};
 
@@ -546,9 +547,9 @@ fn runs(cycles: &[u64]) -> String {
     )
 }
 
-/// Stage codes on `top.ctrl.stage` (`pipeline::array`'s `STAGE_*`).
-const STAGE_SAMPLE: u64 = 0;
-const STAGE_READOUT: u64 = 3;
+/// Stage codes on `top.ctrl.stage`.
+const STAGE_SAMPLE: u64 = Stage::Sample as u64;
+const STAGE_READOUT: u64 = Stage::Readout as u64;
 
 /// The readout stage takes the frame's last `stages.readout` cycles
 /// (cycles are numbered from 1: the model records cycle `c` after its
@@ -627,7 +628,8 @@ fn waveform_reads_back_as_the_models_results() {
         "every slice-0 sample of a fully traced array is in the trace"
     );
     let lines = check_gtkw(&vcd);
-    // clk, three controller signals, eleven per PE.
+    // clk, three controller signals, eleven per PE: the default groups
+    // (ctrl, datapath, acc); the link ports are off by default.
     assert_eq!(lines, 1 + 3 + 4 * 11, "signals in the .gtkw");
     crate::tools::vcd2fst(&vcd);
     let (wrong, busy) = readout_mislabelled(&vcd, &frame, &[0, 1, 2, 3]);

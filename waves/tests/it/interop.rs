@@ -55,7 +55,11 @@ fn expected(c: u64) -> Vec<(Vec<String>, &'static str, String)> {
 }
 
 fn write_trace(path: &Path) -> TraceInfo {
-    let mut t = Tracer::new(TraceConfig::new(path)).unwrap();
+    write_with(TraceConfig::new(path))
+}
+
+fn write_with(config: TraceConfig) -> TraceInfo {
+    let mut t = Tracer::new(config).unwrap();
     let st = t
         .register(&ScopePath::top().child("ctrl"), "state", 3)
         .unwrap();
@@ -128,6 +132,85 @@ fn wellen_reads_the_vcd() {
     let path = dir.path().join("w.vcd");
     write_trace(&path);
     check_with_wellen(&path);
+}
+
+/// One tracer writes VCD and FST from the same records: wellen reads both
+/// back as the model's values (so the FST equals the VCD), the FST alone
+/// too, and the FST is the smaller.
+#[test]
+fn fst_reads_back_as_the_vcd() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vcd, fst) = (dir.path().join("b.vcd"), dir.path().join("b.fst"));
+    let info = write_with(TraceConfig::new(&vcd).with_fst(&fst));
+    assert_eq!(info.vcd_path.as_deref(), Some(vcd.as_path()));
+    assert_eq!(info.fst_path.as_deref(), Some(fst.as_path()));
+    check_with_wellen(&vcd);
+    check_with_wellen(&fst);
+    let only = dir.path().join("only.fst");
+    let info = write_with(TraceConfig::new_fst(&only));
+    assert!(info.vcd_path.is_none());
+    assert_eq!(info.dump_path(), only.as_path());
+    check_with_wellen(&only);
+    let size = |p: &Path| std::fs::metadata(p).unwrap().len();
+    assert!(
+        size(&fst) < size(&vcd),
+        "FST {} >= VCD {}",
+        size(&fst),
+        size(&vcd)
+    );
+    // No temporary file is left beside them.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+}
+
+/// Groups select signals: with no selection the groups on by default,
+/// with one exactly the named groups; ungrouped signals always.
+#[test]
+fn groups_select_signals() {
+    use waves::Group;
+    const ON: Group = Group {
+        name: "on",
+        default: true,
+    };
+    const OFF: Group = Group {
+        name: "off",
+        default: false,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let traced = |config: TraceConfig| -> Vec<bool> {
+        let mut t = Tracer::new(config).unwrap();
+        let top = ScopePath::top();
+        let ids = [
+            t.register(&top, "plain", 1).unwrap(),
+            t.register_in(&ON, &top, "a", 1).unwrap(),
+            t.register_in(&OFF, &top, "b", 1).unwrap(),
+            t.register_enum_in(&OFF, &top, "e", 2, &[(0, "idle"), (1, "busy")])
+                .unwrap(),
+        ];
+        ids.iter().map(|id| id.is_traced()).collect()
+    };
+    let path = dir.path().join("g.vcd");
+    assert_eq!(traced(TraceConfig::new(&path)), [true, true, false, false]);
+    assert_eq!(
+        traced(TraceConfig::new(&path).with_groups(["off"])),
+        [true, false, true, true]
+    );
+    // The enumeration's names go to a filter file the save file uses.
+    let mut t = Tracer::new(TraceConfig::new(&path)).unwrap();
+    let e = t
+        .register_enum_in(&ON, &ScopePath::top(), "e", 2, &[(0, "idle"), (3, "done")])
+        .unwrap();
+    t.sample(0, |s| s.set(e, 3));
+    let info = t.finish().unwrap().unwrap();
+    let gtkw = dir.path().join("g.gtkw");
+    info.write_gtkw(&gtkw).unwrap();
+    let filter = std::fs::read_to_string(dir.path().join("g.e.txt")).unwrap();
+    assert!(filter.ends_with("0 idle\n3 done\n"), "{filter}");
+    let text = std::fs::read_to_string(&gtkw).unwrap();
+    assert!(text.contains("@2022\n^1 "), "{text}");
 }
 
 #[test]

@@ -1,0 +1,515 @@
+//! The array's waveform probes, declared once beside the state they read:
+//! one table per scope (the controller, a PE, a PE's link port), each line
+//! a signal's name, group, width and how it is read. Registration and
+//! sampling both walk the tables, so a new signal is one line here and no
+//! edit in the array.
+//!
+//! Groups (`--trace-signals`, [`waves::TraceConfig::with_groups`]):
+//! `ctrl` (the controller), `datapath` (a PE's sample path and counters),
+//! `acc` (its accumulators after compositing) are on by default; `ports`
+//! (both link ports of every PE: rays migrating, edge voxels, merge
+//! parents, each as valid and payload) is off by default, since it more
+//! than doubles the signals of a PE.
+//!
+//! The stage is a [`Stage`], written as its numeric code; its names reach
+//! GTKWave through the translate filter file written beside the `.gtkw`
+//! (`<name>.stage.txt`).
+
+use waves::{Group, Sampler, ScopePath, SignalId, Tracer, WavesError};
+
+use crate::config::{Order, PipelineConfig};
+use crate::datapath::SampleTrace;
+use crate::fixed::Format;
+use crate::pe::{Pe, Port, Ports};
+
+/// The controller's stage, `top.ctrl.stage`. The codes are those the
+/// waveforms have always carried, so raw traces compare across versions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Sampling a slice.
+    Sample = 0,
+    /// Rays migrating to their owners.
+    Migrate = 1,
+    /// The Bartlett merge at a region boundary.
+    Merge = 2,
+    /// Streaming the baseplane out.
+    Readout = 3,
+    /// A slice the controller skipped (its occupancy bits are all clear).
+    Skip = 4,
+    /// Front to back: the bilinear split at a region boundary.
+    Split = 5,
+    /// Front to back: the fold after the last region.
+    Fold = 6,
+}
+
+impl Stage {
+    /// Every stage, in code order.
+    pub const ALL: [Stage; 7] = [
+        Stage::Sample,
+        Stage::Migrate,
+        Stage::Merge,
+        Stage::Readout,
+        Stage::Skip,
+        Stage::Split,
+        Stage::Fold,
+    ];
+
+    /// The code on `top.ctrl.stage`.
+    pub fn code(self) -> u64 {
+        self as u64
+    }
+
+    /// The name viewers show.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Stage::Sample => "sample",
+            Stage::Migrate => "migrate",
+            Stage::Merge => "merge",
+            Stage::Readout => "readout",
+            Stage::Skip => "skip",
+            Stage::Split => "split",
+            Stage::Fold => "fold",
+        }
+    }
+}
+
+/// The stages' codes and names, for the translate filter.
+const STAGE_NAMES: [(u64, &str); 7] = {
+    let mut names = [(0, ""); 7];
+    let mut i = 0;
+    while i < names.len() {
+        names[i] = (Stage::ALL[i] as u64, Stage::ALL[i].name());
+        i += 1;
+    }
+    names
+};
+
+/// The controller: stage, slice and row broadcast.
+pub const CTRL: Group = Group {
+    name: "ctrl",
+    default: true,
+};
+/// A PE's sample path (ray, sample, opacities) and its ray counter.
+pub const DATAPATH: Group = Group {
+    name: "datapath",
+    default: true,
+};
+/// A PE's accumulators after compositing.
+pub const ACC: Group = Group {
+    name: "acc",
+    default: true,
+};
+/// Both link ports of every PE, valid and payload per kind.
+pub const PORTS: Group = Group {
+    name: "ports",
+    default: false,
+};
+/// Every group, in the order `--trace-signals` lists them.
+pub const GROUPS: [Group; 4] = [CTRL, PORTS, DATAPATH, ACC];
+
+/// Parses a comma-separated group list such as `ctrl,ports`; `all` is
+/// every group. An unknown name is an error naming the known ones.
+pub fn parse_groups(text: &str) -> Result<Vec<&'static str>, String> {
+    if text.trim().eq_ignore_ascii_case("all") {
+        return Ok(GROUPS.iter().map(|g| g.name).collect());
+    }
+    text.split(',')
+        .map(str::trim)
+        .map(|name| {
+            GROUPS
+                .iter()
+                .find(|g| g.name == name)
+                .map(|g| g.name)
+                .ok_or_else(|| {
+                    let known: Vec<_> = GROUPS.iter().map(|g| g.name).collect();
+                    format!(
+                        "unknown signal group {name:?} (known: {}, or all)",
+                        known.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+/// One signal: its name, group, width (from the configuration), how it
+/// is read from the state `S` of its scope, whether the configuration has
+/// it at all, and the names of its values if it is an enumeration.
+struct Probe<S> {
+    name: &'static str,
+    group: Group,
+    width: fn(&PipelineConfig) -> u32,
+    read: fn(&S) -> u64,
+    present: fn(&PipelineConfig) -> bool,
+    names: &'static [(u64, &'static str)],
+}
+
+impl<S> Probe<S> {
+    const fn new(
+        name: &'static str,
+        group: Group,
+        width: fn(&PipelineConfig) -> u32,
+        read: fn(&S) -> u64,
+    ) -> Self {
+        Probe {
+            name,
+            group,
+            width,
+            read,
+            present: |_| true,
+            names: &[],
+        }
+    }
+
+    /// An enumeration whose values have `names`.
+    const fn named(self, names: &'static [(u64, &'static str)]) -> Self {
+        Probe { names, ..self }
+    }
+
+    /// Only in configurations where `present` holds.
+    const fn only(self, present: fn(&PipelineConfig) -> bool) -> Self {
+        Probe { present, ..self }
+    }
+}
+
+fn bits(f: Format) -> u32 {
+    u32::from(f.bits())
+}
+
+/// Ray indices and rows are traced as 16-bit two's complement.
+fn index16(v: i64) -> u64 {
+    v as u64 & 0xffff
+}
+
+/// A word that crosses a link: accumulators back to front, also `merge`
+/// words front to back (the fold's differences and results), so the port
+/// carries the wider.
+fn link_color(c: &PipelineConfig) -> u32 {
+    bits(c.accum_color).max(bits(c.merge))
+}
+fn link_alpha(c: &PipelineConfig) -> u32 {
+    bits(c.accum_alpha).max(bits(c.merge))
+}
+
+/// A raw word in two's complement over the port's width (the words are
+/// unsigned at the default widths; a signed format shows its bit pattern).
+fn word(v: i64, width: u32) -> u64 {
+    if width >= 64 {
+        v as u64
+    } else {
+        v as u64 & ((1 << width) - 1)
+    }
+}
+
+/// What the controller shows in a cycle.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Ctrl {
+    pub stage: Stage,
+    pub slice: usize,
+    pub row: usize,
+}
+
+/// Scope `top.ctrl`.
+const CTRL_PROBES: &[Probe<Ctrl>] = &[
+    Probe::<Ctrl>::new("stage", CTRL, |_| 3, |s| s.stage.code()).named(&STAGE_NAMES),
+    Probe::<Ctrl>::new("slice", CTRL, |_| 16, |s| s.slice as u64 & 0xffff),
+    Probe::<Ctrl>::new("row", CTRL, |_| 16, |s| s.row as u64 & 0xffff),
+];
+
+/// A PE as its probes see it: what its last sampling cycle did, its ray
+/// counter, and the controller's stage (a PE is busy only while sampling).
+/// A copy rather than a borrow, so the tables' readers need no lifetime.
+pub(crate) struct PeView {
+    last: SampleTrace,
+    rays_sent: u64,
+    stage: Stage,
+}
+
+impl PeView {
+    fn busy(&self) -> bool {
+        self.stage == Stage::Sample && self.last.busy
+    }
+}
+
+/// Scope `top.pe_K`, in the order the signals have always had (the
+/// accumulators sit between the datapath's signals, so the groups share
+/// one table).
+const PE_PROBES: &[Probe<PeView>] = &[
+    Probe::<PeView>::new("busy", DATAPATH, |_| 1, |s| u64::from(s.busy())),
+    Probe::<PeView>::new("ray_mx", DATAPATH, |_| 16, |s| index16(s.last.mx)),
+    Probe::<PeView>::new("ray_row", DATAPATH, |_| 16, |s| s.last.row as u64 & 0xffff),
+    Probe::<PeView>::new(
+        "sample",
+        DATAPATH,
+        |c| bits(c.sample),
+        |s| s.last.sample as u64,
+    ),
+    Probe::<PeView>::new(
+        "alpha",
+        DATAPATH,
+        |c| bits(c.alpha),
+        |s| s.last.alpha as u64,
+    ),
+    Probe::<PeView>::new(
+        "alpha_corr",
+        DATAPATH,
+        |c| bits(c.opacity_corr),
+        |s| s.last.corrected as u64,
+    ),
+    Probe::<PeView>::new(
+        "acc_r",
+        ACC,
+        |c| bits(c.accum_color),
+        |s| s.last.acc.raw[0] as u64,
+    ),
+    Probe::<PeView>::new(
+        "acc_g",
+        ACC,
+        |c| bits(c.accum_color),
+        |s| s.last.acc.raw[1] as u64,
+    ),
+    Probe::<PeView>::new(
+        "acc_b",
+        ACC,
+        |c| bits(c.accum_color),
+        |s| s.last.acc.raw[2] as u64,
+    ),
+    Probe::<PeView>::new(
+        "acc_a",
+        ACC,
+        |c| bits(c.accum_alpha),
+        |s| s.last.acc.raw[3] as u64,
+    ),
+    Probe::<PeView>::new("rays_sent", DATAPATH, |_| 32, |s| s.rays_sent & 0xffff_ffff),
+    // Front to back only, so back-to-front waveforms stay as they were.
+    Probe::<PeView>::new(
+        "terminated",
+        DATAPATH,
+        |_| 1,
+        |s| u64::from(s.busy() && s.last.terminated),
+    )
+    .only(|c| c.order == Order::FrontToBack),
+];
+
+/// A link port as its probes see it: what the PE drove on it this cycle,
+/// and the widths of its words.
+pub(crate) struct PortView {
+    port: Port,
+    color: u32,
+    alpha: u32,
+}
+
+impl PortView {
+    fn ray(&self, f: impl Fn(&crate::pe::RayMove) -> u64) -> u64 {
+        self.port.ray.as_ref().map_or(0, f)
+    }
+    /// The parent's words, shown only while one is driven.
+    fn parent(&self, ch: usize) -> u64 {
+        let w = if ch < 3 { self.color } else { self.alpha };
+        self.port
+            .edge_mx
+            .map_or(0, |_| word(self.port.edge_acc.raw[ch], w))
+    }
+}
+
+/// Scopes `top.pe_K.left` and `top.pe_K.right` (towards PE `K - 1` and
+/// `K + 1`): a ray migrating (its index, row and accumulators), the edge
+/// voxels of the row sampled next (rows `y0` and `y0 + 1`) and the edge
+/// ray of a merge, split or fold row (a parent, with its index). Payloads
+/// read 0 while their valid is low.
+const PORT_PROBES: &[Probe<PortView>] = &[
+    Probe::<PortView>::new(
+        "ray_valid",
+        PORTS,
+        |_| 1,
+        |s| u64::from(s.port.ray.is_some()),
+    ),
+    Probe::<PortView>::new("ray_mx", PORTS, |_| 16, |s| s.ray(|r| index16(r.mx))),
+    Probe::<PortView>::new(
+        "ray_row",
+        PORTS,
+        |_| 16,
+        |s| s.ray(|r| u64::from(r.row) & 0xffff),
+    ),
+    Probe::<PortView>::new("ray_r", PORTS, link_color, |s| {
+        s.ray(|r| word(r.acc.raw[0], s.color))
+    }),
+    Probe::<PortView>::new("ray_g", PORTS, link_color, |s| {
+        s.ray(|r| word(r.acc.raw[1], s.color))
+    }),
+    Probe::<PortView>::new("ray_b", PORTS, link_color, |s| {
+        s.ray(|r| word(r.acc.raw[2], s.color))
+    }),
+    Probe::<PortView>::new("ray_a", PORTS, link_alpha, |s| {
+        s.ray(|r| word(r.acc.raw[3], s.alpha))
+    }),
+    Probe::<PortView>::new("edge_valid", PORTS, |_| 1, |s| u64::from(s.port.edge_valid)),
+    Probe::<PortView>::new(
+        "edge_0",
+        PORTS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.port.edge[0]) * u64::from(s.port.edge_valid),
+    ),
+    Probe::<PortView>::new(
+        "edge_1",
+        PORTS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.port.edge[1]) * u64::from(s.port.edge_valid),
+    ),
+    Probe::<PortView>::new(
+        "parent_valid",
+        PORTS,
+        |_| 1,
+        |s| u64::from(s.port.edge_mx.is_some()),
+    ),
+    Probe::<PortView>::new(
+        "parent_mx",
+        PORTS,
+        |_| 16,
+        |s| s.port.edge_mx.map_or(0, index16),
+    ),
+    Probe::<PortView>::new("parent_r", PORTS, link_color, |s| s.parent(0)),
+    Probe::<PortView>::new("parent_g", PORTS, link_color, |s| s.parent(1)),
+    Probe::<PortView>::new("parent_b", PORTS, link_color, |s| s.parent(2)),
+    Probe::<PortView>::new("parent_a", PORTS, link_alpha, |s| s.parent(3)),
+];
+
+/// Registers every present signal of `table` in `scope`; one id per line
+/// (NONE for the absent and the unselected).
+fn register<S>(
+    tracer: &mut Tracer,
+    cfg: &PipelineConfig,
+    scope: &ScopePath,
+    table: &[Probe<S>],
+) -> Result<Vec<SignalId>, WavesError> {
+    table
+        .iter()
+        .map(|p| {
+            if !(p.present)(cfg) {
+                return Ok(SignalId::NONE);
+            }
+            let width = (p.width)(cfg);
+            if p.names.is_empty() {
+                tracer.register_in(&p.group, scope, p.name, width)
+            } else {
+                tracer.register_enum_in(&p.group, scope, p.name, width, p.names)
+            }
+        })
+        .collect()
+}
+
+/// Sets every signal of `table` from `state`.
+#[inline]
+fn sample<S>(s: &mut Sampler<'_>, table: &[Probe<S>], ids: &[SignalId], state: &S) {
+    for (p, &id) in table.iter().zip(ids) {
+        if id.is_traced() {
+            s.set(id, (p.read)(state));
+        }
+    }
+}
+
+/// The ids of one PE's signals.
+struct PeIds {
+    pe: Vec<SignalId>,
+    /// Left and right port.
+    ports: [Vec<SignalId>; 2],
+    any_port: bool,
+}
+
+/// The probes of a run: the tracer and the ids of every table's signals.
+pub(crate) struct Probes {
+    tracer: Tracer,
+    ctrl: Vec<SignalId>,
+    pes: Vec<PeIds>,
+    color: u32,
+    alpha: u32,
+}
+
+impl Probes {
+    /// Registers the signals of `p` PEs; an unknown group in the tracer's
+    /// selection is an error.
+    pub(crate) fn new(
+        mut tracer: Tracer,
+        p: usize,
+        cfg: &PipelineConfig,
+    ) -> Result<Probes, WavesError> {
+        if let Some(bad) = tracer
+            .selected_groups()
+            .and_then(|set| set.iter().find(|g| !GROUPS.iter().any(|k| k.name == *g)))
+        {
+            return Err(WavesError::InvalidSpec {
+                what: "signal group",
+                text: bad.clone(),
+                reason: parse_groups(bad).err().unwrap_or_default(),
+            });
+        }
+        let ctrl = register(
+            &mut tracer,
+            cfg,
+            &ScopePath::top().child("ctrl"),
+            CTRL_PROBES,
+        )?;
+        let mut pes = Vec::with_capacity(p);
+        for k in 0..p {
+            let scope = ScopePath::pe(k as u32);
+            let pe = register(&mut tracer, cfg, &scope, PE_PROBES)?;
+            let ports = [
+                register(&mut tracer, cfg, &scope.child("left"), PORT_PROBES)?,
+                register(&mut tracer, cfg, &scope.child("right"), PORT_PROBES)?,
+            ];
+            let any_port = ports.iter().flatten().any(|id| id.is_traced());
+            pes.push(PeIds {
+                pe,
+                ports,
+                any_port,
+            });
+        }
+        Ok(Probes {
+            tracer,
+            ctrl,
+            pes,
+            color: link_color(cfg),
+            alpha: link_alpha(cfg),
+        })
+    }
+
+    /// Records cycle `cycle`: the controller's `ctrl`, every PE, and the
+    /// ports the PEs drove in it (`ports[k]`: PE `k`'s; an empty slice
+    /// when no PE drives a link in this cycle).
+    pub(crate) fn sample(&mut self, cycle: u64, pes: &[Pe], ports: &[Ports], ctrl: Ctrl) {
+        let Probes {
+            tracer,
+            ctrl: ctrl_ids,
+            pes: ids,
+            color,
+            alpha,
+        } = self;
+        tracer.sample(cycle, |s| {
+            sample(s, CTRL_PROBES, ctrl_ids, &ctrl);
+            let idle = Ports::default();
+            for (k, (pe, id)) in pes.iter().zip(ids.iter()).enumerate() {
+                let view = PeView {
+                    last: pe.last,
+                    rays_sent: pe.counters.rays_sent,
+                    stage: ctrl.stage,
+                };
+                sample(s, PE_PROBES, &id.pe, &view);
+                if id.any_port {
+                    let driven = ports.get(k).copied().unwrap_or(idle);
+                    for (port, pids) in [driven.left, driven.right].into_iter().zip(&id.ports) {
+                        let view = PortView {
+                            port,
+                            color: *color,
+                            alpha: *alpha,
+                        };
+                        sample(s, PORT_PROBES, pids, &view);
+                    }
+                }
+            }
+        });
+    }
+
+    /// Completes the trace files.
+    pub(crate) fn finish(self) -> Result<Option<waves::TraceInfo>, WavesError> {
+        self.tracer.finish()
+    }
+}

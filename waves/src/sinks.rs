@@ -1,0 +1,332 @@
+//! The files a [`crate::Tracer`] writes: VCD (through the `vcd` crate) and
+//! FST (through `fst-writer`), fed the same value changes, each into a
+//! temporary file beside its target and renamed over it at the end.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use fst_writer::{
+    FstBodyWriter, FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
+    FstVarDirection, FstVarType,
+};
+use tempfile::NamedTempFile;
+use vcd::{IdCode, ReferenceIndex, ScopeType, TimescaleUnit, VarType};
+
+use crate::atomic::temp_beside;
+use crate::error::WavesError;
+use crate::tracer::{SignalInfo, TIME_UNITS_PER_CYCLE};
+
+/// FST keeps value changes in memory until a block is flushed; a block
+/// every 32 MiB bounds the memory of long frames (fst-writer's own
+/// converter flushes at the same size).
+const FST_FLUSH_BYTES: usize = 32 << 20;
+
+/// Every output of a trace; at least one is present.
+pub(crate) struct Sinks {
+    vcd: Option<VcdSink>,
+    fst: Option<FstSink>,
+    /// Msb-first `0`/`1` text of the value being emitted (reused).
+    pub(crate) bits: Vec<u8>,
+}
+
+struct VcdSink {
+    path: PathBuf,
+    tmp: NamedTempFile,
+    out: vcd::Writer<BufWriter<File>>,
+    line: Vec<u8>,
+}
+
+struct FstSink {
+    path: PathBuf,
+    tmp: NamedTempFile,
+    /// The header writer until the header is written, then the body's.
+    header: Option<FstHeaderWriter<BufWriter<File>>>,
+    body: Option<FstBodyWriter<BufWriter<File>>>,
+    /// FST ids in signal order.
+    ids: Vec<FstSignalId>,
+}
+
+/// The files a finished trace wrote.
+pub(crate) struct Written {
+    pub(crate) vcd: Option<PathBuf>,
+    pub(crate) fst: Option<PathBuf>,
+}
+
+fn fst_io(e: fst_writer::FstWriteError) -> io::Error {
+    match e {
+        fst_writer::FstWriteError::Io(e) => e,
+        other => io::Error::other(other.to_string()),
+    }
+}
+
+fn clone_file(tmp: &NamedTempFile) -> Result<File, WavesError> {
+    tmp.as_file()
+        .try_clone()
+        .map_err(|e| WavesError::io("open", tmp.path(), e))
+}
+
+/// A scope of the header tree: its signals and sub-scopes, in the order in
+/// which they were first registered.
+#[derive(Default)]
+struct Node {
+    name: String,
+    vars: Vec<usize>,
+    children: Vec<Node>,
+}
+
+/// Scopes must be written as a tree, each opened once, while signals were
+/// registered in arbitrary order: group them first.
+fn scope_tree(info: &[SignalInfo]) -> Node {
+    let mut root = Node::default();
+    for (i, sig) in info.iter().enumerate() {
+        let mut node = &mut root;
+        for part in sig.scope.parts() {
+            let pos = match node.children.iter().position(|c| &c.name == part) {
+                Some(p) => p,
+                None => {
+                    node.children.push(Node {
+                        name: part.clone(),
+                        ..Node::default()
+                    });
+                    node.children.len() - 1
+                }
+            };
+            node = &mut node.children[pos];
+        }
+        node.vars.push(i);
+    }
+    root
+}
+
+impl Sinks {
+    /// Opens the temporary files of `vcd` and `fst`.
+    pub(crate) fn open(vcd: Option<&Path>, fst: Option<&Path>) -> Result<Sinks, WavesError> {
+        let vcd = match vcd {
+            None => None,
+            Some(path) => {
+                let tmp = temp_beside(path)?;
+                let file = clone_file(&tmp)?;
+                Some(VcdSink {
+                    path: path.to_path_buf(),
+                    tmp,
+                    out: vcd::Writer::new(BufWriter::with_capacity(1 << 16, file)),
+                    line: Vec::with_capacity(128),
+                })
+            }
+        };
+        let fst = match fst {
+            None => None,
+            Some(path) => {
+                let tmp = temp_beside(path)?;
+                let file = clone_file(&tmp)?;
+                let info = FstInfo {
+                    start_time: 0,
+                    timescale_exponent: -9,
+                    version: concat!("ercube waves ", env!("CARGO_PKG_VERSION")).to_string(),
+                    date: String::new(),
+                    file_type: FstFileType::Verilog,
+                };
+                let header = FstHeaderWriter::new(BufWriter::with_capacity(1 << 16, file), &info)
+                    .map_err(|e| WavesError::io("write trace", tmp.path(), fst_io(e)))?;
+                Some(FstSink {
+                    path: path.to_path_buf(),
+                    tmp,
+                    header: Some(header),
+                    body: None,
+                    ids: Vec::new(),
+                })
+            }
+        };
+        Ok(Sinks {
+            vcd,
+            fst,
+            bits: Vec::with_capacity(64),
+        })
+    }
+
+    /// The path errors while writing are reported against (the VCD's
+    /// temporary file, else the FST's).
+    pub(crate) fn error_path(&self) -> PathBuf {
+        match (&self.vcd, &self.fst) {
+            (Some(v), _) => v.tmp.path().to_path_buf(),
+            (None, Some(f)) => f.tmp.path().to_path_buf(),
+            (None, None) => PathBuf::new(),
+        }
+    }
+
+    /// The path of the first output (the VCD if there is one).
+    pub(crate) fn path(&self) -> &Path {
+        match (&self.vcd, &self.fst) {
+            (Some(v), _) => &v.path,
+            (None, Some(f)) => &f.path,
+            (None, None) => Path::new(""),
+        }
+    }
+
+    /// Writes the headers: every signal of `info`, signal `i` with VCD id
+    /// code `i`.
+    pub(crate) fn header(&mut self, info: &[SignalInfo]) -> io::Result<()> {
+        let root = scope_tree(info);
+        if let Some(v) = &mut self.vcd {
+            let out = &mut v.out;
+            out.version(concat!("ercube waves ", env!("CARGO_PKG_VERSION")))?;
+            out.comment(&format!(
+                "one clock cycle = {TIME_UNITS_PER_CYCLE} time units: \
+                 values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
+            ))?;
+            out.timescale(1, TimescaleUnit::NS)?;
+            fn write_node(
+                out: &mut vcd::Writer<BufWriter<File>>,
+                node: &Node,
+                info: &[SignalInfo],
+            ) -> io::Result<()> {
+                out.scope_def(ScopeType::Module, &node.name)?;
+                for &i in &node.vars {
+                    let w = info[i].width;
+                    let index = (w > 1).then(|| ReferenceIndex::Range(w as i32 - 1, 0));
+                    out.var_def(
+                        VarType::Wire,
+                        w,
+                        IdCode::from(i as u64),
+                        &info[i].name,
+                        index,
+                    )?;
+                }
+                for child in &node.children {
+                    write_node(out, child, info)?;
+                }
+                out.upscope()
+            }
+            for top in &root.children {
+                write_node(out, top, info)?;
+            }
+            out.enddefinitions()?;
+        }
+        if let Some(f) = &mut self.fst {
+            let Some(mut h) = f.header.take() else {
+                return Ok(());
+            };
+            let mut ids = vec![None; info.len()];
+            fn write_node(
+                h: &mut FstHeaderWriter<BufWriter<File>>,
+                node: &Node,
+                info: &[SignalInfo],
+                ids: &mut [Option<FstSignalId>],
+            ) -> fst_writer::Result<()> {
+                h.scope(&node.name, "", FstScopeType::Module)?;
+                for &i in &node.vars {
+                    // Vectors carry their range in the name, as GTKWave's
+                    // vcd2fst writes them, so both files read back alike.
+                    let w = info[i].width;
+                    let name = if w > 1 {
+                        format!("{}[{}:0]", info[i].name, w - 1)
+                    } else {
+                        info[i].name.clone()
+                    };
+                    ids[i] = Some(h.var(
+                        name,
+                        FstSignalType::bit_vec(w),
+                        FstVarType::Wire,
+                        FstVarDirection::Implicit,
+                        None,
+                    )?);
+                }
+                for child in &node.children {
+                    write_node(h, child, info, ids)?;
+                }
+                h.up_scope()
+            }
+            for top in &root.children {
+                write_node(&mut h, top, info, &mut ids).map_err(fst_io)?;
+            }
+            f.ids = ids.into_iter().flatten().collect();
+            f.body = Some(h.finish().map_err(fst_io)?);
+        }
+        Ok(())
+    }
+
+    /// Starts the values of time `time`.
+    pub(crate) fn timestamp(&mut self, time: u64) -> io::Result<()> {
+        if let Some(v) = &mut self.vcd {
+            v.out.timestamp(time)?;
+        }
+        if let Some(body) = self.fst.as_mut().and_then(|f| f.body.as_mut()) {
+            if body.size() >= FST_FLUSH_BYTES {
+                body.flush().map_err(fst_io)?;
+            }
+            body.time_change(time).map_err(fst_io)?;
+        }
+        Ok(())
+    }
+
+    /// Writes signal `i`'s new value, `self.bits` (msb first, exactly the
+    /// signal's width).
+    pub(crate) fn change(&mut self, i: usize) -> io::Result<()> {
+        let bits = &self.bits;
+        if let Some(v) = &mut self.vcd {
+            let code = IdCode::from(i as u64);
+            if bits.len() == 1 {
+                v.out.change_scalar(code, bits[0] == b'1')?;
+            } else {
+                // `vcd::Writer::change_vector` formats each bit through
+                // `write!`; building the line here is several times faster
+                // and produces the same text.
+                let line = &mut v.line;
+                line.clear();
+                line.push(b'b');
+                line.extend_from_slice(bits);
+                line.push(b' ');
+                write!(line, "{code}")?;
+                line.push(b'\n');
+                v.out.writer().write_all(line)?;
+            }
+        }
+        if let Some(f) = &mut self.fst {
+            if let (Some(body), Some(&id)) = (f.body.as_mut(), f.ids.get(i)) {
+                body.signal_change(id, bits).map_err(fst_io)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Ends the files at `end` (a final timestamp, if any) and renames
+    /// them to their targets.
+    pub(crate) fn finish(mut self, end: Option<u64>) -> Result<Written, WavesError> {
+        let mut written = Written {
+            vcd: None,
+            fst: None,
+        };
+        if let Some(mut v) = self.vcd.take() {
+            let tmp_path = v.tmp.path().to_path_buf();
+            let io = |e: io::Error| WavesError::io("write trace", &tmp_path, e);
+            if let Some(t) = end {
+                v.out.timestamp(t).map_err(io)?;
+            }
+            v.out.flush().map_err(io)?;
+            drop(v.out);
+            v.tmp
+                .persist(&v.path)
+                .map_err(|e| WavesError::io("rename trace to", &v.path, e.error))?;
+            written.vcd = Some(v.path);
+        }
+        if let Some(f) = self.fst.take() {
+            let tmp_path = f.tmp.path().to_path_buf();
+            let io = |e: io::Error| WavesError::io("write trace", &tmp_path, e);
+            let Some(mut body) = f.body else {
+                return Err(io(io::Error::other("FST header was never written")));
+            };
+            if let Some(t) = end {
+                body.time_change(t).map_err(fst_io).map_err(io)?;
+            }
+            let mut out = body.finish().map_err(fst_io).map_err(io)?;
+            out.flush().map_err(io)?;
+            drop(out);
+            f.tmp
+                .persist(&f.path)
+                .map_err(|e| WavesError::io("rename trace to", &f.path, e.error))?;
+            written.fst = Some(f.path);
+        }
+        Ok(written)
+    }
+}
