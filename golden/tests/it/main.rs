@@ -8,4 +8,5 @@ mod scenes;
 
 mod figures;
 mod foundation;
+mod mipmap;
 mod skipping;
