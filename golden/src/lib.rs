@@ -9,7 +9,9 @@
 //! [`merge`]: ER back-to-front and front-to-back, under/oversampling, box
 //! merge) -> [`warp::Baseplane`] -> [`warp`] -> [`image::Image`];
 //! [`mod@reference`] renders the same camera by image-order ray casting as
-//! ground truth, [`metrics`] compares images.
+//! ground truth, [`mipcast`] casts rays through a 3D mip-map
+//! ([`mipmap`]) whose level follows each ray's footprint, [`metrics`]
+//! compares images.
 
 pub mod camera;
 pub mod clip;
@@ -20,6 +22,8 @@ pub mod load;
 pub mod merge;
 pub mod methods;
 pub mod metrics;
+pub mod mipcast;
+pub mod mipmap;
 pub mod occupancy;
 pub mod reference;
 pub mod render;

@@ -13,6 +13,8 @@ use crate::error::{input, Result};
 use crate::geometry::View;
 use crate::image::Image;
 use crate::methods::{self, Method, Options, Output};
+use crate::mipcast::{self, MipOptions, MipStats};
+use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::reference::{self, RefOptions};
 use crate::slices::SliceStack;
@@ -27,6 +29,8 @@ pub enum Technique {
     Slice(Method),
     /// The supersampled image-order reference.
     Reference,
+    /// Ray casting a pre-classified 3D mip-map ([`crate::mipcast`]).
+    MipMap,
 }
 
 impl Technique {
@@ -35,6 +39,7 @@ impl Technique {
         match self {
             Technique::Slice(m) => m.name(),
             Technique::Reference => "reference",
+            Technique::MipMap => "mipmap",
         }
     }
 }
@@ -42,12 +47,14 @@ impl Technique {
 impl FromStr for Technique {
     type Err = crate::Error;
     fn from_str(s: &str) -> Result<Technique> {
-        if s == "reference" {
-            return Ok(Technique::Reference);
+        match s {
+            "reference" => return Ok(Technique::Reference),
+            "mipmap" => return Ok(Technique::MipMap),
+            _ => {}
         }
         s.parse::<Method>().map(Technique::Slice).map_err(|_| {
             input(format!(
-                "unknown method '{s}': use reference, er, er-ftb, under, over or box"
+                "unknown method '{s}': use reference, er, er-ftb, under, over, box or mipmap"
             ))
         })
     }
@@ -79,10 +86,18 @@ pub struct Prepared {
     /// The occupancy map of the last table used, by the table's key: the
     /// map is rebuilt only when the transfer function changes.
     occupancy: Arc<Mutex<Option<KeyedOccupancy>>>,
+    /// The pre-classified mip-map of the last table used, by
+    /// [`classification_key`]: rebuilt only when the table changes.
+    /// One slot per [`Classify`] (the post-classified pyramid does not
+    /// depend on the table and is built once).
+    mipmap: Arc<Mutex<[Option<KeyedMipMap>; 2]>>,
 }
 
 /// An occupancy map and the key of the table it was built for.
 type KeyedOccupancy = (u64, Arc<Occupancy>);
+
+/// A mip-map and the key of the table it was classified with.
+type KeyedMipMap = (u64, Arc<MipMap>);
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
@@ -128,13 +143,14 @@ impl Prepared {
             blocks,
             clip,
             occupancy: Arc::default(),
+            mipmap: Arc::default(),
         })
     }
 
     /// `volume` (the one this was prepared from) seen by another camera,
     /// reusing what does not depend on the camera: the min-max blocks and
     /// the occupancy cache (they depend on the volume and the table only)
-    /// when the block size is unchanged, and the permuted slice stack when
+    /// when the block size is unchanged, and the permuted slice stack (with the mip-maps built from it) when
     /// the principal axis is unchanged. A camera path pays for those once;
     /// the result is the same as [`Prepared::with`]'s.
     pub fn moved(
@@ -145,10 +161,14 @@ impl Prepared {
     ) -> Result<Prepared> {
         check_planes(&opts.clip)?;
         let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        let stack = if view.axes == self.view.axes {
-            Arc::clone(&self.stack)
+        // The mip-maps are built from the permuted stack: they go with it.
+        let (stack, mipmap) = if view.axes == self.view.axes {
+            (Arc::clone(&self.stack), Arc::clone(&self.mipmap))
         } else {
-            Arc::new(SliceStack::new(volume, &view.axes)?)
+            (
+                Arc::new(SliceStack::new(volume, &view.axes)?),
+                Arc::default(),
+            )
         };
         let (blocks, occupancy) = if self.blocks.block == opts.block {
             (self.blocks.clone(), Arc::clone(&self.occupancy))
@@ -162,6 +182,7 @@ impl Prepared {
             blocks,
             clip,
             occupancy,
+            mipmap,
         })
     }
 
@@ -193,13 +214,55 @@ impl Prepared {
     }
 }
 
+impl Prepared {
+    /// The mip-map of the stack classified by `lut`: the one built for the
+    /// last table when `lut` has the same colours and opacities, else a
+    /// new one, kept for the next frame.
+    pub fn mipmap_for(&self, lut: &Lut, classify: Classify) -> Result<Arc<MipMap>> {
+        let key = match classify {
+            Classify::Pre => classification_key(lut),
+            Classify::Post => 0,
+        };
+        // As for the occupancy map, a poisoned lock only forces a rebuild.
+        let mut cached = self
+            .mipmap
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let slot = &mut cached[classify as usize];
+        match slot {
+            Some((k, m)) if *k == key => Ok(Arc::clone(m)),
+            _ => {
+                let m = Arc::new(MipMap::build(&self.stack, lut, classify)?);
+                *slot = Some((key, Arc::clone(&m)));
+                Ok(m)
+            }
+        }
+    }
+}
+
 /// Settings of every technique.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderOptions {
     /// Slice-order options.
     pub slice: Options,
     /// Reference options.
     pub reference: RefOptions,
+    /// Mip-map step factor (see [`MipOptions::step`]); termination and
+    /// empty-space skipping follow [`RenderOptions::slice`].
+    pub mip_step: f64,
+    /// Pre- or post-classified mip-map.
+    pub mip_classify: Classify,
+}
+
+impl Default for RenderOptions {
+    fn default() -> RenderOptions {
+        RenderOptions {
+            slice: Options::default(),
+            reference: RefOptions::default(),
+            mip_step: mipcast::DEFAULT_MIP_STEP,
+            mip_classify: Classify::Post,
+        }
+    }
 }
 
 impl RenderOptions {
@@ -214,6 +277,17 @@ impl RenderOptions {
         };
         o
     }
+
+    /// The mip-map caster's options: its step, er-ftb's termination
+    /// threshold and the empty-space switch.
+    pub fn mip(&self) -> MipOptions {
+        MipOptions {
+            step: self.mip_step,
+            terminate: self.slice.terminate,
+            skip_empty: self.slice.skips.empty,
+            classify: self.mip_classify,
+        }
+    }
 }
 
 /// One rendered frame.
@@ -223,6 +297,20 @@ pub struct Frame {
     pub image: Image,
     /// Baseplane and counts of a slice-order method.
     pub slice: Option<Output>,
+    /// Counts of the mip-map caster.
+    pub mip: Option<MipStats>,
+}
+
+impl Frame {
+    /// Samples the method took (interpolated and classified), when it
+    /// counts them.
+    pub fn samples(&self) -> Option<u64> {
+        match (&self.slice, &self.mip) {
+            (Some(o), _) => Some(o.stats.samples_total),
+            (None, Some(m)) => Some(m.samples_total),
+            (None, None) => None,
+        }
+    }
 }
 
 impl Frame {
@@ -243,12 +331,25 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
         Technique::Reference => Ok(Frame {
             image: reference::render(&prep.view, &prep.stack, &prep.clip, lut, &opts.reference)?,
             slice: None,
+            mip: None,
         }),
+        Technique::MipMap => {
+            let mip = opts.mip();
+            mip.validate()?;
+            let pyramid = prep.mipmap_for(lut, mip.classify)?;
+            let (image, stats) = mipcast::render(&prep.view, &pyramid, &prep.clip, lut, &mip)?;
+            Ok(Frame {
+                image,
+                slice: None,
+                mip: Some(stats),
+            })
+        }
         Technique::Slice(m) => {
             let out = methods::render(m, prep, lut, &opts.slice)?;
             Ok(Frame {
                 image: warp(&prep.view, &out.baseplane),
                 slice: Some(out),
+                mip: None,
             })
         }
     }

@@ -298,6 +298,18 @@ pub struct SliceArgs {
     /// at least this many voxels in front of it.
     #[arg(long, default_value_t = golden::render::DEFAULT_NEAR)]
     pub near: f64,
+    /// Mip-map sample step as a fraction of max(footprint, voxel)
+    /// (1/16 to 4).
+    #[arg(long, default_value_t = golden::mipcast::DEFAULT_MIP_STEP)]
+    pub mip_step: f64,
+    /// Mip-map classification: post (filter the scalar, classify each
+    /// sample) or pre (filter classified colour and opacity, the paper's).
+    #[arg(long, default_value = "post", value_parser = parse_classify)]
+    pub mip_classify: golden::mipmap::Classify,
+}
+
+fn parse_classify(s: &str) -> std::result::Result<golden::mipmap::Classify, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
 }
 
 fn parse_clip(s: &str) -> std::result::Result<ClipPlane, String> {
@@ -315,6 +327,9 @@ impl SliceArgs {
             cull: !self.no_cull,
         };
         o.slice.validate()?;
+        golden::mipcast::check_step(self.mip_step)?;
+        o.mip_step = self.mip_step;
+        o.mip_classify = self.mip_classify;
         Ok(o)
     }
 
@@ -351,6 +366,8 @@ impl Default for SliceArgs {
             block: None,
             clip: p.clip,
             near: p.near,
+            mip_step: golden::mipcast::DEFAULT_MIP_STEP,
+            mip_classify: golden::mipmap::Classify::Post,
         }
     }
 }

@@ -90,6 +90,18 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
         let f = render(&prep, &lut, Technique::Reference, &opts)?;
         (f, t.elapsed().as_secs_f64())
     };
+    if techs.contains(&Technique::MipMap) {
+        // Built once per volume and table (cached in `prep`), so not part
+        // of the frame time below; said apart.
+        let t = Instant::now();
+        let m = prep.mipmap_for(&lut, opts.mip_classify)?;
+        super::say(&format!(
+            "mipmap: {} levels, {} voxels, built in {:.3} s (cached per volume and table, not in the frame time)",
+            m.levels.len(),
+            m.voxels(),
+            t.elapsed().as_secs_f64()
+        ));
+    }
     let mut frames: Vec<(Technique, Frame, f64)> = Vec::new();
     for &tech in techs {
         if tech == Technique::Reference {
@@ -105,7 +117,7 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
         rows.push(Row {
             name: tech.name(),
             time_s: *time_s,
-            samples: f.slice.as_ref().map(|o| o.stats.samples_total),
+            samples: f.samples(),
             err: compare(&f.image, &reference.0.image)?,
         });
     }

@@ -24,6 +24,9 @@ pub enum MethodArg {
     Over,
     /// ER with a 2x2 box merge.
     Box,
+    /// Ray casting a pre-classified 3D mip-map, the level following each
+    /// ray's footprint.
+    Mipmap,
     /// The bit-accurate PE array, back to front (mirrors `er`).
     Pipeline,
     /// The PE array front to back with termination (mirrors `er-ftb`).
@@ -69,6 +72,7 @@ impl MethodArg {
             MethodArg::Under => Technique::Slice(Method::Under),
             MethodArg::Over => Technique::Slice(Method::Over),
             MethodArg::Box => Technique::Slice(Method::Box),
+            MethodArg::Mipmap => Technique::MipMap,
             MethodArg::Pipeline | MethodArg::PipelineFtb => return None,
         })
     }

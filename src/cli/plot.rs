@@ -91,6 +91,7 @@ pub fn color_for(label: &str) -> RGBColor {
         Some(MethodArg::Under) => RGBColor(44, 160, 44),
         Some(MethodArg::Over) => RGBColor(31, 119, 180),
         Some(MethodArg::Box) => RGBColor(148, 103, 189),
+        Some(MethodArg::Mipmap) => RGBColor(0, 128, 128),
         Some(MethodArg::Pipeline) => RGBColor(140, 86, 75),
         Some(MethodArg::PipelineFtb) | None => {
             const PALETTE: [RGBColor; 8] = [

@@ -97,9 +97,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     };
     chip::check_unused(&a.pipeline)?;
     with_threads(a.threads, || {
-        if tech == Technique::Reference && a.baseplane_npy.is_some() {
+        if !matches!(tech, Technique::Slice(_)) && a.baseplane_npy.is_some() {
             anyhow::bail!(
-                "--baseplane-npy needs a slice-order method; the reference has no baseplane"
+                "--baseplane-npy needs a slice-order method; {} has no baseplane",
+                tech.name()
             );
         }
         let opts = a.slice.options()?;
@@ -219,6 +220,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         let frame = golden::render::Frame {
             image: run.image.clone(),
             slice: None,
+            mip: None,
         };
         let mut v = frame_json(
             a.method.name(),

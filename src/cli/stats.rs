@@ -53,6 +53,19 @@ pub fn frame_json(
             "spacing": out.baseplane.grid.spacing,
         });
     }
+    if let Some(m) = &frame.mip {
+        v["samples_total"] = json!(m.samples_total);
+        v["mipmap"] = json!({
+            "classify": m.classify.name(),
+            "levels": m.levels,
+            "samples_total": m.samples_total,
+            "samples_skipped": m.samples_skipped,
+            "samples_clipped": m.samples_clipped,
+            "jumps": m.jumps,
+            "level_histogram": m.level_histogram,
+            "rays_terminated": m.rays_terminated,
+        });
+    }
     if let Some(e) = err {
         v["error_vs_reference"] = error_json(e);
     }

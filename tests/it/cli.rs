@@ -1252,3 +1252,45 @@ fn skipping_flags_keep_the_image_and_report_counts() {
         read_npy(&d.join("whole.npy")).values
     );
 }
+
+/// `render --method mipmap` writes its PNG and stats with the samples and
+/// the levels' histogram; a bad `--mip-step` or `--mip-classify` is a
+/// one-line error.
+#[test]
+fn render_mipmap_writes_png_and_stats_and_refuses_bad_options() {
+    let dir = tempdir();
+    let d = dir.path();
+    ercube(
+        d,
+        "render --scene ml:24 --eye 11.5,11.5,-200 --fov 20 --size 24x16 --method mipmap \
+         --out m.png --stats m.json",
+    )
+    .ok();
+    assert_eq!(read_png(&d.join("m.png")).dimensions(), (24, 16));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join("m.json")).unwrap())
+        .expect("stats JSON");
+    assert_eq!(v["method"], "mipmap");
+    let m = &v["mipmap"];
+    assert_eq!(m["classify"], "post");
+    let hist: Vec<u64> = serde_json::from_value(m["level_histogram"].clone()).unwrap();
+    assert_eq!(hist.len() as u64, m["levels"].as_u64().unwrap());
+    assert_eq!(
+        hist.iter().sum::<u64>(),
+        m["samples_total"].as_u64().unwrap()
+    );
+    assert!(m["samples_total"].as_u64().unwrap() > 0);
+    let before = entries(d);
+    for (arg, keyword) in [
+        ("--mip-step 0", "mip-map step"),
+        ("--mip-step 9", "mip-map step"),
+        ("--mip-step nan", "mip-map step"),
+        ("--mip-classify sideways", "pre or post"),
+    ] {
+        let run = ercube(
+            d,
+            &format!("render --scene ml:16 --method mipmap {arg} --out x.png"),
+        );
+        assert_one_line_error(&run, keyword);
+    }
+    assert_eq!(entries(d), before, "a refused run writes nothing");
+}

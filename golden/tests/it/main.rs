@@ -9,4 +9,5 @@ mod scenes;
 mod figures;
 mod formats;
 mod foundation;
+mod mipmap;
 mod skipping;
