@@ -320,6 +320,27 @@ impl RayGrid {
     }
 }
 
+/// Where the ray `eye + t dir` (view space, `t >= 0`) is inside the
+/// volume's box `[-1/2, n - 1/2]` per axis: `(t0, t1)` with `t0 < t1`, or
+/// `None` when it misses. Slab by slab, so the image-order casters (the
+/// reference and the mip-map) enter and leave at the same `t`.
+pub fn box_interval(eye: DVec3, dir: DVec3, dims: [usize; 3]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for k in 0..3 {
+        let (lo, hi) = (-0.5, dims[k] as f64 - 0.5);
+        if dir[k].abs() < 1e-300 {
+            if eye[k] < lo || eye[k] >= hi {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((lo - eye[k]) / dir[k], (hi - eye[k]) / dir[k]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    (t0 < t1).then_some((t0, t1))
+}
+
 /// Ray indices `m` whose position `a + m t` lies in `[-1/2, n - 1/2]`.
 /// Closed on both faces, so that a ray exactly on the far face is kept as
 /// one exactly on the near face is (eyes on the half-voxel grid put rays on

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 
 use crate::clip::ViewClip;
 use crate::error::{input, Result};
-use crate::geometry::View;
+use crate::geometry::{box_interval, View};
 use crate::image::Image;
 use crate::mipmap::{Classify, Level, MipMap};
 use crate::occupancy::VisibleEntries;
@@ -173,21 +173,8 @@ impl Ray {
         let dir = view.rays.dir(px, py);
         let len = view.world_length(dir.x, dir.y, dir.z);
         let angle = footprint_angle(view, px, py);
-        let e = view.eye;
-        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-        for k in 0..3 {
-            let (lo, hi) = (-0.5, view.dims[k] as f64 - 0.5);
-            if dir[k].abs() < 1e-300 {
-                if e[k] < lo || e[k] >= hi {
-                    return None;
-                }
-                continue;
-            }
-            let (a, b) = ((lo - e[k]) / dir[k], (hi - e[k]) / dir[k]);
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
-        }
-        (t0 < t1).then_some(Ray {
+        let (t0, t1) = box_interval(view.eye, dir, view.dims)?;
+        Some(Ray {
             unit: dir / len,
             angle,
             r_in: t0 * len,

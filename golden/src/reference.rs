@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::clip::ViewClip;
 use crate::error::{Error, Result};
-use crate::geometry::View;
+use crate::geometry::{box_interval, View};
 use crate::image::Image;
 use crate::slices::SliceStack;
 use crate::tf::Lut;
@@ -105,22 +105,9 @@ fn cast(
     dir: DVec3,
 ) -> [f64; 4] {
     let e = view.eye;
-    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-    for k in 0..3 {
-        let (lo, hi) = (-0.5, view.dims[k] as f64 - 0.5);
-        if dir[k].abs() < 1e-300 {
-            if e[k] < lo || e[k] >= hi {
-                return [0.0; 4];
-            }
-            continue;
-        }
-        let (a, b) = ((lo - e[k]) / dir[k], (hi - e[k]) / dir[k]);
-        t0 = t0.max(a.min(b));
-        t1 = t1.min(a.max(b));
-    }
-    if t0 >= t1 {
+    let Some((t0, t1)) = box_interval(e, dir, view.dims) else {
         return [0.0; 4];
-    }
+    };
     // Equal steps of at most `opts.step` voxels that tile the ray's path
     // through the volume exactly, so a uniform slab integrates exactly.
     let steps = ((t1 - t0) * dir.length() / opts.step).ceil().max(1.0);

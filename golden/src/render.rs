@@ -132,48 +132,44 @@ impl Prepared {
 
     /// Places `camera` against `volume` with `opts`.
     pub fn with(volume: &Volume, camera: &Camera, opts: &PrepareOptions) -> Result<Prepared> {
-        check_planes(&opts.clip)?;
-        let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        let stack = Arc::new(SliceStack::new(volume, &view.axes)?);
-        let blocks = MinMax::new(volume, opts.block)?;
-        let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
-        Ok(Prepared {
-            view,
-            stack,
-            blocks,
-            clip,
-            occupancy: Arc::default(),
-            mipmap: Arc::default(),
-        })
+        Prepared::place(volume, camera, opts, None)
     }
 
     /// `volume` (the one this was prepared from) seen by another camera,
     /// reusing what does not depend on the camera: the min-max blocks and
     /// the occupancy cache (they depend on the volume and the table only)
-    /// when the block size is unchanged, and the permuted slice stack (with the mip-maps built from it) when
-    /// the principal axis is unchanged. A camera path pays for those once;
-    /// the result is the same as [`Prepared::with`]'s.
+    /// when the block size is unchanged, and the permuted slice stack (with
+    /// the mip-maps built from it) when the principal axis is unchanged. A
+    /// camera path pays for those once; the result is the same as
+    /// [`Prepared::with`]'s.
     pub fn moved(
         &self,
         volume: &Volume,
         camera: &Camera,
         opts: &PrepareOptions,
     ) -> Result<Prepared> {
+        Prepared::place(volume, camera, opts, Some(self))
+    }
+
+    /// [`Prepared::with`], taking what `reuse` has that still holds.
+    fn place(
+        volume: &Volume,
+        camera: &Camera,
+        opts: &PrepareOptions,
+        reuse: Option<&Prepared>,
+    ) -> Result<Prepared> {
         check_planes(&opts.clip)?;
         let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        // The mip-maps are built from the permuted stack: they go with it.
-        let (stack, mipmap) = if view.axes == self.view.axes {
-            (Arc::clone(&self.stack), Arc::clone(&self.mipmap))
-        } else {
-            (
+        let (stack, mipmap) = match reuse {
+            Some(r) if r.view.axes == view.axes => (Arc::clone(&r.stack), Arc::clone(&r.mipmap)),
+            _ => (
                 Arc::new(SliceStack::new(volume, &view.axes)?),
                 Arc::default(),
-            )
+            ),
         };
-        let (blocks, occupancy) = if self.blocks.block == opts.block {
-            (self.blocks.clone(), Arc::clone(&self.occupancy))
-        } else {
-            (MinMax::new(volume, opts.block)?, Arc::default())
+        let (blocks, occupancy) = match reuse {
+            Some(r) if r.blocks.block == opts.block => (r.blocks.clone(), Arc::clone(&r.occupancy)),
+            _ => (MinMax::new(volume, opts.block)?, Arc::default()),
         };
         let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
         Ok(Prepared {

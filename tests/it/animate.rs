@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::bin::{describe, ercube};
+use crate::bin::{assert_refused, describe, ercube};
 
 fn png(path: &Path) -> Vec<u8> {
     image::open(path)
@@ -30,6 +30,19 @@ const VIEW: [&str; 8] = [
     "11.5,11.5,11.5",
 ];
 
+/// Animates `path` into `d/reuse` and, with `--no-reuse`, `d/fresh`.
+fn both_ways(d: &Path, path: &[&str]) {
+    for (out, extra) in [("reuse", None), ("fresh", Some("--no-reuse"))] {
+        let mut args: Vec<&str> = vec!["animate"];
+        args.extend(VIEW);
+        args.extend(path);
+        args.extend(["--out-dir", out]);
+        args.extend(extra);
+        let o = ercube(d, &args);
+        assert!(o.status.success(), "{}", describe(&args, &o));
+    }
+}
+
 /// An orbit of 4 frames through 360 degrees about +y: frame 2 looks from
 /// the far side, frame 1 from +x. Each frame equals `render` from that eye
 /// (the orbit's geometry checked against an independent placement), with
@@ -38,14 +51,7 @@ const VIEW: [&str; 8] = [
 fn orbit_frames_are_renders_from_the_orbit_eyes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for (out, extra) in [("reuse", None), ("fresh", Some("--no-reuse"))] {
-        let mut args: Vec<&str> = vec!["animate"];
-        args.extend(VIEW);
-        args.extend(["--frames", "4", "--orbit", "360", "--out-dir", out]);
-        args.extend(extra);
-        let o = ercube(d, &args);
-        assert!(o.status.success(), "{}", describe(&args, &o));
-    }
+    both_ways(d, &["--frames", "4", "--orbit", "360"]);
     let stats = json(&d.join("reuse/animate.json"));
     assert_eq!(stats["frames"], 4);
     assert_eq!(stats["times_s"].as_array().map(Vec::len), Some(4));
@@ -109,14 +115,7 @@ fn orbit_frames_are_renders_from_the_orbit_eyes() {
 fn a_small_turn_reuses_the_slice_stack() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for (out, extra) in [("reuse", None), ("fresh", Some("--no-reuse"))] {
-        let mut args: Vec<&str> = vec!["animate"];
-        args.extend(VIEW);
-        args.extend(["--frames", "3", "--orbit", "20", "--out-dir", out]);
-        args.extend(extra);
-        let o = ercube(d, &args);
-        assert!(o.status.success(), "{}", describe(&args, &o));
-    }
+    both_ways(d, &["--frames", "3", "--orbit", "20"]);
     assert_eq!(json(&d.join("reuse/animate.json"))["stacks_reused"], 2);
     assert_eq!(json(&d.join("fresh/animate.json"))["stacks_reused"], 0);
     for i in 0..3 {
@@ -163,14 +162,6 @@ fn path_files_and_bad_input() {
         args.extend(&VIEW[..4]);
         args.extend(["--out-dir", "x"]);
         args.extend(extra);
-        let o = ercube(d, &args);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{}", describe(&args, &o));
-        assert_eq!(err.trim_end().lines().count(), 1, "{}", describe(&args, &o));
-        assert!(
-            err.starts_with("ercube: error: ") && err.contains(needle),
-            "{}",
-            describe(&args, &o)
-        );
+        assert_refused(&args, &ercube(d, &args), needle);
     }
 }

@@ -9,7 +9,7 @@ use golden::render::Prepared;
 use pipeline::config::PipelineConfig;
 use waves::{Trace, Tracer, TIME_UNITS_PER_CYCLE};
 
-use crate::bin::{describe, ercube};
+use crate::bin::{assert_refused, describe, ercube};
 use crate::chip::{check_gtkw, config, subject};
 
 /// The binary refuses the same mistakes with status 2 and exactly one
@@ -43,15 +43,7 @@ fn bad_configurations_are_refused_by_the_cli() {
     for (extra, needle) in cases {
         let args: Vec<&str> = base.iter().chain(extra).copied().collect();
         let out = ercube(dir.path(), &args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{}", describe(&args, &out));
-        let lines: Vec<&str> = err.lines().collect();
-        assert_eq!(lines.len(), 1, "{}", describe(&args, &out));
-        assert!(
-            lines[0].starts_with("ercube: error: ") && lines[0].contains(needle),
-            "stderr does not name {needle:?}:\n{}",
-            describe(&args, &out)
-        );
+        assert_refused(&args, &out, needle);
         assert!(
             !dir.path().join("render.png").exists(),
             "a refused run wrote an image"
@@ -67,29 +59,9 @@ fn bad_configurations_are_refused_by_the_cli() {
 #[test]
 fn cli_pipeline_render_writes_everything() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let args = [
-        "render",
-        "--scene",
-        "sphere:24",
-        "--size",
-        "48x48",
-        "--method",
-        "pipeline",
-        "--pes",
-        "4",
-        "--stats",
-        "s.json",
-        "--raw-npy",
-        "raw.npy",
-        "--vcd",
-        "w.vcd",
-        "--trace-pes",
-        "0-1",
-        "--trace-cycles",
-        "0-500",
-        "--out",
-        "p.png",
-    ];
+    let args: Vec<&str> = "render --scene sphere:24 --size 48x48 --method pipeline --pes 4 --stats s.json --raw-npy raw.npy --vcd w.vcd --trace-pes 0-1 --trace-cycles 0-500 --out p.png"
+        .split_whitespace()
+        .collect();
     let out = ercube(dir.path(), &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     let p = |name: &str| dir.path().join(name);
@@ -172,34 +144,15 @@ fn cli_pipeline_render_writes_everything() {
     check_gtkw(&p("w.vcd"));
 }
 
-/// `ercube render --method pipeline-ftb` reports its error against golden
-/// er-ftb at the same threshold and its termination counters, and refuses
-/// a threshold outside (0, 1] with one line.
 /// `--fst` with `--trace-signals`: the FST, its save file and the stage
 /// filter are written, the VCD of the same run holds exactly the selected
 /// groups, and the FST is the smaller file.
 #[test]
 fn cli_writes_fst_and_selects_signal_groups() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let args = [
-        "render",
-        "--scene",
-        "sphere:24",
-        "--size",
-        "32x32",
-        "--method",
-        "pipeline",
-        "--pes",
-        "4",
-        "--vcd",
-        "w.vcd",
-        "--fst",
-        "f.fst",
-        "--trace-signals",
-        "ctrl,ports",
-        "--out",
-        "p.png",
-    ];
+    let args: Vec<&str> = "render --scene sphere:24 --size 32x32 --method pipeline --pes 4 --vcd w.vcd --fst f.fst --trace-signals ctrl,ports --out p.png"
+        .split_whitespace()
+        .collect();
     let out = ercube(dir.path(), &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     let p = |name: &str| dir.path().join(name);
@@ -224,6 +177,9 @@ fn cli_writes_fst_and_selects_signal_groups() {
     assert!(size("f.fst") < size("w.vcd"));
 }
 
+/// `ercube render --method pipeline-ftb` reports its error against golden
+/// er-ftb at the same threshold and its termination counters, and refuses
+/// a threshold outside (0, 1] with one line.
 #[test]
 fn cli_renders_pipeline_ftb() {
     let dir = tempfile::tempdir().unwrap();

@@ -29,3 +29,18 @@ pub fn describe<S: AsRef<str>>(args: &[S], out: &Output) -> String {
         String::from_utf8_lossy(&out.stderr)
     )
 }
+
+/// Asserts the one-line error contract: status 2 and exactly one stderr
+/// line, `ercube: error: ...`, that contains `needle`.
+#[track_caller]
+pub fn assert_refused<S: AsRef<str>>(args: &[S], out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(out.status.code(), Some(2), "{}", describe(args, out));
+    assert_eq!(lines.len(), 1, "{}", describe(args, out));
+    assert!(
+        lines[0].starts_with("ercube: error: ") && lines[0].contains(needle),
+        "stderr does not name {needle:?}:\n{}",
+        describe(args, out)
+    );
+}

@@ -478,13 +478,7 @@ fn check_extreme_view(vol: &Volume, lut: &Lut, cam: &Camera, what: &str, tally: 
     tally.pipeline_runs += 1;
     tally.worst_ratio = tally.worst_ratio.max(db.max(di) / b);
     if !(db <= b && di <= b) {
-        let empty = Method::Er
-            .layout(&prep.view)
-            .unwrap()
-            .grids
-            .iter()
-            .filter(|g| g.slices.is_empty())
-            .count();
+        let empty = empty_regions(&prep);
         tally.over_bound.push(format!(
             "{what}: pipeline differs by {db:.4} (baseplane) / {di:.4} (image), bound {b:.4}, \
              path ufixed<{},{}>, {empty} ER region(s) without slices",
@@ -530,6 +524,30 @@ const DISTANCES: [f64; 11] = [
     40.0,
     1e4,
 ];
+
+/// ER regions of the view that hold no slice.
+fn empty_regions(prep: &Prepared) -> usize {
+    Method::Er
+        .layout(&prep.view)
+        .unwrap()
+        .grids
+        .iter()
+        .filter(|g| g.slices.is_empty())
+        .count()
+}
+
+impl Tally {
+    /// No view went over the derived bound.
+    #[track_caller]
+    fn assert_within_bound(&self) {
+        assert!(
+            self.over_bound.is_empty(),
+            "{} views over the bound, e.g. {}",
+            self.over_bound.len(),
+            self.over_bound[0]
+        );
+    }
+}
 
 fn eye_extremes(dims: [usize; 3], size: u32) -> Tally {
     let vol = blob(dims, 40);
@@ -614,12 +632,7 @@ fn eye_extremes_render_finitely_and_within_the_bound() {
         t.pipeline_runs > t.views / 2,
         "the pipeline ran on too few views"
     );
-    assert!(
-        t.over_bound.is_empty(),
-        "{} views over the bound, e.g. {}",
-        t.over_bound.len(),
-        t.over_bound[0]
-    );
+    t.assert_within_bound();
 }
 
 /// The same sweep on a larger volume:
@@ -628,12 +641,7 @@ fn eye_extremes_render_finitely_and_within_the_bound() {
 #[ignore = "heavy: 40x36x48 volume"]
 fn eye_extremes_large_volume() {
     let t = eye_extremes([40, 36, 48], 48);
-    assert!(
-        t.over_bound.is_empty(),
-        "{} views over the bound, e.g. {}",
-        t.over_bound.len(),
-        t.over_bound[0]
-    );
+    t.assert_within_bound();
 }
 
 /// The baseplane words must not depend on the PE count (README: "PE
@@ -656,13 +664,7 @@ fn pipeline_words_do_not_depend_on_p_when_regions_are_empty() {
                 let eye = eye_at(dims, axis, false, d, [0.0, 0.0]);
                 let cam = Camera::new(eye, centre, up_for(centre - eye), 60.0, 16, 12).unwrap();
                 let prep = Prepared::new(&vol, &cam).unwrap();
-                let empty = Method::Er
-                    .layout(&prep.view)
-                    .unwrap()
-                    .grids
-                    .iter()
-                    .filter(|g| g.slices.is_empty())
-                    .count();
+                let empty = empty_regions(&prep);
                 assert_eq!(empty > 0, d < 0.4, "dims {dims:?} axis {axis} D {d}");
                 let words = |pes: u16| {
                     let cfg = PipelineConfig {
