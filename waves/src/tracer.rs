@@ -61,7 +61,7 @@ pub struct SignalInfo {
     /// Declared width in bits.
     pub width: u32,
     /// Names of the signal's values, for an enumeration (see
-    /// [`Tracer::register_enum`]): viewers show them through a translate
+    /// [`Tracer::register_enum_in`]): viewers show them through a translate
     /// filter file ([`TraceInfo::write_gtkw`]). Empty for plain numbers.
     pub names: Vec<(u64, String)>,
 }
