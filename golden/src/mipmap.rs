@@ -121,6 +121,14 @@ impl Level {
         p.map(|v| (v + 0.5) * self.scale - 0.5)
     }
 
+    /// The interpolation cell of base position `p`: per axis the two
+    /// voxel indices and the weight of the second.
+    #[inline]
+    fn cells(&self, p: [f64; 3]) -> [(usize, usize, f32); 3] {
+        let q = self.coord(p);
+        std::array::from_fn(|k| cell(q[k], self.dims[k]))
+    }
+
     #[inline]
     fn at(&self, x: usize, y: usize, z: usize) -> [f32; 4] {
         self.data[(z * self.dims[1] + y) * self.dims[0] + x]
@@ -130,10 +138,7 @@ impl Level {
     /// at base position `p`.
     #[inline]
     pub fn scalar(&self, p: [f64; 3]) -> f32 {
-        let q = self.coord(p);
-        let (x0, x1, tx) = cell(q[0], self.dims[0]);
-        let (y0, y1, ty) = cell(q[1], self.dims[1]);
-        let (z0, z1, tz) = cell(q[2], self.dims[2]);
+        let [(x0, x1, tx), (y0, y1, ty), (z0, z1, tz)] = self.cells(p);
         let lerp = |a: f32, b: f32, t: f32| a + t * (b - a);
         let plane = |z: usize| {
             let top = lerp(self.at(x0, y0, z)[0], self.at(x1, y0, z)[0], tx);
@@ -146,10 +151,7 @@ impl Level {
     /// Trilinear interpolation at base position `p`.
     #[inline]
     pub fn trilinear(&self, p: [f64; 3]) -> [f32; 4] {
-        let q = self.coord(p);
-        let (x0, x1, tx) = cell(q[0], self.dims[0]);
-        let (y0, y1, ty) = cell(q[1], self.dims[1]);
-        let (z0, z1, tz) = cell(q[2], self.dims[2]);
+        let [(x0, x1, tx), (y0, y1, ty), (z0, z1, tz)] = self.cells(p);
         let lerp = |a: [f32; 4], b: [f32; 4], t: f32| -> [f32; 4] {
             std::array::from_fn(|c| a[c] + t * (b[c] - a[c]))
         };
@@ -167,10 +169,7 @@ impl Level {
     /// the only way to get a non-zero result).
     #[inline]
     pub fn cell_empty(&self, p: [f64; 3]) -> bool {
-        let q = self.coord(p);
-        let (x0, x1, _) = cell(q[0], self.dims[0]);
-        let (y0, y1, _) = cell(q[1], self.dims[1]);
-        let (z0, z1, _) = cell(q[2], self.dims[2]);
+        let [(x0, x1, _), (y0, y1, _), (z0, z1, _)] = self.cells(p);
         [z0, z1].iter().all(|&z| {
             [y0, y1]
                 .iter()
@@ -183,10 +182,7 @@ impl Level {
     /// `p` reads.
     #[inline]
     pub fn cell_invisible(&self, p: [f64; 3], visible: &VisibleEntries) -> bool {
-        let q = self.coord(p);
-        let (x0, x1, _) = cell(q[0], self.dims[0]);
-        let (y0, y1, _) = cell(q[1], self.dims[1]);
-        let (z0, z1, _) = cell(q[2], self.dims[2]);
+        let [(x0, x1, _), (y0, y1, _), (z0, z1, _)] = self.cells(p);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for z in [z0, z1] {
             for y in [y0, y1] {

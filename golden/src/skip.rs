@@ -39,6 +39,25 @@ pub struct Skips {
     pub cull: bool,
 }
 
+impl Skips {
+    /// Nothing skipped: every sample taken (the reference for the
+    /// identity tests and what `--no-skip-empty --no-cull` runs).
+    pub const NONE: Skips = Skips {
+        empty: false,
+        cull: false,
+    };
+    /// Empty-space skipping alone.
+    pub const EMPTY: Skips = Skips {
+        empty: true,
+        cull: false,
+    };
+    /// Culling alone.
+    pub const CULL: Skips = Skips {
+        empty: false,
+        cull: true,
+    };
+}
+
 impl Default for Skips {
     fn default() -> Skips {
         Skips {

@@ -55,10 +55,7 @@ pub struct SkipBenchArgs {
     pub threads: Option<usize>,
 }
 
-const OFF: Skips = Skips {
-    empty: false,
-    cull: false,
-};
+const OFF: Skips = Skips::NONE;
 
 /// One scene of the plan.
 struct Case {
@@ -145,14 +142,7 @@ fn cases(a: &SkipBenchArgs, notes: &mut Vec<String>) -> Result<Vec<Case>> {
 
 /// The golden configurations: each method with nothing skipped first.
 fn golden_plan() -> Vec<(&'static str, Method, f32, Skips)> {
-    let empty = Skips {
-        empty: true,
-        cull: false,
-    };
-    let cull = Skips {
-        empty: false,
-        cull: true,
-    };
+    let (empty, cull) = (Skips::EMPTY, Skips::CULL);
     vec![
         ("er, nothing skipped", Method::Er, 1.0, OFF),
         ("er, empty space", Method::Er, 1.0, empty),
@@ -178,10 +168,7 @@ fn golden_plan() -> Vec<(&'static str, Method, f32, Skips)> {
 
 /// The pipeline configurations: order, termination, skips.
 fn pipeline_plan() -> Vec<(&'static str, Order, f64, Skips)> {
-    let empty = Skips {
-        empty: true,
-        cull: false,
-    };
+    let empty = Skips::EMPTY;
     vec![
         ("pipeline, nothing skipped", Order::BackToFront, 1.0, OFF),
         ("pipeline, empty space", Order::BackToFront, 1.0, empty),

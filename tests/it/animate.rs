@@ -148,20 +148,19 @@ fn path_files_and_bad_input() {
     let stats = json(&d.join("p/animate.json"));
     assert_eq!(stats["frames"], 2);
     assert_eq!(stats["eyes"][1], serde_json::json!([20.0, 11.5, -30.0]));
-    let cases: [(&[&str], &str); 7] = [
-        (&["--path", "bad.txt"], "line 2"),
-        (&["--path", "empty.txt"], "no eye"),
-        (&["--path", "missing.txt"], "missing.txt"),
-        (&["--frames", "0"], "--frames"),
-        (&["--orbit", "nan"], "--orbit"),
-        (&["--method", "pipeline"], "pipeline"),
-        (&["--frame-ms", "0"], "--frame-ms"),
-    ];
-    for (extra, needle) in cases {
+    for (extra, needle) in [
+        ("--path bad.txt", "line 2"),
+        ("--path empty.txt", "no eye"),
+        ("--path missing.txt", "missing.txt"),
+        ("--frames 0", "--frames"),
+        ("--orbit nan", "--orbit"),
+        ("--method pipeline", "pipeline"),
+        ("--frame-ms 0", "--frame-ms"),
+    ] {
         let mut args: Vec<&str> = vec!["animate"];
         args.extend(&VIEW[..4]);
         args.extend(["--out-dir", "x"]);
-        args.extend(extra);
+        args.extend(extra.split_whitespace());
         assert_refused(&args, &ercube(d, &args), needle);
     }
 }

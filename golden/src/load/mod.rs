@@ -244,6 +244,40 @@ mod tests {
         (0..n).map(|i| ((i * 37 + 11) % modulo) as u16).collect()
     }
 
+    /// 4x3x2 u16 voxels and their bytes in the given order.
+    pub(crate) fn u16_data(big: bool) -> (Vec<u16>, Vec<u8>) {
+        let vals = pattern(24, 65536);
+        let bytes = vals
+            .iter()
+            .flat_map(|&v| {
+                if big {
+                    v.to_be_bytes()
+                } else {
+                    v.to_le_bytes()
+                }
+            })
+            .collect();
+        (vals, bytes)
+    }
+
+    /// Every header of `cases` is refused by `parse` with one line that
+    /// mentions its needle.
+    pub(crate) fn assert_headers_refused<H: std::fmt::Debug>(
+        cases: &[(String, &str)],
+        parse: impl Fn(&str) -> std::result::Result<H, String>,
+    ) {
+        for (text, needle) in cases {
+            let e = parse(text.as_str())
+                .map(|h| format!("parsed {h:?}"))
+                .unwrap_err();
+            assert!(
+                e.contains(needle),
+                "{text:?}: error {e:?} should mention {needle:?}"
+            );
+            assert!(!e.contains('\n'), "{e:?} should be one line");
+        }
+    }
+
     pub(crate) fn gzip(bytes: &[u8]) -> Vec<u8> {
         let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
         enc.write_all(bytes).unwrap();

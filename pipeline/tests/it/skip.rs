@@ -25,14 +25,8 @@ use waves::Tracer;
 use crate::chip::signature;
 use crate::scenes::{eye_and_look, sparse, tf};
 
-const OFF: Skips = Skips {
-    empty: false,
-    cull: false,
-};
-const EMPTY: Skips = Skips {
-    empty: true,
-    cull: false,
-};
+const OFF: Skips = Skips::NONE;
+const EMPTY: Skips = Skips::EMPTY;
 
 fn lut(cfg: &PipelineConfig, threshold: f64) -> Lut {
     let t = tf(&[

@@ -2,7 +2,7 @@
 //! and random input.
 
 use super::*;
-use crate::load::tests::{assert_err, gzip, pattern, write};
+use crate::load::tests::{assert_err, assert_headers_refused, gzip, u16_data, write};
 use crate::volume::DEFAULT_MEMORY_LIMIT;
 use proptest::prelude::*;
 use std::io::Write;
@@ -115,30 +115,7 @@ fn bad_meta_headers_are_refused() {
         ),
         (header("MET_UCHAR", "", "s%03d.raw 1 10 1"), "only LOCAL"),
     ];
-    for (text, needle) in cases {
-        let e = parse(&text).map(|h| format!("parsed {h:?}")).unwrap_err();
-        assert!(
-            e.contains(needle),
-            "{text:?}: error {e:?} should mention {needle:?}"
-        );
-        assert!(!e.contains('\n'), "{e:?} should be one line");
-    }
-}
-
-/// 4x3x2 u16 voxels and their bytes in the given order.
-fn u16_data(big: bool) -> (Vec<u16>, Vec<u8>) {
-    let vals = pattern(24, 65536);
-    let bytes = vals
-        .iter()
-        .flat_map(|&v| {
-            if big {
-                v.to_be_bytes()
-            } else {
-                v.to_le_bytes()
-            }
-        })
-        .collect();
-    (vals, bytes)
+    assert_headers_refused(&cases, parse);
 }
 
 #[test]
@@ -199,33 +176,38 @@ fn truncated_or_absurd_meta_data_is_refused() {
     let z = zlib(&le);
     let bytes = [h.as_bytes(), &z[..z.len() - 6]].concat();
     assert!(load_meta(&write(&dir, "b.mha", &bytes), LIM).is_err());
-    let h = header("MET_USHORT", "", "missing.raw");
-    assert_err(
-        load_meta(&write(&dir, "c.mhd", h.as_bytes()), LIM),
-        "missing.raw",
-    );
     write(&dir, "d.raw", &le[..10]);
-    let h = header("MET_USHORT", "HeaderSize = -1\n", "d.raw");
-    assert_err(
-        load_meta(&write(&dir, "d.mhd", h.as_bytes()), LIM),
-        "truncated",
-    );
-    let h = header("MET_UCHAR", "", "LOCAL").replace("DimSize = 4 3 2", "Dim = 4");
-    assert_err(
-        load_meta(&write(&dir, "e.mha", h.as_bytes()), LIM),
-        "'DimSize' is missing",
-    );
-    let h = "NDims = 3\nDimSize = 4 3 2\n";
-    assert_err(
-        load_meta(&write(&dir, "f.mha", h.as_bytes()), LIM),
-        "without an ElementDataFile",
-    );
-    // Huge sizes in a tiny file: refused before allocating.
-    let h = header("MET_DOUBLE", "", "LOCAL").replace("4 3 2", "8000 8000 8000");
-    assert_err(
-        load_meta(&write(&dir, "g.mha", h.as_bytes()), LIM),
-        "over the limit",
-    );
+    let refused = [
+        (
+            "c.mhd",
+            header("MET_USHORT", "", "missing.raw"),
+            "missing.raw",
+        ),
+        (
+            "d.mhd",
+            header("MET_USHORT", "HeaderSize = -1\n", "d.raw"),
+            "truncated",
+        ),
+        (
+            "e.mha",
+            header("MET_UCHAR", "", "LOCAL").replace("DimSize = 4 3 2", "Dim = 4"),
+            "'DimSize' is missing",
+        ),
+        (
+            "f.mha",
+            "NDims = 3\nDimSize = 4 3 2\n".to_string(),
+            "without an ElementDataFile",
+        ),
+        // Huge sizes in a tiny file: refused before allocating.
+        (
+            "g.mha",
+            header("MET_DOUBLE", "", "LOCAL").replace("4 3 2", "8000 8000 8000"),
+            "over the limit",
+        ),
+    ];
+    for (name, h, needle) in refused {
+        assert_err(load_meta(&write(&dir, name, h.as_bytes()), LIM), needle);
+    }
     let h = header("MET_UCHAR", "", "LOCAL").replace("4 3 2", "4 3 0");
     assert_err(load_meta(&write(&dir, "h.mha", h.as_bytes()), LIM), "zero");
     assert_err(

@@ -2,7 +2,7 @@
 //! random input.
 
 use super::*;
-use crate::load::tests::{assert_err, gzip, pattern, write};
+use crate::load::tests::{assert_err, assert_headers_refused, gzip, u16_data, write};
 use crate::volume::DEFAULT_MEMORY_LIMIT;
 use proptest::prelude::*;
 
@@ -156,30 +156,7 @@ fn bad_nrrd_headers_are_refused() {
             "only a single data file",
         ),
     ];
-    for (text, needle) in cases {
-        let e = parse(&text).map(|h| format!("parsed {h:?}")).unwrap_err();
-        assert!(
-            e.contains(needle),
-            "{text:?}: error {e:?} should mention {needle:?}"
-        );
-        assert!(!e.contains('\n'), "{e:?} should be one line");
-    }
-}
-
-/// 4x3x2 u16 voxels and their bytes in the given order.
-fn u16_data(big: bool) -> (Vec<u16>, Vec<u8>) {
-    let vals = pattern(24, 65536);
-    let bytes = vals
-        .iter()
-        .flat_map(|&v| {
-            if big {
-                v.to_be_bytes()
-            } else {
-                v.to_le_bytes()
-            }
-        })
-        .collect();
-    (vals, bytes)
+    assert_headers_refused(&cases, parse);
 }
 
 #[test]
