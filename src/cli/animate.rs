@@ -30,6 +30,8 @@ use super::stats::{median, write_json};
 
 /// Most frames one path may have (a path file's lines count too).
 const MAX_FRAMES: usize = 10_000;
+/// Largest path file read (checked before reading it).
+const MAX_PATH_BYTES: u64 = 4 << 20;
 
 /// Arguments of `ercube animate`.
 #[derive(Debug, Args)]
@@ -68,6 +70,15 @@ pub struct AnimateArgs {
 /// The eyes (and look-at points) of the path.
 fn path_of(a: &AnimateArgs, first: &Camera) -> Result<Vec<(DVec3, DVec3)>> {
     if let Some(p) = &a.path {
+        let len = std::fs::metadata(p)
+            .with_context(|| format!("cannot read --path {}", p.display()))?
+            .len();
+        if len > MAX_PATH_BYTES {
+            bail!(
+                "--path {} has {len} bytes, more than {MAX_PATH_BYTES} ({MAX_FRAMES} eyes fit in far less)",
+                p.display()
+            );
+        }
         let text = std::fs::read_to_string(p)
             .with_context(|| format!("cannot read --path {}", p.display()))?;
         let mut out = Vec::new();
@@ -140,7 +151,9 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
     let bar = progress(path.len() as u64);
     let mut prev: Option<Prepared> = None;
-    let mut frames = Vec::with_capacity(path.len());
+    // Frames go into the GIF as they are drawn, so a long path holds one
+    // frame in memory, not all of them.
+    let mut gif = GifWriter::new(&a.out_dir.join("animation.gif"), a.frame_ms)?;
     let mut times = Vec::with_capacity(path.len());
     let mut prepare_times = Vec::with_capacity(path.len());
     let mut stacks_reused = 0;
@@ -171,12 +184,12 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
         frame
             .image
             .write_png(&a.out_dir.join(format!("frame_{i:04}.png")))?;
-        frames.push(frame.image);
+        gif.push(&frame.image)?;
         prev = Some(prep);
         bar.inc(1);
     }
     bar.finish_and_clear();
-    write_gif(&a.out_dir.join("animation.gif"), &frames, a.frame_ms)?;
+    gif.finish()?;
     let rest = &times[1.min(times.len())..];
     let stats = serde_json::json!({
         "method": a.method.name(),
@@ -205,24 +218,68 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
     Ok(())
 }
 
-/// Writes the frames as a looping animated GIF, atomically.
-fn write_gif(path: &Path, frames: &[golden::image::Image], frame_ms: u32) -> Result<()> {
-    golden::image::write_atomic(path, |w| {
-        let mut enc = GifEncoder::new_with_speed(w, 10);
+/// A looping animated GIF written frame by frame into a temporary file
+/// beside its path and renamed over it once complete (atomic, like every
+/// other output).
+struct GifWriter {
+    path: PathBuf,
+    delay: Delay,
+    tmp: tempfile::NamedTempFile,
+    /// Over a second handle of `tmp`, unbuffered, so a failed write shows
+    /// in the frame that made it (the encoder cannot be unwrapped to flush
+    /// a buffer with its error).
+    enc: GifEncoder<std::fs::File>,
+}
+
+impl GifWriter {
+    fn new(path: &Path, frame_ms: u32) -> Result<GifWriter> {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let tmp = tempfile::NamedTempFile::new_in(dir)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let file = tmp
+            .as_file()
+            .try_clone()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let mut enc = GifEncoder::new_with_speed(file, 10);
         enc.set_repeat(Repeat::Infinite)
-            .map_err(std::io::Error::other)?;
-        for img in frames {
-            let rgb = img.to_rgb8();
-            let rgba: Vec<u8> = rgb
-                .chunks_exact(3)
-                .flat_map(|p| [p[0], p[1], p[2], 255])
-                .collect();
-            let buf = RgbaImage::from_raw(img.width as u32, img.height as u32, rgba)
-                .ok_or_else(|| std::io::Error::other("frame size"))?;
-            let frame = Frame::from_parts(buf, 0, 0, Delay::from_numer_denom_ms(frame_ms, 1));
-            enc.encode_frame(frame).map_err(std::io::Error::other)?;
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(GifWriter {
+            path: path.to_owned(),
+            delay: Delay::from_numer_denom_ms(frame_ms, 1),
+            tmp,
+            enc,
+        })
+    }
+
+    fn push(&mut self, img: &golden::image::Image) -> Result<()> {
+        let rgba: Vec<u8> = img
+            .to_rgb8()
+            .chunks_exact(3)
+            .flat_map(|p| [p[0], p[1], p[2], 255])
+            .collect();
+        let buf =
+            RgbaImage::from_raw(img.width as u32, img.height as u32, rgba).context("frame size")?;
+        self.enc
+            .encode_frame(Frame::from_parts(buf, 0, 0, self.delay))
+            .with_context(|| format!("cannot write {}", self.path.display()))
+    }
+
+    fn finish(self) -> Result<()> {
+        let GifWriter { path, tmp, enc, .. } = self;
+        let err = |e: std::io::Error| anyhow::anyhow!("cannot write {}: {e}", path.display());
+        // Dropping the encoder writes the GIF trailer.
+        drop(enc);
+        tmp.as_file().sync_all().map_err(err)?;
+        // A temporary file is private (0600); the GIF should have the
+        // permissions of an ordinarily created file, as the PNGs do.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            tmp.as_file()
+                .set_permissions(std::fs::Permissions::from_mode(0o644))
+                .map_err(err)?;
         }
+        tmp.persist(&path).map_err(|e| err(e.error))?;
         Ok(())
-    })?;
-    Ok(())
+    }
 }

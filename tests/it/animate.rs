@@ -140,6 +140,8 @@ fn path_files_and_bad_input() {
     .unwrap();
     std::fs::write(d.join("bad.txt"), "11.5,11.5,-30\n1,2\n").unwrap();
     std::fs::write(d.join("empty.txt"), "# nothing\n").unwrap();
+    // Past the size cap: refused from its length, before it is read.
+    std::fs::write(d.join("huge.txt"), vec![b'#'; 5 << 20]).unwrap();
     let mut args: Vec<&str> = vec!["animate"];
     args.extend(&VIEW[..4]);
     args.extend(["--path", "p.txt", "--out-dir", "p"]);
@@ -151,6 +153,7 @@ fn path_files_and_bad_input() {
     for (extra, needle) in [
         ("--path bad.txt", "line 2"),
         ("--path empty.txt", "no eye"),
+        ("--path huge.txt", "bytes, more than"),
         ("--path missing.txt", "missing.txt"),
         ("--frames 0", "--frames"),
         ("--orbit nan", "--orbit"),
