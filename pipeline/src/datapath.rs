@@ -50,6 +50,9 @@ pub struct Datapath {
     /// The early-termination comparator's constant, a raw `accum_alpha`
     /// word ([`PipelineConfig::termination_raw`]), fixed per frame.
     threshold: Option<i64>,
+    /// Cycles from a sample's issue to its write-back into the compositing
+    /// buffer ([`PipelineConfig::datapath_latency`], resolved).
+    pub latency: u64,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -72,6 +75,7 @@ impl Datapath {
     pub fn new(cfg: PipelineConfig, tables: Tables) -> Datapath {
         Datapath {
             threshold: cfg.termination_raw(),
+            latency: u64::from(crate::cost::datapath_latency(&cfg)),
             cfg,
             tables,
         }

@@ -31,7 +31,9 @@ pub mod host;
 pub mod pe;
 pub mod probes;
 pub mod rtl;
+pub mod schedule;
 pub mod skip;
+pub mod stages;
 pub mod tables;
 
 pub use array::{run_frame, run_frame_with, Frame, RunError};

@@ -8,8 +8,9 @@
 //! `ctrl` (the controller), `datapath` (a PE's sample path and counters),
 //! `acc` (its accumulators after compositing) are on by default; `ports`
 //! (both link ports of every PE: rays migrating, edge voxels, merge
-//! parents, each as valid and payload) is off by default, since it more
-//! than doubles the signals of a PE.
+//! parents, each as valid and payload, and the host port of the readout)
+//! and `regs` (a PE's registers and FIFO levels) are off by default, since
+//! each more than doubles the signals of a PE.
 //!
 //! The stage is a [`Stage`], written as its numeric code; its names reach
 //! GTKWave through the translate filter file written beside the `.gtkw`
@@ -20,7 +21,8 @@ use waves::{Group, Sampler, ScopePath, SignalId, Tracer, WavesError};
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::SampleTrace;
 use crate::fixed::Format;
-use crate::pe::{Pe, Port, Ports};
+use crate::pe::{Pe, Port, Ports, Readout};
+use crate::stages::passes::PassBus;
 
 /// The controller's stage, `top.ctrl.stage`. The codes are those the
 /// waveforms have always carried, so raw traces compare across versions.
@@ -40,11 +42,17 @@ pub enum Stage {
     Split = 5,
     /// Front to back: the fold after the last region.
     Fold = 6,
+    /// Waiting for the samples in flight in the datapath to be written
+    /// back (before a merge, split, fold or the readout).
+    Drain = 7,
+    /// A row start held back because one of its rays is still in the
+    /// datapath from the previous slice (read after write).
+    Stall = 8,
 }
 
 impl Stage {
     /// Every stage, in code order.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 9] = [
         Stage::Sample,
         Stage::Migrate,
         Stage::Merge,
@@ -52,6 +60,8 @@ impl Stage {
         Stage::Skip,
         Stage::Split,
         Stage::Fold,
+        Stage::Drain,
+        Stage::Stall,
     ];
 
     /// The code on `top.ctrl.stage`.
@@ -69,13 +79,15 @@ impl Stage {
             Stage::Skip => "skip",
             Stage::Split => "split",
             Stage::Fold => "fold",
+            Stage::Drain => "drain",
+            Stage::Stall => "stall",
         }
     }
 }
 
 /// The stages' codes and names, for the translate filter.
-const STAGE_NAMES: [(u64, &str); 7] = {
-    let mut names = [(0, ""); 7];
+const STAGE_NAMES: [(u64, &str); 9] = {
+    let mut names = [(0, ""); 9];
     let mut i = 0;
     while i < names.len() {
         names[i] = (Stage::ALL[i] as u64, Stage::ALL[i].name());
@@ -99,13 +111,21 @@ pub const ACC: Group = Group {
     name: "acc",
     default: true,
 };
-/// Both link ports of every PE, valid and payload per kind.
+/// Both link ports of every PE, valid and payload per kind, and its host
+/// port (the readout).
 pub const PORTS: Group = Group {
     name: "ports",
     default: false,
 };
+/// A PE's registers and FIFO levels: rays held, migration FIFOs, columns
+/// arriving, the edge register, whether samples are in flight, the pass's
+/// children, the stall counter.
+pub const REGS: Group = Group {
+    name: "regs",
+    default: false,
+};
 /// Every group, in the order `--trace-signals` lists them.
-pub const GROUPS: [Group; 4] = [CTRL, PORTS, DATAPATH, ACC];
+pub const GROUPS: [Group; 5] = [CTRL, PORTS, DATAPATH, ACC, REGS];
 
 /// Parses a comma-separated group list such as `ctrl,ports`; `all` is
 /// every group. An unknown name is an error naming the known ones.
@@ -200,28 +220,92 @@ fn word(v: i64, width: u32) -> u64 {
     }
 }
 
-/// What the controller shows in a cycle.
+/// What the controller shows in a cycle: its stage, the slice and row
+/// it broadcasts, and in a merge, split or fold the pass's broadcast.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Ctrl {
+pub struct Ctrl {
+    /// The stage.
     pub stage: Stage,
+    /// The slice (sampling, migration, skipping).
     pub slice: usize,
+    /// The ray row sampled, or the parent row a pass filters.
     pub row: usize,
+    /// A pass's broadcast: x row, y row, column, the row driven.
+    pub pass: Option<PassBus>,
+}
+
+impl Ctrl {
+    /// A cycle of `stage` at slice `slice` and row `row`.
+    pub fn at(stage: Stage, slice: usize, row: usize) -> Ctrl {
+        Ctrl {
+            stage,
+            slice,
+            row,
+            pass: None,
+        }
+    }
+}
+
+/// An optional row as a valid bit's value and a 16-bit payload.
+fn opt16(v: Option<usize>) -> (u64, u64) {
+    v.map_or((0, 0), |r| (1, r as u64 & 0xffff))
+}
+
+fn pass_of(s: &Ctrl) -> PassBus {
+    s.pass.unwrap_or_default()
 }
 
 /// Scope `top.ctrl`.
 const CTRL_PROBES: &[Probe<Ctrl>] = &[
-    Probe::<Ctrl>::new("stage", CTRL, |_| 3, |s| s.stage.code()).named(&STAGE_NAMES),
+    Probe::<Ctrl>::new("stage", CTRL, |_| 4, |s| s.stage.code()).named(&STAGE_NAMES),
     Probe::<Ctrl>::new("slice", CTRL, |_| 16, |s| s.slice as u64 & 0xffff),
     Probe::<Ctrl>::new("row", CTRL, |_| 16, |s| s.row as u64 & 0xffff),
+    Probe::<Ctrl>::new("pass_x_valid", CTRL, |_| 1, |s| opt16(pass_of(s).x).0),
+    Probe::<Ctrl>::new("pass_x", CTRL, |_| 16, |s| opt16(pass_of(s).x).1),
+    Probe::<Ctrl>::new("pass_y_valid", CTRL, |_| 1, |s| opt16(pass_of(s).y).0),
+    Probe::<Ctrl>::new("pass_y", CTRL, |_| 16, |s| opt16(pass_of(s).y).1),
+    Probe::<Ctrl>::new(
+        "pass_col",
+        CTRL,
+        |_| 16,
+        |s| s.pass.map_or(0, |p| p.col as u64 & 0xffff),
+    ),
+    Probe::<Ctrl>::new("drive_valid", CTRL, |_| 1, |s| opt16(pass_of(s).drive).0),
+    Probe::<Ctrl>::new("drive_row", CTRL, |_| 16, |s| opt16(pass_of(s).drive).1),
 ];
 
 /// A PE as its probes see it: what its last sampling cycle did, its ray
-/// counter, and the controller's stage (a PE is busy only while sampling).
-/// A copy rather than a borrow, so the tables' readers need no lifetime.
+/// counter, its registers and FIFO levels, and the controller's stage (a
+/// PE is busy only while sampling). A copy rather than a borrow, so the
+/// tables' readers need no lifetime.
 pub(crate) struct PeView {
     last: SampleTrace,
     rays_sent: u64,
     stage: Stage,
+    held: u64,
+    fifo: [u64; 2],
+    incoming: u64,
+    edge_reg: [u16; 2],
+    in_flight: bool,
+    children: u64,
+    stalls: u64,
+}
+
+impl PeView {
+    fn of(pe: &Pe, stage: Stage, cycle: u64) -> PeView {
+        PeView {
+            last: pe.last,
+            rays_sent: pe.counters.rays_sent,
+            stage,
+            held: pe.rays.len() as u64,
+            fifo: [pe.out_left.len() as u64, pe.out_right.len() as u64],
+            incoming: pe.incoming.len() as u64,
+            edge_reg: pe.edge_value,
+            in_flight: !pe.datapath_empty(cycle + 1),
+            children: pe.pass.children.len() as u64,
+            stalls: pe.counters.stalls,
+        }
+    }
 }
 
 impl PeView {
@@ -288,6 +372,50 @@ const PE_PROBES: &[Probe<PeView>] = &[
         |s| u64::from(s.busy() && s.last.terminated),
     )
     .only(|c| c.order == Order::FrontToBack),
+    Probe::<PeView>::new("rays_held", REGS, |_| 16, |s| s.held & 0xffff),
+    Probe::<PeView>::new("fifo_left", REGS, |_| 16, |s| s.fifo[0] & 0xffff),
+    Probe::<PeView>::new("fifo_right", REGS, |_| 16, |s| s.fifo[1] & 0xffff),
+    Probe::<PeView>::new("incoming", REGS, |_| 8, |s| s.incoming & 0xff),
+    Probe::<PeView>::new(
+        "edge_reg_0",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.edge_reg[0]),
+    ),
+    Probe::<PeView>::new(
+        "edge_reg_1",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.edge_reg[1]),
+    ),
+    Probe::<PeView>::new("in_flight", REGS, |_| 1, |s| u64::from(s.in_flight)),
+    Probe::<PeView>::new("pass_children", REGS, |_| 16, |s| s.children & 0xffff),
+    Probe::<PeView>::new("stalls", REGS, |_| 32, |s| s.stalls & 0xffff_ffff),
+];
+
+/// Scope `top.pe_K.host`: the ray word a PE streams to the host in a
+/// readout cycle.
+const HOST_PROBES: &[Probe<Option<Readout>>] = &[
+    Probe::<Option<Readout>>::new("valid", PORTS, |_| 1, |s| u64::from(s.is_some())),
+    Probe::<Option<Readout>>::new("mx", PORTS, |_| 16, |s| s.map_or(0, |o| index16(o.mx))),
+    Probe::<Option<Readout>>::new(
+        "row",
+        PORTS,
+        |_| 16,
+        |s| s.map_or(0, |o| u64::from(o.row) & 0xffff),
+    ),
+    Probe::<Option<Readout>>::new("r", PORTS, link_color, |s| {
+        s.map_or(0, |o| o.acc.raw[0] as u64)
+    }),
+    Probe::<Option<Readout>>::new("g", PORTS, link_color, |s| {
+        s.map_or(0, |o| o.acc.raw[1] as u64)
+    }),
+    Probe::<Option<Readout>>::new("b", PORTS, link_color, |s| {
+        s.map_or(0, |o| o.acc.raw[2] as u64)
+    }),
+    Probe::<Option<Readout>>::new("a", PORTS, link_alpha, |s| {
+        s.map_or(0, |o| o.acc.raw[3] as u64)
+    }),
 ];
 
 /// A link port as its probes see it: what the PE drove on it this cycle,
@@ -412,6 +540,7 @@ struct PeIds {
     pe: Vec<SignalId>,
     /// Left and right port.
     ports: [Vec<SignalId>; 2],
+    host: Vec<SignalId>,
     any_port: bool,
 }
 
@@ -456,10 +585,12 @@ impl Probes {
                 register(&mut tracer, cfg, &scope.child("left"), PORT_PROBES)?,
                 register(&mut tracer, cfg, &scope.child("right"), PORT_PROBES)?,
             ];
+            let host = register(&mut tracer, cfg, &scope.child("host"), HOST_PROBES)?;
             let any_port = ports.iter().flatten().any(|id| id.is_traced());
             pes.push(PeIds {
                 pe,
                 ports,
+                host,
                 any_port,
             });
         }
@@ -487,14 +618,11 @@ impl Probes {
             sample(s, CTRL_PROBES, ctrl_ids, &ctrl);
             let idle = Ports::default();
             for (k, (pe, id)) in pes.iter().zip(ids.iter()).enumerate() {
-                let view = PeView {
-                    last: pe.last,
-                    rays_sent: pe.counters.rays_sent,
-                    stage: ctrl.stage,
-                };
+                let view = PeView::of(pe, ctrl.stage, cycle);
                 sample(s, PE_PROBES, &id.pe, &view);
                 if id.any_port {
                     let driven = ports.get(k).copied().unwrap_or(idle);
+                    sample(s, HOST_PROBES, &id.host, &driven.host);
                     for (port, pids) in [driven.left, driven.right].into_iter().zip(&id.ports) {
                         let view = PortView {
                             port,

@@ -3,7 +3,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::fs::File;
-use std::io::{self, BufRead, BufReader};
+use std::io::{self, BufRead, BufReader, Read};
 use std::path::Path;
 
 use bitvec::prelude::*;
@@ -149,6 +149,41 @@ pub struct Trace {
     timescale: Option<String>,
 }
 
+/// The most header text [`Trace::from_reader`] holds in memory.
+const MAX_HEADER_BYTES: u64 = 64 << 20;
+
+/// Reads `reader`'s header up to and including the line holding
+/// `$enddefinitions` (or to the end), with every `$attrbegin ... $end`
+/// line blanked, so line numbers stay those of the file.
+fn header_without_attributes(reader: &mut impl BufRead) -> io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        let n = (&mut *reader)
+            .take(MAX_HEADER_BYTES.saturating_sub(out.len() as u64) + 1)
+            .read_until(b'\n', &mut line)?;
+        if n == 0 {
+            return Ok(out);
+        }
+        if out.len() + line.len() > MAX_HEADER_BYTES as usize {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("VCD header longer than {MAX_HEADER_BYTES} bytes"),
+            ));
+        }
+        let text = line.trim_ascii_start();
+        if text.starts_with(b"$attrbegin") {
+            out.push(b'\n');
+            continue;
+        }
+        out.extend_from_slice(&line);
+        if text.windows(15).any(|w| w == b"$enddefinitions") {
+            return Ok(out);
+        }
+    }
+}
+
 impl Trace {
     /// Reads and parses the VCD file at `path` with the `vcd` crate.
     pub fn read(path: impl AsRef<Path>) -> Result<Trace, WavesError> {
@@ -158,9 +193,13 @@ impl Trace {
     }
 
     /// Parses VCD text from `reader`; `path` only names it in errors.
-    pub fn from_reader<R: BufRead>(reader: R, path: &Path) -> Result<Trace, WavesError> {
-        let mut parser = vcd::Parser::new(reader);
-        let err = |parser: &vcd::Parser<R>, e: io::Error| {
+    /// GTKWave's `$attrbegin` attributes (the enum tables the tracer
+    /// writes) are skipped: the `vcd` crate does not know them.
+    pub fn from_reader<R: BufRead>(mut reader: R, path: &Path) -> Result<Trace, WavesError> {
+        let header =
+            header_without_attributes(&mut reader).map_err(|e| WavesError::io("read", path, e))?;
+        let mut parser = vcd::Parser::new(io::Cursor::new(header).chain(reader));
+        let err = |parser: &vcd::Parser<_>, e: io::Error| {
             if e.get_ref().is_some_and(|r| r.is::<vcd::ParseError>())
                 || e.kind() == io::ErrorKind::UnexpectedEof
             {
@@ -186,7 +225,7 @@ impl Trace {
 
         let mut time = 0;
         while let Some(cmd) = parser.next() {
-            let bad = |parser: &vcd::Parser<R>, message: String| WavesError::Parse {
+            let bad = |parser: &vcd::Parser<_>, message: String| WavesError::Parse {
                 path: path.to_path_buf(),
                 line: parser.line(),
                 message,
@@ -321,6 +360,32 @@ fn to_wave_value(values: &[Value], width: u32) -> Option<WaveValue> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// GTKWave's enum-table attributes are skipped and the line numbers of
+    /// what follows stay the file's.
+    #[test]
+    fn attributes_are_skipped() {
+        let text = "$timescale 1ns $end
+$attrbegin misc 07 st 2 a b 0 1 1 $end
+$scope module top $end
+$attrbegin misc 07 \"\" 1 $end
+$var wire 1 ! s $end
+$upscope $end
+$enddefinitions $end
+#0
+1!
+#10
+z!
+";
+        let t = Trace::from_reader(text.as_bytes(), Path::new("mem.vcd")).unwrap();
+        assert_eq!(t.names().collect::<Vec<_>>(), ["top.s"]);
+        assert_eq!(t.signal("top.s").unwrap().u64_at_cycle(0), Some(1));
+        let bad = text.replace("#10\nz!", "#10\nq!");
+        match Trace::from_reader(bad.as_bytes(), Path::new("mem.vcd")) {
+            Err(WavesError::Parse { line, .. }) => assert_eq!(line, 11),
+            other => panic!("{other:?}"),
+        }
+    }
 
     #[test]
     fn left_extension_and_lookup() {

@@ -176,14 +176,23 @@ impl Sinks {
                  values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
             ))?;
             out.timescale(1, TimescaleUnit::NS)?;
+            let tables = enum_tables(info);
+            for (handle, (i, _)) in tables.iter().enumerate() {
+                write_enum_table(out.writer(), &info[*i], handle + 1)?;
+            }
             fn write_node(
                 out: &mut vcd::Writer<BufWriter<File>>,
                 node: &Node,
                 info: &[SignalInfo],
+                tables: &[(usize, &[(u64, String)])],
             ) -> io::Result<()> {
                 out.scope_def(ScopeType::Module, &node.name)?;
                 for &i in &node.vars {
                     let w = info[i].width;
+                    if let Some(h) = tables.iter().position(|t| t.1 == info[i].names.as_slice()) {
+                        // The variable that follows takes enum table `h`.
+                        writeln!(out.writer(), "$attrbegin misc 07 \"\" {} $end", h + 1)?;
+                    }
                     let index = (w > 1).then(|| ReferenceIndex::Range(w as i32 - 1, 0));
                     out.var_def(
                         VarType::Wire,
@@ -194,12 +203,12 @@ impl Sinks {
                     )?;
                 }
                 for child in &node.children {
-                    write_node(out, child, info)?;
+                    write_node(out, child, info, tables)?;
                 }
                 out.upscope()
             }
             for top in &root.children {
-                write_node(out, top, info)?;
+                write_node(out, top, info, &tables)?;
             }
             out.enddefinitions()?;
         }
@@ -329,4 +338,32 @@ impl Sinks {
         }
         Ok(written)
     }
+}
+
+/// The distinct value-name tables of `info`'s enumerations, each with the
+/// first signal that uses it (which names it and gives its width).
+fn enum_tables(info: &[SignalInfo]) -> Vec<(usize, &[(u64, String)])> {
+    let mut out: Vec<(usize, &[(u64, String)])> = Vec::new();
+    for (i, sig) in info.iter().enumerate() {
+        if !sig.names.is_empty() && !out.iter().any(|t| t.1 == sig.names.as_slice()) {
+            out.push((i, &sig.names));
+        }
+    }
+    out
+}
+
+/// Writes `sig`'s value names as enum table `handle`, in the attribute
+/// GTKWave's VCD extension defines (`$attrbegin misc 07 name count
+/// names... values... handle $end`, values as bit strings of the
+/// signal's width), which wellen, and so Surfer, reads.
+fn write_enum_table(out: &mut impl Write, sig: &SignalInfo, handle: usize) -> io::Result<()> {
+    write!(out, "$attrbegin misc 07 {} {}", sig.name, sig.names.len())?;
+    for (_, name) in &sig.names {
+        write!(out, " {name}")?;
+    }
+    let w = sig.width as usize;
+    for (code, _) in &sig.names {
+        write!(out, " {code:0w$b}")?;
+    }
+    writeln!(out, " {handle} $end")
 }

@@ -297,6 +297,21 @@ config_fields! {
             toml: "edge of the occupancy memory's empty-space blocks in voxels: a power of two, 2..=64",
             check: rules::occupancy_block,
         },
+        /// Clocks from a sample's issue to the write-back of its ray's
+        /// accumulators, `0..=256`; 0 derives it from the widths (the depth
+        /// `ercube cost` schedules, [`crate::cost::datapath_latency`]).
+        /// It sets the drain before a merge, split, fold or the readout and
+        /// the stall when a ray's next sample would issue before its last
+        /// was written back; 1 is a datapath that composites in the cycle
+        /// it reads.
+        ///
+        /// Default 0 (derived: 26 clocks at the default widths).
+        pub datapath_latency: u16 {
+            default: 0,
+            range: 0..=256,
+            toml: "clocks from a sample's issue to its accumulators' write-back, 0..=256; 0 = the depth `ercube cost` derives",
+            check: rules::datapath_latency,
+        },
     }
 }
 

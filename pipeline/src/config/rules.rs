@@ -336,6 +336,20 @@ pub(super) fn merge(c: &PipelineConfig, field: &str, m: Format) -> Result<(), Co
 }
 
 /// The check of `pes`.
+pub(super) fn datapath_latency(
+    _: &PipelineConfig,
+    field: &str,
+    clocks: u16,
+) -> Result<(), ConfigError> {
+    if clocks > 256 {
+        return Err(invalid(
+            field,
+            format!("datapath_latency = {clocks} is outside 0..=256"),
+        ));
+    }
+    Ok(())
+}
+
 pub(super) fn pes(_: &PipelineConfig, field: &str, pes: u16) -> Result<(), ConfigError> {
     if pes == 0 || pes > MAX_PES {
         return Err(invalid(

@@ -29,3 +29,18 @@ pub mod throughput;
 pub mod units;
 
 pub use target::{Resources, Target};
+
+/// The sample datapath's depth in clocks, from a ray slot's read to its
+/// accumulators' write-back: [`PipelineConfig::datapath_latency`] when set,
+/// else the depth [`inventory`]'s schedule derives for the configured
+/// widths (the square root's bits set it apart from a fixed count).
+///
+/// [`PipelineConfig::datapath_latency`]: crate::config::PipelineConfig::datapath_latency
+pub fn datapath_latency(cfg: &crate::config::PipelineConfig) -> u32 {
+    if cfg.datapath_latency > 0 {
+        return u32::from(cfg.datapath_latency);
+    }
+    // The depth depends on the widths only; any geometry gives the same.
+    let geo = inventory::Geometry::new([64, 64, 64], cfg.pes);
+    inventory::pe_inventory(cfg, &geo).schedule.depth.max(1)
+}

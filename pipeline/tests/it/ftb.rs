@@ -480,7 +480,7 @@ fn ftb_array_takes_goldens_samples() {
             let st = f.stages;
             assert_eq!(
                 f.cycles,
-                st.migrate + st.sample + st.split + st.fold + st.readout,
+                st.migrate + st.sample + st.split + st.fold + st.readout + st.drain + st.stall,
                 "{eye}, P = {p}: {st:?}"
             );
             assert_eq!(st.merge, 0);

@@ -1,5 +1,6 @@
 //! The pipeline model's integration tests, one binary (it links once):
-//! the array's structure, cycle accounting and waveforms (`model`), front
+//! the array's structure, cycle accounting and waveforms (`model`), the
+//! clock, latency and step shapes (`clock`), front
 //! to back (`ftb`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
 //! estimator against yosys (`cost`), and the waveforms beyond the default set (`traces`). What runs the `ercube` program is in
@@ -12,6 +13,7 @@ mod scenes;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 
+mod clock;
 mod cost;
 mod equivalence;
 mod ftb;

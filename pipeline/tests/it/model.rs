@@ -310,11 +310,12 @@ fn cycle_accounting_adds_up() {
             let ctx = format!("{e:?}, P = {p}");
             assert_eq!(
                 f.cycles,
-                st.migrate + st.sample + st.merge + st.readout,
+                st.migrate + st.sample + st.merge + st.readout + st.drain + st.stall,
                 "{ctx}: stages {st:?}"
             );
             for (k, c) in f.pes.iter().enumerate() {
                 assert_eq!(c.busy + c.idle, st.sample, "{ctx}, PE {k}: {c:?}");
+                assert_eq!(c.stalls, st.stall, "{ctx}, PE {k}: {c:?}");
                 assert_eq!(c.busy, c.samples, "{ctx}, PE {k}: {c:?}");
             }
             assert_eq!(f.ideal_cycles, f.samples as f64 / f64::from(p), "{ctx}");
@@ -628,9 +629,10 @@ fn waveform_reads_back_as_the_models_results() {
         "every slice-0 sample of a fully traced array is in the trace"
     );
     let lines = check_gtkw(&vcd);
-    // clk, three controller signals, eleven per PE: the default groups
-    // (ctrl, datapath, acc); the link ports are off by default.
-    assert_eq!(lines, 1 + 3 + 4 * 11, "signals in the .gtkw");
+    // clk, ten controller signals (stage, slice, row and the pass's
+    // broadcast), eleven per PE: the default groups (ctrl, datapath, acc);
+    // the link ports and registers are off by default.
+    assert_eq!(lines, 1 + 10 + 4 * 11, "signals in the .gtkw");
     crate::tools::vcd2fst(&vcd);
     let (wrong, busy) = readout_mislabelled(&vcd, &frame, &[0, 1, 2, 3]);
     if !wrong.is_empty() {

@@ -132,12 +132,13 @@ fn merge_parents_cross_the_links() {
             .unwrap_or_else(|| panic!("{n} is not traced"))
     };
     let stage = sig("top.ctrl.stage");
-    let row = sig("top.ctrl.row");
+    let drive = sig("top.ctrl.drive_row");
+    let drive_valid = sig("top.ctrl.drive_valid");
     let end = trace.end_time() / waves::TIME_UNITS_PER_CYCLE;
     // (mx, row) -> accumulator words, from busy sampling cycles, replayed
     // in time order so that each merge sees the latest words.
     let mut held: HashMap<(u64, u64), [u64; 4]> = HashMap::new();
-    let (mut checked, mut migrating, mut edges) = (0, 0, 0);
+    let (mut checked, mut migrating, mut edges, mut adjacent) = (0, 0, 0, 0);
     for c in 0..end {
         let Some(st) = stage.u64_at_cycle(c) else {
             continue;
@@ -156,7 +157,9 @@ fn merge_parents_cross_the_links() {
                 if st != Stage::Merge as u64 || port("parent_valid") == 0 {
                     continue;
                 }
-                let r = row.u64_at_cycle(c).expect("row");
+                // The row driven now is the x pass's next cycle's.
+                assert_eq!(drive_valid.u64_at_cycle(c), Some(1), "cycle {c}");
+                let r = drive.u64_at_cycle(c).expect("drive row");
                 let key = (port("parent_mx"), r);
                 let words = ["parent_r", "parent_g", "parent_b", "parent_a"].map(port);
                 if let Some(want) = held.get(&key) {
@@ -165,6 +168,26 @@ fn merge_parents_cross_the_links() {
                         "cycle {c}: PE {k}'s {side} port, parent {key:?}"
                     );
                     checked += 1;
+                }
+            }
+        }
+        // Across each link the two edge parents are neighbours in the ray
+        // grid: PE k's last held column and PE k + 1's first.
+        if st == Stage::Merge as u64 {
+            for k in 0..3 {
+                let at = |k: usize, n: &str| {
+                    sig(&format!("top.pe_{k}.{n}"))
+                        .u64_at_cycle(c)
+                        .expect("port signal")
+                };
+                if at(k, "right.parent_valid") == 1 && at(k + 1, "left.parent_valid") == 1 {
+                    assert_eq!(
+                        (at(k, "right.parent_mx") + 1) & 0xffff,
+                        at(k + 1, "left.parent_mx"),
+                        "cycle {c}: the link between PEs {k} and {}",
+                        k + 1
+                    );
+                    adjacent += 1;
                 }
             }
         }
@@ -177,6 +200,7 @@ fn merge_parents_cross_the_links() {
         "{checked} parent cycles matched; {migrating} ray and {edges} edge-voxel port cycles"
     );
     assert!(checked > 0, "no merge parent crossed a traced link");
+    assert!(adjacent > 0, "no link carried parents both ways");
     assert!(migrating > 0, "no ray crossed a link");
     assert!(edges > 0, "no edge voxels crossed a link");
 }
@@ -196,15 +220,24 @@ fn groups_select_and_stage_names_reach_gtkwave() {
         t.names().map(String::from).collect()
     };
     let default = count("d.vcd", TraceConfig::new(dir.path().join("d.vcd")));
-    assert_eq!(default.len(), 1 + 3 + 2 * 11);
+    // The clock, the controller's 10 and each PE's 11.
+    assert_eq!(default.len(), 1 + 10 + 2 * 11, "{default:?}");
     let ports = count(
         "p.vcd",
         TraceConfig::new(dir.path().join("p.vcd")).with_groups(["ports"]),
     );
-    assert_eq!(ports.len(), 1 + 2 * 2 * 16, "{ports:?}");
-    assert!(ports
-        .iter()
-        .all(|n| n == "top.clk" || n.contains("left.") || n.contains("right.")));
+    // Per PE two link ports of 16 and the host port's 7.
+    assert_eq!(ports.len(), 1 + 2 * (2 * 16 + 7), "{ports:?}");
+    assert!(ports.iter().all(|n| n == "top.clk"
+        || n.contains("left.")
+        || n.contains("right.")
+        || n.contains("host.")));
+    let regs = count(
+        "r.vcd",
+        TraceConfig::new(dir.path().join("r.vcd")).with_groups(["regs"]),
+    );
+    assert_eq!(regs.len(), 1 + 2 * 9, "{regs:?}");
+    assert!(regs.iter().any(|n| n == "top.pe_1.fifo_left"), "{regs:?}");
 
     let filter = dir.path().join("d.stage.txt");
     let text = std::fs::read_to_string(&filter).expect("the stage filter file is written");
@@ -214,9 +247,30 @@ fn groups_select_and_stage_names_reach_gtkwave() {
     }
     let gtkw = std::fs::read_to_string(dir.path().join("d.gtkw")).expect("gtkw");
     let abs = std::path::absolute(&filter).expect("absolute");
-    let want = format!("^1 {}\ntop.ctrl.stage[2:0]\n", abs.display());
+    let want = format!("^1 {}\ntop.ctrl.stage[3:0]\n", abs.display());
     assert!(gtkw.contains(&want), "{want:?} not in\n{gtkw}");
     check_gtkw(&dir.path().join("d.vcd"));
+    // Surfer's way: the VCD carries the names as an enum table on the
+    // stage, which wellen (Surfer's reader) attaches to the variable.
+    let w = wellen::simple::read(dir.path().join("d.vcd")).expect("wellen reads the VCD");
+    let h = w.hierarchy();
+    let var = h
+        .all_vars()
+        .find(|&v| h[v].full_name(h) == "top.ctrl.stage")
+        .expect("the stage is traced");
+    let (table, names) = h[var].enum_type(h).expect("the stage has an enum table");
+    assert_eq!(table, "stage");
+    for st in Stage::ALL {
+        let bits = format!("{:04b}", st as u64);
+        assert!(
+            names.contains(&(bits.as_str(), st.name())),
+            "{bits} -> {} missing from {names:?}",
+            st.name()
+        );
+    }
+    // GTKWave's vcd2fst accepts the attributes (it drops them: an FST,
+    // ours or its, has no enum table, see docs/pipeline.md).
+    crate::tools::vcd2fst(&dir.path().join("d.vcd"));
 
     let e = Array::new(
         &cfg,

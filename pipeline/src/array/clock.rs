@@ -1,0 +1,158 @@
+//! The array's one clock: a two-phase tick that every stage uses.
+//!
+//! In a tick each PE steps from its own state, the [`Links`] (what its
+//! neighbours drove on their ports in the previous cycle, copied) and the
+//! controller's broadcast, which the step closure captures; its return
+//! value is what it drives this cycle. Only after every PE has stepped do
+//! the new port outputs commit, so the order in which PEs step cannot
+//! matter (tests step them in other orders and compare every bit).
+//!
+//! The tick counts the cycle under its [`Stage`] and records the probes.
+//! No stage counts cycles of its own: [`StageCycles`] is what the ticks
+//! counted (the untraced whole-slice sampling path adds the cycles the
+//! clocked path would have ticked, and a test compares the two).
+//!
+//! A step cannot reach another PE's state: it receives `&mut Pe` for its
+//! own and [`Links`] by value, and while [`Clock::tick`] holds the array
+//! mutably nothing else can borrow the PEs:
+//!
+//! ```compile_fail
+//! # use pipeline::array::{Clock, Links};
+//! # use pipeline::probes::{Ctrl, Stage};
+//! # fn f(clock: &mut Clock) {
+//! // A step that peeks at PE 0's rays does not compile.
+//! clock.tick(Ctrl::at(Stage::Sample, 0, 0), |pe, _links: Links| {
+//!     let _ = clock.pes()[0].rays.len();
+//!     Ok(Default::default())
+//! });
+//! # }
+//! ```
+
+use crate::pe::{Pe, Port, Ports, StepError};
+use crate::probes::{Ctrl, Probes, Stage};
+
+use super::StageCycles;
+
+/// What a PE receives from its neighbours in a cycle: the port outputs
+/// they drove towards it in the previous cycle (their registers), by
+/// value. An end PE's missing neighbour drives nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Links {
+    /// What PE `k - 1` drove on its right port.
+    pub from_left: Port,
+    /// What PE `k + 1` drove on its left port.
+    pub from_right: Port,
+}
+
+/// The PEs, their committed port outputs, the cycle counter, the cycles
+/// per stage and the probes.
+pub struct Clock {
+    pes: Vec<Pe>,
+    ports: Vec<Ports>,
+    spare: Vec<Ports>,
+    order: Vec<usize>,
+    cycle: u64,
+    stages: StageCycles,
+    probes: Option<Probes>,
+}
+
+impl Clock {
+    pub(crate) fn new(pes: Vec<Pe>, probes: Option<Probes>) -> Clock {
+        let p = pes.len();
+        Clock {
+            pes,
+            ports: vec![Ports::default(); p],
+            spare: vec![Ports::default(); p],
+            order: (0..p).collect(),
+            cycle: 0,
+            stages: StageCycles::default(),
+            probes,
+        }
+    }
+
+    /// The PEs (read only: the controller's report lines and the host).
+    pub fn pes(&self) -> &[Pe] {
+        &self.pes
+    }
+
+    /// The PEs, for what happens between cycles: loading a frame, the
+    /// PEs' combinational reports at a stage's start.
+    pub(crate) fn pes_mut(&mut self) -> &mut [Pe] {
+        &mut self.pes
+    }
+
+    /// The port outputs committed in the last cycle.
+    pub fn ports(&self) -> &[Ports] {
+        &self.ports
+    }
+
+    /// Cycles ticked so far.
+    pub fn cycle(&self) -> u64 {
+        self.cycle
+    }
+
+    /// The number of the cycle the next tick runs.
+    pub fn now(&self) -> u64 {
+        self.cycle + 1
+    }
+
+    /// Cycles per stage so far.
+    pub fn stages(&self) -> StageCycles {
+        self.stages
+    }
+
+    pub(crate) fn set_order(&mut self, order: Vec<usize>) {
+        self.order = order;
+    }
+
+    pub(crate) fn tracing(&self) -> bool {
+        self.probes.is_some()
+    }
+
+    pub(crate) fn take_probes(&mut self) -> Option<Probes> {
+        self.probes.take()
+    }
+
+    /// One cycle of `ctrl.stage`, the controller showing `ctrl`: every PE
+    /// steps, then the ports commit.
+    pub fn tick(
+        &mut self,
+        ctrl: Ctrl,
+        mut step: impl FnMut(&mut Pe, Links) -> Result<Ports, StepError>,
+    ) -> Result<(), StepError> {
+        let p = self.pes.len();
+        for &k in &self.order {
+            let links = Links {
+                from_left: if k > 0 {
+                    self.ports[k - 1].right
+                } else {
+                    Port::default()
+                },
+                from_right: if k + 1 < p {
+                    self.ports[k + 1].left
+                } else {
+                    Port::default()
+                },
+            };
+            self.spare[k] = step(&mut self.pes[k], links)?;
+        }
+        std::mem::swap(&mut self.ports, &mut self.spare);
+        self.cycle += 1;
+        self.stages.add(ctrl.stage, 1);
+        if let Some(pr) = self.probes.as_mut() {
+            pr.sample(self.cycle, &self.pes, &self.ports, ctrl);
+        }
+        Ok(())
+    }
+
+    /// `n` cycles of `stage` that the untraced whole-slice sampling path
+    /// ran without ticking: the cycles the clocked path ticks for the same
+    /// work (a test compares the two). The ports end idle, as after the
+    /// clocked path's last sampling cycle nothing reads them.
+    pub(crate) fn ran_untraced(&mut self, stage: Stage, n: u64) {
+        debug_assert!(self.probes.is_none());
+        self.cycle += n;
+        self.stages.add(stage, n);
+        self.ports.fill(Ports::default());
+    }
+}

@@ -1,0 +1,530 @@
+//! The array and its controller: P PEs in a line, clocked by one
+//! two-phase tick ([`Clock`]), the controller's state (the frame plan,
+//! skipping, the row runs), the counters and the frame's results.
+//!
+//! Column blocks: PE `k` owns voxel columns `k W .. (k + 1) W`
+//! (`W = ceil(nx / P)`, the last PEs may own fewer or none) of every
+//! slice, and holds every ray whose sample's base column
+//! `clamp(floor(x), 0, nx - 1)` falls in its block.
+//!
+//! What each stage does, PE side and controller side, is in
+//! [`crate::stages`]; the order in which a frame runs them (back to front,
+//! front to back) is in [`crate::schedule`]. Every cycle of every stage is
+//! a tick of the clock; [`StageCycles`] is what the ticks counted.
+//!
+//! Memory the front-to-back order costs beyond the back-to-front PE that
+//! `crate::cost`'s inventory sizes: the compositing buffer twice as wide
+//! (accumulators plus inherited state, and a flag bit), and the kept final
+//! states, about `(W + 1)(ny + 1)` rays per region boundary per PE.
+
+mod clock;
+
+pub use clock::{Clock, Links};
+
+use golden::geometry::View;
+use golden::volume::Volume;
+use golden::warp::Baseplane;
+use waves::Tracer;
+
+use std::sync::Arc;
+
+use crate::config::{Order, PipelineConfig};
+use crate::datapath::Datapath;
+use crate::fixed::{Format, QuantStats};
+use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
+use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError};
+use crate::probes::{Ctrl, Probes, Stage};
+use crate::skip::SkipCounts;
+use crate::stages::sample::RowRuns;
+use crate::tables::Tables;
+use golden::skip::SampleMask;
+
+/// Cycles spent in each stage of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct StageCycles {
+    /// Ray migration before slices.
+    pub migrate: u64,
+    /// Sampling.
+    pub sample: u64,
+    /// Bartlett merges.
+    pub merge: u64,
+    /// Baseplane readout.
+    pub readout: u64,
+    /// Front to back: bilinear splits (left out of the JSON when zero, so
+    /// a back-to-front frame reports the four stages it has).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub split: u64,
+    /// Front to back: the fold (merges of differences and adds).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub fold: u64,
+    /// Slices skipped whole by the controller, one cycle each (left out of
+    /// the JSON when zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub skip: u64,
+    /// Waiting for the datapath to write back its samples in flight
+    /// before a merge, split, fold or the readout.
+    pub drain: u64,
+    /// Row starts held back for a ray still in the datapath from the
+    /// previous slice.
+    pub stall: u64,
+}
+
+impl StageCycles {
+    /// Counts `n` cycles of `stage`.
+    pub fn add(&mut self, stage: Stage, n: u64) {
+        let c = match stage {
+            Stage::Sample => &mut self.sample,
+            Stage::Migrate => &mut self.migrate,
+            Stage::Merge => &mut self.merge,
+            Stage::Readout => &mut self.readout,
+            Stage::Skip => &mut self.skip,
+            Stage::Split => &mut self.split,
+            Stage::Fold => &mut self.fold,
+            Stage::Drain => &mut self.drain,
+            Stage::Stall => &mut self.stall,
+        };
+        *c += n;
+    }
+
+    /// Every stage's cycles.
+    pub fn total(&self) -> u64 {
+        self.migrate
+            + self.sample
+            + self.merge
+            + self.readout
+            + self.split
+            + self.fold
+            + self.skip
+            + self.drain
+            + self.stall
+    }
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
+}
+
+/// A frame's results.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// The baseplane in float (accumulator words scaled), for the warp.
+    pub baseplane: Baseplane,
+    /// The baseplane's raw words, row-major, R G B A, in
+    /// [`Frame::raw_format`].
+    pub raw: Vec<[i64; 4]>,
+    /// Formats of the raw words (colour, opacity): the accumulators back to
+    /// front; front to back the fold's `merge` words (the accumulators when
+    /// there is one region and so no fold).
+    pub raw_format: [Format; 2],
+    /// The compositing order the frame ran in.
+    pub order: Order,
+    /// Cycles per frame.
+    pub cycles: u64,
+    /// Cycles per stage.
+    pub stages: StageCycles,
+    /// Samples taken in all.
+    pub samples: u64,
+    /// Samples per slice, front (slice 0) to back.
+    pub samples_per_slice: Vec<u64>,
+    /// `samples / P`, the cycles of a perfectly busy array.
+    pub ideal_cycles: f64,
+    /// Per-PE counters.
+    pub pes: Vec<PeCounters>,
+    /// Merges performed.
+    pub merges: u64,
+    /// Quantisation events over the whole datapath.
+    pub quant: QuantStats,
+    /// Front to back: samples not taken because their ray was terminated.
+    pub terminated_samples: u64,
+    /// Sampling cycles saved within sampled slices by termination and by
+    /// the rows' runs (empty space, clipping), against the same slices with
+    /// every active ray sampled (rows as long as the busiest PE's active
+    /// rays, and each slice's prologue). Skipped slices and regions save
+    /// more; compare with a run without skipping for the total.
+    pub cycles_saved: u64,
+    /// What the controller skipped.
+    pub skipped: SkipCounts,
+}
+
+impl Frame {
+    /// `ideal_cycles / cycles`.
+    pub fn utilization(&self) -> f64 {
+        if self.cycles == 0 {
+            0.0
+        } else {
+            self.ideal_cycles / self.cycles as f64
+        }
+    }
+}
+
+/// Why a frame failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Planning failed.
+    #[error("{0}")]
+    Plan(#[from] PlanError),
+    /// A PE's clock step failed.
+    #[error("{0}")]
+    Step(#[from] StepError),
+    /// The tables could not be built.
+    #[error("{0}")]
+    Fixed(#[from] crate::fixed::FxError),
+    /// The configuration does not fit the volume.
+    #[error("{0}")]
+    Config(#[from] crate::config::ConfigError),
+    /// Writing the waveform failed.
+    #[error("{0}")]
+    Waves(#[from] waves::WavesError),
+    /// The controller could not schedule a stage (a model bug).
+    #[error("{0}")]
+    Schedule(String),
+}
+
+/// The PE array for one frame.
+pub struct Array {
+    /// Shared so that owner functions can borrow it while the PEs step.
+    pub(crate) dp: Arc<Datapath>,
+    /// The PEs, their ports and the cycle counter.
+    pub(crate) clock: Clock,
+    block: usize,
+    pub(crate) nx: usize,
+    pub(crate) ny: usize,
+    pub(crate) samples_per_slice: Vec<u64>,
+    pub(crate) host_stats: QuantStats,
+    pub(crate) clocked: bool,
+    pub(crate) cycles_saved: u64,
+    /// What the controller skips, when it skips (see [`Array::set_skipping`]).
+    pub(crate) skip: Option<Skipper>,
+    /// The current slice's runs per row (reused).
+    pub(crate) runs: RowRuns,
+    pub(crate) run_tmp: Vec<(i64, i64)>,
+    pub(crate) skipped: SkipCounts,
+}
+
+/// The controller's skipping state for one frame.
+pub(crate) struct Skipper {
+    pub(crate) mask: SampleMask,
+    pub(crate) view: View,
+}
+
+impl Array {
+    /// Loads `volume` (seen through `view`) into `cfg.pes` PEs with the
+    /// classification table `lut`. `tracer` records waveforms (use
+    /// `Tracer::disabled()` for none).
+    pub fn new(
+        cfg: &PipelineConfig,
+        volume: &Volume,
+        lut: &golden::tf::Lut,
+        view: &View,
+        tracer: Tracer,
+    ) -> Result<Array, RunError> {
+        cfg.validate()?;
+        for &n in &view.dims {
+            cfg.check_extent(n as u32)?;
+        }
+        let tables = Tables::new(cfg, lut)?;
+        let dp = Arc::new(Datapath::new(*cfg, tables));
+        let mut host_stats = QuantStats::default();
+        let words = voxel_words(cfg, volume, view, &mut host_stats);
+        let p = usize::from(cfg.pes);
+        let nx = view.dims[0];
+        let block = nx.div_ceil(p);
+        let pes = (0..p)
+            .map(|k| {
+                let c0 = (k * block).min(nx);
+                let c1 = ((k + 1) * block).min(nx);
+                Pe::new(k, c0..c1, &words, view.dims)
+            })
+            .collect();
+        let probes = if tracer.is_enabled() {
+            Some(Probes::new(tracer, p, cfg)?)
+        } else {
+            None
+        };
+        Ok(Array {
+            dp,
+            clock: Clock::new(pes, probes),
+            block,
+            nx,
+            ny: view.dims[1],
+            samples_per_slice: vec![0; view.dims[2]],
+            host_stats,
+            clocked: false,
+            cycles_saved: 0,
+            skip: None,
+            runs: RowRuns::default(),
+            run_tmp: Vec::new(),
+            skipped: SkipCounts::default(),
+        })
+    }
+
+    /// Skips what `mask` (golden's planner over this pipeline's occupancy
+    /// memory, see [`crate::skip`]) leaves out of a frame of `view`: empty
+    /// and clipped-away slices cost one cycle each (the controller reads
+    /// the slice's summary bit and moves on, without migrating), rows and
+    /// runs of rays outside the mask cost nothing (the controller plans a
+    /// row's runs while the previous row samples; the PEs compare ray
+    /// indices with the broadcast runs), culled rays are held and migrate
+    /// but never sample, and regions behind the last visible slice do not
+    /// run.
+    pub fn set_skipping(&mut self, mask: SampleMask, counts: SkipCounts, view: &View) {
+        self.skipped = SkipCounts {
+            rays_culled: mask.culled_rays,
+            ..counts
+        };
+        self.skip = Some(Skipper {
+            mask,
+            view: view.clone(),
+        });
+    }
+
+    /// Regions to run, front ones first: all, or up to the one holding the
+    /// last visible slice (the rest would composite nothing).
+    pub(crate) fn regions_to_run(&mut self, plan: &FramePlan) -> usize {
+        let k = plan.regions.len();
+        let Some(sk) = &self.skip else { return k };
+        let runs = sk.mask.regions_to_run();
+        self.skipped.regions = (k - runs) as u64;
+        self.skipped.slices += plan.regions[runs..]
+            .iter()
+            .map(|r| r.slices.len() as u64)
+            .sum::<u64>();
+        runs
+    }
+
+    /// The slice as the controller runs it: `None` when skipped whole
+    /// (one cycle), else with its ray ranges narrowed by culling.
+    pub(crate) fn visit(
+        &mut self,
+        i: usize,
+        slice: &SlicePlan,
+    ) -> Result<Option<SlicePlan>, RunError> {
+        let Some(sk) = &self.skip else {
+            return Ok(Some(*slice));
+        };
+        if !sk.mask.slice_visible(slice.z) {
+            self.skipped.slices += 1;
+            self.skip_slice(slice.z)?;
+            return Ok(None);
+        }
+        Ok(Some(SlicePlan {
+            range: sk.mask.rays(i, slice.range),
+            ..*slice
+        }))
+    }
+
+    /// Steps the sampling stage cycle by cycle even without tracing (it
+    /// always does when tracing). By default an untraced run samples each
+    /// slice PE by PE, in parallel: the same bits and cycle counts, faster.
+    pub fn set_clocked(&mut self, on: bool) {
+        self.clocked = on;
+    }
+
+    /// Steps PEs in this order within a cycle (any order gives the same
+    /// result; tests use it to prove that).
+    pub fn set_step_order(&mut self, order: Vec<usize>) {
+        assert_eq!(order.len(), self.clock.pes().len());
+        self.clock.set_order(order);
+    }
+
+    /// Who holds which ray in `slice`, computed with `dp` (the array's
+    /// datapath, borrowed apart from the array so the PEs can step).
+    pub(crate) fn owners<'a>(&self, dp: &'a Datapath, slice: &'a SlicePlan) -> Owners<'a> {
+        Owners {
+            dp,
+            slice,
+            nx: self.nx,
+            block: self.block,
+            pes: self.clock.pes().len(),
+        }
+    }
+
+    /// Runs a frame of `view`, in the configuration's compositing order
+    /// (the schedule of [`crate::schedule`]).
+    pub fn run(mut self, view: &View) -> Result<Frame, RunError> {
+        let plan: FramePlan = plan(&self.dp.cfg, view)?;
+        self.host_stats.merge(&plan.stats);
+        let (raw, fmt, merges) = match self.dp.cfg.order {
+            Order::BackToFront => crate::schedule::back_to_front(&mut self, &plan)?,
+            Order::FrontToBack => crate::schedule::front_to_back(&mut self, &plan)?,
+        };
+        let base = self.baseplane(&raw, view, fmt);
+        self.finish(base, raw, fmt, merges)
+    }
+
+    /// Creates a region's (empty, live) rays in the PEs that sample them
+    /// first: region 0's front to back (from its front slice), the last
+    /// region's back to front (from its rear slice). The host's load of a
+    /// frame, before the first cycle.
+    pub(crate) fn distribute(&mut self, region: &RegionPlan) {
+        let g = &region.grid;
+        let rows = g.counts()[1];
+        let ftb = self.dp.cfg.order == Order::FrontToBack;
+        let dp = Arc::clone(&self.dp);
+        // Slices are planned back to front.
+        let first = if ftb {
+            region.slices.last()
+        } else {
+            region.slices.first()
+        };
+        let first = first.map(|s| self.owners(&dp, s));
+        for mx in g.lo[0]..=g.hi[0] {
+            let k = first.as_ref().map_or(0, |o| o.of(mx));
+            self.clock.pes_mut()[k]
+                .rays
+                .push_back(RayColumn::empty(mx, rows, ftb));
+        }
+    }
+
+    /// The baseplane in float from the raw words, formats `fmt` (colour,
+    /// opacity), on the golden layout's baseplane grid.
+    fn baseplane(&self, raw: &[[i64; 4]], view: &View, fmt: [Format; 2]) -> Baseplane {
+        let (fc, fa) = (fmt[0].lsb(), fmt[1].lsb());
+        let data = raw
+            .iter()
+            .map(|p| {
+                [
+                    (p[0] as f64 * fc) as f32,
+                    (p[1] as f64 * fc) as f32,
+                    (p[2] as f64 * fc) as f32,
+                    (p[3] as f64 * fa) as f32,
+                ]
+            })
+            .collect();
+        let grid = golden::methods::Method::Er
+            .layout(view)
+            .map(|l| l.baseplane())
+            .expect("the plan's layout was built from the same view");
+        Baseplane { grid, data }
+    }
+
+    /// A slice the controller skips: one cycle reading its summary bit.
+    pub(crate) fn skip_slice(&mut self, z: usize) -> Result<(), RunError> {
+        self.clock
+            .tick(Ctrl::at(Stage::Skip, z, 0), |_, _| Ok(Ports::default()))?;
+        Ok(())
+    }
+
+    fn finish(
+        mut self,
+        baseplane: Baseplane,
+        raw: Vec<[i64; 4]>,
+        raw_format: [Format; 2],
+        merges: u64,
+    ) -> Result<Frame, RunError> {
+        debug_assert_eq!(self.clock.stages().total(), self.clock.cycle());
+        let pes = self.clock.pes();
+        let mut quant = self.host_stats;
+        for pe in pes {
+            quant.merge(&pe.stats);
+        }
+        let samples: u64 = pes.iter().map(|p| p.counters.samples).sum();
+        let terminated_samples = pes.iter().map(|p| p.counters.terminated).sum();
+        let counters = pes.iter().map(|p| p.counters).collect();
+        let p = pes.len();
+        if let Some(pr) = self.clock.take_probes() {
+            if let Some(info) = pr.finish()? {
+                // A save file beside each dump, opening it (one for both
+                // when they share a name: the VCD's).
+                let mut written = Vec::new();
+                for dump in [&info.vcd_path, &info.fst_path].into_iter().flatten() {
+                    let gtkw = dump.with_extension("gtkw");
+                    if !written.contains(&gtkw) {
+                        info.write_gtkw_for(&gtkw, dump)?;
+                        written.push(gtkw);
+                    }
+                }
+            }
+        }
+        Ok(Frame {
+            baseplane,
+            raw,
+            raw_format,
+            order: self.dp.cfg.order,
+            terminated_samples,
+            cycles_saved: self.cycles_saved,
+            skipped: self.skipped,
+            cycles: self.clock.cycle(),
+            stages: self.clock.stages(),
+            samples,
+            samples_per_slice: self.samples_per_slice,
+            ideal_cycles: samples as f64 / p as f64,
+            pes: counters,
+            merges,
+            quant,
+        })
+    }
+}
+
+/// Runs one frame: plans, loads, clocks and reads out.
+pub fn run_frame(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    view: &View,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    Array::new(cfg, volume, lut, view, tracer)?.run(view)
+}
+
+/// Runs one frame of `prep` with the controller skipping what `skips`
+/// allows and clipping to `prep`'s planes: the occupancy memory is built
+/// from the volume's min-max blocks (`occupancy_block` voxels) and this
+/// pipeline's classification table (see [`crate::skip`]).
+pub fn run_frame_with(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    let mut array = Array::new(cfg, volume, lut, &prep.view, tracer)?;
+    let block = usize::from(cfg.occupancy_block);
+    let mm = if prep.blocks.block == block {
+        prep.blocks.clone()
+    } else {
+        golden::occupancy::MinMax::new(volume, block)
+            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?
+    };
+    let layout = golden::methods::Method::Er
+        .layout(&prep.view)
+        .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
+    let (mask, counts) =
+        crate::skip::plan_mask(&array.dp, &mm, volume.kind().bits(), prep, &layout, skips);
+    array.set_skipping(mask, counts, &prep.view);
+    array.run(&prep.view)
+}
+
+/// `v` clamped into `lo..=hi`; `lo` when the range is empty (an empty
+/// grid), where `i64::clamp` would panic.
+pub(crate) fn clamp(v: i64, lo: i64, hi: i64) -> i64 {
+    v.min(hi).max(lo)
+}
+
+/// The owner function of one slice: the PE whose block holds the ray's
+/// base column, computed with the same fixed-point position a PE uses.
+pub(crate) struct Owners<'a> {
+    dp: &'a Datapath,
+    slice: &'a SlicePlan,
+    nx: usize,
+    block: usize,
+    pes: usize,
+}
+
+impl Owners<'_> {
+    pub(crate) fn of(&self, mx: i64) -> usize {
+        let mut st = QuantStats::default();
+        let s = self.slice;
+        match self.dp.position(s.a[0], s.t[0], mx, &mut st) {
+            Ok(x) => {
+                let x0 = self.dp.address(x, &mut st).0;
+                let c = x0.clamp(0, self.nx as i64 - 1) as usize;
+                (c / self.block).min(self.pes - 1)
+            }
+            // A position the model cannot form cannot be sampled either;
+            // park the ray at the far end.
+            Err(_) => self.pes - 1,
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! The drain: before a stage that reads every accumulator (a merge, a
+//! split, a fold, the readout) the controller waits until every PE reports
+//! its datapath empty, i.e. the last sample it issued has been written
+//! back `datapath_latency` cycles after it entered. Hardware only: golden
+//! has no pipeline to drain ([`golden::methods::render`] composites a
+//! sample as it is taken).
+
+use crate::array::{Array, RunError};
+use crate::pe::Ports;
+use crate::probes::{Ctrl, Stage};
+
+impl Array {
+    /// Ticks until every PE's datapath is empty.
+    pub(crate) fn drain(&mut self) -> Result<(), RunError> {
+        loop {
+            let now = self.clock.now();
+            if self.clock.pes().iter().all(|pe| pe.datapath_empty(now)) {
+                return Ok(());
+            }
+            self.clock
+                .tick(Ctrl::at(Stage::Drain, 0, 0), |_, _| Ok(Ports::default()))?;
+        }
+    }
+}

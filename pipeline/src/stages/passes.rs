@@ -1,0 +1,293 @@
+//! What the merge, the split and the fold share: two passes over a region
+//! boundary's ray grid, one output per PE per cycle each.
+//!
+//! - The **x pass** takes one parent row at a time (the PE's edge rays of
+//!   that row cross the links, driven in the cycle before the row starts)
+//!   and writes one x-filtered child column per cycle into the PE's line
+//!   buffer.
+//! - The **y pass** reads the line buffer and writes one child ray per
+//!   cycle into the children's bank of the compositing buffer.
+//!
+//! The controller runs both in **slots** of `width` cycles (the most
+//! children any PE computes, from the PEs' reports): in each slot the x
+//! pass filters the next parent row if the line buffer has room for it
+//! and the y pass writes the next child row if the x pass has produced
+//! every parent row it needs. In a cycle the y pass reads before the x
+//! pass writes (a read-first RAM), so the x pass may overwrite, column by
+//! column, the oldest row the current y row is still reading. The line
+//! buffer is [`LINE_ROWS`] rows deep, as the cost model charges; every read
+//! checks the row it finds, so a schedule that overran the buffer fails.
+//!
+//! A cycle ahead of the first slot (with more than one PE) the PEs drive
+//! the first row's edge rays: the prologue.
+
+use crate::array::{Array, Links, RunError};
+use crate::pe::{Pe, Ports, RayColumn, StepError};
+use crate::probes::{Ctrl, Stage};
+
+/// Rows of the line buffer (as `crate::cost` charges).
+pub const LINE_ROWS: usize = 3;
+
+/// One line-buffer entry: the parent row it holds and the x-filtered
+/// R, G, B, A words.
+type Entry = Option<(usize, [i64; 4])>;
+
+/// The PE's line buffer: [`LINE_ROWS`] rows of x-filtered children, each
+/// entry tagged with the parent row it holds.
+#[derive(Debug, Clone, Default)]
+pub struct LineBuffer {
+    slots: Vec<Vec<Entry>>,
+}
+
+impl LineBuffer {
+    /// Empties the buffer for rows of `width` entries.
+    fn reset(&mut self, width: usize) {
+        self.slots.resize(LINE_ROWS, Vec::new());
+        for s in &mut self.slots {
+            s.clear();
+            s.resize(width, None);
+        }
+    }
+
+    /// Writes child `c` of parent row `row`.
+    pub(crate) fn write(&mut self, row: usize, c: usize, v: [i64; 4]) {
+        self.slots[row % LINE_ROWS][c] = Some((row, v));
+    }
+
+    /// Child `c` of parent row `row`, if the buffer still holds it.
+    pub(crate) fn read(&self, pe: usize, row: usize, c: usize) -> Result<[i64; 4], StepError> {
+        match self.slots[row % LINE_ROWS][c] {
+            Some((r, v)) if r == row => Ok(v),
+            _ => Err(StepError::LineBuffer { pe, row }),
+        }
+    }
+}
+
+/// A PE's registers for the pass in progress.
+#[derive(Debug, Clone, Default)]
+pub struct PassState {
+    /// The child ray indices this PE computes, in order (one per cycle).
+    pub children: Vec<i64>,
+    /// The line buffer.
+    pub line: LineBuffer,
+    /// The children's bank of the compositing buffer, being written.
+    pub next: Vec<RayColumn>,
+    /// Fold: the differences of the row in the x pass, per held column.
+    pub(crate) dline: Option<(usize, Vec<[i64; 4]>)>,
+    /// Fold: the next row's, formed when its edge is driven.
+    pub(crate) dnext: Option<(usize, Vec<[i64; 4]>)>,
+}
+
+impl PassState {
+    /// Starts a pass computing `children`, building `next`.
+    pub(crate) fn begin(&mut self, children: Vec<i64>, next: Vec<RayColumn>) {
+        self.line.reset(children.len());
+        self.children = children;
+        self.next = next;
+        self.dline = None;
+        self.dnext = None;
+    }
+}
+
+/// What the controller broadcasts in a cycle of a pass.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PassBus {
+    /// The parent row the x pass filters this cycle.
+    pub x: Option<usize>,
+    /// The child row the y pass writes this cycle.
+    pub y: Option<usize>,
+    /// The column (child index) both passes are at.
+    pub col: usize,
+    /// The parent row whose edge rays the PEs drive this cycle (the x
+    /// pass's row next cycle).
+    pub drive: Option<usize>,
+}
+
+/// One slot of a pass: the x pass's row and the y pass's row, if any.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Slot {
+    /// Parent row filtered.
+    pub x: Option<usize>,
+    /// Child row written.
+    pub y: Option<usize>,
+}
+
+/// The slots of a pass over `prows` parent rows whose child rows need the
+/// parent rows `needs[i]` (an inclusive range, `None` when every tap falls
+/// outside the parent grid): as soon as possible within the line buffer's
+/// depth, child rows that read the buffer in order, and those that read
+/// nothing (they are written transparent) in the slots where the y pass
+/// would otherwise wait for the x pass, the rest at the end. Parent rows no
+/// child row reads are not filtered at all.
+pub fn plan_slots(prows: usize, needs: &[Option<(usize, usize)>]) -> Result<Vec<Slot>, RunError> {
+    let reading: Vec<(usize, (usize, usize))> = needs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, n)| n.map(|n| (i, n)))
+        .collect();
+    let mut empty = needs
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| n.is_none())
+        .map(|(i, _)| i);
+    let xrows: Vec<usize> = (0..prows)
+        .filter(|&q| reading.iter().any(|(_, (lo, hi))| (*lo..=*hi).contains(&q)))
+        .collect();
+    let mut left = needs.len();
+    let (mut xd, mut yd) = (0, 0);
+    let mut slots = Vec::with_capacity(xrows.len() + needs.len());
+    while xd < xrows.len() || left > 0 {
+        let done = |row: usize| xd > 0 && xrows[xd - 1] >= row;
+        let ready = reading.get(yd).filter(|(_, (_, hi))| done(*hi));
+        let y = match ready {
+            Some(&(i, _)) => {
+                yd += 1;
+                Some(i)
+            }
+            None => empty.next(),
+        };
+        // The first reading child row still to come after this slot: the
+        // x pass may not overwrite a row it needs.
+        let room = |q: usize| {
+            q < LINE_ROWS
+                || reading
+                    .get(yd)
+                    .is_none_or(|(_, (lo, _))| q - LINE_ROWS < *lo)
+        };
+        let x = xrows.get(xd).copied().filter(|&q| room(q));
+        if x.is_none() && y.is_none() {
+            return Err(RunError::Schedule(format!(
+                "pass stuck at parent row {} of {prows}, child row {yd} of {}",
+                xrows.get(xd).copied().unwrap_or(prows),
+                reading.len()
+            )));
+        }
+        xd += usize::from(x.is_some());
+        left -= usize::from(y.is_some());
+        slots.push(Slot { x, y });
+    }
+    Ok(slots)
+}
+
+/// The parent rows `taps` (relative to the parent grid) that fall inside
+/// its `prows` rows, as an inclusive range.
+pub(crate) fn inside(taps: impl Iterator<Item = i64>, prows: usize) -> Option<(usize, usize)> {
+    let rows: Vec<usize> = taps
+        .filter(|&r| r >= 0 && (r as usize) < prows)
+        .map(|r| r as usize)
+        .collect();
+    Some((*rows.iter().min()?, *rows.iter().max()?))
+}
+
+impl Array {
+    /// Clocks a pass of `stage` through `slots` of `width` cycles (after
+    /// the prologue), each PE running `step` with the cycle's broadcast.
+    pub(crate) fn run_pass(
+        &mut self,
+        stage: Stage,
+        width: usize,
+        slots: &[Slot],
+        mut step: impl FnMut(&mut Pe, &PassBus, Links) -> Result<Ports, StepError>,
+    ) -> Result<(), RunError> {
+        if width == 0 {
+            return Ok(());
+        }
+        let first = slots.first().and_then(|s| s.x);
+        if self.clock.pes().len() > 1 && first.is_some() {
+            let bus = PassBus {
+                drive: first,
+                ..PassBus::default()
+            };
+            let ctrl = Ctrl {
+                pass: Some(bus),
+                ..Ctrl::at(stage, 0, 0)
+            };
+            self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+        }
+        for (s, slot) in slots.iter().enumerate() {
+            let after = slots.get(s + 1).and_then(|n| n.x);
+            let shown = slot.x.or(slot.y).unwrap_or(0);
+            for col in 0..width {
+                let bus = PassBus {
+                    x: slot.x,
+                    y: slot.y,
+                    col,
+                    drive: if col + 1 < width { slot.x } else { after },
+                };
+                let ctrl = Ctrl {
+                    pass: Some(bus),
+                    ..Ctrl::at(stage, 0, shown)
+                };
+                self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A merge's child rows read parent rows `2i - 1 ..= 2i + 1`: the x
+    /// pass runs every slot, the y pass every other one, and the last
+    /// child row drains after the x pass.
+    #[test]
+    fn merge_shaped_pass_fits_three_rows() {
+        let prows = 9;
+        let needs: Vec<_> = (0..5)
+            .map(|i: i64| inside(2 * i - 1..=2 * i + 1, prows))
+            .collect();
+        let slots = plan_slots(prows, &needs).unwrap();
+        let xs: Vec<_> = slots.iter().filter_map(|s| s.x).collect();
+        let ys: Vec<_> = slots.iter().filter_map(|s| s.y).collect();
+        assert_eq!(xs, (0..9).collect::<Vec<_>>());
+        assert_eq!(ys, (0..5).collect::<Vec<_>>());
+        // y row i runs in the slot after x row 2i + 1 (clamped to 8).
+        for (s, slot) in slots.iter().enumerate() {
+            if let Some(i) = slot.y {
+                let hi = needs[i].unwrap().1;
+                let done = slots[..s].iter().filter(|t| t.x.is_some()).count();
+                assert!(hi < done, "slot {s}: y row {i} before x row {hi}");
+            }
+        }
+        assert_eq!(slots.len(), 10);
+    }
+
+    /// Nothing to read makes a child row ready at once; a pass with no
+    /// rows has no slots; parent rows nobody reads are not filtered.
+    #[test]
+    fn empty_taps_and_empty_pass() {
+        assert_eq!(plan_slots(0, &[]).unwrap(), vec![]);
+        let slots = plan_slots(6, &[Some((2, 3))]).unwrap();
+        let xs: Vec<_> = slots.iter().filter_map(|s| s.x).collect();
+        assert_eq!(xs, vec![2, 3]);
+        assert_eq!(slots.last().unwrap().y, Some(0));
+        let slots = plan_slots(1, &[None, Some((0, 0))]).unwrap();
+        assert_eq!(
+            slots,
+            vec![
+                Slot {
+                    x: Some(0),
+                    y: Some(0)
+                },
+                Slot {
+                    x: None,
+                    y: Some(1)
+                }
+            ]
+        );
+    }
+
+    /// Rows the schedule let the x pass overwrite are refused on read.
+    #[test]
+    fn line_buffer_checks_rows() {
+        let mut b = LineBuffer::default();
+        b.reset(2);
+        b.write(0, 1, [1, 2, 3, 4]);
+        assert_eq!(b.read(0, 0, 1).unwrap(), [1, 2, 3, 4]);
+        b.write(3, 1, [5; 4]);
+        assert!(b.read(0, 0, 1).is_err());
+        assert!(b.read(0, 0, 0).is_err());
+    }
+}

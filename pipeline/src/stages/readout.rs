@@ -1,0 +1,81 @@
+//! The readout: each PE streams its region-0 rays to the host, one per
+//! cycle on its host port, column by column and row by row; the host
+//! writes each word where its ray index puts it in the baseplane that
+//! [`golden::warp::warp`] then resamples (a [`golden::warp::Baseplane`]
+//! in float, the raw words beside it).
+
+use golden::geometry::RayGrid;
+
+use crate::array::{Array, RunError};
+use crate::pe::{Pe, Ports, Readout};
+use crate::probes::{Ctrl, Stage};
+
+impl Pe {
+    /// Rewinds the readout cursor.
+    pub fn begin_readout(&mut self) {
+        self.readout_at = (0, 0);
+    }
+
+    /// Whether every held ray has been streamed out.
+    pub fn readout_done(&self) -> bool {
+        self.readout_at.0 >= self.rays.len()
+    }
+
+    /// One readout clock: the next held ray on the host port.
+    pub fn readout_step(&mut self) -> Ports {
+        let mut out = Ports::default();
+        let (c, r) = self.readout_at;
+        if let Some(col) = self.rays.get(c) {
+            out.host = Some(Readout {
+                mx: col.mx,
+                row: r as u32,
+                acc: col.acc[r],
+            });
+            self.readout_at = if r + 1 < col.acc.len() {
+                (c, r + 1)
+            } else {
+                (c + 1, 0)
+            };
+        }
+        // Columns without rows (an empty region) stream nothing.
+        while self
+            .rays
+            .get(self.readout_at.0)
+            .is_some_and(|c| c.acc.is_empty())
+        {
+            self.readout_at.0 += 1;
+        }
+        out
+    }
+}
+
+impl Array {
+    /// Streams the rays of region 0 (grid `g`) out: raw words, row-major.
+    pub(crate) fn readout(&mut self, g: &RayGrid) -> Result<Vec<[i64; 4]>, RunError> {
+        let [w, h] = g.counts();
+        let mut raw = vec![[0i64; 4]; w * h];
+        for pe in self.clock.pes_mut() {
+            pe.begin_readout();
+            while pe
+                .rays
+                .get(pe.readout_at.0)
+                .is_some_and(|c| c.acc.is_empty())
+            {
+                pe.readout_at.0 += 1;
+            }
+        }
+        while !self.clock.pes().iter().all(Pe::readout_done) {
+            self.clock.tick(
+                Ctrl::at(Stage::Readout, 0, 0),
+                |pe, _| Ok(pe.readout_step()),
+            )?;
+            for port in self.clock.ports() {
+                if let Some(o) = port.host {
+                    let x = (o.mx - g.lo[0]) as usize;
+                    raw[o.row as usize * w + x] = o.acc.raw;
+                }
+            }
+        }
+        Ok(raw)
+    }
+}

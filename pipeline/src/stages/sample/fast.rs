@@ -1,0 +1,90 @@
+//! The untraced whole-slice sampling path: the same arithmetic, cycles
+//! and counters as the clocked path (the tests compare every field over
+//! many scenes, views, PE counts, orders and skips), each PE's whole
+//! slice at once, PEs in parallel. Each PE first produces the edge voxels
+//! it would drive in each row; each PE then samples its rays with its
+//! right neighbour's, at the issue cycles the controller's row plan gives.
+
+use rayon::prelude::*;
+
+use super::{Row, RowBus, RowRuns, RowTimes};
+use crate::array::{Array, RunError};
+use crate::host::{RegionPlan, SlicePlan};
+use crate::pe::StepError;
+use crate::probes::Stage;
+
+impl Array {
+    /// Samples `slice` without per-cycle stepping, then counts the cycles
+    /// the clocked path would have ticked.
+    pub(super) fn sample_whole(
+        &mut self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+        rows: &[Row],
+        runs: &RowRuns,
+        times: &RowTimes,
+    ) -> Result<(), RunError> {
+        let p = self.clock.pes().len();
+        let glo = region.grid.lo[1];
+        let lens = &times.lens;
+        let buses: Vec<RowBus> = rows
+            .iter()
+            .map(|&(my, y, sy)| RowBus {
+                slice,
+                row: (my - glo) as usize,
+                y,
+                slope_yz: (sy, region.slope_z),
+                slope_x: (region.slope_b[0], region.slope_k[0]),
+            })
+            .collect();
+        // The rows the bus announces as next, in the clocked path's order:
+        // the prologue announces the first row (several PEs only); with
+        // rows one cycle long a lone PE never announces the first.
+        let first = lens.iter().position(|&n| n > 0).unwrap_or(0);
+        let skip = usize::from(p == 1 && lens[first] == 1);
+        let seq: Vec<(usize, usize, usize)> = buses
+            .iter()
+            .zip(lens)
+            .filter(|(_, &n)| n > 0)
+            .skip(skip)
+            .map(|(b, _)| (slice.z, b.y.0, b.y.1))
+            .collect();
+        let edges: Vec<Vec<[u16; 2]>> = self
+            .clock
+            .pes()
+            .iter()
+            .map(|pe| pe.edges_for(slice.z, &buses))
+            .collect();
+        let stalls: u64 = times.stalls.iter().sum();
+        let dp = &self.dp;
+        let nx = self.nx;
+        let results: Vec<Result<(), StepError>> = self
+            .clock
+            .pes_mut()
+            .par_iter_mut()
+            .enumerate()
+            .map(|(k, pe)| {
+                pe.latch_edges(seq.iter().copied());
+                if p > 1 {
+                    pe.counters.idle += 1;
+                }
+                pe.sample_slice(
+                    dp,
+                    &buses,
+                    runs,
+                    (lens, &times.starts),
+                    stalls,
+                    edges.get(k + 1).map(Vec::as_slice),
+                    nx,
+                )
+            })
+            .collect();
+        for r in results {
+            r?;
+        }
+        let cycles = u64::from(p > 1) + lens.iter().sum::<usize>() as u64;
+        self.clock.ran_untraced(Stage::Stall, stalls);
+        self.clock.ran_untraced(Stage::Sample, cycles);
+        Ok(())
+    }
+}

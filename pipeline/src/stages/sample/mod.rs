@@ -1,0 +1,277 @@
+//! Sampling: the slice's ray rows in order; in cycle `c` of a row each PE
+//! samples its `c`-th scheduled ray of that row, so a row takes as many
+//! cycles as the busiest PE has rays (the rest idle). The voxel column
+//! right of a block comes from the right neighbour's port, driven one
+//! cycle ahead (a prologue cycle drives the first row's). A row whose rays
+//! are still in the datapath from the previous slice waits (stall cycles)
+//! until the first of them may issue; a ray's sample issues in its cycle
+//! and is written back `datapath_latency` cycles later.
+//!
+//! The arithmetic is golden's [`golden::sampling::sample_region`] bit for
+//! bit in fixed point ([`crate::datapath`]). Two paths run it: the clocked
+//! one (every cycle ticked; always when tracing) and the whole-slice one
+//! ([`fast`]), which gives the same bits, cycles and counters.
+
+mod fast;
+mod pe;
+
+pub use pe::{RowBus, RowRuns, SampleBus};
+
+use crate::array::{Array, RunError};
+use crate::config::Order;
+use crate::fixed::{Fx, QuantStats, Wide};
+use crate::host::{RegionPlan, SlicePlan};
+use crate::probes::{Ctrl, Stage};
+
+/// One ray row of a slice as the controller broadcasts it: the row index
+/// `my`, the clamped voxel rows `y0, y0 + 1` with the y weight, and the
+/// spacing-scaled y slope.
+pub(crate) type Row = (i64, (usize, usize, Fx), Fx);
+
+/// The controller's plan of a slice's rows: each row's cycles (the
+/// busiest PE's count), the cycle its first sample issues, and the stall
+/// cycles before it.
+pub(crate) struct RowTimes {
+    pub lens: Vec<usize>,
+    pub starts: Vec<u64>,
+    pub stalls: Vec<u64>,
+}
+
+impl Array {
+    /// Samples one slice, row by row.
+    pub(crate) fn sample(
+        &mut self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+    ) -> Result<(), RunError> {
+        let (ylo, yhi) = slice.range[1];
+        let (xlo, xhi) = slice.range[0];
+        if ylo > yhi || xlo > xhi {
+            return Ok(());
+        }
+        let row_len = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(|pe| pe.select(slice))
+            .max()
+            .unwrap_or(0);
+        let nrows = (yhi - ylo + 1) as usize;
+        let glo = region.grid.lo[1];
+        let p = self.clock.pes().len();
+        let ftb = self.dp.cfg.order == Order::FrontToBack;
+        // The controller's runs per row: the whole slice range, or what the
+        // occupancy memory and the clip planes leave (golden's planner, on
+        // the exact geometry the host holds).
+        let mut runs = std::mem::take(&mut self.runs);
+        runs.clear();
+        match &self.skip {
+            None => (0..nrows).for_each(|_| runs.push_row(&[(xlo, xhi)])),
+            Some(sk) => {
+                let ([px, py], _) = golden::sampling::slice_rays(&sk.view, &region.grid, slice.z);
+                let mut tmp = std::mem::take(&mut self.run_tmp);
+                for my in ylo..=yhi {
+                    let y = py.a + my as f64 * py.t;
+                    sk.mask.row_runs(slice.z, px, y, (xlo, xhi), &mut tmp);
+                    runs.push_row(&tmp);
+                }
+                self.run_tmp = tmp;
+            }
+        }
+        // Each row's cycles: as many as the busiest PE has scheduled rays
+        // (in the runs, and front to back live); and the earliest start the
+        // PEs' scoreboards allow.
+        let mut taken = 0u64;
+        let mut reports = Vec::with_capacity(nrows);
+        for r in 0..nrows {
+            let row = (ylo + r as i64 - glo) as usize;
+            let (most, ready) = self.clock.pes().iter().fold((0, 0), |(most, ready), pe| {
+                let (n, at) = pe.row_report(row, runs.row(r), ftb);
+                taken += n as u64;
+                (most.max(n), ready.max(at))
+            });
+            reports.push((most, ready));
+        }
+        self.samples_per_slice[slice.z] += taken;
+        self.skipped.beams += reports.iter().filter(|r| r.0 == 0).count() as u64;
+        let full = if row_len == 0 {
+            0
+        } else {
+            u64::from(p > 1) + (nrows * row_len) as u64
+        };
+        let sum: usize = reports.iter().map(|r| r.0).sum();
+        let took = if sum == 0 {
+            0
+        } else {
+            u64::from(p > 1) + sum as u64
+        };
+        self.cycles_saved += full - took;
+        if sum == 0 {
+            // Nothing to sample (empty, clipped or terminated): no cycle, no
+            // read; the schedules only count the terminated rays.
+            for r in 0..nrows {
+                let row = (ylo + r as i64 - glo) as usize;
+                for pe in self.clock.pes_mut() {
+                    pe.begin_row(row, runs.row(r), ftb);
+                }
+            }
+            self.runs = runs;
+            return Ok(());
+        }
+        let times = self.row_times(&reports);
+        let rows = self.rows(region, slice)?;
+        let r = if self.clock.tracing() || self.clocked {
+            self.sample_clocked(region, slice, &rows, &runs, &times)
+        } else {
+            self.sample_whole(region, slice, &rows, &runs, &times)
+        };
+        self.runs = runs;
+        r
+    }
+
+    /// Each row's start: after the previous row (and the prologue before
+    /// the first, with several PEs), held back to the latest start the
+    /// PEs reported.
+    fn row_times(&self, reports: &[(usize, u64)]) -> RowTimes {
+        let prologue = u64::from(self.clock.pes().len() > 1);
+        let mut next = self.clock.now();
+        let mut first = true;
+        let mut times = RowTimes {
+            lens: Vec::with_capacity(reports.len()),
+            starts: Vec::with_capacity(reports.len()),
+            stalls: Vec::with_capacity(reports.len()),
+        };
+        for &(len, ready) in reports {
+            let (mut start, mut stall) = (0, 0);
+            if len > 0 {
+                let earliest = next + if first { prologue } else { 0 };
+                stall = ready.saturating_sub(earliest);
+                start = earliest + stall;
+                next = start + len as u64;
+                first = false;
+            }
+            times.lens.push(len);
+            times.starts.push(start);
+            times.stalls.push(stall);
+        }
+        times
+    }
+
+    /// The rows' broadcast values: voxel rows, y weight, y slope.
+    fn rows(&mut self, region: &RegionPlan, slice: &SlicePlan) -> Result<Vec<Row>, RunError> {
+        let (ylo, yhi) = slice.range[1];
+        let ny = self.ny;
+        let dp = &self.dp;
+        let mut st = QuantStats::default();
+        let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
+        for my in ylo..=yhi {
+            let y = dp.position(slice.a[1], slice.t[1], my, &mut st)?;
+            let (y0, wy) = dp.address(y, &mut st);
+            let last = ny as i64 - 1;
+            let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
+            let sy = dp
+                .cfg
+                .position
+                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, &mut st);
+            rows.push((
+                my,
+                (
+                    y0.clamp(0, last) as usize,
+                    (y0 + 1).clamp(0, last) as usize,
+                    wy,
+                ),
+                sy,
+            ));
+        }
+        self.host_stats.merge(&st);
+        Ok(rows)
+    }
+
+    /// The clocked sampling of a slice: stall cycles, the prologue, then
+    /// every row cycle by cycle.
+    fn sample_clocked(
+        &mut self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+        rows: &[Row],
+        runs: &RowRuns,
+        times: &RowTimes,
+    ) -> Result<(), RunError> {
+        let glo = region.grid.lo[1];
+        let p = self.clock.pes().len();
+        let ftb = self.dp.cfg.order == Order::FrontToBack;
+        let dp = std::sync::Arc::clone(&self.dp);
+        let nx = self.nx;
+        let lens = &times.lens;
+        // The rows that take cycles, and for each the next one (whose edge
+        // voxels the PEs drive during its last cycle).
+        let sampled: Vec<usize> = (0..rows.len()).filter(|&r| lens[r] > 0).collect();
+        let mut following = sampled.iter().skip(1);
+        let slope_x = (region.slope_b[0], region.slope_k[0]);
+        for (r, &(my, y, sy)) in rows.iter().enumerate() {
+            let row = (my - glo) as usize;
+            // Each PE schedules its rays in the row's runs (front to back
+            // its live ones, counting the rest).
+            for pe in self.clock.pes_mut() {
+                pe.begin_row(row, runs.row(r), ftb);
+            }
+            let len = lens[r];
+            if len == 0 {
+                continue;
+            }
+            for _ in 0..times.stalls[r] {
+                self.clock
+                    .tick(Ctrl::at(Stage::Stall, slice.z, row), |pe, _| {
+                        Ok(pe.stall_step())
+                    })?;
+            }
+            if r == sampled[0] && p > 1 {
+                // Prologue: one cycle in which every PE only drives its edge
+                // voxels for the first row (the previous stage's ports
+                // carried rays). A lone PE has no neighbour to wait for.
+                let bus = SampleBus {
+                    slice,
+                    my,
+                    row,
+                    y,
+                    cycle: usize::MAX,
+                    slope_yz: (sy, region.slope_z),
+                    slope_x,
+                    next: Some((slice.z, y.0, y.1)),
+                    now: self.clock.now(),
+                };
+                self.clock
+                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links| {
+                        pe.sample_step(&dp, &bus, links, nx)
+                    })?;
+            }
+            debug_assert_eq!(self.clock.now(), times.starts[r]);
+            let after = following
+                .next()
+                .map(|&n| (slice.z, rows[n].1 .0, rows[n].1 .1));
+            for cycle in 0..len {
+                let next = if cycle + 1 < len {
+                    Some((slice.z, y.0, y.1))
+                } else {
+                    after
+                };
+                let bus = SampleBus {
+                    slice,
+                    my,
+                    row,
+                    y,
+                    cycle,
+                    slope_yz: (sy, region.slope_z),
+                    slope_x,
+                    next,
+                    now: self.clock.now(),
+                };
+                self.clock
+                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links| {
+                        pe.sample_step(&dp, &bus, links, nx)
+                    })?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,352 @@
+//! The PE's half of sampling: the broadcast of a sampling cycle, the
+//! row's schedule, the edge register and the datapath of one sample (the
+//! bit-exact twin of [`golden::sampling::sample_at`]), clocked
+//! ([`Pe::sample_step`]) or a whole slice at once ([`Pe::sample_slice`]).
+
+use crate::array::Links;
+use crate::config::Order;
+use crate::datapath::{Datapath, SampleTrace};
+use crate::fixed::Fx;
+use crate::host::SlicePlan;
+use crate::pe::{Pe, Ports, StepError};
+
+/// What the controller broadcasts in a sampling cycle.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleBus<'a> {
+    /// The slice being sampled.
+    pub slice: &'a SlicePlan,
+    /// Ray row sampled this cycle.
+    pub my: i64,
+    /// Row in the region's buffer.
+    pub row: usize,
+    /// Clamped voxel rows `y0, y0 + 1` and the y weight of this row.
+    pub y: (usize, usize, Fx),
+    /// Cycle within the row.
+    pub cycle: usize,
+    /// Spacing-scaled y slope of this row and the region's z term.
+    pub slope_yz: (Fx, Fx),
+    /// Region slope constants on x: `b + m k`.
+    pub slope_x: (Fx, Fx),
+    /// Voxel rows and slice of the row sampled next cycle (for the edge
+    /// voxels this PE drives now).
+    pub next: Option<(usize, usize, usize)>,
+    /// This cycle's number (a sample issued now is written back
+    /// `latency` cycles later).
+    pub now: u64,
+}
+
+/// The runs of ray indices each row of a slice samples, as the controller
+/// broadcasts them (mirroring `golden::skip::SampleMask::row_runs`): one
+/// flat list with per-row offsets, reused from slice to slice.
+#[derive(Debug, Clone, Default)]
+pub struct RowRuns {
+    runs: Vec<(i64, i64)>,
+    starts: Vec<usize>,
+}
+
+impl RowRuns {
+    /// Forgets every row.
+    pub fn clear(&mut self) {
+        self.runs.clear();
+        self.starts.clear();
+    }
+
+    /// Appends the next row's runs (ascending, disjoint).
+    pub fn push_row(&mut self, runs: &[(i64, i64)]) {
+        self.starts.push(self.runs.len());
+        self.runs.extend_from_slice(runs);
+    }
+
+    /// Row `r`'s runs.
+    pub fn row(&self, r: usize) -> &[(i64, i64)] {
+        let end = self.starts.get(r + 1).copied().unwrap_or(self.runs.len());
+        &self.runs[self.starts[r]..end]
+    }
+}
+
+/// The part of the bus that is constant over a row.
+#[derive(Debug, Clone, Copy)]
+pub struct RowBus<'a> {
+    /// The slice being sampled.
+    pub slice: &'a SlicePlan,
+    /// Row in the region's buffer.
+    pub row: usize,
+    /// Clamped voxel rows `y0, y0 + 1` and the y weight.
+    pub y: (usize, usize, Fx),
+    /// Spacing-scaled y slope of the row and the region's z term.
+    pub slope_yz: (Fx, Fx),
+    /// Region slope constants on x.
+    pub slope_x: (Fx, Fx),
+}
+
+impl<'a> RowBus<'a> {
+    /// The row part of a cycle's bus.
+    pub fn of(b: &SampleBus<'a>) -> RowBus<'a> {
+        RowBus {
+            slice: b.slice,
+            row: b.row,
+            y: b.y,
+            slope_yz: b.slope_yz,
+            slope_x: b.slope_x,
+        }
+    }
+}
+
+impl Pe {
+    /// Drives the edge register: the voxels of this PE's first column at
+    /// the rows of `next` (the row sampled next cycle), read from memory
+    /// only when the row changes (the register holds its value otherwise).
+    #[inline]
+    pub(crate) fn drive_edge(&mut self, next: Option<(usize, usize, usize)>) -> [u16; 2] {
+        if let Some(n) = next {
+            if self.edge_latch != Some(n) && !self.cols.is_empty() {
+                let (z, y0, y1) = n;
+                let c0 = self.cols.start;
+                self.edge_value = [self.voxel(z, y0, c0), self.voxel(z, y1, c0)];
+                self.edge_latch = Some(n);
+            }
+        }
+        self.edge_value
+    }
+
+    /// One sampling clock. `links.from_right` is what the right neighbour
+    /// drove last cycle (its first column's voxels for this row).
+    pub fn sample_step(
+        &mut self,
+        dp: &Datapath,
+        bus: &SampleBus,
+        links: Links,
+        nx: usize,
+    ) -> Result<Ports, StepError> {
+        let mut out = Ports::default();
+        out.left.edge = self.drive_edge(bus.next);
+        out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
+        if bus.cycle >= self.row_live.len() {
+            self.counters.idle += 1;
+            self.last.busy = false;
+            return Ok(out);
+        }
+        let j = self.row_live[bus.cycle];
+        self.last = self.sample_ray(dp, &RowBus::of(bus), j, links.from_right.edge, nx, bus.now)?;
+        Ok(out)
+    }
+
+    /// A stall cycle: the array holds a row back for a ray still in the
+    /// datapath. The edge register holds its value; nothing is sampled.
+    pub fn stall_step(&mut self) -> Ports {
+        self.counters.stalls += 1;
+        self.last.busy = false;
+        let mut out = Ports::default();
+        out.left.edge = self.edge_value;
+        out
+    }
+
+    /// Visits the held columns this PE samples in `row`: the active
+    /// columns whose index lies in one of the row's `runs` (ascending: what
+    /// the controller broadcasts from the occupancy memory and the clip
+    /// planes, a comparator pair per PE), front to back only those whose
+    /// termination flag is clear. Calls `take(j)` for each, in order, and
+    /// returns how many in-run columns were terminated.
+    fn schedule(
+        &self,
+        row: usize,
+        runs: &[(i64, i64)],
+        ftb: bool,
+        mut take: impl FnMut(usize),
+    ) -> u64 {
+        let (first, n) = self.active;
+        let mut terminated = 0;
+        let mut run = runs.iter().peekable();
+        for j in first..first + n {
+            let mx = self.rays[j].mx;
+            while run.next_if(|r| r.1 < mx).is_some() {}
+            let Some(&&(lo, _)) = run.peek() else { break };
+            if mx < lo {
+                continue;
+            }
+            if ftb && self.rays[j].ftb[row].done {
+                terminated += 1;
+            } else {
+                take(j);
+            }
+        }
+        terminated
+    }
+
+    /// How many columns this PE samples in `row` (see [`Pe::begin_row`]),
+    /// and the earliest cycle the row may start so that each of them
+    /// issues after its accumulators were written back (its `c`-th column
+    /// issues `c` cycles after the start). The PE reports both at the start
+    /// of the row; the controller runs the row for as many cycles as the
+    /// largest count, from the latest start (a max tree over the PEs' report
+    /// lines, the one signal besides the broadcast that is not
+    /// nearest-neighbour).
+    pub fn row_report(&self, row: usize, runs: &[(i64, i64)], ftb: bool) -> (usize, u64) {
+        let (mut n, mut ready) = (0, 0);
+        self.schedule(row, runs, ftb, |j| {
+            ready = ready.max(self.rays[j].land[row].saturating_sub(n as u64));
+            n += 1;
+        });
+        (n, ready)
+    }
+
+    /// Schedules `row`: its columns inside the row's runs (front to back
+    /// only the live ones), one per cycle; rays left out cost no cycle.
+    /// Counts the terminated ones.
+    pub fn begin_row(&mut self, row: usize, runs: &[(i64, i64)], ftb: bool) {
+        let mut live = std::mem::take(&mut self.row_live);
+        live.clear();
+        self.counters.terminated += self.schedule(row, runs, ftb, |j| live.push(j));
+        self.row_live = live;
+    }
+
+    /// The sample of held column `j` in the bus's row, issued in cycle
+    /// `now`: the datapath of one busy cycle, shared by the clocked and the
+    /// whole-slice paths. The result is computed here and written back
+    /// `dp.latency` cycles later: nothing reads the ray's accumulators
+    /// before then (the scoreboard in `land`, the drain), so computing
+    /// early cannot be observed.
+    #[inline]
+    fn sample_ray(
+        &mut self,
+        dp: &Datapath,
+        bus: &RowBus,
+        j: usize,
+        edge_in: [u16; 2],
+        nx: usize,
+        now: u64,
+    ) -> Result<SampleTrace, StepError> {
+        self.counters.busy += 1;
+        self.counters.samples += 1;
+        let land = now + dp.latency;
+        self.rays[j].land[bus.row] = land;
+        self.drained_at = self.drained_at.max(land);
+        let mx = self.rays[j].mx;
+        let s = bus.slice;
+        let st = &mut self.stats;
+        let x = dp.position(s.a[0], s.t[0], mx, st)?;
+        let (x0, wx) = dp.address(x, st);
+        let last = nx as i64 - 1;
+        let (c0, c1) = (x0.clamp(0, last) as usize, (x0 + 1).clamp(0, last) as usize);
+        if !self.cols.contains(&c0) {
+            return Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c0,
+            });
+        }
+        let (y0, y1, wy) = bus.y;
+        let left = [self.voxel(s.z, y0, c0), self.voxel(s.z, y1, c0)];
+        let right = if self.cols.contains(&c1) {
+            [self.voxel(s.z, y0, c1), self.voxel(s.z, y1, c1)]
+        } else if c1 == self.cols.end {
+            self.counters.edge_voxels += 2;
+            edge_in
+        } else {
+            return Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c1,
+            });
+        };
+        let st = &mut self.stats;
+        let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
+        let (rgb, alpha) = dp.classify(sample, st)?;
+        let mut corrected = 0;
+        let mut terminated = false;
+        let row = bus.row;
+        if alpha.raw() > 0 {
+            let (b, k) = bus.slope_x;
+            let mt = crate::fixed::Wide::new(i128::from(mx), 0).checked_mul(k)?;
+            let sx = dp
+                .cfg
+                .position
+                .assign(crate::fixed::Wide::from(b).checked_add(mt)?, st);
+            let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
+            let a = dp.correct(alpha, ds, st)?;
+            corrected = a.raw();
+            let ray = &mut self.rays[j];
+            if dp.cfg.order == Order::FrontToBack {
+                dp.composite_ftb(&mut ray.acc[row], rgb, a, st)?;
+                // The comparator behind the accumulator sets the flag the
+                // next slice's schedule reads.
+                terminated = dp.terminated(&ray.acc[row]);
+                ray.ftb[row].done = terminated;
+            } else {
+                dp.composite_btf(&mut ray.acc[row], rgb, a, st)?;
+            }
+        }
+        Ok(SampleTrace {
+            busy: true,
+            mx,
+            row,
+            acc: self.rays[j].acc[row],
+            sample: sample.raw(),
+            alpha: alpha.raw(),
+            corrected,
+            terminated,
+        })
+    }
+
+    /// The edge voxels this PE presents during each of `rows` (its first
+    /// column at each row's voxel rows): what its left neighbour receives
+    /// over the port in that row. Reads nothing it would not drive anyway;
+    /// the reads are counted by [`Pe::latch_edges`].
+    pub fn edges_for(&self, z: usize, rows: &[RowBus]) -> Vec<[u16; 2]> {
+        if self.cols.is_empty() {
+            return vec![[0; 2]; rows.len()];
+        }
+        let w = self.cols.len();
+        let at = |y: usize| self.mem[(z * self.ny + y) * w];
+        rows.iter().map(|r| [at(r.y.0), at(r.y.1)]).collect()
+    }
+
+    /// Steps the edge register through `seq`, the rows the bus announces
+    /// as "next" in order, counting the memory reads the clocked path makes.
+    pub fn latch_edges(&mut self, seq: impl Iterator<Item = (usize, usize, usize)>) {
+        for n in seq {
+            self.drive_edge(Some(n));
+        }
+    }
+
+    /// Samples a whole slice without stepping cycle by cycle: row by row,
+    /// each of this PE's rays in order, with the right neighbour's edge
+    /// voxels for each row (`right_edges`, from [`Pe::edges_for`]). The
+    /// arithmetic and every counter equal the clocked path's (a test proves
+    /// it); only the interleaving of PEs within a cycle is gone, which no
+    /// result can observe because PEs share nothing within a cycle.
+    ///
+    /// `lens[r]` is row `r`'s length in cycles (the busiest PE's count)
+    /// and `starts[r]` the cycle its first sample issues; rows of length 0
+    /// are skipped, and each row samples only its scheduled columns
+    /// ([`Pe::begin_row`] with `runs.row(r)`), in order, as the clocked
+    /// schedule does. `stalls` is the slice's stall cycles.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_slice(
+        &mut self,
+        dp: &Datapath,
+        rows: &[RowBus],
+        runs: &RowRuns,
+        (lens, starts): (&[usize], &[u64]),
+        stalls: u64,
+        right_edges: Option<&[[u16; 2]]>,
+        nx: usize,
+    ) -> Result<(), StepError> {
+        let ftb = dp.cfg.order == Order::FrontToBack;
+        self.counters.stalls += stalls;
+        for (r, bus) in rows.iter().enumerate() {
+            self.begin_row(bus.row, runs.row(r), ftb);
+            if lens[r] == 0 {
+                continue;
+            }
+            let edge = right_edges.map_or([0; 2], |e| e[r]);
+            let live = std::mem::take(&mut self.row_live);
+            for (c, &j) in live.iter().enumerate() {
+                self.last = self.sample_ray(dp, bus, j, edge, nx, starts[r] + c as u64)?;
+            }
+            self.counters.idle += (lens[r] - live.len()) as u64;
+            self.row_live = live;
+        }
+        Ok(())
+    }
+}

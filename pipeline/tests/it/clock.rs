@@ -1,0 +1,178 @@
+//! The one clock: the datapath's latency moves cycles, never bits; the
+//! whole-slice sampling path counts exactly what the clocked path ticks,
+//! stalls included; a stage's step is a function of the PE's own state and
+//! its links only.
+
+use glam::DVec3;
+use golden::camera::Camera;
+use golden::render::Prepared;
+use pipeline::array::{Array, Frame, Links};
+use pipeline::config::{Order, PipelineConfig};
+use pipeline::datapath::Datapath;
+use pipeline::pe::{Pe, Ports, StepError};
+use pipeline::stages::passes::PassBus;
+use waves::Tracer;
+
+use crate::chip::{signature, subject, Subject};
+use crate::scenes::up_for;
+
+fn view(s: &Subject, eye: DVec3, fov: f64) -> Prepared {
+    let centre = DVec3::from_array(s.vol.center_world());
+    let cam = Camera::new(eye, centre, up_for(centre - eye), fov, 40, 36).expect("camera");
+    Prepared::new(&s.vol, &cam).expect("view")
+}
+
+fn run(cfg: &PipelineConfig, s: &Subject, prep: &Prepared, clocked: Option<u64>) -> Frame {
+    let mut a = Array::new(cfg, &s.vol, &s.lut, &prep.view, Tracer::disabled()).expect("array");
+    if let Some(seed) = clocked {
+        let n = usize::from(cfg.pes);
+        // A rotation of the natural order: any order must give the same.
+        a.set_step_order((0..n).map(|k| (k + seed as usize) % n).collect());
+        a.set_clocked(true);
+    }
+    a.run(&prep.view).expect("frame")
+}
+
+/// Eyes on `ml:20` from outside, at the face and inside, and on a
+/// `sphere:6`, whose slices take fewer cycles than the datapath is deep
+/// once its six columns are spread over four or more PEs, so rows stall.
+fn cases() -> Vec<(Subject, DVec3, f64)> {
+    let mut out = Vec::new();
+    let s = |spec| subject(spec);
+    let c = 9.5;
+    for (eye, fov) in [
+        (DVec3::new(c + 0.7, c - 0.4, -12.0), 70.0),
+        (DVec3::new(c + 0.3, c + 0.2, -0.6), 100.0),
+        (DVec3::new(c - 1.1, c + 0.9, c - 2.3), 90.0),
+    ] {
+        out.push((s("ml:20"), eye, fov));
+    }
+    out.push((s("sphere:6"), DVec3::new(3.5, 3.2, -5.0), 60.0));
+    out
+}
+
+#[test]
+fn latency_moves_cycles_not_bits() {
+    let (mut stalled, mut drained, mut waited) = (0, 0, 0);
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        for (s, eye, fov) in cases() {
+            let s = &s;
+            let prep = view(s, eye, fov);
+            for p in [1u16, 4, 8, 16] {
+                let cfg = |latency: u16| PipelineConfig {
+                    pes: p,
+                    order,
+                    datapath_latency: latency,
+                    ..PipelineConfig::default()
+                };
+                let ctx = format!("{order:?}, eye {eye}, P = {p}");
+                let base = run(&cfg(1), s, &prep, None);
+                let bs = base.stages;
+                // Written back the cycle after issue: nothing to wait for.
+                assert_eq!((bs.stall, bs.drain), (0, 0), "{ctx}: {bs:?}");
+                assert!(base.pes.iter().all(|c| c.waits == 0), "{ctx}");
+                let mut last = base.cycles;
+                for latency in [2u16, 26, 64] {
+                    let f = run(&cfg(latency), s, &prep, None);
+                    let clocked = run(&cfg(latency), s, &prep, Some(u64::from(latency)));
+                    let ctx = format!("{ctx}, latency {latency}");
+                    assert!(
+                        signature(&f) == signature(&clocked),
+                        "{ctx}: the whole-slice path differs from the clocked one \
+                         ({:?} vs {:?})",
+                        f.stages,
+                        clocked.stages
+                    );
+                    assert_eq!(f.raw, base.raw, "{ctx}: raw words changed");
+                    assert_eq!(f.quant, base.quant, "{ctx}: quantisation events");
+                    assert_eq!(f.samples_per_slice, base.samples_per_slice, "{ctx}");
+                    let st = f.stages;
+                    assert_eq!(
+                        (st.sample, st.merge, st.split, st.fold, st.readout, st.skip),
+                        (bs.sample, bs.merge, bs.split, bs.fold, bs.readout, bs.skip),
+                        "{ctx}: only waiting may grow"
+                    );
+                    assert_eq!(
+                        f.cycles - base.cycles,
+                        st.drain + st.stall + st.migrate - bs.migrate,
+                        "{ctx}: {st:?}"
+                    );
+                    assert!(f.cycles >= last, "{ctx}: a deeper datapath ran faster");
+                    last = f.cycles;
+                    // A drain waits at most for one sample's write-back.
+                    let drains = f.merges + 1 + u64::from(order == Order::FrontToBack) * f.merges;
+                    assert!(st.drain <= drains * u64::from(latency), "{ctx}: {st:?}");
+                    for c in &f.pes {
+                        assert_eq!(c.stalls, st.stall, "{ctx}: {c:?}");
+                    }
+                    stalled += u64::from(st.stall > 0);
+                    drained += u64::from(st.drain > 0);
+                    waited += f.pes.iter().map(|c| c.waits).sum::<u64>();
+                }
+            }
+        }
+    }
+    eprintln!("{stalled} runs stalled, {drained} drained, {waited} PE-cycles of waiting rays");
+    assert!(stalled > 0, "no view stalled a row: the hazard is untested");
+    assert!(drained > 0, "no frame drained its datapath");
+}
+
+/// The default latency is the depth `ercube cost` schedules for the
+/// widths, and a wider square root deepens it.
+#[test]
+fn default_latency_is_the_cost_models_depth() {
+    let cfg = PipelineConfig::default();
+    let geo = pipeline::cost::inventory::Geometry::new([64, 64, 64], cfg.pes);
+    let depth = pipeline::cost::inventory::pe_inventory(&cfg, &geo)
+        .schedule
+        .depth;
+    assert_eq!(pipeline::cost::datapath_latency(&cfg), depth);
+    assert!(depth > 20, "{depth}");
+    let set = PipelineConfig {
+        datapath_latency: 7,
+        ..cfg
+    };
+    assert_eq!(pipeline::cost::datapath_latency(&set), 7);
+    let bad = PipelineConfig {
+        datapath_latency: 257,
+        ..cfg
+    };
+    let e = bad.validate().unwrap_err().to_string();
+    assert!(e.contains("datapath_latency") && e.contains("257"), "{e}");
+}
+
+/// Every stage's step has the shape of a clocked process: the PE's own
+/// state, the controller's broadcast and the links (its neighbours' port
+/// outputs of the last cycle, by value) in; its own port outputs out. The
+/// types are the check: these coercions compile only while no step takes
+/// anything that could reach another PE (the clock's rustdoc holds a
+/// `compile_fail` example of a step that tries).
+#[test]
+fn steps_see_only_their_own_state_and_links() {
+    type PassStep<G> = fn(&mut Pe, &Datapath, &PassBus, Links, G) -> Result<Ports, StepError>;
+    type Grids<'a> = (&'a golden::geometry::RayGrid, &'a golden::geometry::RayGrid);
+    let merge: PassStep<Grids> = Pe::merge_step;
+    let split: PassStep<Grids> = Pe::split_step;
+    let fold: PassStep<pipeline::stages::fold::FoldGrids> = Pe::fold_step;
+    let sample: fn(
+        &mut Pe,
+        &Datapath,
+        &pipeline::stages::sample::SampleBus,
+        Links,
+        usize,
+    ) -> Result<Ports, StepError> = Pe::sample_step;
+    let stall: fn(&mut Pe) -> Ports = Pe::stall_step;
+    let readout: fn(&mut Pe) -> Ports = Pe::readout_step;
+    // `Links` is plain data: two copied port values, nothing borrowed.
+    fn plain<T: Copy + Send + 'static>() {}
+    plain::<Links>();
+    let steps = [
+        merge as usize,
+        split as usize,
+        fold as usize,
+        sample as usize,
+        stall as usize,
+        readout as usize,
+    ];
+    assert!(steps.iter().all(|&f| f != 0));
+}
