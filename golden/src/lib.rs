@@ -13,6 +13,8 @@
 //! ([`mipmap`]) whose level follows each ray's footprint, [`metrics`]
 //! compares images.
 
+#![deny(rustdoc::broken_intra_doc_links)]
+
 pub mod camera;
 pub mod clip;
 pub mod error;
@@ -29,6 +31,7 @@ pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod scenes;
+pub mod shading;
 pub mod skip;
 pub mod slices;
 pub mod tf;

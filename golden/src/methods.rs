@@ -14,6 +14,7 @@ use crate::merge::{merge, recycle, split, with_room, zeroed, Rgba};
 use crate::occupancy::Occupancy;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
+use crate::shading::{Shade, Shader};
 use crate::skip::{MaskSpec, SampleMask, Skips, GOLDEN_MARGIN};
 use crate::tf::Lut;
 use crate::warp::Baseplane;
@@ -89,6 +90,9 @@ pub struct Options {
     pub substeps: u32,
     /// Empty-space skipping and culling (neither changes the image).
     pub skips: Skips,
+    /// Gradient shading before compositing (see [`crate::shading`]);
+    /// `None` renders emission-absorption only.
+    pub shade: Option<Shade>,
 }
 
 impl Default for Options {
@@ -97,6 +101,7 @@ impl Default for Options {
             terminate: 0.99,
             substeps: DEFAULT_SUBSTEPS,
             skips: Skips::default(),
+            shade: None,
         }
     }
 }
@@ -120,6 +125,9 @@ impl Options {
                 "substeps {} must be 1 to {MAX_SUBSTEPS}",
                 self.substeps
             )));
+        }
+        if let Some(sh) = &self.shade {
+            sh.validate()?;
         }
         Ok(())
     }
@@ -204,6 +212,10 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         },
         _ => Order::BackToFront,
     };
+    let shader = match &opts.shade {
+        Some(sh) => Some(Shader::new(view, &prep.stack, sh)?),
+        None => None,
+    };
     let pass = Pass {
         view,
         stack: &prep.stack,
@@ -211,6 +223,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         mask: &mask,
         order,
         substeps: opts.substeps,
+        shader: shader.as_ref(),
     };
     let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;

@@ -10,6 +10,7 @@ use crate::clip::ViewClip;
 use crate::error::{Error, Result};
 use crate::geometry::{box_interval, View};
 use crate::image::Image;
+use crate::shading::{Shade, Shader};
 use crate::slices::SliceStack;
 use crate::tf::Lut;
 
@@ -24,6 +25,9 @@ pub struct RefOptions {
     /// A ray stops once its remaining transmittance is below this; the
     /// error this makes is below it too (1e-6 is far under one 8-bit level).
     pub cutoff: f64,
+    /// Gradient shading with the slice-order methods' model, from the
+    /// reference's own trilinear gradients in `f64`.
+    pub shade: Option<Shade>,
 }
 
 impl Default for RefOptions {
@@ -32,6 +36,7 @@ impl Default for RefOptions {
             rays_per_axis: 4,
             step: 0.25,
             cutoff: 1e-6,
+            shade: None,
         }
     }
 }
@@ -64,11 +69,17 @@ pub fn render(
     // Ray k sits at pixel position (k + 1/2) / q - 1/2, so pixel i's rays
     // i q .. i q + 2q - 1 lie symmetrically about its centre i + 1/2.
     let ray_pos = |k: usize| (k as f64 + 0.5) / q as f64 - 0.5;
+    let shader = match &opts.shade {
+        Some(sh) => Some(Shader::new(view, stack, sh)?),
+        None => None,
+    };
+    let shader = shader.as_ref();
     let mut rays = vec![[0f64; 4]; rw * rh];
     rays.par_chunks_mut(rw).enumerate().for_each(|(r, row)| {
         let py = ray_pos(r);
         for (c, out) in row.iter_mut().enumerate() {
-            *out = cast(view, stack, clip, lut, opts, view.rays.dir(ray_pos(c), py));
+            let dir = view.rays.dir(ray_pos(c), py);
+            *out = cast(view, stack, clip, lut, opts, shader, dir);
         }
     });
     // Tent weights of the 2q rays under one pixel, per axis.
@@ -102,6 +113,7 @@ fn cast(
     clip: &ViewClip,
     lut: &Lut,
     opts: &RefOptions,
+    shader: Option<&Shader>,
     dir: DVec3,
 ) -> [f64; 4] {
     let e = view.eye;
@@ -121,9 +133,12 @@ fn cast(
         if !clip.keeps(p.x, p.y, p.z) {
             continue;
         }
-        let c = lut.lookup_f64(stack.trilinear(p.x, p.y, p.z));
+        let mut c = lut.lookup_f64(stack.trilinear(p.x, p.y, p.z));
         if c[3] <= 0.0 {
             continue;
+        }
+        if let Some(sh) = shader {
+            c = sh.shade(c, sh.gradient_trilinear(p.x, p.y, p.z));
         }
         let a = -(ds * (-c[3]).ln_1p()).exp_m1();
         let k = (1.0 - acc[3]) * a;

@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use crate::geometry::{inside, Affine, RayGrid, View};
 use crate::merge::Rgba;
+use crate::shading::Shader;
 use crate::skip::SampleMask;
 use crate::slices::SliceStack;
 use crate::tf::{correct_opacity, Lut};
@@ -65,6 +66,8 @@ pub struct Pass<'a> {
     pub order: Order,
     /// Samples per slice crossing.
     pub substeps: u32,
+    /// Shading before compositing, if any.
+    pub shader: Option<&'a Shader>,
 }
 
 /// What sampling one region did.
@@ -336,13 +339,17 @@ impl<'a> RayRow<'a> {
             mask,
             order,
             substeps,
+            shader,
         } = *self.pass;
         let (y, slope_y, z) = (self.y, self.slope_y, self.z);
         let x = (self.px.a + mx as f64 * self.px.t) as f32;
         let ds = self.ds[(mx - self.grid.lo[0]) as usize];
         if substeps == 1 {
-            let c = lut.lookup(stack.bilinear(self.data, x, y));
+            let mut c = lut.lookup(stack.bilinear(self.data, x, y));
             if c[3] > 0.0 {
+                if let Some(sh) = shader {
+                    c = sh.shade_f32(c, sh.gradient_bilinear(z, x, y));
+                }
                 composite(ray, c, ds, order);
             }
             return;
@@ -360,8 +367,11 @@ impl<'a> RayRow<'a> {
             if !clip.is_empty() && !clip.keeps(p[0].into(), p[1].into(), p[2].into()) {
                 continue;
             }
-            let c = lut.lookup(stack.trilinear_f32(p[0], p[1], p[2]));
+            let mut c = lut.lookup(stack.trilinear_f32(p[0], p[1], p[2]));
             if c[3] > 0.0 {
+                if let Some(sh) = shader {
+                    c = sh.shade_f32(c, sh.gradient_trilinear_f32(p[0], p[1], p[2]));
+                }
                 composite(ray, c, ds / substeps as f32, order);
             }
         }

@@ -82,6 +82,38 @@ impl SliceStack {
         })
     }
 
+    /// The central difference along view axis `axis` divided by
+    /// `2 spacing`, at every padded position (neighbours beyond the padding
+    /// are the padding's replicated edge), in this stack's layout: the
+    /// gradient component the shading interpolates like the scalar (see
+    /// [`crate::shading`]).
+    pub fn central_difference(&self, axis: usize, spacing: f64) -> SliceStack {
+        let (row, plane) = (self.row, self.plane);
+        let n = [row, self.dims[1] + 2, self.dims[2] + 2];
+        let stride = [1, row, plane];
+        let scale = (0.5 / spacing) as f32;
+        let src = &self.data;
+        let mut data = vec![0f32; src.len()];
+        data.par_chunks_mut(plane).enumerate().for_each(|(z, out)| {
+            for y in 0..n[1] {
+                for x in 0..n[0] {
+                    let at = [x, y, z];
+                    let i = z * plane + y * row + x;
+                    let (lo, hi) = (at[axis].saturating_sub(1), (at[axis] + 1).min(n[axis] - 1));
+                    let base = i - at[axis] * stride[axis];
+                    out[y * row + x] =
+                        (src[base + hi * stride[axis]] - src[base + lo * stride[axis]]) * scale;
+                }
+            }
+        });
+        SliceStack {
+            dims: self.dims,
+            row,
+            plane,
+            data,
+        }
+    }
+
     /// Padded slice `z` (view space, `0..nz`).
     #[inline]
     pub fn slice(&self, z: usize) -> &[f32] {

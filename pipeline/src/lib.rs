@@ -21,6 +21,8 @@
 //! run-time choice of every datapath width ([`config::PipelineConfig`]),
 //! read from TOML and validated before a run.
 
+#![deny(rustdoc::broken_intra_doc_links)]
+
 pub mod array;
 pub mod bound;
 pub mod config;

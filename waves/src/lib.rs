@@ -52,6 +52,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#![deny(rustdoc::broken_intra_doc_links)]
 #![warn(missing_docs)]
 
 mod atomic;

@@ -1,7 +1,7 @@
 //! The array's one clock: a two-phase tick that every stage uses.
 //!
 //! In a tick each PE steps from its own state, the [`Links`] (what its
-//! neighbours drove on their ports in the previous cycle, copied) and the
+//! neighbours drove on their ports in the previous cycle, read only) and the
 //! controller's broadcast, which the step closure captures; its return
 //! value is what it drives this cycle. Only after every PE has stepped do
 //! the new port outputs commit, so the order in which PEs step cannot
@@ -13,7 +13,7 @@
 //! clocked path would have ticked, and a test compares the two).
 //!
 //! A step cannot reach another PE's state: it receives `&mut Pe` for its
-//! own and [`Links`] by value, and while [`Clock::tick`] holds the array
+//! own and [`Links`] (shared references to port registers), and while [`Clock::tick`] holds the array
 //! mutably nothing else can borrow the PEs:
 //!
 //! ```compile_fail
@@ -28,21 +28,32 @@
 //! # }
 //! ```
 
+use crate::datapath::Acc;
 use crate::pe::{Pe, Port, Ports, StepError};
 use crate::probes::{Ctrl, Probes, Stage};
 
 use super::StageCycles;
 
-/// What a PE receives from its neighbours in a cycle: the port outputs
-/// they drove towards it in the previous cycle (their registers), by
-/// value. An end PE's missing neighbour drives nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Links {
+/// What a PE receives from its neighbours in a cycle: read-only views of
+/// the port registers they drove towards it in the previous cycle (the
+/// committed outputs, never their state). An end PE's missing neighbour
+/// drives nothing.
+#[derive(Debug, Clone, Copy)]
+pub struct Links<'a> {
     /// What PE `k - 1` drove on its right port.
-    pub from_left: Port,
+    pub from_left: &'a Port,
     /// What PE `k + 1` drove on its left port.
-    pub from_right: Port,
+    pub from_right: &'a Port,
 }
+
+/// The port of a missing neighbour.
+const IDLE: Port = Port {
+    edge: [0; 2],
+    edge_valid: false,
+    edge_acc: Acc { raw: [0; 4] },
+    edge_mx: None,
+    ray: None,
+};
 
 /// The PEs, their committed port outputs, the cycle counter, the cycles
 /// per stage and the probes.
@@ -118,20 +129,20 @@ impl Clock {
     pub fn tick(
         &mut self,
         ctrl: Ctrl,
-        mut step: impl FnMut(&mut Pe, Links) -> Result<Ports, StepError>,
+        mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), StepError> {
         let p = self.pes.len();
         for &k in &self.order {
             let links = Links {
                 from_left: if k > 0 {
-                    self.ports[k - 1].right
+                    &self.ports[k - 1].right
                 } else {
-                    Port::default()
+                    &IDLE
                 },
                 from_right: if k + 1 < p {
-                    self.ports[k + 1].left
+                    &self.ports[k + 1].left
                 } else {
-                    Port::default()
+                    &IDLE
                 },
             };
             self.spare[k] = step(&mut self.pes[k], links)?;

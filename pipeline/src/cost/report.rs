@@ -472,12 +472,14 @@ impl CostReport {
         let _ = writeln!(o, "\nThroughput at {} MHz", self.clock_mhz);
         let _ = writeln!(
             o,
-            "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}), utilization {:.3}, {:.1} frames/s",
+            "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}, drain {}, stall {}), utilization {:.3}, {:.1} frames/s",
             r.cycles,
             r.stages.sample,
             r.stages.migrate,
             r.stages.merge,
             r.stages.readout,
+            r.stages.drain,
+            r.stages.stall,
             r.utilization,
             self.run_rate.fps
         );

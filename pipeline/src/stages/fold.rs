@@ -106,7 +106,7 @@ impl Pe {
     /// A tap of the x pass, back ray `n`'s difference in the current row:
     /// held here, or the left neighbour's last column on its port, or
     /// empty outside the back rectangle `grid`.
-    fn fold_tap(&self, n: i64, grid: (i64, i64), links: &Links) -> Result<[i64; 4], StepError> {
+    fn fold_tap(&self, n: i64, grid: (i64, i64), links: &Links<'_>) -> Result<[i64; 4], StepError> {
         if n < grid.0 || n > grid.1 {
             return Ok([0; 4]);
         }
@@ -130,7 +130,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &PassBus,
-        links: Links,
+        links: Links<'_>,
         g: FoldGrids,
     ) -> Result<Ports, StepError> {
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);

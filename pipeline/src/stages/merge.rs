@@ -38,7 +38,7 @@ impl Pe {
 
     /// Accumulators of held column `mx` at `row`, or the neighbours' edge
     /// rays when `mx` is just beyond the held span; empty rays otherwise.
-    fn parent(&self, mx: i64, row: usize, links: &Links) -> Acc {
+    fn parent(&self, mx: i64, row: usize, links: &Links<'_>) -> Acc {
         let Some((lo, hi)) = self.span() else {
             return Acc::default();
         };
@@ -80,7 +80,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &PassBus,
-        links: Links,
+        links: Links<'_>,
         (bg, fg): (&RayGrid, &RayGrid),
     ) -> Result<Ports, StepError> {
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);

@@ -41,7 +41,12 @@ impl Pe {
     /// sent last cycle, sends one ray each way if its last sample has been
     /// written back; a column that is whole joins the held columns (or
     /// moves on if its owner is further along).
-    pub fn migrate_step(&mut self, links: Links, now: u64, owner: impl Fn(i64) -> usize) -> Ports {
+    pub fn migrate_step(
+        &mut self,
+        links: Links<'_>,
+        now: u64,
+        owner: impl Fn(i64) -> usize,
+    ) -> Ports {
         let mut out = Ports::default();
         for (incoming, from_left_side) in
             [(links.from_left.ray, true), (links.from_right.ray, false)]

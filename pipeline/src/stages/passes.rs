@@ -187,7 +187,7 @@ impl Array {
         stage: Stage,
         width: usize,
         slots: &[Slot],
-        mut step: impl FnMut(&mut Pe, &PassBus, Links) -> Result<Ports, StepError>,
+        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), RunError> {
         if width == 0 {
             return Ok(());

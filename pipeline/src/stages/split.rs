@@ -58,7 +58,7 @@ impl Pe {
         mx: i64,
         row: usize,
         grid: (i64, i64),
-        links: &Links,
+        links: &Links<'_>,
     ) -> Result<Acc, StepError> {
         if mx < grid.0 || mx > grid.1 {
             return Ok(Acc::default());
@@ -82,7 +82,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &PassBus,
-        links: Links,
+        links: Links<'_>,
         (fg, bg): (&RayGrid, &RayGrid),
     ) -> Result<Ports, StepError> {
         let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);

@@ -149,23 +149,25 @@ fn default_latency_is_the_cost_models_depth() {
 /// `compile_fail` example of a step that tries).
 #[test]
 fn steps_see_only_their_own_state_and_links() {
-    type PassStep<G> = fn(&mut Pe, &Datapath, &PassBus, Links, G) -> Result<Ports, StepError>;
+    type PassStep<G> =
+        for<'l> fn(&mut Pe, &Datapath, &PassBus, Links<'l>, G) -> Result<Ports, StepError>;
     type Grids<'a> = (&'a golden::geometry::RayGrid, &'a golden::geometry::RayGrid);
     let merge: PassStep<Grids> = Pe::merge_step;
     let split: PassStep<Grids> = Pe::split_step;
     let fold: PassStep<pipeline::stages::fold::FoldGrids> = Pe::fold_step;
-    let sample: fn(
+    let sample: for<'l> fn(
         &mut Pe,
         &Datapath,
         &pipeline::stages::sample::SampleBus,
-        Links,
+        Links<'l>,
         usize,
     ) -> Result<Ports, StepError> = Pe::sample_step;
     let stall: fn(&mut Pe) -> Ports = Pe::stall_step;
     let readout: fn(&mut Pe) -> Ports = Pe::readout_step;
-    // `Links` is plain data: two copied port values, nothing borrowed.
-    fn plain<T: Copy + Send + 'static>() {}
-    plain::<Links>();
+    // `Links` is two shared views of port registers: copyable, so it
+    // cannot hold anything mutable.
+    fn shared<T: Copy + Send + Sync>() {}
+    shared::<Links<'static>>();
     let steps = [
         merge as usize,
         split as usize,

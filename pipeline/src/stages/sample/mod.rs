@@ -10,7 +10,7 @@
 //! The arithmetic is golden's [`golden::sampling::sample_region`] bit for
 //! bit in fixed point ([`crate::datapath`]). Two paths run it: the clocked
 //! one (every cycle ticked; always when tracing) and the whole-slice one
-//! ([`fast`]), which gives the same bits, cycles and counters.
+//! (`fast.rs`), which gives the same bits, cycles and counters.
 
 mod fast;
 mod pe;

@@ -115,7 +115,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &SampleBus,
-        links: Links,
+        links: Links<'_>,
         nx: usize,
     ) -> Result<Ports, StepError> {
         let mut out = Ports::default();
