@@ -41,6 +41,7 @@ fn slice(m: Method, p: &Prepared, l: &Lut, terminate: f32, substeps: u32, skips:
         terminate,
         substeps,
         skips,
+        shade: None,
     };
     methods::render(m, p, l, &o).expect("render")
 }
@@ -163,6 +164,7 @@ fn check_identity(c: &Case) -> Result<(), TestCaseError> {
             terminate: 1.0,
             substeps: c.substeps,
             skips,
+            shade: None,
         };
         prop_assert_eq!(
             bits(&image(&prep, &lut, m, o(Skips::default()))),
@@ -279,6 +281,7 @@ fn termination_error_stays_within_the_threshold() {
                 terminate: 1.0,
                 substeps: 1,
                 skips: OFF,
+                shade: None,
             },
         );
         for t in [0.99f32, 0.9, 0.5] {
@@ -286,6 +289,7 @@ fn termination_error_stays_within_the_threshold() {
                 terminate: t,
                 substeps: 1,
                 skips: Skips::default(),
+                shade: None,
             };
             let got = image(&prep, &lut, Method::ErFtb, o);
             let worst = got
@@ -352,6 +356,7 @@ fn a_slice_aligned_clip_plane_equals_emptying_the_slices_in_front() {
                 terminate: 1.0,
                 substeps: 1,
                 skips,
+                shade: None,
             };
             let a = image(&clipped, &lut, m, o);
             assert_eq!(bits(&a), bits(&image(&emptied, &lut, m, o)), "{}", m.name());

@@ -68,6 +68,7 @@ fn opts(terminate: f32, substeps: u32) -> Options {
             empty: false,
             cull: false,
         },
+        shade: None,
     }
 }
 
