@@ -330,6 +330,11 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             mip: None,
         }),
         Technique::MipMap => {
+            if opts.slice.shade.is_some() {
+                return Err(crate::error::input(
+                    "the mip-map method does not shade; drop the shading options",
+                ));
+            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_for(lut, mip.classify)?;

@@ -306,6 +306,26 @@ pub struct SliceArgs {
     /// sample) or pre (filter classified colour and opacity, the paper's).
     #[arg(long, default_value = "post", value_parser = parse_classify)]
     pub mip_classify: golden::mipmap::Classify,
+    /// Shade samples with gradients and Blinn-Phong before compositing (a
+    /// headlight unless --light is given; docs/golden.md#shading).
+    #[arg(long, conflicts_with = "no_shade")]
+    pub shade: bool,
+    /// Emission-absorption only (the default).
+    #[arg(long)]
+    pub no_shade: bool,
+    /// Directional light towards world direction dx,dy,dz (repeat for up
+    /// to 4 lights; implies --shade).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub light: Vec<glam::DVec3>,
+    /// Material ka,kd,ks,shininess (default VTK's 0.1,0.7,0.2,10; implies
+    /// --shade).
+    #[arg(long)]
+    pub material: Option<String>,
+    /// Opacity scaled by min(1, |gradient| / G), G in scalar units per
+    /// world unit, so homogeneous regions go transparent (Levoy 1988;
+    /// implies --shade).
+    #[arg(long, allow_hyphen_values = true)]
+    pub gradient_opacity: Option<f64>,
 }
 
 fn parse_classify(s: &str) -> std::result::Result<golden::mipmap::Classify, String> {
@@ -326,11 +346,45 @@ impl SliceArgs {
             empty: !self.no_skip_empty,
             cull: !self.no_cull,
         };
+        o.slice.shade = self.shading()?;
+        o.reference.shade = o.slice.shade;
         o.slice.validate()?;
         golden::mipcast::check_step(self.mip_step)?;
         o.mip_step = self.mip_step;
         o.mip_classify = self.mip_classify;
         Ok(o)
+    }
+
+    /// The shading asked for: `--shade`, or any of `--light`,
+    /// `--material`, `--gradient-opacity`; `None` with `--no-shade`.
+    pub fn shading(&self) -> Result<Option<golden::shading::Shade>> {
+        let asked = self.shade
+            || !self.light.is_empty()
+            || self.material.is_some()
+            || self.gradient_opacity.is_some();
+        if self.no_shade {
+            if asked {
+                bail!(
+                    "--no-shade conflicts with --shade, --light, --material and --gradient-opacity"
+                );
+            }
+            return Ok(None);
+        }
+        if !asked {
+            return Ok(None);
+        }
+        let mut sh = golden::shading::Shade::default();
+        for &l in &self.light {
+            sh.add_light(l)?;
+        }
+        if let Some(m) = &self.material {
+            sh.material = golden::shading::Material::parse(m)?;
+        }
+        if let Some(g) = self.gradient_opacity {
+            sh.gradient_opacity = g;
+        }
+        sh.validate()?;
+        Ok(Some(sh))
     }
 
     /// Checks and builds how the volume is prepared for a camera.
@@ -368,6 +422,11 @@ impl Default for SliceArgs {
             near: p.near,
             mip_step: golden::mipcast::DEFAULT_MIP_STEP,
             mip_classify: golden::mipmap::Classify::Post,
+            shade: false,
+            no_shade: false,
+            light: Vec::new(),
+            material: None,
+            gradient_opacity: None,
         }
     }
 }

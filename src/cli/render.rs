@@ -191,6 +191,9 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     }
     cfg.validate()?;
     let opts = slice.options()?;
+    if opts.slice.shade.is_some() {
+        anyhow::bail!("the pipeline model does not shade yet; drop --shade, --light, --material and --gradient-opacity");
+    }
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }

@@ -10,4 +10,5 @@ mod figures;
 mod formats;
 mod foundation;
 mod mipmap;
+mod shading;
 mod skipping;
