@@ -72,7 +72,7 @@ fn lights_light_their_side() {
         let (mut l, mut r) = (0.0, 0.0);
         for y in 0..img.height {
             for x in 0..img.width {
-                let p = img.data[(y * img.width + x) as usize];
+                let p = img.data[y * img.width + x];
                 let v = f64::from(p[0] + p[1] + p[2]);
                 if x < img.width / 2 {
                     l += v
