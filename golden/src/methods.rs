@@ -213,7 +213,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         _ => Order::BackToFront,
     };
     let shader = match &opts.shade {
-        Some(sh) => Some(Shader::new(view, &prep.stack, sh)?),
+        Some(sh) => Some(Shader::with_gradients(view, prep.gradients(), sh)?),
         None => None,
     };
     let pass = Pass {

@@ -5,7 +5,7 @@
 //! here, so every method sees the same view, stack and table.
 
 use std::str::FromStr;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::camera::Camera;
 use crate::clip::{check_planes, ClipPlane, ViewClip};
@@ -17,6 +17,7 @@ use crate::mipcast::{self, MipOptions, MipStats};
 use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::reference::{self, RefOptions};
+use crate::shading::{gradients, Gradients};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
 use crate::volume::{Volume, VoxelType};
@@ -91,6 +92,9 @@ pub struct Prepared {
     /// One slot per [`Classify`] (the post-classified pyramid does not
     /// depend on the table and is built once).
     mipmap: Arc<Mutex<[Option<KeyedMipMap>; 2]>>,
+    /// The stack's gradients for shading, built on first use and shared
+    /// like the stack.
+    gradients: Arc<OnceLock<Arc<Gradients>>>,
 }
 
 /// An occupancy map and the key of the table it was built for.
@@ -160,10 +164,15 @@ impl Prepared {
     ) -> Result<Prepared> {
         check_planes(&opts.clip)?;
         let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        let (stack, mipmap) = match reuse {
-            Some(r) if r.view.axes == view.axes => (Arc::clone(&r.stack), Arc::clone(&r.mipmap)),
+        let (stack, mipmap, gradients) = match reuse {
+            Some(r) if r.view.axes == view.axes => (
+                Arc::clone(&r.stack),
+                Arc::clone(&r.mipmap),
+                Arc::clone(&r.gradients),
+            ),
             _ => (
                 Arc::new(SliceStack::new(volume, &view.axes)?),
+                Arc::default(),
                 Arc::default(),
             ),
         };
@@ -179,7 +188,18 @@ impl Prepared {
             clip,
             occupancy,
             mipmap,
+            gradients,
         })
+    }
+
+    /// The stack's shading gradients ([`crate::shading::gradients`]),
+    /// built on the first call and shared by the views of a camera path
+    /// that share the stack.
+    pub fn gradients(&self) -> Arc<Gradients> {
+        Arc::clone(
+            self.gradients
+                .get_or_init(|| Arc::new(gradients(&self.view, &self.stack))),
+        )
     }
 
     /// Whether `other` shares this one's slice stack (no permutation was

@@ -261,6 +261,7 @@ pub const PRESETS: &[&str] = &[
     "impulse",
     "grey-ramp",
     "brain",
+    "brain-shaded",
 ];
 
 /// A named transfer-function preset, for 8-bit scalars (0..=255). Opacity is
@@ -279,6 +280,9 @@ pub const PRESETS: &[&str] = &[
 ///   linearly to 1 at 150, then 1 (the classic `brainsmall` ramp).
 /// - `brain`: for `brainsmall`: faint skin tones over 25..70, then bone and
 ///   bright tissue near-white and opaque from about 100.
+/// - `brain-shaded`: `brain`'s table with a shading material (rendered
+///   shaded unless `--no-shade`): translucent skin over an opaque, lit
+///   surface.
 ///
 /// An unknown name is an error listing the valid ones.
 pub fn tf_preset(name: &str) -> Result<TransferFunction> {
@@ -325,7 +329,7 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
             (150.0, grey(150.0), 1.0),
             (255.0, grey(255.0), 1.0),
         ],
-        "brain" => vec![
+        "brain" | "brain-shaded" => vec![
             (0.0, [0.9, 0.6, 0.5], 0.0),
             (25.0, [0.9, 0.6, 0.5], 0.0),
             (45.0, [0.95, 0.7, 0.6], 0.06),
@@ -341,7 +345,7 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
             )))
         }
     };
-    TransferFunction::new(
+    let mut tf = TransferFunction::new(
         points
             .into_iter()
             .map(|(value, [r, g, b], a)| ControlPoint {
@@ -349,7 +353,17 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
                 rgba: [r, g, b, a],
             })
             .collect(),
-    )
+    )?;
+    if name == "brain-shaded" {
+        // Matte skin, a little shine on the brain.
+        tf.material = Some(crate::shading::Material {
+            ambient: 0.15,
+            diffuse: 0.75,
+            specular: 0.25,
+            shininess: 20.0,
+        });
+    }
+    Ok(tf)
 }
 
 #[cfg(test)]
@@ -548,7 +562,9 @@ mod tests {
     fn presets_parse_validate_and_cover_their_scenes() {
         for &name in PRESETS {
             let tf = tf_preset(name).unwrap();
-            assert_eq!(TransferFunction::new(tf.points.clone()).unwrap(), tf);
+            let plain = TransferFunction::new(tf.points.clone()).unwrap();
+            assert_eq!(plain.points, tf.points);
+            assert_eq!(tf.material.is_some(), name == "brain-shaded", "{name}");
             let back = TransferFunction::from_toml_str(&tf.to_toml_string()).unwrap();
             assert_eq!(back, tf, "{name}");
         }

@@ -31,6 +31,8 @@
 //! The defaults are VTK's `vtkVolumeProperty` material (ambient 0.1,
 //! diffuse 0.7, specular 0.2, power 10), so peer comparisons shade alike.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 use crate::error::{input, Result};
@@ -42,6 +44,7 @@ pub const MAX_LIGHTS: usize = 4;
 
 /// The material of the Blinn-Phong model.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Material {
     /// Ambient coefficient `ka`.
     pub ambient: f64,
@@ -169,9 +172,19 @@ impl Shade {
     }
 }
 
+/// The gradient of a view's stack: one stack per view axis, in the
+/// scalar's padded layout.
+pub type Gradients = [SliceStack; 3];
+
+/// The central-difference gradients of `stack` (see the module's
+/// documentation), scaled by `view`'s spacing.
+pub fn gradients(view: &View, stack: &SliceStack) -> Gradients {
+    [0, 1, 2].map(|axis| stack.central_difference(axis, view.spacing[axis]))
+}
+
 /// A view's shader: the gradient stacks and the lights in view space.
 pub struct Shader {
-    grads: [SliceStack; 3],
+    grads: Arc<Gradients>,
     lights: Vec<[f64; 3]>,
     halves: Vec<[f64; 3]>,
     m: Material,
@@ -183,7 +196,13 @@ impl Shader {
     /// lights in `view`'s space.
     pub fn new(view: &View, stack: &SliceStack, shade: &Shade) -> Result<Shader> {
         shade.validate()?;
-        let grads = [0, 1, 2].map(|axis| stack.central_difference(axis, view.spacing[axis]));
+        Shader::with_gradients(view, Arc::new(gradients(view, stack)), shade)
+    }
+
+    /// A shader over gradients computed before (a prepared view caches
+    /// them, see [`crate::render::Prepared::gradients`]).
+    pub fn with_gradients(view: &View, grads: Arc<Gradients>, shade: &Shade) -> Result<Shader> {
+        shade.validate()?;
         // World lengths along the view axes: index units times spacing.
         let s = DVec3::from_array(view.spacing);
         let centre = DVec3::from_array(view.dims.map(|n| (n as f64 - 1.0) / 2.0));

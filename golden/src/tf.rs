@@ -26,18 +26,29 @@ pub struct TransferFunction {
     /// Control points in non-decreasing order of `value`.
     #[serde(rename = "point")]
     pub points: Vec<ControlPoint>,
+    /// The shading material this table is meant for (`[material]` with
+    /// `ambient`, `diffuse`, `specular`, `shininess`): a table that has one
+    /// is rendered shaded unless the user says `--no-shade`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<crate::shading::Material>,
 }
 
 impl TransferFunction {
     /// Builds a transfer function, checking that the points are finite,
     /// ordered and in range.
     pub fn new(points: Vec<ControlPoint>) -> Result<TransferFunction> {
-        let tf = TransferFunction { points };
+        let tf = TransferFunction {
+            points,
+            material: None,
+        };
         tf.validate()?;
         Ok(tf)
     }
 
     fn validate(&self) -> Result<()> {
+        if let Some(m) = &self.material {
+            m.validate()?;
+        }
         if self.points.is_empty() {
             return Err(input("transfer function has no control points"));
         }

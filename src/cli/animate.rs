@@ -140,10 +140,11 @@ pub fn run(a: &AnimateArgs) -> Result<()> {
 }
 
 fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
-    let opts = a.slice.options()?;
+    let mut opts = a.slice.options()?;
     let prep_opts = a.slice.prepare()?;
     let t0 = Instant::now();
     let (vol, tf, first) = a.view.load()?;
+    a.slice.apply_tf(&mut opts, &tf)?;
     let lut = lut_for(vol.kind(), &tf);
     let load_s = t0.elapsed().as_secs_f64();
     let path = path_of(a, &first)?;

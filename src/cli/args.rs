@@ -387,6 +387,27 @@ impl SliceArgs {
         Ok(Some(sh))
     }
 
+    /// Completes `o` with what the transfer function asks for: a table
+    /// with a `[material]` is rendered shaded with it (unless
+    /// `--no-shade`; `--material` overrides it).
+    pub fn apply_tf(
+        &self,
+        o: &mut golden::render::RenderOptions,
+        tf: &TransferFunction,
+    ) -> Result<()> {
+        let Some(m) = tf.material else { return Ok(()) };
+        if self.no_shade {
+            return Ok(());
+        }
+        let mut sh = o.slice.shade.unwrap_or_default();
+        if self.material.is_none() {
+            sh.material = m;
+        }
+        o.slice.shade = Some(sh);
+        o.reference.shade = Some(sh);
+        Ok(())
+    }
+
     /// Checks and builds how the volume is prepared for a camera.
     pub fn prepare(&self) -> Result<PrepareOptions> {
         let block = self.block.unwrap_or(golden::occupancy::DEFAULT_BLOCK);

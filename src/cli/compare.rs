@@ -77,8 +77,9 @@ pub fn run(a: &CompareArgs) -> Result<()> {
 }
 
 fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
-    let opts = a.slice.options()?;
+    let mut opts = a.slice.options()?;
     let (vol, tf, cam) = a.view.load()?;
+    a.slice.apply_tf(&mut opts, &tf)?;
     let lut = lut_for(vol.kind(), &tf);
     let prep = a.slice.prepared(&vol, &cam)?;
     std::fs::create_dir_all(&a.out_dir)

@@ -103,8 +103,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 tech.name()
             );
         }
-        let opts = a.slice.options()?;
+        let mut opts = a.slice.options()?;
         let (vol, tf, cam) = a.view.load()?;
+        a.slice.apply_tf(&mut opts, &tf)?;
         let lut = lut_for(vol.kind(), &tf);
         let prep = a.slice.prepared(&vol, &cam)?;
         let (frame, times) = {
@@ -198,6 +199,9 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
     let (vol, tf, cam) = a.view.load()?;
+    if tf.material.is_some() && !slice.no_shade {
+        anyhow::bail!("the transfer function asks for shading (its [material]); the pipeline model does not shade yet: add --no-shade");
+    }
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let prep = slice.prepared(&vol, &cam)?;
     let (run, times) = {

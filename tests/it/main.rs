@@ -1,10 +1,11 @@
 //! The `ercube` program's integration tests, one binary (it links once):
 //! the command-line contract (`cli`), the benchmark commands (`bench`),
 //! the PE array run through the program (`array`), the peer renderer
-//! comparison (`peers`, VTK when a Python has it) and the rustdoc's
-//! intra-doc links (`docs`). Each crate's own tests live beside it
-//! (`golden/tests/it`, `pipeline/tests/it`, `waves/tests/it`); the helpers
-//! all of them share are in `tests/support/`.
+//! comparison (`peers`, VTK when a Python has it), shading through the
+//! program (`shade`) and the rustdoc's intra-doc links (`docs`). Each
+//! crate's own tests live beside it (`golden/tests/it`,
+//! `pipeline/tests/it`, `waves/tests/it`); the helpers all of them share
+//! are in `tests/support/`.
 
 #[path = "../support/bin.rs"]
 mod bin;
@@ -19,3 +20,4 @@ mod bench;
 mod cli;
 mod docs;
 mod peers;
+mod shade;

@@ -1,0 +1,98 @@
+//! Shading through the program: a transfer function's `[material]` turns
+//! shading on with that material, `--no-shade` turns it off bit for bit,
+//! `--material` overrides the table's, and the pipeline refuses a shaded
+//! table in one line.
+
+use std::path::Path;
+
+use crate::bin::{assert_refused, describe, ercube};
+
+const POINTS: &str = "[[point]]\nvalue = 0\nrgba = [1, 0.8, 0.6, 0]\n\n\
+                      [[point]]\nvalue = 120\nrgba = [1, 0.8, 0.6, 0.3]\n\n\
+                      [[point]]\nvalue = 255\nrgba = [1, 1, 1, 0.9]\n";
+
+fn npy(dir: &Path, tf: &str, extra: &[&str]) -> Vec<u8> {
+    let mut args = vec![
+        "render",
+        "--scene",
+        "sphere:24",
+        "--size",
+        "24x24",
+        "--method",
+        "er",
+        "--tf-file",
+        tf,
+        "--out",
+        "i.png",
+        "--npy",
+        "i.npy",
+    ];
+    args.extend_from_slice(extra);
+    let out = ercube(dir, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    std::fs::read(dir.join("i.npy")).expect("npy written")
+}
+
+#[test]
+fn a_tables_material_shades() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    std::fs::write(d.join("plain.toml"), POINTS).unwrap();
+    let material = "\n[material]\nambient = 0.2\ndiffuse = 0.6\nspecular = 0.4\nshininess = 30\n";
+    std::fs::write(d.join("lit.toml"), format!("{POINTS}{material}")).unwrap();
+    let plain = npy(d, "plain.toml", &[]);
+    let lit = npy(d, "lit.toml", &[]);
+    assert_ne!(plain, lit, "the table's material shades");
+    assert_eq!(
+        npy(d, "lit.toml", &["--no-shade"]),
+        plain,
+        "--no-shade is unshaded"
+    );
+    assert_eq!(
+        npy(d, "plain.toml", &["--material", "0.2,0.6,0.4,30"]),
+        lit,
+        "the same material from the command line"
+    );
+    assert_ne!(
+        npy(d, "lit.toml", &["--material", "0.1,0.7,0.2,10"]),
+        lit,
+        "--material overrides the table's"
+    );
+
+    let args = [
+        "render",
+        "--scene",
+        "sphere:16",
+        "--size",
+        "16x16",
+        "--method",
+        "pipeline",
+        "--tf-file",
+        "lit.toml",
+        "--out",
+        "p.png",
+    ];
+    assert_refused(&args, &ercube(d, &args), "--no-shade");
+    let mut ok = args.to_vec();
+    ok.push("--no-shade");
+    let out = ercube(d, &ok);
+    assert!(out.status.success(), "{}", describe(&ok, &out));
+
+    std::fs::write(
+        d.join("bad.toml"),
+        format!("{POINTS}\n[material]\nambient = 0.2\n"),
+    )
+    .unwrap();
+    let args = [
+        "render",
+        "--scene",
+        "sphere:16",
+        "--size",
+        "16x16",
+        "--tf-file",
+        "bad.toml",
+        "--out",
+        "b.png",
+    ];
+    assert_refused(&args, &ercube(d, &args), "material");
+}
