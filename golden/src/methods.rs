@@ -14,7 +14,7 @@ use crate::merge::{merge, recycle, split, with_room, zeroed, Rgba};
 use crate::occupancy::Occupancy;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
-use crate::shading::{Shade, Shader};
+use crate::shading::{GradientMode, Shade, Shader};
 use crate::skip::{MaskSpec, SampleMask, Skips, GOLDEN_MARGIN};
 use crate::tf::Lut;
 use crate::warp::Baseplane;
@@ -213,7 +213,10 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         _ => Order::BackToFront,
     };
     let shader = match &opts.shade {
-        Some(sh) => Some(Shader::with_gradients(view, prep.gradients(), sh)?),
+        Some(sh) => {
+            let grads = (sh.gradient == GradientMode::Voxels).then(|| prep.gradients());
+            Some(Shader::with_gradients(view, grads, sh)?)
+        }
         None => None,
     };
     let pass = Pass {

@@ -138,7 +138,7 @@ fn cast(
             continue;
         }
         if let Some(sh) = shader {
-            c = sh.shade(c, sh.gradient_trilinear(p.x, p.y, p.z));
+            c = sh.shade(c, sh.gradient_trilinear(stack, p.x, p.y, p.z));
         }
         let a = -(ds * (-c[3]).ln_1p()).exp_m1();
         let k = (1.0 - acc[3]) * a;

@@ -348,7 +348,7 @@ impl<'a> RayRow<'a> {
             let mut c = lut.lookup(stack.bilinear(self.data, x, y));
             if c[3] > 0.0 {
                 if let Some(sh) = shader {
-                    c = sh.shade_f32(c, sh.gradient_bilinear(z, x, y));
+                    c = sh.shade_f32(c, sh.gradient_bilinear(stack, z, x, y));
                 }
                 composite(ray, c, ds, order);
             }
@@ -370,7 +370,7 @@ impl<'a> RayRow<'a> {
             let mut c = lut.lookup(stack.trilinear_f32(p[0], p[1], p[2]));
             if c[3] > 0.0 {
                 if let Some(sh) = shader {
-                    c = sh.shade_f32(c, sh.gradient_trilinear_f32(p[0], p[1], p[2]));
+                    c = sh.shade_f32(c, sh.gradient_trilinear_f32(stack, p[0], p[1], p[2]));
                 }
                 composite(ray, c, ds / substeps as f32, order);
             }

@@ -39,6 +39,10 @@ use crate::error::{input, Result};
 use crate::geometry::View;
 use crate::slices::SliceStack;
 
+/// Offset in voxels of the samples differenced in
+/// [`GradientMode::Samples`].
+pub const SAMPLE_OFFSET: f32 = 0.5;
+
 /// Most directional lights a render takes.
 pub const MAX_LIGHTS: usize = 4;
 
@@ -112,8 +116,39 @@ impl Material {
     }
 }
 
+/// Where the gradient is taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GradientMode {
+    /// Central differences on voxels, interpolated like the scalar (the
+    /// default, VolumePro 1000's).
+    #[default]
+    Voxels,
+    /// Central differences of interpolated samples half a voxel either
+    /// side of the sample, ER's densest ray spacing (Cube-4 differences its
+    /// resampled grid's samples): six more interpolations per sample.
+    /// (At one voxel either side the differences of trilinear samples equal
+    /// the interpolated voxel differences exactly: an integer shift keeps
+    /// the weights.)
+    Samples,
+}
+
+impl std::str::FromStr for GradientMode {
+    type Err = crate::error::Error;
+
+    fn from_str(s: &str) -> Result<GradientMode> {
+        match s {
+            "voxels" => Ok(GradientMode::Voxels),
+            "samples" => Ok(GradientMode::Samples),
+            _ => Err(input(format!(
+                "unknown gradient {s:?}: use voxels or samples"
+            ))),
+        }
+    }
+}
+
 /// What to shade with: lights (world directions towards each light; none
-/// is the headlight), the material, and the gradient-opacity scale.
+/// is the headlight), the material, the gradient-opacity scale and where
+/// gradients are taken.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shade {
     lights: [[f64; 3]; MAX_LIGHTS],
@@ -122,6 +157,8 @@ pub struct Shade {
     pub material: Material,
     /// `G` of the gradient-opacity modulation; 0 disables it.
     pub gradient_opacity: f64,
+    /// Where gradients are taken.
+    pub gradient: GradientMode,
 }
 
 impl Default for Shade {
@@ -131,6 +168,7 @@ impl Default for Shade {
             count: 0,
             material: Material::default(),
             gradient_opacity: 0.0,
+            gradient: GradientMode::Voxels,
         }
     }
 }
@@ -182,9 +220,12 @@ pub fn gradients(view: &View, stack: &SliceStack) -> Gradients {
     [0, 1, 2].map(|axis| stack.central_difference(axis, view.spacing[axis]))
 }
 
-/// A view's shader: the gradient stacks and the lights in view space.
+/// A view's shader: the gradient stacks (voxel gradients) or the scale of
+/// the sample differences, and the lights in view space.
 pub struct Shader {
-    grads: Arc<Gradients>,
+    grads: Option<Arc<Gradients>>,
+    /// Samples mode: `1 / (2 h spacing)` per view axis, `h = 1/2`.
+    inv2s: [f64; 3],
     lights: Vec<[f64; 3]>,
     halves: Vec<[f64; 3]>,
     m: Material,
@@ -196,13 +237,23 @@ impl Shader {
     /// lights in `view`'s space.
     pub fn new(view: &View, stack: &SliceStack, shade: &Shade) -> Result<Shader> {
         shade.validate()?;
-        Shader::with_gradients(view, Arc::new(gradients(view, stack)), shade)
+        let grads =
+            (shade.gradient == GradientMode::Voxels).then(|| Arc::new(gradients(view, stack)));
+        Shader::with_gradients(view, grads, shade)
     }
 
-    /// A shader over gradients computed before (a prepared view caches
-    /// them, see [`crate::render::Prepared::gradients`]).
-    pub fn with_gradients(view: &View, grads: Arc<Gradients>, shade: &Shade) -> Result<Shader> {
+    /// A shader over voxel gradients computed before (a prepared view
+    /// caches them, see [`crate::render::Prepared::gradients`]); `None` in
+    /// samples mode, which needs none.
+    pub fn with_gradients(
+        view: &View,
+        grads: Option<Arc<Gradients>>,
+        shade: &Shade,
+    ) -> Result<Shader> {
         shade.validate()?;
+        if (shade.gradient == GradientMode::Voxels) != grads.is_some() {
+            return Err(input("voxel gradients are needed exactly in voxels mode"));
+        }
         // World lengths along the view axes: index units times spacing.
         let s = DVec3::from_array(view.spacing);
         let centre = DVec3::from_array(view.dims.map(|n| (n as f64 - 1.0) / 2.0));
@@ -226,6 +277,7 @@ impl Shader {
             .collect();
         Ok(Shader {
             grads,
+            inv2s: view.spacing.map(|s| 1.0 / s),
             lights: lights.iter().map(|l| l.to_array()).collect(),
             halves,
             m: shade.material,
@@ -233,25 +285,54 @@ impl Shader {
         })
     }
 
-    /// The gradient at view `(x, y)` in slice `z`, bilinear like the
-    /// scalar's sample there.
+    /// The gradient at view `(x, y)` in slice `z` of `stack` (the
+    /// scalar): voxel gradients bilinear like the scalar's sample there, or
+    /// differences of samples.
     #[inline]
-    pub fn gradient_bilinear(&self, z: usize, x: f32, y: f32) -> [f32; 3] {
-        self.grads.each_ref().map(|g| g.bilinear(g.slice(z), x, y))
+    pub fn gradient_bilinear(&self, stack: &SliceStack, z: usize, x: f32, y: f32) -> [f32; 3] {
+        match &self.grads {
+            Some(g) => g.each_ref().map(|g| g.bilinear(g.slice(z), x, y)),
+            None => self.sample_differences_f32(stack, x, y, z as f32),
+        }
     }
 
-    /// The gradient at view `(x, y, z)`, trilinear in `f32` like the
+    /// The gradient at view `(x, y, z)` in `f32`, trilinear like the
     /// slice-order methods' sub-slice samples.
     #[inline]
-    pub fn gradient_trilinear_f32(&self, x: f32, y: f32, z: f32) -> [f32; 3] {
-        self.grads.each_ref().map(|g| g.trilinear_f32(x, y, z))
+    pub fn gradient_trilinear_f32(&self, stack: &SliceStack, x: f32, y: f32, z: f32) -> [f32; 3] {
+        match &self.grads {
+            Some(g) => g.each_ref().map(|g| g.trilinear_f32(x, y, z)),
+            None => self.sample_differences_f32(stack, x, y, z),
+        }
     }
 
-    /// The gradient at view `(x, y, z)`, trilinear in `f64` (the
-    /// reference's).
+    /// The gradient at view `(x, y, z)` in `f64` (the reference's).
     #[inline]
-    pub fn gradient_trilinear(&self, x: f64, y: f64, z: f64) -> [f64; 3] {
-        self.grads.each_ref().map(|g| g.trilinear(x, y, z))
+    pub fn gradient_trilinear(&self, stack: &SliceStack, x: f64, y: f64, z: f64) -> [f64; 3] {
+        match &self.grads {
+            Some(g) => g.each_ref().map(|g| g.trilinear(x, y, z)),
+            None => {
+                let (k, h) = (self.inv2s, SAMPLE_OFFSET as f64);
+                [
+                    (stack.trilinear(x + h, y, z) - stack.trilinear(x - h, y, z)) * k[0],
+                    (stack.trilinear(x, y + h, z) - stack.trilinear(x, y - h, z)) * k[1],
+                    (stack.trilinear(x, y, z + h) - stack.trilinear(x, y, z - h)) * k[2],
+                ]
+            }
+        }
+    }
+
+    /// Central differences of trilinear samples [`SAMPLE_OFFSET`] either
+    /// side.
+    #[inline]
+    fn sample_differences_f32(&self, stack: &SliceStack, x: f32, y: f32, z: f32) -> [f32; 3] {
+        let (k, h) = (self.inv2s.map(|v| v as f32), SAMPLE_OFFSET);
+        let t = |x, y, z| stack.trilinear_f32(x, y, z);
+        [
+            (t(x + h, y, z) - t(x - h, y, z)) * k[0],
+            (t(x, y + h, z) - t(x, y - h, z)) * k[1],
+            (t(x, y, z + h) - t(x, y, z - h)) * k[2],
+        ]
     }
 
     /// Shades classified colour `c` (R, G, B not premultiplied, A) with

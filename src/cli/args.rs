@@ -326,6 +326,15 @@ pub struct SliceArgs {
     /// implies --shade).
     #[arg(long, allow_hyphen_values = true)]
     pub gradient_opacity: Option<f64>,
+    /// Where gradients are taken: voxels (central differences on voxels,
+    /// interpolated like the scalar; the default) or samples (differences
+    /// of interpolated samples, Cube-4's); implies --shade.
+    #[arg(long, value_parser = parse_gradient)]
+    pub gradient: Option<golden::shading::GradientMode>,
+}
+
+fn parse_gradient(s: &str) -> std::result::Result<golden::shading::GradientMode, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
 }
 
 fn parse_classify(s: &str) -> std::result::Result<golden::mipmap::Classify, String> {
@@ -361,7 +370,8 @@ impl SliceArgs {
         let asked = self.shade
             || !self.light.is_empty()
             || self.material.is_some()
-            || self.gradient_opacity.is_some();
+            || self.gradient_opacity.is_some()
+            || self.gradient.is_some();
         if self.no_shade {
             if asked {
                 bail!(
@@ -382,6 +392,9 @@ impl SliceArgs {
         }
         if let Some(g) = self.gradient_opacity {
             sh.gradient_opacity = g;
+        }
+        if let Some(g) = self.gradient {
+            sh.gradient = g;
         }
         sh.validate()?;
         Ok(Some(sh))
@@ -448,6 +461,7 @@ impl Default for SliceArgs {
             light: Vec::new(),
             material: None,
             gradient_opacity: None,
+            gradient: None,
         }
     }
 }

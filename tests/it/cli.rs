@@ -794,6 +794,7 @@ fn bad_input_gives_one_line_errors() {
         (format!("{s} --material 0.1,0.7,0.2"), "material"),
         (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
         (format!("{s} --gradient-opacity -1"), "gradient opacity"),
+        (format!("{s} --gradient bogus"), "gradient"),
         (format!("{s} --no-shade --light 1,0,0"), "no-shade"),
         (format!("{s} --method pipeline --shade"), "shade"),
         (format!("{s} --method mipmap --shade"), "mip-map"),
