@@ -64,6 +64,7 @@ fn golden_benches(c: &mut Criterion) {
         order: Order::BackToFront,
         substeps: 1,
         shader: None,
+        voi: None,
     };
     let n: u64 = sample_region(&pass, k, grid, &mut buf).samples.iter().sum();
     let mut g = c.benchmark_group("golden");

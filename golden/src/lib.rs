@@ -35,6 +35,7 @@ pub mod shading;
 pub mod skip;
 pub mod slices;
 pub mod tf;
+pub mod voi;
 pub mod volume;
 pub mod warp;
 

@@ -17,6 +17,7 @@ use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
 use crate::shading::{GradientMode, Shade, Shader};
 use crate::skip::{MaskSpec, SampleMask, Skips, GOLDEN_MARGIN};
 use crate::tf::Lut;
+use crate::voi::{ViewVoi, Voi};
 use crate::warp::Baseplane;
 
 /// A slice-order rendering method.
@@ -93,6 +94,8 @@ pub struct Options {
     /// Gradient shading before compositing (see [`crate::shading`]);
     /// `None` renders emission-absorption only.
     pub shade: Option<Shade>,
+    /// A volume of interest scaling opacity (see [`crate::voi`]).
+    pub voi: Option<Voi>,
 }
 
 impl Default for Options {
@@ -102,6 +105,7 @@ impl Default for Options {
             substeps: DEFAULT_SUBSTEPS,
             skips: Skips::default(),
             shade: None,
+            voi: None,
         }
     }
 }
@@ -128,6 +132,9 @@ impl Options {
         }
         if let Some(sh) = &self.shade {
             sh.validate()?;
+        }
+        if let Some(v) = &self.voi {
+            v.validate()?;
         }
         Ok(())
     }
@@ -219,6 +226,10 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         }
         None => None,
     };
+    let voi = match &opts.voi {
+        Some(v) => Some(ViewVoi::new(view, v)?),
+        None => None,
+    };
     let pass = Pass {
         view,
         stack: &prep.stack,
@@ -227,6 +238,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         order,
         substeps: opts.substeps,
         shader: shader.as_ref(),
+        voi: voi.as_ref(),
     };
     let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;

@@ -13,6 +13,7 @@ use crate::image::Image;
 use crate::shading::{Shade, Shader};
 use crate::slices::SliceStack;
 use crate::tf::Lut;
+use crate::voi::{ViewVoi, Voi};
 
 /// Reference renderer settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,6 +29,8 @@ pub struct RefOptions {
     /// Gradient shading with the slice-order methods' model, from the
     /// reference's own trilinear gradients in `f64`.
     pub shade: Option<Shade>,
+    /// A volume of interest scaling opacity, as the slice-order methods.
+    pub voi: Option<Voi>,
 }
 
 impl Default for RefOptions {
@@ -37,6 +40,7 @@ impl Default for RefOptions {
             step: 0.25,
             cutoff: 1e-6,
             shade: None,
+            voi: None,
         }
     }
 }
@@ -74,12 +78,17 @@ pub fn render(
         None => None,
     };
     let shader = shader.as_ref();
+    let voi = match &opts.voi {
+        Some(v) => Some(ViewVoi::new(view, v)?),
+        None => None,
+    };
+    let voi = voi.as_ref();
     let mut rays = vec![[0f64; 4]; rw * rh];
     rays.par_chunks_mut(rw).enumerate().for_each(|(r, row)| {
         let py = ray_pos(r);
         for (c, out) in row.iter_mut().enumerate() {
             let dir = view.rays.dir(ray_pos(c), py);
-            *out = cast(view, stack, clip, lut, opts, shader, dir);
+            *out = cast(view, stack, clip, lut, opts, (shader, voi), dir);
         }
     });
     // Tent weights of the 2q rays under one pixel, per axis.
@@ -113,7 +122,7 @@ fn cast(
     clip: &ViewClip,
     lut: &Lut,
     opts: &RefOptions,
-    shader: Option<&Shader>,
+    (shader, voi): (Option<&Shader>, Option<&ViewVoi>),
     dir: DVec3,
 ) -> [f64; 4] {
     let e = view.eye;
@@ -134,6 +143,9 @@ fn cast(
             continue;
         }
         let mut c = lut.lookup_f64(stack.trilinear(p.x, p.y, p.z));
+        if let Some(v) = voi {
+            c[3] *= v.factor(p);
+        }
         if c[3] <= 0.0 {
             continue;
         }

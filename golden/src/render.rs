@@ -355,6 +355,11 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     "the mip-map method does not shade; drop the shading options",
                 ));
             }
+            if opts.slice.voi.is_some() {
+                return Err(crate::error::input(
+                    "the mip-map method has no volume of interest; drop --voi",
+                ));
+            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_for(lut, mip.classify)?;

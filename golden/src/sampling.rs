@@ -23,6 +23,7 @@ use crate::shading::Shader;
 use crate::skip::SampleMask;
 use crate::slices::SliceStack;
 use crate::tf::{correct_opacity, Lut};
+use crate::voi::ViewVoi;
 
 /// Compositing direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,6 +69,8 @@ pub struct Pass<'a> {
     pub substeps: u32,
     /// Shading before compositing, if any.
     pub shader: Option<&'a Shader>,
+    /// A volume of interest scaling opacity, if any.
+    pub voi: Option<&'a ViewVoi>,
 }
 
 /// What sampling one region did.
@@ -340,12 +343,16 @@ impl<'a> RayRow<'a> {
             order,
             substeps,
             shader,
+            voi,
         } = *self.pass;
         let (y, slope_y, z) = (self.y, self.slope_y, self.z);
         let x = (self.px.a + mx as f64 * self.px.t) as f32;
         let ds = self.ds[(mx - self.grid.lo[0]) as usize];
         if substeps == 1 {
             let mut c = lut.lookup(stack.bilinear(self.data, x, y));
+            if let Some(v) = voi {
+                c[3] *= v.factor_f32(x, y, z as f32);
+            }
             if c[3] > 0.0 {
                 if let Some(sh) = shader {
                     c = sh.shade_f32(c, sh.gradient_bilinear(stack, z, x, y));
@@ -368,6 +375,9 @@ impl<'a> RayRow<'a> {
                 continue;
             }
             let mut c = lut.lookup(stack.trilinear_f32(p[0], p[1], p[2]));
+            if let Some(v) = voi {
+                c[3] *= v.factor_f32(p[0], p[1], p[2]);
+            }
             if c[3] > 0.0 {
                 if let Some(sh) = shader {
                     c = sh.shade_f32(c, sh.gradient_trilinear_f32(stack, p[0], p[1], p[2]));

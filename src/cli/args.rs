@@ -331,6 +331,23 @@ pub struct SliceArgs {
     /// of interpolated samples, Cube-4's); implies --shade.
     #[arg(long, value_parser = parse_gradient)]
     pub gradient: Option<golden::shading::GradientMode>,
+    /// Volume of interest in world units: box:x0,y0,z0,x1,y1,z1 or
+    /// sphere:cx,cy,cz,r; opacity inside it is scaled by --voi-scale.
+    #[arg(long, value_parser = parse_voi, allow_hyphen_values = true)]
+    pub voi: Option<golden::voi::Shape>,
+    /// Opacity factor of the volume of interest (0..=100).
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true)]
+    pub voi_scale: f64,
+    /// Scale opacity outside the volume of interest instead of inside.
+    #[arg(long)]
+    pub voi_outside: bool,
+    /// Width in world units of the transition at the region's boundary.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub voi_ramp: f64,
+}
+
+fn parse_voi(s: &str) -> std::result::Result<golden::voi::Shape, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
 }
 
 fn parse_gradient(s: &str) -> std::result::Result<golden::shading::GradientMode, String> {
@@ -357,6 +374,13 @@ impl SliceArgs {
         };
         o.slice.shade = self.shading()?;
         o.reference.shade = o.slice.shade;
+        o.slice.voi = self.voi.map(|shape| golden::voi::Voi {
+            shape,
+            scale: self.voi_scale,
+            outside: self.voi_outside,
+            ramp: self.voi_ramp,
+        });
+        o.reference.voi = o.slice.voi;
         o.slice.validate()?;
         golden::mipcast::check_step(self.mip_step)?;
         o.mip_step = self.mip_step;
@@ -462,6 +486,10 @@ impl Default for SliceArgs {
             material: None,
             gradient_opacity: None,
             gradient: None,
+            voi: None,
+            voi_scale: 2.0,
+            voi_outside: false,
+            voi_ramp: 0.0,
         }
     }
 }

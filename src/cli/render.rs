@@ -195,6 +195,9 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     if opts.slice.shade.is_some() {
         anyhow::bail!("the pipeline model does not shade yet; drop --shade, --light, --material and --gradient-opacity");
     }
+    if opts.slice.voi.is_some() {
+        anyhow::bail!("the pipeline model has no volume of interest yet; drop --voi");
+    }
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }

@@ -795,6 +795,18 @@ fn bad_input_gives_one_line_errors() {
         (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
         (format!("{s} --gradient-opacity -1"), "gradient opacity"),
         (format!("{s} --gradient bogus"), "gradient"),
+        (format!("{s} --voi box:1,2,3"), "volume of interest"),
+        (format!("{s} --voi sphere:4,4,4,0"), "radius"),
+        (format!("{s} --voi sphere:4,4,4,3 --voi-scale -1"), "scale"),
+        (format!("{s} --voi sphere:4,4,4,3 --voi-ramp -2"), "ramp"),
+        (
+            format!("{s} --method pipeline --voi sphere:4,4,4,3"),
+            "volume of interest",
+        ),
+        (
+            format!("{s} --method mipmap --voi sphere:4,4,4,3"),
+            "volume of interest",
+        ),
         (format!("{s} --no-shade --light 1,0,0"), "no-shade"),
         (format!("{s} --method pipeline --shade"), "shade"),
         (format!("{s} --method mipmap --shade"), "mip-map"),

@@ -249,3 +249,113 @@ fn gradient_modes_against_the_analytic_signal() {
         }
     }
 }
+
+/// A volume of interest: scale 1 renders as none, bit for bit; a box
+/// outside which opacity is zeroed renders as the same box clipped away
+/// (six clip planes), bit for bit; a boosted sphere adds opacity; ER and
+/// the reference agree with it as without it.
+#[test]
+fn volume_of_interest_scales_opacity() {
+    use golden::clip::ClipPlane;
+    use golden::render::PrepareOptions;
+    use golden::voi::{Shape, Voi};
+    let vol = scene("ml:24");
+    // Translucent throughout, so what happens inside shows.
+    let translucent =
+        crate::scenes::tf(&[(0.0, [1.0, 0.8, 0.6, 0.01]), (255.0, [1.0, 1.0, 1.0, 0.06])]);
+    let lut = lut_for(vol.kind(), &translucent);
+    let c = DVec3::from_array(vol.center_world());
+    let camera = cam(&vol, c + DVec3::new(5.0, -4.0, -40.0), 40);
+    let prep = Prepared::new(&vol, &camera).unwrap();
+    let er = Technique::Slice(Method::Er);
+    let run = |prep: &Prepared, tech, voi: Option<Voi>| {
+        let mut o = RenderOptions::default();
+        o.slice.voi = voi;
+        o.reference.voi = voi;
+        render(prep, &lut, tech, &o).unwrap().image
+    };
+    let bits = |i: &Image| {
+        i.data
+            .iter()
+            .map(|p| p.map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    let (lo, hi) = ([4.3, 6.2, 5.4], [17.6, 15.3, 19.7]);
+    let boxed = |scale, outside| Voi {
+        shape: Shape::Box { lo, hi },
+        scale,
+        outside,
+        ramp: 0.0,
+    };
+    let plain = run(&prep, er, None);
+    assert_eq!(bits(&run(&prep, er, Some(boxed(1.0, false)))), bits(&plain));
+    // Zero outside the box = the box's six clip planes.
+    let planes: Vec<ClipPlane> = (0..3)
+        .flat_map(|k| {
+            let e = DVec3::from_array(std::array::from_fn(|i| f64::from(u8::from(i == k))));
+            [
+                ClipPlane::new(e, -lo[k]).unwrap(),
+                ClipPlane::new(-e, hi[k]).unwrap(),
+            ]
+        })
+        .collect();
+    let clipped = Prepared::with(
+        &vol,
+        &camera,
+        &PrepareOptions {
+            clip: planes,
+            ..PrepareOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        bits(&run(&prep, er, Some(boxed(0.0, true)))),
+        bits(&run(&clipped, er, None)),
+        "zero opacity outside the box is the box's clipping"
+    );
+    // A boosted sphere, with a ramp.
+    let sphere = Voi {
+        shape: Shape::Sphere {
+            centre: c.to_array(),
+            radius: 6.0,
+        },
+        scale: 4.0,
+        outside: false,
+        ramp: 2.0,
+    };
+    let alpha = |i: &Image| i.data.iter().map(|p| f64::from(p[3])).sum::<f64>();
+    let boosted = run(&prep, er, Some(sphere));
+    assert_ne!(
+        bits(&boosted),
+        bits(&plain),
+        "a boosted sphere changes the image"
+    );
+    let hidden = run(
+        &prep,
+        er,
+        Some(Voi {
+            scale: 0.0,
+            ..sphere
+        }),
+    );
+    assert!(
+        alpha(&hidden) < 0.99 * alpha(&plain),
+        "{} vs {}",
+        alpha(&hidden),
+        alpha(&plain)
+    );
+    let reference = run(&prep, Technique::Reference, Some(sphere));
+    let plain_ref = run(&prep, Technique::Reference, None);
+    let with = compare(&boosted, &reference).unwrap().rmse;
+    let without = compare(&plain, &plain_ref).unwrap().rmse;
+    eprintln!("volume of interest: ER vs reference RMSE {with:.5} (without: {without:.5})");
+    assert!(with < 2.0 * without + 0.005, "{with} vs {without}");
+    // The factor's ramp: 1 far outside, the scale deep inside, between on
+    // the boundary.
+    let v = golden::voi::ViewVoi::new(&prep.view, &sphere).unwrap();
+    let centre = prep.view.axes.to_view(c);
+    assert_eq!(v.factor(centre), 4.0);
+    assert_eq!(v.factor(centre + DVec3::X * 20.0), 1.0);
+    let edge = v.factor(centre + DVec3::X * 6.0);
+    assert!((edge - 2.5).abs() < 1e-9, "{edge}");
+}

@@ -42,6 +42,7 @@ fn slice(m: Method, p: &Prepared, l: &Lut, terminate: f32, substeps: u32, skips:
         substeps,
         skips,
         shade: None,
+        voi: None,
     };
     methods::render(m, p, l, &o).expect("render")
 }
@@ -165,6 +166,7 @@ fn check_identity(c: &Case) -> Result<(), TestCaseError> {
             substeps: c.substeps,
             skips,
             shade: None,
+            voi: None,
         };
         prop_assert_eq!(
             bits(&image(&prep, &lut, m, o(Skips::default()))),
@@ -282,6 +284,7 @@ fn termination_error_stays_within_the_threshold() {
                 substeps: 1,
                 skips: OFF,
                 shade: None,
+                voi: None,
             },
         );
         for t in [0.99f32, 0.9, 0.5] {
@@ -290,6 +293,7 @@ fn termination_error_stays_within_the_threshold() {
                 substeps: 1,
                 skips: Skips::default(),
                 shade: None,
+                voi: None,
             };
             let got = image(&prep, &lut, Method::ErFtb, o);
             let worst = got
@@ -357,6 +361,7 @@ fn a_slice_aligned_clip_plane_equals_emptying_the_slices_in_front() {
                 substeps: 1,
                 skips,
                 shade: None,
+                voi: None,
             };
             let a = image(&clipped, &lut, m, o);
             assert_eq!(bits(&a), bits(&image(&emptied, &lut, m, o)), "{}", m.name());

@@ -69,6 +69,7 @@ fn opts(terminate: f32, substeps: u32) -> Options {
             cull: false,
         },
         shade: None,
+        voi: None,
     }
 }
 
