@@ -18,6 +18,7 @@
 pub mod camera;
 pub mod clip;
 pub mod error;
+pub mod gaze;
 pub mod geometry;
 pub mod image;
 pub mod load;

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::clip::ViewClip;
 use crate::error::{Error, Result};
+use crate::gaze::Gaze;
 use crate::geometry::{box_interval, View};
 use crate::image::Image;
 use crate::shading::{Shade, Shader};
@@ -31,6 +32,9 @@ pub struct RefOptions {
     pub shade: Option<Shade>,
     /// A volume of interest scaling opacity, as the slice-order methods.
     pub voi: Option<Voi>,
+    /// Gaze-directed variable resolution instead of the supersampled grid
+    /// (see [`crate::gaze`]).
+    pub gaze: Option<Gaze>,
 }
 
 impl Default for RefOptions {
@@ -41,6 +45,7 @@ impl Default for RefOptions {
             cutoff: 1e-6,
             shade: None,
             voi: None,
+            gaze: None,
         }
     }
 }
@@ -73,22 +78,13 @@ pub fn render(
     // Ray k sits at pixel position (k + 1/2) / q - 1/2, so pixel i's rays
     // i q .. i q + 2q - 1 lie symmetrically about its centre i + 1/2.
     let ray_pos = |k: usize| (k as f64 + 0.5) / q as f64 - 0.5;
-    let shader = match &opts.shade {
-        Some(sh) => Some(Shader::new(view, stack, sh)?),
-        None => None,
-    };
-    let shader = shader.as_ref();
-    let voi = match &opts.voi {
-        Some(v) => Some(ViewVoi::new(view, v)?),
-        None => None,
-    };
-    let voi = voi.as_ref();
+    let pass = RefPass::new(view, stack, opts)?;
     let mut rays = vec![[0f64; 4]; rw * rh];
     rays.par_chunks_mut(rw).enumerate().for_each(|(r, row)| {
         let py = ray_pos(r);
         for (c, out) in row.iter_mut().enumerate() {
             let dir = view.rays.dir(ray_pos(c), py);
-            *out = cast(view, stack, clip, lut, opts, (shader, voi), dir);
+            *out = cast_ray(&pass, clip, lut, opts, dir);
         }
     });
     // Tent weights of the 2q rays under one pixel, per axis.
@@ -115,16 +111,44 @@ pub fn render(
     Ok(img)
 }
 
-/// Casts one ray from the eye along view-space direction `dir`.
-fn cast(
-    view: &View,
-    stack: &SliceStack,
+/// What every ray of a frame shares: the view, the volume, the shader
+/// and the volume of interest in view space.
+pub(crate) struct RefPass<'a> {
+    view: &'a View,
+    stack: &'a SliceStack,
+    shader: Option<Shader>,
+    voi: Option<ViewVoi>,
+}
+
+impl<'a> RefPass<'a> {
+    /// The pass of `view` over `stack` with `opts`' shading and VOI.
+    pub(crate) fn new(view: &'a View, stack: &'a SliceStack, opts: &RefOptions) -> Result<Self> {
+        Ok(RefPass {
+            view,
+            stack,
+            shader: match &opts.shade {
+                Some(sh) => Some(Shader::new(view, stack, sh)?),
+                None => None,
+            },
+            voi: match &opts.voi {
+                Some(v) => Some(ViewVoi::new(view, v)?),
+                None => None,
+            },
+        })
+    }
+}
+
+/// Casts one ray from the eye along view-space direction `dir`, in steps
+/// of at most `opts.step` voxels.
+pub(crate) fn cast_ray(
+    pass: &RefPass,
     clip: &ViewClip,
     lut: &Lut,
     opts: &RefOptions,
-    (shader, voi): (Option<&Shader>, Option<&ViewVoi>),
     dir: DVec3,
 ) -> [f64; 4] {
+    let (view, stack) = (pass.view, pass.stack);
+    let (shader, voi) = (pass.shader.as_ref(), pass.voi.as_ref());
     let e = view.eye;
     let Some((t0, t1)) = box_interval(e, dir, view.dims) else {
         return [0.0; 4];

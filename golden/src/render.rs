@@ -10,6 +10,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use crate::camera::Camera;
 use crate::clip::{check_planes, ClipPlane, ViewClip};
 use crate::error::{input, Result};
+use crate::gaze::GazeStats;
 use crate::geometry::View;
 use crate::image::Image;
 use crate::methods::{self, Method, Options, Output};
@@ -315,6 +316,8 @@ pub struct Frame {
     pub slice: Option<Output>,
     /// Counts of the mip-map caster.
     pub mip: Option<MipStats>,
+    /// Rays of a gaze-directed reference frame.
+    pub gaze: Option<GazeStats>,
 }
 
 impl Frame {
@@ -344,11 +347,36 @@ impl Frame {
 /// Renders one frame of `prep` with `tech`.
 pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
     match tech {
-        Technique::Reference => Ok(Frame {
-            image: reference::render(&prep.view, &prep.stack, &prep.clip, lut, &opts.reference)?,
-            slice: None,
-            mip: None,
-        }),
+        Technique::Reference => match &opts.reference.gaze {
+            Some(g) => {
+                let (image, stats) = crate::gaze::render(
+                    &prep.view,
+                    &prep.stack,
+                    &prep.clip,
+                    lut,
+                    &opts.reference,
+                    g,
+                )?;
+                Ok(Frame {
+                    image,
+                    slice: None,
+                    mip: None,
+                    gaze: Some(stats),
+                })
+            }
+            None => Ok(Frame {
+                image: reference::render(
+                    &prep.view,
+                    &prep.stack,
+                    &prep.clip,
+                    lut,
+                    &opts.reference,
+                )?,
+                slice: None,
+                mip: None,
+                gaze: None,
+            }),
+        },
         Technique::MipMap => {
             if opts.slice.shade.is_some() {
                 return Err(crate::error::input(
@@ -360,6 +388,11 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     "the mip-map method has no volume of interest; drop --voi",
                 ));
             }
+            if opts.reference.gaze.is_some() {
+                return Err(crate::error::input(
+                    "the mip-map method has no gaze-directed resolution yet",
+                ));
+            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_for(lut, mip.classify)?;
@@ -368,6 +401,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 image,
                 slice: None,
                 mip: Some(stats),
+                gaze: None,
             })
         }
         Technique::Slice(m) => {
@@ -376,6 +410,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 image: warp(&prep.view, &out.baseplane),
                 slice: Some(out),
                 mip: None,
+                gaze: None,
             })
         }
     }

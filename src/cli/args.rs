@@ -17,6 +17,21 @@ use golden::skip::Skips;
 use golden::tf::TransferFunction;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 
+/// Parses `x,y` into two finite numbers.
+pub fn parse_point2(s: &str) -> std::result::Result<[f64; 2], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not two comma-separated numbers x,y"))?;
+    match v[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => Err(format!(
+            "'{s}' is not two finite comma-separated numbers x,y"
+        )),
+    }
+}
+
 /// Parses `x,y,z` into three finite numbers.
 pub fn parse_vec3(s: &str) -> std::result::Result<DVec3, String> {
     let parts: Vec<&str> = s.split(',').collect();

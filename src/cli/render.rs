@@ -49,6 +49,19 @@ pub struct RenderArgs {
     pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
+    /// Reference only: gaze-directed variable resolution around pixel
+    /// x,y (full resolution near it, one ray per 16 pixels and a quarter
+    /// of the samples at the periphery; docs/golden.md#gaze).
+    #[arg(long, value_parser = super::args::parse_point2, allow_hyphen_values = true)]
+    pub gaze: Option<[f64; 2]>,
+    /// Reference only: the gaze profile's radii in pixels, inner (full
+    /// resolution) and outer (coarsest level); default a tenth and four
+    /// tenths of the image's larger side.
+    #[arg(long, value_parser = super::args::parse_point2)]
+    pub gaze_radii: Option<[f64; 2]>,
+    /// Reference only: the coarsest level (one ray per 2^L x 2^L pixels).
+    #[arg(long, default_value_t = 2)]
+    pub gaze_levels: u32,
 }
 
 /// Runs `f` `n` times (at least once), returning the last result and each
@@ -106,6 +119,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let mut opts = a.slice.options()?;
         let (vol, tf, cam) = a.view.load()?;
         a.slice.apply_tf(&mut opts, &tf)?;
+        // The comparison's reference is always the full one.
+        let full = opts;
+        opts.reference.gaze = gaze_of(a, &cam, tech)?;
         let lut = lut_for(vol.kind(), &tf);
         let prep = a.slice.prepared(&vol, &cam)?;
         let (frame, times) = {
@@ -114,7 +130,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         };
         let time_s = median(&times);
         let base = frame.slice.as_ref().map(|o| &o.baseplane);
-        let err = write_outputs(a, &prep, &lut, &opts, &frame.image, base)?;
+        let err = write_outputs(a, &prep, &lut, &full, &frame.image, base)?;
         if let Some(p) = &a.stats {
             let mut v = frame_json(
                 tech.name(),
@@ -146,6 +162,31 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         super::say(&format!("{line} -> {}", a.out.display()));
         Ok(())
     })
+}
+
+/// The gaze profile `--gaze` asks for; only the reference takes one.
+fn gaze_of(
+    a: &RenderArgs,
+    cam: &golden::camera::Camera,
+    tech: Technique,
+) -> Result<Option<golden::gaze::Gaze>> {
+    let Some(at) = a.gaze else {
+        if a.gaze_radii.is_some() {
+            anyhow::bail!("--gaze-radii needs --gaze");
+        }
+        return Ok(None);
+    };
+    if tech != Technique::Reference {
+        anyhow::bail!("--gaze applies to --method reference only");
+    }
+    let mut g = golden::gaze::Gaze::around(at, cam.width, cam.height);
+    if let Some([inner, outer]) = a.gaze_radii {
+        g.inner = inner;
+        g.outer = outer;
+    }
+    g.levels = a.gaze_levels;
+    g.validate()?;
+    Ok(Some(g))
 }
 
 /// The outputs every render writes: the PNG, `--npy`, `--baseplane-npy`,
@@ -231,6 +272,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             image: run.image.clone(),
             slice: None,
             mip: None,
+            gaze: None,
         };
         let mut v = frame_json(
             a.method.name(),

@@ -66,6 +66,9 @@ pub fn frame_json(
             "rays_terminated": m.rays_terminated,
         });
     }
+    if let Some(g) = &frame.gaze {
+        v["gaze"] = json!(g);
+    }
     if let Some(e) = err {
         v["error_vs_reference"] = error_json(e);
     }

@@ -795,6 +795,17 @@ fn bad_input_gives_one_line_errors() {
         (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
         (format!("{s} --gradient-opacity -1"), "gradient opacity"),
         (format!("{s} --gradient bogus"), "gradient"),
+        (format!("{s} --gaze 3,3"), "reference"),
+        (format!("{s} --method reference --gaze 3"), "gaze"),
+        (
+            format!("{s} --method reference --gaze 3,3 --gaze-radii 5,2"),
+            "radii",
+        ),
+        (
+            format!("{s} --method reference --gaze 3,3 --gaze-levels 9"),
+            "levels",
+        ),
+        (format!("{s} --method reference --gaze-radii 5,9"), "--gaze"),
         (format!("{s} --voi box:1,2,3"), "volume of interest"),
         (format!("{s} --voi sphere:4,4,4,0"), "radius"),
         (format!("{s} --voi sphere:4,4,4,3 --voi-scale -1"), "scale"),

@@ -9,6 +9,7 @@ mod scenes;
 mod figures;
 mod formats;
 mod foundation;
+mod gaze;
 mod mipmap;
 mod shading;
 mod skipping;

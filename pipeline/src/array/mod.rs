@@ -12,10 +12,11 @@
 //! front to back) is in [`crate::schedule`]. Every cycle of every stage is
 //! a tick of the clock; [`StageCycles`] is what the ticks counted.
 //!
-//! Memory the front-to-back order costs beyond the back-to-front PE that
-//! `crate::cost`'s inventory sizes: the compositing buffer twice as wide
-//! (accumulators plus inherited state, and a flag bit), and the kept final
-//! states, about `(W + 1)(ny + 1)` rays per region boundary per PE.
+//! The front-to-back order costs more memory than back to front: the
+//! compositing buffer twice as wide (accumulators plus inherited state, and
+//! a flag bit) and the kept final states, about `(W + 1)(ny + 1)` rays per
+//! region boundary per PE; `crate::cost`'s inventory sizes both for a
+//! front-to-back configuration.
 
 mod clock;
 
