@@ -96,3 +96,50 @@ fn a_tables_material_shades() {
     ];
     assert_refused(&args, &ercube(d, &args), "material");
 }
+
+/// The shading, volume-of-interest and gaze flags refuse bad values, and
+/// the methods that lack them, in one line each.
+#[test]
+fn bad_flags_are_one_line_errors() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let s = "render --scene checker:16 --size 16x16";
+    // (arguments after `ercube`, keyword the message must contain)
+    let cases: Vec<(String, &str)> = vec![
+        (format!("{s} --light 0,0,0"), "light"),
+        (format!("{s} --light 1,0"), "light"),
+        (format!("{s} --material 0.1,0.7,0.2"), "material"),
+        (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
+        (format!("{s} --gradient-opacity -1"), "gradient opacity"),
+        (format!("{s} --gradient bogus"), "gradient"),
+        (format!("{s} --gaze 3,3"), "reference"),
+        (format!("{s} --method reference --gaze 3"), "gaze"),
+        (
+            format!("{s} --method reference --gaze 3,3 --gaze-radii 5,2"),
+            "radii",
+        ),
+        (
+            format!("{s} --method reference --gaze 3,3 --gaze-levels 9"),
+            "levels",
+        ),
+        (format!("{s} --method reference --gaze-radii 5,9"), "--gaze"),
+        (format!("{s} --voi box:1,2,3"), "volume of interest"),
+        (format!("{s} --voi sphere:4,4,4,0"), "radius"),
+        (format!("{s} --voi sphere:4,4,4,3 --voi-scale -1"), "scale"),
+        (format!("{s} --voi sphere:4,4,4,3 --voi-ramp -2"), "ramp"),
+        (
+            format!("{s} --method pipeline --voi sphere:4,4,4,3"),
+            "volume of interest",
+        ),
+        (
+            format!("{s} --method mipmap --voi sphere:4,4,4,3"),
+            "volume of interest",
+        ),
+        (format!("{s} --no-shade --light 1,0,0"), "no-shade"),
+        (format!("{s} --method pipeline --shade"), "shade"),
+        (format!("{s} --method mipmap --shade"), "mip-map"),
+    ];
+    for (line, needle) in &cases {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        assert_refused(&args, &ercube(dir.path(), &args), needle);
+    }
+}

@@ -537,6 +537,15 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     }
 }
 
+/// The sample datapath's scheduled depth for `cfg`'s widths: the
+/// datapath part of [`pe_inventory`] alone (the depth depends on the widths
+/// only, so any geometry gives the same).
+pub fn schedule_depth(cfg: &PipelineConfig) -> u32 {
+    datapath(cfg, &Geometry::new([64, 64, 64], cfg.pes))
+        .schedule
+        .depth
+}
+
 /// The PE's memories.
 fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let [_, ny, _] = geo.dims;

@@ -40,7 +40,5 @@ pub fn datapath_latency(cfg: &crate::config::PipelineConfig) -> u32 {
     if cfg.datapath_latency > 0 {
         return u32::from(cfg.datapath_latency);
     }
-    // The depth depends on the widths only; any geometry gives the same.
-    let geo = inventory::Geometry::new([64, 64, 64], cfg.pes);
-    inventory::pe_inventory(cfg, &geo).schedule.depth.max(1)
+    inventory::schedule_depth(cfg).max(1)
 }

@@ -12,7 +12,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{inside, plan_slots, PassBus};
+use super::passes::{tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::fixed::Format;
@@ -200,25 +200,13 @@ impl Array {
     /// Front to back: one step of the fold, `g.back`'s rays into
     /// `g.front`'s.
     pub(crate) fn fold(&mut self, g: FoldGrids) -> Result<(), RunError> {
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_fold(g.front))
-            .max()
-            .unwrap_or(0);
-        let prows = g.back.counts()[1];
-        let needs: Vec<_> = (g.front.lo[1]..=g.front.hi[1])
-            .map(|my| inside((2 * my - 1..=2 * my + 1).map(|py| py - g.back.lo[1]), prows))
-            .collect();
-        let slots = plan_slots(prows, &needs)?;
         let dp = std::sync::Arc::clone(&self.dp);
-        self.run_pass(Stage::Fold, width, &slots, |pe, bus, links| {
-            pe.fold_step(&dp, bus, links, g)
-        })?;
-        for pe in self.clock.pes_mut() {
-            pe.end_fold();
-        }
-        Ok(())
+        self.run_pass(
+            Stage::Fold,
+            (g.back.counts()[1], &tent_needs(g.front, g.back)),
+            |pe| pe.begin_fold(g.front),
+            |pe, bus, links| pe.fold_step(&dp, bus, links, g),
+            Pe::end_fold,
+        )
     }
 }

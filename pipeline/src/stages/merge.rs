@@ -9,7 +9,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{inside, plan_slots, PassBus};
+use super::passes::{tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
@@ -145,25 +145,13 @@ impl Pe {
 impl Array {
     /// Bartlett merge of `back`'s rays into `front`'s.
     pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(), RunError> {
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_merge(bg, fg))
-            .max()
-            .unwrap_or(0);
-        let prows = bg.counts()[1];
-        let needs: Vec<_> = (fg.lo[1]..=fg.hi[1])
-            .map(|my| inside((2 * my - 1..=2 * my + 1).map(|py| py - bg.lo[1]), prows))
-            .collect();
-        let slots = plan_slots(prows, &needs)?;
         let dp = std::sync::Arc::clone(&self.dp);
-        self.run_pass(Stage::Merge, width, &slots, |pe, bus, links| {
-            pe.merge_step(&dp, bus, links, (bg, fg))
-        })?;
-        for pe in self.clock.pes_mut() {
-            pe.end_merge();
-        }
-        Ok(())
+        self.run_pass(
+            Stage::Merge,
+            (bg.counts()[1], &tent_needs(fg, bg)),
+            |pe| pe.begin_merge(bg, fg),
+            |pe, bus, links| pe.merge_step(&dp, bus, links, (bg, fg)),
+            Pe::end_merge,
+        )
     }
 }

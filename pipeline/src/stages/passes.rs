@@ -21,6 +21,8 @@
 //! A cycle ahead of the first slot (with more than one PE) the PEs drive
 //! the first row's edge rays: the prologue.
 
+use golden::geometry::RayGrid;
+
 use crate::array::{Array, Links, RunError};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
@@ -169,6 +171,16 @@ pub fn plan_slots(prows: usize, needs: &[Option<(usize, usize)>]) -> Result<Vec<
     Ok(slots)
 }
 
+/// The parent rows each child row of `child` reads through the tent
+/// `2 my - 1 ..= 2 my + 1` of `parent`'s rows (the merge's and the fold's
+/// y pass).
+pub(crate) fn tent_needs(child: &RayGrid, parent: &RayGrid) -> Vec<Option<(usize, usize)>> {
+    let prows = parent.counts()[1];
+    (child.lo[1]..=child.hi[1])
+        .map(|my| inside((2 * my - 1..=2 * my + 1).map(|py| py - parent.lo[1]), prows))
+        .collect()
+}
+
 /// The parent rows `taps` (relative to the parent grid) that fall inside
 /// its `prows` rows, as an inclusive range.
 pub(crate) fn inside(taps: impl Iterator<Item = i64>, prows: usize) -> Option<(usize, usize)> {
@@ -180,14 +192,39 @@ pub(crate) fn inside(taps: impl Iterator<Item = i64>, prows: usize) -> Option<(u
 }
 
 impl Array {
-    /// Clocks a pass of `stage` through `slots` of `width` cycles (after
-    /// the prologue), each PE running `step` with the cycle's broadcast.
+    /// Runs a pass of `stage` over `prows` parent rows whose child rows
+    /// need `needs`: each PE starts it (`begin` returns how many children
+    /// it computes; the slots are as wide as the most), the controller
+    /// clocks the prologue and the slots, each PE running `step` with the
+    /// cycle's broadcast, and each PE ends it (`end`: the bank select).
     pub(crate) fn run_pass(
+        &mut self,
+        stage: Stage,
+        (prows, needs): (usize, &[Option<(usize, usize)>]),
+        begin: impl FnMut(&mut Pe) -> usize,
+        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        end: impl FnMut(&mut Pe),
+    ) -> Result<(), RunError> {
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(begin)
+            .max()
+            .unwrap_or(0);
+        let slots = plan_slots(prows, needs)?;
+        self.clock_slots(stage, width, &slots, &mut step)?;
+        self.clock.pes_mut().iter_mut().for_each(end);
+        Ok(())
+    }
+
+    /// Clocks `slots` of `width` cycles (after the prologue).
+    fn clock_slots(
         &mut self,
         stage: Stage,
         width: usize,
         slots: &[Slot],
-        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), RunError> {
         if width == 0 {
             return Ok(());

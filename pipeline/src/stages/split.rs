@@ -11,7 +11,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{inside, plan_slots, PassBus};
+use super::passes::{inside, PassBus};
 use crate::array::{clamp, Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{FtbState, Pe, Ports, RayColumn, StepError};
@@ -151,33 +151,21 @@ impl Array {
     /// Front to back: the split of `fg`'s rays (on their rear plane) into
     /// `bg`'s.
     pub(crate) fn split(&mut self, fg: &RayGrid, bg: &RayGrid) -> Result<(), RunError> {
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_split(fg, bg))
-            .max()
-            .unwrap_or(0);
         let prows = fg.counts()[1];
+        // Child row my reads parent rows floor(my / 2) and, when odd, the next.
         let needs: Vec<_> = (bg.lo[1]..=bg.hi[1])
             .map(|my| {
-                let py = my.div_euclid(2);
-                inside(
-                    [py, py + my.rem_euclid(2)]
-                        .into_iter()
-                        .map(|p| p - fg.lo[1]),
-                    prows,
-                )
+                let py = my.div_euclid(2) - fg.lo[1];
+                inside([py, py + my.rem_euclid(2)].into_iter(), prows)
             })
             .collect();
-        let slots = plan_slots(prows, &needs)?;
         let dp = std::sync::Arc::clone(&self.dp);
-        self.run_pass(Stage::Split, width, &slots, |pe, bus, links| {
-            pe.split_step(&dp, bus, links, (fg, bg))
-        })?;
-        for pe in self.clock.pes_mut() {
-            pe.end_split();
-        }
-        Ok(())
+        self.run_pass(
+            Stage::Split,
+            (prows, &needs),
+            |pe| pe.begin_split(fg, bg),
+            |pe, bus, links| pe.split_step(&dp, bus, links, (fg, bg)),
+            Pe::end_split,
+        )
     }
 }
