@@ -21,8 +21,22 @@
 //! from whichever side the light is on, as VTK's volume mapper does by
 //! default. The default light is a **headlight**: a directional light
 //! from the volume's centre towards the eye, which is also the viewer
-//! direction (so `H = L`). A zero gradient (a homogeneous region) has no
-//! normal: it is lit as if it faced the light, without a highlight.
+//! direction (so `H = L`).
+//!
+//! **Normal fade.** A zero gradient (a homogeneous region) has no normal:
+//! it is lit as if it faced the light, without a highlight. Below
+//! [`Shade::normal_fade`] `= F` of gradient magnitude the normal fades in
+//! linearly, `r = min(1, |g| / F)`:
+//! `c' = min(1, c (ka + kd (r sum |n . L| + (1 - r) n_L)) + ks r sum |n . H|^p)`
+//! (`n_L` the number of lights). The direction of a tiny gradient is
+//! noise (a rounding, an interpolation weight, the golden model's `f32`
+//! against the chip's fixed point can turn it anywhere), and without the
+//! fade a shaded colour is not even continuous in the data at `g = 0`;
+//! with it the shading is Lipschitz in `g` (constant about `3 (kd + ks)
+//! n_L / F`), which is what lets the pipeline's derived error bound (`pipeline::bound`)
+//! exist. `F = 0` restores the abrupt rule. The default, 1 scalar unit
+//! per world unit, is far below any surface's gradient (an 8-bit head's
+//! skin is tens of units per voxel).
 //!
 //! **Gradient opacity** (Levoy 1988): with `gradient_opacity = G > 0` a
 //! sample's opacity is scaled by `min(1, |g| / G)` (`G` in scalar units per
@@ -159,7 +173,13 @@ pub struct Shade {
     pub gradient_opacity: f64,
     /// Where gradients are taken.
     pub gradient: GradientMode,
+    /// `F` of the normal fade (see the module's documentation), in scalar
+    /// units per world unit; 0 disables it.
+    pub normal_fade: f64,
 }
+
+/// The default [`Shade::normal_fade`].
+pub const NORMAL_FADE: f64 = 1.0;
 
 impl Default for Shade {
     fn default() -> Shade {
@@ -169,6 +189,7 @@ impl Default for Shade {
             material: Material::default(),
             gradient_opacity: 0.0,
             gradient: GradientMode::Voxels,
+            normal_fade: NORMAL_FADE,
         }
     }
 }
@@ -206,7 +227,55 @@ impl Shade {
                 self.gradient_opacity
             )));
         }
+        if !(self.normal_fade.is_finite() && self.normal_fade >= 0.0) {
+            return Err(input(format!(
+                "normal fade {} must be a finite number >= 0",
+                self.normal_fade
+            )));
+        }
         Ok(())
+    }
+}
+
+/// The lights of a view in view space (unit vectors towards each light)
+/// and their half vectors with the viewer direction: what the golden
+/// shader and the pipeline's host share, computed once in `f64`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lighting {
+    /// Directions towards the lights.
+    pub lights: Vec<[f64; 3]>,
+    /// Half vectors `normalize(L + V)`.
+    pub halves: Vec<[f64; 3]>,
+}
+
+impl Lighting {
+    /// `shade`'s lights (the headlight when none) in `view`'s space.
+    pub fn new(view: &View, shade: &Shade) -> Lighting {
+        // World lengths along the view axes: index units times spacing.
+        let s = DVec3::from_array(view.spacing);
+        let centre = DVec3::from_array(view.dims.map(|n| (n as f64 - 1.0) / 2.0));
+        let to_eye = ((view.eye - centre) * s).normalize_or_zero();
+        let lights: Vec<DVec3> = if shade.count == 0 {
+            vec![to_eye]
+        } else {
+            shade
+                .lights()
+                .iter()
+                .map(|&d| {
+                    view.axes
+                        .dir_to_view(DVec3::from_array(d))
+                        .normalize_or_zero()
+                })
+                .collect()
+        };
+        let halves = lights
+            .iter()
+            .map(|&l| (l + to_eye).normalize_or_zero().to_array())
+            .collect();
+        Lighting {
+            lights: lights.iter().map(|l| l.to_array()).collect(),
+            halves,
+        }
     }
 }
 
@@ -226,10 +295,10 @@ pub struct Shader {
     grads: Option<Arc<Gradients>>,
     /// Samples mode: `1 / (2 h spacing)` per view axis, `h = 1/2`.
     inv2s: [f64; 3],
-    lights: Vec<[f64; 3]>,
-    halves: Vec<[f64; 3]>,
+    lighting: Lighting,
     m: Material,
     g_ref: f64,
+    fade: f64,
 }
 
 impl Shader {
@@ -254,34 +323,13 @@ impl Shader {
         if (shade.gradient == GradientMode::Voxels) != grads.is_some() {
             return Err(input("voxel gradients are needed exactly in voxels mode"));
         }
-        // World lengths along the view axes: index units times spacing.
-        let s = DVec3::from_array(view.spacing);
-        let centre = DVec3::from_array(view.dims.map(|n| (n as f64 - 1.0) / 2.0));
-        let to_eye = ((view.eye - centre) * s).normalize_or_zero();
-        let lights: Vec<DVec3> = if shade.count == 0 {
-            vec![to_eye]
-        } else {
-            shade
-                .lights()
-                .iter()
-                .map(|&d| {
-                    view.axes
-                        .dir_to_view(DVec3::from_array(d))
-                        .normalize_or_zero()
-                })
-                .collect()
-        };
-        let halves = lights
-            .iter()
-            .map(|&l| (l + to_eye).normalize_or_zero().to_array())
-            .collect();
         Ok(Shader {
             grads,
             inv2s: view.spacing.map(|s| 1.0 / s),
-            lights: lights.iter().map(|l| l.to_array()).collect(),
-            halves,
+            lighting: Lighting::new(view, shade),
             m: shade.material,
             g_ref: shade.gradient_opacity,
+            fade: shade.normal_fade,
         })
     }
 
@@ -340,17 +388,26 @@ impl Shader {
     pub fn shade(&self, c: [f64; 4], g: [f64; 3]) -> [f64; 4] {
         let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
         let m = &self.m;
+        let lit = &self.lighting;
         let (mut diffuse, mut specular) = (0.0, 0.0);
-        if len > 1e-12 {
+        // The normal's weight: the fade, or all or nothing without one.
+        let r = if self.fade > 0.0 {
+            (len / self.fade).min(1.0)
+        } else if len > 1e-12 {
+            1.0
+        } else {
+            0.0
+        };
+        if r > 0.0 {
             let n = g.map(|v| v / len);
             let dot = |a: &[f64; 3]| (n[0] * a[0] + n[1] * a[1] + n[2] * a[2]).abs();
-            for (l, h) in self.lights.iter().zip(&self.halves) {
+            for (l, h) in lit.lights.iter().zip(&lit.halves) {
                 diffuse += dot(l);
                 specular += dot(h).powf(m.shininess);
             }
-        } else {
-            diffuse = self.lights.len() as f64;
         }
+        let diffuse = r * diffuse + (1.0 - r) * lit.lights.len() as f64;
+        let specular = r * specular;
         let k = m.ambient + m.diffuse * diffuse;
         let s = m.specular * specular;
         let a = if self.g_ref > 0.0 {

@@ -37,6 +37,8 @@ pub struct SampleTrace {
     /// Front to back: this sample brought the ray's opacity to the
     /// termination threshold, so the ray's termination flag was set.
     pub terminated: bool,
+    /// The gradient and shading unit's words (zero when not shading).
+    pub shade: crate::shading::ShadeTrace,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the
@@ -53,6 +55,9 @@ pub struct Datapath {
     /// Cycles from a sample's issue to its write-back into the compositing
     /// buffer ([`PipelineConfig::datapath_latency`], resolved).
     pub latency: u64,
+    /// The gradient and shading unit's per-frame constants, when the frame
+    /// is shaded ([`Datapath::with_shading`]).
+    pub shade: Option<crate::shading::ShadeUnit>,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -78,7 +83,20 @@ impl Datapath {
             latency: u64::from(crate::cost::datapath_latency(&cfg)),
             cfg,
             tables,
+            shade: None,
         }
+    }
+
+    /// This datapath with the gradient and shading unit loaded with
+    /// `unit`'s constants. A derived latency grows by what the unit adds
+    /// to the schedule ([`crate::cost::shaded_latency`]); one the
+    /// configuration states is kept.
+    pub fn with_shading(mut self, unit: crate::shading::ShadeUnit) -> Datapath {
+        if self.cfg.datapath_latency == 0 {
+            self.latency = u64::from(crate::cost::shaded_latency(&self.cfg));
+        }
+        self.shade = Some(unit);
+        self
     }
 
     /// The termination comparator: whether a ray whose opacity word is

@@ -34,8 +34,9 @@ pub mod pe;
 pub mod probes;
 pub mod rtl;
 pub mod schedule;
+pub mod shading;
 pub mod skip;
 pub mod stages;
 pub mod tables;
 
-pub use array::{run_frame, run_frame_with, Frame, RunError};
+pub use array::{run_frame, run_frame_shaded, run_frame_with, Frame, RunError};

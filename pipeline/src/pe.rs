@@ -81,10 +81,16 @@ pub struct RayMove {
 /// What a PE drives towards one neighbour in a cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Port {
-    /// Voxels of the PE's first column (to the left neighbour) at rows
-    /// `y0, y0 + 1` of the row sampled next cycle; in a merge, the edge
-    /// ray's accumulators instead (see [`Port::edge_acc`]).
+    /// Voxels of the PE's edge column on this side at rows `y0, y0 + 1`
+    /// of the row sampled next cycle: its first column to the left
+    /// neighbour (the scalar's right taps); while the array shades, its
+    /// last column to the right one (the gradient's `x0 - 1` taps). In a
+    /// merge, the edge ray's accumulators travel instead (see
+    /// [`Port::edge_acc`]).
     pub edge: [u16; 2],
+    /// To the left neighbour while the array shades: the gradient's other
+    /// words of this PE's first two columns ([`crate::shading::Halo`]).
+    pub halo: crate::shading::Halo,
     /// Whether `edge` holds voxels for a row still to be sampled (the
     /// neighbour reads them next cycle); only the waveforms read it.
     pub edge_valid: bool,
@@ -133,7 +139,8 @@ pub struct PeCounters {
     pub idle: u64,
     /// Voxel words read from this PE's memory (samples and edge drives).
     pub mem_reads: u64,
-    /// Voxel words received from the right neighbour.
+    /// Voxel words received from a neighbour and used: the scalar's right
+    /// taps and, shading, the gradient's taps beyond the block.
     pub edge_voxels: u64,
     /// Rays sent to a neighbour.
     pub rays_sent: u64,
@@ -164,6 +171,7 @@ pub struct Pe {
     /// Voxel words `[z][y][x - c0]`.
     pub(crate) mem: Vec<u16>,
     pub(crate) ny: usize,
+    pub(crate) nz: usize,
     /// Ray columns held, in increasing `mx`.
     pub rays: VecDeque<RayColumn>,
     /// First held column sampled in the current slice, and how many.
@@ -183,8 +191,9 @@ pub struct Pe {
     pub last: SampleTrace,
     /// Rows whose edge voxels the edge register holds.
     pub(crate) edge_latch: Option<(usize, usize, usize)>,
-    /// The edge register.
-    pub(crate) edge_value: [u16; 2],
+    /// The edge registers: what this PE drives on its ports while it
+    /// samples (see [`crate::stages::sample`]).
+    pub(crate) edge_value: crate::stages::sample::EdgeWords,
     /// The held columns (indices into `rays`) sampled in the current row,
     /// in order: the row's schedule, one per cycle.
     pub(crate) row_live: Vec<usize>,
@@ -222,6 +231,7 @@ impl Pe {
             cols,
             mem,
             ny,
+            nz,
             rays: VecDeque::new(),
             active: (0, 0),
             out_left: VecDeque::new(),
@@ -231,7 +241,7 @@ impl Pe {
             stats: QuantStats::default(),
             last: SampleTrace::default(),
             edge_latch: None,
-            edge_value: [0; 2],
+            edge_value: Default::default(),
             row_live: Vec::new(),
             drained_at: 0,
             readout_at: (0, 0),

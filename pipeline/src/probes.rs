@@ -160,6 +160,9 @@ struct Probe<S> {
     width: fn(&PipelineConfig) -> u32,
     read: fn(&S) -> u64,
     present: fn(&PipelineConfig) -> bool,
+    /// Only in an array that shades (the gradient and shading unit's
+    /// signals and port words), so unshaded waveforms stay as they were.
+    shaded: bool,
     names: &'static [(u64, &'static str)],
 }
 
@@ -176,7 +179,16 @@ impl<S> Probe<S> {
             width,
             read,
             present: |_| true,
+            shaded: false,
             names: &[],
+        }
+    }
+
+    /// Only while the array shades.
+    const fn shaded(self) -> Self {
+        Probe {
+            shaded: true,
+            ..self
         }
     }
 
@@ -212,6 +224,11 @@ fn link_alpha(c: &PipelineConfig) -> u32 {
 
 /// A raw word in two's complement over the port's width (the words are
 /// unsigned at the default widths; a signed format shows its bit pattern).
+/// The traced width of a gradient word.
+fn bits_of_grad(s: &PeView) -> u32 {
+    s.grad_bits
+}
+
 fn word(v: i64, width: u32) -> u64 {
     if width >= 64 {
         v as u64
@@ -286,21 +303,25 @@ pub(crate) struct PeView {
     fifo: [u64; 2],
     incoming: u64,
     edge_reg: [u16; 2],
+    halo_reg: crate::shading::Halo,
+    grad_bits: u32,
     in_flight: bool,
     children: u64,
     stalls: u64,
 }
 
 impl PeView {
-    fn of(pe: &Pe, stage: Stage, cycle: u64) -> PeView {
+    fn of(pe: &Pe, stage: Stage, cycle: u64, grad_bits: u32) -> PeView {
         PeView {
+            grad_bits,
             last: pe.last,
             rays_sent: pe.counters.rays_sent,
             stage,
             held: pe.rays.len() as u64,
             fifo: [pe.out_left.len() as u64, pe.out_right.len() as u64],
             incoming: pe.incoming.len() as u64,
-            edge_reg: pe.edge_value,
+            edge_reg: pe.edge_value.left,
+            halo_reg: pe.edge_value.halo,
             in_flight: !pe.datapath_empty(cycle + 1),
             children: pe.pass.children.len() as u64,
             stalls: pe.counters.stalls,
@@ -363,6 +384,62 @@ const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.accum_alpha),
         |s| s.last.acc.raw[3] as u64,
     ),
+    Probe::<PeView>::new(
+        "grad_x",
+        DATAPATH,
+        |c| bits(c.gradient),
+        |s| word(s.last.shade.grad[0], bits_of_grad(s)),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "grad_y",
+        DATAPATH,
+        |c| bits(c.gradient),
+        |s| word(s.last.shade.grad[1], bits_of_grad(s)),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "grad_z",
+        DATAPATH,
+        |c| bits(c.gradient),
+        |s| word(s.last.shade.grad[2], bits_of_grad(s)),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "grad_norm",
+        DATAPATH,
+        |c| bits(c.grad_norm),
+        |s| s.last.shade.norm as u64,
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "n_dot_l",
+        DATAPATH,
+        |c| bits(c.normal_dot),
+        |s| s.last.shade.diffuse as u64,
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "shaded_r",
+        DATAPATH,
+        |c| bits(c.color),
+        |s| s.last.shade.rgb[0] as u64,
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "shaded_g",
+        DATAPATH,
+        |c| bits(c.color),
+        |s| s.last.shade.rgb[1] as u64,
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "shaded_b",
+        DATAPATH,
+        |c| bits(c.color),
+        |s| s.last.shade.rgb[2] as u64,
+    )
+    .shaded(),
     Probe::<PeView>::new("rays_sent", DATAPATH, |_| 32, |s| s.rays_sent & 0xffff_ffff),
     // Front to back only, so back-to-front waveforms stay as they were.
     Probe::<PeView>::new(
@@ -388,6 +465,62 @@ const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.edge_reg[1]),
     ),
+    Probe::<PeView>::new(
+        "halo_reg_0",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[0]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_1",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[1]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_2",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[2]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_3",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[3]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_4",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[4]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_5",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[5]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_6",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[6]),
+    )
+    .shaded(),
+    Probe::<PeView>::new(
+        "halo_reg_7",
+        REGS,
+        |c| bits(c.voxel),
+        |s| u64::from(s.halo_reg[7]),
+    )
+    .shaded(),
     Probe::<PeView>::new("in_flight", REGS, |_| 1, |s| u64::from(s.in_flight)),
     Probe::<PeView>::new("pass_children", REGS, |_| 16, |s| s.children & 0xffff),
     Probe::<PeView>::new("stalls", REGS, |_| 32, |s| s.stalls & 0xffff_ffff),
@@ -429,6 +562,10 @@ pub(crate) struct PortView {
 impl PortView {
     fn ray(&self, f: impl Fn(&crate::pe::RayMove) -> u64) -> u64 {
         self.port.ray.as_ref().map_or(0, f)
+    }
+    /// Halo word `i`, shown while edge voxels are valid.
+    fn halo(&self, i: usize) -> u64 {
+        u64::from(self.port.halo[i]) * u64::from(self.port.edge_valid)
     }
     /// The parent's words, shown only while one is driven.
     fn parent(&self, ch: usize) -> u64 {
@@ -483,6 +620,16 @@ const PORT_PROBES: &[Probe<PortView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.port.edge[1]) * u64::from(s.port.edge_valid),
     ),
+    // The gradient's halo (to the left neighbour) while the array shades;
+    // the right port's edge words then carry the last column.
+    Probe::<PortView>::new("halo_0", PORTS, |c| bits(c.voxel), |s| s.halo(0)).shaded(),
+    Probe::<PortView>::new("halo_1", PORTS, |c| bits(c.voxel), |s| s.halo(1)).shaded(),
+    Probe::<PortView>::new("halo_2", PORTS, |c| bits(c.voxel), |s| s.halo(2)).shaded(),
+    Probe::<PortView>::new("halo_3", PORTS, |c| bits(c.voxel), |s| s.halo(3)).shaded(),
+    Probe::<PortView>::new("halo_4", PORTS, |c| bits(c.voxel), |s| s.halo(4)).shaded(),
+    Probe::<PortView>::new("halo_5", PORTS, |c| bits(c.voxel), |s| s.halo(5)).shaded(),
+    Probe::<PortView>::new("halo_6", PORTS, |c| bits(c.voxel), |s| s.halo(6)).shaded(),
+    Probe::<PortView>::new("halo_7", PORTS, |c| bits(c.voxel), |s| s.halo(7)).shaded(),
     Probe::<PortView>::new(
         "parent_valid",
         PORTS,
@@ -505,14 +652,14 @@ const PORT_PROBES: &[Probe<PortView>] = &[
 /// (NONE for the absent and the unselected).
 fn register<S>(
     tracer: &mut Tracer,
-    cfg: &PipelineConfig,
+    (cfg, shading): (&PipelineConfig, bool),
     scope: &ScopePath,
     table: &[Probe<S>],
 ) -> Result<Vec<SignalId>, WavesError> {
     table
         .iter()
         .map(|p| {
-            if !(p.present)(cfg) {
+            if !(p.present)(cfg) || (p.shaded && !shading) {
                 return Ok(SignalId::NONE);
             }
             let width = (p.width)(cfg);
@@ -551,16 +698,13 @@ pub(crate) struct Probes {
     pes: Vec<PeIds>,
     color: u32,
     alpha: u32,
+    grad: u32,
 }
 
 impl Probes {
-    /// Registers the signals of `p` PEs; an unknown group in the tracer's
-    /// selection is an error.
-    pub(crate) fn new(
-        mut tracer: Tracer,
-        p: usize,
-        cfg: &PipelineConfig,
-    ) -> Result<Probes, WavesError> {
+    /// Refuses a selection naming an unknown group (before a frame is
+    /// loaded: the signals are registered when it starts).
+    pub(crate) fn check_groups(tracer: &Tracer) -> Result<(), WavesError> {
         if let Some(bad) = tracer
             .selected_groups()
             .and_then(|set| set.iter().find(|g| !GROUPS.iter().any(|k| k.name == *g)))
@@ -571,21 +715,29 @@ impl Probes {
                 reason: parse_groups(bad).err().unwrap_or_default(),
             });
         }
-        let ctrl = register(
-            &mut tracer,
-            cfg,
-            &ScopePath::top().child("ctrl"),
-            CTRL_PROBES,
-        )?;
+        Ok(())
+    }
+
+    /// Registers the signals of `p` PEs (with the shading unit's when
+    /// `shading`); an unknown group in the tracer's selection is an error.
+    pub(crate) fn new(
+        mut tracer: Tracer,
+        p: usize,
+        cfg: &PipelineConfig,
+        shading: bool,
+    ) -> Result<Probes, WavesError> {
+        let c = (cfg, shading);
+        Probes::check_groups(&tracer)?;
+        let ctrl = register(&mut tracer, c, &ScopePath::top().child("ctrl"), CTRL_PROBES)?;
         let mut pes = Vec::with_capacity(p);
         for k in 0..p {
             let scope = ScopePath::pe(k as u32);
-            let pe = register(&mut tracer, cfg, &scope, PE_PROBES)?;
+            let pe = register(&mut tracer, c, &scope, PE_PROBES)?;
             let ports = [
-                register(&mut tracer, cfg, &scope.child("left"), PORT_PROBES)?,
-                register(&mut tracer, cfg, &scope.child("right"), PORT_PROBES)?,
+                register(&mut tracer, c, &scope.child("left"), PORT_PROBES)?,
+                register(&mut tracer, c, &scope.child("right"), PORT_PROBES)?,
             ];
-            let host = register(&mut tracer, cfg, &scope.child("host"), HOST_PROBES)?;
+            let host = register(&mut tracer, c, &scope.child("host"), HOST_PROBES)?;
             let any_port = ports.iter().flatten().any(|id| id.is_traced());
             pes.push(PeIds {
                 pe,
@@ -600,6 +752,7 @@ impl Probes {
             pes,
             color: link_color(cfg),
             alpha: link_alpha(cfg),
+            grad: bits(cfg.gradient),
         })
     }
 
@@ -613,12 +766,13 @@ impl Probes {
             pes: ids,
             color,
             alpha,
+            grad,
         } = self;
         tracer.sample(cycle, |s| {
             sample(s, CTRL_PROBES, ctrl_ids, &ctrl);
             let idle = Ports::default();
             for (k, (pe, id)) in pes.iter().zip(ids.iter()).enumerate() {
-                let view = PeView::of(pe, ctrl.stage, cycle);
+                let view = PeView::of(pe, ctrl.stage, cycle, *grad);
                 sample(s, PE_PROBES, &id.pe, &view);
                 if id.any_port {
                     let driven = ports.get(k).copied().unwrap_or(idle);

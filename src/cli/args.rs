@@ -346,6 +346,12 @@ pub struct SliceArgs {
     /// of interpolated samples, Cube-4's); implies --shade.
     #[arg(long, value_parser = parse_gradient)]
     pub gradient: Option<golden::shading::GradientMode>,
+    /// Gradient magnitude F (scalar units per world unit) over which a
+    /// normal fades in: lighting uses min(1, |g|/F) of the normal and the
+    /// rest as if facing the light (default 1; 0 disables; implies --shade;
+    /// docs/golden.md#shading).
+    #[arg(long, allow_hyphen_values = true)]
+    pub normal_fade: Option<f64>,
     /// Volume of interest in world units: box:x0,y0,z0,x1,y1,z1 or
     /// sphere:cx,cy,cz,r; opacity inside it is scaled by --voi-scale.
     #[arg(long, value_parser = parse_voi, allow_hyphen_values = true)]
@@ -410,7 +416,8 @@ impl SliceArgs {
             || !self.light.is_empty()
             || self.material.is_some()
             || self.gradient_opacity.is_some()
-            || self.gradient.is_some();
+            || self.gradient.is_some()
+            || self.normal_fade.is_some();
         if self.no_shade {
             if asked {
                 bail!(
@@ -434,6 +441,9 @@ impl SliceArgs {
         }
         if let Some(g) = self.gradient {
             sh.gradient = g;
+        }
+        if let Some(f) = self.normal_fade {
+            sh.normal_fade = f;
         }
         sh.validate()?;
         Ok(Some(sh))
@@ -500,6 +510,7 @@ impl Default for SliceArgs {
             light: Vec::new(),
             material: None,
             gradient_opacity: None,
+            normal_fade: None,
             gradient: None,
             voi: None,
             voi_scale: 2.0,

@@ -147,11 +147,11 @@ pub fn run(
     vol: &Volume,
     lut: &Lut,
     prep: &Prepared,
-    skips: golden::skip::Skips,
+    (skips, shade): (golden::skip::Skips, Option<&golden::shading::Shade>),
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
-    let frame = pipeline::run_frame_with(cfg, vol, lut, prep, skips, tr)?;
+    let frame = pipeline::run_frame_shaded(cfg, vol, lut, prep, skips, shade, tr)?;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {
@@ -220,8 +220,10 @@ pub fn versus_golden(
     lut: &Lut,
     image: &golden::image::Image,
     cfg: &PipelineConfig,
+    shade: Option<golden::shading::Shade>,
 ) -> Result<Value> {
     let mut opts = RenderOptions::default();
+    opts.slice.shade = shade;
     // The configuration's threshold was validated in (0, 1]; f32 is what
     // golden compares in.
     opts.slice.terminate = cfg.terminate as f32;

@@ -117,6 +117,7 @@ fn run_at(
             dims: prep.view.dims,
             pes,
             regions: plan.regions.len() as u32,
+            shading: false,
         },
         &frame,
         &plan,

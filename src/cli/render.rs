@@ -233,9 +233,6 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     }
     cfg.validate()?;
     let opts = slice.options()?;
-    if opts.slice.shade.is_some() {
-        anyhow::bail!("the pipeline model does not shade yet; drop --shade, --light, --material and --gradient-opacity");
-    }
     if opts.slice.voi.is_some() {
         anyhow::bail!("the pipeline model has no volume of interest yet; drop --voi");
     }
@@ -243,22 +240,29 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
     let (vol, tf, cam) = a.view.load()?;
-    if tf.material.is_some() && !slice.no_shade {
-        anyhow::bail!("the transfer function asks for shading (its [material]); the pipeline model does not shade yet: add --no-shade");
-    }
+    let mut opts = opts;
+    slice.apply_tf(&mut opts, &tf)?;
+    let shade = opts.slice.shade;
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let prep = slice.prepared(&vol, &cam)?;
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         timed(a.repeat, || {
-            chip::run(&a.pipeline, &cfg, &vol, &lut, &prep, opts.slice.skips)
+            chip::run(
+                &a.pipeline,
+                &cfg,
+                &vol,
+                &lut,
+                &prep,
+                (opts.slice.skips, shade.as_ref()),
+            )
         })?
     };
     let run = chip::PipelineRun {
         time_s: median(&times),
         ..run
     };
-    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg)?;
+    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg, shade)?;
     let err = write_outputs(
         a,
         &prep,

@@ -1,7 +1,7 @@
 //! Shading through the program: a transfer function's `[material]` turns
 //! shading on with that material, `--no-shade` turns it off bit for bit,
-//! `--material` overrides the table's, and the pipeline refuses a shaded
-//! table in one line.
+//! `--material` overrides the table's, and the pipeline shades a shaded
+//! table too (refusing in one line what its unit does not build).
 
 use std::path::Path;
 
@@ -71,12 +71,28 @@ fn a_tables_material_shades() {
         "lit.toml",
         "--out",
         "p.png",
+        "--npy",
+        "p.npy",
+        "--pes",
+        "4",
     ];
-    assert_refused(&args, &ercube(d, &args), "--no-shade");
-    let mut ok = args.to_vec();
-    ok.push("--no-shade");
-    let out = ercube(d, &ok);
-    assert!(out.status.success(), "{}", describe(&ok, &out));
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let shaded = std::fs::read(d.join("p.npy")).expect("npy written");
+    let mut flat = args.to_vec();
+    flat.push("--no-shade");
+    let out = ercube(d, &flat);
+    assert!(out.status.success(), "{}", describe(&flat, &out));
+    assert_ne!(
+        std::fs::read(d.join("p.npy")).unwrap(),
+        shaded,
+        "the pipeline shades with the table's material"
+    );
+    // 16 PEs over 16 columns: blocks of one column cannot shade.
+    let mut narrow = args.to_vec();
+    let last = narrow.len() - 1;
+    narrow[last] = "16";
+    assert_refused(&narrow, &ercube(d, &narrow), "2 voxel columns per PE");
 
     std::fs::write(
         d.join("bad.toml"),
@@ -135,7 +151,10 @@ fn bad_flags_are_one_line_errors() {
             "volume of interest",
         ),
         (format!("{s} --no-shade --light 1,0,0"), "no-shade"),
-        (format!("{s} --method pipeline --shade"), "shade"),
+        (
+            format!("{s} --method pipeline --pes 4 --shade --gradient samples"),
+            "differences on voxels",
+        ),
         (format!("{s} --method mipmap --shade"), "mip-map"),
     ];
     for (line, needle) in &cases {

@@ -359,3 +359,47 @@ fn volume_of_interest_scales_opacity() {
     let edge = v.factor(centre + DVec3::X * 6.0);
     assert!((edge - 2.5).abs() < 1e-9, "{edge}");
 }
+
+/// The normal fade makes shading continuous at a vanishing gradient: two
+/// opposite-ish tiny gradients shade within `3 (kd + ks) n_L |dg| / F` of
+/// each other, where without the fade (`F = 0`) they differ by a whole
+/// diffuse term; and above `F` the fade changes nothing.
+#[test]
+fn normal_fade_bounds_the_shading_of_tiny_gradients() {
+    let vol = volume_u8([8, 8, 8], |x, _, _| (10 * x) as u16);
+    let c = DVec3::from_array(vol.center_world());
+    let prep = Prepared::new(
+        &vol,
+        &Camera::new(c - DVec3::Z * 30.0, c, DVec3::Y, 30.0, 8, 8).unwrap(),
+    )
+    .unwrap();
+    let colour = [0.8, 0.6, 0.4, 0.5];
+    let mut abrupt = Shade::default();
+    abrupt.normal_fade = 0.0;
+    let faded = Shade::default();
+    let shade = |s: &Shade, g: [f64; 3]| {
+        Shader::new(&prep.view, &prep.stack, s)
+            .unwrap()
+            .shade(colour, g)
+    };
+    // Facing the headlight (view z) and facing sideways, both tiny.
+    let (a, b) = ([0.0, 0.0, 1e-3], [1e-3, 0.0, 0.0]);
+    let dg = 2f64.sqrt() * 1e-3;
+    let m = faded.material;
+    let lip = 3.0 * (m.diffuse + m.specular) * dg / faded.normal_fade;
+    let (fa, fb) = (shade(&faded, a), shade(&faded, b));
+    let (aa, ab) = (shade(&abrupt, a), shade(&abrupt, b));
+    for ch in 0..3 {
+        assert!(
+            (fa[ch] - fb[ch]).abs() <= lip,
+            "faded channel {ch}: {fa:?} {fb:?}"
+        );
+        assert!(
+            (aa[ch] - ab[ch]).abs() > 0.5 * m.diffuse * colour[ch],
+            "abrupt channel {ch}: {aa:?} {ab:?}"
+        );
+    }
+    // Above the fade both rules agree exactly.
+    let big = [0.0, 30.0, 40.0];
+    assert_eq!(shade(&faded, big), shade(&abrupt, big));
+}

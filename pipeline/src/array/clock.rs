@@ -49,6 +49,7 @@ pub struct Links<'a> {
 /// The port of a missing neighbour.
 const IDLE: Port = Port {
     edge: [0; 2],
+    halo: [0; 8],
     edge_valid: false,
     edge_acc: Acc { raw: [0; 4] },
     edge_mx: None,
@@ -118,6 +119,12 @@ impl Clock {
 
     pub(crate) fn tracing(&self) -> bool {
         self.probes.is_some()
+    }
+
+    /// Starts recording with `probes` (registered once the datapath is
+    /// final, at the frame's start).
+    pub(crate) fn attach(&mut self, probes: Probes) {
+        self.probes = Some(probes);
     }
 
     pub(crate) fn take_probes(&mut self) -> Option<Probes> {

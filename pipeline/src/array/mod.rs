@@ -179,6 +179,9 @@ pub enum RunError {
     /// The controller could not schedule a stage (a model bug).
     #[error("{0}")]
     Schedule(String),
+    /// The frame cannot be shaded as asked.
+    #[error("{0}")]
+    Shade(crate::shading::ShadeError),
 }
 
 /// The PE array for one frame.
@@ -200,6 +203,8 @@ pub struct Array {
     pub(crate) runs: RowRuns,
     pub(crate) run_tmp: Vec<(i64, i64)>,
     pub(crate) skipped: SkipCounts,
+    /// The waveform tracer until the frame starts (see [`Array::run`]).
+    pending: Option<Tracer>,
 }
 
 /// The controller's skipping state for one frame.
@@ -237,14 +242,16 @@ impl Array {
                 Pe::new(k, c0..c1, &words, view.dims)
             })
             .collect();
-        let probes = if tracer.is_enabled() {
-            Some(Probes::new(tracer, p, cfg)?)
+        let pending = if tracer.is_enabled() {
+            Probes::check_groups(&tracer)?;
+            Some(tracer)
         } else {
             None
         };
         Ok(Array {
             dp,
-            clock: Clock::new(pes, probes),
+            clock: Clock::new(pes, None),
+            pending,
             block,
             nx,
             ny: view.dims[1],
@@ -257,6 +264,36 @@ impl Array {
             run_tmp: Vec::new(),
             skipped: SkipCounts::default(),
         })
+    }
+
+    /// Shades the frame with `shade` ([`crate::shading`]): loads the
+    /// gradient and shading unit's constants for `view` and voxel words of
+    /// `data_bits`-bit data. Every PE's block must hold at least two
+    /// columns (the gradient's right taps reach the neighbour's second).
+    pub fn set_shading(
+        &mut self,
+        shade: &golden::shading::Shade,
+        view: &View,
+        data_bits: u32,
+    ) -> Result<(), RunError> {
+        if self.clock.pes().len() > 1 && self.block < 2 {
+            return Err(RunError::Shade(crate::shading::ShadeError::Unsupported(
+                format!(
+                "shading needs at least 2 voxel columns per PE, but {} columns over {} PEs give {}",
+                self.nx,
+                self.clock.pes().len(),
+                self.block
+            ),
+            )));
+        }
+        self.dp.cfg.check_shading()?;
+        let mut st = QuantStats::default();
+        let unit = crate::shading::ShadeUnit::new(&self.dp.cfg, shade, view, data_bits, &mut st)
+            .map_err(RunError::Shade)?;
+        self.host_stats.merge(&st);
+        let dp = (*self.dp).clone().with_shading(unit);
+        self.dp = Arc::new(dp);
+        Ok(())
     }
 
     /// Skips what `mask` (golden's planner over this pipeline's occupancy
@@ -343,6 +380,13 @@ impl Array {
     /// Runs a frame of `view`, in the configuration's compositing order
     /// (the schedule of [`crate::schedule`]).
     pub fn run(mut self, view: &View) -> Result<Frame, RunError> {
+        // The signals depend on the datapath (the shading unit's), final
+        // only now.
+        if let Some(t) = self.pending.take() {
+            let p = self.clock.pes().len();
+            let probes = Probes::new(t, p, &self.dp.cfg, self.dp.shade.is_some())?;
+            self.clock.attach(probes);
+        }
         let plan: FramePlan = plan(&self.dp.cfg, view)?;
         self.host_stats.merge(&plan.stats);
         let (raw, fmt, merges) = match self.dp.cfg.order {
@@ -480,7 +524,24 @@ pub fn run_frame_with(
     skips: golden::skip::Skips,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_shaded(cfg, volume, lut, prep, skips, None, tracer)
+}
+
+/// [`run_frame_with`], shaded with `shade` when given
+/// ([`Array::set_shading`]).
+pub fn run_frame_shaded(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    shade: Option<&golden::shading::Shade>,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
     let mut array = Array::new(cfg, volume, lut, &prep.view, tracer)?;
+    if let Some(sh) = shade {
+        array.set_shading(sh, &prep.view, volume.kind().bits())?;
+    }
     let block = usize::from(cfg.occupancy_block);
     let mm = if prep.blocks.block == block {
         prep.blocks.clone()

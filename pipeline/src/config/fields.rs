@@ -312,6 +312,119 @@ config_fields! {
             toml: "clocks from a sample's issue to its accumulators' write-back, 0..=256; 0 = the depth `ercube cost` derives",
             check: rules::datapath_latency,
         },
+        /// Voxel gradient component (shading): a central difference of two
+        /// voxel words times the axis's [`grad_scale`], then interpolated
+        /// like the scalar; in voxel codes per `2 s_min` (`s_min` the
+        /// smallest voxel spacing). Signed; a shaded frame needs at least
+        /// `voxel.bits + 1` integer bits including the sign (a full-range
+        /// difference; checked when a frame is shaded).
+        ///
+        /// Default `fixed<20,14,RND,SAT>`: 14 integer bits hold a 12-bit
+        /// difference with its sign and one bit to spare; 6 fraction bits
+        /// keep the interpolated gradient to 1/64 of a voxel code, under
+        /// 1e-4 of the direction of any gradient the normal fade lets
+        /// through. SAT so that a saturated difference keeps its direction's
+        /// sign.
+        ///
+        /// [`grad_scale`]: PipelineConfig::grad_scale
+        pub gradient: Format {
+            default: fmt(20, 6, true, Rnd, Sat),
+            toml: "voxel gradient component (shading): signed; shading needs integer bits >= voxel.bits + 1",
+            check: rules::gradient,
+        },
+        /// Per-axis gradient scale `s_min / s_axis` in `(0, 1]` (1 on every
+        /// axis of an isotropic volume), broadcast per frame: unsigned, with
+        /// one integer bit so that 1 is exact.
+        ///
+        /// Default `ufixed<16,1,RND,SAT>`: 15 fraction bits set an
+        /// anisotropic axis's weight to 3e-5.
+        pub grad_scale: Format {
+            default: fmt(16, 15, false, Rnd, Sat),
+            toml: "per-axis gradient scale s_min / s_axis in (0, 1]: unsigned, >= 1 integer bit",
+            check: rules::grad_scale,
+        },
+        /// Gradient magnitude `|g|`, an exact integer square root truncated
+        /// into this format (as [`path`]): unsigned, with at least
+        /// `gradient.int_bits` integer bits (`sqrt 3` times the largest
+        /// component fits one bit more than its magnitude).
+        ///
+        /// Default `ufixed<20,14,TRN,SAT>`.
+        ///
+        /// [`path`]: PipelineConfig::path
+        pub grad_norm: Format {
+            default: fmt(20, 6, false, Trn, Sat),
+            toml: "gradient magnitude: unsigned, integer bits >= gradient.int_bits",
+            check: rules::grad_norm,
+        },
+        /// Light and half vector components in view space, unit vectors
+        /// broadcast per frame: signed, at least 2 integer bits including the
+        /// sign (so that +-1 is exact).
+        ///
+        /// Default `fixed<16,2,RND,SAT>`: 14 fraction bits, a direction to
+        /// 6e-5.
+        pub light: Format {
+            default: fmt(16, 14, true, Rnd, Sat),
+            toml: "light and half vectors: signed, >= 2 integer bits",
+            check: rules::light,
+        },
+        /// `|n . L|` and `|n . H|`, the quotient `|g . L| / |g|` of the
+        /// shading unit's divider (truncated: a restoring divider's
+        /// quotient), and the normal fade `min(1, |g| / F)`: in `[0, 1]`,
+        /// unsigned with at most one integer bit.
+        ///
+        /// Default `ufixed<13,1,TRN,SAT>`: 12 fraction bits, as `weight`.
+        pub normal_dot: Format {
+            default: fmt(13, 12, false, Trn, Sat),
+            toml: "normal dot products |n.L|, |n.H| and the normal fade: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Entries of the specular power table `x^shininess` and the
+        /// interpolated power: in `[0, 1]`, unsigned with at most one
+        /// integer bit.
+        ///
+        /// Default `ufixed<13,1,RND,SAT>`.
+        pub specular: Format {
+            default: fmt(13, 12, false, Rnd, Sat),
+            toml: "specular power table entries x^shininess: unsigned, <= 1 integer bit",
+            check: rules::fraction,
+        },
+        /// Index bits of the specular power table over `|n . H|` (the table
+        /// has `2^shade_table_bits + 1` entries, linearly interpolated with
+        /// the remaining fraction bits), `1..=16`, at most `normal_dot.frac`.
+        ///
+        /// Default 8: 257 entries; the interpolation error of `x^10` over a
+        /// 1/256 step is below 8e-5.
+        pub shade_table_bits: u8 {
+            default: 8,
+            range: 1..=MAX_EXP_TABLE_BITS,
+            toml: "specular power table index bits over |n.H|: 1..=16, <= normal_dot.frac",
+            check: rules::shade_table_bits,
+        },
+        /// Material coefficients `ka`, `kd`, `ks`, broadcast per frame:
+        /// unsigned.
+        ///
+        /// Default `ufixed<16,4,RND,SAT>`: up to 15.99 (the golden model
+        /// accepts up to 10), 12 fraction bits.
+        pub material: Format {
+            default: fmt(16, 12, false, Rnd, Sat),
+            toml: "material coefficients ka, kd, ks: unsigned, frac >= 1",
+            check: rules::unsigned_frac,
+        },
+        /// Reciprocals `1 / F` of the normal fade and `1 / G` of the
+        /// gradient-opacity modulation, in per voxel code of [`gradient`],
+        /// broadcast per frame (the PE multiplies, it does not divide):
+        /// unsigned.
+        ///
+        /// Default `ufixed<24,4,RND,SAT>`: 20 fraction bits; the default fade
+        /// `F = 1` of 8-bit data is 32 codes at 12-bit voxels, a reciprocal
+        /// of 1/32 held to 2^-21 relative.
+        ///
+        /// [`gradient`]: PipelineConfig::gradient
+        pub grad_recip: Format {
+            default: fmt(24, 20, false, Rnd, Sat),
+            toml: "reciprocals of the normal fade and gradient-opacity scales: unsigned, frac >= 1",
+            check: rules::unsigned_frac,
+        },
     }
 }
 
@@ -345,6 +458,14 @@ mod tests {
                 "ufixed<16,0,RND,SAT>",
                 "ufixed<16,0,RND,SAT>",
                 "ufixed<20,4,RND,SAT>",
+                "fixed<20,14,RND,SAT>",
+                "ufixed<16,1,RND,SAT>",
+                "ufixed<20,14,TRN,SAT>",
+                "fixed<16,2,RND,SAT>",
+                "ufixed<13,1,TRN,SAT>",
+                "ufixed<13,1,RND,SAT>",
+                "ufixed<16,4,RND,SAT>",
+                "ufixed<24,4,RND,SAT>",
             ]
         );
         assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));

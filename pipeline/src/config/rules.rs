@@ -335,6 +335,115 @@ pub(super) fn merge(c: &PipelineConfig, field: &str, m: Format) -> Result<(), Co
     Ok(())
 }
 
+/// The check of `gradient`. Its range against the voxel's is checked
+/// only when a frame is shaded ([`PipelineConfig::check_shading`]), so
+/// that a configuration that never shades need not widen it.
+pub(super) fn gradient(_: &PipelineConfig, field: &str, g: Format) -> Result<(), ConfigError> {
+    if !g.is_signed() || g.int_bits() < 2 {
+        return Err(invalid(
+            field,
+            format!("gradient = {g}, but central differences need a signed format with >= 2 integer bits"),
+        ));
+    }
+    Ok(())
+}
+
+impl PipelineConfig {
+    /// The checks a shaded frame adds: `gradient` holds a full-range
+    /// difference of two `voxel` words with its sign.
+    pub fn check_shading(&self) -> Result<(), ConfigError> {
+        let need = self.voxel.bits() + 1;
+        if self.gradient.int_bits() < need {
+            return Err(invalid(
+                "gradient",
+                format!(
+                    "gradient has {} integer bits including the sign, fewer than voxel.bits + 1 = {need} (needed to shade)",
+                    self.gradient.int_bits()
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The check of `grad_scale`.
+pub(super) fn grad_scale(c: &PipelineConfig, field: &str, s: Format) -> Result<(), ConfigError> {
+    unsigned_frac(c, field, s)?;
+    if s.int_bits() < 1 {
+        return Err(invalid(
+            field,
+            "grad_scale has no integer bit, so the scale 1 of an isotropic axis is not representable"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `grad_norm`.
+pub(super) fn grad_norm(c: &PipelineConfig, field: &str, n: Format) -> Result<(), ConfigError> {
+    if n.is_signed() {
+        return Err(invalid(
+            field,
+            "grad_norm.signed = true, but a magnitude is non-negative".into(),
+        ));
+    }
+    if n.int_bits() < c.gradient.int_bits() {
+        return Err(invalid(
+            field,
+            format!(
+                "grad_norm has {} integer bits, fewer than gradient's {}",
+                n.int_bits(),
+                c.gradient.int_bits()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `light`.
+pub(super) fn light(_: &PipelineConfig, field: &str, l: Format) -> Result<(), ConfigError> {
+    if !l.is_signed() || l.int_bits() < 2 || l.frac() == 0 {
+        return Err(invalid(
+            field,
+            format!(
+                "light = {l}, but unit vector components need a signed format with >= 2 integer bits and fraction bits"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `shade_table_bits`.
+pub(super) fn shade_table_bits(c: &PipelineConfig, field: &str, b: u8) -> Result<(), ConfigError> {
+    if b == 0 || b > MAX_EXP_TABLE_BITS {
+        return Err(invalid(
+            field,
+            format!("shade_table_bits = {b} is outside 1..={MAX_EXP_TABLE_BITS}"),
+        ));
+    }
+    if b > c.normal_dot.frac() {
+        return Err(invalid(
+            field,
+            format!(
+                "shade_table_bits = {b} exceeds normal_dot.frac = {}: the table is indexed by fraction bits of |n.H|",
+                c.normal_dot.frac()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of an unsigned field with fraction bits.
+pub(super) fn unsigned_frac(_: &PipelineConfig, field: &str, f: Format) -> Result<(), ConfigError> {
+    if f.is_signed() || f.frac() == 0 {
+        return Err(invalid(
+            field,
+            format!("{field} = {f}, but it needs an unsigned format with fraction bits"),
+        ));
+    }
+    Ok(())
+}
+
 /// The check of `pes`.
 pub(super) fn datapath_latency(
     _: &PipelineConfig,

@@ -63,7 +63,12 @@ pub struct Item {
 }
 
 impl Item {
-    fn new(group: &'static str, name: impl Into<String>, count: u32, units: Vec<Unit>) -> Item {
+    pub(super) fn new(
+        group: &'static str,
+        name: impl Into<String>,
+        count: u32,
+        units: Vec<Unit>,
+    ) -> Item {
         Item {
             group,
             name: name.into(),
@@ -122,6 +127,9 @@ pub struct Geometry {
     /// Exponential regions `K` of the view (front to back keeps the final
     /// states of `K - 1` boundaries for the fold).
     pub regions: u32,
+    /// The PEs carry the gradient and shading unit ([`super::shading`]).
+    #[serde(default)]
+    pub shading: bool,
 }
 
 impl Geometry {
@@ -133,7 +141,13 @@ impl Geometry {
             dims,
             pes,
             regions: golden::geometry::Regions::new(d, dims[2]).count() as u32,
+            shading: false,
         }
+    }
+
+    /// This geometry with (or without) the gradient and shading unit.
+    pub fn with_shading(self, shading: bool) -> Geometry {
+        Geometry { shading, ..self }
     }
 
     /// Columns per PE, `W = ceil(nx / P)`.
@@ -171,7 +185,7 @@ pub struct Schedule {
 
 /// One pipeline step: its name, the steps it needs with the bits each
 /// brings, and its latency in clocks.
-type Step<'a> = (&'a str, Vec<(&'a str, u32)>, u32);
+pub(super) type Step<'a> = (&'a str, Vec<(&'a str, u32)>, u32);
 
 /// Per-PE datapath: the steps of one sample, their units, and the
 /// schedule.
@@ -454,7 +468,7 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
 
     // Schedule: (step, dependencies with the bits each brings, latency).
     let root_lat = root.max(1);
-    let steps: Vec<Step> = vec![
+    let mut steps: Vec<Step> = vec![
         ("slot", vec![], 1),
         ("x", vec![("slot", RAY_INDEX_BITS)], 1),
         ("sx", vec![("slot", RAY_INDEX_BITS)], 1),
@@ -495,6 +509,27 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             1,
         ),
     ];
+    if geo.shading {
+        items.extend(super::shading::items(cfg));
+        // The opacity correction reads the gradient-modulated opacity and
+        // the compositing the shaded colour.
+        for st in steps.iter_mut() {
+            for dep in st.1.iter_mut() {
+                if st.0 == "log table" && dep.0 == "class lerp" {
+                    dep.0 = "gradient opacity";
+                }
+                if st.0 == "composite" && dep.0 == "class lerp" {
+                    dep.0 = "shade";
+                }
+            }
+        }
+        let at = steps
+            .iter()
+            .position(|st| st.0 == "log table")
+            .unwrap_or(steps.len());
+        let extra = super::shading::steps(cfg, col_bits);
+        steps.splice(at..at, extra);
+    }
     let mut start: Vec<(String, u32, u32)> = Vec::new(); // name, start, ready
     let mut delays = Vec::new();
     for (name, deps, lat) in &steps {
@@ -546,6 +581,16 @@ pub fn schedule_depth(cfg: &PipelineConfig) -> u32 {
         .depth
 }
 
+/// [`schedule_depth`] with the gradient and shading unit.
+pub fn shaded_schedule_depth(cfg: &PipelineConfig) -> u32 {
+    datapath(
+        cfg,
+        &Geometry::new([64, 64, 64], cfg.pes).with_shading(true),
+    )
+    .schedule
+    .depth
+}
+
 /// The PE's memories.
 fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let [_, ny, _] = geo.dims;
@@ -560,19 +605,26 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         ports,
     };
     let half_rows = ny.div_ceil(2);
-    let mut items = vec![
-        Item::new(
-            "memories",
-            "slice buffer (2 slices x 2 row banks)",
-            4,
-            vec![mem(w * half_rows, v, MemPorts::DualRead)],
-        ),
-        Item::new(
-            "memories",
-            "edge column (2 slices x 2 row banks)",
-            4,
-            vec![mem(half_rows, v, MemPorts::Sdp)],
-        ),
+    let buffers = if geo.shading {
+        super::shading::memories(cfg, geo)
+    } else {
+        vec![
+            Item::new(
+                "memories",
+                "slice buffer (2 slices x 2 row banks)",
+                4,
+                vec![mem(w * half_rows, v, MemPorts::DualRead)],
+            ),
+            Item::new(
+                "memories",
+                "edge column (2 slices x 2 row banks)",
+                4,
+                vec![mem(half_rows, v, MemPorts::Sdp)],
+            ),
+        ]
+    };
+    let mut items = buffers;
+    items.extend(vec![
         Item::new(
             "memories",
             "classification table",
@@ -631,7 +683,7 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
                 MemPorts::Sdp,
             )],
         ),
-    ];
+    ]);
     if cfg.order == crate::config::Order::FrontToBack {
         // Each ray also carries what it inherited at the split and its
         // termination flag; each PE keeps its rays' final states at every
@@ -709,7 +761,7 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let s = fmt_bits(cfg.step);
     let col_bits = addr_bits(geo.block() + 1);
     let slot_bits = addr_bits(geo.rays_per_pe());
-    vec![
+    let mut items = vec![
         Item::new(
             "links",
             "ray ports (left, right): accumulators, m, row, valid",
@@ -755,7 +807,11 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
                 },
             ],
         ),
-    ]
+    ];
+    if geo.shading {
+        items.push(super::shading::link(cfg));
+    }
+    items
 }
 
 /// Everything in one PE.

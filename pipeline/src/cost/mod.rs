@@ -23,6 +23,7 @@ pub mod inventory;
 pub mod memory;
 pub mod parts;
 pub mod report;
+pub mod shading;
 pub mod shapes;
 pub mod target;
 pub mod throughput;
@@ -41,4 +42,13 @@ pub fn datapath_latency(cfg: &crate::config::PipelineConfig) -> u32 {
         return u32::from(cfg.datapath_latency);
     }
     inventory::schedule_depth(cfg).max(1)
+}
+
+/// [`datapath_latency`] of a datapath with the gradient and shading unit:
+/// the configured latency, or the depth of the shaded schedule.
+pub fn shaded_latency(cfg: &crate::config::PipelineConfig) -> u32 {
+    if cfg.datapath_latency > 0 {
+        return u32::from(cfg.datapath_latency);
+    }
+    inventory::shaded_schedule_depth(cfg).max(1)
 }

@@ -97,6 +97,15 @@ pub enum Unit {
         /// Result bits.
         root: u32,
     },
+    /// Pipelined non-restoring divider with a `quotient`-bit result of a
+    /// dividend by a `divisor`-bit word: one add/subtract stage per
+    /// quotient bit.
+    Div {
+        /// Quotient bits.
+        quotient: u32,
+        /// Divisor bits.
+        divisor: u32,
+    },
     /// A register of `bits` flip-flops.
     Reg {
         /// Bits.
@@ -407,6 +416,19 @@ impl Unit {
                 }
                 res
             }
+            Unit::Div { quotient, divisor } => {
+                // Stage i adds or subtracts the divisor from a
+                // (divisor + 1)-bit partial remainder and registers it, the
+                // quotient so far (i bits), the divisor and the dividend
+                // bits still to come.
+                let (q, d) = (u64::from(quotient), u64::from(divisor));
+                let mut res = Resources::default();
+                for i in 1..=q {
+                    res += adder(t, divisor + 1, false);
+                    res.ff += (d + 1) + i + d + (q - i);
+                }
+                res
+            }
             Unit::Reg { bits } => Resources::ffs(u64::from(bits)),
             Unit::Delay { bits, cycles } => {
                 let (b, c) = (u64::from(bits), u64::from(cycles));
@@ -452,6 +474,7 @@ impl Unit {
                 format!("{a}{} x {b}{} -> {y}", s(a_signed), s(b_signed))
             }
             Unit::Sqrt { root } => format!("sqrt -> {root}b"),
+            Unit::Div { quotient, divisor } => format!("div / {divisor}b -> {quotient}b"),
             Unit::Reg { bits } => format!("{bits} FF"),
             Unit::Delay { bits, cycles } => format!("{bits}b x {cycles} cycles"),
             Unit::Mem {

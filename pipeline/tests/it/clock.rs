@@ -162,7 +162,7 @@ fn steps_see_only_their_own_state_and_links() {
         Links<'l>,
         usize,
     ) -> Result<Ports, StepError> = Pe::sample_step;
-    let stall: fn(&mut Pe) -> Ports = Pe::stall_step;
+    let stall: fn(&mut Pe, &Datapath) -> Ports = Pe::stall_step;
     let readout: fn(&mut Pe) -> Ports = Pe::readout_step;
     // `Links` is two shared views of port registers: copyable, so it
     // cannot hold anything mutable.

@@ -3,7 +3,8 @@
 //! clock, latency and step shapes (`clock`), front
 //! to back (`ftb`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
-//! estimator against yosys (`cost`), and the waveforms beyond the default set (`traces`). What runs the `ercube` program is in
+//! estimator against yosys (`cost`), the waveforms beyond the default set (`traces`), and the gradient and
+//! shading unit against golden's shading (`shading`). What runs the `ercube` program is in
 //! the root `tests/it/`.
 
 #[path = "../../../tests/support/chip.rs"]
@@ -18,6 +19,7 @@ mod cost;
 mod equivalence;
 mod ftb;
 mod model;
+mod shading;
 mod skip;
 mod stress;
 mod traces;

@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use super::{Row, RowBus, RowRuns, RowTimes};
+use super::{EdgeWords, Row, RowBus, RowRuns, RowTimes};
 use crate::array::{Array, RunError};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::StepError;
@@ -49,11 +49,12 @@ impl Array {
             .skip(skip)
             .map(|(b, _)| (slice.z, b.y.0, b.y.1))
             .collect();
-        let edges: Vec<Vec<[u16; 2]>> = self
+        let shade = self.dp.shade.is_some();
+        let edges: Vec<Vec<EdgeWords>> = self
             .clock
             .pes()
             .iter()
-            .map(|pe| pe.edges_for(slice.z, &buses))
+            .map(|pe| pe.edges_for(slice.z, &buses, shade))
             .collect();
         let stalls: u64 = times.stalls.iter().sum();
         let dp = &self.dp;
@@ -64,7 +65,7 @@ impl Array {
             .par_iter_mut()
             .enumerate()
             .map(|(k, pe)| {
-                pe.latch_edges(seq.iter().copied());
+                pe.latch_edges(seq.iter().copied(), shade);
                 if p > 1 {
                     pe.counters.idle += 1;
                 }
@@ -74,7 +75,10 @@ impl Array {
                     runs,
                     (lens, &times.starts),
                     stalls,
-                    edges.get(k + 1).map(Vec::as_slice),
+                    (
+                        edges.get(k + 1).map(Vec::as_slice),
+                        k.checked_sub(1).map(|l| edges[l].as_slice()),
+                    ),
                     nx,
                 )
             })

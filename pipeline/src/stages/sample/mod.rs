@@ -15,7 +15,7 @@
 mod fast;
 mod pe;
 
-pub use pe::{RowBus, RowRuns, SampleBus};
+pub use pe::{EdgeWords, RowBus, RowRuns, SampleBus};
 
 use crate::array::{Array, RunError};
 use crate::config::Order;
@@ -222,7 +222,7 @@ impl Array {
             for _ in 0..times.stalls[r] {
                 self.clock
                     .tick(Ctrl::at(Stage::Stall, slice.z, row), |pe, _| {
-                        Ok(pe.stall_step())
+                        Ok(pe.stall_step(&dp))
                     })?;
             }
             if r == sampled[0] && p > 1 {

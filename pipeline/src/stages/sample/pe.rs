@@ -9,6 +9,43 @@ use crate::datapath::{Datapath, SampleTrace};
 use crate::fixed::Fx;
 use crate::host::SlicePlan;
 use crate::pe::{Pe, Ports, StepError};
+use crate::shading::{outer_rows, Halo, Taps};
+
+/// The words a PE drives on its ports while sampling a row (its edge
+/// registers): its first column at the row's two voxel rows to the left
+/// neighbour (the scalar's right taps), and while the array shades the
+/// gradient's halo to the left and its last column's two words to the
+/// right.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EdgeWords {
+    /// First column at rows `y0`, `y0 + 1`, to the left.
+    pub left: [u16; 2],
+    /// The gradient's words of the first two columns, to the left.
+    pub halo: Halo,
+    /// Last column at rows `y0`, `y0 + 1`, to the right.
+    pub right: [u16; 2],
+}
+
+/// What a PE receives from its neighbours for the row it samples: the
+/// right neighbour's edge voxels and halo, the left one's last column.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct EdgeIn {
+    right: [u16; 2],
+    halo: Halo,
+    left: [u16; 2],
+}
+
+/// Where a voxel column the sample needs lives, seen from one PE.
+enum Col {
+    /// In this PE's memory.
+    Own(usize),
+    /// The right neighbour's first column.
+    Right0,
+    /// The right neighbour's second column.
+    Right1,
+    /// The left neighbour's last column.
+    Left,
+}
 
 /// What the controller broadcasts in a sampling cycle.
 #[derive(Debug, Clone, Copy)]
@@ -93,20 +130,64 @@ impl<'a> RowBus<'a> {
 }
 
 impl Pe {
-    /// Drives the edge register: the voxels of this PE's first column at
-    /// the rows of `next` (the row sampled next cycle), read from memory
-    /// only when the row changes (the register holds its value otherwise).
+    /// The words this PE's edge registers take for row `(z, y0, y1)`
+    /// (clamped voxel rows), read from its memory; `shade` adds the
+    /// gradient's. Counts nothing (see [`Pe::drive_edge`]).
+    pub(crate) fn edge_words(&self, (z, y0, y1): (usize, usize, usize), shade: bool) -> EdgeWords {
+        let mut e = EdgeWords::default();
+        if self.cols.is_empty() {
+            return e;
+        }
+        let w = self.cols.len();
+        let at = |z: usize, y: usize, c: usize| self.mem[(z * self.ny + y) * w + c];
+        e.left = [at(z, y0, 0), at(z, y1, 0)];
+        if shade {
+            let (ylo, yhi) = outer_rows(y0, y1, self.ny);
+            let (zm, zp) = (z.saturating_sub(1), (z + 1).min(self.nz - 1));
+            // The second column, or the first again at the volume's edge
+            // (the clamp), where a block has one column.
+            let c1 = 1.min(w - 1);
+            e.halo = [
+                at(z, ylo, 0),
+                at(z, yhi, 0),
+                at(zm, y0, 0),
+                at(zm, y1, 0),
+                at(zp, y0, 0),
+                at(zp, y1, 0),
+                at(z, y0, c1),
+                at(z, y1, c1),
+            ];
+            e.right = [at(z, y0, w - 1), at(z, y1, w - 1)];
+        }
+        e
+    }
+
+    /// Drives the edge registers for `next` (the row sampled next cycle),
+    /// read from memory only when the row changes (the registers hold
+    /// their values otherwise): 2 words, 12 while the array shades.
     #[inline]
-    pub(crate) fn drive_edge(&mut self, next: Option<(usize, usize, usize)>) -> [u16; 2] {
+    pub(crate) fn drive_edge(
+        &mut self,
+        next: Option<(usize, usize, usize)>,
+        shade: bool,
+    ) -> EdgeWords {
         if let Some(n) = next {
             if self.edge_latch != Some(n) && !self.cols.is_empty() {
-                let (z, y0, y1) = n;
-                let c0 = self.cols.start;
-                self.edge_value = [self.voxel(z, y0, c0), self.voxel(z, y1, c0)];
+                self.edge_value = self.edge_words(n, shade);
+                self.counters.mem_reads += if shade { 12 } else { 2 };
                 self.edge_latch = Some(n);
             }
         }
         self.edge_value
+    }
+
+    /// Puts the edge registers on the ports.
+    fn drive_ports(&self, out: &mut Ports, shade: bool) {
+        out.left.edge = self.edge_value.left;
+        if shade {
+            out.left.halo = self.edge_value.halo;
+            out.right.edge = self.edge_value.right;
+        }
     }
 
     /// One sampling clock. `links.from_right` is what the right neighbour
@@ -119,7 +200,9 @@ impl Pe {
         nx: usize,
     ) -> Result<Ports, StepError> {
         let mut out = Ports::default();
-        out.left.edge = self.drive_edge(bus.next);
+        let shade = dp.shade.is_some();
+        self.drive_edge(bus.next, shade);
+        self.drive_ports(&mut out, shade);
         out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
         if bus.cycle >= self.row_live.len() {
             self.counters.idle += 1;
@@ -127,17 +210,22 @@ impl Pe {
             return Ok(out);
         }
         let j = self.row_live[bus.cycle];
-        self.last = self.sample_ray(dp, &RowBus::of(bus), j, links.from_right.edge, nx, bus.now)?;
+        let edge = EdgeIn {
+            right: links.from_right.edge,
+            halo: links.from_right.halo,
+            left: links.from_left.edge,
+        };
+        self.last = self.sample_ray(dp, &RowBus::of(bus), j, &edge, nx, bus.now)?;
         Ok(out)
     }
 
     /// A stall cycle: the array holds a row back for a ray still in the
     /// datapath. The edge register holds its value; nothing is sampled.
-    pub fn stall_step(&mut self) -> Ports {
+    pub fn stall_step(&mut self, dp: &Datapath) -> Ports {
         self.counters.stalls += 1;
         self.last.busy = false;
         let mut out = Ports::default();
-        out.left.edge = self.edge_value;
+        self.drive_ports(&mut out, dp.shade.is_some());
         out
     }
 
@@ -212,7 +300,7 @@ impl Pe {
         dp: &Datapath,
         bus: &RowBus,
         j: usize,
-        edge_in: [u16; 2],
+        edge_in: &EdgeIn,
         nx: usize,
         now: u64,
     ) -> Result<SampleTrace, StepError> {
@@ -241,7 +329,7 @@ impl Pe {
             [self.voxel(s.z, y0, c1), self.voxel(s.z, y1, c1)]
         } else if c1 == self.cols.end {
             self.counters.edge_voxels += 2;
-            edge_in
+            edge_in.right
         } else {
             return Err(StepError::Ownership {
                 pe: self.k,
@@ -249,9 +337,24 @@ impl Pe {
                 column: c1,
             });
         };
+        let taps = match &dp.shade {
+            Some(_) => {
+                Some(self.taps(s.z, x0, (c0, c1), (y0, y1), (left, right), edge_in, nx, mx)?)
+            }
+            None => None,
+        };
         let st = &mut self.stats;
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
-        let (rgb, alpha) = dp.classify(sample, st)?;
+        let (mut rgb, mut alpha) = dp.classify(sample, st)?;
+        let mut shade = Default::default();
+        if let (Some(unit), Some(t)) = (&dp.shade, &taps) {
+            // The gradient and shading of a sample that is visible
+            // (golden's `c[3] > 0`): a clock-gated unit otherwise.
+            if alpha.raw() > 0 {
+                let g = unit.gradient(&dp.cfg, t, (wx, wy), st)?;
+                (rgb, alpha, shade) = unit.shade(&dp.cfg, rgb, alpha, &g, st)?;
+            }
+        }
         let mut corrected = 0;
         let mut terminated = false;
         let row = bus.row;
@@ -285,27 +388,136 @@ impl Pe {
             alpha: alpha.raw(),
             corrected,
             terminated,
+            shade,
         })
     }
 
-    /// The edge voxels this PE presents during each of `rows` (its first
-    /// column at each row's voxel rows): what its left neighbour receives
-    /// over the port in that row. Reads nothing it would not drive anyway;
-    /// the reads are counted by [`Pe::latch_edges`].
-    pub fn edges_for(&self, z: usize, rows: &[RowBus]) -> Vec<[u16; 2]> {
-        if self.cols.is_empty() {
-            return vec![[0; 2]; rows.len()];
+    /// Where column `c` lives for this PE.
+    fn locate(&self, c: usize, mx: i64) -> Result<Col, StepError> {
+        let (s, e) = (self.cols.start, self.cols.end);
+        if self.cols.contains(&c) {
+            Ok(Col::Own(c))
+        } else if c == e {
+            Ok(Col::Right0)
+        } else if c == e + 1 {
+            Ok(Col::Right1)
+        } else if c + 1 == s {
+            Ok(Col::Left)
+        } else {
+            Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c,
+            })
         }
-        let w = self.cols.len();
-        let at = |y: usize| self.mem[(z * self.ny + y) * w];
-        rows.iter().map(|r| [at(r.y.0), at(r.y.1)]).collect()
     }
 
-    /// Steps the edge register through `seq`, the rows the bus announces
+    /// Gathers the gradient's taps ([`Taps`]) around a sample at base
+    /// column `x0` (unclamped) between clamped columns `c0`, `c1` and rows
+    /// `y0`, `y1` of slice `z`, whose scalar taps `scalar` (columns `c0`,
+    /// `c1` on both rows) are already read: the rest from this PE's
+    /// memory (three slices, four rows) or the neighbours' ports.
+    #[allow(clippy::too_many_arguments)]
+    fn taps(
+        &mut self,
+        z: usize,
+        x0: i64,
+        (c0, c1): (usize, usize),
+        (y0, y1): (usize, usize),
+        scalar: ([u16; 2], [u16; 2]),
+        edge: &EdgeIn,
+        nx: usize,
+        mx: i64,
+    ) -> Result<Taps, StepError> {
+        let last = nx as i64 - 1;
+        let cm = (x0 - 1).clamp(0, last) as usize;
+        let cp = (x0 + 2).clamp(0, last) as usize;
+        let (ylo, yhi) = outer_rows(y0, y1, self.ny);
+        let (zm, zp) = (z.saturating_sub(1), (z + 1).min(self.nz - 1));
+        let rows = [y0, y1];
+        let mut t = Taps::default();
+        let mut used = 0;
+        for (j, &row) in rows.iter().enumerate() {
+            t.x[j][1] = scalar.0[j];
+            t.x[j][2] = scalar.1[j];
+            t.x[j][0] = match self.locate(cm, mx)? {
+                Col::Own(c) => self.voxel(z, row, c),
+                Col::Left => {
+                    used += 1;
+                    edge.left[j]
+                }
+                _ => {
+                    return Err(StepError::Ownership {
+                        pe: self.k,
+                        mx,
+                        column: cm,
+                    })
+                }
+            };
+            t.x[j][3] = match self.locate(cp, mx)? {
+                Col::Own(c) => self.voxel(z, row, c),
+                Col::Right0 => {
+                    used += 1;
+                    edge.right[j]
+                }
+                Col::Right1 => {
+                    used += 1;
+                    edge.halo[6 + j]
+                }
+                Col::Left => {
+                    return Err(StepError::Ownership {
+                        pe: self.k,
+                        mx,
+                        column: cp,
+                    })
+                }
+            };
+        }
+        for (i, c) in [c0, c1].into_iter().enumerate() {
+            match self.locate(c, mx)? {
+                Col::Own(c) => {
+                    t.y[i] = [self.voxel(z, ylo, c), self.voxel(z, yhi, c)];
+                    for (k, zz) in [zm, zp].into_iter().enumerate() {
+                        t.z[k][0][i] = self.voxel(zz, y0, c);
+                        t.z[k][1][i] = self.voxel(zz, y1, c);
+                    }
+                }
+                Col::Right0 => {
+                    used += 6;
+                    t.y[i] = [edge.halo[0], edge.halo[1]];
+                    for k in 0..2 {
+                        t.z[k][0][i] = edge.halo[2 + 2 * k];
+                        t.z[k][1][i] = edge.halo[3 + 2 * k];
+                    }
+                }
+                _ => {
+                    return Err(StepError::Ownership {
+                        pe: self.k,
+                        mx,
+                        column: c,
+                    })
+                }
+            }
+        }
+        self.counters.edge_voxels += used;
+        Ok(t)
+    }
+
+    /// The edge words this PE presents during each of `rows`: what its
+    /// neighbours receive over the ports in that row. Reads nothing it
+    /// would not drive anyway; the reads are counted by
+    /// [`Pe::latch_edges`].
+    pub fn edges_for(&self, z: usize, rows: &[RowBus], shade: bool) -> Vec<EdgeWords> {
+        rows.iter()
+            .map(|r| self.edge_words((z, r.y.0, r.y.1), shade))
+            .collect()
+    }
+
+    /// Steps the edge registers through `seq`, the rows the bus announces
     /// as "next" in order, counting the memory reads the clocked path makes.
-    pub fn latch_edges(&mut self, seq: impl Iterator<Item = (usize, usize, usize)>) {
+    pub fn latch_edges(&mut self, seq: impl Iterator<Item = (usize, usize, usize)>, shade: bool) {
         for n in seq {
-            self.drive_edge(Some(n));
+            self.drive_edge(Some(n), shade);
         }
     }
 
@@ -329,7 +541,7 @@ impl Pe {
         runs: &RowRuns,
         (lens, starts): (&[usize], &[u64]),
         stalls: u64,
-        right_edges: Option<&[[u16; 2]]>,
+        (right_edges, left_edges): (Option<&[EdgeWords]>, Option<&[EdgeWords]>),
         nx: usize,
     ) -> Result<(), StepError> {
         let ftb = dp.cfg.order == Order::FrontToBack;
@@ -339,10 +551,18 @@ impl Pe {
             if lens[r] == 0 {
                 continue;
             }
-            let edge = right_edges.map_or([0; 2], |e| e[r]);
+            let (rw, lw) = (
+                right_edges.map_or_else(EdgeWords::default, |e| e[r]),
+                left_edges.map_or_else(EdgeWords::default, |e| e[r]),
+            );
+            let edge = EdgeIn {
+                right: rw.left,
+                halo: rw.halo,
+                left: lw.right,
+            };
             let live = std::mem::take(&mut self.row_live);
             for (c, &j) in live.iter().enumerate() {
-                self.last = self.sample_ray(dp, bus, j, edge, nx, starts[r] + c as u64)?;
+                self.last = self.sample_ray(dp, bus, j, &edge, nx, starts[r] + c as u64)?;
             }
             self.counters.idle += (lens[r] - live.len()) as u64;
             self.row_live = live;

@@ -106,6 +106,10 @@ use golden::volume::Volume;
 use crate::config::PipelineConfig;
 use crate::fixed::{Format, Quant};
 
+mod shading;
+
+pub use shading::ShadeInputs;
+
 /// Facts about the data that the bound needs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoundInputs {
@@ -217,8 +221,29 @@ struct SampleTerms {
 /// The per-channel bound `B` on `|pipeline - golden er|` of the final
 /// image (and of the baseplane).
 pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
+    btf_bound(cfg, d, None)
+}
+
+/// [`error_bound`] of a shaded frame (against golden `er` shaded alike):
+/// the shading terms of [`ShadeInputs`] enter the sample's colour and
+/// opacity differences. Infinite when `s` has no normal fade.
+pub fn shaded_error_bound(cfg: &PipelineConfig, d: &BoundInputs, s: &ShadeInputs) -> f64 {
+    btf_bound(cfg, d, Some(s))
+}
+
+/// [`ftb_error_bound`] of a shaded frame.
+pub fn shaded_ftb_error_bound(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    regions: &[usize],
+    s: &ShadeInputs,
+) -> f64 {
+    ftb_bound(cfg, d, regions, Some(s))
+}
+
+fn btf_bound(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInputs>) -> f64 {
     let e = 2f64.powi(-24);
-    let SampleTerms { dc, dcorr } = sample_terms(cfg, d);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade);
     // 6-8. compositing, merges, saturation, warp.
     let racc = r(cfg.accum_color).max(r(cfg.accum_alpha));
     let per_slice = dcorr + racc + 3.0 * e;
@@ -235,8 +260,17 @@ pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
 /// number of slices region `i` can sample ([`region_slices`]); `d.slices`
 /// and `d.merges` are not used.
 pub fn ftb_error_bound(cfg: &PipelineConfig, d: &BoundInputs, regions: &[usize]) -> f64 {
+    ftb_bound(cfg, d, regions, None)
+}
+
+fn ftb_bound(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    regions: &[usize],
+    shade: Option<&ShadeInputs>,
+) -> f64 {
     let e = 2f64.powi(-24);
-    let SampleTerms { dc, dcorr } = sample_terms(cfg, d);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade);
     let (rc, ra, rm) = (r(cfg.accum_color), r(cfg.accum_alpha), r(cfg.merge));
     let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
     // 6'. per sample: k = (1 - A) a, then C += k c and A += k in f32.
@@ -263,8 +297,8 @@ pub fn ftb_error_bound(cfg: &PipelineConfig, d: &BoundInputs, regions: &[usize])
 }
 
 /// Steps 1 to 5: the colour and corrected-opacity differences of one
-/// sample.
-fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs) -> SampleTerms {
+/// sample (shaded, step 3 is followed by the shading terms).
+fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInputs>) -> SampleTerms {
     let e = 2f64.powi(-24);
     let ln2 = std::f64::consts::LN_2;
     let rw = r(cfg.weight);
@@ -288,6 +322,11 @@ fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs) -> SampleTerms {
     let df = ds * entries / range;
     let dc = d.table_step[0] * (df + rw) + 2.0 * r(cfg.color) + 3.0 * e;
     let da = d.table_step[1] * (df + rw) + 2.0 * r(cfg.alpha) + 3.0 * e;
+    // 3s. shading.
+    let (dc, da) = match shade {
+        Some(s) => s.terms(cfg, d, ex, (dc, da)),
+        None => (dc, da),
+    };
     // 4. path length.
     let es = 2.0 * r(cfg.position) + d.max_index * r(cfg.step);
     let dpath = 2f64.sqrt() * es + cfg.path.lsb() + d.ds_max * 2.0 * e;
