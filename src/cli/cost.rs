@@ -60,6 +60,10 @@ pub struct CostArgs {
     /// Write the calibration Verilog modules (one .v per unit) into this directory.
     #[arg(long)]
     pub verilog_dir: Option<PathBuf>,
+    /// Cost and clock PEs with the gradient and shading unit (headlight,
+    /// the default material; docs/pipeline.md#shading).
+    #[arg(long)]
+    pub shade: bool,
 }
 
 /// The default clock of a family: a comfortable rate for a DSP-heavy,
@@ -104,12 +108,21 @@ fn run_at(
     vol: &golden::volume::Volume,
     lut: &golden::tf::Lut,
     prep: &Prepared,
-    label: &str,
+    (label, shade): (&str, bool),
 ) -> Result<RunSummary> {
     let cfg = PipelineConfig { pes, ..*cfg };
     cfg.validate()?;
     let _s = Stage::start(format!("clocking {pes} PEs"));
-    let frame = pipeline::run_frame(&cfg, vol, lut, &prep.view, waves::Tracer::disabled())?;
+    let mut array =
+        pipeline::array::Array::new(&cfg, vol, lut, &prep.view, waves::Tracer::disabled())?;
+    if shade {
+        array.set_shading(
+            &golden::shading::Shade::default(),
+            &prep.view,
+            vol.kind().bits(),
+        )?;
+    }
+    let frame = array.run(&prep.view)?;
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
         label,
@@ -117,7 +130,7 @@ fn run_at(
             dims: prep.view.dims,
             pes,
             regions: plan.regions.len() as u32,
-            shading: false,
+            shading: shade,
         },
         &frame,
         &plan,
@@ -155,13 +168,13 @@ pub fn run(a: &CostArgs) -> Result<()> {
         cam.eye.y,
         cam.eye.z
     );
-    let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, &label)?;
+    let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, (&label, a.shade))?;
     let mut runs = Vec::new();
     for &p in &sweep {
         if p == cfg.pes {
             runs.push(main.clone());
         } else {
-            runs.push(run_at(&cfg, p, &vol, &lut, &prep, &label)?);
+            runs.push(run_at(&cfg, p, &vol, &lut, &prep, (&label, a.shade))?);
         }
     }
     let report = build(&cfg, a.target, clock, main, &runs);

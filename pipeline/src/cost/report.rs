@@ -155,10 +155,14 @@ fn fitting(parts: &[Part], r: &Resources) -> Vec<&'static str> {
         .collect()
 }
 
-/// The most PEs of `cfg` that fit `part` for a volume of `dims`.
-pub fn max_pes(cfg: &PipelineConfig, dims: [usize; 3], part: &Part) -> MaxPes {
+/// The most PEs of `cfg` (with the shading unit when `shading`) that fit
+/// `part` for a volume of `dims`.
+pub fn max_pes(cfg: &PipelineConfig, (dims, shading): ([usize; 3], bool), part: &Part) -> MaxPes {
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
-    let fit_at = |p: u16| fit(part, &array_cost(cfg, &Geometry::new(dims, p), part.target));
+    let fit_at = |p: u16| {
+        let g = Geometry::new(dims, p).with_shading(shading);
+        fit(part, &array_cost(cfg, &g, part.target))
+    };
     let best = (1..=top).filter(|&p| fit_at(p).fits).max().unwrap_or(0);
     let limit = if best == top {
         "nothing up to one PE per column"
@@ -191,7 +195,10 @@ pub fn build(
     let array = pe_res * u64::from(geo.pes) + ctrl;
     let family = parts(target);
     let fits = family.iter().map(|p| fit(p, &array)).collect();
-    let max = family.iter().map(|p| max_pes(cfg, geo.dims, p)).collect();
+    let max = family
+        .iter()
+        .map(|p| max_pes(cfg, (geo.dims, geo.shading), p))
+        .collect();
     let run_rate = rate(&geo, run.cycles, clock, vb);
     let bound = bound_cycles(&geo);
     let bound_rate = rate(&geo, bound, clock, vb);
@@ -217,7 +224,7 @@ pub fn build(
     let mut scaling = Vec::new();
     for n in SCALE_N {
         for p in SCALE_P {
-            let g = Geometry::new([n, n, n], p);
+            let g = Geometry::new([n, n, n], p).with_shading(geo.shading);
             let b = bound_cycles(&g);
             let r = array_cost(cfg, &g, target);
             scaling.push(ScaleRow {
