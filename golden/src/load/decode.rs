@@ -205,7 +205,7 @@ fn fit_or_rescale(vals: &[i64]) -> Vec<u16> {
 
 /// Maps the finite range of `vals` linearly onto 0..=65535; non-finite
 /// values become 0 and a constant volume becomes all 0.
-fn rescale(vals: impl Iterator<Item = f64> + Clone) -> Vec<u16> {
+pub(super) fn rescale(vals: impl Iterator<Item = f64> + Clone) -> Vec<u16> {
     let (lo, hi) = vals
         .clone()
         .filter(|v| v.is_finite())

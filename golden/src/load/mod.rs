@@ -1,6 +1,7 @@
 //! Volume loaders: headerless raw, VolPack `.den`, NIfTI-1 (`.nii`,
-//! `.nii.gz`), NRRD (`.nrrd`, `.nhdr`), MetaImage (`.mha`, `.mhd`) and
-//! TIFF stacks (a multi-page `.tif`, or a folder of single-page ones).
+//! `.nii.gz`), NRRD (`.nrrd`, `.nhdr`), MetaImage (`.mha`, `.mhd`), TIFF
+//! stacks (a multi-page `.tif`, or a folder of single-page ones) and DICOM
+//! series (a folder of slices).
 //!
 //! Every loader treats its input as untrusted: sizes come from a header or
 //! from the user, and they are checked against the file and against the
@@ -11,7 +12,8 @@
 //! byte sequence gives either a volume or a one-line [`Error`], never a
 //! panic.
 //!
-//! One module per format (`raw`, `den`, `nifti`, `nrrd`, `meta`, `tif`),
+//! One module per format (`raw`, `den`, `nifti`, `nrrd`, `meta`, `tif`,
+//! `dicom`),
 //! the shared decoding in `decode`: every format maps its stored types onto
 //! voxels by the same rule (the NIfTI loader's), so the same data through
 //! any format gives the same [`Volume`]. This module holds [`load_auto`],
@@ -28,6 +30,7 @@ use crate::volume::Volume;
 
 mod decode;
 mod den;
+mod dicom;
 mod meta;
 mod nifti;
 mod nrrd;
@@ -35,6 +38,7 @@ mod raw;
 mod tif;
 
 pub use den::load_den;
+pub use dicom::{load_dicom_dir, read_dicom_dir};
 pub use meta::{load_meta, read_meta};
 pub use nifti::load_nifti;
 pub use nrrd::{load_nrrd, read_nrrd};
@@ -57,10 +61,11 @@ pub struct Loaded {
 }
 
 const FORMATS: &str = "use .den, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .tif, .tiff, \
-                       a folder of .tif slices, or give --raw-dims";
+                       a folder of .tif slices or of DICOM slices, or give --raw-dims";
 
 /// Loads a volume, choosing the loader: a raw spec means [`load_raw`]; a
-/// folder means [`load_tiff_dir`]; otherwise the file name decides (any
+/// folder means [`load_dicom_dir`] if it holds any DICOM file (by its
+/// `DICM` magic), else [`load_tiff_dir`]; otherwise the file name decides (any
 /// case): `.den` -> [`load_den`], `.nii` or `.nii.gz` -> [`load_nifti`],
 /// `.nrrd` or `.nhdr` -> [`load_nrrd`], `.mha` or `.mhd` -> [`load_meta`],
 /// `.tif` or `.tiff` -> [`load_tiff`]. A file with another name is tried by
@@ -70,7 +75,11 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
         return load_raw(path, spec, limit);
     }
     if path.is_dir() {
-        return load_tiff_dir(path, limit);
+        return if dicom::dir_has_dicom(path) {
+            load_dicom_dir(path, limit)
+        } else {
+            load_tiff_dir(path, limit)
+        };
     }
     let name = path
         .file_name()
@@ -87,6 +96,11 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
         load_meta(path, limit)
     } else if has(&[".tif", ".tiff"]) {
         load_tiff(path, limit)
+    } else if has(&[".dcm"]) || dicom::is_dicom(path) {
+        Err(format_err(
+            path,
+            "a single DICOM file: give the folder that holds its series",
+        ))
     } else {
         match sniff(path) {
             Some(Sniffed::Nrrd) => load_nrrd(path, limit),
