@@ -15,7 +15,7 @@ use golden::render::{PrepareOptions, Prepared};
 use golden::scenes::{tf_preset, Scene};
 use golden::skip::Skips;
 use golden::tf::TransferFunction;
-use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
+use golden::volume::{Volume, Window, DEFAULT_MEMORY_LIMIT};
 
 /// Parses `x,y` into two finite numbers.
 pub fn parse_point2(s: &str) -> std::result::Result<[f64; 2], String> {
@@ -102,7 +102,8 @@ pub struct SourceArgs {
     #[arg(long, conflicts_with = "volume")]
     pub scene: Option<String>,
     /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), .nrrd/.nhdr (NRRD), .mha/.mhd
-    /// (MetaImage), .tif/.tiff or a folder of TIFF slices, or raw with --raw-dims.
+    /// (MetaImage), .tif/.tiff or a folder of TIFF slices, a folder of DICOM slices, or raw
+    /// with --raw-dims.
     #[arg(long)]
     pub volume: Option<PathBuf>,
     /// Raw volume dimensions X,Y,Z (x fastest).
@@ -117,6 +118,11 @@ pub struct SourceArgs {
     /// Voxel spacing x,y,z in world units (overrides the file's).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub spacing: Option<DVec3>,
+    /// Window lo,hi in the file's units (after any rescale, e.g. CT
+    /// Hounsfield units): lo..hi maps onto the 16-bit voxel range 0..65535,
+    /// values outside clamp. Default: the file's own range (see docs/golden.md).
+    #[arg(long, allow_hyphen_values = true)]
+    pub window: Option<Window>,
 }
 
 impl SourceArgs {
@@ -160,6 +166,10 @@ impl SourceArgs {
         };
         let vol = match self.spacing {
             Some(s) => vol.with_spacing(s.to_array())?,
+            None => vol,
+        };
+        let vol = match self.window {
+            Some(w) => vol.windowed(w),
             None => vol,
         };
         Ok((vol, tf))

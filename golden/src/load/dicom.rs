@@ -10,10 +10,10 @@ use dicom_object::mem::InMemElement;
 use dicom_object::{DefaultDicomObject, OpenFileOptions, Tag};
 use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder};
 
-use super::decode::rescale;
+use super::decode::{rescale, Decoded};
 use super::{format_err, from_file, io_err, open, Loaded};
 use crate::error::Result;
-use crate::volume::{check_dims, Volume, VoxelType, MAX_EDGE};
+use crate::volume::{check_dims, Units, Volume, VoxelType, MAX_EDGE};
 
 /// Transfer syntaxes whose pixel data this build decodes: the
 /// uncompressed ones, deflate, RLE lossless (all in `dicom-rs` itself) and
@@ -168,10 +168,12 @@ pub fn read_dicom_dir(dir: &Path, limit: u64) -> Result<Loaded> {
     for (_, s) in &keyed {
         read_pixels(s, &mut vals)?;
     }
-    let (kind, data) = map_values(&vals, first.bits);
+    let (kind, data, units) = map_values(&vals, first.bits);
     drop(vals);
     let spacing = [first.pixel_spacing[0], first.pixel_spacing[1], dz];
-    let volume = Volume::new(dims, kind, data)?.with_spacing(spacing)?;
+    let volume = Volume::new(dims, kind, data)?
+        .with_spacing(spacing)?
+        .with_units(units);
     Ok(Loaded {
         volume,
         origin: Some(keyed[0].1.position),
@@ -180,23 +182,22 @@ pub fn read_dicom_dir(dir: &Path, limit: u64) -> Result<Loaded> {
 }
 
 /// The shared mapping rule on rescaled values (see [`read_dicom_dir`]).
-fn map_values(vals: &[f64], bits: u16) -> (VoxelType, Vec<u16>) {
+fn map_values(vals: &[f64], bits: u16) -> Decoded {
     let integral = vals.iter().all(|v| v.fract() == 0.0 && v.abs() < 1e15);
     let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let shift = if lo < 0.0 { -lo } else { 0.0 };
+    let kept = |kind| {
+        let data = vals.iter().map(|&v| (v + shift) as u16).collect();
+        (kind, data, Units::shifted(-shift))
+    };
     if integral && hi + shift <= 255.0 && bits == 8 {
-        (
-            VoxelType::U8,
-            vals.iter().map(|&v| (v + shift) as u16).collect(),
-        )
+        kept(VoxelType::U8)
     } else if integral && hi + shift <= 65535.0 {
-        (
-            VoxelType::U16,
-            vals.iter().map(|&v| (v + shift) as u16).collect(),
-        )
+        kept(VoxelType::U16)
     } else {
-        (VoxelType::U16, rescale(vals.iter().copied()))
+        let (data, units) = rescale(vals.iter().copied());
+        (VoxelType::U16, data, units)
     }
 }
 

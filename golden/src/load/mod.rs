@@ -40,15 +40,17 @@ mod tif;
 pub use den::load_den;
 pub use dicom::{load_dicom_dir, read_dicom_dir};
 pub use meta::{load_meta, read_meta};
-pub use nifti::load_nifti;
+pub use nifti::{load_nifti, read_nifti};
 pub use nrrd::{load_nrrd, read_nrrd};
 pub use raw::{load_raw, RawSpec, RawType};
 pub use tif::{load_tiff, load_tiff_dir};
 
 /// A volume with the placement its header gave, for the formats that carry
-/// one (NRRD, MetaImage). Rendering ignores the placement: voxel
+/// one (NIfTI, NRRD, MetaImage, DICOM), in LPS world space (see
+/// [`crate::orient`]). By default rendering ignores the placement: voxel
 /// `(i, j, k)` of the file is voxel `(x, y, z)` of the volume whatever the
-/// directions say; only the spacing is used.
+/// directions say, and only the spacing is used; `--space world` applies
+/// it ([`crate::orient::to_world_grid`]).
 #[derive(Debug, Clone)]
 pub struct Loaded {
     /// The voxels and the spacing.
@@ -107,7 +109,7 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
             Some(Sniffed::Tiff) => load_tiff(path, limit),
             Some(Sniffed::Nifti) => load_nifti(path, limit),
             Some(Sniffed::Meta) => load_meta(path, limit),
-            None => Err(input(format!(
+            Some(Sniffed::Dicom) | None => Err(input(format!(
                 "unknown volume format for {}: {FORMATS}",
                 path.display()
             ))),
@@ -115,8 +117,45 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
     }
 }
 
+/// [`load_auto`] with the placement, for the formats that carry one (raw,
+/// `.den` and TIFF have none).
+pub fn load_placed(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Loaded> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let has = |exts: &[&str]| exts.iter().any(|e| name.ends_with(e));
+    let placed = if raw.is_some() {
+        None
+    } else if path.is_dir() {
+        dicom::dir_has_dicom(path).then_some(Sniffed::Dicom)
+    } else if has(&[".nii", ".nii.gz"]) {
+        Some(Sniffed::Nifti)
+    } else if has(&[".nrrd", ".nhdr"]) {
+        Some(Sniffed::Nrrd)
+    } else if has(&[".mha", ".mhd"]) {
+        Some(Sniffed::Meta)
+    } else if has(&[".den", ".tif", ".tiff"]) {
+        None
+    } else {
+        sniff(path)
+    };
+    match placed {
+        Some(Sniffed::Dicom) => read_dicom_dir(path, limit),
+        Some(Sniffed::Nifti) => read_nifti(path, limit),
+        Some(Sniffed::Nrrd) => read_nrrd(path, limit),
+        Some(Sniffed::Meta) => read_meta(path, limit),
+        _ => Ok(Loaded {
+            volume: load_auto(path, raw, limit)?,
+            origin: None,
+            axes: None,
+        }),
+    }
+}
+
 /// Formats recognisable by their first bytes.
 enum Sniffed {
+    Dicom,
     Nrrd,
     Tiff,
     Nifti,
