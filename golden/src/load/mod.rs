@@ -410,11 +410,23 @@ mod tests {
                 ("f.nrrd", fixture("vol_f32_gz.nrrd")),
                 ("f.mha", fixture("vol_u16.mha")),
                 ("f.tif", fixture("vol_u16.tif")),
+                ("f.nii", fixture("head_ras.nii")),
+                ("f.nrrd", fixture("head_perm.nrrd")),
+                ("f.mha", fixture("head_perm.mha")),
             ]
         }
 
-        const NAMES: [&str; 9] = [
+        /// Loading gives a volume or a one-line error.
+        fn check(r: Result<Volume>) -> std::result::Result<(), TestCaseError> {
+            if let Err(e) = r {
+                prop_assert!(!e.to_string().contains('\n'), "{}", e);
+            }
+            Ok(())
+        }
+
+        const NAMES: [&str; 10] = [
             "g.den", "g.nii", "g.nii.gz", "g.nrrd", "g.nhdr", "g.mha", "g.mhd", "g.tif", "g.dat",
+            "g.dcm",
         ];
 
         proptest! {
@@ -424,7 +436,7 @@ mod tests {
             /// allocates past a small limit (an absurd header errors out).
             #[test]
             fn corrupted_files_never_panic(
-                which in 0usize..7,
+                which in 0usize..10,
                 edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
                 cut in any::<prop::sample::Index>(),
                 do_cut in any::<bool>(),
@@ -439,7 +451,8 @@ mod tests {
                     bytes.truncate(cut.index(bytes.len() + 1));
                 }
                 let path = write(&dir, name, &bytes);
-                let _ = load_auto(&path, None, 1 << 16);
+                check(load_auto(&path, None, 1 << 16))?;
+                check(load_placed(&path, None, 1 << 16).map(|l| l.volume))?;
             }
 
             #[test]
@@ -450,7 +463,7 @@ mod tests {
                 let dir = tempfile::tempdir().unwrap();
                 let name = NAMES[which];
                 let path = write(&dir, name, &bytes);
-                let _ = load_auto(&path, None, 1 << 16);
+                check(load_auto(&path, None, 1 << 16))?;
             }
         }
     }

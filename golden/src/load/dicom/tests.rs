@@ -185,5 +185,21 @@ mod fuzz {
                 prop_assert!(!e.to_string().contains('\n'), "{}", e);
             }
         }
+
+        /// Random bytes after a valid preamble and magic (so the parser,
+        /// not the magic check, meets them) are refused in one line.
+        #[test]
+        fn random_bytes_after_the_magic_never_panic(
+            body in prop::collection::vec(any::<u8>(), 0..400),
+        ) {
+            let dir = tempfile::tempdir().unwrap();
+            let mut bytes = vec![0u8; 128];
+            bytes.extend_from_slice(b"DICM");
+            bytes.extend_from_slice(&body);
+            std::fs::write(dir.path().join("s"), &bytes).unwrap();
+            let e = load_dicom_dir(dir.path(), 1 << 16).map(|v| v.dims());
+            prop_assert!(e.is_err());
+            prop_assert!(!e.unwrap_err().to_string().contains('\n'));
+        }
     }
 }
