@@ -41,8 +41,9 @@ const NIFTI_TYPES: &str = "use uint8, int16, uint16 or float32";
 ///
 /// `scl_slope`/`scl_inter` are not applied: transfer functions are written
 /// in stored units, a positive linear scaling only relabels the scalar axis,
-/// and float data is rescaled anyway. The orientation (qform/sform) is
-/// ignored: voxel `(i, j, k)` of the file is voxel `(x, y, z)`. The spacing
+/// and float data is rescaled anyway. Voxel `(i, j, k)` of the file is
+/// voxel `(x, y, z)`; the orientation (qform/sform) is returned by
+/// [`read_nifti`] for `--space world`, not applied here. The spacing
 /// is `|pixdim[1..4]|`, in the file's units; a zero or non-finite entry is
 /// taken as 1.
 ///
@@ -229,6 +230,42 @@ fn nifti_err(path: &Path, e: nifti::NiftiError) -> Error {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+
+    #[test]
+    fn placement_prefers_the_sform_then_the_qform_in_lps() {
+        // The qform: 180 degrees about z (RAS), qfac -1 flips k.
+        let mut h = nifti::NiftiHeader {
+            qform_code: 1,
+            sform_code: 0,
+            quatern_d: 1.0,
+            quatern_x: 10.0,
+            quatern_y: 20.0,
+            quatern_z: 30.0,
+            ..Default::default()
+        };
+        h.pixdim[0] = -1.0;
+        let (o, a) = placement(&h);
+        assert_eq!(o, Some([-10.0, -20.0, 30.0]));
+        assert_eq!(
+            a,
+            Some([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
+        );
+        // An sform wins: i along A (RAS +y) at 2 mm, j along R, k along S.
+        h.sform_code = 2;
+        h.srow_x = [0.0, 1.5, 0.0, 4.0];
+        h.srow_y = [2.0, 0.0, 0.0, 5.0];
+        h.srow_z = [0.0, 0.0, 3.0, 6.0];
+        let (o, a) = placement(&h);
+        assert_eq!(o, Some([-4.0, -5.0, 6.0]));
+        assert_eq!(
+            a,
+            Some([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        );
+        // Neither: no placement.
+        h.sform_code = 0;
+        h.qform_code = 0;
+        assert_eq!(placement(&h), (None, None));
+    }
     use crate::load::tests::{assert_err, gzip, pattern, write};
     use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 
