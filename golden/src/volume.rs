@@ -42,6 +42,64 @@ impl VoxelType {
     }
 }
 
+/// How a volume's voxel values relate to the values its file stored
+/// (after any rescale the format defines, e.g. DICOM's slope and
+/// intercept): file value = `base + step * voxel`. Loaders set it from the
+/// mapping rule they applied; built volumes have [`Units::IDENTITY`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Units {
+    /// The file value of voxel value 0.
+    pub base: f64,
+    /// File units per voxel step.
+    pub step: f64,
+}
+
+impl Units {
+    /// Voxel values are the file's.
+    pub const IDENTITY: Units = Units {
+        base: 0.0,
+        step: 1.0,
+    };
+
+    /// Voxel values are the file's minus `base` (an integer offset).
+    pub fn shifted(base: f64) -> Units {
+        Units { base, step: 1.0 }
+    }
+
+    /// The file value of voxel value `v`.
+    pub fn value(self, v: f64) -> f64 {
+        self.base + self.step * v
+    }
+}
+
+/// A window onto file values (`--window lo,hi`): file values `lo..=hi`
+/// map linearly onto voxel values `0..=65535`, values outside clamp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// The file value that becomes voxel 0.
+    pub lo: f64,
+    /// The file value that becomes voxel 65535.
+    pub hi: f64,
+}
+
+impl std::str::FromStr for Window {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Window, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| format!("window '{s}' is not two comma-separated numbers lo,hi"))?;
+        match v[..] {
+            [lo, hi] if lo.is_finite() && hi.is_finite() && lo < hi => Ok(Window { lo, hi }),
+            [_, _] => Err(format!("window '{s}' needs finite lo < hi")),
+            _ => Err(format!(
+                "window '{s}' is not two comma-separated numbers lo,hi"
+            )),
+        }
+    }
+}
+
 /// A scalar volume on a regular grid.
 #[derive(Debug, Clone)]
 pub struct Volume {
@@ -49,6 +107,7 @@ pub struct Volume {
     spacing: [f64; 3],
     kind: VoxelType,
     data: Vec<u16>,
+    units: Units,
 }
 
 /// Checks that `dims` are sane and that `bytes_per_voxel * voxel count` fits
@@ -97,6 +156,7 @@ impl Volume {
             spacing: [1.0; 3],
             kind,
             data,
+            units: Units::IDENTITY,
         })
     }
 
@@ -133,6 +193,44 @@ impl Volume {
         }
         self.spacing = spacing;
         Ok(self)
+    }
+
+    /// Records how the voxel values relate to the file's (see [`Units`]).
+    pub fn with_units(mut self, units: Units) -> Volume {
+        self.units = units;
+        self
+    }
+
+    /// How the voxel values relate to the file's.
+    pub fn units(&self) -> Units {
+        self.units
+    }
+
+    /// The volume seen through `w`: each voxel's file value `f`
+    /// ([`Volume::units`]) becomes `round((clamp(f, lo, hi) - lo) * 65535
+    /// / (hi - lo))`, a 16-bit volume whatever the input type, so a window
+    /// narrower than the data spreads it over the whole table rather than
+    /// squeezing it. Exact for integer data (step 1); float data was
+    /// quantised to 65536 levels over its range on loading, and the window
+    /// maps those levels.
+    pub fn windowed(&self, w: Window) -> Volume {
+        let scale = 65535.0 / (w.hi - w.lo);
+        let u = self.units;
+        let data = self
+            .data
+            .iter()
+            .map(|&v| ((u.value(v as f64).clamp(w.lo, w.hi) - w.lo) * scale).round() as u16)
+            .collect();
+        Volume {
+            dims: self.dims,
+            spacing: self.spacing,
+            kind: VoxelType::U16,
+            data,
+            units: Units {
+                base: w.lo,
+                step: 1.0 / scale,
+            },
+        }
     }
 
     /// Voxel counts along x, y, z.
@@ -196,5 +294,23 @@ mod tests {
         assert_eq!(v.data()[x + 3 * (y + 4 * z)], (1 + 20 + 100) as u16);
         assert!(Volume::new([2, 2, 2], VoxelType::U8, vec![300; 8]).is_err());
         assert!(Volume::new([2, 2, 2], VoxelType::U8, vec![0; 7]).is_err());
+    }
+
+    #[test]
+    fn a_window_maps_file_values_onto_the_16_bit_range() {
+        // CT-like: voxels are HU + 1024.
+        let v = Volume::new([4, 1, 1], VoxelType::U16, vec![0, 1024, 1064, 4095])
+            .unwrap()
+            .with_units(Units::shifted(-1024.0));
+        let w: Window = "-40,80".parse().unwrap();
+        let out = v.windowed(w);
+        assert_eq!(out.kind(), VoxelType::U16);
+        // -1024 clamps to -40 (0); 0 HU is 40/120 of the way; 40 HU is 2/3.
+        assert_eq!(out.data(), &[0, 21845, 43690, 65535]);
+        assert_eq!(out.units().value(21845.0).round(), 0.0);
+        for bad in ["1", "2,1", "a,b", "0,inf", "1,2,3"] {
+            let e = bad.parse::<Window>().unwrap_err();
+            assert!(e.contains("window"), "{e}");
+        }
     }
 }

@@ -19,6 +19,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::{DMat3, DVec3};
 use golden::camera::Camera;
+use golden::orient::WorldFrame;
 use golden::render::{lut_for, render, Prepared};
 use image::codecs::gif::{GifEncoder, Repeat};
 use image::{Delay, Frame, RgbaImage};
@@ -67,8 +68,15 @@ pub struct AnimateArgs {
     pub threads: Option<usize>,
 }
 
-/// The eyes (and look-at points) of the path.
-fn path_of(a: &AnimateArgs, first: &Camera) -> Result<Vec<(DVec3, DVec3)>> {
+/// The eyes (and look-at points) of the path, in the volume's frame (a
+/// path file's points are in the `--space` of the camera flags, moved into
+/// the volume's frame by `frame` under `--space world`).
+fn path_of(
+    a: &AnimateArgs,
+    first: &Camera,
+    frame: Option<&WorldFrame>,
+) -> Result<Vec<(DVec3, DVec3)>> {
+    let to_volume = |p: DVec3| frame.map_or(p, |f| f.point_to_volume(p));
     if let Some(p) = &a.path {
         let len = std::fs::metadata(p)
             .with_context(|| format!("cannot read --path {}", p.display()))?
@@ -90,10 +98,10 @@ fn path_of(a: &AnimateArgs, first: &Camera) -> Result<Vec<(DVec3, DVec3)>> {
             let bad = |e: String| anyhow::anyhow!("{} line {}: {e}", p.display(), n + 1);
             let (eye, look) = match line.split_once(" look ") {
                 Some((e, l)) => (
-                    parse_vec3(e.trim()).map_err(bad)?,
-                    parse_vec3(l.trim()).map_err(bad)?,
+                    to_volume(parse_vec3(e.trim()).map_err(bad)?),
+                    to_volume(parse_vec3(l.trim()).map_err(bad)?),
                 ),
-                None => (parse_vec3(line).map_err(bad)?, first.look_at),
+                None => (to_volume(parse_vec3(line).map_err(bad)?), first.look_at),
             };
             out.push((eye, look));
             if out.len() > MAX_FRAMES {
@@ -143,11 +151,11 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
     let mut opts = a.slice.options()?;
     let prep_opts = a.slice.prepare()?;
     let t0 = Instant::now();
-    let (vol, tf, first) = a.view.load()?;
+    let (vol, tf, first, frame) = a.view.load_framed()?;
     a.slice.apply_tf(&mut opts, &tf)?;
     let lut = lut_for(vol.kind(), &tf);
     let load_s = t0.elapsed().as_secs_f64();
-    let path = path_of(a, &first)?;
+    let path = path_of(a, &first, frame.as_ref())?;
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
     let bar = progress(path.len() as u64);

@@ -10,12 +10,13 @@ use glam::DVec3;
 
 use golden::camera::{Camera, ImagePlane};
 use golden::clip::ClipPlane;
-use golden::load::{load_auto, RawSpec, RawType};
+use golden::load::{load_placed, Loaded, RawSpec, RawType};
+use golden::orient::{to_world_grid, WorldFrame};
 use golden::render::{PrepareOptions, Prepared};
 use golden::scenes::{tf_preset, Scene};
 use golden::skip::Skips;
 use golden::tf::TransferFunction;
-use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
+use golden::volume::{Volume, Window, DEFAULT_MEMORY_LIMIT};
 
 /// Parses `x,y` into two finite numbers.
 pub fn parse_point2(s: &str) -> std::result::Result<[f64; 2], String> {
@@ -102,7 +103,8 @@ pub struct SourceArgs {
     #[arg(long, conflicts_with = "volume")]
     pub scene: Option<String>,
     /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), .nrrd/.nhdr (NRRD), .mha/.mhd
-    /// (MetaImage), .tif/.tiff or a folder of TIFF slices, or raw with --raw-dims.
+    /// (MetaImage), .tif/.tiff or a folder of TIFF slices, a folder of DICOM slices, or raw
+    /// with --raw-dims.
     #[arg(long)]
     pub volume: Option<PathBuf>,
     /// Raw volume dimensions X,Y,Z (x fastest).
@@ -117,6 +119,11 @@ pub struct SourceArgs {
     /// Voxel spacing x,y,z in world units (overrides the file's).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub spacing: Option<DVec3>,
+    /// Window lo,hi in the file's units (after any rescale, e.g. CT
+    /// Hounsfield units): lo..hi maps onto the 16-bit voxel range 0..65535,
+    /// values outside clamp. Default: the file's own range (see docs/golden.md).
+    #[arg(long, allow_hyphen_values = true)]
+    pub window: Option<Window>,
 }
 
 impl SourceArgs {
@@ -134,15 +141,30 @@ impl SourceArgs {
 
     /// Loads or builds the volume and names its default transfer function.
     pub fn load(&self) -> Result<(Volume, TransferFunction)> {
+        let (loaded, tf) = self.load_placed()?;
+        Ok((loaded.volume, tf))
+    }
+
+    /// [`SourceArgs::load`] with the file's placement in world space, if it
+    /// has one (scenes, raw, `.den` and TIFF have none). `--spacing`
+    /// replaces the file's spacing along its own index axes; `--window`
+    /// is applied last.
+    pub fn load_placed(&self) -> Result<(Loaded, TransferFunction)> {
         if self.scene.is_some() && self.raw_dims.is_some() {
             bail!(
                 "--raw-dims, --raw-type and --raw-offset describe a --volume file, not a --scene"
             );
         }
-        let (vol, tf) = match (&self.scene, &self.volume) {
+        let (mut loaded, tf) = match (&self.scene, &self.volume) {
             (Some(spec), None) => {
                 let scene: Scene = spec.parse()?;
-                (scene.build(DEFAULT_MEMORY_LIMIT)?, scene.preset())
+                let volume = scene.build(DEFAULT_MEMORY_LIMIT)?;
+                let placed = Loaded {
+                    volume,
+                    origin: None,
+                    axes: None,
+                };
+                (placed, scene.preset())
             }
             (None, Some(path)) => {
                 let raw = self.raw_dims.map(|dims| RawSpec {
@@ -151,18 +173,20 @@ impl SourceArgs {
                     offset: self.raw_offset,
                 });
                 (
-                    load_auto(path, raw.as_ref(), DEFAULT_MEMORY_LIMIT)?,
+                    load_placed(path, raw.as_ref(), DEFAULT_MEMORY_LIMIT)?,
                     tf_preset("grey-ramp")?,
                 )
             }
             (None, None) => bail!("no volume: give --scene SPEC or --volume FILE"),
             (Some(_), Some(_)) => bail!("give either --scene or --volume, not both"),
         };
-        let vol = match self.spacing {
-            Some(s) => vol.with_spacing(s.to_array())?,
-            None => vol,
-        };
-        Ok((vol, tf))
+        if let Some(s) = self.spacing {
+            loaded.volume = loaded.volume.with_spacing(s.to_array())?;
+        }
+        if let Some(w) = self.window {
+            loaded.volume = loaded.volume.windowed(w);
+        }
+        Ok((loaded, tf))
     }
 }
 
@@ -192,13 +216,29 @@ impl ViewArgs {
     /// the camera against it (in that order, so the first bad argument is
     /// the one reported).
     pub fn load(&self) -> Result<(Volume, TransferFunction, Camera)> {
-        let (vol, default_tf) = {
+        let (vol, tf, cam, _) = self.load_framed()?;
+        Ok((vol, tf, cam))
+    }
+
+    /// [`ViewArgs::load`], and with `--space world` the volume put on the
+    /// world axes ([`to_world_grid`]) and its frame (the camera is already
+    /// moved into the volume's frame; the frame converts further world
+    /// points, e.g. a path file's eyes).
+    pub fn load_framed(&self) -> Result<(Volume, TransferFunction, Camera, Option<WorldFrame>)> {
+        let (loaded, default_tf) = {
             let _s = super::progress::Stage::start("loading volume");
-            self.source.load()?
+            self.source.load_placed()?
+        };
+        let (vol, frame) = match self.camera.space {
+            SpaceArg::Voxel => (loaded.volume, None),
+            SpaceArg::World => {
+                let (vol, frame) = to_world_grid(&loaded)?;
+                (vol, Some(frame))
+            }
         };
         let tf = self.tf.resolve(default_tf)?;
-        let cam = self.camera.camera(&vol)?;
-        Ok((vol, tf, cam))
+        let cam = self.camera.camera_in(&vol, frame.as_ref())?;
+        Ok((vol, tf, cam, frame))
     }
 }
 
@@ -212,9 +252,15 @@ pub struct CameraArgs {
     /// Point looked at (default: the volume centre).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<DVec3>,
-    /// Up direction.
-    #[arg(long, value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
-    pub up: DVec3,
+    /// Up direction (default 0,1,0 in voxel space; 0,0,1, the head, in world space).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<DVec3>,
+    /// The space --eye, --look-at and --up are given in: voxel (the volume's
+    /// index axes times spacing, origin at voxel 0) or world (the file's
+    /// patient space, LPS millimetres: +x left, +y posterior, +z superior;
+    /// NIfTI's RAS is converted by negating x and y). See docs/golden.md.
+    #[arg(long, value_enum, default_value_t = SpaceArg::Voxel)]
+    pub space: SpaceArg,
     /// Vertical field of view in degrees, in (0, 180).
     #[arg(long, default_value_t = 60.0, allow_hyphen_values = true)]
     pub fov: f64,
@@ -226,18 +272,46 @@ pub struct CameraArgs {
     pub image_plane: PlaneArg,
 }
 
+/// Which space the camera's points are given in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SpaceArg {
+    /// The volume's own axes: voxel index times spacing.
+    Voxel,
+    /// The file's patient space (LPS, mm), from its direction cosines.
+    World,
+}
+
 impl CameraArgs {
-    /// The camera for `vol`.
-    pub fn camera(&self, vol: &Volume) -> Result<Camera> {
+    /// The camera for `vol`; with a frame, `--eye`, `--look-at` and `--up`
+    /// are world (LPS) values moved into the volume's frame, and the
+    /// default eye looks at the volume's centre from anterior (-y), head
+    /// up (+z).
+    pub fn camera_in(&self, vol: &Volume, frame: Option<&WorldFrame>) -> Result<Camera> {
         let centre = DVec3::from_array(vol.center_world());
-        let look = self.look_at.unwrap_or(centre);
-        let eye = self.eye.unwrap_or_else(|| {
-            let depth = (0..3)
-                .map(|k| vol.dims()[k] as f64 * vol.spacing()[k])
-                .fold(0.0, f64::max);
-            centre - DVec3::Z * (centre.z + 1.5 * depth)
-        });
-        let mut cam = Camera::new(eye, look, self.up, self.fov, self.size[0], self.size[1])?;
+        let depth = (0..3)
+            .map(|k| vol.dims()[k] as f64 * vol.spacing()[k])
+            .fold(0.0, f64::max);
+        let (eye, look, up) = match frame {
+            None => {
+                let look = self.look_at.unwrap_or(centre);
+                let eye = self
+                    .eye
+                    .unwrap_or_else(|| centre - DVec3::Z * (centre.z + 1.5 * depth));
+                (eye, look, self.up.unwrap_or(DVec3::Y))
+            }
+            Some(f) => {
+                let centre_w = f.point_to_world(centre);
+                let look = self.look_at.unwrap_or(centre_w);
+                let eye = self.eye.unwrap_or(centre_w - DVec3::Y * (2.0 * depth));
+                let up = self.up.unwrap_or(DVec3::Z);
+                (
+                    f.point_to_volume(eye),
+                    f.point_to_volume(look),
+                    f.dir_to_volume(up),
+                )
+            }
+        };
+        let mut cam = Camera::new(eye, look, up, self.fov, self.size[0], self.size[1])?;
         cam.image_plane = match self.image_plane {
             PlaneArg::Camera => ImagePlane::Camera,
             PlaneArg::Front => ImagePlane::Front,

@@ -10,7 +10,7 @@ use std::str::FromStr;
 
 use super::{data_err, format_err, RawType};
 use crate::error::Result;
-use crate::volume::VoxelType;
+use crate::volume::{Units, VoxelType};
 
 /// Bytes decoded per read: a multiple of every voxel size, small enough to
 /// be irrelevant next to the volume.
@@ -101,6 +101,9 @@ impl Scalar {
 ///   0..=65535 and rounded; NaN and infinite values become 0; a constant
 ///   volume becomes all 0.
 ///
+/// The [`Units`] returned say how each voxel relates to the stored value
+/// (`base + step * voxel`), for `--window`.
+///
 /// `offset` is where the data starts, for messages.
 pub(super) fn read_scalars(
     path: &Path,
@@ -109,12 +112,17 @@ pub(super) fn read_scalars(
     scalar: Scalar,
     big: bool,
     offset: u64,
-) -> Result<(VoxelType, Vec<u16>)> {
+) -> Result<Decoded> {
     let u16_enc = if big { RawType::U16Be } else { RawType::U16Le };
     let n = scalar.bytes();
+    let id = Units::IDENTITY;
     Ok(match scalar {
-        Scalar::U8 => (VoxelType::U8, decode(path, r, count, RawType::U8, offset)?),
-        Scalar::U16 => (VoxelType::U16, decode(path, r, count, u16_enc, offset)?),
+        Scalar::U8 => (
+            VoxelType::U8,
+            decode(path, r, count, RawType::U8, offset)?,
+            id,
+        ),
+        Scalar::U16 => (VoxelType::U16, decode(path, r, count, u16_enc, offset)?, id),
         Scalar::I8 => {
             let mut data = decode(path, r, count, RawType::U8, offset)?;
             // Bits were stored as read; reinterpret as i8 to find the floor.
@@ -124,7 +132,7 @@ pub(super) fn read_scalars(
                     *v = (*v as u8 as i8 as i32 - min as i32) as u16;
                 }
             }
-            (VoxelType::U8, data)
+            (VoxelType::U8, data, Units::shifted(min.min(0) as f64))
         }
         Scalar::I16 => {
             let mut data = decode(path, r, count, u16_enc, offset)?;
@@ -135,20 +143,23 @@ pub(super) fn read_scalars(
                     *v = (*v as i16 as i32 - min as i32) as u16;
                 }
             }
-            (VoxelType::U16, data)
+            (VoxelType::U16, data, Units::shifted(min.min(0) as f64))
         }
         Scalar::U32 => {
             let vals = decode_wide(path, r, count, n, offset, |b| word(b, big) as i64)?;
-            (VoxelType::U16, fit_or_rescale(&vals))
+            let (data, units) = fit_or_rescale(&vals);
+            (VoxelType::U16, data, units)
         }
         Scalar::I32 => {
             let vals = decode_wide(path, r, count, n, offset, |b| word(b, big) as i32)?;
             let vals: Vec<i64> = vals.into_iter().map(i64::from).collect();
-            (VoxelType::U16, fit_or_rescale(&vals))
+            let (data, units) = fit_or_rescale(&vals);
+            (VoxelType::U16, data, units)
         }
         Scalar::F32 => {
             let vals = decode_wide(path, r, count, n, offset, |b| f32::from_bits(word(b, big)))?;
-            (VoxelType::U16, rescale(vals.iter().map(|&v| v as f64)))
+            let (data, units) = rescale(vals.iter().map(|&v| v as f64));
+            (VoxelType::U16, data, units)
         }
         Scalar::F64 => {
             let vals = decode_wide(path, r, count, n, offset, |b| {
@@ -159,10 +170,15 @@ pub(super) fn read_scalars(
                     f64::from_le_bytes(b)
                 }
             })?;
-            (VoxelType::U16, rescale(vals.iter().copied()))
+            let (data, units) = rescale(vals.iter().copied());
+            (VoxelType::U16, data, units)
         }
     })
 }
+
+/// Voxels as a loader returns them: the type, the values, and how they
+/// relate to the stored ones.
+pub(super) type Decoded = (VoxelType, Vec<u16>, Units);
 
 /// A 4-byte word in the given byte order.
 fn word(b: &[u8], big: bool) -> u32 {
@@ -192,12 +208,13 @@ fn decode_wide<T>(
 
 /// Wide integers: offset by minus a negative minimum, kept when the result
 /// fits `u16`, otherwise mapped linearly onto 0..=65535.
-fn fit_or_rescale(vals: &[i64]) -> Vec<u16> {
+fn fit_or_rescale(vals: &[i64]) -> (Vec<u16>, Units) {
     let lo = vals.iter().copied().min().unwrap_or(0);
     let hi = vals.iter().copied().max().unwrap_or(0);
     let shift = if lo < 0 { -lo } else { 0 };
     if hi + shift <= u16::MAX as i64 {
-        vals.iter().map(|&v| (v + shift) as u16).collect()
+        let data = vals.iter().map(|&v| (v + shift) as u16).collect();
+        (data, Units::shifted(-shift as f64))
     } else {
         rescale(vals.iter().map(|&v| v as f64))
     }
@@ -205,7 +222,7 @@ fn fit_or_rescale(vals: &[i64]) -> Vec<u16> {
 
 /// Maps the finite range of `vals` linearly onto 0..=65535; non-finite
 /// values become 0 and a constant volume becomes all 0.
-fn rescale(vals: impl Iterator<Item = f64> + Clone) -> Vec<u16> {
+pub(super) fn rescale(vals: impl Iterator<Item = f64> + Clone) -> (Vec<u16>, Units) {
     let (lo, hi) = vals
         .clone()
         .filter(|v| v.is_finite())
@@ -213,14 +230,20 @@ fn rescale(vals: impl Iterator<Item = f64> + Clone) -> Vec<u16> {
             (lo.min(v), hi.max(v))
         });
     let scale = if hi > lo { 65535.0 / (hi - lo) } else { 0.0 };
-    vals.map(|v| {
-        if v.is_finite() {
-            ((v - lo) * scale).round().clamp(0.0, 65535.0) as u16
-        } else {
-            0
-        }
-    })
-    .collect()
+    let units = Units {
+        base: if lo.is_finite() { lo } else { 0.0 },
+        step: if hi > lo { (hi - lo) / 65535.0 } else { 1.0 },
+    };
+    let data = vals
+        .map(|v| {
+            if v.is_finite() {
+                ((v - lo) * scale).round().clamp(0.0, 65535.0) as u16
+            } else {
+                0
+            }
+        })
+        .collect();
+    (data, units)
 }
 
 /// Feeds `count * elem` bytes from `r` to `sink` in whole-voxel chunks;
@@ -384,7 +407,31 @@ mod tests {
 
     fn run(scalar: Scalar, bytes: &[u8], big: bool) -> Result<(VoxelType, Vec<u16>)> {
         let n = bytes.len() / scalar.bytes();
-        read_scalars(Path::new("t"), Cursor::new(bytes), n, scalar, big, 0)
+        read_scalars(Path::new("t"), Cursor::new(bytes), n, scalar, big, 0).map(|(k, d, _)| (k, d))
+    }
+
+    #[test]
+    fn units_give_back_the_stored_values() {
+        let units = |s: Scalar, b: &[u8]| {
+            let n = b.len() / s.bytes();
+            let (_, d, u) = read_scalars(Path::new("t"), Cursor::new(b), n, s, false, 0).unwrap();
+            d.iter().map(|&v| u.value(v as f64)).collect::<Vec<_>>()
+        };
+        let i16s: Vec<u8> = [-1024i16, 0, 3071]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        assert_eq!(units(Scalar::I16, &i16s), [-1024.0, 0.0, 3071.0]);
+        assert_eq!(units(Scalar::U8, &[0, 9]), [0.0, 9.0]);
+        let f32s: Vec<u8> = [-2.0f32, 0.5, 3.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let back = units(Scalar::F32, &f32s);
+        // Floats come back to within half a 16-bit level of their range.
+        for (b, w) in back.iter().zip([-2.0, 0.5, 3.0]) {
+            assert!((b - w).abs() <= 0.5 * 5.0 / 65535.0 + 1e-12, "{b} vs {w}");
+        }
     }
 
     #[test]
@@ -449,7 +496,8 @@ mod tests {
     fn short_data_is_truncated_for_every_type() {
         for s in [Scalar::U8, Scalar::I16, Scalar::U32, Scalar::F64] {
             let bytes = vec![1u8; 3 * s.bytes() - 1];
-            let r = read_scalars(Path::new("t"), Cursor::new(&bytes), 3, s, false, 9);
+            let r = read_scalars(Path::new("t"), Cursor::new(&bytes), 3, s, false, 9)
+                .map(|(k, _, _)| k);
             let e = r.unwrap_err().to_string();
             let want = format!("expected {} bytes of voxel data at offset 9", 3 * s.bytes());
             assert!(e.contains(&want), "{s:?}: {e}");

@@ -5,12 +5,12 @@ use std::collections::HashMap;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::decode::{clip, inflate, numbers, read_scalars, HeaderReader, Scalar};
+use super::decode::{clip, inflate, numbers, read_scalars, Decoded, HeaderReader, Scalar};
 use super::{
     beside, file_len, format_err, from_file, io_err, open, spacing_or_one, unit_axes, Loaded,
 };
 use crate::error::Result;
-use crate::volume::{check_dims, Volume, VoxelType};
+use crate::volume::{check_dims, Volume};
 
 const TYPES: &str = "use MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, MET_UINT, MET_INT, \
                      MET_FLOAT or MET_DOUBLE";
@@ -97,8 +97,10 @@ pub fn read_meta(path: &Path, limit: u64) -> Result<Loaded> {
         DataFile::Local => (path.to_owned(), hr.used),
         DataFile::File(name) => (beside(path, name), h.header_size.max(0) as u64),
     };
-    let (kind, data) = read_data(&data_path, &h, count, start)?;
-    let volume = Volume::new(h.dims, kind, data)?.with_spacing(h.spacing)?;
+    let (kind, data, units) = read_data(&data_path, &h, count, start)?;
+    let volume = Volume::new(h.dims, kind, data)?
+        .with_spacing(h.spacing)?
+        .with_units(units);
     Ok(Loaded {
         volume,
         origin: h.origin,
@@ -107,7 +109,7 @@ pub fn read_meta(path: &Path, limit: u64) -> Result<Loaded> {
 }
 
 /// Reads the voxels of `path` from byte `start`.
-fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<(VoxelType, Vec<u16>)> {
+fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<Decoded> {
     let file = open(path)?;
     let len = file_len(&file, path)?;
     let total = count as u64 * h.scalar.bytes() as u64;

@@ -1,6 +1,7 @@
 //! Volume loaders: headerless raw, VolPack `.den`, NIfTI-1 (`.nii`,
-//! `.nii.gz`), NRRD (`.nrrd`, `.nhdr`), MetaImage (`.mha`, `.mhd`) and
-//! TIFF stacks (a multi-page `.tif`, or a folder of single-page ones).
+//! `.nii.gz`), NRRD (`.nrrd`, `.nhdr`), MetaImage (`.mha`, `.mhd`), TIFF
+//! stacks (a multi-page `.tif`, or a folder of single-page ones) and DICOM
+//! series (a folder of slices).
 //!
 //! Every loader treats its input as untrusted: sizes come from a header or
 //! from the user, and they are checked against the file and against the
@@ -11,7 +12,8 @@
 //! byte sequence gives either a volume or a one-line [`Error`], never a
 //! panic.
 //!
-//! One module per format (`raw`, `den`, `nifti`, `nrrd`, `meta`, `tif`),
+//! One module per format (`raw`, `den`, `nifti`, `nrrd`, `meta`, `tif`,
+//! `dicom`),
 //! the shared decoding in `decode`: every format maps its stored types onto
 //! voxels by the same rule (the NIfTI loader's), so the same data through
 //! any format gives the same [`Volume`]. This module holds [`load_auto`],
@@ -28,6 +30,7 @@ use crate::volume::Volume;
 
 mod decode;
 mod den;
+mod dicom;
 mod meta;
 mod nifti;
 mod nrrd;
@@ -35,16 +38,19 @@ mod raw;
 mod tif;
 
 pub use den::load_den;
+pub use dicom::{load_dicom_dir, read_dicom_dir};
 pub use meta::{load_meta, read_meta};
-pub use nifti::load_nifti;
+pub use nifti::{load_nifti, read_nifti};
 pub use nrrd::{load_nrrd, read_nrrd};
 pub use raw::{load_raw, RawSpec, RawType};
 pub use tif::{load_tiff, load_tiff_dir};
 
 /// A volume with the placement its header gave, for the formats that carry
-/// one (NRRD, MetaImage). Rendering ignores the placement: voxel
+/// one (NIfTI, NRRD, MetaImage, DICOM), in LPS world space (see
+/// [`crate::orient`]). By default rendering ignores the placement: voxel
 /// `(i, j, k)` of the file is voxel `(x, y, z)` of the volume whatever the
-/// directions say; only the spacing is used.
+/// directions say, and only the spacing is used; `--space world` applies
+/// it ([`crate::orient::to_world_grid`]).
 #[derive(Debug, Clone)]
 pub struct Loaded {
     /// The voxels and the spacing.
@@ -57,10 +63,11 @@ pub struct Loaded {
 }
 
 const FORMATS: &str = "use .den, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .tif, .tiff, \
-                       a folder of .tif slices, or give --raw-dims";
+                       a folder of .tif slices or of DICOM slices, or give --raw-dims";
 
 /// Loads a volume, choosing the loader: a raw spec means [`load_raw`]; a
-/// folder means [`load_tiff_dir`]; otherwise the file name decides (any
+/// folder means [`load_dicom_dir`] if it holds any DICOM file (by its
+/// `DICM` magic), else [`load_tiff_dir`]; otherwise the file name decides (any
 /// case): `.den` -> [`load_den`], `.nii` or `.nii.gz` -> [`load_nifti`],
 /// `.nrrd` or `.nhdr` -> [`load_nrrd`], `.mha` or `.mhd` -> [`load_meta`],
 /// `.tif` or `.tiff` -> [`load_tiff`]. A file with another name is tried by
@@ -70,7 +77,11 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
         return load_raw(path, spec, limit);
     }
     if path.is_dir() {
-        return load_tiff_dir(path, limit);
+        return if dicom::dir_has_dicom(path) {
+            load_dicom_dir(path, limit)
+        } else {
+            load_tiff_dir(path, limit)
+        };
     }
     let name = path
         .file_name()
@@ -87,13 +98,18 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
         load_meta(path, limit)
     } else if has(&[".tif", ".tiff"]) {
         load_tiff(path, limit)
+    } else if has(&[".dcm"]) || dicom::is_dicom(path) {
+        Err(format_err(
+            path,
+            "a single DICOM file: give the folder that holds its series",
+        ))
     } else {
         match sniff(path) {
             Some(Sniffed::Nrrd) => load_nrrd(path, limit),
             Some(Sniffed::Tiff) => load_tiff(path, limit),
             Some(Sniffed::Nifti) => load_nifti(path, limit),
             Some(Sniffed::Meta) => load_meta(path, limit),
-            None => Err(input(format!(
+            Some(Sniffed::Dicom) | None => Err(input(format!(
                 "unknown volume format for {}: {FORMATS}",
                 path.display()
             ))),
@@ -101,8 +117,45 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
     }
 }
 
+/// [`load_auto`] with the placement, for the formats that carry one (raw,
+/// `.den` and TIFF have none).
+pub fn load_placed(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Loaded> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let has = |exts: &[&str]| exts.iter().any(|e| name.ends_with(e));
+    let placed = if raw.is_some() {
+        None
+    } else if path.is_dir() {
+        dicom::dir_has_dicom(path).then_some(Sniffed::Dicom)
+    } else if has(&[".nii", ".nii.gz"]) {
+        Some(Sniffed::Nifti)
+    } else if has(&[".nrrd", ".nhdr"]) {
+        Some(Sniffed::Nrrd)
+    } else if has(&[".mha", ".mhd"]) {
+        Some(Sniffed::Meta)
+    } else if has(&[".den", ".tif", ".tiff"]) {
+        None
+    } else {
+        sniff(path)
+    };
+    match placed {
+        Some(Sniffed::Dicom) => read_dicom_dir(path, limit),
+        Some(Sniffed::Nifti) => read_nifti(path, limit),
+        Some(Sniffed::Nrrd) => read_nrrd(path, limit),
+        Some(Sniffed::Meta) => read_meta(path, limit),
+        _ => Ok(Loaded {
+            volume: load_auto(path, raw, limit)?,
+            origin: None,
+            axes: None,
+        }),
+    }
+}
+
 /// Formats recognisable by their first bytes.
 enum Sniffed {
+    Dicom,
     Nrrd,
     Tiff,
     Nifti,
@@ -357,11 +410,23 @@ mod tests {
                 ("f.nrrd", fixture("vol_f32_gz.nrrd")),
                 ("f.mha", fixture("vol_u16.mha")),
                 ("f.tif", fixture("vol_u16.tif")),
+                ("f.nii", fixture("head_ras.nii")),
+                ("f.nrrd", fixture("head_perm.nrrd")),
+                ("f.mha", fixture("head_perm.mha")),
             ]
         }
 
-        const NAMES: [&str; 9] = [
+        /// Loading gives a volume or a one-line error.
+        fn check(r: Result<Volume>) -> std::result::Result<(), TestCaseError> {
+            if let Err(e) = r {
+                prop_assert!(!e.to_string().contains('\n'), "{}", e);
+            }
+            Ok(())
+        }
+
+        const NAMES: [&str; 10] = [
             "g.den", "g.nii", "g.nii.gz", "g.nrrd", "g.nhdr", "g.mha", "g.mhd", "g.tif", "g.dat",
+            "g.dcm",
         ];
 
         proptest! {
@@ -371,7 +436,7 @@ mod tests {
             /// allocates past a small limit (an absurd header errors out).
             #[test]
             fn corrupted_files_never_panic(
-                which in 0usize..7,
+                which in 0usize..10,
                 edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
                 cut in any::<prop::sample::Index>(),
                 do_cut in any::<bool>(),
@@ -386,7 +451,8 @@ mod tests {
                     bytes.truncate(cut.index(bytes.len() + 1));
                 }
                 let path = write(&dir, name, &bytes);
-                let _ = load_auto(&path, None, 1 << 16);
+                check(load_auto(&path, None, 1 << 16))?;
+                check(load_placed(&path, None, 1 << 16).map(|l| l.volume))?;
             }
 
             #[test]
@@ -397,7 +463,7 @@ mod tests {
                 let dir = tempfile::tempdir().unwrap();
                 let name = NAMES[which];
                 let path = write(&dir, name, &bytes);
-                let _ = load_auto(&path, None, 1 << 16);
+                check(load_auto(&path, None, 1 << 16))?;
             }
         }
     }

@@ -4,7 +4,7 @@ use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 
 use super::decode::{read_scalars, Scalar};
-use super::{data_err, format_err, from_file, io_err, open, spacing_or_one};
+use super::{data_err, format_err, from_file, io_err, open, spacing_or_one, unit_axes, Loaded};
 use crate::error::{Error, Result};
 use crate::volume::{check_dims, Volume};
 
@@ -41,8 +41,9 @@ const NIFTI_TYPES: &str = "use uint8, int16, uint16 or float32";
 ///
 /// `scl_slope`/`scl_inter` are not applied: transfer functions are written
 /// in stored units, a positive linear scaling only relabels the scalar axis,
-/// and float data is rescaled anyway. The orientation (qform/sform) is
-/// ignored: voxel `(i, j, k)` of the file is voxel `(x, y, z)`. The spacing
+/// and float data is rescaled anyway. Voxel `(i, j, k)` of the file is
+/// voxel `(x, y, z)`; the orientation (qform/sform) is returned by
+/// [`read_nifti`] for `--space world`, not applied here. The spacing
 /// is `|pixdim[1..4]|`, in the file's units; a zero or non-finite entry is
 /// taken as 1.
 ///
@@ -52,6 +53,14 @@ const NIFTI_TYPES: &str = "use uint8, int16, uint16 or float32";
 /// [`VoxelType::U8`]: crate::volume::VoxelType::U8
 /// [`VoxelType::U16`]: crate::volume::VoxelType::U16
 pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
+    read_nifti(path, limit).map(|l| l.volume)
+}
+
+/// Reads a NIfTI-1 volume (see [`load_nifti`]) with its placement in LPS
+/// world space: the sform if `sform_code > 0`, else the qform if
+/// `qform_code > 0` (nibabel's and ITK's preference), else none. NIfTI
+/// world space is RAS, so x and y change sign.
+pub fn read_nifti(path: &Path, limit: u64) -> Result<Loaded> {
     let file = open(path)?;
     let mut buffered = BufReader::new(file);
     let gz = buffered
@@ -145,9 +154,62 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
     }
 
     let big = header.endianness == nifti::Endianness::Big;
-    let (kind, data) = read_scalars(path, reader, count, scalar, big, offset)?;
+    let (kind, data, units) = read_scalars(path, reader, count, scalar, big, offset)?;
     let spacing = [1, 2, 3].map(|k| spacing_or_one(header.pixdim[k] as f64));
-    Volume::new(dims, kind, data)?.with_spacing(spacing)
+    let volume = Volume::new(dims, kind, data)?
+        .with_spacing(spacing)?
+        .with_units(units);
+    let (origin, axes) = placement(&header);
+    Ok(Loaded {
+        volume,
+        origin,
+        axes,
+    })
+}
+
+/// The header's placement in LPS: origin and unit axis directions.
+fn placement(h: &nifti::NiftiHeader) -> (Option<[f64; 3]>, Option<[[f64; 3]; 3]>) {
+    let lps = crate::orient::ras_to_lps;
+    if h.sform_code > 0 {
+        let rows = [h.srow_x, h.srow_y, h.srow_z].map(|r| r.map(|v| v as f64));
+        let col = |k: usize| lps([rows[0][k], rows[1][k], rows[2][k]]);
+        let origin = col(3);
+        if origin.iter().all(|c| c.is_finite()) {
+            return (Some(origin), unit_axes([col(0), col(1), col(2)]));
+        }
+        return (None, None);
+    }
+    if h.qform_code > 0 {
+        let [b, c, d] = [h.quatern_b, h.quatern_c, h.quatern_d].map(|v| v as f64);
+        let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
+        let r = [
+            [
+                a * a + b * b - c * c - d * d,
+                2.0 * (b * c - a * d),
+                2.0 * (b * d + a * c),
+            ],
+            [
+                2.0 * (b * c + a * d),
+                a * a + c * c - b * b - d * d,
+                2.0 * (c * d - a * b),
+            ],
+            [
+                2.0 * (b * d - a * c),
+                2.0 * (c * d + a * b),
+                a * a + d * d - c * c - b * b,
+            ],
+        ];
+        let qfac = if h.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
+        let col = |k: usize| {
+            let s = if k == 2 { qfac } else { 1.0 };
+            lps([r[0][k] * s, r[1][k] * s, r[2][k] * s])
+        };
+        let origin = lps([h.quatern_x, h.quatern_y, h.quatern_z].map(|v| v as f64));
+        if origin.iter().all(|c| c.is_finite()) {
+            return (Some(origin), unit_axes([col(0), col(1), col(2)]));
+        }
+    }
+    (None, None)
 }
 
 fn nifti_err(path: &Path, e: nifti::NiftiError) -> Error {
@@ -168,6 +230,42 @@ fn nifti_err(path: &Path, e: nifti::NiftiError) -> Error {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+
+    #[test]
+    fn placement_prefers_the_sform_then_the_qform_in_lps() {
+        // The qform: 180 degrees about z (RAS), qfac -1 flips k.
+        let mut h = nifti::NiftiHeader {
+            qform_code: 1,
+            sform_code: 0,
+            quatern_d: 1.0,
+            quatern_x: 10.0,
+            quatern_y: 20.0,
+            quatern_z: 30.0,
+            ..Default::default()
+        };
+        h.pixdim[0] = -1.0;
+        let (o, a) = placement(&h);
+        assert_eq!(o, Some([-10.0, -20.0, 30.0]));
+        assert_eq!(
+            a,
+            Some([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
+        );
+        // An sform wins: i along A (RAS +y) at 2 mm, j along R, k along S.
+        h.sform_code = 2;
+        h.srow_x = [0.0, 1.5, 0.0, 4.0];
+        h.srow_y = [2.0, 0.0, 0.0, 5.0];
+        h.srow_z = [0.0, 0.0, 3.0, 6.0];
+        let (o, a) = placement(&h);
+        assert_eq!(o, Some([-4.0, -5.0, 6.0]));
+        assert_eq!(
+            a,
+            Some([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        );
+        // Neither: no placement.
+        h.sform_code = 0;
+        h.qform_code = 0;
+        assert_eq!(placement(&h), (None, None));
+    }
     use crate::load::tests::{assert_err, gzip, pattern, write};
     use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 

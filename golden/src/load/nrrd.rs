@@ -7,13 +7,13 @@ use std::io::{BufRead, BufReader, Seek, SeekFrom};
 use std::path::Path;
 
 use super::decode::clip;
-use super::decode::{inflate, numbers, read_scalars, skip_bytes, HeaderReader, Scalar};
+use super::decode::{inflate, numbers, read_scalars, skip_bytes, Decoded, HeaderReader, Scalar};
 use super::{
     beside, data_err, file_len, format_err, from_file, io_err, norm, open, spacing_or_one,
     unit_axes, Loaded,
 };
 use crate::error::Result;
-use crate::volume::{check_dims, Volume, VoxelType};
+use crate::volume::{check_dims, Volume};
 
 /// Most axes a NRRD may have (teem's `NRRD_DIM_MAX`).
 const MAX_DIM: usize = 16;
@@ -98,8 +98,10 @@ pub fn read_nrrd(path: &Path, limit: u64) -> Result<Loaded> {
             return Err(format_err(path, msg));
         }
     };
-    let (kind, data) = read_data(&data_path, &h, count, start)?;
-    let volume = Volume::new(h.dims, kind, data)?.with_spacing(h.spacing)?;
+    let (kind, data, units) = read_data(&data_path, &h, count, start)?;
+    let volume = Volume::new(h.dims, kind, data)?
+        .with_spacing(h.spacing)?
+        .with_units(units);
     Ok(Loaded {
         volume,
         origin: h.origin,
@@ -109,7 +111,7 @@ pub fn read_nrrd(path: &Path, limit: u64) -> Result<Loaded> {
 
 /// Reads the voxels from `path`, whose data (after any line and byte skip)
 /// starts at byte `start`.
-fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<(VoxelType, Vec<u16>)> {
+fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<Decoded> {
     let file = open(path)?;
     let len = file_len(&file, path)?;
     let mut r = BufReader::new(file);
@@ -295,6 +297,19 @@ fn parse_header(lines: &[String]) -> std::result::Result<Header, String> {
         None => false,
     };
 
+    // World directions and origin are kept in LPS (see crate::orient):
+    // RAS and LAS spaces change the sign of x and y, or of y; other spaces
+    // are taken as LPS.
+    let to_lps: fn([f64; 3]) -> [f64; 3] =
+        match get("space").map(str::to_ascii_lowercase).as_deref() {
+            Some("right-anterior-superior" | "ras" | "right-anterior-superior-time" | "rast") => {
+                crate::orient::ras_to_lps
+            }
+            Some("left-anterior-superior" | "las" | "left-anterior-superior-time" | "last") => {
+                |v| [v[0], -v[1], v[2]]
+            }
+            _ => |v| v,
+        };
     let space = match (get("space"), get("spacedimension")) {
         (Some(_), Some(_)) => return Err("both 'space' and 'space dimension' are given".into()),
         (Some(name), None) => {
@@ -326,7 +341,7 @@ fn parse_header(lines: &[String]) -> std::result::Result<Header, String> {
             }
             if sd == 3 {
                 if let [Some(a), Some(b), Some(c)] = &dirs[..3] {
-                    let dir = |v: &[f64]| [v[0], v[1], v[2]];
+                    let dir = |v: &[f64]| to_lps([v[0], v[1], v[2]]);
                     axes = unit_axes([dir(a), dir(b), dir(c)]);
                 }
             }
@@ -337,7 +352,9 @@ fn parse_header(lines: &[String]) -> std::result::Result<Header, String> {
         Some(s) => {
             let sd = space.ok_or("'space origin' needs 'space' or 'space dimension'")?;
             match vectors("space origin", s, 1, sd)?.remove(0) {
-                Some(v) if sd == 3 && v.iter().all(|c| c.is_finite()) => Some([v[0], v[1], v[2]]),
+                Some(v) if sd == 3 && v.iter().all(|c| c.is_finite()) => {
+                    Some(to_lps([v[0], v[1], v[2]]))
+                }
                 _ => None,
             }
         }

@@ -1,11 +1,11 @@
-//! Every fixture of `tests/data` (written by pynrrd, SimpleITK, tifffile and
-//! nibabel; see `make_fixtures.py`) loads to the same volume as the others
+//! Every fixture of `tests/data` (written by pynrrd, SimpleITK, tifffile,
+//! nibabel and pydicom; see `make_fixtures.py` and `make_dicom.py`) loads to the same volume as the others
 //! of its type, and to the voxels the script's formulas give, computed
 //! here again.
 
 use std::path::{Path, PathBuf};
 
-use golden::load::{load_auto, read_meta, read_nrrd};
+use golden::load::{load_auto, read_dicom_dir, read_meta, read_nrrd};
 use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
 
 const DIMS: [usize; 3] = [12, 10, 7];
@@ -77,6 +77,8 @@ fn fixtures(kind: &str) -> Vec<(String, bool)> {
     .iter()
     .map(|s| (format!("vol_{kind}{s}"), true))
     .collect();
+    // A folder of DICOM slices (pydicom), with the spacing.
+    names.push((format!("dicom_{kind}"), true));
     if kind == "u8" || kind == "u16" {
         names.push((format!("vol_{kind}.tif"), false));
         names.push((format!("vol_{kind}_pages"), false));
@@ -114,7 +116,7 @@ fn every_fixture_loads_to_the_formula() {
             loaded += 1;
         }
     }
-    assert_eq!(loaded, 4 * 9 + 2 * 2);
+    assert_eq!(loaded, 4 * 10 + 2 * 2);
 }
 
 #[test]
@@ -130,6 +132,12 @@ fn nrrd_and_metaimage_placement_is_kept() {
         let l = read_meta(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
         assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
         assert_eq!(l.volume.spacing(), SPACING);
+    }
+    // DICOM: the first slice along the normal, whatever the file order.
+    for name in ["dicom_u16", "dicom_i16", "dicom_u8", "dicom_f32"] {
+        let l = read_dicom_dir(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
+        assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
+        assert_eq!(l.volume.spacing(), SPACING, "{name}");
     }
 }
 

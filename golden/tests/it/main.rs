@@ -11,5 +11,6 @@ mod formats;
 mod foundation;
 mod gaze;
 mod mipmap;
+mod orientation;
 mod shading;
 mod skipping;

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::load::tests::{assert_err, assert_headers_refused, gzip, u16_data, write};
-use crate::volume::DEFAULT_MEMORY_LIMIT;
+use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 use proptest::prelude::*;
 use std::io::Write;
 

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::load::tests::{assert_err, assert_headers_refused, gzip, u16_data, write};
-use crate::volume::DEFAULT_MEMORY_LIMIT;
+use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 use proptest::prelude::*;
 
 const LIM: u64 = DEFAULT_MEMORY_LIMIT;
@@ -38,11 +38,12 @@ fn nrrd_header_fields_spellings_and_placement() {
         ([4, 3, 2], Scalar::U16, Encoding::Gzip, true)
     );
     assert_eq!(h.spacing, [2.0, 0.5, 3.0]);
+    // Kept in LPS: the RAS space's x and y change sign.
     assert_eq!(
         h.axes,
-        Some([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+        Some([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
     );
-    assert_eq!(h.origin, Some([1.0, 2.0, 3.0]));
+    assert_eq!(h.origin, Some([-1.0, -2.0, 3.0]));
     assert_eq!((h.byte_skip, h.line_skip, h.data_file), (5, 2, None));
     // Per-axis spacings: unknown (nan) or zero means 1, the sign is dropped.
     let h = parse(&header("int8", "raw", "spacings: nan -2 0\n")).unwrap();

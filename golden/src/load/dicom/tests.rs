@@ -1,0 +1,205 @@
+use super::*;
+use crate::load::load_auto;
+use crate::load::tests::{assert_err, msg};
+use crate::volume::DEFAULT_MEMORY_LIMIT;
+
+const LIM: u64 = DEFAULT_MEMORY_LIMIT;
+
+fn fixture_dir(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// A copy of a fixture series in a fresh folder, its files sorted by name.
+fn copy_series(name: &str) -> (tempfile::TempDir, Vec<PathBuf>) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut out = Vec::new();
+    for f in dicom_files(&fixture_dir(name)).unwrap() {
+        let to = dir.path().join(f.file_name().unwrap());
+        std::fs::copy(&f, &to).unwrap();
+        out.push(to);
+    }
+    (dir, out)
+}
+
+#[test]
+fn a_folder_of_slices_loads_through_load_auto_and_ignores_other_files() {
+    let (dir, _) = copy_series("dicom_i16");
+    let want = read_dicom_dir(&fixture_dir("dicom_i16"), LIM).unwrap();
+    std::fs::write(dir.path().join("notes.txt"), b"not a slice").unwrap();
+    std::fs::write(dir.path().join(".hidden"), b"x").unwrap();
+    let v = load_auto(dir.path(), None, LIM).unwrap();
+    assert_eq!(
+        (v.dims(), v.data()),
+        (want.volume.dims(), want.volume.data())
+    );
+    // CT: Hounsfield units of the fixture are the i16 formula, its floor
+    // -16000 (at voxel 0) maps to 0, and +1024 stored is -1024 + 1024.
+    assert_eq!(v.get(0, 0, 0), 0);
+}
+
+#[test]
+fn a_single_file_or_an_empty_folder_is_refused_in_one_line() {
+    let (dir, files) = copy_series("dicom_u16");
+    assert_err(load_auto(&files[0], None, LIM), "give the folder");
+    for f in &files {
+        std::fs::remove_file(f).unwrap();
+    }
+    std::fs::write(dir.path().join("a.dat"), [0u8; 200]).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "holds no DICOM files");
+}
+
+#[test]
+fn every_inner_missing_slice_is_refused_and_an_end_one_is_not() {
+    let mut uneven = 0;
+    for k in 0..7 {
+        let (dir, files) = copy_series("dicom_u16");
+        std::fs::remove_file(&files[k]).unwrap();
+        match load_dicom_dir(dir.path(), LIM) {
+            Ok(v) => {
+                assert_eq!(v.dims(), [12, 10, 6]);
+                assert_eq!(v.spacing()[2], 1.25);
+            }
+            Err(e) => {
+                let m = e.to_string();
+                assert!(m.contains("uneven slice spacing"), "{m}");
+                assert!(!m.contains('\n'));
+                uneven += 1;
+            }
+        }
+    }
+    // Only the first and last slice leave an evenly spaced series.
+    assert_eq!(uneven, 5);
+}
+
+#[test]
+fn duplicate_positions_mixed_series_and_refused_syntaxes_are_one_line() {
+    let (dir, files) = copy_series("dicom_u16");
+    std::fs::copy(&files[2], dir.path().join("copy")).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "at the same position");
+
+    let (dir, _) = copy_series("dicom_u16");
+    let other = dicom_files(&fixture_dir("dicom_f32")).unwrap();
+    std::fs::copy(&other[0], dir.path().join("zz")).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "holds 2 series");
+
+    let m = msg(load_dicom_dir(&fixture_dir("dicom_j2k"), LIM));
+    assert!(
+        m.contains("1.2.840.10008.1.2.4.91 (JPEG 2000) is not supported"),
+        "{m}"
+    );
+    assert!(!m.contains('\n'));
+}
+
+#[test]
+fn truncated_slices_and_small_limits_are_refused() {
+    let (dir, files) = copy_series("dicom_u8");
+    let bytes = std::fs::read(&files[3]).unwrap();
+    std::fs::write(&files[3], &bytes[..bytes.len() - 40]).unwrap();
+    let m = msg(load_dicom_dir(dir.path(), LIM));
+    assert!(!m.contains('\n'), "{m}");
+    assert!(
+        m.contains(&*files[3].file_name().unwrap().to_string_lossy()),
+        "{m}"
+    );
+    // 12x10x7 voxels at 10 bytes each do not fit 5000 bytes.
+    assert_err(
+        load_dicom_dir(&fixture_dir("dicom_u16"), 5000),
+        "over the limit",
+    );
+}
+
+#[test]
+fn positions_along_an_oblique_normal_sort_and_shear_is_refused() {
+    let n = cross([0.6, 0.8, 0.0], [0.0, 0.0, -1.0]);
+    let slice = |d: f64, shift: f64| Slice {
+        path: PathBuf::from(format!("s{d}")),
+        rows: 1,
+        cols: 1,
+        orient: [[0.6, 0.8, 0.0], [0.0, 0.0, -1.0]],
+        position: [d * n[0] + shift, d * n[1], 5.0],
+        pixel_spacing: [1.0, 1.0],
+        bits: 16,
+        signed: false,
+        slope: 1.0,
+        intercept: 0.0,
+        series: String::new(),
+        thickness: None,
+    };
+    let keyed = |s: Vec<Slice>| -> Vec<(f64, Slice)> {
+        let mut k: Vec<_> = s.into_iter().map(|s| (dot(s.position, n), s)).collect();
+        k.sort_by(|a, b| a.0.total_cmp(&b.0));
+        k
+    };
+    let even = keyed(vec![slice(4.0, 0.0), slice(0.0, 0.0), slice(2.0, 0.0)]);
+    let dz = slice_spacing(Path::new("d"), &even, n).unwrap();
+    assert!((dz - 2.0).abs() < 1e-12, "{dz}");
+    // Shifted along the row direction by 0.5 mm: not on the normal line.
+    // (The shift changes the position along n, so keep the gaps even by
+    // shifting perpendicular to n: along the column direction.)
+    let mut tilted = even.clone();
+    tilted[2].1.position[2] += 0.5;
+    let e = slice_spacing(Path::new("d"), &tilted, n).unwrap_err();
+    assert!(e.to_string().contains("gantry tilt"), "{e}");
+}
+
+#[test]
+fn orientations_that_are_not_two_orthogonal_directions_are_refused() {
+    assert!(orientation(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]).is_some());
+    let r = orientation(&[2.0, 0.0, 0.0, 0.0, 0.0, -3.0]).unwrap();
+    assert_eq!(r, [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]);
+    assert!(orientation(&[1.0, 0.0, 0.0, 1.0, 0.1, 0.0]).is_none());
+    assert!(orientation(&[0.0; 6]).is_none());
+}
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(120))]
+
+        /// A series with one slice's bytes corrupted or cut loads or fails
+        /// with one line, never panics, within a small memory limit.
+        #[test]
+        fn corrupted_slices_never_panic(
+            series in 0usize..4,
+            file in 0usize..7,
+            edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
+            cut in any::<prop::sample::Index>(),
+            do_cut in any::<bool>(),
+        ) {
+            let name = ["dicom_u16", "dicom_i16", "dicom_u8", "dicom_f32"][series];
+            let (dir, files) = copy_series(name);
+            let mut bytes = std::fs::read(&files[file]).unwrap();
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            if do_cut {
+                bytes.truncate(cut.index(bytes.len() + 1));
+            }
+            std::fs::write(&files[file], &bytes).unwrap();
+            if let Err(e) = load_dicom_dir(dir.path(), 1 << 16) {
+                prop_assert!(!e.to_string().contains('\n'), "{}", e);
+            }
+        }
+
+        /// Random bytes after a valid preamble and magic (so the parser,
+        /// not the magic check, meets them) are refused in one line.
+        #[test]
+        fn random_bytes_after_the_magic_never_panic(
+            body in prop::collection::vec(any::<u8>(), 0..400),
+        ) {
+            let dir = tempfile::tempdir().unwrap();
+            let mut bytes = vec![0u8; 128];
+            bytes.extend_from_slice(b"DICM");
+            bytes.extend_from_slice(&body);
+            std::fs::write(dir.path().join("s"), &bytes).unwrap();
+            let e = load_dicom_dir(dir.path(), 1 << 16).map(|v| v.dims());
+            prop_assert!(e.is_err());
+            prop_assert!(!e.unwrap_err().to_string().contains('\n'));
+        }
+    }
+}
