@@ -251,6 +251,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
             label: key.trim_start_matches("widths-").to_string(),
             base: PipelineConfig::default(),
             grid: grid.clone(),
+            shade: None,
         };
         let res = run_sweep(&sw, vol, tf, &prep)?;
         let out = bench_dir.join(key);

@@ -43,6 +43,10 @@ pub const DEFAULT_WEIGHT: &str = "3-14";
 pub const DEFAULT_COLOR: &str = "3-10";
 /// See [`DEFAULT_ALPHA`].
 pub const DEFAULT_SAMPLE: &str = "0-6";
+/// The gradient's fraction bits swept with `--shade` (see [`DEFAULT_ALPHA`]).
+pub const DEFAULT_GRADIENT: &str = "0-8";
+/// The cosines' fraction bits swept with `--shade`.
+pub const DEFAULT_NORMAL: &str = "4-14";
 
 /// The default grid of every knob.
 pub fn default_grid() -> Vec<(Knob, Vec<u8>)> {
@@ -86,6 +90,19 @@ pub struct SweepArgs {
     /// Fraction bits F of the interpolated sample (integer bits kept).
     #[arg(long, default_value = DEFAULT_SAMPLE)]
     pub sample_frac: String,
+    /// Shade (headlight, the default material) in golden, the reference
+    /// and the pipeline, and sweep the shading unit's widths too.
+    #[arg(long)]
+    pub shade: bool,
+    /// Fraction bits F of the gradient (integer bits kept); "auto" is
+    /// 0-8 with --shade, none without.
+    #[arg(long, default_value = "auto")]
+    pub gradient_frac: String,
+    /// Fraction bits F of the cosines, normal_dot = ufixed<F+1,1> (the
+    /// power table's index bits capped at F); "auto" is 4-14 with
+    /// --shade, none without.
+    #[arg(long, default_value = "auto")]
+    pub normal_frac: String,
     /// Directory for widths.csv, widths.png and widths.md.
     #[arg(long, default_value = "sweep-widths")]
     pub out_dir: PathBuf,
@@ -109,6 +126,10 @@ pub enum Knob {
     Color,
     /// Sample fraction bits.
     Sample,
+    /// Gradient fraction bits (shading).
+    Gradient,
+    /// Cosine fraction bits (shading).
+    Normal,
 }
 
 impl Knob {
@@ -121,6 +142,8 @@ impl Knob {
             Knob::Weight => "weight bits",
             Knob::Color => "colour fraction bits",
             Knob::Sample => "sample fraction bits",
+            Knob::Gradient => "gradient fraction bits",
+            Knob::Normal => "cosine fraction bits",
         }
     }
 
@@ -133,6 +156,8 @@ impl Knob {
             Knob::Weight => cfg.weight.bits(),
             Knob::Color => cfg.color.frac(),
             Knob::Sample => cfg.sample.frac(),
+            Knob::Gradient => cfg.gradient.frac(),
+            Knob::Normal => cfg.normal_dot.frac(),
         }
     }
 
@@ -167,15 +192,41 @@ impl Knob {
                 let int = c.sample.int_bits();
                 c.sample = like(c.sample, int.saturating_add(v), v)?;
             }
+            Knob::Gradient => {
+                let int = c.gradient.int_bits();
+                c.gradient = like(c.gradient, int.saturating_add(v), v)?;
+            }
+            Knob::Normal => {
+                let int = c.normal_dot.int_bits();
+                c.normal_dot = like(c.normal_dot, int.saturating_add(v), v)?;
+                c.shade_table_bits = c.shade_table_bits.min(v.max(1));
+            }
         }
         c.validate()?;
         Ok(c)
     }
 }
 
-/// The sum of the widths of every register format (see the module docs).
-pub fn total_bits(c: &PipelineConfig) -> u32 {
-    c.formats().iter().map(|(_, f)| u32::from(f.bits())).sum()
+/// The shading unit's formats, counted only when shading.
+const SHADING_FORMATS: [&str; 8] = [
+    "gradient",
+    "grad_scale",
+    "grad_norm",
+    "light",
+    "normal_dot",
+    "specular",
+    "material",
+    "grad_recip",
+];
+
+/// The sum of the widths of every register format the datapath has (see
+/// the module docs): the shading unit's only when `shading`.
+pub fn total_bits(c: &PipelineConfig, shading: bool) -> u32 {
+    c.formats()
+        .iter()
+        .filter(|(name, _)| shading || !SHADING_FORMATS.contains(name))
+        .map(|(_, f)| u32::from(f.bits()))
+        .sum()
 }
 
 /// Parses a knob's values: `A-B`, `A,B,...` or `none`.
@@ -232,6 +283,8 @@ pub struct Sweep {
     pub base: PipelineConfig,
     /// The values of each knob.
     pub grid: Vec<(Knob, Vec<u8>)>,
+    /// Shading in golden, the reference and the pipeline.
+    pub shade: Option<golden::shading::Shade>,
 }
 
 /// What a sweep measured.
@@ -249,7 +302,9 @@ pub fn run_sweep(
     tf: &golden::tf::TransferFunction,
     prep: &Prepared,
 ) -> Result<SweepResult> {
-    let opts = RenderOptions::default();
+    let mut opts = RenderOptions::default();
+    opts.slice.shade = sw.shade;
+    opts.reference.shade = sw.shade;
     let runs = 1 + sw.grid.iter().map(|g| g.1.len()).sum::<usize>();
     let bar = progress(runs as u64 + 2);
     bar.set_message(format!("{}: reference", sw.label));
@@ -294,9 +349,22 @@ pub fn run_sweep(
         match cfg {
             Err(e) => row.skipped = Some(format!("{e:#}")),
             Ok(cfg) => {
-                row.total_bits = total_bits(&cfg);
+                row.total_bits = total_bits(&cfg, sw.shade.is_some());
                 let t = Instant::now();
-                match pipeline::run_frame(&cfg, vol, &lut, &prep.view, waves::Tracer::disabled()) {
+                let frame = pipeline::array::Array::new(
+                    &cfg,
+                    vol,
+                    &lut,
+                    &prep.view,
+                    waves::Tracer::disabled(),
+                )
+                .and_then(|mut a| {
+                    if let Some(sh) = &sw.shade {
+                        a.set_shading(sh, &prep.view, vol.kind().bits())?;
+                    }
+                    a.run(&prep.view)
+                });
+                match frame {
                     Ok(f) => {
                         row.time_s = t.elapsed().as_secs_f64();
                         let image = golden::warp::warp(&prep.view, &f.baseplane);
@@ -514,9 +582,28 @@ pub fn sweep(a: &SweepArgs) -> Result<()> {
         (Knob::Weight, "weight-bits", &a.weight_bits),
         (Knob::Color, "color-frac", &a.color_frac),
         (Knob::Sample, "sample-frac", &a.sample_frac),
+        (Knob::Gradient, "gradient-frac", &a.gradient_frac),
+        (Knob::Normal, "normal-frac", &a.normal_frac),
     ]
     .into_iter()
-    .map(|(k, flag, s)| Ok((k, parse_values(flag, s)?)))
+    .map(|(k, flag, s)| {
+        let shading_knob = matches!(k, Knob::Gradient | Knob::Normal);
+        let s = match (s.as_str(), shading_knob) {
+            ("auto", true) if a.shade => {
+                if k == Knob::Gradient {
+                    DEFAULT_GRADIENT
+                } else {
+                    DEFAULT_NORMAL
+                }
+            }
+            ("auto", true) => "none",
+            (v, true) if !a.shade && v != "none" => {
+                bail!("--{flag} sweeps a shading width: add --shade")
+            }
+            (v, _) => v,
+        };
+        Ok((k, parse_values(flag, s)?))
+    })
     .collect::<Result<Vec<_>>>()?
     .into_iter()
     .filter(|(_, v)| !v.is_empty())
@@ -530,6 +617,7 @@ pub fn sweep(a: &SweepArgs) -> Result<()> {
             label: a.view.source.label(),
             base,
             grid,
+            shade: a.shade.then(golden::shading::Shade::default),
         };
         let res = run_sweep(&sw, &vol, &tf, &prep)?;
         write_sweep(&a.out_dir, &sw, &res)?;
@@ -553,7 +641,9 @@ mod tests {
     #[test]
     fn knobs_drag_their_dependants() {
         let base = PipelineConfig::default();
-        assert_eq!(total_bits(&base), 218);
+        assert_eq!(total_bits(&base, false), 218);
+        // The shading unit's eight formats: 20 + 16 + 20 + 16 + 13 + 13 + 16 + 24.
+        assert_eq!(total_bits(&base, true), 218 + 138);
         let c = Knob::Accum.apply(&base, 12).unwrap();
         assert_eq!(c.opacity_corr.frac(), 12);
         assert_eq!(c.merge.frac(), 12);
@@ -569,6 +659,8 @@ mod tests {
             Knob::Weight,
             Knob::Color,
             Knob::Sample,
+            Knob::Gradient,
+            Knob::Normal,
         ] {
             assert_eq!(k.apply(&base, k.value(&base)).unwrap(), base, "{k:?}");
         }
