@@ -28,6 +28,7 @@ pub mod metrics;
 pub mod mipcast;
 pub mod mipmap;
 pub mod occupancy;
+pub mod opacity;
 pub mod reference;
 pub mod render;
 pub mod sampling;

@@ -96,6 +96,9 @@ struct SliceGeom<'a> {
     y: (i64, i64),
     data: &'a [f32],
     visible: bool,
+    /// With substeps: the rays' positions (`x` affine, `y` affine) at the
+    /// first and last substep's depth, where empty-space runs are decided.
+    reach: Option<[[Affine; 2]; 2]>,
 }
 
 /// The first live ray at or after `i` in one row's "next live ray" links
@@ -139,6 +142,13 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
         .map(|&z| {
             let ([px, py], range) = slice_rays(view, grid, z);
             let [x, y] = mask.rays(region, range);
+            let reach = (pass.substeps > 1).then(|| {
+                let h = 0.5 - 0.5 / pass.substeps as f64;
+                [-h, h].map(|o| {
+                    let at = |k| grid.at(view.eye, view.d, z as f64 + o, k);
+                    [at(0), at(1)]
+                })
+            });
             SliceGeom {
                 z,
                 px,
@@ -147,6 +157,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 y,
                 data: stack.slice(z),
                 visible: mask.slice_visible(z),
+                reach,
             }
         })
         .collect();
@@ -204,7 +215,13 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 first = grid.lo[0] + f as i64;
             }
             let yf = g.py.a + my as f64 * g.py.t;
-            mask.row_runs(g.z, g.px, yf, (first, g.x.1), runs);
+            match g.reach {
+                Some([f, b]) => {
+                    let ys = [f[1].a + my as f64 * f[1].t, b[1].a + my as f64 * b[1].t];
+                    mask.substep_runs(g.z, [f[0], b[0]], ys, (first, g.x.1), runs);
+                }
+                None => mask.row_runs(g.z, g.px, yf, (first, g.x.1), runs),
+            }
             if runs.is_empty() {
                 *beams += 1;
                 continue;

@@ -11,5 +11,7 @@ mod formats;
 mod foundation;
 mod gaze;
 mod mipmap;
+mod opacity;
 mod shading;
 mod skipping;
+mod substeps;
