@@ -29,6 +29,7 @@ pub mod mipcast;
 pub mod mipmap;
 pub mod occupancy;
 pub mod opacity;
+pub mod preint;
 pub mod reference;
 pub mod render;
 pub mod sampling;

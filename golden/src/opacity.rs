@@ -78,7 +78,7 @@ fn atanh_series(s: f64) -> f64 {
 
 /// `1 - e^y` for `y <= 0` (any finite value; large negative `y` gives 1).
 #[inline(always)]
-fn neg_expm1(y: f64) -> f64 {
+pub(crate) fn neg_expm1(y: f64) -> f64 {
     const LN2: f64 = std::f64::consts::LN_2;
     if y >= -0.5 * LN2 {
         return -expm1_series(y);
