@@ -249,7 +249,9 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
     if opts.slice.preintegrate {
-        anyhow::bail!("the pipeline model has no pre-integrated classification yet; drop --preintegrate");
+        anyhow::bail!(
+            "the pipeline model has no pre-integrated classification yet; drop --preintegrate"
+        );
     }
     let (vol, tf, cam) = a.view.load()?;
     if tf.material.is_some() && !slice.no_shade {

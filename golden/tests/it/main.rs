@@ -12,6 +12,7 @@ mod foundation;
 mod gaze;
 mod mipmap;
 mod opacity;
+mod preint;
 mod shading;
 mod skipping;
 mod substeps;

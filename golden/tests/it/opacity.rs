@@ -30,7 +30,17 @@ fn opacities() -> Vec<f32> {
 }
 
 const PATHS: [f32; 11] = [
-    0.0, 0.125, 0.25, 1.0 / 3.0, 0.5, 0.7071, 1.0, 1.2247, 1.732, 3.0, 17.5,
+    0.0,
+    0.125,
+    0.25,
+    1.0 / 3.0,
+    0.5,
+    0.7071,
+    1.0,
+    1.2247,
+    1.732,
+    3.0,
+    17.5,
 ];
 
 fn worst(f: impl Fn(f32, f32) -> f32) -> (f64, f64) {
@@ -38,7 +48,10 @@ fn worst(f: impl Fn(f32, f32) -> f32) -> (f64, f64) {
     for &ds in &PATHS {
         for &a in &opacities() {
             let (got, want) = (f(a, ds) as f64, correct_opacity_exact(a, ds) as f64);
-            assert!(got.is_finite() && (0.0..=1.0).contains(&got), "a {a} ds {ds}: {got}");
+            assert!(
+                got.is_finite() && (0.0..=1.0).contains(&got),
+                "a {a} ds {ds}: {got}"
+            );
             let d = (got - want).abs();
             abs = abs.max(d);
             if want > 1e-30 {
@@ -52,11 +65,17 @@ fn worst(f: impl Fn(f32, f32) -> f32) -> (f64, f64) {
 #[test]
 fn opacity_correction_is_within_one_ulp_of_the_exact_form() {
     let (abs, rel) = worst(correct_opacity);
-    println!("inline: worst |d| {:.3} e, worst relative {rel:.3e}", abs / E);
+    println!(
+        "inline: worst |d| {:.3} e, worst relative {rel:.3e}",
+        abs / E
+    );
     assert!(abs <= E, "inline correction off by {} e", abs / E);
     assert!(rel <= 4.0 * f32::EPSILON as f64, "relative {rel}");
     let (abs, rel) = worst(correct_opacity_libm);
-    println!("libm f32: worst |d| {:.3} e, worst relative {rel:.3e}", abs / E);
+    println!(
+        "libm f32: worst |d| {:.3} e, worst relative {rel:.3e}",
+        abs / E
+    );
     assert!(abs <= 4.0 * E, "libm form off by {} e", abs / E);
 }
 
@@ -70,7 +89,10 @@ fn opacity_correction_edges() {
     }
     // A unit step returns the opacity itself.
     for a in [1e-6f32, 0.1, 0.25, 0.2500001, 0.5, 0.9, 0.999] {
-        assert!((correct_opacity(a, 1.0) - a).abs() <= f32::EPSILON * a.max(0.5), "{a}");
+        assert!(
+            (correct_opacity(a, 1.0) - a).abs() <= f32::EPSILON * a.max(0.5),
+            "{a}"
+        );
     }
     // Monotone in the opacity for a fixed step.
     for ds in PATHS {

@@ -147,9 +147,16 @@ fn substep_skipping_saves_samples() {
     let prep = Prepared::new(&vol, &cam).expect("view");
     for m in [Method::Er, Method::ErFtb] {
         let off = slice(m, &prep, &lut, 2, Skips::NONE).stats.samples_total;
-        let on = slice(m, &prep, &lut, 2, Skips::default()).stats.samples_total;
-        let one = slice(m, &prep, &lut, 1, Skips::default()).stats.samples_total;
-        println!("{}: 2 substeps {off} -> {on} crossings (1 substep: {one})", m.name());
+        let on = slice(m, &prep, &lut, 2, Skips::default())
+            .stats
+            .samples_total;
+        let one = slice(m, &prep, &lut, 1, Skips::default())
+            .stats
+            .samples_total;
+        println!(
+            "{}: 2 substeps {off} -> {on} crossings (1 substep: {one})",
+            m.name()
+        );
         assert!(on * 2 < off, "{}: {off} -> {on}", m.name());
         assert!(on < 2 * one, "{}: {on} against {one}", m.name());
     }
