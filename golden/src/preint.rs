@@ -185,7 +185,7 @@ impl PreTable {
 }
 
 /// Opacity of a step of length `ds` at mean extinction `tau`:
-/// `1 - e^(-ds tau)`, within half an `f32` ulp (see [`crate::opacity`]).
+/// `1 - e^(-ds tau)`, within one `f32` ulp (see [`crate::opacity`]).
 #[inline]
 pub fn segment_opacity(tau: f32, ds: f32) -> f32 {
     if tau <= 0.0 {

@@ -477,13 +477,13 @@ fn preint_span(z: usize, nz: usize) -> [f64; 2] {
 }
 
 /// Composites one classified sample `c` over a path of length `ds`.
-#[inline]
+#[inline(always)]
 fn composite(ray: &mut Rgba, c: [f32; 4], ds: f32, order: Order) {
     composite_alpha(ray, c, correct_opacity(c[3], ds), order);
 }
 
 /// Composites colour `c` (its opacity ignored) at corrected opacity `a`.
-#[inline]
+#[inline(always)]
 fn composite_alpha(ray: &mut Rgba, c: [f32; 4], a: f32, order: Order) {
     match order {
         Order::BackToFront => {
