@@ -99,7 +99,7 @@ pub struct Prepared {
     gradients: Arc<OnceLock<Arc<Gradients>>>,
     /// The pre-integrated table of the last table used, by
     /// [`classification_key`].
-    preint: Arc<Mutex<Option<(u64, Arc<PreTable>)>>>,
+    preint: Arc<Mutex<Option<KeyedPreTable>>>,
 }
 
 /// An occupancy map and the key of the table it was built for.
@@ -107,6 +107,9 @@ type KeyedOccupancy = (u64, Arc<Occupancy>);
 
 /// A mip-map and the key of the table it was classified with.
 type KeyedMipMap = (u64, Arc<MipMap>);
+
+/// A pre-integrated table and the key of the table it integrates.
+type KeyedPreTable = (u64, Arc<PreTable>);
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
