@@ -20,4 +20,5 @@ mod bench;
 mod cli;
 mod docs;
 mod peers;
+mod preint;
 mod shade;
