@@ -18,17 +18,39 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
             let out = ercube(d, &args);
             assert!(out.status.success(), "{}", describe(&args, &out));
         }
-        let (p, q) = (std::fs::read(d.join("p.npy")), std::fs::read(d.join("q.npy")));
-        assert_ne!(p.unwrap(), q.unwrap(), "{m}: --preintegrate changed nothing");
+        let (p, q) = (
+            std::fs::read(d.join("p.npy")),
+            std::fs::read(d.join("q.npy")),
+        );
+        assert_ne!(
+            p.unwrap(),
+            q.unwrap(),
+            "{m}: --preintegrate changed nothing"
+        );
     }
     let cases: Vec<(String, &str)> = vec![
-        (format!("{s} --method pipeline --preintegrate"), "pre-integrated"),
-        (format!("{s} --method pipeline-ftb --preintegrate"), "pre-integrated"),
-        (format!("{s} --method reference --preintegrate"), "slice-order"),
+        (
+            format!("{s} --method pipeline --preintegrate"),
+            "pre-integrated",
+        ),
+        (
+            format!("{s} --method pipeline-ftb --preintegrate"),
+            "pre-integrated",
+        ),
+        (
+            format!("{s} --method reference --preintegrate"),
+            "slice-order",
+        ),
         (format!("{s} --method mipmap --preintegrate"), "slice-order"),
-        (format!("{s} --method er --preintegrate --substeps 2"), "--substeps"),
+        (
+            format!("{s} --method er --preintegrate --substeps 2"),
+            "--substeps",
+        ),
         (format!("{s} --method er --preintegrate --shade"), "shade"),
-        (format!("{s} --method er --preintegrate --voi sphere:10,10,10,5"), "--voi"),
+        (
+            format!("{s} --method er --preintegrate --voi sphere:10,10,10,5"),
+            "--voi",
+        ),
     ];
     for (line, needle) in &cases {
         let args: Vec<&str> = line.split_whitespace().collect();
