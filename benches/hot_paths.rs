@@ -65,6 +65,7 @@ fn golden_benches(c: &mut Criterion) {
         substeps: 1,
         shader: None,
         voi: None,
+        preint: None,
     };
     let n: u64 = sample_region(&pass, k, grid, &mut buf).samples.iter().sum();
     let mut g = c.benchmark_group("golden");

@@ -96,6 +96,9 @@ pub struct Options {
     pub shade: Option<Shade>,
     /// A volume of interest scaling opacity (see [`crate::voi`]).
     pub voi: Option<Voi>,
+    /// Pre-integrated classification of each slice step from its front
+    /// and back scalars (see [`crate::preint`]).
+    pub preintegrate: bool,
 }
 
 impl Default for Options {
@@ -106,6 +109,7 @@ impl Default for Options {
             skips: Skips::default(),
             shade: None,
             voi: None,
+            preintegrate: false,
         }
     }
 }
@@ -135,6 +139,23 @@ impl Options {
         }
         if let Some(v) = &self.voi {
             v.validate()?;
+        }
+        if self.preintegrate {
+            if self.substeps != 1 {
+                return Err(input(
+                    "--preintegrate classifies whole slice steps; drop --substeps",
+                ));
+            }
+            if self.shade.is_some() {
+                return Err(input(
+                    "--preintegrate does not shade yet; drop the shading options",
+                ));
+            }
+            if self.voi.is_some() {
+                return Err(input(
+                    "--preintegrate has no volume of interest yet; drop --voi",
+                ));
+            }
         }
         Ok(())
     }
@@ -191,7 +212,13 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
     opts.validate()?;
     let view = &prep.view;
     let layout = method.layout(view)?;
-    let occ = opts.skips.empty.then(|| prep.occupancy_for(lut));
+    let preint = opts.preintegrate.then(|| prep.preint_for(lut));
+    // A pre-integrated step reads slices z and z + 1, and its table may
+    // see a little beyond the entries its scalars look up.
+    let occ = opts.skips.empty.then(|| match &preint {
+        Some(pt) => prep.occupancy_for(pt.occupancy_lut(lut)),
+        None => prep.occupancy_for(lut),
+    });
     let mask = SampleMask::new(
         view,
         &layout,
@@ -201,7 +228,8 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
             cull: opts.skips.cull,
             ftb: method == Method::ErFtb,
             margin: GOLDEN_MARGIN,
-            substeps: opts.substeps,
+            // Pre-integration reads the next slice, like substeps do.
+            substeps: if opts.preintegrate { 2 } else { opts.substeps },
         },
     );
     let mut stats = Stats {
@@ -239,6 +267,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         substeps: opts.substeps,
         shader: shader.as_ref(),
         voi: voi.as_ref(),
+        preint: preint.as_deref(),
     };
     let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;

@@ -17,6 +17,7 @@ use crate::methods::{self, Method, Options, Output};
 use crate::mipcast::{self, MipOptions, MipStats};
 use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
+use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
 use crate::shading::{gradients, Gradients};
 use crate::slices::SliceStack;
@@ -96,6 +97,9 @@ pub struct Prepared {
     /// The stack's gradients for shading, built on first use and shared
     /// like the stack.
     gradients: Arc<OnceLock<Arc<Gradients>>>,
+    /// The pre-integrated table of the last table used, by
+    /// [`classification_key`].
+    preint: Arc<Mutex<Option<KeyedPreTable>>>,
 }
 
 /// An occupancy map and the key of the table it was built for.
@@ -103,6 +107,9 @@ type KeyedOccupancy = (u64, Arc<Occupancy>);
 
 /// A mip-map and the key of the table it was classified with.
 type KeyedMipMap = (u64, Arc<MipMap>);
+
+/// A pre-integrated table and the key of the table it integrates.
+type KeyedPreTable = (u64, Arc<PreTable>);
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
@@ -190,6 +197,10 @@ impl Prepared {
             occupancy,
             mipmap,
             gradients,
+            preint: match reuse {
+                Some(r) => Arc::clone(&r.preint),
+                None => Arc::default(),
+            },
         })
     }
 
@@ -232,6 +243,25 @@ impl Prepared {
 }
 
 impl Prepared {
+    /// The pre-integrated table of `lut` ([`crate::preint`]): the one built
+    /// for the last table when `lut` has the same colours and opacities,
+    /// else a new one, kept for the next frame.
+    pub fn preint_for(&self, lut: &Lut) -> Arc<PreTable> {
+        let key = classification_key(lut);
+        let mut cached = self
+            .preint
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match &*cached {
+            Some((k, t)) if *k == key => Arc::clone(t),
+            _ => {
+                let t = Arc::new(PreTable::new(lut));
+                *cached = Some((key, Arc::clone(&t)));
+                t
+            }
+        }
+    }
+
     /// The mip-map of the stack classified by `lut`: the one built for the
     /// last table when `lut` has the same colours and opacities, else a
     /// new one, kept for the next frame.

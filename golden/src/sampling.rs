@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use crate::geometry::{inside, Affine, RayGrid, View};
 use crate::merge::Rgba;
+use crate::preint::{segment_opacity, PreTable};
 use crate::shading::Shader;
 use crate::skip::SampleMask;
 use crate::slices::SliceStack;
@@ -71,6 +72,9 @@ pub struct Pass<'a> {
     pub shader: Option<&'a Shader>,
     /// A volume of interest scaling opacity, if any.
     pub voi: Option<&'a ViewVoi>,
+    /// Pre-integrated classification of each slice step (one substep,
+    /// no shading or volume of interest), if any.
+    pub preint: Option<&'a PreTable>,
 }
 
 /// What sampling one region did.
@@ -95,7 +99,12 @@ struct SliceGeom<'a> {
     x: (i64, i64),
     y: (i64, i64),
     data: &'a [f32],
+    /// Padded slice `z + 1` (the padding behind the last slice).
+    next: &'a [f32],
     visible: bool,
+    /// With substeps or pre-integration: the rays' positions (`x` affine, `y` affine) at the
+    /// first and last substep's depth, where empty-space runs are decided.
+    reach: Option<[[Affine; 2]; 2]>,
 }
 
 /// The first live ray at or after `i` in one row's "next live ray" links
@@ -139,6 +148,21 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
         .map(|&z| {
             let ([px, py], range) = slice_rays(view, grid, z);
             let [x, y] = mask.rays(region, range);
+            let span = if pass.preint.is_some() {
+                // The step [z, z + 1] (a half step at either face).
+                Some(preint_span(z, view.dims[2]))
+            } else {
+                (pass.substeps > 1).then(|| {
+                    let h = 0.5 - 0.5 / pass.substeps as f64;
+                    [-h, h]
+                })
+            };
+            let reach = span.map(|span| {
+                span.map(|o| {
+                    let at = |k| grid.at(view.eye, view.d, z as f64 + o, k);
+                    [at(0), at(1)]
+                })
+            });
             SliceGeom {
                 z,
                 px,
@@ -146,7 +170,9 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 x,
                 y,
                 data: stack.slice(z),
+                next: stack.slice(z + 1),
                 visible: mask.slice_visible(z),
+                reach,
             }
         })
         .collect();
@@ -204,7 +230,13 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 first = grid.lo[0] + f as i64;
             }
             let yf = g.py.a + my as f64 * g.py.t;
-            mask.row_runs(g.z, g.px, yf, (first, g.x.1), runs);
+            match g.reach {
+                Some([f, b]) => {
+                    let ys = [f[1].a + my as f64 * f[1].t, b[1].a + my as f64 * b[1].t];
+                    mask.substep_runs(g.z, [f[0], b[0]], ys, (first, g.x.1), runs);
+                }
+                None => mask.row_runs(g.z, g.px, yf, (first, g.x.1), runs),
+            }
             if runs.is_empty() {
                 *beams += 1;
                 continue;
@@ -289,6 +321,7 @@ struct RayRow<'a> {
     z: usize,
     px: Affine,
     data: &'a [f32],
+    next: &'a [f32],
     y: f32,
     slope_y: f32,
     inv: f64,
@@ -314,6 +347,7 @@ impl<'a> RayRow<'a> {
             z: g.z,
             px: g.px,
             data: g.data,
+            next: g.next,
             y: yf as f32,
             slope_y,
             inv,
@@ -344,10 +378,54 @@ impl<'a> RayRow<'a> {
             substeps,
             shader,
             voi,
+            preint,
         } = *self.pass;
         let (y, slope_y, z) = (self.y, self.slope_y, self.z);
         let x = (self.px.a + mx as f64 * self.px.t) as f32;
         let ds = self.ds[(mx - self.grid.lo[0]) as usize];
+        if let Some(pt) = preint {
+            let clip = mask.clip();
+            if !clip.is_empty() && !clip.keeps(x.into(), y.into(), z as f64) {
+                return;
+            }
+            let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
+            let [front, back] = preint_span(z, view.dims[2]).map(|o| o as f32);
+            let sf = stack.bilinear(self.data, x, y);
+            // The back scalar where the ray meets slice z + 1 (at the last
+            // slice, the face: the padding repeats the slice there).
+            let (bx, by) = (
+                (x + back * slope_x).clamp(-1.0, stack.dims[0] as f32 - 1e-3),
+                (y + back * slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3),
+            );
+            let sb = stack.bilinear(if back == 1.0 { self.next } else { self.data }, bx, by);
+            let step = |ray: &mut Rgba, s0: f32, s1: f32, len: f32| {
+                let e = pt.lookup(s0, s1);
+                let a = segment_opacity(e[3], len);
+                if a > 0.0 {
+                    let inv = 1.0 / e[3];
+                    let c = [e[0], e[1], e[2]].map(|v| (v * inv).min(1.0));
+                    composite_alpha(ray, [c[0], c[1], c[2], 0.0], a, order);
+                }
+            };
+            // Slice 0 also owns the half step in front of it, at its scalar.
+            let lead = (front < 0.0).then_some(ds * -front);
+            let main = ds * back;
+            match order {
+                Order::FrontToBack { .. } => {
+                    if let Some(l) = lead {
+                        step(ray, sf, sf, l);
+                    }
+                    step(ray, sf, sb, main);
+                }
+                Order::BackToFront => {
+                    step(ray, sf, sb, main);
+                    if let Some(l) = lead {
+                        step(ray, sf, sf, l);
+                    }
+                }
+            }
+            return;
+        }
         if substeps == 1 {
             let mut c = lut.lookup(stack.bilinear(self.data, x, y));
             if let Some(v) = voi {
@@ -388,10 +466,25 @@ impl<'a> RayRow<'a> {
     }
 }
 
+/// The depths, relative to slice `z` of `nz`, where slice `z`'s
+/// pre-integrated step begins and ends: `[0, 1]`, from `-1/2` at slice 0
+/// and to `1/2` at the last slice (the volume's faces).
+fn preint_span(z: usize, nz: usize) -> [f64; 2] {
+    [
+        if z == 0 { -0.5 } else { 0.0 },
+        if z + 1 >= nz { 0.5 } else { 1.0 },
+    ]
+}
+
 /// Composites one classified sample `c` over a path of length `ds`.
-#[inline]
+#[inline(always)]
 fn composite(ray: &mut Rgba, c: [f32; 4], ds: f32, order: Order) {
-    let a = correct_opacity(c[3], ds);
+    composite_alpha(ray, c, correct_opacity(c[3], ds), order);
+}
+
+/// Composites colour `c` (its opacity ignored) at corrected opacity `a`.
+#[inline(always)]
+fn composite_alpha(ray: &mut Rgba, c: [f32; 4], a: f32, order: Order) {
     match order {
         Order::BackToFront => {
             let k = 1.0 - a;

@@ -231,9 +231,10 @@ impl SampleMask {
 
     /// The runs of rays `x.0..=x.1` (positions `px.a + m px.t`) on the row
     /// at `y` of slice `z` that must be sampled, into `out` (cleared):
-    /// ascending, disjoint, non-empty. With substeps the clip planes are
-    /// tested per substep by the caller and the row keeps all its rays;
-    /// otherwise clipped rays and rays in empty blocks are left out.
+    /// ascending, disjoint, non-empty: clipped rays and rays in empty
+    /// blocks are left out. With substeps the row keeps all its rays here
+    /// (the pipeline samples one substep); golden's substep path asks
+    /// [`SampleMask::substep_runs`].
     pub fn row_runs(&self, z: usize, px: Affine, y: f64, x: (i64, i64), out: &mut Vec<(i64, i64)>) {
         out.clear();
         if x.0 > x.1 {
@@ -251,34 +252,96 @@ impl SampleMask {
             out.push((lo, hi));
             return;
         };
-        let (b, ny) = (o.block as f64, self.dims[1] as f64);
+        let ny = self.dims[1] as f64;
         let cell = |v: f64| v.floor().clamp(0.0, ny - 1.0) as usize / o.block;
         let rows = cell(y - self.margin)..=cell(y + self.margin);
         if !o.rows_any(z, rows.clone()) {
             return;
         }
+        self.block_runs(o, |bx| o.block(z, rows.clone(), bx), &[px], (lo, hi), out);
+    }
+
+    /// [`SampleMask::row_runs`] for `k > 1` substeps: the runs of rays
+    /// `x.0..=x.1` on row `my` of slice `z` whose substep samples may read
+    /// an occupied block, into `out` (cleared). A ray's substeps lie on its
+    /// segment between depths `z - 1/2` and `z + 1/2`, where its positions
+    /// are `px[0]`, `py[0]` and `px[1]`, `py[1]` (the affine positions of
+    /// the row's rays at those depths, `py` at row `my`), and each
+    /// trilinear sample reads slices `z - 1 ..= z + 1`. Clip planes are
+    /// left to the caller, which tests every substep. A skipped ray's
+    /// substeps would all classify to zero opacity and composite nothing,
+    /// so skipping leaves the image bit for bit unchanged.
+    pub fn substep_runs(
+        &self,
+        z: usize,
+        px: [Affine; 2],
+        py: [f64; 2],
+        x: (i64, i64),
+        out: &mut Vec<(i64, i64)>,
+    ) {
+        out.clear();
+        if x.0 > x.1 {
+            return;
+        }
+        let Some(o) = &self.occ else {
+            out.push(x);
+            return;
+        };
+        let ny = self.dims[1] as f64;
+        let cell = |v: f64| v.floor().clamp(0.0, ny - 1.0) as usize / o.block;
+        let rows = cell(py[0].min(py[1]) - self.margin)..=cell(py[0].max(py[1]) + self.margin);
+        let (lo, hi) = self.slice_span(z, self.dims[2]);
+        let slices = lo..=hi;
+        if !slices.clone().any(|s| o.rows_any(s, rows.clone())) {
+            return;
+        }
+        let occupied = |bx: usize| slices.clone().any(|s| o.block(s, rows.clone(), bx));
+        self.block_runs(o, occupied, &px, x, out);
+    }
+
+    /// The runs of rays `lo..=hi` whose positions (between the affine
+    /// positions `px` of each ray, widened by the margin) fall in the
+    /// blocks `occupied` accepts, appended to `out` in ascending order.
+    fn block_runs(
+        &self,
+        o: &ViewOccupancy,
+        occupied: impl Fn(usize) -> bool,
+        px: &[Affine],
+        (lo, hi): (i64, i64),
+        out: &mut Vec<(i64, i64)>,
+    ) {
+        let b = o.block as f64;
         let nbx = o.counts[0];
         let mut bx = 0;
         while bx < nbx {
-            if !o.block(z, rows.clone(), bx) {
+            if !occupied(bx) {
                 bx += 1;
                 continue;
             }
             let b0 = bx;
-            while bx + 1 < nbx && o.block(z, rows.clone(), bx + 1) {
+            while bx + 1 < nbx && occupied(bx + 1) {
                 bx += 1;
             }
             // Cells b0 B ..= (bx + 1) B - 1 are occupied; the first and last
             // blocks also hold the positions clamped onto the edge voxels.
+            // A ray is kept when any of its positions reaches the run, so
+            // the first ray is the least and the last the greatest over the
+            // affines (positions grow with the ray index: `t > 0`).
             let m_lo = if b0 == 0 {
                 lo
             } else {
-                (((b0 as f64 * b - self.margin) - px.a) / px.t).floor() as i64
+                px.iter()
+                    .map(|p| (((b0 as f64 * b - self.margin) - p.a) / p.t).floor() as i64)
+                    .min()
+                    .unwrap_or(lo)
             };
             let m_hi = if bx + 1 == nbx {
                 hi
             } else {
-                ((((bx + 1) as f64 * b + self.margin) - px.a) / px.t).ceil() as i64
+                px.iter()
+                    .map(|p| ((((bx + 1) as f64 * b + self.margin) - p.a) / p.t).ceil() as i64)
+                    .max()
+                    .unwrap_or(hi)
             };
             let run = (m_lo.max(lo), m_hi.min(hi));
             if run.0 <= run.1 {

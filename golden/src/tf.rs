@@ -212,18 +212,7 @@ impl Lut {
     }
 }
 
-/// Opacity of a step of length `ds` for opacity `a` per unit length:
-/// `1 - (1 - a)^ds`, computed without cancellation for small `a`.
-#[inline]
-pub fn correct_opacity(a: f32, ds: f32) -> f32 {
-    if a <= 0.0 {
-        0.0
-    } else if a >= 1.0 {
-        1.0
-    } else {
-        -((ds * (-a).ln_1p()).exp_m1())
-    }
-}
+pub use crate::opacity::correct_opacity;
 
 #[cfg(test)]
 mod tests {

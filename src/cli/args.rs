@@ -367,6 +367,10 @@ pub struct SliceArgs {
     /// Samples per slice crossing for slice-order methods (1 = the paper's one per slice).
     #[arg(long, default_value_t = golden::methods::DEFAULT_SUBSTEPS)]
     pub substeps: u32,
+    /// Pre-integrated classification of each slice step from its front and
+    /// back scalars (Engel et al. 2001), for the slice-order methods.
+    #[arg(long)]
+    pub preintegrate: bool,
     /// Sample empty space too (skipping it never changes the image).
     #[arg(long)]
     pub no_skip_empty: bool,
@@ -463,6 +467,7 @@ impl SliceArgs {
         let mut o = golden::render::RenderOptions::default();
         o.slice.terminate = self.terminate;
         o.slice.substeps = self.substeps;
+        o.slice.preintegrate = self.preintegrate;
         o.slice.skips = Skips {
             empty: !self.no_skip_empty,
             cull: !self.no_cull,
@@ -572,6 +577,7 @@ impl Default for SliceArgs {
         SliceArgs {
             terminate: o.terminate,
             substeps: o.substeps,
+            preintegrate: o.preintegrate,
             no_skip_empty: !o.skips.empty,
             no_cull: !o.skips.cull,
             block: None,

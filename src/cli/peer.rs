@@ -48,10 +48,10 @@ pub struct PeerArgs {
     pub peer: PeerName,
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Comma-separated golden methods, each NAME or NAME:SUBSTEPS
-    /// (e.g. er-ftb:2 is er-ftb with --substeps 2); the reference is
-    /// always rendered for the errors.
-    #[arg(long, default_value = "reference,er,er-ftb,er-ftb:2,over")]
+    /// Comma-separated golden methods, each NAME, NAME:SUBSTEPS
+    /// (e.g. er-ftb:2 is er-ftb with --substeps 2) or NAME:pre (with
+    /// --preintegrate); the reference is always rendered for the errors.
+    #[arg(long, default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,over")]
     pub methods: String,
     /// Timed frames per method, after one warm-up frame (the reference:
     /// one frame).
@@ -82,12 +82,16 @@ pub struct MethodSpec {
     pub tech: Technique,
     /// Samples per slice crossing (slice-order methods).
     pub substeps: u32,
+    /// Pre-integrated classification (slice-order methods).
+    pub preintegrate: bool,
 }
 
 impl MethodSpec {
     /// Name in tables and plots: the method, with `:S` for substeps S > 1.
     pub fn label(&self) -> String {
-        if self.substeps > 1 {
+        if self.preintegrate {
+            format!("{}:pre", self.tech.name())
+        } else if self.substeps > 1 {
             format!("{}:{}", self.tech.name(), self.substeps)
         } else {
             self.tech.name().to_string()
@@ -99,7 +103,8 @@ impl MethodSpec {
 pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
     let mut out: Vec<MethodSpec> = Vec::new();
     for tok in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
-        let (name, sub) = match tok.split_once(':') {
+        let (name, sub, pre) = match tok.split_once(':') {
+            Some((n, "pre")) => (n, 1, true),
             Some((n, k)) => {
                 let k: u32 = k
                     .parse()
@@ -108,13 +113,13 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
                     .with_context(|| {
                         format!("--methods '{tok}': substeps must be a whole number 1 to 64")
                     })?;
-                (n, k)
+                (n, k, false)
             }
-            None => (tok, golden::methods::DEFAULT_SUBSTEPS),
+            None => (tok, golden::methods::DEFAULT_SUBSTEPS, false),
         };
         let Some(tech) = MethodArg::parse(name).and_then(MethodArg::technique) else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS"
+                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS or :pre"
             );
         };
         if tech == Technique::Reference && tok.contains(':') {
@@ -123,6 +128,7 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
         let m = MethodSpec {
             tech,
             substeps: sub,
+            preintegrate: pre,
         };
         if out.iter().any(|o| o.label() == m.label()) {
             bail!("method '{}' is listed twice in --methods", m.label());
@@ -418,6 +424,7 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
         let _s = Stage::start(format!("rendering with {}", m.label()));
         let mut opts = RenderOptions::default();
         opts.slice.substeps = m.substeps;
+        opts.slice.preintegrate = m.preintegrate;
         opts.slice.validate()?;
         render(&prep, &lut, m.tech, &opts)?.recycle(); // warm-up
         let mut times = Vec::with_capacity(a.frames);
@@ -603,6 +610,10 @@ mod tests {
         assert!(parse_peer_methods("er:x").is_err());
         assert!(parse_peer_methods("pipeline").is_err());
         assert!(parse_peer_methods("reference:2").is_err());
+        assert!(parse_peer_methods("reference:pre").is_err());
+        let p = parse_peer_methods("er-ftb:pre,er-ftb").unwrap();
+        assert!(p[0].preintegrate && !p[1].preintegrate);
+        assert_eq!(p[0].label(), "er-ftb:pre");
         assert!(parse_peer_methods("").is_err());
     }
 

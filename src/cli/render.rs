@@ -110,6 +110,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     };
     chip::check_unused(&a.pipeline)?;
     with_threads(a.threads, || {
+        if !matches!(tech, Technique::Slice(_)) && a.slice.preintegrate {
+            anyhow::bail!(
+                "--preintegrate applies to the slice-order methods; {} does not take it",
+                tech.name()
+            );
+        }
         if !matches!(tech, Technique::Slice(_)) && a.baseplane_npy.is_some() {
             anyhow::bail!(
                 "--baseplane-npy needs a slice-order method; {} has no baseplane",
@@ -238,6 +244,11 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     }
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
+    }
+    if opts.slice.preintegrate {
+        anyhow::bail!(
+            "the pipeline model has no pre-integrated classification yet; drop --preintegrate"
+        );
     }
     let (vol, tf, cam) = a.view.load()?;
     let mut opts = opts;

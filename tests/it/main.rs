@@ -20,5 +20,6 @@ mod bench;
 mod cli;
 mod docs;
 mod peers;
+mod preint;
 mod shade;
 mod volumes;

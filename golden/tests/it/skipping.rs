@@ -43,6 +43,7 @@ fn slice(m: Method, p: &Prepared, l: &Lut, terminate: f32, substeps: u32, skips:
         skips,
         shade: None,
         voi: None,
+        preintegrate: false,
     };
     methods::render(m, p, l, &o).expect("render")
 }
@@ -167,6 +168,7 @@ fn check_identity(c: &Case) -> Result<(), TestCaseError> {
             skips,
             shade: None,
             voi: None,
+            preintegrate: false,
         };
         prop_assert_eq!(
             bits(&image(&prep, &lut, m, o(Skips::default()))),
@@ -285,6 +287,7 @@ fn termination_error_stays_within_the_threshold() {
                 skips: OFF,
                 shade: None,
                 voi: None,
+                preintegrate: false,
             },
         );
         for t in [0.99f32, 0.9, 0.5] {
@@ -294,6 +297,7 @@ fn termination_error_stays_within_the_threshold() {
                 skips: Skips::default(),
                 shade: None,
                 voi: None,
+                preintegrate: false,
             };
             let got = image(&prep, &lut, Method::ErFtb, o);
             let worst = got
@@ -362,6 +366,7 @@ fn a_slice_aligned_clip_plane_equals_emptying_the_slices_in_front() {
                 skips,
                 shade: None,
                 voi: None,
+                preintegrate: false,
             };
             let a = image(&clipped, &lut, m, o);
             assert_eq!(bits(&a), bits(&image(&emptied, &lut, m, o)), "{}", m.name());

@@ -300,6 +300,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
         ),
         1,
     );
+    let md = md + &kept_sections(&dir.join("benchmarks.md"));
     golden::image::write_atomic(&dir.join("benchmarks.md"), |w| w.write_all(md.as_bytes()))?;
     super::super::say(headline.trim_end());
     super::super::say(&format!(
@@ -352,3 +353,23 @@ most one ray per axis and slice), and ER's can exceed `4 N^2` by that rounding, 
 `(2N + 1)^2`. `box` casts ER's rays (its counts follow eq. 12 too) and `er-ftb` takes ER's \
 samples less those skipped by early ray termination. The code is `src/cli/bench/model.rs`.
 ";
+
+/// Hand-measured sections of an existing report that this plan does not
+/// measure (between `<!-- kept: begin -->` and `<!-- kept: end -->`, e.g.
+/// the golden speed breakdown and the peer comparison), carried over so
+/// that rerunning the report does not drop them.
+fn kept_sections(path: &Path) -> String {
+    const BEGIN: &str = "<!-- kept: begin -->";
+    const END: &str = "<!-- kept: end -->";
+    let old = std::fs::read_to_string(path).unwrap_or_default();
+    let mut out = String::new();
+    let mut rest = old.as_str();
+    while let Some(b) = rest.find(BEGIN) {
+        let Some(e) = rest[b..].find(END) else { break };
+        out.push('\n');
+        out.push_str(&rest[b..b + e + END.len()]);
+        out.push('\n');
+        rest = &rest[b + e + END.len()..];
+    }
+    out
+}

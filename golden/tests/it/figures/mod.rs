@@ -70,6 +70,7 @@ fn opts(terminate: f32, substeps: u32) -> Options {
         },
         shade: None,
         voi: None,
+        preintegrate: false,
     }
 }
 
