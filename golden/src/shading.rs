@@ -297,6 +297,10 @@ pub struct Shader {
     inv2s: [f64; 3],
     lighting: Lighting,
     m: Material,
+    /// The exponent as an integer when it is one (most materials): `powi`
+    /// is a few multiplications where `powf` is a libm call, and agrees
+    /// with it to an `f64` rounding or two, far below the `f32` samples.
+    int_p: Option<i32>,
     g_ref: f64,
     fade: f64,
 }
@@ -328,6 +332,8 @@ impl Shader {
             inv2s: view.spacing.map(|s| 1.0 / s),
             lighting: Lighting::new(view, shade),
             m: shade.material,
+            int_p: (shade.material.shininess.fract() == 0.0 && shade.material.shininess <= 128.0)
+                .then_some(shade.material.shininess as i32),
             g_ref: shade.gradient_opacity,
             fade: shade.normal_fade,
         })
@@ -403,7 +409,11 @@ impl Shader {
             let dot = |a: &[f64; 3]| (n[0] * a[0] + n[1] * a[1] + n[2] * a[2]).abs();
             for (l, h) in lit.lights.iter().zip(&lit.halves) {
                 diffuse += dot(l);
-                specular += dot(h).powf(m.shininess);
+                let x = dot(h);
+                specular += match self.int_p {
+                    Some(p) => x.powi(p),
+                    None => x.powf(m.shininess),
+                };
             }
         }
         let diffuse = r * diffuse + (1.0 - r) * lit.lights.len() as f64;
