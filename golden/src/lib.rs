@@ -33,6 +33,7 @@ pub mod render;
 pub mod sampling;
 pub mod scenes;
 pub mod shading;
+pub mod shearwarp;
 pub mod skip;
 pub mod slices;
 pub mod tf;

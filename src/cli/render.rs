@@ -273,6 +273,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             slice: None,
             mip: None,
             gaze: None,
+            sw: None,
         };
         let mut v = frame_json(
             a.method.name(),

@@ -12,4 +12,5 @@ mod foundation;
 mod gaze;
 mod mipmap;
 mod shading;
+mod shearwarp;
 mod skipping;

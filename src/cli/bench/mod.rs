@@ -146,7 +146,7 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
         let method = MethodArg::parse(name).filter(|m| file.is_none() || *m == MethodArg::Pipeline);
         let Some(method) = method else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, pipeline, pipeline-ftb or pipeline:FILE.toml"
+                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, shear-warp, pipeline, pipeline-ftb or pipeline:FILE.toml"
             );
         };
         let m = match (method.technique(), method.pipeline_order()) {

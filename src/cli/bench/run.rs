@@ -127,6 +127,14 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
             // drawing frame after frame keeps it: build it untimed.
             prep.mipmap_for(&lut, opts.mip_classify)?;
         }
+        if case
+            .methods
+            .iter()
+            .any(|m| matches!(m, BenchMethod::Golden(Technique::ShearWarp)))
+        {
+            // The classified runs likewise (per volume, axis and table).
+            prep.classified_for(&lut)?;
+        }
         let row = |method: &str, run: usize| Row {
             d: vd,
             fov,
