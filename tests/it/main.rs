@@ -21,3 +21,4 @@ mod cli;
 mod docs;
 mod peers;
 mod shade;
+mod shearwarp;
