@@ -446,20 +446,25 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     "the mip-map method has no volume of interest; drop --voi",
                 ));
             }
-            if opts.reference.gaze.is_some() {
-                return Err(crate::error::input(
-                    "the mip-map method has no gaze-directed resolution yet",
-                ));
-            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_for(lut, mip.classify)?;
-            let (image, stats) = mipcast::render(&prep.view, &pyramid, &prep.clip, lut, &mip)?;
+            let (image, stats, gaze) = match &opts.reference.gaze {
+                Some(g) => {
+                    let (i, s, g) =
+                        mipcast::render_gaze(&prep.view, &pyramid, &prep.clip, lut, &mip, g)?;
+                    (i, s, Some(g))
+                }
+                None => {
+                    let (i, s) = mipcast::render(&prep.view, &pyramid, &prep.clip, lut, &mip)?;
+                    (i, s, None)
+                }
+            };
             Ok(Frame {
                 image,
                 slice: None,
                 mip: Some(stats),
-                gaze: None,
+                gaze,
                 sw: None,
             })
         }

@@ -10,6 +10,7 @@ mod figures;
 mod formats;
 mod foundation;
 mod gaze;
+mod mipgaze;
 mod mipmap;
 mod shading;
 mod shearwarp;
