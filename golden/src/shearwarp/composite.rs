@@ -13,7 +13,7 @@
 //! footprint-based interpolation; a gather, so that each pixel is
 //! written by one task and the image is the same for any thread count).
 //! The weights depend on the pixel column and the slice only, so they are
-//! tabulated per slice once per frame ([`Taps`]). A sample counts only
+//! tabulated per slice once per frame (`Taps`). A sample counts only
 //! where `x(u)`, `y(v)` lie in `[-1/2, n - 1/2]`, as for every method;
 //! taps beyond the faces read the edge voxel.
 //!
