@@ -1,6 +1,10 @@
 //! Gaze-directed variable resolution (Levoy and Whitaker, seed 000) for
-//! the image-order ray caster: full resolution near where the viewer
+//! the image-order ray casters, the reference and the mip-map method
+//! ([`crate::mipcast::render_gaze`], whose level-`l` rays also read the
+//! pyramid `l` levels coarser): full resolution near where the viewer
 //! looks, fewer rays and fewer samples per ray towards the periphery.
+//! [`render_with`] holds the profile, the partially populated ray pyramid
+//! and the interpolation; a caster supplies one ray.
 //!
 //! **Profile.** A pixel at distance `r` from the gaze point has level
 //! `lev(r) = L clamp((r - inner) / (outer - inner), 0, 1)`: 0 (one ray per
@@ -201,8 +205,40 @@ pub fn render(
     gaze: &Gaze,
 ) -> Result<(Image, GazeStats)> {
     gaze.validate()?;
-    let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let pass = RefPass::new(view, stack, opts)?;
+    let (img, stats, ()) = render_with(
+        view.size,
+        gaze,
+        || (),
+        |(), ()| {},
+        |x, y, l, ()| {
+            let step = RefOptions {
+                step: opts.step * f64::from(1u32 << l),
+                ..*opts
+            };
+            // Pixel i's centre is at i + 1/2 in the camera's ray
+            // coordinates, as in the reference.
+            cast_ray(&pass, clip, lut, &step, view.rays.dir(x, y))
+        },
+    )?;
+    Ok((img, stats))
+}
+
+/// The gaze-directed frame of any ray caster: `cast(x, y, l, counts)`
+/// casts the level-`l` ray through pixel position `(x, y)` (standing for
+/// `2^l x 2^l` pixels: it should take `2^-l` of the full sample rate)
+/// and adds what it did to `counts`; per-row counts start from `init()`
+/// and are summed with `add` in row order, so they are the same for any
+/// thread count.
+pub fn render_with<S: Send>(
+    size: [u32; 2],
+    gaze: &Gaze,
+    init: impl Fn() -> S + Sync,
+    add: impl Fn(&mut S, &S),
+    cast: impl Fn(f64, f64, u32, &mut S) -> [f64; 4] + Sync,
+) -> Result<(Image, GazeStats, S)> {
+    gaze.validate()?;
+    let (w, h) = (size[0] as usize, size[1] as usize);
     let mut levels: Vec<Level> = (0..=gaze.levels).map(|l| Level::new(l, w, h)).collect();
     // Which rays the pixels need.
     let centre = |i: usize| i as f64 + 0.5;
@@ -222,29 +258,29 @@ pub fn render(
         rays: 0,
         pixels: (w * h) as u64,
     };
-    for level in &mut levels {
-        let step = RefOptions {
-            step: opts.step * level.scale,
-            ..*opts
-        };
+    let mut counts = init();
+    for (l, level) in levels.iter_mut().enumerate() {
         let (nx, scale) = (level.nx, level.scale);
         let need = &level.need;
-        level
+        let rows: Vec<S> = level
             .rays
             .par_chunks_mut(nx)
             .enumerate()
-            .for_each(|(b, row)| {
+            .map(|(b, row)| {
+                let mut st = init();
                 for (a, out) in row.iter_mut().enumerate() {
                     if need[b * nx + a] {
                         let x = (a as f64 + 0.5) * scale;
                         let y = (b as f64 + 0.5) * scale;
-                        // Pixel i's centre is at i + 1/2 in the camera's
-                        // ray coordinates, as in the reference.
-                        let dir = view.rays.dir(x, y);
-                        *out = cast_ray(&pass, clip, lut, &step, dir);
+                        *out = cast(x, y, l as u32, &mut st);
                     }
                 }
-            });
+                st
+            })
+            .collect();
+        for r in &rows {
+            add(&mut counts, r);
+        }
         let n = level.need.iter().filter(|&&b| b).count() as u64;
         stats.rays_per_level.push(n);
         stats.rays += n;
@@ -266,5 +302,5 @@ pub fn render(
             *out = c.map(|v| v as f32);
         }
     });
-    Ok((img, stats))
+    Ok((img, stats, counts))
 }

@@ -10,8 +10,10 @@
 //! merge) -> [`warp::Baseplane`] -> [`warp`] -> [`image::Image`];
 //! [`mod@reference`] renders the same camera by image-order ray casting as
 //! ground truth, [`mipcast`] casts rays through a 3D mip-map
-//! ([`mipmap`]) whose level follows each ray's footprint, [`metrics`]
-//! compares images.
+//! ([`mipmap`]) whose level follows each ray's footprint, [`shearwarp`]
+//! composites sheared slices on an intermediate image and warps it,
+//! [`gaze`] varies the casters' resolution around a gaze point,
+//! [`metrics`] compares images.
 
 #![deny(rustdoc::broken_intra_doc_links)]
 
@@ -36,6 +38,7 @@ pub mod render;
 pub mod sampling;
 pub mod scenes;
 pub mod shading;
+pub mod shearwarp;
 pub mod skip;
 pub mod slices;
 pub mod tf;

@@ -350,7 +350,7 @@ pub fn render(
             let mut st = empty.clone();
             for (i, out) in row.iter_mut().enumerate() {
                 *out = match Ray::new(view, i as f64 + 0.5, j as f64 + 0.5) {
-                    Some(ray) => cast(&scene, &ray, &mut st),
+                    Some(ray) => cast(&scene, &ray, 0, &mut st),
                     None => [0.0; 4],
                 };
             }
@@ -365,12 +365,21 @@ pub fn render(
     Ok((img, stats))
 }
 
-/// Casts one ray front to back.
-fn cast(sc: &Scene, ray: &Ray, st: &mut MipStats) -> [f32; 4] {
+/// Casts one ray front to back. A gaze level `l > 0` ray stands for
+/// `2^l x 2^l` pixels: its footprint, and so its mip-map level, is `2^l`
+/// times the pixel's, and its steps are `2^l` times as long (`2^l k
+/// max(footprint, voxel)`, `2^-l` of the full sample rate everywhere).
+fn cast(sc: &Scene, pixel: &Ray, l: u32, st: &mut MipStats) -> [f32; 4] {
     let (view, mip, opts) = (sc.view, sc.mip, sc.opts);
     let voxel = voxel_size(view);
     let top = mip.top();
-    let steps = Steps::new(ray, opts.step, voxel);
+    let grow = f64::from(1u32 << l);
+    let steps = Steps::new(pixel, opts.step * grow, voxel);
+    let wide = Ray {
+        angle: pixel.angle * grow,
+        ..*pixel
+    };
+    let ray = &wide;
     let mut acc = [0f32; 4];
     let mut n = 0u64;
     // Probe the octree only at the ray's start and after a transparent
@@ -436,6 +445,52 @@ fn cast(sc: &Scene, ray: &Ray, st: &mut MipStats) -> [f32; 4] {
         }
     }
     acc
+}
+
+/// Renders `view` like [`render`] with `gaze`'s variable resolution
+/// ([`crate::gaze`]): level-`l` rays read the mip-map `l` levels coarser
+/// and take `2^-l` of the samples.
+pub fn render_gaze(
+    view: &View,
+    mip: &MipMap,
+    clip: &ViewClip,
+    lut: &Lut,
+    opts: &MipOptions,
+    gaze: &crate::gaze::Gaze,
+) -> Result<(Image, MipStats, crate::gaze::GazeStats)> {
+    opts.validate()?;
+    if mip.classify != opts.classify {
+        return Err(input(format!(
+            "a {}-classified mip-map cannot render {}-classified",
+            mip.classify.name(),
+            opts.classify.name()
+        )));
+    }
+    let scene = Scene {
+        view,
+        mip,
+        lut,
+        visible: lut.visible_ranges(),
+        clip,
+        opts,
+    };
+    let empty = MipStats {
+        classify: mip.classify,
+        levels: mip.levels.len(),
+        level_histogram: vec![0; mip.levels.len()],
+        ..MipStats::default()
+    };
+    let (img, g, stats) = crate::gaze::render_with(
+        view.size,
+        gaze,
+        || empty.clone(),
+        MipStats::add,
+        |x, y, l, st| match Ray::new(view, x, y) {
+            Some(ray) => cast(&scene, &ray, l, st).map(f64::from),
+            None => [0.0; 4],
+        },
+    )?;
+    Ok((img, stats, g))
 }
 
 /// Sample `n` at `p` reads an empty cell at level `hi`: finds the coarsest

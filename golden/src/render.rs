@@ -20,6 +20,7 @@ use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
 use crate::shading::{gradients, Gradients};
+use crate::shearwarp::{Classified, SwOptions, SwStats};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
 use crate::volume::{Volume, VoxelType};
@@ -34,6 +35,8 @@ pub enum Technique {
     Reference,
     /// Ray casting a pre-classified 3D mip-map ([`crate::mipcast`]).
     MipMap,
+    /// Perspective shear-warp ([`crate::shearwarp`]).
+    ShearWarp,
 }
 
 impl Technique {
@@ -43,6 +46,7 @@ impl Technique {
             Technique::Slice(m) => m.name(),
             Technique::Reference => "reference",
             Technique::MipMap => "mipmap",
+            Technique::ShearWarp => "shear-warp",
         }
     }
 }
@@ -53,11 +57,12 @@ impl FromStr for Technique {
         match s {
             "reference" => return Ok(Technique::Reference),
             "mipmap" => return Ok(Technique::MipMap),
+            "shear-warp" => return Ok(Technique::ShearWarp),
             _ => {}
         }
         s.parse::<Method>().map(Technique::Slice).map_err(|_| {
             input(format!(
-                "unknown method '{s}': use reference, er, er-ftb, under, over, box or mipmap"
+                "unknown method '{s}': use reference, er, er-ftb, under, over, box, mipmap or shear-warp"
             ))
         })
     }
@@ -94,6 +99,9 @@ pub struct Prepared {
     /// One slot per [`Classify`] (the post-classified pyramid does not
     /// depend on the table and is built once).
     mipmap: Arc<Mutex<[Option<KeyedMipMap>; 2]>>,
+    /// The shear-warp classified, run-length encoded stack of the last
+    /// table used, by [`classification_key`], shared like the mip-map.
+    classified: Arc<Mutex<Option<KeyedClassified>>>,
     /// The stack's gradients for shading, built on first use and shared
     /// like the stack.
     gradients: Arc<OnceLock<Arc<Gradients>>>,
@@ -110,6 +118,8 @@ type KeyedMipMap = (u64, Arc<MipMap>);
 
 /// A pre-integrated table and the key of the table it integrates.
 type KeyedPreTable = (u64, Arc<PreTable>);
+/// A classified stack and the key of its table.
+type KeyedClassified = (u64, Arc<Classified>);
 
 /// Distance in front of the eye where an eye inside the slab clips (voxels).
 pub const DEFAULT_NEAR: f64 = 1.0;
@@ -172,14 +182,16 @@ impl Prepared {
     ) -> Result<Prepared> {
         check_planes(&opts.clip)?;
         let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
-        let (stack, mipmap, gradients) = match reuse {
+        let (stack, mipmap, classified, gradients) = match reuse {
             Some(r) if r.view.axes == view.axes => (
                 Arc::clone(&r.stack),
                 Arc::clone(&r.mipmap),
+                Arc::clone(&r.classified),
                 Arc::clone(&r.gradients),
             ),
             _ => (
                 Arc::new(SliceStack::new(volume, &view.axes)?),
+                Arc::default(),
                 Arc::default(),
                 Arc::default(),
             ),
@@ -196,6 +208,7 @@ impl Prepared {
             clip,
             occupancy,
             mipmap,
+            classified,
             gradients,
             preint: match reuse {
                 Some(r) => Arc::clone(&r.preint),
@@ -287,6 +300,27 @@ impl Prepared {
     }
 }
 
+impl Prepared {
+    /// The shear-warp classified stack under `lut` ([`Classified`]): the
+    /// one built for the last table when `lut` has the same colours and
+    /// opacities, else a new one, kept for the next frame.
+    pub fn classified_for(&self, lut: &Lut) -> Result<Arc<Classified>> {
+        let key = classification_key(lut);
+        let mut cached = self
+            .classified
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match &*cached {
+            Some((k, c)) if *k == key => Ok(Arc::clone(c)),
+            _ => {
+                let c = Arc::new(Classified::build(&self.stack, lut)?);
+                *cached = Some((key, Arc::clone(&c)));
+                Ok(c)
+            }
+        }
+    }
+}
+
 /// Settings of every technique.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderOptions {
@@ -299,6 +333,9 @@ pub struct RenderOptions {
     pub mip_step: f64,
     /// Pre- or post-classified mip-map.
     pub mip_classify: Classify,
+    /// Shear-warp intermediate pixels per voxel of the front slice;
+    /// termination, run skipping and culling follow [`RenderOptions::slice`].
+    pub sw_scale: f64,
 }
 
 impl Default for RenderOptions {
@@ -308,6 +345,7 @@ impl Default for RenderOptions {
             reference: RefOptions::default(),
             mip_step: mipcast::DEFAULT_MIP_STEP,
             mip_classify: Classify::Post,
+            sw_scale: crate::shearwarp::DEFAULT_SCALE,
         }
     }
 }
@@ -337,6 +375,20 @@ impl RenderOptions {
     }
 }
 
+impl RenderOptions {
+    /// The shear-warp renderer's options: its scale, er-ftb's termination
+    /// threshold, the empty-space switch (the runs) and culling (the
+    /// intermediate image cut to what the final image reads).
+    pub fn shear_warp(&self) -> SwOptions {
+        SwOptions {
+            scale: self.sw_scale,
+            terminate: self.slice.terminate,
+            skip_empty: self.slice.skips.empty,
+            cull: self.slice.skips.cull,
+        }
+    }
+}
+
 /// One rendered frame.
 #[derive(Debug, Clone)]
 pub struct Frame {
@@ -348,16 +400,19 @@ pub struct Frame {
     pub mip: Option<MipStats>,
     /// Rays of a gaze-directed reference frame.
     pub gaze: Option<GazeStats>,
+    /// Counts of the shear-warp renderer.
+    pub sw: Option<SwStats>,
 }
 
 impl Frame {
     /// Samples the method took (interpolated and classified), when it
     /// counts them.
     pub fn samples(&self) -> Option<u64> {
-        match (&self.slice, &self.mip) {
-            (Some(o), _) => Some(o.stats.samples_total),
-            (None, Some(m)) => Some(m.samples_total),
-            (None, None) => None,
+        match (&self.slice, &self.mip, &self.sw) {
+            (Some(o), _, _) => Some(o.stats.samples_total),
+            (None, Some(m), _) => Some(m.samples_total),
+            (None, None, Some(s)) => Some(s.samples_total),
+            (None, None, None) => None,
         }
     }
 }
@@ -392,6 +447,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     slice: None,
                     mip: None,
                     gaze: Some(stats),
+                    sw: None,
                 })
             }
             None => Ok(Frame {
@@ -405,6 +461,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 slice: None,
                 mip: None,
                 gaze: None,
+                sw: None,
             }),
         },
         Technique::MipMap => {
@@ -418,20 +475,55 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     "the mip-map method has no volume of interest; drop --voi",
                 ));
             }
-            if opts.reference.gaze.is_some() {
-                return Err(crate::error::input(
-                    "the mip-map method has no gaze-directed resolution yet",
-                ));
-            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_for(lut, mip.classify)?;
-            let (image, stats) = mipcast::render(&prep.view, &pyramid, &prep.clip, lut, &mip)?;
+            let (image, stats, gaze) = match &opts.reference.gaze {
+                Some(g) => {
+                    let (i, s, g) =
+                        mipcast::render_gaze(&prep.view, &pyramid, &prep.clip, lut, &mip, g)?;
+                    (i, s, Some(g))
+                }
+                None => {
+                    let (i, s) = mipcast::render(&prep.view, &pyramid, &prep.clip, lut, &mip)?;
+                    (i, s, None)
+                }
+            };
             Ok(Frame {
                 image,
                 slice: None,
                 mip: Some(stats),
+                gaze,
+                sw: None,
+            })
+        }
+        Technique::ShearWarp => {
+            let o = &opts.slice;
+            let refuse = |what: &str| -> Result<Frame> {
+                Err(crate::error::input(format!("the shear-warp method {what}")))
+            };
+            if o.shade.is_some() {
+                return refuse("does not shade; drop the shading options");
+            }
+            if o.voi.is_some() {
+                return refuse("has no volume of interest; drop --voi");
+            }
+            if opts.reference.gaze.is_some() {
+                return refuse("has no gaze-directed resolution");
+            }
+            if o.substeps != methods::DEFAULT_SUBSTEPS {
+                return refuse("takes one sample per slice; drop --substeps");
+            }
+            let sw = opts.shear_warp();
+            sw.validate()?;
+            let cls = prep.classified_for(lut)?;
+            let (image, stats) = crate::shearwarp::render(&prep.view, &cls, &prep.clip, &sw)?;
+            Ok(Frame {
+                image,
+                slice: None,
+                mip: None,
                 gaze: None,
+                sw: Some(stats),
             })
         }
         Technique::Slice(m) => {
@@ -441,6 +533,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 slice: Some(out),
                 mip: None,
                 gaze: None,
+                sw: None,
             })
         }
     }

@@ -399,6 +399,10 @@ pub struct SliceArgs {
     /// sample) or pre (filter classified colour and opacity, the paper's).
     #[arg(long, default_value = "post", value_parser = parse_classify)]
     pub mip_classify: golden::mipmap::Classify,
+    /// Shear-warp intermediate image pixels per voxel of the front slice
+    /// (1/8 to 8; 1 is Lacroute's 1:1).
+    #[arg(long, default_value_t = golden::shearwarp::DEFAULT_SCALE)]
+    pub intermediate_scale: f64,
     /// Shade samples with gradients and Blinn-Phong before compositing (a
     /// headlight unless --light is given; docs/golden.md#shading).
     #[arg(long, conflicts_with = "no_shade")]
@@ -485,6 +489,8 @@ impl SliceArgs {
         golden::mipcast::check_step(self.mip_step)?;
         o.mip_step = self.mip_step;
         o.mip_classify = self.mip_classify;
+        golden::shearwarp::check_scale(self.intermediate_scale)?;
+        o.sw_scale = self.intermediate_scale;
         Ok(o)
     }
 
@@ -585,6 +591,7 @@ impl Default for SliceArgs {
             near: p.near,
             mip_step: golden::mipcast::DEFAULT_MIP_STEP,
             mip_classify: golden::mipmap::Classify::Post,
+            intermediate_scale: golden::shearwarp::DEFAULT_SCALE,
             shade: false,
             no_shade: false,
             light: Vec::new(),

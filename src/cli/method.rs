@@ -27,6 +27,9 @@ pub enum MethodArg {
     /// Ray casting a pre-classified 3D mip-map, the level following each
     /// ray's footprint.
     Mipmap,
+    /// Perspective shear-warp: slices sheared onto an intermediate image,
+    /// composited front to back, then warped.
+    ShearWarp,
     /// The bit-accurate PE array, back to front (mirrors `er`).
     Pipeline,
     /// The PE array front to back with termination (mirrors `er-ftb`).
@@ -73,6 +76,7 @@ impl MethodArg {
             MethodArg::Over => Technique::Slice(Method::Over),
             MethodArg::Box => Technique::Slice(Method::Box),
             MethodArg::Mipmap => Technique::MipMap,
+            MethodArg::ShearWarp => Technique::ShearWarp,
             MethodArg::Pipeline | MethodArg::PipelineFtb => return None,
         })
     }

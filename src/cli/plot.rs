@@ -92,6 +92,7 @@ pub fn color_for(label: &str) -> RGBColor {
         Some(MethodArg::Over) => RGBColor(31, 119, 180),
         Some(MethodArg::Box) => RGBColor(148, 103, 189),
         Some(MethodArg::Mipmap) => RGBColor(0, 128, 128),
+        Some(MethodArg::ShearWarp) => RGBColor(128, 128, 0),
         Some(MethodArg::Pipeline) => RGBColor(140, 86, 75),
         Some(MethodArg::PipelineFtb) | None => {
             const PALETTE: [RGBColor; 8] = [

@@ -49,17 +49,17 @@ pub struct RenderArgs {
     pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
-    /// Reference only: gaze-directed variable resolution around pixel
+    /// Reference and mipmap: gaze-directed variable resolution around pixel
     /// x,y (full resolution near it, one ray per 16 pixels and a quarter
     /// of the samples at the periphery; docs/golden.md#gaze).
     #[arg(long, value_parser = super::args::parse_point2, allow_hyphen_values = true)]
     pub gaze: Option<[f64; 2]>,
-    /// Reference only: the gaze profile's radii in pixels, inner (full
+    /// Reference and mipmap: the gaze profile's radii in pixels, inner (full
     /// resolution) and outer (coarsest level); default a tenth and four
     /// tenths of the image's larger side.
     #[arg(long, value_parser = super::args::parse_point2)]
     pub gaze_radii: Option<[f64; 2]>,
-    /// Reference only: the coarsest level (one ray per 2^L x 2^L pixels).
+    /// Reference and mipmap: the coarsest level (one ray per 2^L x 2^L pixels).
     #[arg(long, default_value_t = 2)]
     pub gaze_levels: u32,
 }
@@ -170,7 +170,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
     })
 }
 
-/// The gaze profile `--gaze` asks for; only the reference takes one.
+/// The gaze profile `--gaze` asks for; the reference and the mip-map take one.
 fn gaze_of(
     a: &RenderArgs,
     cam: &golden::camera::Camera,
@@ -182,8 +182,8 @@ fn gaze_of(
         }
         return Ok(None);
     };
-    if tech != Technique::Reference {
-        anyhow::bail!("--gaze applies to --method reference only");
+    if !matches!(tech, Technique::Reference | Technique::MipMap) {
+        anyhow::bail!("--gaze applies to --method reference or mipmap only");
     }
     let mut g = golden::gaze::Gaze::around(at, cam.width, cam.height);
     if let Some([inner, outer]) = a.gaze_radii {
@@ -288,6 +288,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             slice: None,
             mip: None,
             gaze: None,
+            sw: None,
         };
         let mut v = frame_json(
             a.method.name(),

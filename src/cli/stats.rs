@@ -66,6 +66,10 @@ pub fn frame_json(
             "rays_terminated": m.rays_terminated,
         });
     }
+    if let Some(s) = &frame.sw {
+        v["samples_total"] = json!(s.samples_total);
+        v["shear_warp"] = json!(s);
+    }
     if let Some(g) = &frame.gaze {
         v["gaze"] = json!(g);
     }

@@ -22,4 +22,5 @@ mod docs;
 mod peers;
 mod preint;
 mod shade;
+mod shearwarp;
 mod volumes;

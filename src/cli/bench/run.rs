@@ -118,14 +118,23 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
         let reference = render(&prep, &lut, Technique::Reference, &opts)?.image;
         let ref_time = t.elapsed().as_secs_f64();
         bar.inc(1);
-        if case
-            .methods
-            .iter()
-            .any(|m| matches!(m, BenchMethod::Golden(Technique::MipMap)))
-        {
+        if case.methods.iter().any(|m| {
+            matches!(
+                m,
+                BenchMethod::Golden(Technique::MipMap) | BenchMethod::Gaze(Technique::MipMap)
+            )
+        }) {
             // The pyramid is cached per volume and table, as a renderer
             // drawing frame after frame keeps it: build it untimed.
             prep.mipmap_for(&lut, opts.mip_classify)?;
+        }
+        if case
+            .methods
+            .iter()
+            .any(|m| matches!(m, BenchMethod::Golden(Technique::ShearWarp)))
+        {
+            // The classified runs likewise (per volume, axis and table).
+            prep.classified_for(&lut)?;
         }
         let row = |method: &str, run: usize| Row {
             d: vd,
@@ -192,9 +201,15 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
                 }
                 let mut r = row(&label, run);
                 match m {
-                    BenchMethod::Golden(t) => {
+                    BenchMethod::Golden(t) | BenchMethod::Gaze(t) => {
+                        let mut o = opts;
+                        if matches!(m, BenchMethod::Gaze(_)) {
+                            let [w, h] = case.size;
+                            let at = [f64::from(w) * 0.5, f64::from(h) * 0.5];
+                            o.reference.gaze = Some(golden::gaze::Gaze::around(at, w, h));
+                        }
                         let t0 = Instant::now();
-                        match render(&prep, &lut, *t, &opts) {
+                        match render(&prep, &lut, *t, &o) {
                             Ok(f) => {
                                 r.time_s = Some(t0.elapsed().as_secs_f64());
                                 r.err = Some(compare(&f.image, &reference)?);

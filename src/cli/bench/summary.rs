@@ -78,11 +78,11 @@ pub fn summary(case: &Case, res: &CaseResult, img: &str, command: &str) -> Resul
     for l in &errs {
         write!(s, " {l} |")?;
     }
-    write!(s, "\n| --- |")?;
+    write!(s, " Pareto front, fastest first |\n| --- |")?;
     for _ in &errs {
         write!(s, " --- |")?;
     }
-    writeln!(s)?;
+    writeln!(s, " --- |")?;
     for &(d, _) in &ds {
         write!(s, "| {d} |")?;
         for l in &errs {
@@ -92,8 +92,12 @@ pub fn summary(case: &Case, res: &CaseResult, img: &str, command: &str) -> Resul
             };
             write!(s, " {cell} |")?;
         }
-        writeln!(s)?;
+        writeln!(s, " {} |", front_of(&errs, |l| get(l, d)))?;
     }
+    writeln!(
+        s,
+        "\nA method is on the Pareto front at a distance when no other is both faster (median time) and closer to the reference (RMSE) there; the error-against-time plots draw the same front."
+    )?;
     // Samples beside the formulas.
     let (area, nz) = (res.area, res.nz);
     write!(
@@ -215,6 +219,32 @@ pub fn summary(case: &Case, res: &CaseResult, img: &str, command: &str) -> Resul
     }
     writeln!(s, "![samples against D]({img}samples_vs_distance.png)")?;
     Ok(s)
+}
+
+/// The methods on the Pareto front of (median time, RMSE) among `labels`,
+/// fastest first.
+fn front_of<'a>(
+    labels: &[&String],
+    get: impl Fn(&str) -> Option<&'a super::write::Point>,
+) -> String {
+    let pts: Vec<(&str, f64, f64)> = labels
+        .iter()
+        .filter_map(|l| {
+            let p = get(l)?;
+            Some((l.as_str(), p.time?, p.first.err?.rmse))
+        })
+        .collect();
+    let xy: Vec<(f64, f64)> = pts.iter().map(|&(_, t, e)| (t, e)).collect();
+    let front = super::write::pareto(&xy);
+    let names: Vec<&str> = front
+        .iter()
+        .filter_map(|f| pts.iter().find(|p| (p.1, p.2) == *f).map(|p| p.0))
+        .collect();
+    if names.is_empty() {
+        "-".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 /// A compact table of median times for the terminal.
