@@ -46,6 +46,7 @@ use crate::geometry::{box_interval, View};
 use crate::image::Image;
 use crate::mipmap::{Classify, Level, MipMap};
 use crate::occupancy::VisibleEntries;
+use crate::shading::Shader;
 use crate::tf::{correct_opacity, Lut};
 
 /// Settings of the mip-map ray caster.
@@ -59,6 +60,11 @@ pub struct MipOptions {
     pub skip_empty: bool,
     /// Pre- or post-classified pyramid ([`crate::mipmap`]).
     pub classify: Classify,
+    /// Shading, post-classified only: the gradient is the central
+    /// difference of the level-blended scalar half a level voxel either
+    /// side of the sample (the footprint's own resolution), then
+    /// [`crate::shading::Shader::shade`].
+    pub shade: Option<crate::shading::Shade>,
 }
 
 /// Default [`MipOptions::step`]: two samples per voxel of the level read.
@@ -75,6 +81,7 @@ impl Default for MipOptions {
             terminate: 0.99,
             skip_empty: true,
             classify: Classify::Post,
+            shade: None,
         }
     }
 }
@@ -295,6 +302,7 @@ struct Scene<'a> {
     visible: VisibleEntries,
     clip: &'a ViewClip,
     opts: &'a MipOptions,
+    shader: Option<Shader>,
 }
 
 impl Scene<'_> {
@@ -307,6 +315,21 @@ impl Scene<'_> {
             Classify::Post => level.cell_invisible(p, &self.visible),
         }
     }
+}
+
+/// The shader of `opts.shade`: its lights and material (the gradient comes
+/// from the pyramid, so samples mode, which needs no voxel stacks).
+fn shader_for(view: &View, mip: &MipMap, opts: &MipOptions) -> Result<Option<Shader>> {
+    let Some(mut sh) = opts.shade else {
+        return Ok(None);
+    };
+    if mip.classify == Classify::Pre {
+        return Err(input(
+            "the pre-classified mip-map has no scalar to take gradients of: shade with --mip-classify post",
+        ));
+    }
+    sh.gradient = crate::shading::GradientMode::Samples;
+    Shader::with_gradients(view, None, &sh).map(Some)
 }
 
 /// Renders one image with pyramid `mip` (built with `lut` when
@@ -333,6 +356,7 @@ pub fn render(
         visible: lut.visible_ranges(),
         clip,
         opts,
+        shader: shader_for(view, mip, opts)?,
     };
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let mut img = Image::new(w, h);
@@ -421,11 +445,26 @@ fn cast(sc: &Scene, pixel: &Ray, l: u32, st: &mut MipStats) -> [f32; 4] {
                 (c, c[3])
             }
             Classify::Post => {
-                let mut s = lo.scalar(p);
-                if frac > 0.0 {
-                    s += frac * (hi.scalar(p) - s);
+                let blend = |q: [f64; 3]| {
+                    let mut s = lo.scalar(q);
+                    if frac > 0.0 {
+                        s += frac * (hi.scalar(q) - s);
+                    }
+                    s
+                };
+                let mut c = sc.lut.lookup(blend(p));
+                if let (Some(sh), true) = (&sc.shader, c[3] > 0.0) {
+                    // Half a voxel of the finer level read, in base voxels.
+                    let h = 0.5 / lo.scale;
+                    let g: [f32; 3] = std::array::from_fn(|a| {
+                        let (mut q0, mut q1) = (p, p);
+                        q0[a] -= h;
+                        q1[a] += h;
+                        ((blend(q1) - blend(q0)) as f64 / (2.0 * h * view.spacing[a])) as f32
+                    });
+                    c = sh.shade_f32(c, g);
                 }
-                (sc.lut.lookup(s), 1.0)
+                (c, 1.0)
             }
         };
         probe = c[3] <= 0.0;
@@ -473,6 +512,7 @@ pub fn render_gaze(
         visible: lut.visible_ranges(),
         clip,
         opts,
+        shader: shader_for(view, mip, opts)?,
     };
     let empty = MipStats {
         classify: mip.classify,

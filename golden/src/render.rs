@@ -371,6 +371,7 @@ impl RenderOptions {
             terminate: self.slice.terminate,
             skip_empty: self.slice.skips.empty,
             classify: self.mip_classify,
+            shade: self.slice.shade,
         }
     }
 }
@@ -465,11 +466,6 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             }),
         },
         Technique::MipMap => {
-            if opts.slice.shade.is_some() {
-                return Err(crate::error::input(
-                    "the mip-map method does not shade; drop the shading options",
-                ));
-            }
             if opts.slice.voi.is_some() {
                 return Err(crate::error::input(
                     "the mip-map method has no volume of interest; drop --voi",

@@ -155,7 +155,10 @@ fn bad_flags_are_one_line_errors() {
             format!("{s} --method pipeline --pes 4 --shade --gradient samples"),
             "differences on voxels",
         ),
-        (format!("{s} --method mipmap --shade"), "mip-map"),
+        (
+            format!("{s} --method mipmap --mip-classify pre --shade"),
+            "--mip-classify post",
+        ),
     ];
     for (line, needle) in &cases {
         let args: Vec<&str> = line.split_whitespace().collect();
