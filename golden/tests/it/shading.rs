@@ -159,7 +159,7 @@ fn gradient_opacity_clears_homogeneous_regions() {
 }
 
 /// Shading refuses what it cannot do: bad materials, zero lights, the
-/// mip-map method.
+/// pre-classified mip-map.
 #[test]
 fn shading_refuses_bad_input() {
     let vol = scene("sphere:16");
@@ -167,6 +167,7 @@ fn shading_refuses_bad_input() {
     let prep = Prepared::new(&vol, &cam(&vol, DVec3::new(7.5, 7.5, -20.0), 16)).unwrap();
     let mut o = RenderOptions::default();
     o.slice.shade = Some(Shade::default());
+    o.mip_classify = golden::mipmap::Classify::Pre;
     let e = render(&prep, &lut, Technique::MipMap, &o)
         .err()
         .unwrap()
