@@ -305,7 +305,45 @@ struct Scene<'a> {
     shader: Option<Shader>,
 }
 
-impl Scene<'_> {
+impl<'a> Scene<'a> {
+    /// Checks `opts` against the pyramid and builds the shader (what both
+    /// renderers share).
+    fn new(
+        view: &'a View,
+        mip: &'a MipMap,
+        clip: &'a ViewClip,
+        lut: &'a Lut,
+        opts: &'a MipOptions,
+    ) -> Result<Scene<'a>> {
+        opts.validate()?;
+        if mip.classify != opts.classify {
+            return Err(input(format!(
+                "a {}-classified mip-map cannot render {}-classified",
+                mip.classify.name(),
+                opts.classify.name()
+            )));
+        }
+        Ok(Scene {
+            view,
+            mip,
+            lut,
+            visible: lut.visible_ranges(),
+            clip,
+            opts,
+            shader: shader_for(view, mip, opts)?,
+        })
+    }
+
+    /// Zero counts for this pyramid.
+    fn empty_stats(&self) -> MipStats {
+        MipStats {
+            classify: self.mip.classify,
+            levels: self.mip.levels.len(),
+            level_histogram: vec![0; self.mip.levels.len()],
+            ..MipStats::default()
+        }
+    }
+
     /// True when a sample at `p` reading `level`'s cell is proven
     /// transparent.
     #[inline]
@@ -341,31 +379,10 @@ pub fn render(
     lut: &Lut,
     opts: &MipOptions,
 ) -> Result<(Image, MipStats)> {
-    opts.validate()?;
-    if mip.classify != opts.classify {
-        return Err(input(format!(
-            "a {}-classified mip-map cannot render {}-classified",
-            mip.classify.name(),
-            opts.classify.name()
-        )));
-    }
-    let scene = Scene {
-        view,
-        mip,
-        lut,
-        visible: lut.visible_ranges(),
-        clip,
-        opts,
-        shader: shader_for(view, mip, opts)?,
-    };
+    let scene = Scene::new(view, mip, clip, lut, opts)?;
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let mut img = Image::new(w, h);
-    let empty = MipStats {
-        classify: mip.classify,
-        levels: mip.levels.len(),
-        level_histogram: vec![0; mip.levels.len()],
-        ..MipStats::default()
-    };
+    let empty = scene.empty_stats();
     let rows: Vec<MipStats> = img
         .data
         .par_chunks_mut(w)
@@ -497,29 +514,8 @@ pub fn render_gaze(
     opts: &MipOptions,
     gaze: &crate::gaze::Gaze,
 ) -> Result<(Image, MipStats, crate::gaze::GazeStats)> {
-    opts.validate()?;
-    if mip.classify != opts.classify {
-        return Err(input(format!(
-            "a {}-classified mip-map cannot render {}-classified",
-            mip.classify.name(),
-            opts.classify.name()
-        )));
-    }
-    let scene = Scene {
-        view,
-        mip,
-        lut,
-        visible: lut.visible_ranges(),
-        clip,
-        opts,
-        shader: shader_for(view, mip, opts)?,
-    };
-    let empty = MipStats {
-        classify: mip.classify,
-        levels: mip.levels.len(),
-        level_histogram: vec![0; mip.levels.len()],
-        ..MipStats::default()
-    };
+    let scene = Scene::new(view, mip, clip, lut, opts)?;
+    let empty = scene.empty_stats();
     let (img, g, stats) = crate::gaze::render_with(
         view.size,
         gaze,

@@ -68,6 +68,32 @@ pub fn lerp(a: Fx, b: Fx, w: Fx, out: Format, st: &mut QuantStats) -> Result<Fx,
     Ok(out.assign(Wide::from(a).checked_add(wd)?, st))
 }
 
+/// `sqrt(v)` truncated onto `f`'s grid: an exact integer square root of
+/// the radicand aligned to `2 f.frac` fraction bits (the path length's and
+/// the gradient norm's unit). `op` names it in an overflow error.
+#[inline]
+pub fn isqrt_into(
+    v: Wide,
+    f: Format,
+    op: &'static str,
+    st: &mut QuantStats,
+) -> Result<Fx, FxError> {
+    let pf = i32::from(f.frac());
+    // sqrt(raw 2^-k) 2^pf = sqrt(raw 2^(2 pf - k)).
+    let shift = 2 * pf - v.frac;
+    // `Wide` shifts move the exponent, so align the raw word by hand.
+    let radicand = if shift >= 0 {
+        1i128
+            .checked_shl(shift as u32)
+            .and_then(|m| v.raw.checked_mul(m))
+            .ok_or(FxError::WideOverflow { op })?
+    } else {
+        v.raw >> (-shift) as u32
+    };
+    let root = (radicand.max(0) as u128).isqrt() as i128;
+    Ok(f.assign(Wide::new(root, pf), st))
+}
+
 /// Integer and fraction of a non-negative or negative fixed value at a
 /// given number of fraction bits: `(floor, fraction raw)`.
 #[inline]
@@ -302,20 +328,7 @@ impl Datapath {
     #[inline]
     pub fn path(&self, sx: Fx, sy: Fx, sz: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let sum = (sx * sx).checked_add(sy * sy)?.checked_add(sz * sz)?;
-        let pf = i32::from(self.cfg.path.frac());
-        // sqrt(raw 2^-f) 2^pf = sqrt(raw 2^(2 pf - f)).
-        let shift = 2 * pf - sum.frac;
-        // `Wide` shifts move the exponent, so align the raw word by hand.
-        let radicand = if shift >= 0 {
-            1i128
-                .checked_shl(shift as u32)
-                .and_then(|m| sum.raw.checked_mul(m))
-                .ok_or(FxError::WideOverflow { op: "path length" })?
-        } else {
-            sum.raw >> (-shift) as u32
-        };
-        let root = (radicand.max(0) as u128).isqrt() as i128;
-        Ok(self.cfg.path.assign(Wide::new(root, pf), st))
+        isqrt_into(sum, self.cfg.path, "path length", st)
     }
 
     /// One Bartlett tap row `(p[-1] + 2 p[0] + p[1]) / 4` of raw words in

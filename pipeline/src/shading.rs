@@ -45,7 +45,7 @@ use golden::geometry::View;
 use golden::shading::{GradientMode, Lighting, Shade};
 
 use crate::config::PipelineConfig;
-use crate::datapath::lerp;
+use crate::datapath::{isqrt_into, lerp};
 use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
 
 /// Words the right neighbour drives beside its edge voxels while the
@@ -335,7 +335,7 @@ impl ShadeUnit {
         let sum = (g[0] * g[0])
             .checked_add(g[1] * g[1])?
             .checked_add(g[2] * g[2])?;
-        let norm = isqrt_into(sum, cfg.grad_norm, st)?;
+        let norm = isqrt_into(sum, cfg.grad_norm, "gradient norm", st)?;
         let one = Wide::new(1, 0);
         let r = match self.inv_fade {
             Some(inv) if norm.raw() > 0 => nd.assign(min(norm * inv, one), st),
@@ -395,23 +395,4 @@ fn min(a: Wide, b: Wide) -> Wide {
     } else {
         a
     }
-}
-
-/// `sqrt(v)` truncated onto `f`'s grid (an exact integer square root).
-fn isqrt_into(v: Wide, f: Format, st: &mut QuantStats) -> Result<Fx, FxError> {
-    let pf = i32::from(f.frac());
-    // sqrt(raw 2^-k) 2^pf = sqrt(raw 2^(2 pf - k)).
-    let shift = 2 * pf - v.frac;
-    let radicand = if shift >= 0 {
-        1i128
-            .checked_shl(shift as u32)
-            .and_then(|m| v.raw.checked_mul(m))
-            .ok_or(FxError::WideOverflow {
-                op: "gradient norm",
-            })?
-    } else {
-        v.raw >> (-shift) as u32
-    };
-    let root = (radicand.max(0) as u128).isqrt() as i128;
-    Ok(f.assign(Wide::new(root, pf), st))
 }
