@@ -449,6 +449,11 @@ impl<'a> RayRow<'a> {
             };
             let o = (j as f32 + 0.5) / substeps as f32 - 0.5;
             let p = [x + o * slope_x, y + o * slope_y, z as f32 + o];
+            // An eye less than half a slice in front of slice 0 has
+            // substeps behind it, which its rays never reach.
+            if p[2] + view.d as f32 <= 0.0 {
+                continue;
+            }
             if !clip.is_empty() && !clip.keeps(p[0].into(), p[1].into(), p[2].into()) {
                 continue;
             }

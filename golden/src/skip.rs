@@ -312,6 +312,10 @@ impl SampleMask {
     ) {
         let b = o.block as f64;
         let nbx = o.counts[0];
+        // A substep in front of slice 0 can lie behind an eye that close to
+        // the face, where positions fall with the ray index; the bounds
+        // below assume they grow, so such a row keeps every ray of a run.
+        let growing = px.iter().all(|p| p.t > 0.0 && p.t.is_finite());
         let mut bx = 0;
         while bx < nbx {
             if !occupied(bx) {
@@ -327,7 +331,7 @@ impl SampleMask {
             // A ray is kept when any of its positions reaches the run, so
             // the first ray is the least and the last the greatest over the
             // affines (positions grow with the ray index: `t > 0`).
-            let m_lo = if b0 == 0 {
+            let m_lo = if b0 == 0 || !growing {
                 lo
             } else {
                 px.iter()
@@ -335,7 +339,7 @@ impl SampleMask {
                     .min()
                     .unwrap_or(lo)
             };
-            let m_hi = if bx + 1 == nbx {
+            let m_hi = if bx + 1 == nbx || !growing {
                 hi
             } else {
                 px.iter()
