@@ -9,7 +9,7 @@
 
 use super::rules;
 use super::schema::config_fields;
-use super::{Order, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
+use super::{Mapping, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
 use crate::fixed::Overflow::Sat;
 use crate::fixed::Quant::{Rnd, Trn};
 use crate::fixed::{Format, Overflow, Quant};
@@ -424,6 +424,60 @@ config_fields! {
             default: fmt(24, 20, false, Rnd, Sat),
             toml: "reciprocals of the normal fade and gradient-opacity scales: unsigned, frac >= 1",
             check: rules::unsigned_frac,
+        },
+        /// Which PE owns which voxel columns while the array samples:
+        /// `blocks` (`W = ceil(nx / P)` columns each), `interleave` (Cube-4:
+        /// column `x` on PE `x mod P`) or `cyclic` (blocks of
+        /// [`cyclic_width`] columns dealt round-robin). See [`Mapping`].
+        ///
+        /// Default `blocks`, the model's original mapping, bit and cycle
+        /// for bit and cycle.
+        ///
+        /// [`cyclic_width`]: PipelineConfig::cyclic_width
+        pub mapping: Mapping {
+            default: Mapping::Blocks,
+            toml: "column ownership while sampling: \"blocks\", \"interleave\" (x mod P) or \"cyclic\" (cyclic_width-column blocks round-robin)",
+        },
+        /// Columns per block of the `cyclic` mapping, `1..=256`.
+        ///
+        /// Default 4: a quarter of the default occupancy block, so the
+        /// occupied runs of a row spread over the PEs, while rays cross a
+        /// block edge a quarter as often as under the interleave.
+        pub cyclic_width: u16 {
+            default: 4,
+            range: 1..=256,
+            toml: "columns per round-robin block of the cyclic mapping, 1..=256",
+            check: rules::cyclic_width,
+        },
+        /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
+        /// each PE) or `external` (DDR/HBM, streamed a row at a time). See
+        /// [`RayBuffer`].
+        ///
+        /// Default `on-chip`, the model's original placement.
+        pub ray_buffer: RayBuffer {
+            default: RayBuffer::OnChip,
+            toml: "compositing buffer placement: \"on-chip\" or \"external\" (streamed per row)",
+        },
+        /// Bytes per cycle the external ray buffer moves (reads and writes
+        /// share it), `1..=4096`; used when `ray_buffer = "external"`.
+        ///
+        /// Default 64: one DDR4-3200 channel (25.6 GB/s) at a 400 MHz
+        /// clock, or 128 bytes per cycle at 200 MHz.
+        pub ray_buffer_bandwidth: u16 {
+            default: 64,
+            range: 1..=4096,
+            toml: "external ray buffer bytes per cycle (reads and writes together), 1..=4096",
+            check: rules::ray_buffer_bandwidth,
+        },
+        /// Cycles from an external ray buffer request to its first word,
+        /// `0..=4096`; used when `ray_buffer = "external"`.
+        ///
+        /// Default 100: about 250 ns of DDR4 access latency at 400 MHz.
+        pub ray_buffer_latency: u16 {
+            default: 100,
+            range: 0..=4096,
+            toml: "external ray buffer latency in cycles, 0..=4096",
+            check: rules::ray_buffer_latency,
         },
     }
 }

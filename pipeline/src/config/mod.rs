@@ -36,13 +36,14 @@
 //! The rest of the module: `rules.rs` holds [`PipelineConfig::validate`],
 //! `text.rs` the TOML reading and writing, `derived.rs` the quantities the
 //! datapath derives from a config, `error.rs` [`ConfigError`] and
-//! `order.rs` [`Order`].
+//! `order.rs` [`Order`], `mapping.rs` [`Mapping`] and [`RayBuffer`].
 //!
 //! [`Format`]: crate::fixed::Format
 
 mod derived;
 mod error;
 mod fields;
+mod mapping;
 mod order;
 mod rules;
 mod schema;
@@ -50,6 +51,7 @@ mod text;
 
 pub use error::ConfigError;
 pub use fields::PipelineConfig;
+pub use mapping::{Mapping, RayBuffer};
 pub use order::Order;
 
 /// Largest supported PE count. The array is 1D and each PE owns a column of

@@ -480,6 +480,40 @@ pub(super) fn occupancy_block(_: &PipelineConfig, field: &str, b: u16) -> Result
     Ok(())
 }
 
+/// `cyclic_width` in `1..=256`.
+pub(super) fn cyclic_width(_: &PipelineConfig, field: &str, w: u16) -> Result<(), ConfigError> {
+    in_range(field, i64::from(w), 1, 256)
+}
+
+/// `ray_buffer_bandwidth` in `1..=4096`.
+pub(super) fn ray_buffer_bandwidth(
+    _: &PipelineConfig,
+    field: &str,
+    b: u16,
+) -> Result<(), ConfigError> {
+    in_range(field, i64::from(b), 1, 4096)
+}
+
+/// `ray_buffer_latency` in `0..=4096`.
+pub(super) fn ray_buffer_latency(
+    _: &PipelineConfig,
+    field: &str,
+    l: u16,
+) -> Result<(), ConfigError> {
+    in_range(field, i64::from(l), 0, 4096)
+}
+
+/// `v` in `lo..=hi`, or the one-line error naming `field`.
+fn in_range(field: &str, v: i64, lo: i64, hi: i64) -> Result<(), ConfigError> {
+    if !(lo..=hi).contains(&v) {
+        return Err(invalid(
+            field,
+            format!("{field} = {v} is outside {lo}..={hi}"),
+        ));
+    }
+    Ok(())
+}
+
 /// The check of `terminate`, run by `validate` after the table's checks.
 fn terminate(c: &PipelineConfig) -> Result<(), ConfigError> {
     let t = c.terminate;

@@ -3,7 +3,7 @@
 //! [`FieldValue`], which says how each field type is read and written.
 
 use super::error::{invalid, ConfigError};
-use super::Order;
+use super::{Mapping, Order, RayBuffer};
 use crate::fixed::{Format, FormatSpec};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
@@ -138,6 +138,38 @@ impl FieldValue for Order {
     }
 
     fn toml_value(raw: Order) -> String {
+        format!("\"{}\"", raw.name())
+    }
+}
+
+impl FieldValue for Mapping {
+    type Raw = Mapping;
+
+    fn to_raw(self) -> Mapping {
+        self
+    }
+
+    fn from_raw(_: &str, raw: Mapping, _: Option<Range>) -> Result<Mapping, ConfigError> {
+        Ok(raw)
+    }
+
+    fn toml_value(raw: Mapping) -> String {
+        format!("\"{}\"", raw.name())
+    }
+}
+
+impl FieldValue for RayBuffer {
+    type Raw = RayBuffer;
+
+    fn to_raw(self) -> RayBuffer {
+        self
+    }
+
+    fn from_raw(_: &str, raw: RayBuffer, _: Option<Range>) -> Result<RayBuffer, ConfigError> {
+        Ok(raw)
+    }
+
+    fn toml_value(raw: RayBuffer) -> String {
         format!("\"{}\"", raw.name())
     }
 }
