@@ -37,7 +37,7 @@ use super::StageCycles;
 /// What a PE receives from its neighbours in a cycle: read-only views of
 /// the port registers they drove towards it in the previous cycle (the
 /// committed outputs, never their state). An end PE's missing neighbour
-/// drives nothing.
+/// drives nothing, or in a ring only the rays on the wrap link.
 #[derive(Debug, Clone, Copy)]
 pub struct Links<'a> {
     /// What PE `k - 1` drove on its right port.
@@ -66,6 +66,9 @@ pub struct Clock {
     cycle: u64,
     stages: StageCycles,
     probes: Option<Probes>,
+    /// Whether PE `P - 1`'s right port drives PE 0's left (a ray-only wrap
+    /// link: the round-robin mappings' migrations go around a ring).
+    ring: bool,
 }
 
 impl Clock {
@@ -79,6 +82,7 @@ impl Clock {
             cycle: 0,
             stages: StageCycles::default(),
             probes,
+            ring: false,
         }
     }
 
@@ -113,6 +117,13 @@ impl Clock {
         self.stages
     }
 
+    /// Closes the line of PEs into a ring for migrating rays: the wrap
+    /// link carries rays only, never edge voxels or a pass's edge rays
+    /// (the passes run on column blocks, whose ends have no neighbour).
+    pub(crate) fn set_ring(&mut self, on: bool) {
+        self.ring = on && self.pes.len() > 1;
+    }
+
     pub(crate) fn set_order(&mut self, order: Vec<usize>) {
         self.order = order;
     }
@@ -139,17 +150,31 @@ impl Clock {
         mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), StepError> {
         let p = self.pes.len();
+        let (wrap_in_first, wrap_in_last) = if self.ring {
+            (
+                Port {
+                    ray: self.ports[p - 1].right.ray,
+                    ..IDLE
+                },
+                Port {
+                    ray: self.ports[0].left.ray,
+                    ..IDLE
+                },
+            )
+        } else {
+            (IDLE, IDLE)
+        };
         for &k in &self.order {
             let links = Links {
                 from_left: if k > 0 {
                     &self.ports[k - 1].right
                 } else {
-                    &IDLE
+                    &wrap_in_first
                 },
                 from_right: if k + 1 < p {
                     &self.ports[k + 1].left
                 } else {
-                    &IDLE
+                    &wrap_in_last
                 },
             };
             self.spare[k] = step(&mut self.pes[k], links)?;
