@@ -46,6 +46,49 @@ pub struct Links<'a> {
     pub from_right: &'a Port,
 }
 
+/// Steps every PE in `order` on the committed `ports.0`, writing what each
+/// drives into `ports.1`: PE `k` sees PE `k - 1`'s right port and PE
+/// `k + 1`'s left one, and in a `ring` the end PEs see each other's rays.
+fn step_all(
+    pes: &mut [Pe],
+    (ports, next): (&[Ports], &mut [Ports]),
+    order: &[usize],
+    ring: bool,
+    mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+) -> Result<(), StepError> {
+    let p = pes.len();
+    let (wrap_in_first, wrap_in_last) = if ring {
+        (
+            Port {
+                ray: ports[p - 1].right.ray,
+                ..IDLE
+            },
+            Port {
+                ray: ports[0].left.ray,
+                ..IDLE
+            },
+        )
+    } else {
+        (IDLE, IDLE)
+    };
+    for &k in order {
+        let links = Links {
+            from_left: if k > 0 {
+                &ports[k - 1].right
+            } else {
+                &wrap_in_first
+            },
+            from_right: if k + 1 < p {
+                &ports[k + 1].left
+            } else {
+                &wrap_in_last
+            },
+        };
+        next[k] = step(&mut pes[k], links)?;
+    }
+    Ok(())
+}
+
 /// The port of a missing neighbour.
 const IDLE: Port = Port {
     edge: [0; 2],
@@ -147,44 +190,36 @@ impl Clock {
     pub fn tick(
         &mut self,
         ctrl: Ctrl,
-        mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), StepError> {
-        let p = self.pes.len();
-        let (wrap_in_first, wrap_in_last) = if self.ring {
-            (
-                Port {
-                    ray: self.ports[p - 1].right.ray,
-                    ..IDLE
-                },
-                Port {
-                    ray: self.ports[0].left.ray,
-                    ..IDLE
-                },
-            )
-        } else {
-            (IDLE, IDLE)
-        };
-        for &k in &self.order {
-            let links = Links {
-                from_left: if k > 0 {
-                    &self.ports[k - 1].right
-                } else {
-                    &wrap_in_first
-                },
-                from_right: if k + 1 < p {
-                    &self.ports[k + 1].left
-                } else {
-                    &wrap_in_last
-                },
-            };
-            self.spare[k] = step(&mut self.pes[k], links)?;
-        }
+        step_all(
+            &mut self.pes,
+            (&self.ports, &mut self.spare),
+            &self.order,
+            self.ring,
+            step,
+        )?;
         std::mem::swap(&mut self.ports, &mut self.spare);
         self.cycle += 1;
         self.stages.add(ctrl.stage, 1);
         if let Some(pr) = self.probes.as_mut() {
             pr.sample(self.cycle, &self.pes, &self.ports, ctrl);
         }
+        Ok(())
+    }
+
+    /// One cycle of the links alone, run alongside the sampling stage's
+    /// cycles (the overlapped migration): every PE steps on `ports`, the
+    /// link registers of that second stage, which then commit. The cycle
+    /// counter, the stage counts and the probes are the sampling stage's.
+    pub(crate) fn tick_links(
+        &mut self,
+        ports: &mut (Vec<Ports>, Vec<Ports>),
+        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+    ) -> Result<(), StepError> {
+        let (now, next) = ports;
+        step_all(&mut self.pes, (now, next), &self.order, self.ring, step)?;
+        std::mem::swap(now, next);
         Ok(())
     }
 

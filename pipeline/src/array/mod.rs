@@ -221,6 +221,12 @@ pub struct Array {
     pub(crate) skipped: SkipCounts,
     /// The external ray buffer's channel (`None` on chip).
     pub(crate) channel: Option<Channel>,
+    /// Overlapped migration: the first cycle the links may carry the next
+    /// slice's rays (the previous slice's first sampling cycle, or the end
+    /// of the last stage that needed every ray home) and the cycle the
+    /// links' last move ended.
+    pub(crate) links_from: u64,
+    pub(crate) links_free: u64,
     /// The waveform tracer until the frame starts (see [`Array::run`]).
     pending: Option<Tracer>,
 }
@@ -279,6 +285,8 @@ impl Array {
             run_tmp: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),
+            links_from: 0,
+            links_free: 0,
         })
     }
 

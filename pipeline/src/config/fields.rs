@@ -9,7 +9,7 @@
 
 use super::rules;
 use super::schema::config_fields;
-use super::{Mapping, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
+use super::{Mapping, Migration, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
 use crate::fixed::Overflow::Sat;
 use crate::fixed::Quant::{Rnd, Trn};
 use crate::fixed::{Format, Overflow, Quant};
@@ -448,6 +448,16 @@ config_fields! {
             range: 1..=256,
             toml: "columns per round-robin block of the cyclic mapping, 1..=256",
             check: rules::cyclic_width,
+        },
+        /// When rays whose owner changes between slices cross the links:
+        /// `between-slices` (a stage of its own) or `overlapped` (while the
+        /// slice samples; rows wait only for their own rays). See
+        /// [`Migration`].
+        ///
+        /// Default `between-slices`, the model's original schedule.
+        pub migration: Migration {
+            default: Migration::BetweenSlices,
+            toml: "ray migration: \"between-slices\" (its own stage) or \"overlapped\" (while sampling)",
         },
         /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
         /// each PE) or `external` (DDR/HBM, streamed a row at a time). See

@@ -42,6 +42,7 @@ pub(crate) fn back_to_front(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             let (bg, fg) = (&region.grid, &plan.regions[i - 1].grid);
             a.merge(bg, fg)?;
             a.ray_buffer_pass(start, rays(bg), rays(fg))?;
+            a.settle_links();
             merges += 1;
         }
     }

@@ -33,6 +33,7 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             a.split(&front.grid, &region.grid)?;
             // The parents' final states stay in the buffer for the fold.
             a.ray_buffer_pass(start, rays(&front.grid), rays(&region.grid))?;
+            a.settle_links();
             merges += 1;
         }
         for slice in region.slices.iter().rev() {
@@ -64,6 +65,7 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
         // The back rays and the kept final states in, the front rays out.
         let (nb, nf) = (rays(&back.grid), rays(&front.grid));
         a.ray_buffer_pass(start, nb + nf, nf)?;
+        a.settle_links();
         fmt = merge;
     }
     // The fold leaves region 0's rays where their parents sat on the

@@ -12,6 +12,7 @@
 use std::collections::VecDeque;
 
 use crate::array::{Array, Links, RunError};
+use crate::config::Migration;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
 use crate::pe::{Pe, Ports, RayColumn, RayMove};
@@ -91,7 +92,9 @@ impl Pe {
             };
             let col = &mut self.incoming[pos];
             col.acc.push(m.acc);
-            col.land.push(0);
+            // Received this cycle, readable from the next (what an
+            // overlapped migration's rows wait for).
+            col.land.push(now + 1);
             if let Some(f) = m.ftb {
                 col.ftb.push(f);
             }
@@ -188,11 +191,58 @@ impl Array {
         }
     }
 
-    /// Migration before `slice`: clocks until every ray sits in its owner.
+    /// Migration before `slice`: clocks until every ray sits in its owner,
+    /// or, overlapped, runs the links in the cycles the slice samples.
     pub(crate) fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         let owners = self.owners(&dp, slice);
+        if self.dp.cfg.migration == Migration::Overlapped && self.channel.is_none() {
+            return self.migrate_overlapped(|mx| owners.of(mx));
+        }
         self.migrate_by(slice.z, |mx| owners.of(mx))
+    }
+
+    /// The overlapped migration: the links step alongside the sampling
+    /// stage (their own registers, the same clock) from the previous
+    /// slice's first sampling cycle on, until every ray is home. A row
+    /// leaves once its previous sample has been written back (the
+    /// scoreboard), so rays sampled early in the previous slice, or not at
+    /// all, travel while it samples. Each received row is stamped with the
+    /// cycle from which it may be read, and the slice's row schedule waits
+    /// for the stamps (stall cycles), as it waits for the datapath's
+    /// write-backs. The link cycles are the sampling stage's, so they add
+    /// no cycle of their own; the waveforms do not show these moves on
+    /// the ports.
+    fn migrate_overlapped(&mut self, owner: impl Fn(i64) -> usize) -> Result<(), RunError> {
+        let route = self.map.route();
+        for pe in self.clock.pes_mut() {
+            pe.plan_moves(&owner, route);
+        }
+        let p = self.clock.pes().len();
+        let mut ports = (vec![Ports::default(); p], vec![Ports::default(); p]);
+        let mut now = self.links_from.max(self.links_free);
+        while !(self.clock.pes().iter().all(Pe::settled)
+            && ports
+                .0
+                .iter()
+                .all(|p| p.left.ray.is_none() && p.right.ray.is_none()))
+        {
+            self.clock.tick_links(&mut ports, |pe, links| {
+                Ok(pe.migrate_step(links, now, &owner, route))
+            })?;
+            now += 1;
+        }
+        self.links_free = now;
+        Ok(())
+    }
+
+    /// Marks every ray home as of now: the next overlapped migration
+    /// starts no earlier (after a ticked migration or a pass, which read
+    /// or rebuild every ray).
+    pub(crate) fn settle_links(&mut self) {
+        let now = self.clock.now();
+        self.links_from = now;
+        self.links_free = now;
     }
 
     /// Migration to the rays' column-block owners on the plane of `slice`,
@@ -234,6 +284,7 @@ impl Array {
                     Ok(pe.migrate_step(links, now, &owner, route))
                 })?;
         }
+        self.settle_links();
         Ok(())
     }
 }

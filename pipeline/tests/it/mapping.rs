@@ -1,5 +1,7 @@
-//! Ownership mappings (`pipeline::mapping`): column blocks, Cube-4's
-//! interleave and round-robin blocks give the same raw words, samples and
+//! Ownership mappings (`pipeline::mapping`), migration schedules and ray
+//! buffer placements: column blocks, Cube-4's interleave and round-robin
+//! blocks, migrating between slices or overlapped with sampling, with the
+//! rays' buffer on chip or external, give the same raw words, samples and
 //! quantisation events in both orders, shaded or not, with skipping on or
 //! off (proptest); round-robin PEs hold their aprons and every column's
 //! owner; the clocked path agrees with the whole-slice path cycle for
@@ -17,7 +19,7 @@ use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
 use pipeline::array::{run_frame_shaded, Array, Frame};
-use pipeline::config::{Mapping, Order, PipelineConfig};
+use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 use pipeline::mapping::{ColumnMap, APRON_LEFT, APRON_RIGHT};
 use proptest::prelude::*;
 use waves::Tracer;
@@ -145,19 +147,43 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
         // aprons instead) and views the model refuses: nothing to compare.
         Err(e) => return Err(TestCaseError::reject(e.to_string())),
     };
-    for (mapping, width) in [(Mapping::Interleave, 1), (Mapping::Cyclic, c.width)] {
+    for (mapping, width, migration, ray_buffer) in [
+        (
+            Mapping::Interleave,
+            1,
+            Migration::BetweenSlices,
+            RayBuffer::OnChip,
+        ),
+        (
+            Mapping::Cyclic,
+            c.width,
+            Migration::Overlapped,
+            RayBuffer::OnChip,
+        ),
+        (Mapping::Blocks, 1, Migration::Overlapped, RayBuffer::OnChip),
+        (
+            Mapping::Interleave,
+            1,
+            Migration::Overlapped,
+            RayBuffer::External,
+        ),
+    ] {
         let cfg = PipelineConfig {
             mapping,
             cyclic_width: width,
+            migration,
+            ray_buffer,
             ..base
         };
         let f = frame(&cfg, &vol, &lut, &prep, skips, shade.as_ref())
             .map_err(|e| TestCaseError::fail(format!("{}: {e}", mapping.name())))?;
         prop_assert!(
             results(&f) == results(&blocks),
-            "{} (width {}) changed a result: raw words equal {}, samples {} vs {}",
+            "{} (width {}, {}, {}) changed a result: raw words equal {}, samples {} vs {}",
             mapping.name(),
             width,
+            migration.name(),
+            ray_buffer.name(),
             f.raw == blocks.raw,
             f.samples,
             blocks.samples
@@ -340,7 +366,6 @@ fn round_robin_shades_where_blocks_are_too_narrow() {
 /// for cycle.
 #[test]
 fn external_ray_buffer_changes_cycles_not_bits() {
-    use pipeline::config::RayBuffer;
     let vol = sparse([40, 36, 30], 2, 11);
     let prep = Prepared::new(
         &vol,
@@ -406,5 +431,68 @@ fn external_ray_buffer_changes_cycles_not_bits() {
         }
         println!("{}: memory cycles {memory:?}", order.name());
         assert!(memory[0] > 0 && memory[1] < memory[0], "{memory:?}");
+    }
+}
+
+/// Overlapped migration moves the rays while slices sample: no slice
+/// waits in a migration stage of its own (only the passes' migrations
+/// remain), rows wait only for their own rays, the frame is shorter than
+/// with migration between slices, and the clocked path agrees with the
+/// whole-slice path.
+#[test]
+fn overlapped_migration_hides_link_time() {
+    let vol = sparse([48, 40, 44], 2, 7);
+    let prep = Prepared::new(
+        &vol,
+        &camera(
+            DVec3::new(23.5, 19.5, -30.0),
+            DVec3::new(23.5, 19.5, 21.5),
+            70.0,
+        ),
+    )
+    .expect("view");
+    for mapping in [Mapping::Blocks, Mapping::Interleave] {
+        let between = PipelineConfig {
+            mapping,
+            pes: 8,
+            occupancy_block: 4,
+            ..PipelineConfig::default()
+        };
+        let overlapped = PipelineConfig {
+            migration: Migration::Overlapped,
+            ..between
+        };
+        let lut = lut(&between, 50.0);
+        let b = frame(&between, &vol, &lut, &prep, Skips::default(), None).expect("frame");
+        let o = frame(&overlapped, &vol, &lut, &prep, Skips::default(), None).expect("frame");
+        println!(
+            "{}: between slices {} cycles (migrate {}), overlapped {} (migrate {}, stall {})",
+            mapping.name(),
+            b.cycles,
+            b.stages.migrate,
+            o.cycles,
+            o.stages.migrate,
+            o.stages.stall
+        );
+        assert_eq!(o.raw, b.raw);
+        assert!(o.cycles < b.cycles, "{} vs {}", o.cycles, b.cycles);
+        assert!(o.stages.migrate < b.stages.migrate);
+        let sent = |f: &Frame| f.pes.iter().map(|p| p.rays_sent).sum::<u64>();
+        assert_eq!(sent(&o), sent(&b), "the same rays cross the links");
+        let layout = Method::Er.layout(&prep.view).expect("layout");
+        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
+        let dp = pipeline::datapath::Datapath::new(
+            overlapped,
+            pipeline::tables::Tables::new(&overlapped, &lut).expect("tables"),
+        );
+        let (mask, counts) =
+            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
+        let mut a =
+            Array::new(&overlapped, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
+        a.set_skipping(mask, counts, &prep.view);
+        a.set_clocked(true);
+        a.set_step_order((0..8).rev().collect());
+        let clocked = a.run(&prep.view).expect("clocked frame");
+        assert_eq!(signature(&clocked), signature(&o), "{}", mapping.name());
     }
 }

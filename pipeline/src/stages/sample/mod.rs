@@ -129,6 +129,8 @@ impl Array {
             return Ok(());
         }
         let times = self.row_times(&reports);
+        // The next slice's rays may start moving from here.
+        self.links_from = self.clock.now();
         let rows = self.rows(region, slice)?;
         let r = if self.clock.tracing() || self.clocked {
             self.sample_clocked(region, slice, &rows, &runs, &times)
