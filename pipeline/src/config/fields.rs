@@ -479,6 +479,19 @@ config_fields! {
             toml: "external ray buffer bytes per cycle (reads and writes together), 1..=4096",
             check: rules::ray_buffer_bandwidth,
         },
+        /// Row buffers per PE of the external ray buffer, `2..=64`: the
+        /// controller reads a row's rays up to `ray_buffer_rows - 1` rows
+        /// ahead of the row sampling, which hides the latency when the
+        /// rows between cover it; used when `ray_buffer = "external"`.
+        ///
+        /// Default 8: seven rows of prefetch cover the default latency of
+        /// 100 cycles at rows of 16 or more cycles.
+        pub ray_buffer_rows: u16 {
+            default: 8,
+            range: 2..=64,
+            toml: "external ray buffer: on-chip row buffers per PE (prefetch depth + 1), 2..=64",
+            check: rules::ray_buffer_rows,
+        },
         /// Cycles from an external ray buffer request to its first word,
         /// `0..=4096`; used when `ray_buffer = "external"`.
         ///

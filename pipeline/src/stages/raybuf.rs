@@ -4,10 +4,11 @@
 //! `ray_buffer_bandwidth` bytes per cycle, reads and writes alike, in the
 //! order the controller issues them:
 //!
-//! - a row's rays (those it samples, in every PE) are read while the row
-//!   before samples, and arrive `ray_buffer_latency` cycles after their
-//!   read is issued plus their transfer time; a row waits for them
-//!   (**memory** cycles, a stage of their own);
+//! - a row's rays (those it samples, in every PE) are read up to
+//!   `ray_buffer_rows - 1` rows ahead (when the row that many before it
+//!   starts, its buffer being free then), and arrive `ray_buffer_latency`
+//!   cycles after their read is issued plus their transfer time; a row
+//!   waits for them (**memory** cycles, a stage of their own);
 //! - a row's rays are written back once its last sample has, after the
 //!   next row's read;
 //! - a merge, split or fold reads its parents and writes its children
@@ -40,16 +41,20 @@ pub struct RayBufferStats {
     pub ray_bytes: u64,
 }
 
-/// The controller's view of the external ray buffer's channel.
+/// The controller's view of the external ray buffer's channel: the
+/// cycles it is busy, as disjoint intervals in time order. A transfer
+/// takes the first free cycles from its issue on (a burst may fill a gap
+/// and continue after the next busy stretch), so requests issued early
+/// (reads ahead) are served before later ones (write-backs) whatever the
+/// order the controller plans them in.
 #[derive(Debug, Clone)]
 pub(crate) struct Channel {
     bandwidth: u64,
     latency: u64,
-    /// The first cycle the channel is free.
-    free_at: u64,
-    /// The write-back of the last sampled row, issued after the next
-    /// row's read: (earliest cycle, bytes).
-    pending: Option<(u64, u64)>,
+    /// Busy intervals `[start, end)`, sorted and disjoint; those before
+    /// the latest read's issue are dropped (no later request starts
+    /// earlier).
+    busy: Vec<(u64, u64)>,
     pub(crate) stats: RayBufferStats,
 }
 
@@ -69,8 +74,7 @@ impl Channel {
         (cfg.ray_buffer == RayBuffer::External).then(|| Channel {
             bandwidth: u64::from(cfg.ray_buffer_bandwidth),
             latency: u64::from(cfg.ray_buffer_latency),
-            free_at: 0,
-            pending: None,
+            busy: Vec::new(),
             stats: RayBufferStats {
                 ray_bytes: ray_bytes(cfg),
                 ..RayBufferStats::default()
@@ -78,51 +82,71 @@ impl Channel {
         })
     }
 
-    fn transfer(&self, bytes: u64) -> u64 {
-        bytes.div_ceil(self.bandwidth)
+    /// Books `bytes` from cycle `at` on; returns the cycle after the last.
+    fn book(&mut self, at: u64, bytes: u64) -> u64 {
+        let mut left = bytes.div_ceil(self.bandwidth);
+        let mut t = at;
+        let mut i = self.busy.partition_point(|&(_, e)| e <= t);
+        let mut pieces = Vec::new();
+        while left > 0 {
+            let gap_end = self.busy.get(i).map_or(u64::MAX, |iv| iv.0);
+            if t < gap_end {
+                let take = left.min(gap_end - t);
+                pieces.push((t, t + take));
+                left -= take;
+                t += take;
+            }
+            if left > 0 {
+                t = t.max(self.busy[i].1);
+                i += 1;
+            }
+        }
+        for p in pieces {
+            let at = self.busy.partition_point(|&(s, _)| s < p.0);
+            self.busy.insert(at, p);
+        }
+        // Coalesce touching intervals.
+        let mut merged: Vec<(u64, u64)> = Vec::with_capacity(self.busy.len());
+        for &(s, e) in &self.busy {
+            match merged.last_mut() {
+                Some(last) if last.1 == s => last.1 = e,
+                _ => merged.push((s, e)),
+            }
+        }
+        self.busy = merged;
+        t
     }
 
-    /// Issues a read of `rays` at cycle `at` (or when the channel frees);
-    /// returns the cycle its last word arrives. The row's pending
-    /// write-back follows it.
+    /// Issues a read of `rays` at cycle `at`; returns the cycle its last
+    /// word has arrived by.
     pub(crate) fn read(&mut self, at: u64, rays: u64) -> u64 {
+        let cut = self.busy.partition_point(|&(_, e)| e <= at);
+        self.busy.drain(..cut);
         let bytes = rays * self.stats.ray_bytes;
         self.stats.read_bytes += bytes;
-        let issue = self.free_at.max(at);
-        self.free_at = issue + self.transfer(bytes);
-        self.flush();
-        issue + self.latency + self.transfer(bytes)
+        self.book(at, bytes) + self.latency
     }
 
-    /// Queues the write-back of `rays`, ready at cycle `at`.
+    /// Issues the write-back of `rays` at cycle `at`.
     pub(crate) fn write(&mut self, at: u64, rays: u64) {
-        self.flush();
         let bytes = rays * self.stats.ray_bytes;
         self.stats.written_bytes += bytes;
-        self.pending = Some((at, bytes));
-    }
-
-    /// Issues the pending write-back.
-    fn flush(&mut self) {
-        if let Some((at, bytes)) = self.pending.take() {
-            self.free_at = self.free_at.max(at) + self.transfer(bytes);
-        }
+        self.book(at, bytes);
     }
 
     /// The cycle every issued transfer has completed.
     pub(crate) fn idle_at(&mut self) -> u64 {
-        self.flush();
-        self.free_at
+        self.busy.last().map_or(0, |iv| iv.1)
     }
 
     /// A pass from cycle `start` that read `reads` rays and wrote `writes`:
     /// both through the channel, from `start` on.
     pub(crate) fn pass(&mut self, start: u64, reads: u64, writes: u64) {
-        self.flush();
-        let bytes = (reads + writes) * self.stats.ray_bytes;
-        self.stats.read_bytes += reads * self.stats.ray_bytes;
-        self.stats.written_bytes += writes * self.stats.ray_bytes;
-        self.free_at = self.free_at.max(start + self.latency) + self.transfer(bytes);
+        let (r, w) = (reads * self.stats.ray_bytes, writes * self.stats.ray_bytes);
+        self.stats.read_bytes += r;
+        self.stats.written_bytes += w;
+        let done = self.book(start, r) + self.latency;
+        self.book(done, w);
     }
 }
 

@@ -150,7 +150,10 @@ impl Array {
         let prologue = u64::from(self.clock.pes().len() > 1);
         let latency = self.dp.latency;
         let mut next = self.clock.now();
-        let mut prev_start = next;
+        // Row `r`'s read issues when row `r - (rows - 1)` starts (the
+        // slice's start for the first rows): its buffer is free then.
+        let ahead = usize::from(self.dp.cfg.ray_buffer_rows) - 1;
+        let mut started: std::collections::VecDeque<u64> = std::collections::VecDeque::new();
         let mut first = true;
         let mut times = RowTimes {
             lens: Vec::with_capacity(reports.len()),
@@ -165,12 +168,20 @@ impl Array {
                 stall = ready.saturating_sub(earliest);
                 start = earliest + stall;
                 if let Some(ch) = self.channel.as_mut() {
-                    let arrived = ch.read(prev_start, rays);
+                    let issue = if started.len() >= ahead {
+                        started[started.len() - ahead]
+                    } else {
+                        self.clock.now()
+                    };
+                    let arrived = ch.read(issue, rays);
                     memory = arrived.saturating_sub(start);
                     start += memory;
                     ch.write(start + len as u64 - 1 + latency, rays);
+                    started.push_back(start);
+                    if started.len() > ahead {
+                        started.pop_front();
+                    }
                 }
-                prev_start = start;
                 next = start + len as u64;
                 first = false;
             }
