@@ -54,7 +54,7 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
         let dp = Arc::clone(&a.dp);
         let owners = a.pass_owners(&dp, &front.rear);
         let (lo, hi) = (front.grid.lo[0], front.grid.hi[0]);
-        a.migrate_by(front.rear.z, |n| owners.of(clamp(n.div_euclid(2), lo, hi)))?;
+        a.migrate_home(front.rear.z, |n| owners.of(clamp(n.div_euclid(2), lo, hi)))?;
         a.drain()?;
         let start = a.clock.now();
         a.fold(FoldGrids {

@@ -250,7 +250,28 @@ impl Array {
     pub(crate) fn migrate_pass(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         let owners = self.pass_owners(&dp, slice);
-        self.migrate_by(slice.z, |mx| owners.of(mx))
+        self.migrate_home(slice.z, |mx| owners.of(mx))
+    }
+
+    /// Migration before a stage that reads every ray (a pass, the
+    /// readout): between slices, clocked until done; overlapped, the links
+    /// start with the last slice (as a slice's own migration does) and the
+    /// array ticks migration cycles only for what that slice did not hide.
+    pub(crate) fn migrate_home(
+        &mut self,
+        z: usize,
+        owner: impl Fn(i64) -> usize,
+    ) -> Result<(), RunError> {
+        if self.dp.cfg.migration != Migration::Overlapped || self.channel.is_some() {
+            return self.migrate_by(z, owner);
+        }
+        self.migrate_overlapped(owner)?;
+        while self.clock.now() < self.links_free {
+            self.clock
+                .tick(Ctrl::at(Stage::Migrate, z, 0), |_, _| Ok(Ports::default()))?;
+        }
+        self.settle_links();
+        Ok(())
     }
 
     /// Migration to the owners `owner` gives (traced at slice `z`): clocks
