@@ -189,6 +189,9 @@ pub struct Pe {
     local: Vec<u32>,
     /// Columns held.
     width: usize,
+    /// Whether migrating columns leave their transparent rows behind
+    /// (`link_skip_empty`).
+    pub(crate) sparse_links: bool,
     pub(crate) ny: usize,
     pub(crate) nz: usize,
     /// Ray columns held, in increasing `mx`.
@@ -261,6 +264,7 @@ impl Pe {
             map,
             local,
             width: w,
+            sparse_links: false,
             mem,
             ny,
             nz,

@@ -259,7 +259,13 @@ impl Array {
         let p = usize::from(cfg.pes);
         let nx = view.dims[0];
         let map = ColumnMap::of(cfg, nx);
-        let pes = (0..p).map(|k| Pe::new(k, map, &words, view.dims)).collect();
+        let pes = (0..p)
+            .map(|k| {
+                let mut pe = Pe::new(k, map, &words, view.dims);
+                pe.sparse_links = cfg.link_skip_empty;
+                pe
+            })
+            .collect();
         let pending = if tracer.is_enabled() {
             Probes::check_groups(&tracer)?;
             Some(tracer)

@@ -459,6 +459,17 @@ config_fields! {
             default: Migration::BetweenSlices,
             toml: "ray migration: \"between-slices\" (its own stage) or \"overlapped\" (while sampling)",
         },
+        /// Whether a migrating column crosses the links without its
+        /// transparent rows (all-zero accumulators; front to back also
+        /// nothing inherited and not terminated): the receiver's slots read
+        /// zero until written, so they need no move. The column's last row
+        /// always travels, closing it. Costs a valid bit per buffer slot.
+        ///
+        /// Default false: every row travels, the original protocol.
+        pub link_skip_empty: bool {
+            default: false,
+            toml: "migrating columns leave their transparent rows behind (true) or send every row (false)",
+        },
         /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
         /// each PE) or `external` (DDR/HBM, streamed a row at a time). See
         /// [`RayBuffer`].

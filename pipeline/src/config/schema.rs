@@ -158,6 +158,22 @@ impl FieldValue for Mapping {
     }
 }
 
+impl FieldValue for bool {
+    type Raw = bool;
+
+    fn to_raw(self) -> bool {
+        self
+    }
+
+    fn from_raw(_: &str, raw: bool, _: Option<Range>) -> Result<bool, ConfigError> {
+        Ok(raw)
+    }
+
+    fn toml_value(raw: bool) -> String {
+        raw.to_string()
+    }
+}
+
 impl FieldValue for Migration {
     type Raw = Migration;
 

@@ -13,9 +13,10 @@ use std::collections::VecDeque;
 
 use crate::array::{Array, Links, RunError};
 use crate::config::Migration;
+use crate::datapath::Acc;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
-use crate::pe::{Pe, Ports, RayColumn, RayMove};
+use crate::pe::{FtbState, Pe, Ports, RayColumn, RayMove};
 use crate::probes::{Ctrl, Stage};
 
 impl Pe {
@@ -36,11 +37,11 @@ impl Pe {
                 } else if route.rightwards(self.k, dest) {
                     right.push(c);
                 } else {
-                    queue(&mut self.out_left, c);
+                    queue(&mut self.out_left, c, self.sparse_links);
                 }
             }
             for c in right.into_iter().rev() {
-                queue(&mut self.out_right, c);
+                queue(&mut self.out_right, c, self.sparse_links);
             }
             return;
         }
@@ -49,14 +50,14 @@ impl Pe {
                 break;
             }
             let c = self.rays.pop_front().expect("front exists");
-            queue(&mut self.out_left, c);
+            queue(&mut self.out_left, c, self.sparse_links);
         }
         while let Some(c) = self.rays.back() {
             if owner(c.mx) <= self.k {
                 break;
             }
             let c = self.rays.pop_back().expect("back exists");
-            queue(&mut self.out_right, c);
+            queue(&mut self.out_right, c, self.sparse_links);
         }
     }
 
@@ -80,25 +81,25 @@ impl Pe {
             let pos = match self.incoming.iter().position(|c| c.mx == m.mx) {
                 Some(p) => p,
                 None => {
-                    let rows = m.rows as usize;
-                    self.incoming.push(RayColumn {
-                        mx: m.mx,
-                        acc: Vec::with_capacity(rows),
-                        ftb: Vec::with_capacity(if m.ftb.is_some() { rows } else { 0 }),
-                        land: Vec::with_capacity(rows),
-                    });
+                    // Rows the links leave out (`link_skip_empty`) stay
+                    // transparent, as the slot reads before any write.
+                    let col = RayColumn::empty(m.mx, m.rows as usize, m.ftb.is_some());
+                    self.incoming.push(col);
                     self.incoming.len() - 1
                 }
             };
             let col = &mut self.incoming[pos];
-            col.acc.push(m.acc);
+            let row = m.row as usize;
+            col.acc[row] = m.acc;
             // Received this cycle, readable from the next (what an
             // overlapped migration's rows wait for).
-            col.land.push(now + 1);
+            col.land[row] = now + 1;
             if let Some(f) = m.ftb {
-                col.ftb.push(f);
+                col.ftb[row] = f;
             }
-            if col.acc.len() == m.rows as usize {
+            // A column's rows travel in order on one path, its last row
+            // always (it closes the column).
+            if m.row + 1 == m.rows {
                 let col = self.incoming.swap_remove(pos);
                 let dest = owner(col.mx);
                 if dest == self.k {
@@ -113,9 +114,9 @@ impl Pe {
                     // start).
                     Route::Ring(_) => from_left_side,
                 } {
-                    queue(&mut self.out_right, col);
+                    queue(&mut self.out_right, col, self.sparse_links);
                 } else {
-                    queue(&mut self.out_left, col);
+                    queue(&mut self.out_left, col, self.sparse_links);
                 }
             }
         }
@@ -152,15 +153,26 @@ impl Pe {
 
 /// Splits a column into ray moves, row by row, each with the cycle from
 /// which it may leave.
-fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn) {
+/// With `sparse`, rows that hold nothing (transparent accumulators and,
+/// front to back, nothing inherited and no termination) stay behind, but
+/// the last row always goes: it closes the column at the receiver.
+fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
     let rows = c.acc.len() as u32;
     for (row, acc) in c.acc.into_iter().enumerate() {
+        let ftb = c.ftb.get(row).copied();
+        if sparse
+            && row + 1 < rows as usize
+            && acc == Acc::default()
+            && ftb.is_none_or(|f| f == FtbState::default())
+        {
+            continue;
+        }
         let mv = RayMove {
             mx: c.mx,
             row: row as u32,
             rows,
             acc,
-            ftb: c.ftb.get(row).copied(),
+            ftb,
         };
         q.push_back((mv, c.land.get(row).copied().unwrap_or(0)));
     }

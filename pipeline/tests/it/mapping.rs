@@ -147,7 +147,7 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
         // aprons instead) and views the model refuses: nothing to compare.
         Err(e) => return Err(TestCaseError::reject(e.to_string())),
     };
-    for (mapping, width, migration, ray_buffer) in [
+    for ((mapping, width, migration, ray_buffer), sparse) in [
         (
             Mapping::Interleave,
             1,
@@ -167,12 +167,24 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
             Migration::Overlapped,
             RayBuffer::External,
         ),
-    ] {
+        (
+            Mapping::Interleave,
+            1,
+            Migration::Overlapped,
+            RayBuffer::OnChip,
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    .map(|(i, (m, w, mi, rb))| ((m, w, mi, rb), i == 4))
+    {
         let cfg = PipelineConfig {
             mapping,
             cyclic_width: width,
             migration,
             ray_buffer,
+            // The last variant also leaves transparent rows off the links.
+            link_skip_empty: sparse,
             ..base
         };
         let f = frame(&cfg, &vol, &lut, &prep, skips, shade.as_ref())
@@ -494,5 +506,66 @@ fn overlapped_migration_hides_link_time() {
         a.set_step_order((0..8).rev().collect());
         let clocked = a.run(&prep.view).expect("clocked frame");
         assert_eq!(signature(&clocked), signature(&o), "{}", mapping.name());
+    }
+}
+
+/// Leaving transparent rows off the links changes no bit and no sample,
+/// sends fewer rays and shortens the frame where most rays are still
+/// transparent; the clocked path agrees.
+#[test]
+fn transparent_rows_stay_off_the_links() {
+    let vol = sparse([48, 40, 44], 2, 7);
+    let prep = Prepared::new(
+        &vol,
+        &camera(
+            DVec3::new(23.5, 19.5, -30.0),
+            DVec3::new(23.5, 19.5, 21.5),
+            70.0,
+        ),
+    )
+    .expect("view");
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let dense = PipelineConfig {
+            mapping: Mapping::Interleave,
+            migration: Migration::Overlapped,
+            order,
+            pes: 8,
+            occupancy_block: 4,
+            ..PipelineConfig::default()
+        };
+        let sparse_cfg = PipelineConfig {
+            link_skip_empty: true,
+            ..dense
+        };
+        let lut = lut(&dense, 50.0);
+        let d = frame(&dense, &vol, &lut, &prep, Skips::default(), None).expect("frame");
+        let s = frame(&sparse_cfg, &vol, &lut, &prep, Skips::default(), None).expect("frame");
+        let sent = |f: &Frame| f.pes.iter().map(|p| p.rays_sent).sum::<u64>();
+        println!(
+            "{}: rays sent {} -> {}, cycles {} -> {}",
+            order.name(),
+            sent(&d),
+            sent(&s),
+            d.cycles,
+            s.cycles
+        );
+        assert_eq!(s.raw, d.raw);
+        assert_eq!(s.samples_per_slice, d.samples_per_slice);
+        assert!(sent(&s) * 2 < sent(&d), "{} vs {}", sent(&s), sent(&d));
+        assert!(s.cycles < d.cycles);
+        let layout = Method::Er.layout(&prep.view).expect("layout");
+        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
+        let dp = pipeline::datapath::Datapath::new(
+            sparse_cfg,
+            pipeline::tables::Tables::new(&sparse_cfg, &lut).expect("tables"),
+        );
+        let (mask, counts) =
+            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
+        let mut a =
+            Array::new(&sparse_cfg, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
+        a.set_skipping(mask, counts, &prep.view);
+        a.set_clocked(true);
+        let clocked = a.run(&prep.view).expect("clocked frame");
+        assert_eq!(signature(&clocked), signature(&s));
     }
 }

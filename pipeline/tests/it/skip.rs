@@ -99,6 +99,11 @@ const ARCHS: [(Mapping, u16, Migration, RayBuffer); 4] = [
     ),
 ];
 
+/// Whether architecture `arch` also leaves transparent rows off the links.
+fn sparse_links(arch: usize) -> bool {
+    arch == 2
+}
+
 fn cases() -> impl Strategy<Value = Case> {
     (
         (
@@ -163,6 +168,7 @@ fn config(c: &Case) -> PipelineConfig {
         cyclic_width,
         migration,
         ray_buffer,
+        link_skip_empty: sparse_links(c.arch),
         occupancy_block: c.block,
         position,
         order: if c.ftb {
