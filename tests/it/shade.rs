@@ -127,7 +127,19 @@ fn bad_flags_are_one_line_errors() {
         (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
         (format!("{s} --gradient-opacity -1"), "gradient opacity"),
         (format!("{s} --gradient bogus"), "gradient"),
-        (format!("{s} --gaze 3,3"), "reference"),
+        (
+            format!("{s} --method box --gaze 3,3"),
+            "reference, mipmap, er or er-ftb",
+        ),
+        (
+            format!("{s} --gaze 3,3 --gaze-levels 4"),
+            "fewer --gaze-levels",
+        ),
+        (format!("{s} --compare-full"), "--compare-full needs --gaze"),
+        (
+            format!("{s} --gaze 3,3 --baseplane-npy b.npy"),
+            "one baseplane per level",
+        ),
         (format!("{s} --method reference --gaze 3"), "gaze"),
         (
             format!("{s} --method reference --gaze 3,3 --gaze-radii 5,2"),

@@ -134,7 +134,6 @@ fn options_shear_warp_cannot_honour_are_one_line_errors() {
             format!("{s} --intermediate-scale nan"),
             "intermediate scale",
         ),
-        (format!("{s} --shade"), "shear-warp"),
         (format!("{s} --voi sphere:4,4,4,3"), "volume of interest"),
         (format!("{s} --gaze 3,3"), "gaze"),
         (format!("{s} --substeps 2"), "substeps"),

@@ -6,6 +6,7 @@
 #[path = "../../../tests/support/scenes.rs"]
 mod scenes;
 
+mod ergaze;
 mod figures;
 mod formats;
 mod foundation;
