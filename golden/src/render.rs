@@ -20,7 +20,7 @@ use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
-use crate::shading::{gradients, Gradients};
+use crate::shading::{gradients, GradientMode, Gradients, Shader};
 use crate::shearwarp::{Classified, SwOptions, SwStats};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -530,9 +530,6 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             let refuse = |what: &str| -> Result<Frame> {
                 Err(crate::error::input(format!("the shear-warp method {what}")))
             };
-            if o.shade.is_some() {
-                return refuse("does not shade; drop the shading options");
-            }
             if o.voi.is_some() {
                 return refuse("has no volume of interest; drop --voi");
             }
@@ -545,7 +542,20 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             let sw = opts.shear_warp();
             sw.validate()?;
             let cls = prep.classified_for(lut)?;
-            let (image, stats) = crate::shearwarp::render(&prep.view, &cls, &prep.clip, &sw)?;
+            let shader = match &o.shade {
+                Some(sh) => {
+                    let grads = (sh.gradient == GradientMode::Voxels).then(|| prep.gradients());
+                    Some(Shader::with_gradients(&prep.view, grads, sh)?)
+                }
+                None => None,
+            };
+            let (image, stats) = crate::shearwarp::render_shaded(
+                &prep.view,
+                &cls,
+                &prep.clip,
+                &sw,
+                shader.as_ref().map(|s| (s, &*prep.stack)),
+            )?;
             Ok(Frame {
                 image,
                 slice: None,

@@ -177,3 +177,38 @@ fn bad_flags_are_one_line_errors() {
         assert_refused(&args, &ercube(dir.path(), &args), needle);
     }
 }
+
+/// `--gaze` on ER renders one frame per level: the stats carry the levels,
+/// and `--compare-full` reports the sweet spot (bit for bit the full frame)
+/// and the periphery separately.
+#[test]
+fn er_gaze_reports_levels_and_the_sweet_spot() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    for m in ["er", "er-ftb", "reference", "mipmap"] {
+        let line = format!(
+            "render --scene ml:24 --size 48x40 --method {m} --gaze 20,18 --compare-full --out i.png --stats s.json"
+        );
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let out = ercube(d, &args);
+        assert!(
+            out.status.success(),
+            "{}",
+            crate::bin::describe(&args, &out)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
+                .expect("json");
+        let f = &v["gaze_vs_full"];
+        assert_eq!(f["inside"]["rmse"], 0.0, "{m}: {f}");
+        assert!(f["inside"]["pixels"].as_u64().unwrap() > 0, "{m}: {f}");
+        assert!(f["outside"]["rmse"].as_f64().unwrap() > 0.0, "{m}: {f}");
+        assert_eq!(
+            f["inside"]["pixels"].as_u64().unwrap() + f["outside"]["pixels"].as_u64().unwrap(),
+            48 * 40
+        );
+        if m.starts_with("er") {
+            assert_eq!(v["er_gaze"]["levels"].as_array().unwrap().len(), 3, "{m}");
+        }
+    }
+}

@@ -20,3 +20,4 @@ mod shading;
 mod shearwarp;
 mod skipping;
 mod substeps;
+mod swshade;
