@@ -199,6 +199,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
 struct VersusFull {
     time_s: f64,
     samples: Option<u64>,
+    /// Rays of the full frame: one per pixel for the casters, ER's kept
+    /// rays summed over its regions.
+    rays: Option<u64>,
     inside: (golden::metrics::ImageError, u64),
     outside: (golden::metrics::ImageError, u64),
 }
@@ -213,6 +216,7 @@ impl VersusFull {
         serde_json::json!({
             "full_time_s": self.time_s,
             "full_samples": self.samples,
+            "full_rays": self.rays,
             "inside": part(&self.inside),
             "outside": part(&self.outside),
         })
@@ -263,9 +267,18 @@ fn versus_full(
         let (dx, dy) = (x as f64 + 0.5 - g.at[0], y as f64 + 0.5 - g.at[1]);
         (dx * dx + dy * dy).sqrt() <= g.inner
     };
+    let rays = match (&f.slice, &f.gaze) {
+        (Some(o), _) => Some(o.stats.rays_per_region.iter().sum::<u64>() - o.stats.rays_culled),
+        (None, Some(g)) => Some(g.rays),
+        (None, None) => f
+            .mip
+            .as_ref()
+            .map(|_| u64::from(prep.view.size[0]) * u64::from(prep.view.size[1])),
+    };
     Ok(VersusFull {
         time_s: median(&times),
         samples: f.samples(),
+        rays,
         inside: golden::metrics::compare_where(&frame.image, &f.image, inside)?,
         outside: golden::metrics::compare_where(&frame.image, &f.image, |x, y| !inside(x, y))?,
     })

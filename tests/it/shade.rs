@@ -212,3 +212,49 @@ fn er_gaze_reports_levels_and_the_sweet_spot() {
         }
     }
 }
+
+/// `compare --gaze` adds a `NAME+gaze` row for every method that takes a
+/// gaze, and `bench` runs `er+gaze`; neither takes it for other methods.
+#[test]
+fn compare_and_bench_take_er_gaze() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    let line =
+        "compare --scene ml:24 --size 32x32 --methods er,under,reference --gaze 16,16 --out-dir c";
+    let args: Vec<&str> = line.split_whitespace().collect();
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let csv = std::fs::read_to_string(d.join("c/compare.csv")).expect("csv");
+    let names: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').next())
+        .collect();
+    assert_eq!(
+        names,
+        ["er", "er+gaze", "under", "reference+gaze", "reference"],
+        "{csv}"
+    );
+    let line = "bench --scene ml:24 --size 32x32 --distances 8 --frames 1 --methods reference,er+gaze,er-ftb+gaze --out-dir b";
+    let args: Vec<&str> = line.split_whitespace().collect();
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let csv = std::fs::read_to_string(d.join("b/bench.csv")).expect("csv");
+    assert!(
+        csv.contains("er+gaze") && csv.contains("er-ftb+gaze"),
+        "{csv}"
+    );
+    for (line, needle) in [
+        (
+            "compare --scene ml:24 --size 32x32 --methods under --gaze 3,3",
+            "--gaze needs",
+        ),
+        (
+            "bench --scene ml:24 --size 32x32 --methods box+gaze",
+            "er-ftb+gaze take a gaze",
+        ),
+    ] {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        assert_refused(&args, &ercube(d, &args), needle);
+    }
+}
