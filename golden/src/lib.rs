@@ -12,13 +12,15 @@
 //! ground truth, [`mipcast`] casts rays through a 3D mip-map
 //! ([`mipmap`]) whose level follows each ray's footprint, [`shearwarp`]
 //! composites sheared slices on an intermediate image and warps it,
-//! [`gaze`] varies the casters' resolution around a gaze point,
+//! [`gaze`] varies the casters' resolution around a gaze point and
+//! [`ergaze`] ER's, by one frame per level,
 //! [`metrics`] compares images.
 
 #![deny(rustdoc::broken_intra_doc_links)]
 
 pub mod camera;
 pub mod clip;
+pub mod ergaze;
 pub mod error;
 pub mod gaze;
 pub mod geometry;

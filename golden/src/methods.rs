@@ -18,7 +18,7 @@ use crate::shading::{GradientMode, Shade, Shader};
 use crate::skip::{MaskSpec, SampleMask, Skips, GOLDEN_MARGIN};
 use crate::tf::Lut;
 use crate::voi::{ViewVoi, Voi};
-use crate::warp::Baseplane;
+use crate::warp::{Baseplane, PixelWindow};
 
 /// A slice-order rendering method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -209,6 +209,19 @@ pub struct Output {
 
 /// Renders `prep` with `method`.
 pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Result<Output> {
+    render_within(method, prep, lut, opts, None)
+}
+
+/// [`render`] of a frame whose image is needed only in `window`: the rays
+/// are culled to it (see [`SampleMask::within`]), and the baseplane is
+/// exact for the window's pixels only.
+pub fn render_within(
+    method: Method,
+    prep: &Prepared,
+    lut: &Lut,
+    opts: &Options,
+    window: Option<&PixelWindow>,
+) -> Result<Output> {
     opts.validate()?;
     let view = &prep.view;
     let layout = method.layout(view)?;
@@ -219,7 +232,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
         Some(pt) => prep.occupancy_for(pt.occupancy_lut(lut)),
         None => prep.occupancy_for(lut),
     });
-    let mask = SampleMask::new(
+    let mask = SampleMask::within(
         view,
         &layout,
         MaskSpec {
@@ -231,6 +244,7 @@ pub fn render(method: Method, prep: &Prepared, lut: &Lut, opts: &Options) -> Res
             // Pre-integration reads the next slice, like substeps do.
             substeps: if opts.preintegrate { 2 } else { opts.substeps },
         },
+        window,
     );
     let mut stats = Stats {
         substeps: opts.substeps,

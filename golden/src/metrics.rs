@@ -17,6 +17,16 @@ pub struct ImageError {
 
 /// Compares `a` with `b` (same size).
 pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
+    compare_where(a, b, |_, _| true).map(|(e, _)| e)
+}
+
+/// [`compare`] over the pixels `(x, y)` that `keep` accepts; also returns
+/// how many it accepted (an empty set compares as equal).
+pub fn compare_where(
+    a: &Image,
+    b: &Image,
+    keep: impl Fn(usize, usize) -> bool,
+) -> Result<(ImageError, u64)> {
     if (a.width, a.height) != (b.width, b.height) {
         return Err(input(format!(
             "cannot compare a {}x{} image with a {}x{} one",
@@ -25,15 +35,20 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
     }
     let mut max = 0u8;
     let mut sq = 0f64;
-    for (p, q) in a.data.iter().zip(&b.data) {
+    let mut n = 0usize;
+    for (i, (p, q)) in a.data.iter().zip(&b.data).enumerate() {
+        if !keep(i % a.width.max(1), i / a.width.max(1)) {
+            continue;
+        }
+        n += 1;
         for c in 0..3 {
             max = max.max(to8(p[c]).abs_diff(to8(q[c])));
             let d = p[c] as f64 - q[c] as f64;
             sq += d * d;
         }
     }
-    let rmse = (sq / (3 * a.data.len()).max(1) as f64).sqrt();
-    Ok(ImageError {
+    let rmse = (sq / (3 * n).max(1) as f64).sqrt();
+    let e = ImageError {
         max_abs_255: max as f64,
         rmse,
         psnr: if rmse > 0.0 {
@@ -41,7 +56,8 @@ pub fn compare(a: &Image, b: &Image) -> Result<ImageError> {
         } else {
             f64::INFINITY
         },
-    })
+    };
+    Ok((e, n as u64))
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::camera::Camera;
 use crate::clip::{check_planes, ClipPlane, ViewClip};
+use crate::ergaze::ErGazeStats;
 use crate::error::{input, Result};
 use crate::gaze::GazeStats;
 use crate::geometry::View;
@@ -19,7 +20,7 @@ use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
-use crate::shading::{gradients, Gradients};
+use crate::shading::{gradients, GradientMode, Gradients, Shader};
 use crate::shearwarp::{Classified, SwOptions, SwStats};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -108,6 +109,10 @@ pub struct Prepared {
     /// The pre-integrated table of the last table used, by
     /// [`classification_key`].
     preint: Arc<Mutex<Option<KeyedPreTable>>>,
+    /// The coarse levels `1..` of a gaze-directed ER frame
+    /// ([`crate::ergaze`]); empty unless [`Prepared::with_gaze_levels`]
+    /// made them.
+    coarse: Arc<Vec<Prepared>>,
 }
 
 /// An occupancy map and the key of the table it was built for.
@@ -214,7 +219,28 @@ impl Prepared {
                 Some(r) => Arc::clone(&r.preint),
                 None => Arc::default(),
             },
+            // They depend on the camera: a moved view prepares its own.
+            coarse: Arc::default(),
         })
+    }
+
+    /// This view with the coarse levels `1..=levels` a gaze-directed ER
+    /// frame renders ([`crate::ergaze::prepare_levels`]; `volume`,
+    /// `camera` and `opts` are the ones this was prepared with).
+    pub fn with_gaze_levels(
+        mut self,
+        volume: &Volume,
+        camera: &Camera,
+        opts: &PrepareOptions,
+        levels: u32,
+    ) -> Result<Prepared> {
+        self.coarse = Arc::new(crate::ergaze::prepare_levels(volume, camera, opts, levels)?);
+        Ok(self)
+    }
+
+    /// The coarse levels prepared by [`Prepared::with_gaze_levels`].
+    pub fn gaze_levels(&self) -> &[Prepared] {
+        &self.coarse
     }
 
     /// The stack's shading gradients ([`crate::shading::gradients`]),
@@ -403,17 +429,20 @@ pub struct Frame {
     pub gaze: Option<GazeStats>,
     /// Counts of the shear-warp renderer.
     pub sw: Option<SwStats>,
+    /// Levels of a gaze-directed ER frame.
+    pub er_gaze: Option<ErGazeStats>,
 }
 
 impl Frame {
     /// Samples the method took (interpolated and classified), when it
     /// counts them.
     pub fn samples(&self) -> Option<u64> {
-        match (&self.slice, &self.mip, &self.sw) {
-            (Some(o), _, _) => Some(o.stats.samples_total),
-            (None, Some(m), _) => Some(m.samples_total),
-            (None, None, Some(s)) => Some(s.samples_total),
-            (None, None, None) => None,
+        match (&self.slice, &self.mip, &self.sw, &self.er_gaze) {
+            (Some(o), _, _, _) => Some(o.stats.samples_total),
+            (None, Some(m), _, _) => Some(m.samples_total),
+            (None, None, Some(s), _) => Some(s.samples_total),
+            (None, None, None, Some(g)) => Some(g.samples_total),
+            (None, None, None, None) => None,
         }
     }
 }
@@ -449,6 +478,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                     mip: None,
                     gaze: Some(stats),
                     sw: None,
+                    er_gaze: None,
                 })
             }
             None => Ok(Frame {
@@ -463,6 +493,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 mip: None,
                 gaze: None,
                 sw: None,
+                er_gaze: None,
             }),
         },
         Technique::MipMap => {
@@ -491,6 +522,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 mip: Some(stats),
                 gaze,
                 sw: None,
+                er_gaze: None,
             })
         }
         Technique::ShearWarp => {
@@ -498,9 +530,6 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             let refuse = |what: &str| -> Result<Frame> {
                 Err(crate::error::input(format!("the shear-warp method {what}")))
             };
-            if o.shade.is_some() {
-                return refuse("does not shade; drop the shading options");
-            }
             if o.voi.is_some() {
                 return refuse("has no volume of interest; drop --voi");
             }
@@ -513,13 +542,40 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             let sw = opts.shear_warp();
             sw.validate()?;
             let cls = prep.classified_for(lut)?;
-            let (image, stats) = crate::shearwarp::render(&prep.view, &cls, &prep.clip, &sw)?;
+            let shader = match &o.shade {
+                Some(sh) => {
+                    let grads = (sh.gradient == GradientMode::Voxels).then(|| prep.gradients());
+                    Some(Shader::with_gradients(&prep.view, grads, sh)?)
+                }
+                None => None,
+            };
+            let (image, stats) = crate::shearwarp::render_shaded(
+                &prep.view,
+                &cls,
+                &prep.clip,
+                &sw,
+                shader.as_ref().map(|s| (s, &*prep.stack)),
+            )?;
             Ok(Frame {
                 image,
                 slice: None,
                 mip: None,
                 gaze: None,
                 sw: Some(stats),
+                er_gaze: None,
+            })
+        }
+        Technique::Slice(m) if opts.reference.gaze.is_some() => {
+            let g = opts.reference.gaze.as_ref().expect("matched");
+            let (image, stats) =
+                crate::ergaze::render(m, prep, prep.gaze_levels(), lut, &opts.slice, g)?;
+            Ok(Frame {
+                image,
+                slice: None,
+                mip: None,
+                gaze: None,
+                sw: None,
+                er_gaze: Some(stats),
             })
         }
         Technique::Slice(m) => {
@@ -530,6 +586,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
                 mip: None,
                 gaze: None,
                 sw: None,
+                er_gaze: None,
             })
         }
     }

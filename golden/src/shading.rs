@@ -339,6 +339,13 @@ impl Shader {
         })
     }
 
+    /// The voxel gradients, in voxels mode (`None` in samples mode): for a
+    /// renderer that resamples with its own filter (shear-warp's tent)
+    /// and interpolates the gradient with the scalar's weights.
+    pub fn voxel_gradients(&self) -> Option<&Gradients> {
+        self.grads.as_deref()
+    }
+
     /// The gradient at view `(x, y)` in slice `z` of `stack` (the
     /// scalar): voxel gradients bilinear like the scalar's sample there, or
     /// differences of samples.

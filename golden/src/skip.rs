@@ -23,7 +23,7 @@
 use crate::clip::ViewClip;
 use crate::geometry::{Affine, Layout, Merge, View};
 use crate::occupancy::{Occupancy, ViewOccupancy};
-use crate::warp::pixel_to_base;
+use crate::warp::{pixel_to_base, PixelWindow};
 
 /// Position margin of golden's empty-space runs (voxels): far above the
 /// `f32` rounding of a ray position (below `2^-10` voxel for volumes up to
@@ -103,6 +103,20 @@ pub struct SampleMask {
 impl SampleMask {
     /// The mask of `layout` for `view`, as `spec` asks.
     pub fn new(view: &View, layout: &Layout, spec: MaskSpec) -> SampleMask {
+        SampleMask::within(view, layout, spec, None)
+    }
+
+    /// [`SampleMask::new`] for a frame whose image is needed only in
+    /// `window` (the gaze-directed ER frame's levels, [`crate::ergaze`]):
+    /// rays are culled to what the warp reads for those pixels, whatever
+    /// `spec.cull` says, so the window's pixels have the bits of the whole
+    /// frame and the rest are not computed.
+    pub fn within(
+        view: &View,
+        layout: &Layout,
+        spec: MaskSpec,
+        window: Option<&PixelWindow>,
+    ) -> SampleMask {
         let MaskSpec {
             occupancy: occ,
             clip,
@@ -117,8 +131,9 @@ impl SampleMask {
             .iter()
             .map(|g| [(g.lo[0], g.hi[0]), (g.lo[1], g.hi[1])])
             .collect();
-        let keep = if cull {
-            needed(view, layout, ftb).unwrap_or_else(|| full.clone())
+        let keep = if cull || window.is_some() {
+            let all = PixelWindow::all(view.size);
+            needed(view, layout, ftb, window.unwrap_or(&all)).unwrap_or_else(|| full.clone())
         } else {
             full.clone()
         };
@@ -363,17 +378,19 @@ impl SampleMask {
 /// under the warp's reach, and behind them what the merges (and, front to
 /// back, the splits) carry into those. `None` when the image's rays do not
 /// all meet the baseplane (no bound).
-fn needed(view: &View, layout: &Layout, ftb: bool) -> Option<Vec<[(i64, i64); 2]>> {
+fn needed(
+    view: &View,
+    layout: &Layout,
+    ftb: bool,
+    window: &PixelWindow,
+) -> Option<Vec<[(i64, i64); 2]>> {
     let base = layout.baseplane();
     let m = pixel_to_base(view, &base);
-    let [w, h] = view.size.map(f64::from);
     let (mut umin, mut umax) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for (px, py) in [
-        (0.5, 0.5),
-        (w - 0.5, 0.5),
-        (0.5, h - 0.5),
-        (w - 0.5, h - 0.5),
-    ] {
+    // The map is projective and every corner is in front of the eye (or
+    // there is no bound), so the window's image on the baseplane lies in
+    // the box of its corners' images.
+    for (px, py) in window.corners() {
         let q = m * glam::DVec3::new(px, py, 1.0);
         // Not in front of the eye (or not a number): no bound.
         if q.z.is_nan() || q.z <= 0.0 {

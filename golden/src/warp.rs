@@ -87,6 +87,44 @@ fn floor(x: f64) -> i64 {
 /// the last Bartlett merge, `(1/4, 1/2, 1/4)` at a sample, folded into the
 /// warp; for every method it is the same filter in voxel units.
 pub fn warp(view: &View, base: &Baseplane) -> Image {
+    warp_window(view, base, &PixelWindow::all(view.size))
+}
+
+/// A rectangle of pixels, `x[0]..=x[1]` by `y[0]..=y[1]` (pixel indices).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct PixelWindow {
+    /// First and last column.
+    pub x: [u32; 2],
+    /// First and last row.
+    pub y: [u32; 2],
+}
+
+impl PixelWindow {
+    /// Every pixel of a `size[0] x size[1]` image (which must not be empty).
+    pub fn all(size: [u32; 2]) -> PixelWindow {
+        PixelWindow {
+            x: [0, size[0].saturating_sub(1)],
+            y: [0, size[1].saturating_sub(1)],
+        }
+    }
+
+    /// Pixels in the window.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.x[1] - self.x[0] + 1) * u64::from(self.y[1] - self.y[0] + 1)
+    }
+
+    /// The centres of the window's corner pixels.
+    pub fn corners(&self) -> [(f64, f64); 4] {
+        let c = |v: u32| f64::from(v) + 0.5;
+        let (x0, x1, y0, y1) = (c(self.x[0]), c(self.x[1]), c(self.y[0]), c(self.y[1]));
+        [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
+    }
+}
+
+/// [`warp`] of the pixels in `win` only (the rest stay zero): what a
+/// frame culled to that window ([`crate::skip::SampleMask::within`])
+/// can show. Every pixel it computes has the bits [`warp`] gives it.
+pub fn warp_window(view: &View, base: &Baseplane, win: &PixelWindow) -> Image {
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let m = pixel_to_base(view, &base.grid);
     let half = 1.0 / base.grid.spacing;
@@ -98,10 +136,20 @@ pub fn warp(view: &View, base: &Baseplane) -> Image {
         height: h,
         data: crate::merge::zeroed(w * h),
     };
+    let (cols, rows) = (
+        win.x[0] as usize..=win.x[1] as usize,
+        win.y[0] as usize..=win.y[1] as usize,
+    );
     img.data.par_chunks_mut(w).enumerate().for_each_init(
         || (Vec::new(), Vec::new()),
         |(wx, wy), (j, row)| {
+            if !rows.contains(&j) {
+                return;
+            }
             for (i, out) in row.iter_mut().enumerate() {
+                if !cols.contains(&i) {
+                    continue;
+                }
                 let q = m * DVec3::new(i as f64 + 0.5, j as f64 + 0.5, 1.0);
                 if q.z <= 0.0 {
                     continue;

@@ -40,6 +40,20 @@ pub struct CompareArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Also render every listed method that takes a gaze (reference,
+    /// mipmap, er, er-ftb) with the paper's gaze profile around pixel x,y,
+    /// as rows `NAME+gaze`.
+    #[arg(long, value_parser = super::args::parse_point2, allow_hyphen_values = true)]
+    pub gaze: Option<[f64; 2]>,
+}
+
+/// Whether `tech` takes a gaze profile.
+fn takes_gaze(tech: Technique) -> bool {
+    use golden::methods::Method;
+    matches!(
+        tech,
+        Technique::Reference | Technique::MipMap | Technique::Slice(Method::Er | Method::ErFtb)
+    )
 }
 
 /// Arguments of `ercube demo`.
@@ -52,7 +66,7 @@ pub struct DemoArgs {
 
 /// One row of the comparison table.
 struct Row {
-    name: &'static str,
+    name: String,
     time_s: f64,
     samples: Option<u64>,
     err: ImageError,
@@ -81,7 +95,24 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
     let (vol, tf, cam) = a.view.load()?;
     a.slice.apply_tf(&mut opts, &tf)?;
     let lut = lut_for(vol.kind(), &tf);
-    let prep = a.slice.prepared(&vol, &cam)?;
+    let mut prep = a.slice.prepared(&vol, &cam)?;
+    let gaze = match a.gaze {
+        Some(at) => {
+            if !techs.iter().any(|&t| takes_gaze(t)) {
+                anyhow::bail!("--gaze needs one of reference, mipmap, er or er-ftb in --methods");
+            }
+            let g = golden::gaze::Gaze::around(at, cam.width, cam.height);
+            g.validate()?;
+            if techs
+                .iter()
+                .any(|t| matches!(t, Technique::Slice(_)) && takes_gaze(*t))
+            {
+                prep = prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?;
+            }
+            Some(g)
+        }
+        None => None,
+    };
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
 
@@ -115,20 +146,28 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
             t.elapsed().as_secs_f64()
         ));
     }
-    let mut frames: Vec<(Technique, Frame, f64)> = Vec::new();
+    let mut frames: Vec<(String, Frame, f64)> = Vec::new();
     for &tech in techs {
-        if tech == Technique::Reference {
-            continue;
+        if tech != Technique::Reference {
+            let _s = Stage::start(format!("rendering with {}", tech.name()));
+            let t = Instant::now();
+            let f = render(&prep, &lut, tech, &opts)?;
+            frames.push((tech.name().to_string(), f, t.elapsed().as_secs_f64()));
         }
-        let _s = Stage::start(format!("rendering with {}", tech.name()));
-        let t = Instant::now();
-        let f = render(&prep, &lut, tech, &opts)?;
-        frames.push((tech, f, t.elapsed().as_secs_f64()));
+        if let (Some(g), true) = (gaze, takes_gaze(tech)) {
+            let name = format!("{}+gaze", tech.name());
+            let _s = Stage::start(format!("rendering with {name}"));
+            let mut o = opts;
+            o.reference.gaze = Some(g);
+            let t = Instant::now();
+            let f = render(&prep, &lut, tech, &o)?;
+            frames.push((name, f, t.elapsed().as_secs_f64()));
+        }
     }
     let mut rows = Vec::new();
-    for (tech, f, time_s) in &frames {
+    for (name, f, time_s) in &frames {
         rows.push(Row {
-            name: tech.name(),
+            name: name.clone(),
             time_s: *time_s,
             samples: f.samples(),
             err: compare(&f.image, &reference.0.image)?,
@@ -136,15 +175,14 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
     }
     if techs.contains(&Technique::Reference) {
         rows.push(Row {
-            name: "reference",
+            name: "reference".into(),
             time_s: reference.1,
             samples: None,
             err: compare(&reference.0.image, &reference.0.image)?,
         });
     }
-    for (tech, f, _) in &frames {
-        f.image
-            .write_png(&a.out_dir.join(format!("{}.png", tech.name())))?;
+    for (name, f, _) in &frames {
+        f.image.write_png(&a.out_dir.join(format!("{name}.png")))?;
     }
     reference
         .0
@@ -154,7 +192,7 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
     let mut labelled: Vec<(String, &golden::image::Image)> = frames
         .iter()
         .zip(&rows)
-        .map(|((t, f, _), r)| (format!("{} {:.4}", t.name(), r.err.rmse), &f.image))
+        .map(|((name, f, _), r)| (format!("{name} {:.4}", r.err.rmse), &f.image))
         .collect();
     if techs.contains(&Technique::Reference) {
         labelled.push(("reference".into(), &reference.0.image));
@@ -242,6 +280,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         out_dir: a.out_dir.clone(),
         slice: SliceArgs::default(),
         threads: None,
+        gaze: None,
     };
     run(&args)
 }

@@ -49,19 +49,26 @@ pub struct RenderArgs {
     pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
-    /// Reference and mipmap: gaze-directed variable resolution around pixel
-    /// x,y (full resolution near it, one ray per 16 pixels and a quarter
-    /// of the samples at the periphery; docs/golden.md#gaze).
+    /// Reference, mipmap, er and er-ftb: gaze-directed variable resolution
+    /// around pixel x,y (full resolution near it, one ray per 16 pixels and
+    /// a quarter of the samples at the periphery; ER renders one frame per
+    /// level; docs/golden.md#gaze-directed-variable-resolution).
     #[arg(long, value_parser = super::args::parse_point2, allow_hyphen_values = true)]
     pub gaze: Option<[f64; 2]>,
-    /// Reference and mipmap: the gaze profile's radii in pixels, inner (full
+    /// With --gaze: the profile's radii in pixels, inner (full
     /// resolution) and outer (coarsest level); default a tenth and four
     /// tenths of the image's larger side.
     #[arg(long, value_parser = super::args::parse_point2)]
     pub gaze_radii: Option<[f64; 2]>,
-    /// Reference and mipmap: the coarsest level (one ray per 2^L x 2^L pixels).
+    /// With --gaze: the coarsest level (one ray per 2^L x 2^L pixels).
     #[arg(long, default_value_t = 2)]
     pub gaze_levels: u32,
+    /// With --gaze: also render the same method at full resolution (the
+    /// reference: one ray per pixel) and report its time and samples and
+    /// the error inside the sweet spot (within the inner radius) and
+    /// outside it, separately.
+    #[arg(long)]
+    pub compare_full: bool,
 }
 
 /// Runs `f` `n` times (at least once), returning the last result and each
@@ -129,12 +136,24 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let full = opts;
         opts.reference.gaze = gaze_of(a, &cam, tech)?;
         let lut = lut_for(vol.kind(), &tf);
-        let prep = a.slice.prepared(&vol, &cam)?;
+        if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {
+            anyhow::bail!("--baseplane-npy: a gaze-directed frame has one baseplane per level; drop one of them");
+        }
+        let mut prep = a.slice.prepared(&vol, &cam)?;
+        if let (Some(g), Technique::Slice(_)) = (&opts.reference.gaze, tech) {
+            let _s = Stage::start("preparing the gaze levels");
+            prep = prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?;
+        }
         let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
             timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
         };
         let time_s = median(&times);
+        let vs_full = match &opts.reference.gaze {
+            Some(g) if a.compare_full => Some(versus_full(a, &prep, &lut, tech, &opts, g, &frame)?),
+            _ if a.compare_full => anyhow::bail!("--compare-full needs --gaze"),
+            _ => None,
+        };
         let base = frame.slice.as_ref().map(|o| &o.baseplane);
         let err = write_outputs(a, &prep, &lut, &full, &frame.image, base)?;
         if let Some(p) = &a.stats {
@@ -148,6 +167,9 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 err.as_ref(),
             );
             v["times_s"] = serde_json::json!(times);
+            if let Some(f) = &vs_full {
+                v["gaze_vs_full"] = f.json();
+            }
             write_json(p, &v)?;
         }
         let mut line = format!(
@@ -165,8 +187,100 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 e.max_abs_255, e.rmse, e.psnr
             );
         }
+        if let Some(f) = &vs_full {
+            line += &f.summary(time_s, frame.samples());
+        }
         super::say(&format!("{line} -> {}", a.out.display()));
         Ok(())
+    })
+}
+
+/// A gaze-directed frame against the same method at full resolution.
+struct VersusFull {
+    time_s: f64,
+    samples: Option<u64>,
+    /// Rays of the full frame: one per pixel for the casters, ER's kept
+    /// rays summed over its regions.
+    rays: Option<u64>,
+    inside: (golden::metrics::ImageError, u64),
+    outside: (golden::metrics::ImageError, u64),
+}
+
+impl VersusFull {
+    fn json(&self) -> serde_json::Value {
+        let part = |(e, n): &(golden::metrics::ImageError, u64)| {
+            let mut v = super::stats::error_json(e);
+            v["pixels"] = serde_json::json!(n);
+            v
+        };
+        serde_json::json!({
+            "full_time_s": self.time_s,
+            "full_samples": self.samples,
+            "full_rays": self.rays,
+            "inside": part(&self.inside),
+            "outside": part(&self.outside),
+        })
+    }
+
+    fn summary(&self, time_s: f64, samples: Option<u64>) -> String {
+        let mut s = format!(
+            "; full resolution {:.3} s ({:.2}x)",
+            self.time_s,
+            self.time_s / time_s
+        );
+        if let (Some(f), Some(g)) = (self.samples, samples) {
+            s += &format!(", samples {g} of {f} ({:.3})", g as f64 / f.max(1) as f64);
+        }
+        let (i, o) = (&self.inside.0, &self.outside.0);
+        s + &format!(
+            ", vs full: sweet spot rmse {:.5} max {} /255, outside rmse {:.5} max {} /255",
+            i.rmse, i.max_abs_255, o.rmse, o.max_abs_255
+        )
+    }
+}
+
+/// Renders `tech` at full resolution (the reference: one ray per pixel,
+/// what its gaze frames save against) and compares `frame` with it inside
+/// and outside the sweet spot.
+fn versus_full(
+    a: &RenderArgs,
+    prep: &Prepared,
+    lut: &golden::tf::Lut,
+    tech: Technique,
+    opts: &RenderOptions,
+    g: &golden::gaze::Gaze,
+    frame: &golden::render::Frame,
+) -> Result<VersusFull> {
+    let mut full = *opts;
+    full.reference.gaze = match tech {
+        Technique::Reference => Some(golden::gaze::Gaze::full(
+            prep.view.size[0],
+            prep.view.size[1],
+        )),
+        _ => None,
+    };
+    let (f, times) = {
+        let _s = Stage::start("rendering at full resolution");
+        timed_frames(a.repeat, || Ok(render(prep, lut, tech, &full)?))?
+    };
+    let inside = |x: usize, y: usize| {
+        let (dx, dy) = (x as f64 + 0.5 - g.at[0], y as f64 + 0.5 - g.at[1]);
+        (dx * dx + dy * dy).sqrt() <= g.inner
+    };
+    let rays = match (&f.slice, &f.gaze) {
+        (Some(o), _) => Some(o.stats.rays_per_region.iter().sum::<u64>() - o.stats.rays_culled),
+        (None, Some(g)) => Some(g.rays),
+        (None, None) => f
+            .mip
+            .as_ref()
+            .map(|_| u64::from(prep.view.size[0]) * u64::from(prep.view.size[1])),
+    };
+    Ok(VersusFull {
+        time_s: median(&times),
+        samples: f.samples(),
+        rays,
+        inside: golden::metrics::compare_where(&frame.image, &f.image, inside)?,
+        outside: golden::metrics::compare_where(&frame.image, &f.image, |x, y| !inside(x, y))?,
     })
 }
 
@@ -182,8 +296,13 @@ fn gaze_of(
         }
         return Ok(None);
     };
-    if !matches!(tech, Technique::Reference | Technique::MipMap) {
-        anyhow::bail!("--gaze applies to --method reference or mipmap only");
+    if !matches!(
+        tech,
+        Technique::Reference
+            | Technique::MipMap
+            | Technique::Slice(golden::methods::Method::Er | golden::methods::Method::ErFtb)
+    ) {
+        anyhow::bail!("--gaze applies to --method reference, mipmap, er or er-ftb only");
     }
     let mut g = golden::gaze::Gaze::around(at, cam.width, cam.height);
     if let Some([inner, outer]) = a.gaze_radii {
@@ -289,6 +408,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             mip: None,
             gaze: None,
             sw: None,
+            er_gaze: None,
         };
         let mut v = frame_json(
             a.method.name(),

@@ -73,6 +73,10 @@ pub fn frame_json(
     if let Some(g) = &frame.gaze {
         v["gaze"] = json!(g);
     }
+    if let Some(g) = &frame.er_gaze {
+        v["samples_total"] = json!(g.samples_total);
+        v["er_gaze"] = json!(g);
+    }
     if let Some(e) = err {
         v["error_vs_reference"] = error_json(e);
     }

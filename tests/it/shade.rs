@@ -127,7 +127,19 @@ fn bad_flags_are_one_line_errors() {
         (format!("{s} --material 0.1,0.7,0.2,0"), "shininess"),
         (format!("{s} --gradient-opacity -1"), "gradient opacity"),
         (format!("{s} --gradient bogus"), "gradient"),
-        (format!("{s} --gaze 3,3"), "reference"),
+        (
+            format!("{s} --method box --gaze 3,3"),
+            "reference, mipmap, er or er-ftb",
+        ),
+        (
+            format!("{s} --gaze 3,3 --gaze-levels 4"),
+            "fewer --gaze-levels",
+        ),
+        (format!("{s} --compare-full"), "--compare-full needs --gaze"),
+        (
+            format!("{s} --gaze 3,3 --baseplane-npy b.npy"),
+            "one baseplane per level",
+        ),
         (format!("{s} --method reference --gaze 3"), "gaze"),
         (
             format!("{s} --method reference --gaze 3,3 --gaze-radii 5,2"),
@@ -163,5 +175,86 @@ fn bad_flags_are_one_line_errors() {
     for (line, needle) in &cases {
         let args: Vec<&str> = line.split_whitespace().collect();
         assert_refused(&args, &ercube(dir.path(), &args), needle);
+    }
+}
+
+/// `--gaze` on ER renders one frame per level: the stats carry the levels,
+/// and `--compare-full` reports the sweet spot (bit for bit the full frame)
+/// and the periphery separately.
+#[test]
+fn er_gaze_reports_levels_and_the_sweet_spot() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    for m in ["er", "er-ftb", "reference", "mipmap"] {
+        let line = format!(
+            "render --scene ml:24 --size 48x40 --method {m} --gaze 20,18 --compare-full --out i.png --stats s.json"
+        );
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let out = ercube(d, &args);
+        assert!(
+            out.status.success(),
+            "{}",
+            crate::bin::describe(&args, &out)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
+                .expect("json");
+        let f = &v["gaze_vs_full"];
+        assert_eq!(f["inside"]["rmse"], 0.0, "{m}: {f}");
+        assert!(f["inside"]["pixels"].as_u64().unwrap() > 0, "{m}: {f}");
+        assert!(f["outside"]["rmse"].as_f64().unwrap() > 0.0, "{m}: {f}");
+        assert_eq!(
+            f["inside"]["pixels"].as_u64().unwrap() + f["outside"]["pixels"].as_u64().unwrap(),
+            48 * 40
+        );
+        if m.starts_with("er") {
+            assert_eq!(v["er_gaze"]["levels"].as_array().unwrap().len(), 3, "{m}");
+        }
+    }
+}
+
+/// `compare --gaze` adds a `NAME+gaze` row for every method that takes a
+/// gaze, and `bench` runs `er+gaze`; neither takes it for other methods.
+#[test]
+fn compare_and_bench_take_er_gaze() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    let line =
+        "compare --scene ml:24 --size 32x32 --methods er,under,reference --gaze 16,16 --out-dir c";
+    let args: Vec<&str> = line.split_whitespace().collect();
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let csv = std::fs::read_to_string(d.join("c/compare.csv")).expect("csv");
+    let names: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').next())
+        .collect();
+    assert_eq!(
+        names,
+        ["er", "er+gaze", "under", "reference+gaze", "reference"],
+        "{csv}"
+    );
+    let line = "bench --scene ml:24 --size 32x32 --distances 8 --frames 1 --methods reference,er+gaze,er-ftb+gaze --out-dir b";
+    let args: Vec<&str> = line.split_whitespace().collect();
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let csv = std::fs::read_to_string(d.join("b/bench.csv")).expect("csv");
+    assert!(
+        csv.contains("er+gaze") && csv.contains("er-ftb+gaze"),
+        "{csv}"
+    );
+    for (line, needle) in [
+        (
+            "compare --scene ml:24 --size 32x32 --methods under --gaze 3,3",
+            "--gaze needs",
+        ),
+        (
+            "bench --scene ml:24 --size 32x32 --methods box+gaze",
+            "er-ftb+gaze take a gaze",
+        ),
+    ] {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        assert_refused(&args, &ercube(d, &args), needle);
     }
 }

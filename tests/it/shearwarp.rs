@@ -134,7 +134,6 @@ fn options_shear_warp_cannot_honour_are_one_line_errors() {
             format!("{s} --intermediate-scale nan"),
             "intermediate scale",
         ),
-        (format!("{s} --shade"), "shear-warp"),
         (format!("{s} --voi sphere:4,4,4,3"), "volume of interest"),
         (format!("{s} --gaze 3,3"), "gaze"),
         (format!("{s} --substeps 2"), "substeps"),
@@ -145,4 +144,32 @@ fn options_shear_warp_cannot_honour_are_one_line_errors() {
         let args: Vec<&str> = line.split_whitespace().collect();
         assert_refused(&args, &ercube(dir.path(), &args), needle);
     }
+}
+
+/// `--shade` works with shear-warp, close to the shaded reference.
+#[test]
+fn render_shades_shear_warp() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    let args = [
+        "render",
+        "--scene",
+        "ml:24",
+        "--size",
+        "32x32",
+        "--method",
+        "shear-warp",
+        "--compare-reference",
+        "--shade",
+        "--out",
+        "i.png",
+        "--stats",
+        "s.json",
+    ];
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let rmse = json(&d.join("s.json"))["error_vs_reference"]["rmse"]
+        .as_f64()
+        .expect("rmse");
+    assert!(rmse < 0.05, "shaded shear-warp vs shaded reference: {rmse}");
 }

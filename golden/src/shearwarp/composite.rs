@@ -32,6 +32,8 @@
 
 use crate::clip::ViewClip;
 use crate::geometry::View;
+use crate::shading::Shader;
+use crate::slices::SliceStack;
 use crate::tf::correct_opacity;
 
 use super::factor::Factor;
@@ -151,6 +153,8 @@ pub(crate) struct Pass<'a> {
     pub y: Vec<Taps>,
     pub terminate: f32,
     pub rle: bool,
+    /// Shading, and the scalar stack its samples mode differentiates.
+    pub shade: Option<(&'a Shader, &'a SliceStack)>,
 }
 
 /// A scanline task's reusable buffers.
@@ -253,12 +257,33 @@ pub(crate) fn scanline(p: &Pass, v: usize, row: &mut [[f32; 4]], sc: &mut Scratc
                 if c[3] > 0.0 {
                     st.samples_composited += 1;
                     let acc = &mut row[u];
-                    let a = correct_opacity(c[3].min(1.0), sc.ds[u]);
-                    let k = (1.0 - acc[3]) * a;
-                    let wgt = k / c[3];
-                    acc[0] += wgt * c[0];
-                    acc[1] += wgt * c[1];
-                    acc[2] += wgt * c[2];
+                    let k = if let Some((sh, stack)) = p.shade {
+                        let g = match sh.voxel_gradients() {
+                            Some(gr) => gather(gr, z, [k0x, k0y], [wx, wy], [nx, ny]),
+                            None => sh.gradient_bilinear(
+                                stack,
+                                z,
+                                xt.pos[u - xt.lo] as f32,
+                                ypos as f32,
+                            ),
+                        };
+                        let inv = 1.0 / c[3];
+                        let s = sh.shade_f32([c[0] * inv, c[1] * inv, c[2] * inv, c[3]], g);
+                        let a = correct_opacity(s[3].min(1.0), sc.ds[u]);
+                        let k = (1.0 - acc[3]) * a;
+                        for ch in 0..3 {
+                            acc[ch] += k * s[ch];
+                        }
+                        k
+                    } else {
+                        let a = correct_opacity(c[3].min(1.0), sc.ds[u]);
+                        let k = (1.0 - acc[3]) * a;
+                        let wgt = k / c[3];
+                        acc[0] += wgt * c[0];
+                        acc[1] += wgt * c[1];
+                        acc[2] += wgt * c[2];
+                        k
+                    };
                     acc[3] += k;
                     if acc[3] >= p.terminate {
                         st.rays_terminated += 1;
@@ -271,4 +296,37 @@ pub(crate) fn scanline(p: &Pass, v: usize, row: &mut [[f32; 4]], sc: &mut Scratc
         }
     }
     st
+}
+
+/// The voxel gradients of slice `z` filtered with a sample's own taps
+/// (first voxels `k0`, weights `w`, voxels beyond a face reading the
+/// edge), as the colour is: the gradient interpolated like the scalar.
+#[inline]
+fn gather(
+    g: &crate::shading::Gradients,
+    z: usize,
+    k0: [i64; 2],
+    w: [&[f32]; 2],
+    n: [usize; 2],
+) -> [f32; 3] {
+    let mut out = [0f32; 3];
+    for (t, &wt) in w[1].iter().enumerate() {
+        if wt == 0.0 {
+            continue;
+        }
+        let ky = (k0[1] + t as i64).clamp(0, n[1] as i64 - 1) as usize;
+        for (s, &ws) in w[0].iter().enumerate() {
+            if ws == 0.0 {
+                continue;
+            }
+            let kx = (k0[0] + s as i64).clamp(0, n[0] as i64 - 1) as usize;
+            let k = wt * ws;
+            for (a, o) in out.iter_mut().enumerate() {
+                // The gradient stacks are padded by one voxel per side.
+                let slice = g[a].slice(z);
+                *o += k * slice[(ky + 1) * g[a].row + kx + 1];
+            }
+        }
+    }
+    out
 }

@@ -10,7 +10,8 @@
 //! transparent voxels through the run-length encoded classified volume
 //! ([`rle`]) and opaque pixels through per-scanline skip links; then the
 //! 2D projective warp ([`warp`]) resamples the intermediate image into
-//! the final one. Scanlines are independent tasks, so the image is the
+//! the final one. With shading ([`render_shaded`]) each sample is shaded
+//! before it is composited, as in the slice-order methods. Scanlines are independent tasks, so the image is the
 //! same for any thread count. docs/golden.md#perspective-shear-warp.
 
 pub mod composite;
@@ -24,6 +25,8 @@ use crate::clip::ViewClip;
 use crate::error::{input, Result};
 use crate::geometry::View;
 use crate::image::Image;
+use crate::shading::Shader;
+use crate::slices::SliceStack;
 
 pub use factor::{check_scale, EyeCase, Factor};
 pub use rle::Classified;
@@ -113,6 +116,22 @@ pub fn render(
     clip: &ViewClip,
     opts: &SwOptions,
 ) -> Result<(Image, SwStats)> {
+    render_shaded(view, cls, clip, opts, None)
+}
+
+/// [`render`] with every sample shaded by `shade`'s shader before it is
+/// composited (the slice-order methods' Blinn-Phong, [`crate::shading`]):
+/// the sample's colour is its filtered premultiplied colour over its
+/// filtered opacity, its gradient the voxel gradients filtered with the
+/// same taps (voxels mode) or the shader's differences of bilinear
+/// samples of the scalar stack at its position (samples mode).
+pub fn render_shaded(
+    view: &View,
+    cls: &Classified,
+    clip: &ViewClip,
+    opts: &SwOptions,
+    shade: Option<(&Shader, &SliceStack)>,
+) -> Result<(Image, SwStats)> {
     opts.validate()?;
     if cls.dims != view.dims {
         return Err(input(format!(
@@ -157,6 +176,7 @@ pub fn render(
         y,
         terminate: opts.terminate,
         rle: opts.skip_empty,
+        shade,
     };
     let mut inter = vec![[0f32; 4]; iw * ih];
     let rows: Vec<SwStats> = if iw == 0 {

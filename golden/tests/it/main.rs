@@ -6,6 +6,7 @@
 #[path = "../../../tests/support/scenes.rs"]
 mod scenes;
 
+mod ergaze;
 mod figures;
 mod formats;
 mod foundation;
@@ -19,3 +20,4 @@ mod shading;
 mod shearwarp;
 mod skipping;
 mod substeps;
+mod swshade;

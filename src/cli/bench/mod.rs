@@ -60,8 +60,8 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub tf: TfArgs,
     /// Comma-separated methods: reference, under, over, box, er, er-ftb,
-    /// mipmap, shear-warp, reference+gaze and mipmap+gaze (the paper's
-    /// gaze profile around the image centre), pipeline (default widths), pipeline-ftb (front to back, default
+    /// mipmap, shear-warp, reference+gaze, mipmap+gaze, er+gaze and
+    /// er-ftb+gaze (the paper's gaze profile around the image centre), pipeline (default widths), pipeline-ftb (front to back, default
     /// widths) or pipeline:FILE.toml (widths from FILE).
     #[arg(long, default_value = "reference,under,over,box,er,er-ftb,pipeline")]
     pub methods: String,
@@ -111,8 +111,8 @@ pub struct BenchArgs {
 pub enum BenchMethod {
     /// A golden technique (or the reference, timed once per distance).
     Golden(Technique),
-    /// A ray caster (the reference or the mip-map) with the paper's gaze
-    /// profile around the image centre (`reference+gaze`, `mipmap+gaze`).
+    /// A method with the paper's gaze profile around the image centre
+    /// (`reference+gaze`, `mipmap+gaze`, `er+gaze`, `er-ftb+gaze`).
     Gaze(Technique),
     /// The pipeline model with a configuration, under a label.
     Pipeline {
@@ -151,10 +151,14 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
         };
         if let Some(base) = name.strip_suffix("+gaze") {
             let m = match MethodArg::parse(base).and_then(MethodArg::technique) {
-                Some(t @ (Technique::Reference | Technique::MipMap)) if file.is_none() => {
-                    BenchMethod::Gaze(t)
-                }
-                _ => bail!("'{tok}' in --methods: only reference+gaze and mipmap+gaze take a gaze"),
+                Some(
+                    t @ (Technique::Reference
+                    | Technique::MipMap
+                    | Technique::Slice(golden::methods::Method::Er | golden::methods::Method::ErFtb)),
+                ) if file.is_none() => BenchMethod::Gaze(t),
+                _ => bail!(
+                    "'{tok}' in --methods: only reference+gaze, mipmap+gaze, er+gaze and er-ftb+gaze take a gaze"
+                ),
             };
             if out.iter().any(|o| o.label() == m.label()) {
                 bail!("method '{}' is listed twice in --methods", m.label());
@@ -165,7 +169,7 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
         let method = MethodArg::parse(name).filter(|m| file.is_none() || *m == MethodArg::Pipeline);
         let Some(method) = method else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, shear-warp, reference+gaze, mipmap+gaze, pipeline, pipeline-ftb or pipeline:FILE.toml"
+                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, shear-warp, reference+gaze, mipmap+gaze, er+gaze, er-ftb+gaze, pipeline, pipeline-ftb or pipeline:FILE.toml"
             );
         };
         let m = match (method.technique(), method.pipeline_order()) {

@@ -109,7 +109,21 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
     let mut table_luts: BTreeMap<u32, Lut> = BTreeMap::new();
     for (&d, &fov) in case.distances.iter().zip(&case.fovs) {
         let (cam, fov) = bench_camera(&case.vol, d, fov, case.size, case.plane)?;
-        let prep = Prepared::new(&case.vol, &cam)?;
+        let mut prep = Prepared::new(&case.vol, &cam)?;
+        if case
+            .methods
+            .iter()
+            .any(|m| matches!(m, BenchMethod::Gaze(Technique::Slice(_))))
+        {
+            // ER's coarse levels belong to the volume and camera, as the
+            // mip-map does: prepared untimed.
+            prep = prep.with_gaze_levels(
+                &case.vol,
+                &cam,
+                &golden::render::PrepareOptions::default(),
+                2,
+            )?;
+        }
         let vd = prep.view.d;
         area = (prep.view.dims[0] * prep.view.dims[1]) as f64;
         nz = prep.view.dims[2];
