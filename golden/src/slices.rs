@@ -17,7 +17,7 @@ pub const STACK_LIMIT: u64 = 8 << 30;
 
 /// The voxels of a stack: the volume's own type for scalars (a byte per
 /// voxel for 8-bit data), `f32` for derived stacks such as gradients.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 enum StackData {
     U8(Vec<u8>),
     U16(Vec<u16>),
@@ -53,7 +53,7 @@ impl Plane<'_> {
 }
 
 /// A permuted, padded copy of the rendered part of a volume.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SliceStack {
     /// View-space dimensions `[nx, ny, nz]` (without padding).
     pub dims: [usize; 3],
@@ -131,6 +131,42 @@ fn permute_into<T: Voxel>(src: &[T], data: &mut [T], g: &Permute) {
     data.copy_within(last..last + plane, last + plane);
 }
 
+/// Turns the voxels `v` of `dims` (x fastest) into the padded stack of the
+/// unpermuted view, in place: the buffer grows to the padded size (a
+/// reallocation the allocator can do without copying), each voxel row moves
+/// to its padded place, last row first (every row moves to a higher index,
+/// so no row is overwritten before it moves), and the padding is filled as
+/// [`permute_into`] fills it. With `flip`, the planes are then reversed.
+fn pad_in_place<T: Voxel>(mut v: Vec<T>, dims: [usize; 3], flip: bool) -> Vec<T> {
+    let [nx, ny, nz] = dims;
+    let (row, plane) = (nx + 2, (nx + 2) * (ny + 2));
+    v.resize(plane * (nz + 2), T::default());
+    for z in (0..nz).rev() {
+        for y in (0..ny).rev() {
+            let src = (z * ny + y) * nx;
+            v.copy_within(src..src + nx, (z + 1) * plane + (y + 1) * row + 1);
+        }
+    }
+    v.par_chunks_mut(plane).skip(1).take(nz).for_each(|out| {
+        for y in 1..=ny {
+            out[y * row] = out[y * row + 1];
+            out[y * row + nx + 1] = out[y * row + nx];
+        }
+        out.copy_within(row..2 * row, 0);
+        out.copy_within(ny * row..(ny + 1) * row, (ny + 1) * row);
+    });
+    v.copy_within(plane..2 * plane, 0);
+    v.copy_within(nz * plane..(nz + 1) * plane, (nz + 1) * plane);
+    if flip {
+        let k = nz + 2;
+        for i in 0..k / 2 {
+            let (head, tail) = v.split_at_mut((k - 1 - i) * plane);
+            head[i * plane..(i + 1) * plane].swap_with_slice(&mut tail[..plane]);
+        }
+    }
+    v
+}
+
 /// Where view voxels come from in the volume: the padded layout and the
 /// index strides of the view axes.
 #[derive(Clone, Copy)]
@@ -200,6 +236,37 @@ impl SliceStack {
                 permute_into(src, &mut data, &g);
                 StackData::U16(data)
             }
+        };
+        Ok(SliceStack {
+            dims,
+            row,
+            plane,
+            data,
+        })
+    }
+
+    /// [`SliceStack::new`], taking the volume's voxels: when the view's
+    /// slices are the volume's own z slices in either direction (principal
+    /// axis +z or -z, no near clip) the stack is laid out in the volume's
+    /// own buffer, so the frame never holds the voxels twice; otherwise the
+    /// volume is freed once the stack is copied out of it.
+    pub fn from_volume(volume: Volume, axes: &AxisMap) -> Result<SliceStack> {
+        if axes.perm != [0, 1, 2] || axes.z_first != 0 {
+            return SliceStack::new(&volume, axes);
+        }
+        let dims = volume.dims();
+        let bytes = SliceStack::bytes_for(dims, volume.kind().bits() as u64 / 8, axes);
+        if bytes > STACK_LIMIT as u128 {
+            return Err(Error::TooLarge {
+                what: "the permuted slice stack".into(),
+                bytes,
+                limit: STACK_LIMIT,
+            });
+        }
+        let (row, plane) = (dims[0] + 2, (dims[0] + 2) * (dims[1] + 2));
+        let data = match volume.into_voxels() {
+            Voxels::U8(v) => StackData::U8(pad_in_place(v, dims, axes.flip_z)),
+            Voxels::U16(v) => StackData::U16(pad_in_place(v, dims, axes.flip_z)),
         };
         Ok(SliceStack {
             dims,
@@ -368,6 +435,20 @@ mod tests {
             let view = View::new(vol.dims(), [1.0; 3], &cam, 1.0).unwrap();
             let stack = SliceStack::new(&vol, &view.axes).unwrap();
             assert_eq!(stack.dims, view.dims);
+            // Taking the volume (in place along z) builds the same stack,
+            // for bytes too.
+            let taken = SliceStack::from_volume(vol.clone(), &view.axes).unwrap();
+            assert!(taken == stack, "side {dir}: the taken stack differs");
+            let bytes = Volume::from_fn(
+                vol.dims(),
+                VoxelType::U8,
+                DEFAULT_MEMORY_LIMIT,
+                |x, y, z| vol.get(x, y, z) % 251,
+            )
+            .unwrap();
+            let want = SliceStack::new(&bytes, &view.axes).unwrap();
+            let taken = SliceStack::from_volume(bytes, &view.axes).unwrap();
+            assert!(taken == want, "side {dir}: the taken 8-bit stack differs");
             for z in 0..view.dims[2] {
                 for y in 0..view.dims[1] {
                     for x in 0..view.dims[0] {

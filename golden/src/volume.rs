@@ -316,6 +316,10 @@ impl Volume {
     pub fn voxels(&self) -> &Voxels {
         &self.data
     }
+    /// The voxels, giving up the volume.
+    pub fn into_voxels(self) -> Voxels {
+        self.data
+    }
     /// All voxels, x fastest, as `u16` values: borrowed for a 16-bit
     /// volume, a widened copy of an 8-bit one (for tests and small volumes;
     /// hot paths read [`Volume::voxels`]).

@@ -574,6 +574,12 @@ impl SliceArgs {
     pub fn prepared(&self, vol: &Volume, cam: &Camera) -> Result<Prepared> {
         Ok(Prepared::with(vol, cam, &self.prepare()?)?)
     }
+
+    /// [`SliceArgs::prepared`], taking `vol` (its voxels become the slice
+    /// stack: a one-off frame holds them once).
+    pub fn prepared_owning(&self, vol: Volume, cam: &Camera) -> Result<Prepared> {
+        Ok(Prepared::owning(vol, cam, &self.prepare()?)?)
+    }
 }
 
 impl Default for SliceArgs {

@@ -129,7 +129,8 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let full = opts;
         opts.reference.gaze = gaze_of(a, &cam, tech)?;
         let lut = lut_for(vol.kind(), &tf);
-        let prep = a.slice.prepared(&vol, &cam)?;
+        let shape = (vol.dims(), vol.spacing());
+        let prep = a.slice.prepared_owning(vol, &cam)?;
         let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
             timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
@@ -140,7 +141,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         if let Some(p) = &a.stats {
             let mut v = frame_json(
                 tech.name(),
-                &vol,
+                shape,
                 &prep.view,
                 cam.eye,
                 time_s,
@@ -292,7 +293,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         };
         let mut v = frame_json(
             a.method.name(),
-            &vol,
+            (vol.dims(), vol.spacing()),
             &prep.view,
             cam.eye,
             run.time_s,
