@@ -8,6 +8,7 @@ mod bench;
 mod chip;
 mod compare;
 mod cost;
+mod memory;
 mod method;
 mod montage;
 mod peer;

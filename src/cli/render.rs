@@ -11,6 +11,7 @@ use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
 use super::args::{with_threads, SliceArgs, ViewArgs};
 use super::chip::{self, PipelineArgs};
+use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::progress::Stage;
 use super::stats::{frame_json, median, write_json};
@@ -123,7 +124,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             );
         }
         let mut opts = a.slice.options()?;
-        let (vol, tf, cam) = a.view.load()?;
+        let spec = FrameSpec {
+            technique: Some(tech),
+            shade: opts.slice.shade.is_some(),
+            size: a.view.camera.size,
+        };
+        let (vol, tf, cam) = a.view.load_for(tech.name(), &spec)?;
         a.slice.apply_tf(&mut opts, &tf)?;
         // The comparison's reference is always the full one.
         let full = opts;
@@ -251,7 +257,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             "the pipeline model has no pre-integrated classification yet; drop --preintegrate"
         );
     }
-    let (vol, tf, cam) = a.view.load()?;
+    let spec = FrameSpec {
+        technique: None,
+        shade: opts.slice.shade.is_some(),
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for(a.method.name(), &spec)?;
     let mut opts = opts;
     slice.apply_tf(&mut opts, &tf)?;
     let shade = opts.slice.shade;
