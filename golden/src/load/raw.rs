@@ -87,7 +87,7 @@ pub struct RawSpec {
 /// front with `offset`, or cut the file.
 pub fn load_raw(path: &Path, spec: &RawSpec, limit: u64) -> Result<Volume> {
     let [w, h, d] = spec.dims;
-    let count = check_dims(spec.dims, spec.kind.bytes() as u64, limit)?;
+    let count = check_dims(spec.dims, spec.kind.bytes(), limit)?;
     let expected = spec.offset as u128 + count as u128 * spec.kind.bytes() as u128;
     let mut file = open(path)?;
     let len = file_len(&file, path)?;
