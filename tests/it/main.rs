@@ -23,5 +23,6 @@ mod memory;
 mod peers;
 mod preint;
 mod shade;
+mod shards;
 mod shearwarp;
 mod volumes;
