@@ -1,7 +1,7 @@
-//! `ercube bench --shard K/N` and `ercube merge-results`: three shards run
-//! one after another here (as three machines would) merge into the rows,
-//! per-slice counts and files of the unsharded run; only the timings may
-//! differ.
+//! `ercube bench --shard K/N`, `ercube sweep-widths --shard K/N` and
+//! `ercube merge-results`: three shards run one after another here (as
+//! three machines would) merge into the rows, per-slice counts and files
+//! of the unsharded run; only the timings may differ.
 
 use std::path::Path;
 
@@ -104,4 +104,39 @@ fn incomplete_or_mixed_shards_are_refused() {
     assert_refused(&args, &ercube(d, &args), "another sweep");
     let args = ["bench", "--scene", "checker:16", "--shard", "3/2"];
     assert_refused(&args, &ercube(d, &args), "K/N");
+}
+
+#[test]
+fn three_width_sweep_shards_merge_into_the_unsharded_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sweep = "sweep-widths --scene checker:16 --size 16x16 --alpha-bits 6-8 --accum-bits 12,16 \
+                 --position-frac none --weight-bits 5 --color-frac none --sample-frac none";
+    run(d, &format!("{sweep} --out-dir full"));
+    for k in 1..=3 {
+        run(d, &format!("{sweep} --shard {k}/3 --out-dir s{k}"));
+    }
+    run(
+        d,
+        "merge-results s1/shard-1-of-3.json s3/shard-3-of-3.json s2/shard-2-of-3.json --out-dir merged",
+    );
+    assert_eq!(files(&d.join("merged")), files(&d.join("full")));
+    let (want, got) = (
+        rows_without_time(&d.join("full/widths.csv")),
+        rows_without_time(&d.join("merged/widths.csv")),
+    );
+    assert_eq!(want.len(), 1 + 3 + 2 + 1, "the base and every knob value");
+    if let Some(i) = (0..want.len().max(got.len())).find(|&i| want.get(i) != got.get(i)) {
+        panic!(
+            "merged row {i} differs: {:?} against {:?}",
+            got.get(i),
+            want.get(i)
+        );
+    }
+    // The plot draws errors against bits, no times: the same bytes.
+    let png = |p: &str| std::fs::read(d.join(p)).unwrap();
+    assert!(
+        png("full/widths.png") == png("merged/widths.png"),
+        "the plots differ"
+    );
 }

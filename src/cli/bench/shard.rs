@@ -1,10 +1,11 @@
 //! Sweeps that outgrow one machine: `ercube bench --shard K/N` runs every
-//! N-th eye distance (the K-th of each N) and writes its rows as
+//! N-th eye distance (the K-th of each N), `ercube sweep-widths --shard
+//! K/N` every N-th configuration, and each writes its rows as
 //! `shard-K-of-N.json`; `ercube merge-results` joins the N shard files
 //! into the CSV, plots and summary the unsharded run writes (the same
 //! rows in the same order; only the timings differ, as between any two
-//! runs). A shard file records the bench's arguments, so the merge
-//! rebuilds the case (the volume included) exactly as the shards saw it.
+//! runs). A shard file records the command's arguments, so the merge
+//! rebuilds the case exactly as the shards saw it.
 
 use std::path::{Path, PathBuf};
 
@@ -14,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use golden::metrics::ImageError;
 
+use super::widths::{self, Knob, SweepArgs, SweepResult, WidthRow};
 use super::{BenchArgs, CaseResult, PerSlice, Row};
 
 /// Shard `k` (1-based) of `n`.
@@ -143,9 +145,11 @@ struct PerSliceJson {
     measured: Vec<(String, Vec<u64>)>,
 }
 
-/// What one shard ran.
+/// What one shard of a bench ran.
 #[derive(Debug, Serialize, Deserialize)]
 struct ShardFile {
+    /// `bench`.
+    kind: String,
     /// Which shard.
     shard: Shard,
     /// The bench's arguments, without `--shard` and `--out-dir`.
@@ -194,6 +198,7 @@ pub fn write_shard(dir: &Path, shard: Shard, res: &CaseResult, distances: usize)
         points[at].1.push(RowJson::of(r));
     }
     let file = ShardFile {
+        kind: "bench".into(),
         shard,
         args: sweep_args(),
         points,
@@ -236,31 +241,63 @@ struct BenchCli {
     a: BenchArgs,
 }
 
-/// Runs `ercube merge-results`.
-pub fn merge(m: &MergeArgs) -> Result<()> {
-    let mut files: Vec<ShardFile> = Vec::new();
-    for p in &m.shards {
+/// Reads the shard files `paths` of one kind, checks that they are shards
+/// 1..=N of one sweep, and returns them in shard order.
+fn read_shards<T: serde::de::DeserializeOwned>(
+    paths: &[PathBuf],
+    kind: &str,
+    id: impl Fn(&T) -> (Shard, &Vec<String>),
+) -> Result<Vec<T>> {
+    let mut files: Vec<T> = Vec::new();
+    for p in paths {
         let text =
             std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?;
-        let f: ShardFile = serde_json::from_str(&text)
-            .map_err(|e| anyhow::anyhow!("{} is not a bench shard file: {e}", p.display()))?;
+        let f: T = serde_json::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{} is not a {kind} shard file: {e}", p.display()))?;
         files.push(f);
     }
-    let n = files[0].shard.n;
-    for (f, p) in files.iter().zip(&m.shards) {
-        if f.shard.n != n || f.args != files[0].args {
+    let (first, args0) = id(&files[0]);
+    let n = first.n;
+    for (f, p) in files.iter().zip(paths) {
+        let (s, args) = id(f);
+        if s.n != n || args != args0 {
             bail!(
                 "{} is a shard of another sweep than {} (arguments or shard count differ)",
                 p.display(),
-                m.shards[0].display()
+                paths[0].display()
             );
         }
     }
-    files.sort_by_key(|f| f.shard.k);
-    let ks: Vec<usize> = files.iter().map(|f| f.shard.k).collect();
+    files.sort_by_key(|f| id(f).0.k);
+    let ks: Vec<usize> = files.iter().map(|f| id(f).0.k).collect();
     if ks != (1..=n).collect::<Vec<_>>() {
         bail!("merge-results needs each of shards 1..={n} once; got {ks:?}");
     }
+    Ok(files)
+}
+
+/// Runs `ercube merge-results`.
+pub fn merge(m: &MergeArgs) -> Result<()> {
+    let first = &m.shards[0];
+    let text = std::fs::read_to_string(first)
+        .with_context(|| format!("cannot read {}", first.display()))?;
+    let kind = serde_json::from_str::<serde_json::Value>(&text)
+        .ok()
+        .and_then(|v| v["kind"].as_str().map(String::from));
+    match kind.as_deref() {
+        Some("bench") => merge_bench(m),
+        Some("sweep-widths") => merge_widths(m),
+        _ => bail!(
+            "{} is not a shard file of bench or sweep-widths",
+            first.display()
+        ),
+    }
+}
+
+/// `merge-results` for `bench` shards.
+fn merge_bench(m: &MergeArgs) -> Result<()> {
+    let files: Vec<ShardFile> =
+        read_shards(&m.shards, "bench", |f: &ShardFile| (f.shard, &f.args))?;
     let mut argv = vec!["bench".to_string()];
     argv.extend(files[0].args.iter().cloned());
     argv.extend(["--out-dir".into(), m.out_dir.display().to_string()]);
@@ -305,6 +342,129 @@ pub fn merge(m: &MergeArgs) -> Result<()> {
             .collect();
         super::finish(&a, &case, &res, &command)
     })
+}
+
+/// One sweep-widths row as a shard file keeps it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct WidthRowJson {
+    knob: Option<String>,
+    value: u8,
+    total_bits: u32,
+    skipped: Option<String>,
+    vs_er: Option<ErrJson>,
+    vs_ref: Option<ErrJson>,
+    overflows: u64,
+    cycles: u64,
+    time_s: f64,
+}
+
+/// What one shard of a width sweep ran.
+#[derive(Debug, Serialize, Deserialize)]
+struct WidthsShardFile {
+    /// `sweep-widths`.
+    kind: String,
+    shard: Shard,
+    /// The sweep's arguments, without `--shard` and `--out-dir`.
+    args: Vec<String>,
+    /// Each configuration's row, by its index in the sweep.
+    rows: Vec<(usize, WidthRowJson)>,
+    er_vs_ref: ErrJson,
+}
+
+/// Writes shard `shard` of a `runs`-configuration width sweep into `dir`.
+pub fn write_widths_shard(dir: &Path, shard: Shard, res: &SweepResult, runs: usize) -> Result<()> {
+    let owned = (0..runs).filter(|&i| shard.owns(i));
+    let rows = owned
+        .zip(&res.rows)
+        .map(|(i, r)| {
+            let row = WidthRowJson {
+                knob: r.knob.map(|k| k.name().to_string()),
+                value: r.value,
+                total_bits: r.total_bits,
+                skipped: r.skipped.clone(),
+                vs_er: r.vs_er.map(ErrJson::of),
+                vs_ref: r.vs_ref.map(ErrJson::of),
+                overflows: r.overflows,
+                cycles: r.cycles,
+                time_s: r.time_s,
+            };
+            (i, row)
+        })
+        .collect();
+    let file = WidthsShardFile {
+        kind: "sweep-widths".into(),
+        shard,
+        args: sweep_args(),
+        rows,
+        er_vs_ref: ErrJson::of(res.er_vs_ref),
+    };
+    let path = dir.join(shard.file_name());
+    let text = serde_json::to_string(&file)?;
+    golden::image::write_atomic(&path, |w| w.write_all(text.as_bytes()))?;
+    super::super::say(&format!("wrote {}", path.display()));
+    Ok(())
+}
+
+/// `ercube sweep-widths`'s arguments parsed on their own.
+#[derive(Debug, Parser)]
+#[command(name = "ercube sweep-widths")]
+struct WidthsCli {
+    #[command(flatten)]
+    a: SweepArgs,
+}
+
+/// `merge-results` for `sweep-widths` shards.
+fn merge_widths(m: &MergeArgs) -> Result<()> {
+    let files: Vec<WidthsShardFile> =
+        read_shards(&m.shards, "sweep-widths", |f: &WidthsShardFile| {
+            (f.shard, &f.args)
+        })?;
+    let mut argv = vec!["sweep-widths".to_string()];
+    argv.extend(files[0].args.iter().cloned());
+    argv.extend(["--out-dir".into(), m.out_dir.display().to_string()]);
+    let a = WidthsCli::try_parse_from(&argv)
+        .map_err(|e| anyhow::anyhow!("the shards' sweep-widths arguments do not parse: {e}"))?
+        .a;
+    let (base, grid) = widths::grid_of(&a)?;
+    let sw = widths::sweep_of(&a, base, grid);
+    let mut rows: Vec<(usize, WidthRowJson)> =
+        files.iter().flat_map(|f| f.rows.iter().cloned()).collect();
+    rows.sort_by_key(|r| r.0);
+    let got: Vec<usize> = rows.iter().map(|r| r.0).collect();
+    if got != (0..sw.runs()).collect::<Vec<_>>() {
+        bail!(
+            "the shards hold configurations {got:?} of the sweep's {}",
+            sw.runs()
+        );
+    }
+    let rows = rows
+        .into_iter()
+        .map(|(_, r)| {
+            let knob = match &r.knob {
+                None => None,
+                Some(name) => Some(
+                    Knob::from_name(name)
+                        .ok_or_else(|| anyhow::anyhow!("unknown knob '{name}' in a shard file"))?,
+                ),
+            };
+            Ok(WidthRow {
+                knob,
+                value: r.value,
+                total_bits: r.total_bits,
+                skipped: r.skipped,
+                vs_er: r.vs_er.map(ErrJson::error),
+                vs_ref: r.vs_ref.map(ErrJson::error),
+                overflows: r.overflows,
+                cycles: r.cycles,
+                time_s: r.time_s,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let res = SweepResult {
+        rows,
+        er_vs_ref: files[0].er_vs_ref.error(),
+    };
+    widths::finish_sweep(&a, &sw, &res, &format!("ercube {}", argv.join(" ")))
 }
 
 #[cfg(test)]
