@@ -298,6 +298,9 @@ pub struct WidthRow {
     pub time_s: f64,
 }
 
+/// Each knob the sweep varies and its values.
+pub type Grid = Vec<(Knob, Vec<u8>)>;
+
 /// A sweep on one view.
 pub struct Sweep {
     /// Name of the scene and view, for titles.
@@ -659,7 +662,7 @@ pub(super) fn finish_sweep(
 }
 
 /// The base configuration and the knobs' values `a` asks for.
-pub(super) fn grid_of(a: &SweepArgs) -> Result<(PipelineConfig, Vec<(Knob, Vec<u8>)>)> {
+pub(super) fn grid_of(a: &SweepArgs) -> Result<(PipelineConfig, Grid)> {
     let base = a.cfg.load()?;
     let grid: Vec<(Knob, Vec<u8>)> = [
         (Knob::Alpha, "alpha-bits", &a.alpha_bits),
