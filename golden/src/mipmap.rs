@@ -277,8 +277,8 @@ impl MipMap {
             .for_each(|(z, slab)| {
                 let s = stack.slice(z);
                 for y in 0..dims[1] {
-                    let line = &s[(y + 1) * stack.row + 1..][..dims[0]];
-                    for (out, &v) in slab[y * dims[0]..][..dims[0]].iter_mut().zip(line) {
+                    let line = s.values((y + 1) * stack.row + 1, dims[0]);
+                    for (out, v) in slab[y * dims[0]..][..dims[0]].iter_mut().zip(line) {
                         *out = match classify {
                             Classify::Pre => {
                                 let c = lut.lookup(v);

@@ -22,7 +22,8 @@ use rayon::prelude::*;
 use crate::error::{input, Result};
 use crate::geometry::AxisMap;
 use crate::tf::Lut;
-use crate::volume::Volume;
+use crate::volume::{Volume, Voxel};
+use crate::with_voxels;
 
 /// Default block edge in voxels.
 pub const DEFAULT_BLOCK: usize = 8;
@@ -55,37 +56,48 @@ impl MinMax {
         check_block(block)?;
         let dims = volume.dims();
         let counts: [usize; 3] = std::array::from_fn(|k| (dims[k] - 1) / block + 1);
-        let data = volume.data();
-        let (sx, sxy) = (dims[0], dims[0] * dims[1]);
         let mut range = vec![(u16::MAX, 0u16); counts[0] * counts[1] * counts[2]];
-        let span = |b: usize, n: usize| b * block..(b * block + block + 1).min(n);
-        range
-            .par_chunks_mut(counts[0] * counts[1])
-            .enumerate()
-            .for_each(|(bz, slab)| {
-                for z in span(bz, dims[2]) {
-                    for by in 0..counts[1] {
-                        for y in span(by, dims[1]) {
-                            let line = &data[z * sxy + y * sx..z * sxy + y * sx + dims[0]];
-                            for (bx, r) in slab[by * counts[0]..(by + 1) * counts[0]]
-                                .iter_mut()
-                                .enumerate()
-                            {
-                                for &v in &line[span(bx, dims[0])] {
-                                    r.0 = r.0.min(v);
-                                    r.1 = r.1.max(v);
-                                }
-                            }
-                        }
-                    }
-                }
-            });
+        with_voxels!(volume.voxels(), data => scan_blocks(data, dims, block, counts, &mut range));
         Ok(MinMax {
             block,
             counts,
             range,
         })
     }
+}
+
+/// Each block's smallest and largest voxel (blocks share their boundary
+/// voxels, as interpolation between them does).
+fn scan_blocks<T: Voxel>(
+    data: &[T],
+    dims: [usize; 3],
+    block: usize,
+    counts: [usize; 3],
+    range: &mut [(u16, u16)],
+) {
+    let (sx, sxy) = (dims[0], dims[0] * dims[1]);
+    let span = |b: usize, n: usize| b * block..(b * block + block + 1).min(n);
+    range
+        .par_chunks_mut(counts[0] * counts[1])
+        .enumerate()
+        .for_each(|(bz, slab)| {
+            for z in span(bz, dims[2]) {
+                for by in 0..counts[1] {
+                    for y in span(by, dims[1]) {
+                        let line = &data[z * sxy + y * sx..z * sxy + y * sx + dims[0]];
+                        for (bx, r) in slab[by * counts[0]..(by + 1) * counts[0]]
+                            .iter_mut()
+                            .enumerate()
+                        {
+                            for &v in &line[span(bx, dims[0])] {
+                                r.0 = r.0.min(v.value());
+                                r.1 = r.1.max(v.value());
+                            }
+                        }
+                    }
+                }
+            }
+        });
 }
 
 /// One bit per block: may any sample in the block be visible?

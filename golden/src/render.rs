@@ -162,6 +162,29 @@ impl Prepared {
         Prepared::place(volume, camera, opts, None)
     }
 
+    /// [`Prepared::with`], taking `volume`: its voxels become the slice
+    /// stack ([`SliceStack::from_volume`]), so a one-off frame holds them
+    /// once. The result is the same as [`Prepared::with`]'s.
+    pub fn owning(volume: Volume, camera: &Camera, opts: &PrepareOptions) -> Result<Prepared> {
+        check_planes(&opts.clip)?;
+        let view = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
+        let blocks = MinMax::new(&volume, opts.block)?;
+        let clip = ViewClip::new(&opts.clip, &view.axes, volume.spacing());
+        let stack = Arc::new(SliceStack::from_volume(volume, &view.axes)?);
+        Ok(Prepared {
+            view,
+            stack,
+            blocks,
+            clip,
+            occupancy: Arc::default(),
+            mipmap: Arc::default(),
+            classified: Arc::default(),
+            gradients: Arc::default(),
+            preint: Arc::default(),
+            coarse: Arc::default(),
+        })
+    }
+
     /// `volume` (the one this was prepared from) seen by another camera,
     /// reusing what does not depend on the camera: the min-max blocks and
     /// the occupancy cache (they depend on the volume and the table only)

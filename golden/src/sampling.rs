@@ -22,7 +22,7 @@ use crate::merge::Rgba;
 use crate::preint::{segment_opacity, PreTable};
 use crate::shading::Shader;
 use crate::skip::SampleMask;
-use crate::slices::SliceStack;
+use crate::slices::{Plane, SliceStack};
 use crate::tf::{correct_opacity, Lut};
 use crate::voi::ViewVoi;
 
@@ -98,9 +98,9 @@ struct SliceGeom<'a> {
     /// Rays sampling the slice, per axis (after culling).
     x: (i64, i64),
     y: (i64, i64),
-    data: &'a [f32],
+    data: Plane<'a>,
     /// Padded slice `z + 1` (the padding behind the last slice).
-    next: &'a [f32],
+    next: Plane<'a>,
     visible: bool,
     /// With substeps or pre-integration: the rays' positions (`x` affine, `y` affine) at the
     /// first and last substep's depth, where empty-space runs are decided.
@@ -320,8 +320,8 @@ struct RayRow<'a> {
     grid: &'a RayGrid,
     z: usize,
     px: Affine,
-    data: &'a [f32],
-    next: &'a [f32],
+    data: Plane<'a>,
+    next: Plane<'a>,
     y: f32,
     slope_y: f32,
     inv: f64,

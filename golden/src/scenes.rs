@@ -15,9 +15,9 @@ use crate::volume::{Volume, VoxelType};
 
 /// Smallest scene edge accepted (one voxel has no interior to interpolate).
 pub const MIN_SIZE: usize = 2;
-/// Largest scene edge accepted: 1024^3 is a gigavoxel, the most a test
-/// scene needs.
-pub const MAX_SIZE: usize = 1024;
+/// Largest scene edge accepted: 2048^3 is 8 GiB of bytes, which the
+/// command line builds only when its memory check finds room for the frame.
+pub const MAX_SIZE: usize = 2048;
 
 /// Scalar value of filled floor cubes in [`Scene::Checker`].
 pub const CHECKER_FLOOR: u16 = 200;
@@ -102,6 +102,11 @@ impl Scene {
             Scene::Sphere { .. } => "sphere",
             Scene::Impulse { .. } => "impulse",
         }
+    }
+
+    /// The voxel type the scene is built in.
+    pub fn voxel_type(&self) -> VoxelType {
+        VoxelType::U8
     }
 
     /// Builds the volume, refusing (before allocating) one over `limit`
@@ -407,7 +412,8 @@ mod tests {
 
     #[test]
     fn bad_specs_name_the_problem() {
-        assert!(parse_err("checker:0").contains("size 0 is out of range 2..=1024"));
+        assert!(parse_err("checker:0").contains("size 0 is out of range 2..=2048"));
+        assert!(parse_err("checker:2049").contains("size 2049 is out of range 2..=2048"));
         assert!(parse_err("checker:16:0").contains("cube size 0 is out of range 1..=16"));
         assert!(parse_err("checker:16:17").contains("cube size 17"));
         let e = parse_err("foo");

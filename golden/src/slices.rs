@@ -1,5 +1,5 @@
 //! The volume as the slice-order methods see it: permuted into view space,
-//! converted to `f32` and padded with one voxel on every side that repeats
+//! kept in the volume's own voxel type (read as `f32`) and padded with one voxel on every side that repeats
 //! the edge voxel, so that interpolation anywhere in `[-1/2, N - 1/2)` needs
 //! no bounds checks. Repeating the edge (rather than padding with zeros)
 //! makes each voxel's value hold across its whole cell up to the volume's
@@ -10,13 +10,50 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::AxisMap;
-use crate::volume::Volume;
+use crate::volume::{Volume, Voxel, Voxels};
 
 /// Memory the permuted stack may take (bytes).
 pub const STACK_LIMIT: u64 = 8 << 30;
 
+/// The voxels of a stack: the volume's own type for scalars (a byte per
+/// voxel for 8-bit data), `f32` for derived stacks such as gradients.
+#[derive(Debug, Clone, PartialEq)]
+enum StackData {
+    U8(Vec<u8>),
+    U16(Vec<u16>),
+    F32(Vec<f32>),
+}
+
+/// One padded slice of a [`SliceStack`], in the stack's voxel type.
+#[derive(Debug, Clone, Copy)]
+pub enum Plane<'a> {
+    /// 8-bit scalars.
+    U8(&'a [u8]),
+    /// 16-bit scalars.
+    U16(&'a [u16]),
+    /// Derived `f32` values (gradients).
+    F32(&'a [f32]),
+}
+
+impl Plane<'_> {
+    /// The value at padded index `i`.
+    #[inline]
+    pub fn get(&self, i: usize) -> f32 {
+        match self {
+            Plane::U8(s) => s[i] as f32,
+            Plane::U16(s) => s[i] as f32,
+            Plane::F32(s) => s[i],
+        }
+    }
+
+    /// `len` values from padded index `start`, as `f32`.
+    pub fn values(&self, start: usize, len: usize) -> impl Iterator<Item = f32> + '_ {
+        (start..start + len).map(move |i| self.get(i))
+    }
+}
+
 /// A permuted, padded copy of the rendered part of a volume.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SliceStack {
     /// View-space dimensions `[nx, ny, nz]` (without padding).
     pub dims: [usize; 3],
@@ -24,17 +61,147 @@ pub struct SliceStack {
     pub row: usize,
     /// Padded slice size `(nx + 2) (ny + 2)`.
     pub plane: usize,
-    data: Vec<f32>,
+    data: StackData,
+}
+
+/// Bilinear interpolation at padded index `i` of `s` (row length `row`),
+/// weights `tx`, `ty`: the one formula every type shares, so a stack's
+/// type changes no bit.
+#[inline(always)]
+fn lerp2<T: Copy + Into<f32>>(s: &[T], i: usize, row: usize, tx: f32, ty: f32) -> f32 {
+    let (a, b): (f32, f32) = (s[i].into(), s[i + 1].into());
+    let (c, d): (f32, f32) = (s[i + row].into(), s[i + row + 1].into());
+    let top = a + tx * (b - a);
+    let bot = c + tx * (d - c);
+    top + ty * (bot - top)
+}
+
+/// Trilinear interpolation in `f64` at padded index `i` of `s`.
+#[inline(always)]
+fn lerp3<T: Copy + Into<f64>>(s: &[T], i: usize, r: usize, p: usize, t: [f64; 3]) -> f64 {
+    let v = |o: usize| -> f64 { s[i + o].into() };
+    let lerp = |a: f64, b: f64, t: f64| a + t * (b - a);
+    let [tx, ty, tz] = t;
+    let s0 = lerp(lerp(v(0), v(1), tx), lerp(v(r), v(r + 1), tx), ty);
+    let s1 = lerp(
+        lerp(v(p), v(p + 1), tx),
+        lerp(v(p + r), v(p + r + 1), tx),
+        ty,
+    );
+    lerp(s0, s1, tz)
+}
+
+/// Copies the view-space voxels of `src` into the padded `data` (one
+/// plane per padded slice) and replicates the edges into the padding.
+fn permute_into<T: Voxel>(src: &[T], data: &mut [T], g: &Permute) {
+    let Permute {
+        dims,
+        row,
+        plane,
+        base0,
+        sx,
+        sy,
+        sz,
+    } = *g;
+    data.par_chunks_mut(plane)
+        .enumerate()
+        .skip(1)
+        .take(dims[2])
+        .for_each(|(zp, out)| {
+            // Index offset of view voxel (0, 0, zp - 1).
+            let base = base0 + (zp as isize - 1) * sz;
+            for y in 0..dims[1] {
+                let line = base + y as isize * sy;
+                let dst = &mut out[(y + 1) * row + 1..(y + 1) * row + 1 + dims[0]];
+                if sx == 1 {
+                    dst.copy_from_slice(&src[line as usize..line as usize + dims[0]]);
+                } else {
+                    for (x, d) in dst.iter_mut().enumerate() {
+                        *d = src[(line + x as isize * sx) as usize];
+                    }
+                }
+                out[(y + 1) * row] = out[(y + 1) * row + 1];
+                out[(y + 1) * row + dims[0] + 1] = out[(y + 1) * row + dims[0]];
+            }
+            out.copy_within(row..2 * row, 0);
+            out.copy_within(dims[1] * row..(dims[1] + 1) * row, (dims[1] + 1) * row);
+        });
+    data.copy_within(plane..2 * plane, 0);
+    let last = dims[2] * plane;
+    data.copy_within(last..last + plane, last + plane);
+}
+
+/// Turns the voxels `v` of `dims` (x fastest) into the padded stack of the
+/// unpermuted view, in place: the buffer grows to the padded size (a
+/// reallocation the allocator can do without copying), each voxel row moves
+/// to its padded place, last row first (every row moves to a higher index,
+/// so no row is overwritten before it moves), and the padding is filled as
+/// [`permute_into`] fills it. With `flip`, the planes are then reversed.
+fn pad_in_place<T: Voxel>(mut v: Vec<T>, dims: [usize; 3], flip: bool) -> Vec<T> {
+    let [nx, ny, nz] = dims;
+    let (row, plane) = (nx + 2, (nx + 2) * (ny + 2));
+    v.resize(plane * (nz + 2), T::default());
+    for z in (0..nz).rev() {
+        for y in (0..ny).rev() {
+            let src = (z * ny + y) * nx;
+            v.copy_within(src..src + nx, (z + 1) * plane + (y + 1) * row + 1);
+        }
+    }
+    v.par_chunks_mut(plane).skip(1).take(nz).for_each(|out| {
+        for y in 1..=ny {
+            out[y * row] = out[y * row + 1];
+            out[y * row + nx + 1] = out[y * row + nx];
+        }
+        out.copy_within(row..2 * row, 0);
+        out.copy_within(ny * row..(ny + 1) * row, (ny + 1) * row);
+    });
+    v.copy_within(plane..2 * plane, 0);
+    v.copy_within(nz * plane..(nz + 1) * plane, (nz + 1) * plane);
+    if flip {
+        let k = nz + 2;
+        for i in 0..k / 2 {
+            let (head, tail) = v.split_at_mut((k - 1 - i) * plane);
+            head[i * plane..(i + 1) * plane].swap_with_slice(&mut tail[..plane]);
+        }
+    }
+    v
+}
+
+/// Where view voxels come from in the volume: the padded layout and the
+/// index strides of the view axes.
+#[derive(Clone, Copy)]
+struct Permute {
+    dims: [usize; 3],
+    row: usize,
+    plane: usize,
+    base0: isize,
+    sx: isize,
+    sy: isize,
+    sz: isize,
 }
 
 impl SliceStack {
+    /// Bytes the stack of `volume` seen through `axes` takes (no allocation).
+    pub fn bytes_for(volume_dims: [usize; 3], bytes_per_voxel: u64, axes: &AxisMap) -> u128 {
+        let p = axes.perm;
+        let dims = [
+            volume_dims[p[0]],
+            volume_dims[p[1]],
+            volume_dims[p[2]] - axes.z_first,
+        ];
+        (dims[0] as u128 + 2)
+            * (dims[1] as u128 + 2)
+            * (dims[2] as u128 + 2)
+            * bytes_per_voxel as u128
+    }
+
     /// Permutes `volume` into the view space of `axes`.
     pub fn new(volume: &Volume, axes: &AxisMap) -> Result<SliceStack> {
         let id = volume.dims();
         let p = axes.perm;
         let dims = [id[p[0]], id[p[1]], id[p[2]] - axes.z_first];
         let (row, plane) = (dims[0] + 2, (dims[0] + 2) * (dims[1] + 2));
-        let bytes = plane as u128 * (dims[2] as u128 + 2) * 4;
+        let bytes = SliceStack::bytes_for(id, volume.kind().bits() as u64 / 8, axes);
         if bytes > STACK_LIMIT as u128 {
             return Err(Error::TooLarge {
                 what: "the permuted slice stack".into(),
@@ -43,43 +210,89 @@ impl SliceStack {
             });
         }
         let stride = [1isize, id[0] as isize, (id[0] * id[1]) as isize];
-        let (sx, sy) = (stride[p[0]], stride[p[1]]);
         let z0 = axes.to_index(glam::DVec3::ZERO)[p[2]] as isize;
-        let sz = if axes.flip_z {
-            -stride[p[2]]
-        } else {
-            stride[p[2]]
+        let g = Permute {
+            dims,
+            row,
+            plane,
+            base0: z0 * stride[p[2]],
+            sx: stride[p[0]],
+            sy: stride[p[1]],
+            sz: if axes.flip_z {
+                -stride[p[2]]
+            } else {
+                stride[p[2]]
+            },
         };
-        let src = volume.data();
-        let mut data = vec![0f32; plane * (dims[2] + 2)];
-        data.par_chunks_mut(plane)
-            .enumerate()
-            .skip(1)
-            .take(dims[2])
-            .for_each(|(zp, out)| {
-                // Index offset of view voxel (0, 0, zp - 1).
-                let base = z0 * stride[p[2]] + (zp as isize - 1) * sz;
-                for y in 0..dims[1] {
-                    let line = base + y as isize * sy;
-                    let dst = &mut out[(y + 1) * row + 1..(y + 1) * row + 1 + dims[0]];
-                    for (x, d) in dst.iter_mut().enumerate() {
-                        *d = src[(line + x as isize * sx) as usize] as f32;
-                    }
-                    out[(y + 1) * row] = out[(y + 1) * row + 1];
-                    out[(y + 1) * row + dims[0] + 1] = out[(y + 1) * row + dims[0]];
-                }
-                out.copy_within(row..2 * row, 0);
-                out.copy_within(dims[1] * row..(dims[1] + 1) * row, (dims[1] + 1) * row);
-            });
-        data.copy_within(plane..2 * plane, 0);
-        let last = dims[2] * plane;
-        data.copy_within(last..last + plane, last + plane);
+        let len = plane * (dims[2] + 2);
+        let data = match volume.voxels() {
+            Voxels::U8(src) => {
+                let mut data = vec![0u8; len];
+                permute_into(src, &mut data, &g);
+                StackData::U8(data)
+            }
+            Voxels::U16(src) => {
+                let mut data = vec![0u16; len];
+                permute_into(src, &mut data, &g);
+                StackData::U16(data)
+            }
+        };
         Ok(SliceStack {
             dims,
             row,
             plane,
             data,
         })
+    }
+
+    /// [`SliceStack::new`], taking the volume's voxels: when the view's
+    /// slices are the volume's own z slices in either direction (principal
+    /// axis +z or -z, no near clip) the stack is laid out in the volume's
+    /// own buffer, so the frame never holds the voxels twice; otherwise the
+    /// volume is freed once the stack is copied out of it.
+    pub fn from_volume(volume: Volume, axes: &AxisMap) -> Result<SliceStack> {
+        if axes.perm != [0, 1, 2] || axes.z_first != 0 {
+            return SliceStack::new(&volume, axes);
+        }
+        let dims = volume.dims();
+        let bytes = SliceStack::bytes_for(dims, volume.kind().bits() as u64 / 8, axes);
+        if bytes > STACK_LIMIT as u128 {
+            return Err(Error::TooLarge {
+                what: "the permuted slice stack".into(),
+                bytes,
+                limit: STACK_LIMIT,
+            });
+        }
+        let (row, plane) = (dims[0] + 2, (dims[0] + 2) * (dims[1] + 2));
+        let data = match volume.into_voxels() {
+            Voxels::U8(v) => StackData::U8(pad_in_place(v, dims, axes.flip_z)),
+            Voxels::U16(v) => StackData::U16(pad_in_place(v, dims, axes.flip_z)),
+        };
+        Ok(SliceStack {
+            dims,
+            row,
+            plane,
+            data,
+        })
+    }
+
+    /// The value at padded index `i`.
+    #[inline]
+    fn at(&self, i: usize) -> f32 {
+        match &self.data {
+            StackData::U8(d) => d[i] as f32,
+            StackData::U16(d) => d[i] as f32,
+            StackData::F32(d) => d[i],
+        }
+    }
+
+    /// Bytes the stack's voxels take.
+    pub fn bytes(&self) -> usize {
+        match &self.data {
+            StackData::U8(d) => d.len(),
+            StackData::U16(d) => 2 * d.len(),
+            StackData::F32(d) => 4 * d.len(),
+        }
     }
 
     /// The central difference along view axis `axis` divided by
@@ -92,8 +305,8 @@ impl SliceStack {
         let n = [row, self.dims[1] + 2, self.dims[2] + 2];
         let stride = [1, row, plane];
         let scale = (0.5 / spacing) as f32;
-        let src = &self.data;
-        let mut data = vec![0f32; src.len()];
+        let len = plane * n[2];
+        let mut data = vec![0f32; len];
         data.par_chunks_mut(plane).enumerate().for_each(|(z, out)| {
             for y in 0..n[1] {
                 for x in 0..n[0] {
@@ -101,8 +314,9 @@ impl SliceStack {
                     let i = z * plane + y * row + x;
                     let (lo, hi) = (at[axis].saturating_sub(1), (at[axis] + 1).min(n[axis] - 1));
                     let base = i - at[axis] * stride[axis];
-                    out[y * row + x] =
-                        (src[base + hi * stride[axis]] - src[base + lo * stride[axis]]) * scale;
+                    out[y * row + x] = (self.at(base + hi * stride[axis])
+                        - self.at(base + lo * stride[axis]))
+                        * scale;
                 }
             }
         });
@@ -110,31 +324,42 @@ impl SliceStack {
             dims: self.dims,
             row,
             plane,
-            data,
+            data: StackData::F32(data),
+        }
+    }
+
+    /// Padded slice `k` counting the padding (`0..nz + 2`).
+    #[inline]
+    fn padded(&self, k: usize) -> Plane<'_> {
+        let r = k * self.plane..(k + 1) * self.plane;
+        match &self.data {
+            StackData::U8(d) => Plane::U8(&d[r]),
+            StackData::U16(d) => Plane::U16(&d[r]),
+            StackData::F32(d) => Plane::F32(&d[r]),
         }
     }
 
     /// Padded slice `z` (view space, `0..nz`).
     #[inline]
-    pub fn slice(&self, z: usize) -> &[f32] {
-        &self.data[(z + 1) * self.plane..(z + 2) * self.plane]
+    pub fn slice(&self, z: usize) -> Plane<'_> {
+        self.padded(z + 1)
     }
 
     /// Bilinear interpolation in padded slice `s` at view `(x, y)`, which
     /// must lie in `[-1, nx) x [-1, ny)`.
     #[inline]
-    pub fn bilinear(&self, s: &[f32], x: f32, y: f32) -> f32 {
+    pub fn bilinear(&self, s: Plane, x: f32, y: f32) -> f32 {
         // Positions are at least -1, so truncation is the floor (and
         // avoids a libm call on targets without SSE4.1).
         let (fx, fy) = (x + 1.0, y + 1.0);
         let (x0, y0) = (fx as usize, fy as usize);
         let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
         let i = y0 * self.row + x0;
-        let (a, b) = (s[i], s[i + 1]);
-        let (c, d) = (s[i + self.row], s[i + self.row + 1]);
-        let top = a + tx * (b - a);
-        let bot = c + tx * (d - c);
-        top + ty * (bot - top)
+        match s {
+            Plane::U8(s) => lerp2(s, i, self.row, tx, ty),
+            Plane::U16(s) => lerp2(s, i, self.row, tx, ty),
+            Plane::F32(s) => lerp2(s, i, self.row, tx, ty),
+        }
     }
 
     /// Trilinear interpolation as two bilinear ones, in `f32`: the slice-order
@@ -147,9 +372,8 @@ impl SliceStack {
         let fz = z.clamp(-1.0, self.dims[2] as f32 - 1e-3) + 1.0;
         let z0 = fz as usize;
         let t = fz - z0 as f32;
-        let at = |k: usize| &self.data[k * self.plane..(k + 1) * self.plane];
-        let a = self.bilinear(at(z0), x, y);
-        let b = self.bilinear(at(z0 + 1), x, y);
+        let a = self.bilinear(self.padded(z0), x, y);
+        let b = self.bilinear(self.padded(z0 + 1), x, y);
         a + t * (b - a)
     }
 
@@ -167,16 +391,12 @@ impl SliceStack {
         let (x0, y0, z0) = (fx as usize, fy as usize, fz as usize);
         let (tx, ty, tz) = (fx - x0 as f64, fy - y0 as f64, fz - z0 as f64);
         let i = z0 * self.plane + y0 * self.row + x0;
-        let v = |o: usize| self.data[i + o] as f64;
-        let lerp = |a: f64, b: f64, t: f64| a + t * (b - a);
-        let (r, p) = (self.row, self.plane);
-        let s0 = lerp(lerp(v(0), v(1), tx), lerp(v(r), v(r + 1), tx), ty);
-        let s1 = lerp(
-            lerp(v(p), v(p + 1), tx),
-            lerp(v(p + r), v(p + r + 1), tx),
-            ty,
-        );
-        lerp(s0, s1, tz)
+        let (r, p, t) = (self.row, self.plane, [tx, ty, tz]);
+        match &self.data {
+            StackData::U8(d) => lerp3(d, i, r, p, t),
+            StackData::U16(d) => lerp3(d, i, r, p, t),
+            StackData::F32(d) => lerp3(d, i, r, p, t),
+        }
     }
 }
 
@@ -215,6 +435,20 @@ mod tests {
             let view = View::new(vol.dims(), [1.0; 3], &cam, 1.0).unwrap();
             let stack = SliceStack::new(&vol, &view.axes).unwrap();
             assert_eq!(stack.dims, view.dims);
+            // Taking the volume (in place along z) builds the same stack,
+            // for bytes too.
+            let taken = SliceStack::from_volume(vol.clone(), &view.axes).unwrap();
+            assert!(taken == stack, "side {dir}: the taken stack differs");
+            let bytes = Volume::from_fn(
+                vol.dims(),
+                VoxelType::U8,
+                DEFAULT_MEMORY_LIMIT,
+                |x, y, z| vol.get(x, y, z) % 251,
+            )
+            .unwrap();
+            let want = SliceStack::new(&bytes, &view.axes).unwrap();
+            let taken = SliceStack::from_volume(bytes, &view.axes).unwrap();
+            assert!(taken == want, "side {dir}: the taken 8-bit stack differs");
             for z in 0..view.dims[2] {
                 for y in 0..view.dims[1] {
                     for x in 0..view.dims[0] {

@@ -1,8 +1,9 @@
 //! Scalar volumes: dimensions, voxel spacing and voxels.
 //!
-//! Voxels are stored as `u16` whatever their file type, with the bit depth
-//! kept beside them, so classification tables and the pipeline's voxel width
-//! know the scalar range. Voxel `(x, y, z)` sits at index-space position
+//! Voxels are stored in their file's type (`u8` or `u16`, see [`Voxels`]):
+//! a volume costs its file's voxel bytes, not twice or four times that. The
+//! bit depth tells classification tables and the pipeline's voxel width the
+//! scalar range. Voxel `(x, y, z)` sits at index-space position
 //! `(x, y, z)` and at world position `(x, y, z) * spacing`; x varies fastest.
 
 use crate::error::{input, Error, Result};
@@ -16,7 +17,7 @@ pub const DEFAULT_MEMORY_LIMIT: u64 = 4 << 30;
 /// absurd rather than attempted.
 pub const MAX_EDGE: usize = 8192;
 
-/// Stored voxel type (what the file held; values are kept in `u16`).
+/// Stored voxel type (what the file held, and how it is kept).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum VoxelType {
     /// 8-bit unsigned scalars, range 0..=255.
@@ -100,13 +101,83 @@ impl std::str::FromStr for Window {
     }
 }
 
+/// A voxel type a volume or a slice stack keeps its scalars in; every
+/// method reads them as `f32` (exact for both integer types).
+pub trait Voxel: Copy + Default + Send + Sync + Into<f32> + Into<f64> + 'static {
+    /// The scalar as the classification tables index it.
+    fn value(self) -> u16;
+}
+
+impl Voxel for u8 {
+    #[inline]
+    fn value(self) -> u16 {
+        self as u16
+    }
+}
+
+impl Voxel for u16 {
+    #[inline]
+    fn value(self) -> u16 {
+        self
+    }
+}
+
+/// A volume's voxels in its file's type, x fastest.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Voxels {
+    /// 8-bit voxels, one byte each.
+    U8(Vec<u8>),
+    /// 16-bit voxels.
+    U16(Vec<u16>),
+}
+
+impl Voxels {
+    /// Voxel count.
+    pub fn len(&self) -> usize {
+        match self {
+            Voxels::U8(v) => v.len(),
+            Voxels::U16(v) => v.len(),
+        }
+    }
+    /// Whether there are no voxels (never, for a built volume).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Bytes the voxels take.
+    pub fn bytes(&self) -> usize {
+        match self {
+            Voxels::U8(v) => v.len(),
+            Voxels::U16(v) => 2 * v.len(),
+        }
+    }
+}
+
+/// Calls `$body` with `$v` bound to the voxel slice of `$voxels` (a
+/// [`Voxels`]), once per type: hot loops are compiled for `u8` and `u16`
+/// rather than branching per voxel.
+#[macro_export]
+macro_rules! with_voxels {
+    ($voxels:expr, $v:ident => $body:expr) => {
+        match $voxels {
+            $crate::volume::Voxels::U8(data) => {
+                let $v: &[u8] = data;
+                $body
+            }
+            $crate::volume::Voxels::U16(data) => {
+                let $v: &[u16] = data;
+                $body
+            }
+        }
+    };
+}
+
 /// A scalar volume on a regular grid.
 #[derive(Debug, Clone)]
 pub struct Volume {
     dims: [usize; 3],
     spacing: [f64; 3],
     kind: VoxelType,
-    data: Vec<u16>,
+    data: Voxels,
     units: Units,
 }
 
@@ -136,21 +207,27 @@ pub fn check_dims(dims: [usize; 3], bytes_per_voxel: u64, limit: u64) -> Result<
 }
 
 impl Volume {
-    /// Builds a volume from voxels in x-fastest order.
+    /// Builds a volume from voxels in x-fastest order, given as `u16`
+    /// values and kept as `kind` (an 8-bit volume is narrowed to bytes).
     pub fn new(dims: [usize; 3], kind: VoxelType, data: Vec<u16>) -> Result<Volume> {
-        let count = check_dims(dims, 2, u64::MAX)?;
-        if data.len() != count {
-            return Err(input(format!(
-                "volume data has {} voxels, dimensions {}x{}x{} need {count}",
-                data.len(),
-                dims[0],
-                dims[1],
-                dims[2]
-            )));
-        }
+        check_count(dims, data.len())?;
         if let Some(v) = data.iter().find(|&&v| v > kind.max_value()) {
             return Err(input(format!("voxel value {v} exceeds the {kind:?} range")));
         }
+        let data = match kind {
+            VoxelType::U8 => Voxels::U8(data.into_iter().map(|v| v as u8).collect()),
+            VoxelType::U16 => Voxels::U16(data),
+        };
+        Volume::from_voxels(dims, data)
+    }
+
+    /// Builds a volume from voxels already in their type (no copy).
+    pub fn from_voxels(dims: [usize; 3], data: Voxels) -> Result<Volume> {
+        check_count(dims, data.len())?;
+        let kind = match data {
+            Voxels::U8(_) => VoxelType::U8,
+            Voxels::U16(_) => VoxelType::U16,
+        };
         Ok(Volume {
             dims,
             spacing: [1.0; 3],
@@ -167,21 +244,14 @@ impl Volume {
         limit: u64,
         f: impl Fn(usize, usize, usize) -> u16 + Sync,
     ) -> Result<Volume> {
-        use rayon::prelude::*;
-        check_dims(dims, 2, limit)?;
-        let [nx, ny, nz] = dims;
+        let bytes = kind.bits() as u64 / 8;
+        check_dims(dims, bytes, limit)?;
         let max = kind.max_value();
-        let mut data = vec![0u16; nx * ny * nz];
-        data.par_chunks_mut(nx * ny)
-            .enumerate()
-            .for_each(|(z, slice)| {
-                for y in 0..ny {
-                    for x in 0..nx {
-                        slice[y * nx + x] = f(x, y, z).min(max);
-                    }
-                }
-            });
-        Volume::new(dims, kind, data)
+        let data = match kind {
+            VoxelType::U8 => Voxels::U8(fill(dims, |x, y, z| f(x, y, z).min(max) as u8)),
+            VoxelType::U16 => Voxels::U16(fill(dims, |x, y, z| f(x, y, z).min(max))),
+        };
+        Volume::from_voxels(dims, data)
     }
 
     /// Sets the voxel spacing (world units per voxel step on each axis).
@@ -216,16 +286,13 @@ impl Volume {
     pub fn windowed(&self, w: Window) -> Volume {
         let scale = 65535.0 / (w.hi - w.lo);
         let u = self.units;
-        let data = self
-            .data
-            .iter()
-            .map(|&v| ((u.value(v as f64).clamp(w.lo, w.hi) - w.lo) * scale).round() as u16)
-            .collect();
+        let map = |v: u16| ((u.value(v as f64).clamp(w.lo, w.hi) - w.lo) * scale).round() as u16;
+        let data = with_voxels!(&self.data, d => d.iter().map(|&v| map(v.value())).collect());
         Volume {
             dims: self.dims,
             spacing: self.spacing,
             kind: VoxelType::U16,
-            data,
+            data: Voxels::U16(data),
             units: Units {
                 base: w.lo,
                 step: 1.0 / scale,
@@ -245,13 +312,30 @@ impl Volume {
     pub fn kind(&self) -> VoxelType {
         self.kind
     }
-    /// All voxels, x fastest.
-    pub fn data(&self) -> &[u16] {
+    /// All voxels, x fastest, in their own type.
+    pub fn voxels(&self) -> &Voxels {
         &self.data
+    }
+    /// The voxels, giving up the volume.
+    pub fn into_voxels(self) -> Voxels {
+        self.data
+    }
+    /// All voxels, x fastest, as `u16` values: borrowed for a 16-bit
+    /// volume, a widened copy of an 8-bit one (for tests and small volumes;
+    /// hot paths read [`Volume::voxels`]).
+    pub fn data(&self) -> std::borrow::Cow<'_, [u16]> {
+        match &self.data {
+            Voxels::U8(d) => d.iter().map(|&v| v as u16).collect(),
+            Voxels::U16(d) => std::borrow::Cow::Borrowed(d),
+        }
     }
     /// The voxel at integer position `(x, y, z)`.
     pub fn get(&self, x: usize, y: usize, z: usize) -> u16 {
-        self.data[(z * self.dims[1] + y) * self.dims[0] + x]
+        let i = (z * self.dims[1] + y) * self.dims[0] + x;
+        match &self.data {
+            Voxels::U8(d) => d[i] as u16,
+            Voxels::U16(d) => d[i],
+        }
     }
     /// World position of the volume's centre (the default look-at point).
     pub fn center_world(&self) -> [f64; 3] {
@@ -259,14 +343,39 @@ impl Volume {
     }
     /// Smallest and largest voxel value.
     pub fn value_range(&self) -> (u16, u16) {
-        let mut lo = u16::MAX;
-        let mut hi = 0;
-        for &v in &self.data {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-        (lo, hi)
+        with_voxels!(&self.data, d => d.iter().fold((u16::MAX, 0), |(lo, hi), &v| {
+            (lo.min(v.value()), hi.max(v.value()))
+        }))
     }
+}
+
+/// Checks that `count` voxels fill `dims`.
+fn check_count(dims: [usize; 3], count: usize) -> Result<()> {
+    let want = check_dims(dims, 1, u64::MAX)?;
+    if count != want {
+        return Err(input(format!(
+            "volume data has {count} voxels, dimensions {}x{}x{} need {want}",
+            dims[0], dims[1], dims[2]
+        )));
+    }
+    Ok(())
+}
+
+/// Voxels `f(x, y, z)` of `dims`, x fastest, filled in parallel over z.
+fn fill<T: Voxel>(dims: [usize; 3], f: impl Fn(usize, usize, usize) -> T + Sync) -> Vec<T> {
+    use rayon::prelude::*;
+    let [nx, ny, nz] = dims;
+    let mut data = vec![T::default(); nx * ny * nz];
+    data.par_chunks_mut(nx * ny)
+        .enumerate()
+        .for_each(|(z, slice)| {
+            for y in 0..ny {
+                for x in 0..nx {
+                    slice[y * nx + x] = f(x, y, z);
+                }
+            }
+        });
+    data
 }
 
 #[cfg(test)]
@@ -306,7 +415,7 @@ mod tests {
         let out = v.windowed(w);
         assert_eq!(out.kind(), VoxelType::U16);
         // -1024 clamps to -40 (0); 0 HU is 40/120 of the way; 40 HU is 2/3.
-        assert_eq!(out.data(), &[0, 21845, 43690, 65535]);
+        assert_eq!(out.data()[..], [0, 21845, 43690, 65535]);
         assert_eq!(out.units().value(21845.0).round(), 0.0);
         for bad in ["1", "2,1", "a,b", "0,inf", "1,2,3"] {
             let e = bad.parse::<Window>().unwrap_err();

@@ -16,7 +16,9 @@ use golden::render::{PrepareOptions, Prepared};
 use golden::scenes::{tf_preset, Scene};
 use golden::skip::Skips;
 use golden::tf::TransferFunction;
-use golden::volume::{Volume, Window, DEFAULT_MEMORY_LIMIT};
+use golden::volume::{Volume, VoxelType, Window};
+
+use super::memory::{frame_bytes, Budget, FrameSpec};
 
 /// Parses `x,y` into two finite numbers.
 pub fn parse_point2(s: &str) -> std::result::Result<[f64; 2], String> {
@@ -124,9 +126,32 @@ pub struct SourceArgs {
     /// values outside clamp. Default: the file's own range (see docs/golden.md).
     #[arg(long, allow_hyphen_values = true)]
     pub window: Option<Window>,
+    /// Memory a frame may take: bytes, or a number with K, M, G or T
+    /// (binary units). A volume or frame estimated to need more is refused
+    /// before it is allocated. Default: the machine's available memory
+    /// (MemAvailable in /proc/meminfo).
+    #[arg(long, value_parser = super::memory::parse_bytes)]
+    pub max_memory: Option<u64>,
 }
 
 impl SourceArgs {
+    /// The memory a frame may take ([`Budget`]).
+    pub fn budget(&self) -> Budget {
+        Budget::new(self.max_memory)
+    }
+
+    /// A scene's dimensions and voxel type, known before it is built
+    /// (`None` for a file, whose header says).
+    pub fn scene_shape(&self) -> Result<Option<([usize; 3], VoxelType)>> {
+        match &self.scene {
+            Some(spec) => {
+                let scene: Scene = spec.parse()?;
+                Ok(Some((scene.dims(), scene.voxel_type())))
+            }
+            None => Ok(None),
+        }
+    }
+
     /// A short name for tables and file names.
     pub fn label(&self) -> String {
         match (&self.scene, &self.volume) {
@@ -158,7 +183,7 @@ impl SourceArgs {
         let (mut loaded, tf) = match (&self.scene, &self.volume) {
             (Some(spec), None) => {
                 let scene: Scene = spec.parse()?;
-                let volume = scene.build(DEFAULT_MEMORY_LIMIT)?;
+                let volume = scene.build(self.budget().bytes)?;
                 let placed = Loaded {
                     volume,
                     origin: None,
@@ -173,7 +198,7 @@ impl SourceArgs {
                     offset: self.raw_offset,
                 });
                 (
-                    load_placed(path, raw.as_ref(), DEFAULT_MEMORY_LIMIT)?,
+                    load_placed(path, raw.as_ref(), self.budget().bytes)?,
                     tf_preset("grey-ramp")?,
                 )
             }
@@ -217,6 +242,31 @@ impl ViewArgs {
     /// the one reported).
     pub fn load(&self) -> Result<(Volume, TransferFunction, Camera)> {
         let (vol, tf, cam, _) = self.load_framed()?;
+        Ok((vol, tf, cam))
+    }
+
+    /// [`ViewArgs::load`] for one frame `spec` describes, refused with one
+    /// line when its estimated memory ([`frame_bytes`]) is over the
+    /// budget: a scene before it is built, a file before anything but the
+    /// volume (which its loader limits to the budget) is allocated.
+    pub fn load_for(
+        &self,
+        method: &str,
+        spec: &FrameSpec,
+    ) -> Result<(Volume, TransferFunction, Camera)> {
+        let budget = self.source.budget();
+        let check = |dims: [usize; 3], kind: VoxelType| {
+            let what = format!(
+                "the {method} frame of a {}x{}x{} {kind:?} volume",
+                dims[0], dims[1], dims[2]
+            );
+            budget.check(&what, frame_bytes(dims, kind, spec))
+        };
+        if let Some((dims, kind)) = self.source.scene_shape()? {
+            check(dims, kind)?;
+        }
+        let (vol, tf, cam) = self.load()?;
+        check(vol.dims(), vol.kind())?;
         Ok((vol, tf, cam))
     }
 
@@ -573,6 +623,12 @@ impl SliceArgs {
     /// Prepares `vol` for `cam` with these options.
     pub fn prepared(&self, vol: &Volume, cam: &Camera) -> Result<Prepared> {
         Ok(Prepared::with(vol, cam, &self.prepare()?)?)
+    }
+
+    /// [`SliceArgs::prepared`], taking `vol` (its voxels become the slice
+    /// stack: a one-off frame holds them once).
+    pub fn prepared_owning(&self, vol: Volume, cam: &Camera) -> Result<Prepared> {
+        Ok(Prepared::owning(vol, cam, &self.prepare()?)?)
     }
 }
 

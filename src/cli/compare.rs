@@ -14,6 +14,7 @@ use golden::metrics::{compare, ImageError};
 use golden::render::{lut_for, render, Frame, Prepared, Technique};
 
 use super::args::{with_threads, CameraArgs, PlaneArg, SliceArgs, SourceArgs, TfArgs, ViewArgs};
+use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::montage::write_montage;
 use super::progress::Stage;
@@ -92,7 +93,18 @@ pub fn run(a: &CompareArgs) -> Result<()> {
 
 fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
     let mut opts = a.slice.options()?;
-    let (vol, tf, cam) = a.view.load()?;
+    // The method needing the most memory sizes the check (every method
+    // shares the slice stack; the mip-map and shear-warp add their own).
+    let hungriest = [Technique::MipMap, Technique::ShearWarp]
+        .into_iter()
+        .find(|t| techs.contains(t))
+        .unwrap_or(Technique::Reference);
+    let spec = FrameSpec {
+        technique: Some(hungriest),
+        shade: opts.slice.shade.is_some(),
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for("compare", &spec)?;
     a.slice.apply_tf(&mut opts, &tf)?;
     let lut = lut_for(vol.kind(), &tf);
     let mut prep = a.slice.prepared(&vol, &cam)?;
@@ -258,6 +270,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
                 raw_offset: 0,
                 spacing: None,
                 window: None,
+                max_memory: None,
             },
             camera: CameraArgs {
                 eye: Some(DVec3::new(64.0, 64.0, -32.0)),

@@ -8,6 +8,7 @@ mod bench;
 mod chip;
 mod compare;
 mod cost;
+mod memory;
 mod method;
 mod montage;
 mod peer;
@@ -46,6 +47,9 @@ enum Command {
     /// reference; write a CSV, plots and a summary (or, with --report DIR,
     /// the whole benchmark report).
     Bench(Box<bench::BenchArgs>),
+    /// Join the shard files of a `bench --shard K/N` sweep into the CSV,
+    /// plots and summary the unsharded run writes.
+    MergeResults(Box<bench::MergeArgs>),
     /// Run the pipeline over a grid of datapath widths and write its error
     /// against golden er beside the total datapath bits.
     SweepWidths(Box<bench::SweepArgs>),
@@ -109,6 +113,7 @@ pub fn run() -> ExitCode {
         Command::Animate(a) => animate::run(&a),
         Command::Cost(a) => cost::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::MergeResults(a) => bench::merge_results(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),
         Command::SkipBench(a) => skipbench::run(&a),
         Command::Peer(a) => peer::run(&a),

@@ -24,7 +24,7 @@ use golden::camera::{Camera, ImagePlane};
 use golden::image::Image;
 use golden::metrics::{compare, ImageError};
 use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
-use golden::volume::{Volume, VoxelType};
+use golden::volume::{Volume, Voxels};
 
 use super::args::{with_threads, ViewArgs};
 use super::bench::pareto;
@@ -297,12 +297,9 @@ fn script_path(a: &PeerArgs) -> Result<PathBuf> {
 
 /// Writes the volume's voxels as raw (u8, or u16 little-endian), x fastest.
 fn write_raw(path: &Path, vol: &Volume) -> Result<&'static str> {
-    let (kind, bytes): (&str, Vec<u8>) = match vol.kind() {
-        VoxelType::U8 => ("u8", vol.data().iter().map(|&v| v as u8).collect()),
-        VoxelType::U16 => (
-            "u16le",
-            vol.data().iter().flat_map(|v| v.to_le_bytes()).collect(),
-        ),
+    let (kind, bytes): (&str, std::borrow::Cow<[u8]>) = match vol.voxels() {
+        Voxels::U8(d) => ("u8", d.into()),
+        Voxels::U16(d) => ("u16le", d.iter().flat_map(|v| v.to_le_bytes()).collect()),
     };
     golden::image::write_atomic(path, |w| w.write_all(&bytes))?;
     Ok(kind)

@@ -11,6 +11,7 @@ use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
 use super::args::{with_threads, SliceArgs, ViewArgs};
 use super::chip::{self, PipelineArgs};
+use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::progress::Stage;
 use super::stats::{frame_json, median, write_json};
@@ -130,7 +131,12 @@ pub fn run(a: &RenderArgs) -> Result<()> {
             );
         }
         let mut opts = a.slice.options()?;
-        let (vol, tf, cam) = a.view.load()?;
+        let spec = FrameSpec {
+            technique: Some(tech),
+            shade: opts.slice.shade.is_some(),
+            size: a.view.camera.size,
+        };
+        let (vol, tf, cam) = a.view.load_for(tech.name(), &spec)?;
         a.slice.apply_tf(&mut opts, &tf)?;
         // The comparison's reference is always the full one.
         let full = opts;
@@ -139,11 +145,17 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {
             anyhow::bail!("--baseplane-npy: a gaze-directed frame has one baseplane per level; drop one of them");
         }
-        let mut prep = a.slice.prepared(&vol, &cam)?;
-        if let (Some(g), Technique::Slice(_)) = (&opts.reference.gaze, tech) {
-            let _s = Stage::start("preparing the gaze levels");
-            prep = prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?;
-        }
+        let shape = (vol.dims(), vol.spacing());
+        let prep = match (&opts.reference.gaze, tech) {
+            // The gaze levels filter the volume itself, so a gaze-directed
+            // slice-order frame keeps it beside the stack.
+            (Some(g), Technique::Slice(_)) => {
+                let prep = a.slice.prepared(&vol, &cam)?;
+                let _s = Stage::start("preparing the gaze levels");
+                prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?
+            }
+            _ => a.slice.prepared_owning(vol, &cam)?,
+        };
         let (frame, times) = {
             let _s = Stage::start(format!("rendering with {}", tech.name()));
             timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
@@ -159,7 +171,7 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         if let Some(p) = &a.stats {
             let mut v = frame_json(
                 tech.name(),
-                &vol,
+                shape,
                 &prep.view,
                 cam.eye,
                 time_s,
@@ -369,7 +381,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             "the pipeline model has no pre-integrated classification yet; drop --preintegrate"
         );
     }
-    let (vol, tf, cam) = a.view.load()?;
+    let spec = FrameSpec {
+        technique: None,
+        shade: opts.slice.shade.is_some(),
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for(a.method.name(), &spec)?;
     let mut opts = opts;
     slice.apply_tf(&mut opts, &tf)?;
     let shade = opts.slice.shade;
@@ -412,7 +429,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         };
         let mut v = frame_json(
             a.method.name(),
-            &vol,
+            (vol.dims(), vol.spacing()),
             &prep.view,
             cam.eye,
             run.time_s,

@@ -9,12 +9,11 @@ use serde_json::{json, Value};
 use golden::geometry::View;
 use golden::metrics::ImageError;
 use golden::render::Frame;
-use golden::volume::Volume;
 
 /// The stats object for one frame.
 pub fn frame_json(
     method: &str,
-    vol: &Volume,
+    (dims, spacing): ([usize; 3], [f64; 3]),
     view: &View,
     eye: glam::DVec3,
     time_s: f64,
@@ -23,8 +22,8 @@ pub fn frame_json(
 ) -> Value {
     let mut v = json!({
         "method": method,
-        "volume": vol.dims(),
-        "spacing": vol.spacing(),
+        "volume": dims,
+        "spacing": spacing,
         "eye": eye.to_array(),
         "principal_axis": view.axes.label(),
         "D": view.d,

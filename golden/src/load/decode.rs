@@ -49,6 +49,16 @@ pub(super) fn decode(
     Ok(out)
 }
 
+/// `count` 8-bit voxels as bytes, not widened: an 8-bit file's volume
+/// costs its voxel bytes.
+pub(super) fn decode_u8(path: &Path, r: impl Read, count: usize, offset: u64) -> Result<Vec<u8>> {
+    let mut out = Vec::with_capacity(count);
+    read_chunks(path, r, count, 1, offset, |chunk| {
+        out.extend_from_slice(chunk)
+    })?;
+    Ok(out)
+}
+
 /// A stored scalar type, as a file header names it. Each loader maps its
 /// own type names onto these, and [`read_scalars`] turns them into voxels
 /// by one rule for every format, so the same data gives the same volume

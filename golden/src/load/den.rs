@@ -4,10 +4,10 @@
 use std::io::Read;
 use std::path::Path;
 
-use super::decode::decode;
-use super::{file_len, format_err, from_file, io_err, open, RawType};
+use super::decode::decode_u8;
+use super::{file_len, format_err, from_file, io_err, open};
 use crate::error::Result;
-use crate::volume::{check_dims, Volume, VoxelType};
+use crate::volume::{check_dims, Volume, Voxels};
 
 /// Size of a VolPack `.den` header: an `i16` version, nine `i16` triples, an
 /// `i16` warp count and an `i32` voxel count.
@@ -83,7 +83,7 @@ pub fn load_den(path: &Path, limit: u64) -> Result<Volume> {
             ),
         ));
     }
-    let count = check_dims(dims, 2, limit).map_err(|e| from_file(path, e))?;
+    let count = check_dims(dims, 1, limit).map_err(|e| from_file(path, e))?;
     let expected = DEN_HEADER as u64 + count as u64;
     if len < expected {
         return Err(format_err(
@@ -97,8 +97,8 @@ pub fn load_den(path: &Path, limit: u64) -> Result<Volume> {
             format!("file has {len} bytes, {expected} expected for a {w}x{h}x{d} .den"),
         ));
     }
-    let data = decode(path, file, count, RawType::U8, DEN_HEADER as u64)?;
-    Volume::new(dims, VoxelType::U8, data)
+    let data = decode_u8(path, file, count, DEN_HEADER as u64)?;
+    Volume::from_voxels(dims, Voxels::U8(data))
 }
 
 #[cfg(test)]
@@ -106,7 +106,7 @@ pub(super) mod tests {
     use super::*;
     use crate::load::load_auto;
     use crate::load::tests::{assert_err, pattern, write};
-    use crate::volume::DEFAULT_MEMORY_LIMIT;
+    use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
 
     /// A `.den` file: header with the given fields, then `data`.
     pub(crate) fn den_bytes(map_len: [i16; 3], map_length: i32, data: &[u8], big: bool) -> Vec<u8> {

@@ -342,12 +342,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let lim = DEFAULT_MEMORY_LIMIT;
         let den = write(&dir, "X.DEN", &den_bytes([2, 2, 2], 8, &[9; 8], false));
-        assert_eq!(load_auto(&den, None, lim).unwrap().data(), &[9; 8]);
+        assert_eq!(load_auto(&den, None, lim).unwrap().data()[..], [9; 8]);
         let nii = Nii::new([2, 2, 2], 2, 8).bytes(&[4; 8]);
         let gz = write(&dir, "y.Nii.Gz", &gzip(&nii));
-        assert_eq!(load_auto(&gz, None, lim).unwrap().data(), &[4; 8]);
+        assert_eq!(load_auto(&gz, None, lim).unwrap().data()[..], [4; 8]);
         let plain = write(&dir, "y.nii", &nii);
-        assert_eq!(load_auto(&plain, None, lim).unwrap().data(), &[4; 8]);
+        assert_eq!(load_auto(&plain, None, lim).unwrap().data()[..], [4; 8]);
         // A raw spec wins over the name: the .den is read as 70 raw bytes.
         let spec = RawSpec {
             dims: [7, 10, 1],

@@ -382,14 +382,14 @@ pub(super) mod tests {
             let udata: Vec<u8> = uvals.iter().flat_map(|&v| enc16(v)).collect();
             let path = write(&dir, "u.nii.gz", &gzip(&nii.bytes(&udata)));
             let v = load_nifti(&path, DEFAULT_MEMORY_LIMIT).unwrap();
-            assert_eq!((v.kind(), v.data()), (VoxelType::U16, &uvals[..]));
+            assert_eq!((v.kind(), &*v.data()), (VoxelType::U16, &uvals[..]));
 
             nii.datatype = 4;
             let idata: Vec<u8> = ivals.iter().flat_map(|&v| enc16(v as u16)).collect();
             let path = write(&dir, "i.nii", &nii.bytes(&idata));
             let v = load_nifti(&path, DEFAULT_MEMORY_LIMIT).unwrap();
             let want: Vec<u16> = ivals.iter().map(|&x| (x as i32 + 9000) as u16).collect();
-            assert_eq!((v.kind(), v.data()), (VoxelType::U16, &want[..]));
+            assert_eq!((v.kind(), &*v.data()), (VoxelType::U16, &want[..]));
 
             // Non-negative int16 keeps its values.
             let pos: Vec<u8> = (0..n as u16).flat_map(|x| enc16(x * 3)).collect();

@@ -5,10 +5,10 @@ use std::io::{Seek, SeekFrom};
 use std::path::Path;
 use std::str::FromStr;
 
-use super::decode::decode;
+use super::decode::{decode, decode_u8};
 use super::{file_len, format_err, io_err, open};
 use crate::error::{input, Error, Result};
-use crate::volume::{check_dims, Volume, VoxelType};
+use crate::volume::{check_dims, Volume, VoxelType, Voxels};
 
 /// Voxel encoding of a headerless raw file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -87,7 +87,7 @@ pub struct RawSpec {
 /// front with `offset`, or cut the file.
 pub fn load_raw(path: &Path, spec: &RawSpec, limit: u64) -> Result<Volume> {
     let [w, h, d] = spec.dims;
-    let count = check_dims(spec.dims, 2, limit)?;
+    let count = check_dims(spec.dims, spec.kind.bytes(), limit)?;
     let expected = spec.offset as u128 + count as u128 * spec.kind.bytes() as u128;
     let mut file = open(path)?;
     let len = file_len(&file, path)?;
@@ -108,6 +108,10 @@ pub fn load_raw(path: &Path, spec: &RawSpec, limit: u64) -> Result<Volume> {
     }
     file.seek(SeekFrom::Start(spec.offset))
         .map_err(|e| io_err(path, e))?;
+    if spec.kind == RawType::U8 {
+        let data = decode_u8(path, file, count, spec.offset)?;
+        return Volume::from_voxels(spec.dims, Voxels::U8(data));
+    }
     let data = decode(path, file, count, spec.kind, spec.offset)?;
     Volume::new(spec.dims, spec.kind.voxel_type(), data)
 }
@@ -198,10 +202,11 @@ mod tests {
             "over the limit",
         );
         assert_err(
-            load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 100),
+            load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 99),
             "over the limit",
         );
-        assert!(load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 200).is_ok());
+        // An 8-bit volume is kept in bytes: 100 voxels take 100 bytes.
+        assert!(load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 100).is_ok());
         let missing = dir.path().join("nope.raw");
         assert_err(
             load_raw(&missing, &spec([1, 1, 1], RawType::U8, 0), lim),

@@ -299,7 +299,7 @@ mod tests {
         std::fs::write(&path, tiff_bytes(6, 2, Pages::U16(&p16))).unwrap();
         let v = load_tiff(&path, LIM).unwrap();
         assert_eq!(
-            (v.dims(), v.kind(), v.data()),
+            (v.dims(), v.kind(), &*v.data()),
             ([6, 2, 2], VoxelType::U16, &vals[..])
         );
         assert_err(load_tiff(&path, 40), "over the limit");

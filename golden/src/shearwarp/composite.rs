@@ -324,7 +324,7 @@ fn gather(
             for (a, o) in out.iter_mut().enumerate() {
                 // The gradient stacks are padded by one voxel per side.
                 let slice = g[a].slice(z);
-                *o += k * slice[(ky + 1) * g[a].row + kx + 1];
+                *o += k * slice.get((ky + 1) * g[a].row + kx + 1);
             }
         }
     }

@@ -60,10 +60,11 @@ impl Classified {
             .enumerate()
             .map(|(r, out)| {
                 let (z, y) = (r / ny, r % ny);
-                let line = &stack.slice(z)[(y + 1) * stack.row + 1..][..nx];
+                let line = stack.slice(z);
+                let line = line.values((y + 1) * stack.row + 1, nx);
                 let mut runs = Vec::new();
                 let mut open: Option<u32> = None;
-                for (x, (o, &v)) in out.iter_mut().zip(line).enumerate() {
+                for (x, (o, v)) in out.iter_mut().zip(line).enumerate() {
                     let c = lut.lookup(v);
                     *o = [c[3] * c[0], c[3] * c[1], c[3] * c[2], c[3]];
                     match (c[3] > 0.0, open) {

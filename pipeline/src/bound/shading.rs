@@ -77,13 +77,13 @@ impl ShadeInputs {
                 // is sampled too (a ray half a voxel outside reads it).
                 for y in 0..ny + 2 {
                     for x in 0..nx + 2 {
-                        let v = f64::from(s[y * comp.row + x]);
+                        let v = f64::from(s.get(y * comp.row + x));
                         max = max.max(v.abs());
                         if x + 1 < nx + 2 {
-                            lip = lip.max((f64::from(s[y * comp.row + x + 1]) - v).abs());
+                            lip = lip.max((f64::from(s.get(y * comp.row + x + 1)) - v).abs());
                         }
                         if y + 1 < ny + 2 {
-                            lip = lip.max((f64::from(s[(y + 1) * comp.row + x]) - v).abs());
+                            lip = lip.max((f64::from(s.get((y + 1) * comp.row + x)) - v).abs());
                         }
                     }
                 }

@@ -27,6 +27,7 @@ mod model;
 mod report;
 mod run;
 mod scales;
+mod shard;
 mod summary;
 mod widths;
 mod write;
@@ -47,6 +48,7 @@ use super::args::{parse_size, with_threads, PlaneArg, SourceArgs, TfArgs};
 use super::method::MethodArg;
 pub use model::Model;
 pub use run::{progress, run_case};
+pub use shard::{merge as merge_results, MergeArgs};
 use summary::console_table;
 pub use summary::summary;
 pub use widths::{sweep as sweep_widths, SweepArgs};
@@ -104,6 +106,11 @@ pub struct BenchArgs {
     /// The brainsmall volume for --report.
     #[arg(long, default_value = "../shared/data/brainsmall.den")]
     pub brainsmall: PathBuf,
+    /// Run only shard K of N (every N-th distance from the K-th) and write
+    /// its rows as DIR/shard-K-of-N.json; `ercube merge-results` joins
+    /// the N shards into what the unsharded run writes.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<shard::Shard>,
 }
 
 /// A method the bench runs.
@@ -343,11 +350,29 @@ pub struct CaseResult {
 /// Runs `ercube bench`.
 pub fn run(a: &BenchArgs) -> Result<()> {
     if let Some(dir) = &a.report {
+        if a.shard.is_some() {
+            bail!("--shard splits a sweep's distances; the report's plan is not sharded");
+        }
         if a.source.scene.is_some() || a.source.volume.is_some() {
             bail!("--report runs the report's own scenes; drop --scene and --volume");
         }
         return with_threads(a.threads, || report::run(a, dir));
     }
+    with_threads(a.threads, || {
+        let case = case_of(a)?;
+        std::fs::create_dir_all(&a.out_dir)
+            .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+        if let Some(s) = a.shard {
+            let res = run::run_case_in(&case, Some(s))?;
+            return shard::write_shard(&a.out_dir, s, &res, case.distances.len());
+        }
+        let res = run_case(&case)?;
+        finish(a, &case, &res, &command_line())
+    })
+}
+
+/// The case `a` describes: its volume loaded, its methods and sweep parsed.
+fn case_of(a: &BenchArgs) -> Result<Case> {
     if a.frames == 0 || a.frames > 1000 {
         bail!("--frames {} must be 1 to 1000", a.frames);
     }
@@ -359,37 +384,39 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         Some(d) => bail!("--slices-at {d} is not one of --distances"),
         None => distances.iter().copied().fold(f64::INFINITY, f64::min),
     };
-    with_threads(a.threads, || {
-        let (vol, default_tf) = a.source.load()?;
-        let tf = a.tf.resolve(default_tf)?;
-        let case = Case {
-            label: a.source.label(),
-            vol,
-            tf,
-            methods,
-            distances,
-            fovs,
-            size: a.size,
-            plane: match a.image_plane {
-                PlaneArg::Camera => ImagePlane::Camera,
-                PlaneArg::Front => ImagePlane::Front,
-            },
-            frames: a.frames,
-            seed: a.seed,
-            slices_at,
-        };
-        std::fs::create_dir_all(&a.out_dir)
-            .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
-        let res = run_case(&case)?;
-        write_case(&a.out_dir, &case, &res, "")?;
-        let md = summary(&case, &res, "", &command_line())?;
-        golden::image::write_atomic(&a.out_dir.join("summary.md"), |w| {
-            w.write_all(md.as_bytes())
-        })?;
-        super::say(&console_table(&case, &res));
-        super::say(&format!("wrote {}", a.out_dir.display()));
-        Ok(())
+    let (vol, default_tf) = a.source.load()?;
+    let tf = a.tf.resolve(default_tf)?;
+    Ok(Case {
+        label: a.source.label(),
+        vol,
+        tf,
+        methods,
+        distances,
+        fovs,
+        size: a.size,
+        plane: match a.image_plane {
+            PlaneArg::Camera => ImagePlane::Camera,
+            PlaneArg::Front => ImagePlane::Front,
+        },
+        frames: a.frames,
+        seed: a.seed,
+        slices_at,
     })
+}
+
+/// Writes a case's CSV, plots and summary into `a.out_dir` and prints its
+/// table (`command` is the command line the summary names).
+fn finish(a: &BenchArgs, case: &Case, res: &CaseResult, command: &str) -> Result<()> {
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    write_case(&a.out_dir, case, res, "")?;
+    let md = summary(case, res, "", command)?;
+    golden::image::write_atomic(&a.out_dir.join("summary.md"), |w| {
+        w.write_all(md.as_bytes())
+    })?;
+    super::say(&console_table(case, res));
+    super::say(&format!("wrote {}", a.out_dir.display()));
+    Ok(())
 }
 
 /// The command line as typed (for the summaries).

@@ -287,7 +287,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
             grid: grid.clone(),
             shade: None,
         };
-        let res = run_sweep(&sw, vol, tf, &prep)?;
+        let res = run_sweep(&sw, vol, tf, &prep, None)?;
         let out = bench_dir.join(key);
         std::fs::create_dir_all(&out)
             .with_context(|| format!("cannot create {}", out.display()))?;

@@ -17,6 +17,7 @@ use golden::tf::Lut;
 use golden::volume::Volume;
 use pipeline::config::Order;
 
+use super::shard::Shard;
 use super::{BenchMethod, Case, CaseResult, PerSlice, Row};
 
 /// A small, fast, seedable generator (SplitMix64) for the run order.
@@ -87,6 +88,13 @@ fn too_large(e: &golden::Error) -> bool {
 
 /// Renders every method of `case` at every distance.
 pub fn run_case(case: &Case) -> Result<CaseResult> {
+    run_case_in(case, None)
+}
+
+/// [`run_case`] for one shard's distances only ([`Shard::owns`]); the
+/// method order of every frame is the unsharded run's (the shuffle still
+/// walks the other shards' distances), so only the timings can differ.
+pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
     let opts = RenderOptions::default();
     let lut = lut_for(case.vol.kind(), &case.tf);
     let timed_methods = case
@@ -100,14 +108,23 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
         .filter(|m| matches!(m, BenchMethod::Pipeline { .. }))
         .count();
     let per_d = 1 + pipes + case.frames * timed_methods;
-    let bar = progress((per_d * case.distances.len()) as u64);
+    let owned = (0..case.distances.len())
+        .filter(|&i| shard.is_none_or(|s| s.owns(i)))
+        .count();
+    let bar = progress((per_d * owned) as u64);
     let mut rows = Vec::new();
     let mut per_slice = None;
     let mut rng = SplitMix::new(case.seed);
     let (mut area, mut nz) = (0.0, 0);
     let mut pipeline_matches_er: Option<bool> = None;
     let mut table_luts: BTreeMap<u32, Lut> = BTreeMap::new();
-    for (&d, &fov) in case.distances.iter().zip(&case.fovs) {
+    for (i, (&d, &fov)) in case.distances.iter().zip(&case.fovs).enumerate() {
+        if shard.is_some_and(|s| !s.owns(i)) {
+            for _ in 0..case.frames {
+                rng.shuffle(&mut (0..case.methods.len()).collect::<Vec<_>>());
+            }
+            continue;
+        }
         let (cam, fov) = bench_camera(&case.vol, d, fov, case.size, case.plane)?;
         let mut prep = Prepared::new(&case.vol, &cam)?;
         if case

@@ -29,6 +29,7 @@ use pipeline::fixed::Format;
 use super::super::args::{with_threads, ViewArgs};
 use super::super::plot::{write_charts, Chart, Kind, Series};
 use super::progress;
+use super::shard::Shard;
 
 /// Default values swept of each knob: from where the image visibly breaks
 /// to well past each default.
@@ -109,6 +110,11 @@ pub struct SweepArgs {
     /// Worker threads (default: all cores); results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Run only shard K of N (every N-th configuration from the K-th, the
+    /// base being the first) and write its rows as DIR/shard-K-of-N.json;
+    /// `ercube merge-results` joins the N shards.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
 }
 
 /// A width that the sweep varies.
@@ -133,6 +139,23 @@ pub enum Knob {
 }
 
 impl Knob {
+    /// Every knob.
+    pub const ALL: [Knob; 8] = [
+        Knob::Alpha,
+        Knob::Accum,
+        Knob::Position,
+        Knob::Weight,
+        Knob::Color,
+        Knob::Sample,
+        Knob::Gradient,
+        Knob::Normal,
+    ];
+
+    /// The knob named `name` ([`Knob::name`]).
+    pub fn from_name(name: &str) -> Option<Knob> {
+        Knob::ALL.into_iter().find(|k| k.name() == name)
+    }
+
     /// Name in the CSV and the plot.
     pub fn name(self) -> &'static str {
         match self {
@@ -275,6 +298,9 @@ pub struct WidthRow {
     pub time_s: f64,
 }
 
+/// Each knob the sweep varies and its values.
+pub type Grid = Vec<(Knob, Vec<u8>)>;
+
 /// A sweep on one view.
 pub struct Sweep {
     /// Name of the scene and view, for titles.
@@ -285,6 +311,13 @@ pub struct Sweep {
     pub grid: Vec<(Knob, Vec<u8>)>,
     /// Shading in golden, the reference and the pipeline.
     pub shade: Option<golden::shading::Shade>,
+}
+
+impl Sweep {
+    /// Configurations run: the base, then every knob's values.
+    pub fn runs(&self) -> usize {
+        1 + self.grid.iter().map(|g| g.1.len()).sum::<usize>()
+    }
 }
 
 /// What a sweep measured.
@@ -301,11 +334,14 @@ pub fn run_sweep(
     vol: &Volume,
     tf: &golden::tf::TransferFunction,
     prep: &Prepared,
+    shard: Option<Shard>,
 ) -> Result<SweepResult> {
     let mut opts = RenderOptions::default();
     opts.slice.shade = sw.shade;
     opts.reference.shade = sw.shade;
-    let runs = 1 + sw.grid.iter().map(|g| g.1.len()).sum::<usize>();
+    let runs = (0..sw.runs())
+        .filter(|&i| shard.is_none_or(|s| s.owns(i)))
+        .count();
     let bar = progress(runs as u64 + 2);
     bar.set_message(format!("{}: reference", sw.label));
     let reference = render(prep, &lut_for(vol.kind(), tf), Technique::Reference, &opts)?.image;
@@ -325,7 +361,10 @@ pub fn run_sweep(
         jobs.extend(vs.iter().map(|&v| (Some(*k), v)));
     }
     let mut rows = Vec::new();
-    for (knob, v) in jobs {
+    for (i, (knob, v)) in jobs.into_iter().enumerate() {
+        if shard.is_some_and(|s| !s.owns(i)) {
+            continue;
+        }
         let name = knob.map_or("base", Knob::name);
         bar.set_message(format!("{}: {name} {v}", sw.label));
         let cfg = match knob {
@@ -574,6 +613,56 @@ pub fn narrowest_within(rows: &[&WidthRow], limit: f64) -> Option<u8> {
 
 /// Loads, prepares and runs a sweep from the command line's arguments.
 pub fn sweep(a: &SweepArgs) -> Result<()> {
+    let (base, grid) = grid_of(a)?;
+    with_threads(a.threads, || {
+        let (vol, tf, cam) = a.view.load()?;
+        let prep = Prepared::new(&vol, &cam)?;
+        std::fs::create_dir_all(&a.out_dir)
+            .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+        let sw = sweep_of(a, base, grid);
+        let res = run_sweep(&sw, &vol, &tf, &prep, a.shard)?;
+        if let Some(s) = a.shard {
+            return super::shard::write_widths_shard(&a.out_dir, s, &res, sw.runs());
+        }
+        finish_sweep(a, &sw, &res, &super::command_line())
+    })
+}
+
+/// The sweep `a` describes, over `base` and `grid`.
+pub(super) fn sweep_of(a: &SweepArgs, base: PipelineConfig, grid: Vec<(Knob, Vec<u8>)>) -> Sweep {
+    Sweep {
+        label: a.view.source.label(),
+        base,
+        grid,
+        shade: a.shade.then(golden::shading::Shade::default),
+    }
+}
+
+/// Writes a sweep's CSV, plot and summary into `a.out_dir` and prints the
+/// summary (`command` is the command line it names).
+pub(super) fn finish_sweep(
+    a: &SweepArgs,
+    sw: &Sweep,
+    res: &SweepResult,
+    command: &str,
+) -> Result<()> {
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    write_sweep(&a.out_dir, sw, res)?;
+    let md = format!(
+        "# Pipeline widths on {}\n\n`{}`\n\n{}",
+        sw.label,
+        command,
+        summary(sw, res, "")
+    );
+    golden::image::write_atomic(&a.out_dir.join("widths.md"), |w| w.write_all(md.as_bytes()))?;
+    super::super::say(md.trim_end());
+    super::super::say(&format!("wrote {}", a.out_dir.display()));
+    Ok(())
+}
+
+/// The base configuration and the knobs' values `a` asks for.
+pub(super) fn grid_of(a: &SweepArgs) -> Result<(PipelineConfig, Grid)> {
     let base = a.cfg.load()?;
     let grid: Vec<(Knob, Vec<u8>)> = [
         (Knob::Alpha, "alpha-bits", &a.alpha_bits),
@@ -608,30 +697,7 @@ pub fn sweep(a: &SweepArgs) -> Result<()> {
     .into_iter()
     .filter(|(_, v)| !v.is_empty())
     .collect();
-    with_threads(a.threads, || {
-        let (vol, tf, cam) = a.view.load()?;
-        let prep = Prepared::new(&vol, &cam)?;
-        std::fs::create_dir_all(&a.out_dir)
-            .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
-        let sw = Sweep {
-            label: a.view.source.label(),
-            base,
-            grid,
-            shade: a.shade.then(golden::shading::Shade::default),
-        };
-        let res = run_sweep(&sw, &vol, &tf, &prep)?;
-        write_sweep(&a.out_dir, &sw, &res)?;
-        let md = format!(
-            "# Pipeline widths on {}\n\n`{}`\n\n{}",
-            sw.label,
-            super::command_line(),
-            summary(&sw, &res, "")
-        );
-        golden::image::write_atomic(&a.out_dir.join("widths.md"), |w| w.write_all(md.as_bytes()))?;
-        super::super::say(md.trim_end());
-        super::super::say(&format!("wrote {}", a.out_dir.display()));
-        Ok(())
-    })
+    Ok((base, grid))
 }
 
 #[cfg(test)]

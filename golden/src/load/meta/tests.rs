@@ -125,7 +125,11 @@ fn meta_local_and_external_data() {
     let (_, le) = u16_data(false);
     let check = |name: &str, bytes: &[u8]| {
         let v = load_meta(&write(&dir, name, bytes), LIM).unwrap();
-        assert_eq!((v.kind(), v.data()), (VoxelType::U16, &vals[..]), "{name}");
+        assert_eq!(
+            (v.kind(), &*v.data()),
+            (VoxelType::U16, &vals[..]),
+            "{name}"
+        );
     };
     let h = header("MET_USHORT", "BinaryDataByteOrderMSB = True\n", "LOCAL");
     check("a.mha", &[h.as_bytes(), &be, b"trailing"].concat());

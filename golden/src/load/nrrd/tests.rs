@@ -177,7 +177,7 @@ fn nrrd_attached_raw_and_gzip_with_skips() {
     );
     let l = read_nrrd(&path, LIM).unwrap();
     assert_eq!(
-        (l.volume.kind(), l.volume.data()),
+        (l.volume.kind(), &*l.volume.data()),
         (VoxelType::U16, &vals[..])
     );
     assert_eq!(

@@ -1,0 +1,224 @@
+//! The memory check: a frame's peak memory, estimated from the volume's
+//! dimensions, voxel type, the method and its options, against the memory
+//! the machine has free (`MemAvailable` in /proc/meminfo, or
+//! `--max-memory`), before the volume or the frame's arrays are allocated.
+//! A scene too big for the machine is refused with one line rather than
+//! killed by the kernel halfway through.
+//!
+//! The estimate is an upper bound on the arrays that scale with the volume
+//! (measured peaks are in docs/benchmarks.md#memory): it counts the volume
+//! and its slice stack apart even where a view lays the stack in the
+//! volume's own buffer.
+
+use anyhow::{bail, Result};
+
+use golden::render::Technique;
+use golden::volume::VoxelType;
+
+/// Memory assumed free when /proc/meminfo cannot be read (not Linux).
+const UNKNOWN_AVAILABLE: u64 = golden::volume::DEFAULT_MEMORY_LIMIT;
+
+/// The program, its tables, thread stacks and per-row scratch: what a
+/// frame takes besides the arrays [`frame_bytes`] counts (a 64^3 frame
+/// peaks at about 20 MB).
+const OVERHEAD: u128 = 64 << 20;
+
+/// Parses a byte count: a whole number of bytes, or a number with a binary
+/// suffix `K`, `M`, `G` or `T` (KiB, MiB, GiB, TiB; `1.5G` is allowed).
+pub fn parse_bytes(s: &str) -> std::result::Result<u64, String> {
+    let t = s.trim();
+    let (num, scale) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let shift = match c.to_ascii_uppercase() {
+                'K' => 10,
+                'M' => 20,
+                'G' => 30,
+                'T' => 40,
+                _ => {
+                    return Err(format!(
+                        "memory size '{s}': the suffix must be K, M, G or T"
+                    ))
+                }
+            };
+            (&t[..i], (1u64 << shift) as f64)
+        }
+        _ => (t, 1.0),
+    };
+    let v: f64 = num
+        .parse()
+        .map_err(|_| format!("memory size '{s}' is not a number of bytes (e.g. 512M, 8G)"))?;
+    let bytes = v * scale;
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("memory size '{s}' must be at least 1 byte"));
+    }
+    Ok(bytes as u64)
+}
+
+/// `MemAvailable` from /proc/meminfo, in bytes.
+fn mem_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kb.checked_mul(1024)
+}
+
+/// How much memory a frame may take, and where that figure came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Budget {
+    /// Bytes the frame may take.
+    pub bytes: u64,
+    /// Whether `--max-memory` set it (else the machine's free memory).
+    from_flag: bool,
+}
+
+impl Budget {
+    /// `--max-memory` when given, else the machine's available memory.
+    pub fn new(max_memory: Option<u64>) -> Budget {
+        match max_memory {
+            Some(bytes) => Budget {
+                bytes,
+                from_flag: true,
+            },
+            None => Budget {
+                bytes: mem_available().unwrap_or(UNKNOWN_AVAILABLE),
+                from_flag: false,
+            },
+        }
+    }
+
+    /// Refuses `what`, needing about `need` bytes, when that is over the
+    /// budget.
+    pub fn check(&self, what: &str, need: u128) -> Result<()> {
+        if need <= self.bytes as u128 {
+            return Ok(());
+        }
+        let limit = if self.from_flag {
+            format!("the {} --max-memory allows", human(self.bytes as u128))
+        } else {
+            format!(
+                "the {} this machine has available (MemAvailable); --max-memory overrides",
+                human(self.bytes as u128)
+            )
+        };
+        bail!(
+            "{what} needs about {} of memory, more than {limit}",
+            human(need)
+        )
+    }
+}
+
+/// `b` bytes for people: GiB, MiB or KiB with one decimal.
+fn human(b: u128) -> String {
+    let b = b as f64;
+    for (unit, shift) in [("GiB", 30), ("MiB", 20), ("KiB", 10)] {
+        let u = (1u64 << shift) as f64;
+        if b >= u {
+            return format!("{:.1} {unit}", b / u);
+        }
+    }
+    format!("{b} bytes")
+}
+
+/// What a frame computes, as far as its memory goes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameSpec {
+    /// The golden technique, or `None` for the pipeline model (which also
+    /// renders golden's mirror method for its comparison).
+    pub technique: Option<Technique>,
+    /// Shading (gradient stacks).
+    pub shade: bool,
+    /// Image width and height.
+    pub size: [u32; 2],
+}
+
+/// An upper bound on the peak bytes of one frame of a `dims` volume of
+/// `voxel` scalars rendered as `spec` says.
+pub fn frame_bytes(dims: [usize; 3], voxel: VoxelType, spec: &FrameSpec) -> u128 {
+    let [nx, ny, nz] = dims.map(|n| n as u128);
+    let voxels = nx * ny * nz;
+    let padded = (nx + 2) * (ny + 2) * (nz + 2);
+    let k = u128::from(voxel.bits() / 8);
+    // The volume and its permuted, padded slice stack, in the file's type.
+    let mut b = k * voxels + k * padded;
+    if spec.shade {
+        // Three f32 gradient stacks.
+        b += 12 * padded;
+    }
+    b += match spec.technique {
+        // RGBA f32 per voxel and the pyramid above it (an eighth, a
+        // sixty-fourth, ...).
+        Some(Technique::MipMap) => 16 * voxels * 8 / 7,
+        // The classified RGBA f32 stack and its runs.
+        Some(Technique::ShearWarp) => 16 * voxels + 8 * ny * nz,
+        Some(Technique::Slice(_) | Technique::Reference) => 0,
+        // The voxel words (u16) the host computes and the PE memories
+        // holding them.
+        None => 4 * voxels,
+    };
+    // Baseplanes (up to the largest face, RGBA f32, two buffers) and the
+    // image with its copies.
+    let face = [(nx, ny), (ny, nz), (nx, nz)]
+        .iter()
+        .map(|&(a, c)| (a + 2) * (c + 2))
+        .max()
+        .unwrap_or(0);
+    let pixels = u128::from(spec.size[0]) * u128::from(spec.size[1]);
+    b + 32 * face + 64 * pixels + OVERHEAD
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use golden::methods::Method;
+
+    #[test]
+    fn byte_counts_parse_with_binary_suffixes() {
+        assert_eq!(parse_bytes("1000"), Ok(1000));
+        assert_eq!(parse_bytes("1M"), Ok(1 << 20));
+        assert_eq!(parse_bytes("8g"), Ok(8 << 30));
+        assert_eq!(parse_bytes("1.5K"), Ok(1536));
+        for bad in ["", "M", "-1G", "0", "3X", "1e400", "lots"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn estimates_grow_with_the_volume_the_voxel_type_and_the_method() {
+        let spec = |technique, shade| FrameSpec {
+            technique,
+            shade,
+            size: [256, 256],
+        };
+        let er = spec(Some(Technique::Slice(Method::Er)), false);
+        let n = 1024;
+        let g8 = frame_bytes([n; 3], VoxelType::U8, &er);
+        // A gigavoxel of bytes: volume and stack, about 2 GiB, plus images.
+        assert!(g8 > 2 << 30 && g8 < (2 << 30) + (256 << 20), "{g8}");
+        assert!(frame_bytes([n; 3], VoxelType::U16, &er) > g8 + (2 << 30) - 1);
+        let pipe = frame_bytes([n; 3], VoxelType::U8, &spec(None, false));
+        assert_eq!(pipe - g8, 4 << 30);
+        assert!(frame_bytes([n; 3], VoxelType::U8, &spec(Some(Technique::MipMap), false)) > pipe);
+        assert!(
+            frame_bytes(
+                [n; 3],
+                VoxelType::U8,
+                &spec(Some(Technique::Slice(Method::Er)), true)
+            ) > g8
+        );
+        assert!(frame_bytes([64; 3], VoxelType::U8, &er) < 128 << 20);
+    }
+
+    #[test]
+    fn the_budget_refuses_what_does_not_fit_in_one_line() {
+        let b = Budget::new(Some(1 << 20));
+        assert!(b.check("x", 1 << 20).is_ok());
+        let e = b
+            .check("a 64x64x64 frame", (1 << 20) + 1)
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains('\n'), "{e}");
+        assert!(e.contains("1.0 MiB --max-memory allows"), "{e}");
+        // The machine's own figure is positive wherever it is read.
+        assert!(Budget::new(None).bytes > 0);
+    }
+}
