@@ -14,6 +14,7 @@ mod scenes;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 
+mod architecture;
 mod clock;
 mod cost;
 mod equivalence;
