@@ -4,7 +4,7 @@
 //! (`pipeline::cost::design`): resources, on-chip memory, external traffic,
 //! measured cycles, frames per second, and which listed parts it fits. It
 //! writes the table (CSV and Markdown, printed too) and a plot of frames
-//! per second against LUTs and DSPs. Configurations run in parallel; the
+//! per second against LUTs and block RAM. Configurations run in parallel; the
 //! output is in sweep order whatever the thread count.
 
 use std::fmt::Write as _;
@@ -160,9 +160,6 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
                 }
             }
         }
-    }
-    if out.is_empty() {
-        bail!("--mappings cyclic with --widths 1 only is the interleave: nothing to sweep");
     }
     Ok(out)
 }
@@ -360,7 +357,8 @@ fn colour(k: usize) -> plotters::style::RGBColor {
 }
 
 /// Frames per second against LUTs, one line per architecture over P; and
-/// against DSPs, the points coloured by the smallest listed part they fit.
+/// against block RAM, the points coloured by the smallest listed part they
+/// fit (block RAM is what separates the placements).
 fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -> Result<()> {
     let mut archs: Vec<&str> = Vec::new();
     for d in designs {
@@ -387,7 +385,7 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
             let pts = designs
                 .iter()
                 .filter(|d| smallest_fit(d) == Some(p.name))
-                .map(|d| (d.resources.dsp as f64, d.fps(clock)))
+                .map(|d| (d.resources.bram as f64, d.fps(clock)))
                 .collect();
             Series::new(format!("fits {} first", p.name), pts, Kind::Points)
         })
@@ -400,13 +398,15 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
             designs
                 .iter()
                 .filter(|d| smallest_fit(d).is_none())
-                .map(|d| (d.resources.dsp as f64, d.fps(clock)))
+                .map(|d| (d.resources.bram as f64, d.fps(clock)))
                 .collect(),
             Kind::Points,
         )
         .with_color(plotters::style::RGBColor(160, 160, 160)),
     );
     by_part.retain(|s| !s.points.is_empty());
+    // The smallest parts' points on top where points coincide.
+    by_part.reverse();
     let title = heading.split(", eye").next().unwrap_or(heading);
     let charts = [
         Chart {
@@ -418,8 +418,8 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
             series: by_arch,
         },
         Chart {
-            title: "frames/s vs DSPs, by the smallest part that fits".into(),
-            x_label: "DSP48 (array)".into(),
+            title: "frames/s vs block RAM, by the smallest part that fits".into(),
+            x_label: "RAMB18 (array, before UltraRAM takes any)".into(),
             y_label: format!("frames/s at {clock} MHz"),
             x_log: true,
             y_log: true,
