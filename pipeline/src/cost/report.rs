@@ -255,7 +255,8 @@ pub fn build(
             pe.schedule.depth
         ),
         format!(
-            "Voxel memory is external: each PE's block of the volume is {:.2} Mbit ({:.1} Mbit for the array), read once per frame into double-buffered slice buffers.",
+            "Voxel memory is external: each PE's {} of the volume is {:.2} Mbit ({:.1} Mbit for the array), read once per frame into double-buffered slice buffers.",
+            if super::arch::round_robin_width(cfg).is_some() { "share (its blocks with their aprons)" } else { "block" },
             pe.voxel_memory_bits as f64 / 1e6,
             pe.voxel_memory_bits as f64 * pes as f64 / 1e6
         ),

@@ -3,7 +3,8 @@
 //! clock, latency and step shapes (`clock`), front
 //! to back (`ftb`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
-//! estimator against yosys (`cost`), the waveforms beyond the default set (`traces`), and the gradient and
+//! estimator against yosys (`cost`), what the mappings and ray-buffer
+//! placements cost (`architecture`), the waveforms beyond the default set (`traces`), and the gradient and
 //! shading unit against golden's shading (`shading`). What runs the `ercube` program is in
 //! the root `tests/it/`.
 
