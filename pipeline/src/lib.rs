@@ -6,7 +6,7 @@
 //! words; [`skip`] builds the controller's occupancy memory and plans which
 //! samples a frame takes (golden's planner, one source of truth);
 //! [`tables`] quantises the classification and opacity tables;
-//! [`mod@array`] clocks the [`pe`]s through migrate, sample, merge (front to
+//! [`mapping`] says which PE owns which columns; [`mod@array`] clocks the [`pe`]s through migrate, sample, merge (front to
 //! back: split and fold) and readout;
 //! each sample runs the [`datapath`] (position, bilinear, classify,
 //! correct, composite), the bit-exact mirror of `golden::sampling`. The
@@ -30,6 +30,7 @@ pub mod cost;
 pub mod datapath;
 pub mod fixed;
 pub mod host;
+pub mod mapping;
 pub mod pe;
 pub mod probes;
 pub mod rtl;

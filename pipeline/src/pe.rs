@@ -13,7 +13,11 @@ use std::collections::VecDeque;
 use crate::datapath::{Acc, SampleTrace};
 use crate::fixed::{FxError, QuantStats};
 use crate::host::SlicePlan;
+use crate::mapping::ColumnMap;
 use crate::stages::passes::PassState;
+
+/// The local index of a column a PE's memory does not hold.
+const ABSENT: u32 = u32::MAX;
 
 /// A column of rays (one ray index `mx`, every row of the region).
 #[derive(Debug, Clone, PartialEq)]
@@ -159,6 +163,12 @@ pub struct PeCounters {
     /// Migration cycles in which the ray next in this PE's FIFO could not
     /// leave because its last sample was still in the datapath.
     pub waits: u64,
+    /// Ray-cycles spent queued behind another ray for a busy link: after
+    /// each migration cycle's sends, the rays still in the two FIFOs.
+    pub link_queue: u64,
+    /// The most rays (one per column and row) this PE held at the start of
+    /// a slice's sampling: what its compositing buffer must hold.
+    pub rays_held_peak: u64,
 }
 
 /// One processing element.
@@ -166,10 +176,19 @@ pub struct PeCounters {
 pub struct Pe {
     /// Index in the array.
     pub k: usize,
-    /// Owned voxel columns `c0..c1`.
+    /// Under column blocks, the owned voxel columns `c0..c1`, whose edge
+    /// columns the ports carry; empty under a round-robin mapping, whose
+    /// aprons leave the ports nothing to carry.
     pub cols: std::ops::Range<usize>,
-    /// Voxel words `[z][y][x - c0]`.
+    /// Who owns which column while the array samples.
+    pub map: ColumnMap,
+    /// Voxel words `[z][y][l]`, `l` the local index of a held column.
     pub(crate) mem: Vec<u16>,
+    /// The local index of every column this PE's memory holds (its own
+    /// and its aprons), [`ABSENT`] for the rest: the address decoder.
+    local: Vec<u32>,
+    /// Columns held.
+    width: usize,
     pub(crate) ny: usize,
     pub(crate) nz: usize,
     /// Ray columns held, in increasing `mx`.
@@ -214,21 +233,34 @@ pub struct Pe {
 }
 
 impl Pe {
-    /// A PE owning columns `cols` of a `[nx, ny, nz]` volume whose voxel
-    /// words are `words` (`[z][y][x]`).
-    pub fn new(k: usize, cols: std::ops::Range<usize>, words: &[u16], dims: [usize; 3]) -> Pe {
+    /// PE `k` of `map` over a `[nx, ny, nz]` volume whose voxel words are
+    /// `words` (`[z][y][x]`): its memory loaded with the columns it holds.
+    pub fn new(k: usize, map: ColumnMap, words: &[u16], dims: [usize; 3]) -> Pe {
         let [nx, ny, nz] = dims;
-        let w = cols.len();
+        let held = map.held(k);
+        let cols = if map.round_robin() {
+            0..0
+        } else {
+            held.first().map_or(0..0, |&c| c..c + held.len())
+        };
+        let mut local = vec![ABSENT; nx];
+        for (l, &c) in held.iter().enumerate() {
+            local[c] = l as u32;
+        }
+        let w = held.len();
         let mut mem = Vec::with_capacity(w * ny * nz);
         for z in 0..nz {
             for y in 0..ny {
                 let base = (z * ny + y) * nx;
-                mem.extend_from_slice(&words[base + cols.start..base + cols.end]);
+                mem.extend(held.iter().map(|&c| words[base + c]));
             }
         }
         Pe {
             k,
             cols,
+            map,
+            local,
+            width: w,
             mem,
             ny,
             nz,
@@ -250,16 +282,36 @@ impl Pe {
         }
     }
 
+    /// Voxel `(x, y)` of slice `z` from this PE's memory (`x` held),
+    /// counted as a read.
     #[inline]
     pub(crate) fn voxel(&mut self, z: usize, y: usize, x: usize) -> u16 {
         self.counters.mem_reads += 1;
-        let w = self.cols.len();
-        self.mem[(z * self.ny + y) * w + (x - self.cols.start)]
+        self.mem[(z * self.ny + y) * self.width + self.local[x] as usize]
+    }
+
+    /// Whether this PE's memory holds column `c`.
+    #[inline]
+    pub fn holds(&self, c: usize) -> bool {
+        self.local.get(c).is_some_and(|&l| l != ABSENT)
+    }
+
+    /// Whether this PE owns column `c` (samples the rays based there).
+    #[inline]
+    pub fn owns(&self, c: usize) -> bool {
+        c < self.map.nx && self.map.owner(c) == self.k
+    }
+
+    /// Columns this PE's memory holds.
+    pub fn held_columns(&self) -> usize {
+        self.width
     }
 
     /// The columns this PE samples in `slice`: the held columns whose `mx`
     /// lies in the slice's x range (contiguous, since both are sorted).
     pub fn select(&mut self, slice: &SlicePlan) -> usize {
+        let held: u64 = self.rays.iter().map(|c| c.acc.len() as u64).sum();
+        self.counters.rays_held_peak = self.counters.rays_held_peak.max(held);
         let (lo, hi) = slice.range[0];
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);

@@ -48,11 +48,14 @@ pub enum Stage {
     /// A row start held back because one of its rays is still in the
     /// datapath from the previous slice (read after write).
     Stall = 8,
+    /// Waiting for the external ray buffer: a row's rays still arriving,
+    /// a pass's traffic, or the write-backs before a drain completes.
+    Memory = 9,
 }
 
 impl Stage {
     /// Every stage, in code order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Sample,
         Stage::Migrate,
         Stage::Merge,
@@ -62,6 +65,7 @@ impl Stage {
         Stage::Fold,
         Stage::Drain,
         Stage::Stall,
+        Stage::Memory,
     ];
 
     /// The code on `top.ctrl.stage`.
@@ -81,13 +85,14 @@ impl Stage {
             Stage::Fold => "fold",
             Stage::Drain => "drain",
             Stage::Stall => "stall",
+            Stage::Memory => "memory",
         }
     }
 }
 
 /// The stages' codes and names, for the translate filter.
-const STAGE_NAMES: [(u64, &str); 9] = {
-    let mut names = [(0, ""); 9];
+const STAGE_NAMES: [(u64, &str); 10] = {
+    let mut names = [(0, ""); 10];
     let mut i = 0;
     while i < names.len() {
         names[i] = (Stage::ALL[i] as u64, Stage::ALL[i].name());

@@ -205,6 +205,8 @@ pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Val
         "samples_per_slice": f.samples_per_slice,
         "merges": f.merges,
         "pes": f.pes,
+        "mapping": cfg.mapping.name(),
+        "ray_buffer": f.ray_buffer,
         "quantization": f.quant,
         "pe_cycles_per_second": f.cycles as f64 * f64::from(cfg.pes) / run.time_s.max(1e-12),
         "config": serde_json::to_value(cfg).unwrap_or(Value::Null),

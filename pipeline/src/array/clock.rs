@@ -37,13 +37,56 @@ use super::StageCycles;
 /// What a PE receives from its neighbours in a cycle: read-only views of
 /// the port registers they drove towards it in the previous cycle (the
 /// committed outputs, never their state). An end PE's missing neighbour
-/// drives nothing.
+/// drives nothing, or in a ring only the rays on the wrap link.
 #[derive(Debug, Clone, Copy)]
 pub struct Links<'a> {
     /// What PE `k - 1` drove on its right port.
     pub from_left: &'a Port,
     /// What PE `k + 1` drove on its left port.
     pub from_right: &'a Port,
+}
+
+/// Steps every PE in `order` on the committed `ports.0`, writing what each
+/// drives into `ports.1`: PE `k` sees PE `k - 1`'s right port and PE
+/// `k + 1`'s left one, and in a `ring` the end PEs see each other's rays.
+fn step_all(
+    pes: &mut [Pe],
+    (ports, next): (&[Ports], &mut [Ports]),
+    order: &[usize],
+    ring: bool,
+    mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+) -> Result<(), StepError> {
+    let p = pes.len();
+    let (wrap_in_first, wrap_in_last) = if ring {
+        (
+            Port {
+                ray: ports[p - 1].right.ray,
+                ..IDLE
+            },
+            Port {
+                ray: ports[0].left.ray,
+                ..IDLE
+            },
+        )
+    } else {
+        (IDLE, IDLE)
+    };
+    for &k in order {
+        let links = Links {
+            from_left: if k > 0 {
+                &ports[k - 1].right
+            } else {
+                &wrap_in_first
+            },
+            from_right: if k + 1 < p {
+                &ports[k + 1].left
+            } else {
+                &wrap_in_last
+            },
+        };
+        next[k] = step(&mut pes[k], links)?;
+    }
+    Ok(())
 }
 
 /// The port of a missing neighbour.
@@ -66,6 +109,9 @@ pub struct Clock {
     cycle: u64,
     stages: StageCycles,
     probes: Option<Probes>,
+    /// Whether PE `P - 1`'s right port drives PE 0's left (a ray-only wrap
+    /// link: the round-robin mappings' migrations go around a ring).
+    ring: bool,
 }
 
 impl Clock {
@@ -79,6 +125,7 @@ impl Clock {
             cycle: 0,
             stages: StageCycles::default(),
             probes,
+            ring: false,
         }
     }
 
@@ -113,6 +160,13 @@ impl Clock {
         self.stages
     }
 
+    /// Closes the line of PEs into a ring for migrating rays: the wrap
+    /// link carries rays only, never edge voxels or a pass's edge rays
+    /// (the passes run on column blocks, whose ends have no neighbour).
+    pub(crate) fn set_ring(&mut self, on: bool) {
+        self.ring = on && self.pes.len() > 1;
+    }
+
     pub(crate) fn set_order(&mut self, order: Vec<usize>) {
         self.order = order;
     }
@@ -136,30 +190,36 @@ impl Clock {
     pub fn tick(
         &mut self,
         ctrl: Ctrl,
-        mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
     ) -> Result<(), StepError> {
-        let p = self.pes.len();
-        for &k in &self.order {
-            let links = Links {
-                from_left: if k > 0 {
-                    &self.ports[k - 1].right
-                } else {
-                    &IDLE
-                },
-                from_right: if k + 1 < p {
-                    &self.ports[k + 1].left
-                } else {
-                    &IDLE
-                },
-            };
-            self.spare[k] = step(&mut self.pes[k], links)?;
-        }
+        step_all(
+            &mut self.pes,
+            (&self.ports, &mut self.spare),
+            &self.order,
+            self.ring,
+            step,
+        )?;
         std::mem::swap(&mut self.ports, &mut self.spare);
         self.cycle += 1;
         self.stages.add(ctrl.stage, 1);
         if let Some(pr) = self.probes.as_mut() {
             pr.sample(self.cycle, &self.pes, &self.ports, ctrl);
         }
+        Ok(())
+    }
+
+    /// One cycle of the links alone, run alongside the sampling stage's
+    /// cycles (the overlapped migration): every PE steps on `ports`, the
+    /// link registers of that second stage, which then commit. The cycle
+    /// counter, the stage counts and the probes are the sampling stage's.
+    pub(crate) fn tick_links(
+        &mut self,
+        ports: &mut (Vec<Ports>, Vec<Ports>),
+        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+    ) -> Result<(), StepError> {
+        let (now, next) = ports;
+        step_all(&mut self.pes, (now, next), &self.order, self.ring, step)?;
+        std::mem::swap(now, next);
         Ok(())
     }
 

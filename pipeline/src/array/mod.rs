@@ -2,10 +2,13 @@
 //! two-phase tick ([`Clock`]), the controller's state (the frame plan,
 //! skipping, the row runs), the counters and the frame's results.
 //!
-//! Column blocks: PE `k` owns voxel columns `k W .. (k + 1) W`
-//! (`W = ceil(nx / P)`, the last PEs may own fewer or none) of every
-//! slice, and holds every ray whose sample's base column
-//! `clamp(floor(x), 0, nx - 1)` falls in its block.
+//! A PE holds every ray whose sample's base column `clamp(floor(x), 0,
+//! nx - 1)` it owns ([`crate::mapping`]): under column blocks PE `k` owns
+//! columns `k W .. (k + 1) W` (`W = ceil(nx / P)`, the last PEs may own
+//! fewer or none) of every slice; under a round-robin mapping blocks of
+//! `cyclic_width` columns (1 for the interleave) are dealt out in turn, and
+//! rays migrate around a ring. Merges, splits and folds run on column
+//! blocks in every mapping.
 //!
 //! What each stage does, PE side and controller side, is in
 //! [`crate::stages`]; the order in which a frame runs them (back to front,
@@ -33,9 +36,11 @@ use crate::config::{Order, PipelineConfig};
 use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
 use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
+use crate::mapping::ColumnMap;
 use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
+use crate::stages::raybuf::{Channel, RayBufferStats};
 use crate::stages::sample::RowRuns;
 use crate::tables::Tables;
 use golden::skip::SampleMask;
@@ -68,6 +73,10 @@ pub struct StageCycles {
     /// Row starts held back for a ray still in the datapath from the
     /// previous slice.
     pub stall: u64,
+    /// Waiting for the external ray buffer (left out of the JSON when
+    /// zero, as it is with the buffer on chip).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub memory: u64,
 }
 
 impl StageCycles {
@@ -83,6 +92,7 @@ impl StageCycles {
             Stage::Fold => &mut self.fold,
             Stage::Drain => &mut self.drain,
             Stage::Stall => &mut self.stall,
+            Stage::Memory => &mut self.memory,
         };
         *c += n;
     }
@@ -98,6 +108,7 @@ impl StageCycles {
             + self.skip
             + self.drain
             + self.stall
+            + self.memory
     }
 }
 
@@ -145,6 +156,8 @@ pub struct Frame {
     pub cycles_saved: u64,
     /// What the controller skipped.
     pub skipped: SkipCounts,
+    /// With the rays' buffer in external memory, what crossed its channel.
+    pub ray_buffer: Option<RayBufferStats>,
 }
 
 impl Frame {
@@ -190,7 +203,10 @@ pub struct Array {
     pub(crate) dp: Arc<Datapath>,
     /// The PEs, their ports and the cycle counter.
     pub(crate) clock: Clock,
-    block: usize,
+    /// Who owns which columns while the array samples.
+    pub(crate) map: ColumnMap,
+    /// The column blocks the merges, splits and folds run on.
+    pub(crate) blocks: ColumnMap,
     pub(crate) nx: usize,
     pub(crate) ny: usize,
     pub(crate) samples_per_slice: Vec<u64>,
@@ -203,6 +219,14 @@ pub struct Array {
     pub(crate) runs: RowRuns,
     pub(crate) run_tmp: Vec<(i64, i64)>,
     pub(crate) skipped: SkipCounts,
+    /// The external ray buffer's channel (`None` on chip).
+    pub(crate) channel: Option<Channel>,
+    /// Overlapped migration: the first cycle the links may carry the next
+    /// slice's rays (the previous slice's first sampling cycle, or the end
+    /// of the last stage that needed every ray home) and the cycle the
+    /// links' last move ended.
+    pub(crate) links_from: u64,
+    pub(crate) links_free: u64,
     /// The waveform tracer until the frame starts (see [`Array::run`]).
     pending: Option<Tracer>,
 }
@@ -234,25 +258,22 @@ impl Array {
         let words = voxel_words(cfg, volume, view, &mut host_stats);
         let p = usize::from(cfg.pes);
         let nx = view.dims[0];
-        let block = nx.div_ceil(p);
-        let pes = (0..p)
-            .map(|k| {
-                let c0 = (k * block).min(nx);
-                let c1 = ((k + 1) * block).min(nx);
-                Pe::new(k, c0..c1, &words, view.dims)
-            })
-            .collect();
+        let map = ColumnMap::of(cfg, nx);
+        let pes = (0..p).map(|k| Pe::new(k, map, &words, view.dims)).collect();
         let pending = if tracer.is_enabled() {
             Probes::check_groups(&tracer)?;
             Some(tracer)
         } else {
             None
         };
+        let mut clock = Clock::new(pes, None);
+        clock.set_ring(map.round_robin());
         Ok(Array {
             dp,
-            clock: Clock::new(pes, None),
+            clock,
             pending,
-            block,
+            map,
+            blocks: ColumnMap::blocks(p, nx),
             nx,
             ny: view.dims[1],
             samples_per_slice: vec![0; view.dims[2]],
@@ -263,26 +284,30 @@ impl Array {
             runs: RowRuns::default(),
             run_tmp: Vec::new(),
             skipped: SkipCounts::default(),
+            channel: Channel::of(cfg),
+            links_from: 0,
+            links_free: 0,
         })
     }
 
     /// Shades the frame with `shade` ([`crate::shading`]): loads the
     /// gradient and shading unit's constants for `view` and voxel words of
-    /// `data_bits`-bit data. Every PE's block must hold at least two
-    /// columns (the gradient's right taps reach the neighbour's second).
+    /// `data_bits`-bit data. Under column blocks every PE's block must hold
+    /// at least two columns (the gradient's right taps reach the
+    /// neighbour's second); round-robin PEs read their aprons.
     pub fn set_shading(
         &mut self,
         shade: &golden::shading::Shade,
         view: &View,
         data_bits: u32,
     ) -> Result<(), RunError> {
-        if self.clock.pes().len() > 1 && self.block < 2 {
+        if self.clock.pes().len() > 1 && !self.map.round_robin() && self.map.width < 2 {
             return Err(RunError::Shade(crate::shading::ShadeError::Unsupported(
                 format!(
                 "shading needs at least 2 voxel columns per PE, but {} columns over {} PEs give {}",
                 self.nx,
                 self.clock.pes().len(),
-                self.block
+                self.map.width
             ),
             )));
         }
@@ -365,15 +390,24 @@ impl Array {
         self.clock.set_order(order);
     }
 
-    /// Who holds which ray in `slice`, computed with `dp` (the array's
-    /// datapath, borrowed apart from the array so the PEs can step).
+    /// Who holds which ray in `slice` while the array samples it, computed
+    /// with `dp` (the array's datapath, borrowed apart from the array so
+    /// the PEs can step).
     pub(crate) fn owners<'a>(&self, dp: &'a Datapath, slice: &'a SlicePlan) -> Owners<'a> {
         Owners {
             dp,
             slice,
-            nx: self.nx,
-            block: self.block,
-            pes: self.clock.pes().len(),
+            map: self.map,
+        }
+    }
+
+    /// Who holds which ray on the plane of `slice` for a merge, split or
+    /// fold: the column blocks' owner.
+    pub(crate) fn pass_owners<'a>(&self, dp: &'a Datapath, slice: &'a SlicePlan) -> Owners<'a> {
+        Owners {
+            dp,
+            slice,
+            map: self.blocks,
         }
     }
 
@@ -489,6 +523,7 @@ impl Array {
             terminated_samples,
             cycles_saved: self.cycles_saved,
             skipped: self.skipped,
+            ray_buffer: self.channel.as_ref().map(|c| c.stats),
             cycles: self.clock.cycle(),
             stages: self.clock.stages(),
             samples,
@@ -564,14 +599,12 @@ pub(crate) fn clamp(v: i64, lo: i64, hi: i64) -> i64 {
     v.min(hi).max(lo)
 }
 
-/// The owner function of one slice: the PE whose block holds the ray's
-/// base column, computed with the same fixed-point position a PE uses.
+/// The owner function of one slice: the PE owning the ray's base column
+/// under `map`, computed with the same fixed-point position a PE uses.
 pub(crate) struct Owners<'a> {
     dp: &'a Datapath,
     slice: &'a SlicePlan,
-    nx: usize,
-    block: usize,
-    pes: usize,
+    map: ColumnMap,
 }
 
 impl Owners<'_> {
@@ -581,12 +614,12 @@ impl Owners<'_> {
         match self.dp.position(s.a[0], s.t[0], mx, &mut st) {
             Ok(x) => {
                 let x0 = self.dp.address(x, &mut st).0;
-                let c = x0.clamp(0, self.nx as i64 - 1) as usize;
-                (c / self.block).min(self.pes - 1)
+                let c = x0.clamp(0, self.map.nx as i64 - 1) as usize;
+                self.map.owner(c)
             }
             // A position the model cannot form cannot be sampled either;
             // park the ray at the far end.
-            Err(_) => self.pes - 1,
+            Err(_) => self.map.pes - 1,
         }
     }
 }

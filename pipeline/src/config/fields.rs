@@ -9,7 +9,7 @@
 
 use super::rules;
 use super::schema::config_fields;
-use super::{Mapping, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
+use super::{Mapping, Migration, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
 use crate::fixed::Overflow::Sat;
 use crate::fixed::Quant::{Rnd, Trn};
 use crate::fixed::{Format, Overflow, Quant};
@@ -449,6 +449,16 @@ config_fields! {
             toml: "columns per round-robin block of the cyclic mapping, 1..=256",
             check: rules::cyclic_width,
         },
+        /// When rays whose owner changes between slices cross the links:
+        /// `between-slices` (a stage of its own) or `overlapped` (while the
+        /// slice samples; rows wait only for their own rays). See
+        /// [`Migration`].
+        ///
+        /// Default `between-slices`, the model's original schedule.
+        pub migration: Migration {
+            default: Migration::BetweenSlices,
+            toml: "ray migration: \"between-slices\" (its own stage) or \"overlapped\" (while sampling)",
+        },
         /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
         /// each PE) or `external` (DDR/HBM, streamed a row at a time). See
         /// [`RayBuffer`].
@@ -468,6 +478,19 @@ config_fields! {
             range: 1..=4096,
             toml: "external ray buffer bytes per cycle (reads and writes together), 1..=4096",
             check: rules::ray_buffer_bandwidth,
+        },
+        /// Row buffers per PE of the external ray buffer, `2..=64`: the
+        /// controller reads a row's rays up to `ray_buffer_rows - 1` rows
+        /// ahead of the row sampling, which hides the latency when the
+        /// rows between cover it; used when `ray_buffer = "external"`.
+        ///
+        /// Default 8: seven rows of prefetch cover the default latency of
+        /// 100 cycles at rows of 16 or more cycles.
+        pub ray_buffer_rows: u16 {
+            default: 8,
+            range: 2..=64,
+            toml: "external ray buffer: on-chip row buffers per PE (prefetch depth + 1), 2..=64",
+            check: rules::ray_buffer_rows,
         },
         /// Cycles from an external ray buffer request to its first word,
         /// `0..=4096`; used when `ray_buffer = "external"`.

@@ -44,6 +44,32 @@ impl Mapping {
     pub const ALL: [Mapping; 3] = [Mapping::Blocks, Mapping::Interleave, Mapping::Cyclic];
 }
 
+/// When the rays whose owner changes between slices cross the links.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Migration {
+    /// A stage of its own before each slice: the array samples only once
+    /// every ray is home (the model's original schedule).
+    #[default]
+    BetweenSlices,
+    /// While the slice samples: the links move rays row by row in the
+    /// same cycles as the datapath, and a row waits (stall cycles) only
+    /// for a ray of its own still on a link. The compositing buffer takes
+    /// a link port beside the datapath's. Merges, splits and folds still
+    /// wait for every ray.
+    Overlapped,
+}
+
+impl Migration {
+    /// The name in TOML and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Migration::BetweenSlices => "between-slices",
+            Migration::Overlapped => "overlapped",
+        }
+    }
+}
+
 /// Where the compositing buffer of the rays lives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -51,7 +51,7 @@ mod text;
 
 pub use error::ConfigError;
 pub use fields::PipelineConfig;
-pub use mapping::{Mapping, RayBuffer};
+pub use mapping::{Mapping, Migration, RayBuffer};
 pub use order::Order;
 
 /// Largest supported PE count. The array is 1D and each PE owns a column of

@@ -494,6 +494,11 @@ pub(super) fn ray_buffer_bandwidth(
     in_range(field, i64::from(b), 1, 4096)
 }
 
+/// `ray_buffer_rows` in `2..=64`.
+pub(super) fn ray_buffer_rows(_: &PipelineConfig, field: &str, r: u16) -> Result<(), ConfigError> {
+    in_range(field, i64::from(r), 2, 64)
+}
+
 /// `ray_buffer_latency` in `0..=4096`.
 pub(super) fn ray_buffer_latency(
     _: &PipelineConfig,

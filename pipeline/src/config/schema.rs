@@ -3,7 +3,7 @@
 //! [`FieldValue`], which says how each field type is read and written.
 
 use super::error::{invalid, ConfigError};
-use super::{Mapping, Order, RayBuffer};
+use super::{Mapping, Migration, Order, RayBuffer};
 use crate::fixed::{Format, FormatSpec};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
@@ -154,6 +154,22 @@ impl FieldValue for Mapping {
     }
 
     fn toml_value(raw: Mapping) -> String {
+        format!("\"{}\"", raw.name())
+    }
+}
+
+impl FieldValue for Migration {
+    type Raw = Migration;
+
+    fn to_raw(self) -> Migration {
+        self
+    }
+
+    fn from_raw(_: &str, raw: Migration, _: Option<Range>) -> Result<Migration, ConfigError> {
+        Ok(raw)
+    }
+
+    fn toml_value(raw: Migration) -> String {
         format!("\"{}\"", raw.name())
     }
 }

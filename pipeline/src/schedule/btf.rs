@@ -7,6 +7,12 @@
 use super::Output;
 use crate::array::{Array, RunError};
 use crate::host::FramePlan;
+use golden::geometry::RayGrid;
+
+/// The rays of grid `g`.
+pub(crate) fn rays(g: &RayGrid) -> u64 {
+    g.counts().iter().map(|&n| n as u64).product()
+}
 
 /// Runs `plan` back to front on `a`.
 pub(crate) fn back_to_front(a: &mut Array, plan: &FramePlan) -> Result<Output, RunError> {
@@ -29,10 +35,14 @@ pub(crate) fn back_to_front(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             // of its position there, so that every PE holds rays and a
             // merge's neighbours are one link away even when regions
             // without slices follow one another (eyes closer than half a
-            // voxel).
-            a.migrate(&region.front)?;
+            // voxel). The merge runs on column blocks in every mapping.
+            a.migrate_pass(&region.front)?;
             a.drain()?;
-            a.merge(&region.grid, &plan.regions[i - 1].grid)?;
+            let start = a.clock.now();
+            let (bg, fg) = (&region.grid, &plan.regions[i - 1].grid);
+            a.merge(bg, fg)?;
+            a.ray_buffer_pass(start, rays(bg), rays(fg))?;
+            a.settle_links();
             merges += 1;
         }
     }

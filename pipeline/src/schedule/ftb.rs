@@ -9,6 +9,7 @@
 
 use std::sync::Arc;
 
+use super::btf::rays;
 use super::Output;
 use crate::array::{clamp, Array, RunError};
 use crate::host::FramePlan;
@@ -26,9 +27,13 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             // PE in their span holds some, so each child's second parent is
             // held or one link away.
             let front = &plan.regions[i - 1];
-            a.migrate(&front.rear)?;
+            a.migrate_pass(&front.rear)?;
             a.drain()?;
+            let start = a.clock.now();
             a.split(&front.grid, &region.grid)?;
+            // The parents' final states stay in the buffer for the fold.
+            a.ray_buffer_pass(start, rays(&front.grid), rays(&region.grid))?;
+            a.settle_links();
             merges += 1;
         }
         for slice in region.slices.iter().rev() {
@@ -47,23 +52,28 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
         // Each back ray goes to the PE that kept its split parent's final
         // state, where its difference joins the merge.
         let dp = Arc::clone(&a.dp);
-        let owners = a.owners(&dp, &front.rear);
+        let owners = a.pass_owners(&dp, &front.rear);
         let (lo, hi) = (front.grid.lo[0], front.grid.hi[0]);
         a.migrate_by(front.rear.z, |n| owners.of(clamp(n.div_euclid(2), lo, hi)))?;
         a.drain()?;
+        let start = a.clock.now();
         a.fold(FoldGrids {
             back: &back.grid,
             front: &front.grid,
             rf: fmt,
         })?;
+        // The back rays and the kept final states in, the front rays out.
+        let (nb, nf) = (rays(&back.grid), rays(&front.grid));
+        a.ray_buffer_pass(start, nb + nf, nf)?;
+        a.settle_links();
         fmt = merge;
     }
     // The fold leaves region 0's rays where their parents sat on the
     // region-1 boundary (the rays beyond the volume's sides piled into the
-    // end PEs); bring them back to their slice-0 owners so the readout
+    // end PEs); bring them back to their slice-0 column-block owners so the readout
     // streams from every PE.
     if let Some(front) = plan.regions[0].slices.last() {
-        a.migrate(front)?;
+        a.migrate_pass(front)?;
     }
     a.drain()?;
     let raw = a.readout(&plan.regions[0].grid)?;

@@ -10,12 +10,13 @@ use crate::pe::Ports;
 use crate::probes::{Ctrl, Stage};
 
 impl Array {
-    /// Ticks until every PE's datapath is empty.
+    /// Ticks until every PE's datapath is empty, then (with the rays'
+    /// buffer in external memory) until every write-back has landed.
     pub(crate) fn drain(&mut self) -> Result<(), RunError> {
         loop {
             let now = self.clock.now();
             if self.clock.pes().iter().all(|pe| pe.datapath_empty(now)) {
-                return Ok(());
+                return self.wait_for_ray_buffer();
             }
             self.clock
                 .tick(Ctrl::at(Stage::Drain, 0, 0), |_, _| Ok(Ports::default()))?;

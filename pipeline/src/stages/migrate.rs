@@ -12,15 +12,38 @@
 use std::collections::VecDeque;
 
 use crate::array::{Array, Links, RunError};
+use crate::config::Migration;
 use crate::host::SlicePlan;
+use crate::mapping::Route;
 use crate::pe::{Pe, Ports, RayColumn, RayMove};
 use crate::probes::{Ctrl, Stage};
 
 impl Pe {
     /// Queues every held column whose owner for the next slice is another
-    /// PE, given the owner function: the PE's combinational look at its own
-    /// ends when the controller starts a migration.
-    pub fn plan_moves(&mut self, owner: impl Fn(i64) -> usize) {
+    /// PE, given the owner function and the `route`: the PE's
+    /// combinational look at its rays when the controller starts a
+    /// migration. Along a line the owners grow with the ray index, so only
+    /// the ends can leave; around a ring any block's ends can. Leftward
+    /// columns queue in ascending `mx`, rightward ones in descending.
+    pub fn plan_moves(&mut self, owner: impl Fn(i64) -> usize, route: Route) {
+        if route != Route::Line {
+            let mut right = Vec::new();
+            let held = std::mem::take(&mut self.rays);
+            for c in held {
+                let dest = owner(c.mx);
+                if dest == self.k {
+                    self.rays.push_back(c);
+                } else if route.rightwards(self.k, dest) {
+                    right.push(c);
+                } else {
+                    queue(&mut self.out_left, c);
+                }
+            }
+            for c in right.into_iter().rev() {
+                queue(&mut self.out_right, c);
+            }
+            return;
+        }
         while let Some(c) = self.rays.front() {
             if owner(c.mx) >= self.k {
                 break;
@@ -46,6 +69,7 @@ impl Pe {
         links: Links<'_>,
         now: u64,
         owner: impl Fn(i64) -> usize,
+        route: Route,
     ) -> Ports {
         let mut out = Ports::default();
         for (incoming, from_left_side) in
@@ -68,40 +92,55 @@ impl Pe {
             };
             let col = &mut self.incoming[pos];
             col.acc.push(m.acc);
-            col.land.push(0);
+            // Received this cycle, readable from the next (what an
+            // overlapped migration's rows wait for).
+            col.land.push(now + 1);
             if let Some(f) = m.ftb {
                 col.ftb.push(f);
             }
             if col.acc.len() == m.rows as usize {
                 let col = self.incoming.swap_remove(pos);
                 let dest = owner(col.mx);
-                if dest < self.k {
-                    queue(&mut self.out_left, col);
-                } else if dest > self.k {
+                if dest == self.k {
+                    // Held columns stay in ascending `mx` (along a line an
+                    // arrival from the left is the new first).
+                    let at = self.rays.partition_point(|c| c.mx < col.mx);
+                    self.rays.insert(at, col);
+                } else if match route {
+                    Route::Line => dest > self.k,
+                    // Around a ring a column passing through keeps going
+                    // the way it came (the shorter way, decided at its
+                    // start).
+                    Route::Ring(_) => from_left_side,
+                } {
                     queue(&mut self.out_right, col);
-                } else if from_left_side {
-                    self.rays.push_front(col);
                 } else {
-                    self.rays.push_back(col);
+                    queue(&mut self.out_left, col);
                 }
             }
         }
         let mut waited = false;
+        let mut queued = 0;
         for (q, port) in [
             (&mut self.out_left, &mut out.left),
             (&mut self.out_right, &mut out.right),
         ] {
             match q.front() {
-                Some(&(_, land)) if land > now => waited = true,
+                Some(&(_, land)) if land > now => {
+                    waited = true;
+                    queued += q.len() - 1;
+                }
                 Some(_) => {
                     let (m, _) = q.pop_front().expect("front exists");
                     self.counters.rays_sent += 1;
                     port.ray = Some(m);
+                    queued += q.len();
                 }
                 None => {}
             }
         }
         self.counters.waits += u64::from(waited);
+        self.counters.link_queue += queued as u64;
         out
     }
 
@@ -128,22 +167,109 @@ fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn) {
 }
 
 impl Array {
-    /// Migration before `slice`: clocks until every ray sits in its owner.
+    /// Hands every ray to its owner between cycles (the external buffer's
+    /// migration), keeping each PE's columns in ascending `mx`.
+    fn reassign(&mut self, owner: impl Fn(i64) -> usize) {
+        let pes = self.clock.pes_mut();
+        let mut moving = Vec::new();
+        for pe in pes.iter_mut() {
+            let k = pe.k;
+            let held = std::mem::take(&mut pe.rays);
+            for c in held {
+                let dest = owner(c.mx);
+                if dest == k {
+                    pe.rays.push_back(c);
+                } else {
+                    moving.push((dest, c));
+                }
+            }
+        }
+        for (dest, c) in moving {
+            let rays = &mut pes[dest].rays;
+            let at = rays.partition_point(|h| h.mx < c.mx);
+            rays.insert(at, c);
+        }
+    }
+
+    /// Migration before `slice`: clocks until every ray sits in its owner,
+    /// or, overlapped, runs the links in the cycles the slice samples.
     pub(crate) fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         let owners = self.owners(&dp, slice);
+        if self.dp.cfg.migration == Migration::Overlapped && self.channel.is_none() {
+            return self.migrate_overlapped(|mx| owners.of(mx));
+        }
+        self.migrate_by(slice.z, |mx| owners.of(mx))
+    }
+
+    /// The overlapped migration: the links step alongside the sampling
+    /// stage (their own registers, the same clock) from the previous
+    /// slice's first sampling cycle on, until every ray is home. A row
+    /// leaves once its previous sample has been written back (the
+    /// scoreboard), so rays sampled early in the previous slice, or not at
+    /// all, travel while it samples. Each received row is stamped with the
+    /// cycle from which it may be read, and the slice's row schedule waits
+    /// for the stamps (stall cycles), as it waits for the datapath's
+    /// write-backs. The link cycles are the sampling stage's, so they add
+    /// no cycle of their own; the waveforms do not show these moves on
+    /// the ports.
+    fn migrate_overlapped(&mut self, owner: impl Fn(i64) -> usize) -> Result<(), RunError> {
+        let route = self.map.route();
+        for pe in self.clock.pes_mut() {
+            pe.plan_moves(&owner, route);
+        }
+        let p = self.clock.pes().len();
+        let mut ports = (vec![Ports::default(); p], vec![Ports::default(); p]);
+        let mut now = self.links_from.max(self.links_free);
+        while !(self.clock.pes().iter().all(Pe::settled)
+            && ports
+                .0
+                .iter()
+                .all(|p| p.left.ray.is_none() && p.right.ray.is_none()))
+        {
+            self.clock.tick_links(&mut ports, |pe, links| {
+                Ok(pe.migrate_step(links, now, &owner, route))
+            })?;
+            now += 1;
+        }
+        self.links_free = now;
+        Ok(())
+    }
+
+    /// Marks every ray home as of now: the next overlapped migration
+    /// starts no earlier (after a ticked migration or a pass, which read
+    /// or rebuild every ray).
+    pub(crate) fn settle_links(&mut self) {
+        let now = self.clock.now();
+        self.links_from = now;
+        self.links_free = now;
+    }
+
+    /// Migration to the rays' column-block owners on the plane of `slice`,
+    /// before a merge or split there.
+    pub(crate) fn migrate_pass(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
+        let dp = std::sync::Arc::clone(&self.dp);
+        let owners = self.pass_owners(&dp, slice);
         self.migrate_by(slice.z, |mx| owners.of(mx))
     }
 
     /// Migration to the owners `owner` gives (traced at slice `z`): clocks
-    /// until every PE reports itself settled and no ray is on a link.
+    /// until every PE reports itself settled and no ray is on a link. With
+    /// the rays' buffer in external memory nothing moves: the controller
+    /// hands each ray to its new owner, which fetches it from the shared
+    /// buffer when it samples it ([`crate::stages::raybuf`]).
     pub(crate) fn migrate_by(
         &mut self,
         z: usize,
         owner: impl Fn(i64) -> usize,
     ) -> Result<(), RunError> {
+        if self.channel.is_some() {
+            self.reassign(owner);
+            return Ok(());
+        }
+        let route = self.map.route();
         for pe in self.clock.pes_mut() {
-            pe.plan_moves(&owner);
+            pe.plan_moves(&owner, route);
         }
         while !(self.clock.pes().iter().all(Pe::settled)
             && self
@@ -155,9 +281,10 @@ impl Array {
             let now = self.clock.now();
             self.clock
                 .tick(Ctrl::at(Stage::Migrate, z, 0), |pe, links| {
-                    Ok(pe.migrate_step(links, now, &owner))
+                    Ok(pe.migrate_step(links, now, &owner, route))
                 })?;
         }
+        self.settle_links();
         Ok(())
     }
 }

@@ -15,6 +15,8 @@
 //!   x pass (edge rays over the ports) into a line buffer and a y pass out
 //!   of it, scheduled by [`passes`].
 //! - [`readout`]: each PE streams its rays to the host.
+//! - [`raybuf`]: with the rays' buffer in external memory, the channel
+//!   every row's rays cross, and the waits for it.
 //!
 //! Which stages run in which order is the frame's schedule, in
 //! [`crate::schedule`].
@@ -24,6 +26,7 @@ pub mod fold;
 pub mod merge;
 pub mod migrate;
 pub mod passes;
+pub mod raybuf;
 pub mod readout;
 pub mod sample;
 pub mod split;

@@ -10,7 +10,7 @@ use golden::render::Prepared;
 use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::bound::{error_bound, BoundInputs};
-use pipeline::config::PipelineConfig;
+use pipeline::config::{Mapping, Migration, PipelineConfig, RayBuffer};
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 
@@ -61,8 +61,11 @@ fn run_case(c: &Case) -> Result<(f64, f64, f64), TestCaseError> {
     Ok((d_base, d_img, b))
 }
 
-/// Random widths around the defaults; `None` when they do not validate.
+/// Random widths around the defaults on architecture `arch`; `None` when
+/// they do not validate.
+#[allow(clippy::too_many_arguments)]
 fn widths(
+    arch: u8,
     pes: u16,
     weight: u8,
     sample_frac: u8,
@@ -71,8 +74,28 @@ fn widths(
     accum: u8,
     pos_frac: u8,
 ) -> Option<PipelineConfig> {
+    // Every architecture computes column blocks' words (`mapping.rs`);
+    // drawing one at random keeps each of them under golden's bound too.
+    let (mapping, migration, ray_buffer) = match arch {
+        0 => (Mapping::Blocks, Migration::BetweenSlices, RayBuffer::OnChip),
+        1 => (
+            Mapping::Interleave,
+            Migration::Overlapped,
+            RayBuffer::OnChip,
+        ),
+        2 => (Mapping::Cyclic, Migration::Overlapped, RayBuffer::OnChip),
+        _ => (
+            Mapping::Cyclic,
+            Migration::BetweenSlices,
+            RayBuffer::External,
+        ),
+    };
     let c = PipelineConfig {
         pes,
+        mapping,
+        cyclic_width: 2,
+        migration,
+        ray_buffer,
         weight: format(weight, weight, Quant::Trn),
         sample: format(12 + sample_frac, sample_frac, Quant::Rnd),
         alpha: format(alpha, alpha, Quant::Rnd),
@@ -92,7 +115,7 @@ fn cases() -> impl Strategy<Value = Case> {
     let points = crate::scenes::tf_points_strategy();
     let eye = (0usize..6, 0.5..60.0f64, (-0.5..1.5f64, -0.5..1.5f64));
     let bits = (
-        1u16..=12,
+        (0u8..4, 1u16..=12),
         8u8..=14,
         2u8..=8,
         8u8..=14,
@@ -103,7 +126,7 @@ fn cases() -> impl Strategy<Value = Case> {
     (dims, blobs, 0u16..40, any::<u64>(), points, eye, bits).prop_filter_map(
         "widths must validate",
         |(dims, blobs, noise, seed, points, (side, dist, off), w)| {
-            let cfg = widths(w.0, w.1, w.2, w.3, w.4, w.5, w.6)?;
+            let cfg = widths(w.0 .0, w.0 .1, w.1, w.2, w.3, w.4, w.5, w.6)?;
             let vol = crate::scenes::blobs(dims, &blobs, noise, seed);
             let (eye, up) = eye_for(dims, side, dist, off);
             Some(Case {

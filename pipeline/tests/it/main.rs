@@ -1,7 +1,7 @@
 //! The pipeline model's integration tests, one binary (it links once):
 //! the array's structure, cycle accounting and waveforms (`model`), the
 //! clock, latency and step shapes (`clock`), front
-//! to back (`ftb`), skipping (`skip`), equivalence with golden within the
+//! to back (`ftb`), ownership mappings (`mapping`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
 //! estimator against yosys (`cost`), what the mappings and ray-buffer
 //! placements cost (`architecture`), the waveforms beyond the default set (`traces`), and the gradient and
@@ -20,6 +20,7 @@ mod clock;
 mod cost;
 mod equivalence;
 mod ftb;
+mod mapping;
 mod model;
 mod shading;
 mod skip;

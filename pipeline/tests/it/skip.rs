@@ -2,7 +2,8 @@
 //! culling and regions behind the volume never change a raw baseplane
 //! word (empty space) or a final pixel (culling), in either compositing
 //! order, at random widths; they save cycles; the clocked and whole-slice
-//! paths agree with skipping on; and with golden's planner over the same
+//! paths agree with skipping on (every mapping, migration and ray buffer
+//! placement); and with golden's planner over the same
 //! blocks the pipeline takes exactly golden's samples, clip planes
 //! included.
 //!
@@ -17,7 +18,7 @@ use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
 use pipeline::array::{run_frame_with, Array, Frame};
-use pipeline::config::{Order, PipelineConfig};
+use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 use waves::Tracer;
@@ -70,7 +71,33 @@ struct Case {
     block: u16,
     position_frac: u8,
     ftb: bool,
+    /// Index into `ARCHS`.
+    arch: usize,
 }
+
+/// The architectures every skipping identity runs on: mapping, cyclic
+/// width, migration and ray buffer placement.
+const ARCHS: [(Mapping, u16, Migration, RayBuffer); 4] = [
+    (
+        Mapping::Blocks,
+        4,
+        Migration::BetweenSlices,
+        RayBuffer::OnChip,
+    ),
+    (
+        Mapping::Interleave,
+        1,
+        Migration::BetweenSlices,
+        RayBuffer::OnChip,
+    ),
+    (Mapping::Cyclic, 2, Migration::Overlapped, RayBuffer::OnChip),
+    (
+        Mapping::Cyclic,
+        3,
+        Migration::Overlapped,
+        RayBuffer::External,
+    ),
+];
 
 fn cases() -> impl Strategy<Value = Case> {
     (
@@ -91,13 +118,14 @@ fn cases() -> impl Strategy<Value = Case> {
             prop::sample::select(vec![2u16, 4, 8, 16]),
             prop_oneof![Just(16u8), 4u8..12],
             any::<bool>(),
+            0..ARCHS.len(),
         ),
     )
         .prop_map(
             |(
                 (dims, blobs, seed, threshold),
                 (side, dist, look, fov),
-                (pes, block, position_frac, ftb),
+                (pes, block, position_frac, ftb, arch),
             )| Case {
                 dims,
                 blobs,
@@ -111,6 +139,7 @@ fn cases() -> impl Strategy<Value = Case> {
                 block,
                 position_frac,
                 ftb,
+                arch,
             },
         )
 }
@@ -127,8 +156,13 @@ fn config(c: &Case) -> PipelineConfig {
         Overflow::Sat,
     )
     .unwrap_or(d.position);
+    let (mapping, cyclic_width, migration, ray_buffer) = ARCHS[c.arch];
     PipelineConfig {
         pes: c.pes,
+        mapping,
+        cyclic_width,
+        migration,
+        ray_buffer,
         occupancy_block: c.block,
         position,
         order: if c.ftb {

@@ -87,6 +87,8 @@ impl Array {
             r?;
         }
         let cycles = u64::from(p > 1) + lens.iter().sum::<usize>() as u64;
+        self.clock
+            .ran_untraced(Stage::Memory, times.memory.iter().sum());
         self.clock.ran_untraced(Stage::Stall, stalls);
         self.clock.ran_untraced(Stage::Sample, cycles);
         Ok(())

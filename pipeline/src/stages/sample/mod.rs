@@ -30,12 +30,18 @@ pub(crate) type Row = (i64, (usize, usize, Fx), Fx);
 
 /// The controller's plan of a slice's rows: each row's cycles (the
 /// busiest PE's count), the cycle its first sample issues, and the stall
-/// cycles before it.
+/// cycles before it: waiting for the external ray buffer (`memory`), then
+/// for rays still in the datapath (`stalls`).
 pub(crate) struct RowTimes {
     pub lens: Vec<usize>,
     pub starts: Vec<u64>,
     pub stalls: Vec<u64>,
+    pub memory: Vec<u64>,
 }
+
+/// A row's report to the controller: the busiest PE's scheduled rays, the
+/// latest start the scoreboards allow, and the rays of every PE.
+type RowReport = (usize, u64, u64);
 
 impl Array {
     /// Samples one slice, row by row.
@@ -85,12 +91,16 @@ impl Array {
         let mut reports = Vec::with_capacity(nrows);
         for r in 0..nrows {
             let row = (ylo + r as i64 - glo) as usize;
-            let (most, ready) = self.clock.pes().iter().fold((0, 0), |(most, ready), pe| {
-                let (n, at) = pe.row_report(row, runs.row(r), ftb);
-                taken += n as u64;
-                (most.max(n), ready.max(at))
-            });
-            reports.push((most, ready));
+            let (most, ready, all) =
+                self.clock
+                    .pes()
+                    .iter()
+                    .fold((0, 0, 0), |(most, ready, all), pe| {
+                        let (n, at) = pe.row_report(row, runs.row(r), ftb);
+                        (most.max(n), ready.max(at), all + n as u64)
+                    });
+            taken += all;
+            reports.push((most, ready, all));
         }
         self.samples_per_slice[slice.z] += taken;
         self.skipped.beams += reports.iter().filter(|r| r.0 == 0).count() as u64;
@@ -119,6 +129,8 @@ impl Array {
             return Ok(());
         }
         let times = self.row_times(&reports);
+        // The next slice's rays may start moving from here.
+        self.links_from = self.clock.now();
         let rows = self.rows(region, slice)?;
         let r = if self.clock.tracing() || self.clocked {
             self.sample_clocked(region, slice, &rows, &runs, &times)
@@ -131,28 +143,52 @@ impl Array {
 
     /// Each row's start: after the previous row (and the prologue before
     /// the first, with several PEs), held back to the latest start the
-    /// PEs reported.
-    fn row_times(&self, reports: &[(usize, u64)]) -> RowTimes {
+    /// PEs reported and, with the rays' buffer external, until the row's
+    /// rays have arrived (read while the row before samples; written back
+    /// after its last sample has).
+    fn row_times(&mut self, reports: &[RowReport]) -> RowTimes {
         let prologue = u64::from(self.clock.pes().len() > 1);
+        let latency = self.dp.latency;
         let mut next = self.clock.now();
+        // Row `r`'s read issues when row `r - (rows - 1)` starts (the
+        // slice's start for the first rows): its buffer is free then.
+        let ahead = usize::from(self.dp.cfg.ray_buffer_rows) - 1;
+        let mut started: std::collections::VecDeque<u64> = std::collections::VecDeque::new();
         let mut first = true;
         let mut times = RowTimes {
             lens: Vec::with_capacity(reports.len()),
             starts: Vec::with_capacity(reports.len()),
             stalls: Vec::with_capacity(reports.len()),
+            memory: Vec::with_capacity(reports.len()),
         };
-        for &(len, ready) in reports {
-            let (mut start, mut stall) = (0, 0);
+        for &(len, ready, rays) in reports {
+            let (mut start, mut stall, mut memory) = (0, 0, 0);
             if len > 0 {
                 let earliest = next + if first { prologue } else { 0 };
                 stall = ready.saturating_sub(earliest);
                 start = earliest + stall;
+                if let Some(ch) = self.channel.as_mut() {
+                    let issue = if started.len() >= ahead {
+                        started[started.len() - ahead]
+                    } else {
+                        self.clock.now()
+                    };
+                    let arrived = ch.read(issue, rays);
+                    memory = arrived.saturating_sub(start);
+                    start += memory;
+                    ch.write(start + len as u64 - 1 + latency, rays);
+                    started.push_back(start);
+                    if started.len() > ahead {
+                        started.pop_front();
+                    }
+                }
                 next = start + len as u64;
                 first = false;
             }
             times.lens.push(len);
             times.starts.push(start);
             times.stalls.push(stall);
+            times.memory.push(memory);
         }
         times
     }
@@ -218,6 +254,12 @@ impl Array {
             let len = lens[r];
             if len == 0 {
                 continue;
+            }
+            for _ in 0..times.memory[r] {
+                self.clock
+                    .tick(Ctrl::at(Stage::Memory, slice.z, row), |pe, _| {
+                        Ok(pe.hold_step(&dp))
+                    })?;
             }
             for _ in 0..times.stalls[r] {
                 self.clock

@@ -223,6 +223,12 @@ impl Pe {
     /// datapath. The edge register holds its value; nothing is sampled.
     pub fn stall_step(&mut self, dp: &Datapath) -> Ports {
         self.counters.stalls += 1;
+        self.hold_step(dp)
+    }
+
+    /// A cycle the array waits for the external ray buffer: the edge
+    /// registers hold their values; nothing is sampled or counted.
+    pub fn hold_step(&mut self, dp: &Datapath) -> Ports {
         self.last.busy = false;
         let mut out = Ports::default();
         self.drive_ports(&mut out, dp.shade.is_some());
@@ -316,7 +322,7 @@ impl Pe {
         let (x0, wx) = dp.address(x, st);
         let last = nx as i64 - 1;
         let (c0, c1) = (x0.clamp(0, last) as usize, (x0 + 1).clamp(0, last) as usize);
-        if !self.cols.contains(&c0) {
+        if !self.owns(c0) {
             return Err(StepError::Ownership {
                 pe: self.k,
                 mx,
@@ -325,7 +331,7 @@ impl Pe {
         }
         let (y0, y1, wy) = bus.y;
         let left = [self.voxel(s.z, y0, c0), self.voxel(s.z, y1, c0)];
-        let right = if self.cols.contains(&c1) {
+        let right = if self.holds(c1) {
             [self.voxel(s.z, y0, c1), self.voxel(s.z, y1, c1)]
         } else if c1 == self.cols.end {
             self.counters.edge_voxels += 2;
@@ -395,8 +401,15 @@ impl Pe {
     /// Where column `c` lives for this PE.
     fn locate(&self, c: usize, mx: i64) -> Result<Col, StepError> {
         let (s, e) = (self.cols.start, self.cols.end);
-        if self.cols.contains(&c) {
+        if self.holds(c) {
             Ok(Col::Own(c))
+        } else if self.cols.is_empty() {
+            // A round-robin PE's aprons hold every tap; nothing crosses.
+            Err(StepError::Ownership {
+                pe: self.k,
+                mx,
+                column: c,
+            })
         } else if c == e {
             Ok(Col::Right0)
         } else if c == e + 1 {
