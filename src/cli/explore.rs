@@ -1,6 +1,6 @@
 //! `ercube explore`: the architecture sweep. For one volume and view it
-//! runs the pipeline model at every mapping x ray-buffer placement x PE
-//! count (x cyclic width) and costs each configuration
+//! runs the pipeline model at every mapping (x cyclic width) x migration
+//! x ray-buffer placement x PE count and costs each configuration
 //! (`pipeline::cost::design`): resources, on-chip memory, external traffic,
 //! measured cycles, frames per second, and which listed parts it fits. It
 //! writes the table (CSV and Markdown, printed too) and a plot of frames
@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use golden::render::Prepared;
 use golden::skip::Skips;
-use pipeline::config::{Mapping, PipelineConfig, RayBuffer, MAX_PES};
+use pipeline::config::{Mapping, Migration, PipelineConfig, RayBuffer, MAX_PES};
 use pipeline::cost::design::{design, Design};
 use pipeline::cost::inventory::Geometry;
 use pipeline::cost::parts::parts;
@@ -43,6 +43,9 @@ pub struct ExploreArgs {
     /// Ray-buffer placements to sweep: on-chip, external.
     #[arg(long, default_value = "on-chip,external")]
     pub placements: String,
+    /// Migrations to sweep: between-slices, overlapped.
+    #[arg(long, default_value = "between-slices,overlapped")]
+    pub migrations: String,
     /// PE counts to sweep (1..=256).
     #[arg(long, default_value = "4,8,16,32,64")]
     pub pes: String,
@@ -127,12 +130,29 @@ fn placements(s: &str) -> Result<Vec<RayBuffer>> {
     Ok(out)
 }
 
+fn migrations(s: &str) -> Result<Vec<Migration>> {
+    let mut out = Vec::new();
+    for t in items("--migrations", s)? {
+        let m = [Migration::BetweenSlices, Migration::Overlapped]
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(t))
+            .with_context(|| {
+                format!("--migrations: '{t}' is not a migration (between-slices, overlapped)")
+            })?;
+        if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    Ok(out)
+}
+
 /// The sweep's configurations, in output order: mapping, then width, then
-/// placement, then P. Cyclic at width 1 is the interleave and is left out
+/// migration, then placement, then P. Cyclic at width 1 is the interleave and is left out
 /// when the interleave is swept too.
 fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>> {
     let maps = mappings(&a.mappings)?;
     let places = placements(&a.placements)?;
+    let migs = migrations(&a.migrations)?;
     let pes = numbers("--pes", &a.pes, 1, MAX_PES)?;
     let widths = numbers("--widths", &a.widths, 1, 256)?;
     let mut out = Vec::new();
@@ -146,17 +166,20 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
             _ => vec![base.cyclic_width],
         };
         for &cyclic_width in &ws {
-            for &ray_buffer in &places {
-                for &p in &pes {
-                    let c = PipelineConfig {
-                        mapping,
-                        cyclic_width,
-                        ray_buffer,
-                        pes: p,
-                        ..*base
-                    };
-                    c.validate()?;
-                    out.push(c);
+            for &migration in &migs {
+                for &ray_buffer in &places {
+                    for &p in &pes {
+                        let c = PipelineConfig {
+                            mapping,
+                            cyclic_width,
+                            migration,
+                            ray_buffer,
+                            pes: p,
+                            ..*base
+                        };
+                        c.validate()?;
+                        out.push(c);
+                    }
                 }
             }
         }
@@ -255,11 +278,6 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     Ok(())
 }
 
-/// The mapping column: `cyclic:4`, or the mapping's name.
-fn arch_parts(d: &Design) -> (&str, &str) {
-    d.arch.split_once('/').unwrap_or((d.arch.as_str(), ""))
-}
-
 /// The first listed part (smallest first) a design fits, if any.
 fn smallest_fit(d: &Design) -> Option<&'static str> {
     d.parts.iter().find(|p| p.fits).map(|p| p.part)
@@ -270,14 +288,13 @@ fn markdown(heading: &str, designs: &[Design], clock: f64) -> String {
     let _ = writeln!(o, "{heading}\n");
     let _ = writeln!(
         o,
-        "| mapping | ray buffer | P | cycles | util | stall | DSP | LUT | FF | RAMB18 | on-chip Mbit | MB/frame (voxels + rays) | frames/s | GB/s | fits (frames/s at the part's clock) |"
+        "| mapping | migration | ray buffer | P | cycles | util | stall | memory | DSP | LUT | FF | RAMB18 | on-chip Mbit | MB/frame (voxels + rays) | frames/s | GB/s | fits (frames/s at the part's clock) |"
     );
     let _ = writeln!(
         o,
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"
     );
     for d in designs {
-        let (m, p) = arch_parts(d);
         let fps = d.fps(clock);
         let fits: Vec<String> = d
             .parts
@@ -287,11 +304,15 @@ fn markdown(heading: &str, designs: &[Design], clock: f64) -> String {
             .collect();
         let _ = writeln!(
             o,
-            "| {m} | {p} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {:.2} | {:.3} + {:.3} | {:.1} | {:.2} | {} |",
+            "| {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {} | {:.2} | {:.3} + {:.3} | {:.1} | {:.2} | {} |",
+            d.mapping,
+            d.migration,
+            d.ray_buffer,
             d.pes,
             d.cycles,
             d.utilization,
             d.stall,
+            d.memory,
             d.resources.dsp,
             d.resources.lut,
             d.resources.ff,
@@ -309,18 +330,21 @@ fn markdown(heading: &str, designs: &[Design], clock: f64) -> String {
 
 fn csv(designs: &[Design], clock: f64) -> String {
     let mut o = String::from(
-        "mapping,ray_buffer,pes,cycles,utilization,stall,dsp,lut,ff,bram18,on_chip_bits,voxel_bytes,ray_bytes,fps,external_gbps,fits\n",
+        "mapping,migration,ray_buffer,pes,cycles,utilization,stall,memory,dsp,lut,ff,bram18,on_chip_bits,voxel_bytes,ray_bytes,fps,external_gbps,fits\n",
     );
     for d in designs {
-        let (m, p) = arch_parts(d);
         let fps = d.fps(clock);
         let _ = writeln!(
             o,
-            "{m},{p},{},{},{:.4},{},{},{},{},{},{},{:.0},{:.0},{:.3},{:.4},{}",
+            "{},{},{},{},{},{:.4},{},{},{},{},{},{},{},{:.0},{:.0},{:.3},{:.4},{}",
+            d.mapping,
+            d.migration,
+            d.ray_buffer,
             d.pes,
             d.cycles,
             d.utilization,
             d.stall,
+            d.memory,
             d.resources.dsp,
             d.resources.lut,
             d.resources.ff,

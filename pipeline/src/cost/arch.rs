@@ -18,15 +18,15 @@
 //!   reach PE 0 from PE `P - 1` over a wrap link ([`wrap_link`]).
 //! - **External ray buffer**: the accumulators of every ray (and front to
 //!   back the inherited states and the kept final states) live in DDR; on
-//!   chip each PE keeps a double row buffer of its rays of one row
-//!   ([`rays_per_row`]), which the controller fills and drains while the
-//!   previous row samples, and the array has one memory-controller
-//!   interface ([`memory_controller`]).
+//!   chip each PE keeps `ray_buffer_rows` row buffers of its rays of one
+//!   row ([`rays_per_row`]): the row sampling and the rows the controller
+//!   reads ahead (and writes back) meanwhile; the array has one
+//!   memory-controller interface ([`memory_controller`]).
 
 use super::inventory::{addr_bits, Geometry, Item};
 use super::shapes::{accum_word, RAY_INDEX_BITS};
 use super::units::Unit;
-use crate::config::{Mapping, Order, PipelineConfig, RayBuffer};
+use crate::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 
 /// Columns per round-robin block: `None` for column blocks, 1 for the
 /// interleave, `cyclic_width` for cyclic.
@@ -97,8 +97,14 @@ pub fn rays_per_pe(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
 pub fn slots(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
     match cfg.ray_buffer {
         RayBuffer::OnChip => rays_per_pe(cfg, geo),
-        RayBuffer::External => 2 * rays_per_row(cfg, geo),
+        RayBuffer::External => row_buffers(cfg) * rays_per_row(cfg, geo),
     }
+}
+
+/// Row buffers per PE with an external ray buffer: the row sampling and
+/// the `ray_buffer_rows - 1` rows the controller reads ahead.
+pub fn row_buffers(cfg: &PipelineConfig) -> u64 {
+    u64::from(cfg.ray_buffer_rows.max(2))
 }
 
 /// Bits of one ray's state in the compositing buffer: the accumulators,
@@ -109,12 +115,6 @@ pub fn ray_bits(cfg: &PipelineConfig) -> u32 {
         Order::BackToFront => acc,
         Order::FrontToBack => 2 * acc + 1,
     }
-}
-
-/// Bytes one ray moves to or from an external ray buffer: [`ray_bits`]
-/// rounded up to whole bytes (a DDR burst carries bytes).
-pub fn ray_bytes(cfg: &PipelineConfig) -> u64 {
-    u64::from(ray_bits(cfg)).div_ceil(8)
 }
 
 /// The round-robin owner test of one PE: the ray's base column against the
@@ -183,13 +183,28 @@ pub fn memory_controller(cfg: &PipelineConfig) -> Option<Item> {
     ))
 }
 
-/// A short name of the architecture, e.g. `cyclic:4/external`.
-pub fn label(cfg: &PipelineConfig) -> String {
-    let m = match cfg.mapping {
+/// The mapping's name, with the width of `cyclic`: `cyclic:4`.
+pub fn mapping_name(cfg: &PipelineConfig) -> String {
+    match cfg.mapping {
         Mapping::Cyclic => format!("cyclic:{}", cfg.cyclic_width),
         m => m.name().to_owned(),
-    };
-    format!("{m}/{}", cfg.ray_buffer.name())
+    }
+}
+
+/// A short name of the architecture: mapping, `overlapped` when the
+/// migration is, and placement, e.g. `cyclic:4/overlapped/external`.
+pub fn label(cfg: &PipelineConfig) -> String {
+    match cfg.migration {
+        Migration::BetweenSlices => {
+            format!("{}/{}", mapping_name(cfg), cfg.ray_buffer.name())
+        }
+        m => format!(
+            "{}/{}/{}",
+            mapping_name(cfg),
+            m.name(),
+            cfg.ray_buffer.name()
+        ),
+    }
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use super::memory::{map_memory, MemKind};
 use super::parts::{fit_memories, parts, uram_blocks, MemDemand, Part};
 use super::target::{Resources, Target};
 use super::throughput::{voxel_bytes, RunSummary};
-use crate::config::{PipelineConfig, RayBuffer};
+use crate::config::PipelineConfig;
 use serde::Serialize;
 
 /// A design on one part.
@@ -46,12 +46,22 @@ pub struct Design {
     pub cycles: u64,
     /// Measured sampling utilisation.
     pub utilization: f64,
-    /// Stall cycles of the run.
+    /// The mapping, e.g. `cyclic:4`.
+    pub mapping: String,
+    /// The migration (`between-slices`, `overlapped`).
+    pub migration: &'static str,
+    /// The ray-buffer placement (`on-chip`, `external`).
+    pub ray_buffer: &'static str,
+    /// Stall cycles of the run (rows waiting for a ray in the datapath or
+    /// on a link).
     pub stall: u64,
+    /// Cycles the run waited for the external ray buffer.
+    pub memory: u64,
     /// Voxel bytes per frame from external memory: the volume once, each
     /// slice broadcast to every PE, which keeps its columns and aprons.
     pub voxel_bytes: f64,
-    /// Ray-buffer bytes per frame to and from external memory (0 on chip).
+    /// Ray-buffer bytes per frame to and from external memory, as the run
+    /// counted them (0 on chip).
     pub ray_bytes: f64,
     /// The design on each part of the family.
     pub parts: Vec<PartFit>,
@@ -145,10 +155,7 @@ pub fn design(cfg: &PipelineConfig, t: Target, run: &RunSummary) -> Design {
     let geo = run.geometry;
     let (resources, on_chip_bits, mems) = array(cfg, &geo, t);
     let vbytes = voxel_bytes(&geo, u32::from(cfg.voxel.bits()));
-    let rbytes = match cfg.ray_buffer {
-        RayBuffer::OnChip => 0.0,
-        RayBuffer::External => (run.ray_moves * arch::ray_bytes(cfg)) as f64,
-    };
+    let rbytes = run.ray_buffer_bytes as f64;
     let fit_on = |part: &Part| {
         let f = fit_memories(part, &resources, &mems);
         let fps = if run.cycles == 0 {
@@ -173,7 +180,11 @@ pub fn design(cfg: &PipelineConfig, t: Target, run: &RunSummary) -> Design {
         on_chip_bits,
         cycles: run.cycles,
         utilization: run.utilization,
+        mapping: arch::mapping_name(cfg),
+        migration: cfg.migration.name(),
+        ray_buffer: cfg.ray_buffer.name(),
         stall: run.stages.stall,
+        memory: run.stages.memory,
         voxel_bytes: vbytes,
         ray_bytes: rbytes,
         parts: parts(t).iter().map(fit_on).collect(),
@@ -217,6 +228,7 @@ pub fn text(o: &mut String, t: Target, designs: &[Design]) {
                 d.cycles.to_string(),
                 format!("{:.3}", d.utilization),
                 d.stall.to_string(),
+                d.memory.to_string(),
                 format!("{:.1}", d.voxel_bytes / 1e6),
                 format!("{:.1}", d.ray_bytes / 1e6),
                 if fits.is_empty() {
@@ -240,6 +252,7 @@ pub fn text(o: &mut String, t: Target, designs: &[Design]) {
             "cycles",
             "util",
             "stall",
+            "memory",
             "voxel MB/frame",
             "ray MB/frame",
             "fits (frames/s and external bandwidth at the part's clock)",

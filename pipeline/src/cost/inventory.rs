@@ -666,12 +666,17 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let row = arch::rays_per_row(cfg, geo);
     if cfg.ray_buffer == RayBuffer::External {
         // Every ray's state lives in DDR; the PE keeps the row it samples
-        // and the row the controller fills (and drains) meanwhile.
+        // and the rows the controller reads ahead (and writes back).
+        let rows = arch::row_buffers(cfg);
         items.push(Item::new(
             "memories",
-            "row buffer (2 rows x 2 column banks; rays in DDR)",
+            format!("row buffers ({rows} rows x 2 column banks; rays in DDR)"),
             2,
-            vec![mem(row, arch::ray_bits(cfg), MemPorts::Sdp)],
+            vec![mem(
+                (rows * row).div_ceil(2),
+                arch::ray_bits(cfg),
+                MemPorts::Sdp,
+            )],
         ));
     } else {
         items.push(Item::new(

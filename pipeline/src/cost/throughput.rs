@@ -28,9 +28,9 @@ pub struct RunSummary {
     /// Ray grid (columns, rows) of the view's largest region: the rays the
     /// whole array held at once in this frame.
     pub largest_region: [usize; 2],
-    /// Ray states this frame moves to and from an external ray buffer
-    /// ([`ray_moves`]), whether or not the run's buffer is external.
-    pub ray_moves: u64,
+    /// Bytes the frame moved through the external ray buffer's channel,
+    /// reads and writes (the model's `Frame::ray_buffer`; 0 on chip).
+    pub ray_buffer_bytes: u64,
     /// The run's architecture, e.g. `blocks/on-chip` (`super::arch::label`).
     pub arch: String,
 }
@@ -58,38 +58,12 @@ impl RunSummary {
                 .map(|r| r.grid.counts())
                 .max_by_key(|c| c[0] * c[1])
                 .unwrap_or([0, 0]),
-            ray_moves: ray_moves(frame, plan),
+            ray_buffer_bytes: frame
+                .ray_buffer
+                .map_or(0, |r| r.read_bytes + r.written_bytes),
             arch: super::arch::label(cfg),
         }
     }
-}
-
-/// Ray states a frame moves between the PEs and an external ray buffer,
-/// from the frame's counters: every sample reads its ray and writes it
-/// back (`2 samples`; the controller fetches only the rays its row runs
-/// sample); every merge, split or fold reads the rays of the finer of its
-/// two regions once and writes its outputs (the PEs' `merge_outputs` and
-/// `split_outputs`); the readout reads the baseplane's rays.
-pub fn ray_moves(frame: &Frame, plan: &FramePlan) -> u64 {
-    let outputs: u64 = frame
-        .pes
-        .iter()
-        .map(|p| p.merge_outputs + p.split_outputs)
-        .sum();
-    let grid = |k: usize| {
-        let [c, r] = plan.regions[k].grid.counts();
-        (c * r) as u64
-    };
-    let boundaries: u64 = (1..plan.regions.len())
-        .map(|k| grid(k - 1).max(grid(k)))
-        .sum();
-    // One pass per boundary: the merges back to front, the splits and the
-    // fold front to back.
-    let passes = match frame.order {
-        crate::config::Order::BackToFront => 1,
-        crate::config::Order::FrontToBack => 2,
-    };
-    2 * frame.samples + outputs + passes * boundaries + frame.raw.len() as u64
 }
 
 /// Sampling cycles per frame in the worst view: every slice with the

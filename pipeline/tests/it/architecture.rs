@@ -94,8 +94,8 @@ fn round_robin_aprons() {
 }
 
 /// An external ray buffer takes the compositing buffer's block RAM off
-/// chip: what remains is a row buffer of two rows, and the memory
-/// controller's interface.
+/// chip: what remains is the row buffers (the row sampling and the rows
+/// read ahead), and the memory controller's interface.
 #[test]
 fn external_ray_buffer_removes_the_compositing_buffer() {
     let geo = Geometry::new([256, 256, 256], 16);
@@ -105,10 +105,11 @@ fn external_ray_buffer_removes_the_compositing_buffer() {
     let comp = item(&on.items, "compositing buffer");
     let row = item(&ext.items, "row buffer");
     assert!(!has(&ext.items, "compositing buffer"));
-    // (2W + 1)(2 ny + 1) = 33 x 513 rays in two banks; the row buffer holds
-    // two rows of 33 in two banks.
+    // (2W + 1)(2 ny + 1) = 33 x 513 rays in two banks; the row buffers
+    // hold `ray_buffer_rows` (8) rows of 33 in two banks.
     assert_eq!(mem_depth(comp), (33 * 513u64).div_ceil(2));
-    assert_eq!(mem_depth(row), 33);
+    assert_eq!(ext_cfg.ray_buffer_rows, 8);
+    assert_eq!(mem_depth(row), 8 * 33 / 2);
     let t = Target::Xc7;
     let comp_bram = comp.cost(t).bram;
     assert!(
