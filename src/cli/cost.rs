@@ -16,7 +16,7 @@ use clap::Args;
 use glam::DVec3;
 
 use golden::render::Prepared;
-use pipeline::config::{PipelineConfig, MAX_PES};
+use pipeline::config::{Mapping, PipelineConfig, RayBuffer, MAX_PES};
 use pipeline::cost::inventory::Geometry;
 use pipeline::cost::report::build;
 use pipeline::cost::throughput::RunSummary;
@@ -64,6 +64,36 @@ pub struct CostArgs {
     /// the default material; docs/pipeline.md#shading).
     #[arg(long)]
     pub shade: bool,
+    /// Architectures to run and cost beside the configuration, at its P:
+    /// "all" (blocks, interleave and cyclic at the configuration's
+    /// cyclic_width, each with the ray buffer on chip and external) or
+    /// "none".
+    #[arg(long, default_value = "all")]
+    pub archs: String,
+}
+
+/// The configurations of `--archs`: every mapping with every placement,
+/// the rest of `cfg` unchanged.
+fn arch_configs(cfg: &PipelineConfig, spec: &str) -> Result<Vec<PipelineConfig>> {
+    match spec.trim().to_ascii_lowercase().as_str() {
+        "none" => Ok(Vec::new()),
+        "all" => {
+            let mut out = Vec::new();
+            for mapping in Mapping::ALL {
+                for ray_buffer in [RayBuffer::OnChip, RayBuffer::External] {
+                    let c = PipelineConfig {
+                        mapping,
+                        ray_buffer,
+                        ..*cfg
+                    };
+                    c.validate()?;
+                    out.push(c);
+                }
+            }
+            Ok(out)
+        }
+        other => bail!("--archs '{other}': expected all or none"),
+    }
 }
 
 /// The default clock of a family: a comfortable rate for a DSP-heavy,
@@ -125,6 +155,7 @@ fn run_at(
     let frame = array.run(&prep.view)?;
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
+        &cfg,
         label,
         Geometry {
             dims: prep.view.dims,
@@ -132,8 +163,7 @@ fn run_at(
             regions: plan.regions.len() as u32,
             shading: shade,
         },
-        &frame,
-        &plan,
+        (&frame, &plan),
     ))
 }
 
@@ -145,6 +175,7 @@ pub fn run(a: &CostArgs) -> Result<()> {
     }
     let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
+    let archs = arch_configs(&cfg, &a.archs)?;
     let mut view = a.view.clone();
     let defaulted = view.source.scene.is_none() && view.source.volume.is_none();
     if defaulted {
@@ -177,7 +208,16 @@ pub fn run(a: &CostArgs) -> Result<()> {
             runs.push(run_at(&cfg, p, &vol, &lut, &prep, (&label, a.shade))?);
         }
     }
-    let report = build(&cfg, a.target, clock, main, &runs);
+    let mut arch_runs = Vec::new();
+    for c in archs {
+        let r = if c == cfg {
+            main.clone()
+        } else {
+            run_at(&c, c.pes, &vol, &lut, &prep, (&label, a.shade))?
+        };
+        arch_runs.push((c, r));
+    }
+    let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());
     if let Some(p) = &a.json {
         let v = serde_json::to_value(&report).context("serialising the report")?;

@@ -8,6 +8,7 @@ mod bench;
 mod chip;
 mod compare;
 mod cost;
+mod explore;
 mod memory;
 mod method;
 mod montage;
@@ -56,6 +57,10 @@ enum Command {
     /// FPGA cost of the PE array: resources per PE and in all, fit on
     /// real parts, frame rate and voxel bandwidth from a pipeline run.
     Cost(Box<cost::CostArgs>),
+    /// Sweep mappings x ray-buffer placements x PE counts (x cyclic
+    /// widths) on one view: measured cycles, resources, memory, external
+    /// bandwidth, frames/s and the parts each fits; a table and a plot.
+    Explore(Box<explore::ExploreArgs>),
     /// Render one view with ercube's methods and with a peer renderer
     /// (VTK), timing each and comparing it with ercube's reference;
     /// write a table, an error-against-time plot and the images.
@@ -112,6 +117,7 @@ pub fn run() -> ExitCode {
         Command::Demo(a) => compare::demo(&a),
         Command::Animate(a) => animate::run(&a),
         Command::Cost(a) => cost::run(&a),
+        Command::Explore(a) => explore::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::MergeResults(a) => bench::merge_results(&a),
         Command::SweepWidths(a) => bench::sweep_widths(&a),

@@ -326,6 +326,8 @@ fn cost_command_reports_a_real_run() {
         "Throughput at 48 MHz",
         "P sweep",
         "Scaling",
+        "Architectures (P = 4",
+        "cyclic:4/external",
     ] {
         assert!(stdout.contains(section), "missing {section}:\n{stdout}");
     }
@@ -352,6 +354,27 @@ fn cost_command_reports_a_real_run() {
     assert_eq!(sweep[0]["cycles"].as_u64(), Some(direct_cycles(2)));
     assert_eq!(sweep[1]["cycles"].as_u64(), Some(cycles));
     assert_eq!(v["scaling"].as_array().map(Vec::len), Some(24));
+    // Every mapping with every placement, each from its own run; the
+    // configuration's own (blocks, on chip) is the main run.
+    let archs = v["architectures"].as_array().expect("architectures");
+    let names: Vec<&str> = archs.iter().filter_map(|a| a["arch"].as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "blocks/on-chip",
+            "blocks/external",
+            "interleave/on-chip",
+            "interleave/external",
+            "cyclic:4/on-chip",
+            "cyclic:4/external"
+        ]
+    );
+    assert_eq!(archs[0]["cycles"].as_u64(), Some(cycles));
+    assert_eq!(archs[0]["resources"], v["array"]);
+    for a in archs {
+        let external = a["arch"].as_str().is_some_and(|s| s.ends_with("external"));
+        assert_eq!(a["ray_bytes"].as_f64().expect("ray bytes") > 0.0, external);
+    }
     let n = |x: &serde_json::Value| x.as_u64().expect("count");
     let items = v["pe_items"].as_array().expect("items");
     for key in ["dsp", "lut", "ff", "bram"] {
@@ -382,8 +405,9 @@ fn cost_command_bad_input() {
     std::fs::write(d.join("zero.toml"), "pes = 0\n").expect("write");
     std::fs::write(d.join("typo.toml"), "voxle = 3\n").expect("write");
     let base = ["cost", "--scene", "checker:16"];
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 10] = [
         (&["--target", "zynq"], "zynq"),
+        (&["--archs", "some"], "--archs"),
         (&["--clock-mhz", "0"], "clock"),
         (&["--clock-mhz", "-5"], "clock"),
         (&["--clock-mhz", "nan"], "clock"),

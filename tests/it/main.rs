@@ -19,6 +19,7 @@ mod array;
 mod bench;
 mod cli;
 mod docs;
+mod explore;
 mod memory;
 mod peers;
 mod preint;

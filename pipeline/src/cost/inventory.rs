@@ -40,13 +40,14 @@
 //! at 128^3 and beyond it is megabits per PE, far beyond on-chip RAM. The
 //! throughput model charges its bandwidth instead.
 
+use super::arch;
 use super::memory::MemPorts;
 use super::shapes::{
     accum_word, class_weight, exp_weight, table_word, Lerp, MulAdd, Quantizer, Word, RAY_INDEX_BITS,
 };
 use super::target::{Resources, Target};
 use super::units::{total, Unit};
-use crate::config::PipelineConfig;
+use crate::config::{PipelineConfig, RayBuffer};
 use serde::Serialize;
 
 /// One line of the inventory: `count` copies of a group of units.
@@ -213,7 +214,7 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     );
     let w = geo.block();
     let col_bits = addr_bits(w + 1);
-    let slot_bits = addr_bits(geo.rays_per_pe());
+    let slot_bits = addr_bits(arch::slots(cfg, geo));
     let int_bits = pos.int_bits().max(1) as u32;
     let e = u32::from(cfg.exp_table_bits);
     let entry_bits = addr_bits(u64::from(cfg.table_entries));
@@ -605,23 +606,28 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         ports,
     };
     let half_rows = ny.div_ceil(2);
+    // Round-robin mappings store each block with its apron and read no
+    // neighbour: no edge-column copies.
+    let round_robin = arch::round_robin_width(cfg).is_some();
+    let stored = arch::stored_columns(cfg, geo);
     let buffers = if geo.shading {
-        super::shading::memories(cfg, geo)
+        super::shading::memories(cfg, geo, stored, !round_robin)
     } else {
-        vec![
-            Item::new(
-                "memories",
-                "slice buffer (2 slices x 2 row banks)",
-                4,
-                vec![mem(w * half_rows, v, MemPorts::DualRead)],
-            ),
-            Item::new(
+        let mut b = vec![Item::new(
+            "memories",
+            "slice buffer (2 slices x 2 row banks)",
+            4,
+            vec![mem(stored * half_rows, v, MemPorts::DualRead)],
+        )];
+        if !round_robin {
+            b.push(Item::new(
                 "memories",
                 "edge column (2 slices x 2 row banks)",
                 4,
                 vec![mem(half_rows, v, MemPorts::Sdp)],
-            ),
-        ]
+            ));
+        }
+        b
     };
     let mut items = buffers;
     items.extend(vec![
@@ -655,17 +661,37 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
                 MemPorts::DualRead,
             )],
         ),
-        Item::new(
+    ]);
+    let rays = arch::rays_per_pe(cfg, geo);
+    let row = arch::rays_per_row(cfg, geo);
+    if cfg.ray_buffer == RayBuffer::External {
+        // Every ray's state lives in DDR; the PE keeps the row it samples
+        // and the rows the controller reads ahead (and writes back).
+        let rows = arch::row_buffers(cfg);
+        items.push(Item::new(
+            "memories",
+            format!("row buffers ({rows} rows x 2 column banks; rays in DDR)"),
+            2,
+            vec![mem(
+                (rows * row).div_ceil(2),
+                arch::ray_bits(cfg),
+                MemPorts::Sdp,
+            )],
+        ));
+    } else {
+        items.push(Item::new(
             "memories",
             "compositing buffer (2 column banks)",
             2,
-            vec![mem(geo.rays_per_pe().div_ceil(2), acc, MemPorts::Sdp)],
-        ),
+            vec![mem(rays.div_ceil(2), acc, MemPorts::Sdp)],
+        ));
+    }
+    items.extend(vec![
         Item::new(
             "memories",
             "column map (slot -> ray column)",
             1,
-            vec![mem(2 * w + 1, RAY_INDEX_BITS + 1, MemPorts::Sdp)],
+            vec![mem(row, RAY_INDEX_BITS + 1, MemPorts::Sdp)],
         ),
         Item::new(
             "memories",
@@ -684,15 +710,17 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             )],
         ),
     ]);
-    if cfg.order == crate::config::Order::FrontToBack {
+    if cfg.order == crate::config::Order::FrontToBack && cfg.ray_buffer == RayBuffer::OnChip {
         // Each ray also carries what it inherited at the split and its
         // termination flag; each PE keeps its rays' final states at every
-        // split for the fold, about `(W + 1)(ny + 1)` per boundary.
+        // split for the fold, about `(W + 1)(ny + 1)` per boundary. With
+        // an external buffer both live in DDR (the row buffer carries the
+        // inherited state and the flag: `arch::ray_bits`).
         items.push(Item::new(
             "memories",
             "inherited state + termination flag (front to back)",
             2,
-            vec![mem(geo.rays_per_pe().div_ceil(2), acc + 1, MemPorts::Sdp)],
+            vec![mem(rays.div_ceil(2), acc + 1, MemPorts::Sdp)],
         ));
         items.push(Item::new(
             "memories",
@@ -760,7 +788,7 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let pn = fmt_bits(cfg.position);
     let s = fmt_bits(cfg.step);
     let col_bits = addr_bits(geo.block() + 1);
-    let slot_bits = addr_bits(geo.rays_per_pe());
+    let slot_bits = addr_bits(arch::slots(cfg, geo));
     let mut items = vec![
         Item::new(
             "links",
@@ -768,14 +796,6 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             2,
             vec![Unit::Reg {
                 bits: acc + RAY_INDEX_BITS + row_bits + 1,
-            }],
-        ),
-        Item::new(
-            "links",
-            "edge voxel port (two rows)",
-            1,
-            vec![Unit::Reg {
-                bits: 2 * fmt_bits(cfg.voxel),
             }],
         ),
         Item::new(
@@ -808,9 +828,25 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             ],
         ),
     ];
-    if geo.shading {
-        items.push(super::shading::link(cfg));
+    if arch::round_robin_width(cfg).is_none() {
+        // Column blocks read the right neighbour's first column while
+        // sampling (round-robin blocks carry their aprons instead).
+        items.insert(
+            1,
+            Item::new(
+                "links",
+                "edge voxel port (two rows)",
+                1,
+                vec![Unit::Reg {
+                    bits: 2 * fmt_bits(cfg.voxel),
+                }],
+            ),
+        );
+        if geo.shading {
+            items.push(super::shading::link(cfg));
+        }
     }
+    items.extend(arch::owner_logic(cfg));
     items
 }
 
@@ -846,7 +882,10 @@ pub fn pe_inventory(cfg: &PipelineConfig, geo: &Geometry) -> PeInventory {
         geometry: *geo,
         items,
         schedule: dp.schedule,
-        voxel_memory_bits: geo.block() * ny as u64 * nz as u64 * u64::from(cfg.voxel.bits()),
+        voxel_memory_bits: arch::stored_columns(cfg, geo)
+            * ny as u64
+            * nz as u64
+            * u64::from(cfg.voxel.bits()),
     }
 }
 
@@ -894,7 +933,7 @@ pub fn controller_inventory(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     run_units.push(Unit::Reg {
         bits: 2 * RAY_INDEX_BITS,
     });
-    vec![
+    let mut items = vec![
         Item::new(
             "controller",
             "occupancy memory (1 bit per block)",
@@ -922,7 +961,10 @@ pub fn controller_inventory(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
                 bits: 4 * pn + 4 * s + 2 * pn,
             }],
         ),
-    ]
+    ];
+    items.extend(arch::wrap_link(cfg, geo));
+    items.extend(arch::memory_controller(cfg));
+    items
 }
 
 #[cfg(test)]

@@ -10,7 +10,8 @@
 //! family ([`Target`]); [`parts`] holds real parts' capacities;
 //! [`throughput`] turns a pipeline run's cycle count (and the worst-case
 //! bound) into frames per second and external voxel bandwidth; [`report`]
-//! puts it together as JSON and a readable table.
+//! puts it together as JSON and a readable table; [`arch`] prices the
+//! ownership mapping and the ray-buffer placement.
 //!
 //! The models are structural and their constants come from yosys 0.23:
 //! `crate::rtl` emits the PE's units as small Verilog modules built from
@@ -18,6 +19,8 @@
 //! (`synth_xilinx`, `synth_ice40 -dsp`) and checks the estimate: DSP and
 //! block-RAM counts exactly, LUTs and flip-flops within 25%.
 
+pub mod arch;
+pub mod design;
 pub mod dsp;
 pub mod inventory;
 pub mod memory;

@@ -4,8 +4,9 @@
 
 use std::fmt::Write as _;
 
+use super::design::{self, Design};
 use super::inventory::{controller_inventory, pe_inventory, Geometry, Item, PeInventory};
-use super::parts::{fit, parts, Fit, Part};
+use super::parts::{fit_memories, parts, Fit, Part};
 use super::target::{Resources, Target};
 use super::throughput::{bound_cycles, rate, Rate, RunSummary};
 use crate::config::{PipelineConfig, MAX_PES};
@@ -133,24 +134,28 @@ pub struct CostReport {
     pub sweep: Vec<SweepRow>,
     /// Cubic volumes and `P` by the bound.
     pub scaling: Vec<ScaleRow>,
+    /// The mappings and placements at the main run's `P`, each from its
+    /// own run.
+    pub architectures: Vec<Design>,
     /// What the figures mean.
     pub notes: Vec<String>,
 }
 
 /// Array resources for `geo`.
 pub fn array_cost(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> Resources {
-    let pe = pe_inventory(cfg, geo).cost(t);
-    let ctrl: Resources = controller_inventory(cfg, geo)
-        .iter()
-        .map(|i| i.cost(t))
-        .sum();
-    pe * u64::from(geo.pes) + ctrl
+    design::array(cfg, geo, t).0
 }
 
-fn fitting(parts: &[Part], r: &Resources) -> Vec<&'static str> {
+/// The parts of `parts` that `cfg` on `geo` fits (UltraRAM taking memories
+/// block RAM cannot hold).
+fn fitting(cfg: &PipelineConfig, geo: &Geometry, parts: &[Part]) -> Vec<&'static str> {
+    let Some(first) = parts.first() else {
+        return Vec::new();
+    };
+    let (r, _, mems) = design::array(cfg, geo, first.target);
     parts
         .iter()
-        .filter(|p| fit(p, r).fits)
+        .filter(|p| fit_memories(p, &r, &mems).fits)
         .map(|p| p.name)
         .collect()
 }
@@ -161,7 +166,8 @@ pub fn max_pes(cfg: &PipelineConfig, (dims, shading): ([usize; 3], bool), part: 
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
     let fit_at = |p: u16| {
         let g = Geometry::new(dims, p).with_shading(shading);
-        fit(part, &array_cost(cfg, &g, part.target))
+        let (r, _, mems) = design::array(cfg, &g, part.target);
+        fit_memories(part, &r, &mems)
     };
     let best = (1..=top).filter(|&p| fit_at(p).fits).max().unwrap_or(0);
     let limit = if best == top {
@@ -184,6 +190,7 @@ pub fn build(
     clock_mhz: f64,
     run: RunSummary,
     sweep: &[RunSummary],
+    archs: &[(PipelineConfig, RunSummary)],
 ) -> CostReport {
     let clock = clock_mhz * 1e6;
     let geo = run.geometry;
@@ -194,7 +201,11 @@ pub fn build(
     let ctrl: Resources = ctrl_items.iter().map(|i| i.cost(target)).sum();
     let array = pe_res * u64::from(geo.pes) + ctrl;
     let family = parts(target);
-    let fits = family.iter().map(|p| fit(p, &array)).collect();
+    let (_, _, mems) = design::array(cfg, &geo, target);
+    let fits = family
+        .iter()
+        .map(|p| fit_memories(p, &array, &mems))
+        .collect();
     let max = family
         .iter()
         .map(|p| max_pes(cfg, (geo.dims, geo.shading), p))
@@ -217,7 +228,7 @@ pub fn build(
                 utilization: s.utilization,
                 rate: rate(&s.geometry, s.cycles, clock, vb),
                 resources: r,
-                fits: fitting(&family, &r),
+                fits: fitting(cfg, &s.geometry, &family),
             }
         })
         .collect();
@@ -233,7 +244,7 @@ pub fn build(
                 bound: rate(&g, b, clock, vb),
                 scaled: rate(&g, (b as f64 * ratio).round() as u64, clock, vb),
                 resources: r,
-                fits: fitting(&family, &r),
+                fits: fitting(cfg, &g, &family),
             });
         }
     }
@@ -244,7 +255,8 @@ pub fn build(
             pe.schedule.depth
         ),
         format!(
-            "Voxel memory is external: each PE's block of the volume is {:.2} Mbit ({:.1} Mbit for the array), read once per frame into double-buffered slice buffers.",
+            "Voxel memory is external: each PE's {} of the volume is {:.2} Mbit ({:.1} Mbit for the array), read once per frame into double-buffered slice buffers.",
+            if super::arch::round_robin_width(cfg).is_some() { "share (its blocks with their aprons)" } else { "block" },
             pe.voxel_memory_bits as f64 / 1e6,
             pe.voxel_memory_bits as f64 * pes as f64 / 1e6
         ),
@@ -281,12 +293,16 @@ pub fn build(
         bound_rate,
         sweep: sweep_rows,
         scaling,
+        architectures: archs
+            .iter()
+            .map(|(c, r)| design::design(c, target, r))
+            .collect(),
         notes,
     }
 }
 
 /// `1234567` as `1.23 M`.
-fn si(x: f64) -> String {
+pub(super) fn si(x: f64) -> String {
     let a = x.abs();
     if a >= 1e9 {
         format!("{:.2} G", x / 1e9)
@@ -309,7 +325,7 @@ fn res_cells(t: Target, r: &Resources) -> [String; 4] {
 }
 
 /// Renders rows as a text table with aligned columns.
-fn table(out: &mut String, head: &[&str], rows: &[Vec<String>]) {
+pub(super) fn table(out: &mut String, head: &[&str], rows: &[Vec<String>]) {
     let n = head.len();
     let mut width: Vec<usize> = head.iter().map(|h| h.len()).collect();
     for r in rows {
@@ -586,6 +602,14 @@ impl CostReport {
             ],
             &sc,
         );
+        if !self.architectures.is_empty() {
+            let _ = writeln!(
+                o,
+                "\nArchitectures (P = {}, measured runs, {})",
+                g.pes, self.run.label
+            );
+            design::text(&mut o, t, &self.architectures);
+        }
         let _ = writeln!(o);
         for n in &self.notes {
             let _ = writeln!(o, "- {n}");

@@ -287,23 +287,27 @@ pub(super) fn steps(cfg: &PipelineConfig, col_bits: u32) -> Vec<Step<'static>> {
 
 /// The slice buffer and edge columns of a shading PE, replacing the
 /// scalar's.
-pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
+pub(super) fn memories(
+    cfg: &PipelineConfig,
+    geo: &Geometry,
+    columns: u64,
+    edges: bool,
+) -> Vec<Item> {
     let ny = geo.dims[1] as u64;
-    let w = geo.block();
     let v = bits(cfg.voxel);
     let quarter = ny.div_ceil(4);
-    vec![
-        Item::new(
-            "memories",
-            "slice buffer (4 slices x 4 row banks x 2 column banks)",
-            32,
-            vec![Unit::Mem {
-                depth: w.div_ceil(2) * quarter,
-                width: v,
-                ports: MemPorts::DualRead,
-            }],
-        ),
-        Item::new(
+    let mut items = vec![Item::new(
+        "memories",
+        "slice buffer (4 slices x 4 row banks x 2 column banks)",
+        32,
+        vec![Unit::Mem {
+            depth: columns.div_ceil(2) * quarter,
+            width: v,
+            ports: MemPorts::DualRead,
+        }],
+    )];
+    if edges {
+        items.push(Item::new(
             "memories",
             "edge columns (first two, last; 4 slices x 4 row banks)",
             48,
@@ -312,8 +316,9 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
                 width: v,
                 ports: MemPorts::Sdp,
             }],
-        ),
-    ]
+        ));
+    }
+    items
 }
 
 /// The shading port: the halo to the left, the last column to the right.

@@ -9,7 +9,10 @@ use std::str::FromStr;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 pub enum Target {
     /// Xilinx 7-series (Artix-7): LUT6 + CARRY4, DSP48E1 (25x18 signed),
-    /// RAMB18E1 / RAMB36E1, LUT-RAM in SLICEMs.
+    /// RAMB18E1 / RAMB36E1, LUT-RAM in SLICEMs. UltraScale+ parts are
+    /// priced with the same models (their LUT6 and block-RAM geometries are
+    /// the same; a DSP48E2's 27 x 18 multiplier needs at most as many
+    /// blocks as the DSP48E1 decomposition) and list UltraRAM besides.
     #[serde(rename = "xc7")]
     Xc7,
     /// Lattice ECP5: LUT4 + CCU2C carry, MULT18X18D, DP16KD (18 kbit),
@@ -39,7 +42,7 @@ impl Target {
     pub fn describe(self) -> &'static str {
         match self {
             Target::Xc7 => {
-                "Xilinx 7-series: LUT6 + CARRY4, DSP48E1 (25x18), RAMB18E1/RAMB36E1, LUT-RAM"
+                "Xilinx 7-series: LUT6 + CARRY4, DSP48E1 (25x18), RAMB18E1/RAMB36E1, LUT-RAM (UltraScale+ parts priced alike, plus URAM288)"
             }
             Target::Ecp5 => "Lattice ECP5: LUT4 + CCU2C, MULT18X18D, DP16KD (18 kbit), DPR16X4",
             Target::Ice40 => {

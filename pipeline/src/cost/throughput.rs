@@ -28,15 +28,20 @@ pub struct RunSummary {
     /// Ray grid (columns, rows) of the view's largest region: the rays the
     /// whole array held at once in this frame.
     pub largest_region: [usize; 2],
+    /// Bytes the frame moved through the external ray buffer's channel,
+    /// reads and writes (the model's `Frame::ray_buffer`; 0 on chip).
+    pub ray_buffer_bytes: u64,
+    /// The run's architecture, e.g. `blocks/on-chip` (`super::arch::label`).
+    pub arch: String,
 }
 
 impl RunSummary {
-    /// Summarises `frame` of `plan`, run on `geometry`.
+    /// Summarises `frame` of `plan`, run with `cfg` on `geometry`.
     pub fn new(
+        cfg: &crate::config::PipelineConfig,
         label: impl Into<String>,
         geometry: Geometry,
-        frame: &Frame,
-        plan: &FramePlan,
+        (frame, plan): (&Frame, &FramePlan),
     ) -> RunSummary {
         RunSummary {
             label: label.into(),
@@ -53,6 +58,10 @@ impl RunSummary {
                 .map(|r| r.grid.counts())
                 .max_by_key(|c| c[0] * c[1])
                 .unwrap_or([0, 0]),
+            ray_buffer_bytes: frame
+                .ray_buffer
+                .map_or(0, |r| r.read_bytes + r.written_bytes),
+            arch: super::arch::label(cfg),
         }
     }
 }

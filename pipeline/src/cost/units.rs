@@ -119,6 +119,16 @@ pub enum Unit {
         /// Cycles.
         cycles: u32,
     },
+    /// A vendor IP core charged at its published size (the same on every
+    /// family it is charged on), e.g. a DDR memory-controller interface.
+    Ip {
+        /// LUTs.
+        lut: u32,
+        /// Flip-flops.
+        ff: u32,
+        /// Block-RAM units.
+        bram: u32,
+    },
     /// A memory.
     Mem {
         /// Words.
@@ -443,6 +453,12 @@ impl Unit {
                     Resources::ffs(b * c)
                 }
             }
+            Unit::Ip { lut, ff, bram } => Resources {
+                lut: u64::from(lut),
+                ff: u64::from(ff),
+                bram: u64::from(bram),
+                ..Resources::default()
+            },
             Unit::Mem {
                 depth,
                 width,
@@ -477,6 +493,7 @@ impl Unit {
             Unit::Div { quotient, divisor } => format!("div / {divisor}b -> {quotient}b"),
             Unit::Reg { bits } => format!("{bits} FF"),
             Unit::Delay { bits, cycles } => format!("{bits}b x {cycles} cycles"),
+            Unit::Ip { lut, ff, bram } => format!("IP {lut} LUT, {ff} FF, {bram} BRAM"),
             Unit::Mem {
                 depth,
                 width,

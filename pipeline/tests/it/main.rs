@@ -3,7 +3,8 @@
 //! clock, latency and step shapes (`clock`), front
 //! to back (`ftb`), ownership mappings (`mapping`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
-//! estimator against yosys (`cost`), the waveforms beyond the default set (`traces`), and the gradient and
+//! estimator against yosys (`cost`), what the mappings and ray-buffer
+//! placements cost (`architecture`), the waveforms beyond the default set (`traces`), and the gradient and
 //! shading unit against golden's shading (`shading`). What runs the `ercube` program is in
 //! the root `tests/it/`.
 
@@ -14,6 +15,7 @@ mod scenes;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 
+mod architecture;
 mod clock;
 mod cost;
 mod equivalence;

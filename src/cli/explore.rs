@@ -1,0 +1,454 @@
+//! `ercube explore`: the architecture sweep. For one volume and view it
+//! runs the pipeline model at every mapping (x cyclic width) x migration
+//! x ray-buffer placement x PE count and costs each configuration
+//! (`pipeline::cost::design`): resources, on-chip memory, external traffic,
+//! measured cycles, frames per second, and which listed parts it fits. It
+//! writes the table (CSV and Markdown, printed too) and a plot of frames
+//! per second against LUTs and block RAM. Configurations run in parallel; the
+//! output is in sweep order whatever the thread count.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use rayon::prelude::*;
+
+use golden::render::Prepared;
+use golden::skip::Skips;
+use pipeline::config::{Mapping, Migration, PipelineConfig, RayBuffer, MAX_PES};
+use pipeline::cost::design::{design, Design};
+use pipeline::cost::inventory::Geometry;
+use pipeline::cost::parts::parts;
+use pipeline::cost::throughput::RunSummary;
+use pipeline::cost::Target;
+
+use super::args::{with_threads, ViewArgs};
+use super::chip;
+use super::plot::{write_charts, Chart, Kind, Series};
+use super::progress::Stage;
+
+/// Arguments of `ercube explore`.
+#[derive(Debug, Args)]
+pub struct ExploreArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Base pipeline configuration (TOML); the sweep sets its mapping,
+    /// cyclic_width, ray_buffer and pes.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Mappings to sweep: blocks, interleave, cyclic.
+    #[arg(long, default_value = "blocks,interleave,cyclic")]
+    pub mappings: String,
+    /// Ray-buffer placements to sweep: on-chip, external.
+    #[arg(long, default_value = "on-chip,external")]
+    pub placements: String,
+    /// Migrations to sweep: between-slices, overlapped.
+    #[arg(long, default_value = "between-slices,overlapped")]
+    pub migrations: String,
+    /// PE counts to sweep (1..=256).
+    #[arg(long, default_value = "4,8,16,32,64")]
+    pub pes: String,
+    /// Cyclic block widths to sweep (1..=256; the cyclic mapping only).
+    #[arg(long, default_value = "1,2,4,8")]
+    pub widths: String,
+    /// Clock of the table's and plot's frame rates, MHz (each part's own
+    /// clock is used for its column of fits).
+    #[arg(long, default_value_t = 300.0, allow_hyphen_values = true)]
+    pub clock_mhz: f64,
+    /// Sample empty space too.
+    #[arg(long)]
+    pub no_skip_empty: bool,
+    /// Sample rays that cannot reach the image too.
+    #[arg(long)]
+    pub no_cull: bool,
+    /// PEs with the gradient and shading unit (headlight, default material).
+    #[arg(long)]
+    pub shade: bool,
+    /// Directory for explore.csv, explore.md and explore.png.
+    #[arg(long, default_value = "explore")]
+    pub out_dir: PathBuf,
+    /// Worker threads (default: all cores); results are the same for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Splits a comma-separated list, refusing empty items and an empty list.
+fn items<'a>(flag: &str, s: &'a str) -> Result<Vec<&'a str>> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    if v.iter().any(|x| x.is_empty()) {
+        bail!("{flag} '{s}': expected a comma-separated list without empty items");
+    }
+    Ok(v)
+}
+
+/// Parses a list of whole numbers in `lo..=hi`, duplicates dropped.
+fn numbers(flag: &str, s: &str, lo: u16, hi: u16) -> Result<Vec<u16>> {
+    let mut out = Vec::new();
+    for t in items(flag, s)? {
+        let n: u16 = t
+            .parse()
+            .ok()
+            .filter(|n| (lo..=hi).contains(n))
+            .with_context(|| format!("{flag}: '{t}' is not a whole number {lo}..={hi}"))?;
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    Ok(out)
+}
+
+fn mappings(s: &str) -> Result<Vec<Mapping>> {
+    let mut out = Vec::new();
+    for t in items("--mappings", s)? {
+        let m = Mapping::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(t))
+            .with_context(|| {
+                format!("--mappings: '{t}' is not a mapping (blocks, interleave, cyclic)")
+            })?;
+        if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    Ok(out)
+}
+
+fn placements(s: &str) -> Result<Vec<RayBuffer>> {
+    let mut out = Vec::new();
+    for t in items("--placements", s)? {
+        let p = [RayBuffer::OnChip, RayBuffer::External]
+            .into_iter()
+            .find(|p| p.name().eq_ignore_ascii_case(t))
+            .with_context(|| {
+                format!("--placements: '{t}' is not a placement (on-chip, external)")
+            })?;
+        if !out.contains(&p) {
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+fn migrations(s: &str) -> Result<Vec<Migration>> {
+    let mut out = Vec::new();
+    for t in items("--migrations", s)? {
+        let m = [Migration::BetweenSlices, Migration::Overlapped]
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(t))
+            .with_context(|| {
+                format!("--migrations: '{t}' is not a migration (between-slices, overlapped)")
+            })?;
+        if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    Ok(out)
+}
+
+/// The sweep's configurations, in output order: mapping, then width, then
+/// migration, then placement, then P. Cyclic at width 1 is the interleave and is left out
+/// when the interleave is swept too.
+fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>> {
+    let maps = mappings(&a.mappings)?;
+    let places = placements(&a.placements)?;
+    let migs = migrations(&a.migrations)?;
+    let pes = numbers("--pes", &a.pes, 1, MAX_PES)?;
+    let widths = numbers("--widths", &a.widths, 1, 256)?;
+    let mut out = Vec::new();
+    for &mapping in &maps {
+        let ws: Vec<u16> = match mapping {
+            Mapping::Cyclic => widths
+                .iter()
+                .copied()
+                .filter(|&w| !(w == 1 && maps.contains(&Mapping::Interleave)))
+                .collect(),
+            _ => vec![base.cyclic_width],
+        };
+        for &cyclic_width in &ws {
+            for &migration in &migs {
+                for &ray_buffer in &places {
+                    for &p in &pes {
+                        let c = PipelineConfig {
+                            mapping,
+                            cyclic_width,
+                            migration,
+                            ray_buffer,
+                            pes: p,
+                            ..*base
+                        };
+                        c.validate()?;
+                        out.push(c);
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Runs `ercube explore`.
+pub fn run(a: &ExploreArgs) -> Result<()> {
+    if !a.clock_mhz.is_finite() || a.clock_mhz <= 0.0 || a.clock_mhz > 2000.0 {
+        bail!(
+            "--clock-mhz {} must be a clock above 0 and at most 2000 MHz",
+            a.clock_mhz
+        );
+    }
+    let base = match &a.config {
+        Some(p) => PipelineConfig::from_toml_file(p)?,
+        None => PipelineConfig::default(),
+    };
+    base.validate()?;
+    let cfgs = configs(a, &base)?;
+    let (vol, tf, cam) = a.view.load()?;
+    let lut = chip::pipeline_lut(&base, &vol, &tf);
+    let prep = Prepared::new(&vol, &cam)?;
+    let nx = prep.view.dims[0];
+    if let Some(c) = cfgs.iter().find(|c| usize::from(c.pes) > nx) {
+        bail!(
+            "--pes {}: more PEs than this view's {nx} voxel columns",
+            c.pes
+        );
+    }
+    let skips = Skips {
+        empty: !a.no_skip_empty,
+        cull: !a.no_cull,
+    };
+    let shade = a.shade.then(golden::shading::Shade::default);
+    let label = a.view.source.label();
+    let designs: Vec<Design> = with_threads(a.threads, || {
+        let _s = Stage::start(format!("clocking {} configurations", cfgs.len()));
+        cfgs.par_iter()
+            .map(|c| {
+                let frame = pipeline::run_frame_shaded(
+                    c,
+                    &vol,
+                    &lut,
+                    &prep,
+                    skips,
+                    shade.as_ref(),
+                    waves::Tracer::disabled(),
+                )
+                .with_context(|| pipeline::cost::arch::label(c))?;
+                let plan = pipeline::host::plan(c, &prep.view)?;
+                let geo = Geometry {
+                    dims: prep.view.dims,
+                    pes: c.pes,
+                    regions: plan.regions.len() as u32,
+                    shading: a.shade,
+                };
+                let run = RunSummary::new(c, label.as_str(), geo, (&frame, &plan));
+                Ok(design(c, Target::Xc7, &run))
+            })
+            .collect::<Result<Vec<_>>>()
+    })?;
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("creating {}", a.out_dir.display()))?;
+    let heading = format!(
+        "{label}, eye ({}, {}, {}), skipping {}, {} configurations; frames/s at {} MHz",
+        cam.eye.x,
+        cam.eye.y,
+        cam.eye.z,
+        match (skips.empty, skips.cull) {
+            (true, true) => "empty space and culling",
+            (true, false) => "empty space",
+            (false, true) => "culling",
+            (false, false) => "off",
+        },
+        designs.len(),
+        a.clock_mhz
+    );
+    let md = markdown(&heading, &designs, a.clock_mhz);
+    let csv = csv(&designs, a.clock_mhz);
+    let write = |name: &str, text: &str| {
+        let p = a.out_dir.join(name);
+        golden::image::write_atomic(&p, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", p.display()))
+    };
+    write("explore.csv", &csv)?;
+    write("explore.md", &md)?;
+    plot(
+        &a.out_dir.join("explore.png"),
+        &heading,
+        &designs,
+        a.clock_mhz,
+    )?;
+    super::say(md.trim_end());
+    Ok(())
+}
+
+/// The first listed part (smallest first) a design fits, if any.
+fn smallest_fit(d: &Design) -> Option<&'static str> {
+    d.parts.iter().find(|p| p.fits).map(|p| p.part)
+}
+
+fn markdown(heading: &str, designs: &[Design], clock: f64) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "{heading}\n");
+    let _ = writeln!(
+        o,
+        "| mapping | migration | ray buffer | P | cycles | util | stall | memory | DSP | LUT | FF | RAMB18 | on-chip Mbit | MB/frame (voxels + rays) | frames/s | GB/s | fits (frames/s at the part's clock) |"
+    );
+    let _ = writeln!(
+        o,
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"
+    );
+    for d in designs {
+        let fps = d.fps(clock);
+        let fits: Vec<String> = d
+            .parts
+            .iter()
+            .filter(|f| f.fits)
+            .map(|f| format!("{} {:.0}", f.part, f.fps))
+            .collect();
+        let _ = writeln!(
+            o,
+            "| {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} | {} | {:.2} | {:.3} + {:.3} | {:.1} | {:.2} | {} |",
+            d.mapping,
+            d.migration,
+            d.ray_buffer,
+            d.pes,
+            d.cycles,
+            d.utilization,
+            d.stall,
+            d.memory,
+            d.resources.dsp,
+            d.resources.lut,
+            d.resources.ff,
+            d.resources.bram,
+            d.on_chip_bits as f64 / 1e6,
+            d.voxel_bytes / 1e6,
+            d.ray_bytes / 1e6,
+            fps,
+            d.external_bytes() * fps / 1e9,
+            if fits.is_empty() { "-".to_owned() } else { fits.join(", ") }
+        );
+    }
+    o
+}
+
+fn csv(designs: &[Design], clock: f64) -> String {
+    let mut o = String::from(
+        "mapping,migration,ray_buffer,pes,cycles,utilization,stall,memory,dsp,lut,ff,bram18,on_chip_bits,voxel_bytes,ray_bytes,fps,external_gbps,fits\n",
+    );
+    for d in designs {
+        let fps = d.fps(clock);
+        let _ = writeln!(
+            o,
+            "{},{},{},{},{},{:.4},{},{},{},{},{},{},{},{:.0},{:.0},{:.3},{:.4},{}",
+            d.mapping,
+            d.migration,
+            d.ray_buffer,
+            d.pes,
+            d.cycles,
+            d.utilization,
+            d.stall,
+            d.memory,
+            d.resources.dsp,
+            d.resources.lut,
+            d.resources.ff,
+            d.resources.bram,
+            d.on_chip_bits,
+            d.voxel_bytes,
+            d.ray_bytes,
+            fps,
+            d.external_bytes() * fps / 1e9,
+            d.fitting().join(" ")
+        );
+    }
+    o
+}
+
+/// The `k`-th of twelve distinguishable colours.
+fn colour(k: usize) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor as C;
+    const P: [C; 12] = [
+        C(31, 119, 180),
+        C(255, 127, 14),
+        C(44, 160, 44),
+        C(214, 39, 40),
+        C(148, 103, 189),
+        C(140, 86, 75),
+        C(227, 119, 194),
+        C(127, 127, 127),
+        C(188, 189, 34),
+        C(23, 190, 207),
+        C(0, 0, 128),
+        C(128, 0, 0),
+    ];
+    P[k % P.len()]
+}
+
+/// Frames per second against LUTs, one line per architecture over P; and
+/// against block RAM, the points coloured by the smallest listed part they
+/// fit (block RAM is what separates the placements).
+fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -> Result<()> {
+    let mut archs: Vec<&str> = Vec::new();
+    for d in designs {
+        if !archs.contains(&d.arch.as_str()) {
+            archs.push(&d.arch);
+        }
+    }
+    let by_arch: Vec<Series> = archs
+        .iter()
+        .map(|a| {
+            let pts = designs
+                .iter()
+                .filter(|d| d.arch == *a)
+                .map(|d| (d.resources.lut as f64, d.fps(clock)))
+                .collect();
+            Series::new(*a, pts, Kind::LinePoints)
+        })
+        .enumerate()
+        .map(|(k, s)| s.with_color(colour(k)))
+        .collect();
+    let mut by_part: Vec<Series> = parts(Target::Xc7)
+        .iter()
+        .map(|p| {
+            let pts = designs
+                .iter()
+                .filter(|d| smallest_fit(d) == Some(p.name))
+                .map(|d| (d.resources.bram as f64, d.fps(clock)))
+                .collect();
+            Series::new(format!("fits {} first", p.name), pts, Kind::Points)
+        })
+        .enumerate()
+        .map(|(k, s)| s.with_color(colour(k)))
+        .collect();
+    by_part.push(
+        Series::new(
+            "fits no listed part",
+            designs
+                .iter()
+                .filter(|d| smallest_fit(d).is_none())
+                .map(|d| (d.resources.bram as f64, d.fps(clock)))
+                .collect(),
+            Kind::Points,
+        )
+        .with_color(plotters::style::RGBColor(160, 160, 160)),
+    );
+    by_part.retain(|s| !s.points.is_empty());
+    // The smallest parts' points on top where points coincide.
+    by_part.reverse();
+    let title = heading.split(", eye").next().unwrap_or(heading);
+    let charts = [
+        Chart {
+            title: format!("{title}: frames/s vs LUTs, by architecture"),
+            x_label: "LUT6 (array)".into(),
+            y_label: format!("frames/s at {clock} MHz"),
+            x_log: true,
+            y_log: true,
+            series: by_arch,
+        },
+        Chart {
+            title: "frames/s vs block RAM, by the smallest part that fits".into(),
+            x_label: "RAMB18 (array, before UltraRAM takes any)".into(),
+            y_label: format!("frames/s at {clock} MHz"),
+            x_log: true,
+            y_log: true,
+            series: by_part,
+        },
+    ];
+    write_charts(path, &charts, (900, 620))
+}
