@@ -135,6 +135,33 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
     })
 }
 
+/// Where the host reads the view-space scalars it loads into the PEs:
+/// the volume through the view's axes, or golden's slice stack of the
+/// same view (the same values, already permuted; a frame that hands the
+/// volume to the stack holds the voxels once).
+#[derive(Clone, Copy)]
+pub enum VoxelSource<'a> {
+    /// A volume seen through `view`.
+    Volume(&'a Volume, &'a View),
+    /// Golden's permuted, padded stack of the view.
+    Stack(&'a golden::slices::SliceStack),
+}
+
+impl VoxelSource<'_> {
+    /// The scalar at view-space `(x, y, z)`.
+    #[inline]
+    pub fn get(&self, x: usize, y: usize, z: usize) -> u16 {
+        match self {
+            VoxelSource::Volume(vol, view) => {
+                let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
+                vol.get(i.x as usize, i.y as usize, i.z as usize)
+            }
+            // Stacks hold u8 or u16 scalars, exact in f32.
+            VoxelSource::Stack(s) => s.slice(z).get((y + 1) * s.row + x + 1) as u16,
+        }
+    }
+}
+
 /// Voxel words of the view-space volume, `[z][y][x]`: each scalar scaled
 /// to the `voxel` word (shifted up when the word is wider than the data,
 /// quantised down with the voxel format's rounding when narrower).

@@ -40,4 +40,6 @@ pub mod skip;
 pub mod stages;
 pub mod tables;
 
-pub use array::{run_frame, run_frame_shaded, run_frame_with, Frame, RunError};
+pub use array::{
+    run_frame, run_frame_from_stack, run_frame_shaded, run_frame_with, Frame, RunError,
+};

@@ -16,6 +16,47 @@ use crate::host::SlicePlan;
 use crate::mapping::ColumnMap;
 use crate::stages::passes::PassState;
 
+/// A PE's voxel memory as the model stores it: the voxel words, or for
+/// 8-bit data the data bytes beside the 256 words they quantise to (the
+/// same words on every read, in half the simulator's memory; the chip's
+/// memory is `voxel` bits wide either way, as `crate::cost` sizes it).
+#[derive(Debug, Clone)]
+pub enum VoxelMem {
+    /// Voxel words.
+    Words(Vec<u16>),
+    /// Data bytes and the word each byte value quantises to.
+    Codes {
+        /// The data bytes.
+        codes: Vec<u8>,
+        /// `voxel_word` of every byte value.
+        words: Box<[u16; 256]>,
+    },
+}
+
+impl VoxelMem {
+    /// The word at index `i`.
+    #[inline]
+    pub fn get(&self, i: usize) -> u16 {
+        match self {
+            VoxelMem::Words(w) => w[i],
+            VoxelMem::Codes { codes, words } => words[usize::from(codes[i])],
+        }
+    }
+
+    /// Words held.
+    pub fn len(&self) -> usize {
+        match self {
+            VoxelMem::Words(w) => w.len(),
+            VoxelMem::Codes { codes, .. } => codes.len(),
+        }
+    }
+
+    /// Whether it holds no word.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// The local index of a column a PE's memory does not hold.
 const ABSENT: u32 = u32::MAX;
 
@@ -183,7 +224,7 @@ pub struct Pe {
     /// Who owns which column while the array samples.
     pub map: ColumnMap,
     /// Voxel words `[z][y][l]`, `l` the local index of a held column.
-    pub(crate) mem: Vec<u16>,
+    pub(crate) mem: VoxelMem,
     /// The local index of every column this PE's memory holds (its own
     /// and its aprons), [`ABSENT`] for the rest: the address decoder.
     local: Vec<u32>,
@@ -236,9 +277,10 @@ pub struct Pe {
 }
 
 impl Pe {
-    /// PE `k` of `map` over a `[nx, ny, nz]` volume whose voxel words are
-    /// `words` (`[z][y][x]`): its memory loaded with the columns it holds.
-    pub fn new(k: usize, map: ColumnMap, words: &[u16], dims: [usize; 3]) -> Pe {
+    /// PE `k` of `map` over a `[nx, ny, nz]` volume, its memory `mem`
+    /// loaded with the columns it holds (`[z][y][l]`, see
+    /// [`ColumnMap::held`]).
+    pub fn new(k: usize, map: ColumnMap, mem: VoxelMem, dims: [usize; 3]) -> Pe {
         let [nx, ny, nz] = dims;
         let held = map.held(k);
         let cols = if map.round_robin() {
@@ -251,13 +293,7 @@ impl Pe {
             local[c] = l as u32;
         }
         let w = held.len();
-        let mut mem = Vec::with_capacity(w * ny * nz);
-        for z in 0..nz {
-            for y in 0..ny {
-                let base = (z * ny + y) * nx;
-                mem.extend(held.iter().map(|&c| words[base + c]));
-            }
-        }
+        debug_assert_eq!(mem.len(), w * ny * nz);
         Pe {
             k,
             cols,
@@ -291,7 +327,8 @@ impl Pe {
     #[inline]
     pub(crate) fn voxel(&mut self, z: usize, y: usize, x: usize) -> u16 {
         self.counters.mem_reads += 1;
-        self.mem[(z * self.ny + y) * self.width + self.local[x] as usize]
+        self.mem
+            .get((z * self.ny + y) * self.width + self.local[x] as usize)
     }
 
     /// Whether this PE's memory holds column `c`.

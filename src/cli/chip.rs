@@ -139,19 +139,20 @@ pub struct PipelineRun {
     pub time_s: f64,
 }
 
-/// Renders `prep` through the pipeline, the controller skipping what
-/// `skips` allows and clipping to `prep`'s planes.
+/// Renders `prep` (of `data_bits`-bit data) through the pipeline, the PEs
+/// loading from its slice stack, the controller skipping what `skips`
+/// allows and clipping to `prep`'s planes.
 pub fn run(
     a: &PipelineArgs,
     cfg: &PipelineConfig,
-    vol: &Volume,
+    data_bits: u32,
     lut: &Lut,
     prep: &Prepared,
     (skips, shade): (golden::skip::Skips, Option<&golden::shading::Shade>),
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
-    let frame = pipeline::run_frame_shaded(cfg, vol, lut, prep, skips, shade, tr)?;
+    let frame = pipeline::run_frame_from_stack(cfg, data_bits, lut, prep, skips, shade, tr)?;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {

@@ -151,9 +151,11 @@ pub fn frame_bytes(dims: [usize; 3], voxel: VoxelType, spec: &FrameSpec) -> u128
         // The classified RGBA f32 stack and its runs.
         Some(Technique::ShearWarp) => 16 * voxels + 8 * ny * nz,
         Some(Technique::Slice(_) | Technique::Reference) => 0,
-        // The voxel words (u16) the host computes and the PE memories
-        // holding them.
-        None => 4 * voxels,
+        // The PE memories, loaded from the stack: the data's bytes per
+        // voxel (8-bit data stays bytes), once under column blocks and up
+        // to four times under the interleave (each column with its
+        // three-column apron).
+        None => 4 * k * voxels,
     };
     // Baseplanes (up to the largest face, RGBA f32, two buffers) and the
     // image with its copies.

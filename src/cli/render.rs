@@ -391,14 +391,18 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     slice.apply_tf(&mut opts, &tf)?;
     let shade = opts.slice.shade;
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
-    let prep = slice.prepared(&vol, &cam)?;
+    let shape = (vol.dims(), vol.spacing());
+    let bits = vol.kind().bits();
+    // The PEs load from golden's stack, which takes the volume's voxels:
+    // the frame holds them once.
+    let prep = slice.prepared_owning(vol, &cam)?;
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         timed(a.repeat, || {
             chip::run(
                 &a.pipeline,
                 &cfg,
-                &vol,
+                bits,
                 &lut,
                 &prep,
                 (opts.slice.skips, shade.as_ref()),
@@ -429,7 +433,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         };
         let mut v = frame_json(
             a.method.name(),
-            (vol.dims(), vol.spacing()),
+            shape,
             &prep.view,
             cam.eye,
             run.time_s,

@@ -36,9 +36,9 @@ use std::sync::Arc;
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
-use crate::host::{plan, voxel_words, FramePlan, PlanError, RegionPlan, SlicePlan};
+use crate::host::{plan, FramePlan, PlanError, RegionPlan, SlicePlan, VoxelSource};
 use crate::mapping::ColumnMap;
-use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError};
+use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError, VoxelMem};
 use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
 use crate::stages::raybuf::{Channel, RayBufferStats};
@@ -249,6 +249,27 @@ impl Array {
         view: &View,
         tracer: Tracer,
     ) -> Result<Array, RunError> {
+        let bits = volume.kind().bits();
+        Array::load(
+            cfg,
+            VoxelSource::Volume(volume, view),
+            bits,
+            lut,
+            view,
+            tracer,
+        )
+    }
+
+    /// [`Array::new`], reading the `data_bits`-bit scalars from `source`
+    /// (the volume, or golden's slice stack of the same view).
+    pub fn load(
+        cfg: &PipelineConfig,
+        source: VoxelSource,
+        data_bits: u32,
+        lut: &golden::tf::Lut,
+        view: &View,
+        tracer: Tracer,
+    ) -> Result<Array, RunError> {
         cfg.validate()?;
         for &n in &view.dims {
             cfg.check_extent(n as u32)?;
@@ -256,13 +277,15 @@ impl Array {
         let tables = Tables::new(cfg, lut)?;
         let dp = Arc::new(Datapath::new(*cfg, tables));
         let mut host_stats = QuantStats::default();
-        let words = voxel_words(cfg, volume, view, &mut host_stats);
         let p = usize::from(cfg.pes);
         let nx = view.dims[0];
         let map = ColumnMap::of(cfg, nx);
-        let pes = (0..p)
-            .map(|k| {
-                let mut pe = Pe::new(k, map, &words, view.dims);
+        let mems = load_memories(cfg, source, data_bits, map, view.dims, &mut host_stats);
+        let pes = mems
+            .into_iter()
+            .enumerate()
+            .map(|(k, mem)| {
+                let mut pe = Pe::new(k, map, mem, view.dims);
                 pe.sparse_links = cfg.link_skip_empty;
                 pe
             })
@@ -522,6 +545,71 @@ impl Array {
     }
 }
 
+/// Every PE's voxel memory, read from `source` in one pass: each voxel is
+/// quantised once (its events counted in `st`, as the host's) and written
+/// to every PE holding its column (its owner and, under a round-robin
+/// mapping, the neighbours whose aprons include it).
+fn load_memories(
+    cfg: &PipelineConfig,
+    source: VoxelSource,
+    data_bits: u32,
+    map: ColumnMap,
+    [nx, ny, nz]: [usize; 3],
+    st: &mut QuantStats,
+) -> Vec<VoxelMem> {
+    let held: Vec<Vec<usize>> = (0..map.pes).map(|k| map.held(k)).collect();
+    let mut holders = vec![Vec::new(); nx];
+    for (k, cols) in held.iter().enumerate() {
+        for &c in cols {
+            holders[c].push(k);
+        }
+    }
+    let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
+    if data_bits <= 8 {
+        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
+            word(v as u16, &mut QuantStats::default())
+        }));
+        let mut codes: Vec<Vec<u8>> = held
+            .iter()
+            .map(|h| Vec::with_capacity(h.len() * ny * nz))
+            .collect();
+        for z in 0..nz {
+            for y in 0..ny {
+                for (x, ks) in holders.iter().enumerate() {
+                    let v = source.get(x, y, z);
+                    let w = word(v, st);
+                    debug_assert_eq!(w, table[usize::from(v)]);
+                    for &k in ks {
+                        codes[k].push(v as u8);
+                    }
+                }
+            }
+        }
+        return codes
+            .into_iter()
+            .map(|codes| VoxelMem::Codes {
+                codes,
+                words: table.clone(),
+            })
+            .collect();
+    }
+    let mut words: Vec<Vec<u16>> = held
+        .iter()
+        .map(|h| Vec::with_capacity(h.len() * ny * nz))
+        .collect();
+    for z in 0..nz {
+        for y in 0..ny {
+            for (x, ks) in holders.iter().enumerate() {
+                let w = word(source.get(x, y, z), st);
+                for &k in ks {
+                    words[k].push(w);
+                }
+            }
+        }
+    }
+    words.into_iter().map(VoxelMem::Words).collect()
+}
+
 /// Runs one frame: plans, loads, clocks and reads out.
 pub fn run_frame(
     cfg: &PipelineConfig,
@@ -559,10 +647,6 @@ pub fn run_frame_shaded(
     shade: Option<&golden::shading::Shade>,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
-    let mut array = Array::new(cfg, volume, lut, &prep.view, tracer)?;
-    if let Some(sh) = shade {
-        array.set_shading(sh, &prep.view, volume.kind().bits())?;
-    }
     let block = usize::from(cfg.occupancy_block);
     let mm = if prep.blocks.block == block {
         prep.blocks.clone()
@@ -570,11 +654,72 @@ pub fn run_frame_shaded(
         golden::occupancy::MinMax::new(volume, block)
             .map_err(|e| RunError::Plan(PlanError::Golden(e)))?
     };
+    let source = VoxelSource::Volume(volume, &prep.view);
+    run_prepared(
+        cfg,
+        (source, volume.kind().bits()),
+        lut,
+        prep,
+        mm,
+        skips,
+        shade,
+        tracer,
+    )
+}
+
+/// [`run_frame_shaded`] without the volume: the PEs load from `prep`'s
+/// slice stack (the same view-space scalars, `data_bits` bits each), so a
+/// caller that handed its volume to the stack holds the voxels once.
+/// `prep` must have been prepared with min-max blocks of the
+/// configuration's `occupancy_block`.
+pub fn run_frame_from_stack(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    shade: Option<&golden::shading::Shade>,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    if prep.blocks.block != usize::from(cfg.occupancy_block) {
+        return Err(RunError::Schedule(format!(
+            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
+            prep.blocks.block, cfg.occupancy_block
+        )));
+    }
+    let source = VoxelSource::Stack(&prep.stack);
+    let mm = prep.blocks.clone();
+    run_prepared(
+        cfg,
+        (source, data_bits),
+        lut,
+        prep,
+        mm,
+        skips,
+        shade,
+        tracer,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_prepared(
+    cfg: &PipelineConfig,
+    (source, data_bits): (VoxelSource, u32),
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    mm: golden::occupancy::MinMax,
+    skips: golden::skip::Skips,
+    shade: Option<&golden::shading::Shade>,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
+    if let Some(sh) = shade {
+        array.set_shading(sh, &prep.view, data_bits)?;
+    }
     let layout = golden::methods::Method::Er
         .layout(&prep.view)
         .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
-    let (mask, counts) =
-        crate::skip::plan_mask(&array.dp, &mm, volume.kind().bits(), prep, &layout, skips);
+    let (mask, counts) = crate::skip::plan_mask(&array.dp, &mm, data_bits, prep, &layout, skips);
     array.set_skipping(mask, counts, &prep.view);
     array.run(&prep.view)
 }

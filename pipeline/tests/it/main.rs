@@ -20,6 +20,7 @@ mod clock;
 mod cost;
 mod equivalence;
 mod ftb;
+mod load;
 mod mapping;
 mod model;
 mod shading;

@@ -139,7 +139,7 @@ impl Pe {
             return e;
         }
         let w = self.cols.len();
-        let at = |z: usize, y: usize, c: usize| self.mem[(z * self.ny + y) * w + c];
+        let at = |z: usize, y: usize, c: usize| self.mem.get((z * self.ny + y) * w + c);
         e.left = [at(z, y0, 0), at(z, y1, 0)];
         if shade {
             let (ylo, yhi) = outer_rows(y0, y1, self.ny);
