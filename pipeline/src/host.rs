@@ -173,13 +173,17 @@ pub fn voxel_words(
 ) -> Vec<u16> {
     let [nx, ny, nz] = view.dims;
     let data_bits = volume.kind().bits();
+    let source = VoxelSource::Volume(volume, view);
     let mut out = Vec::with_capacity(nx * ny * nz);
     for z in 0..nz {
         for y in 0..ny {
             for x in 0..nx {
-                let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
-                let v = volume.get(i.x as usize, i.y as usize, i.z as usize);
-                out.push(crate::skip::voxel_word(cfg, v, data_bits, st));
+                out.push(crate::skip::voxel_word(
+                    cfg,
+                    source.get(x, y, z),
+                    data_bits,
+                    st,
+                ));
             }
         }
     }

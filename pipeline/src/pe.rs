@@ -277,12 +277,11 @@ pub struct Pe {
 }
 
 impl Pe {
-    /// PE `k` of `map` over a `[nx, ny, nz]` volume, its memory `mem`
-    /// loaded with the columns it holds (`[z][y][l]`, see
-    /// [`ColumnMap::held`]).
-    pub fn new(k: usize, map: ColumnMap, mem: VoxelMem, dims: [usize; 3]) -> Pe {
+    /// PE `k` of `map` over a `[nx, ny, nz]` volume, holding columns
+    /// `held` ([`ColumnMap::held`]), its memory `mem` loaded with them
+    /// (`[z][y][l]`).
+    pub fn new(k: usize, map: ColumnMap, held: &[usize], mem: VoxelMem, dims: [usize; 3]) -> Pe {
         let [nx, ny, nz] = dims;
-        let held = map.held(k);
         let cols = if map.round_robin() {
             0..0
         } else {

@@ -99,48 +99,41 @@ fn numbers(flag: &str, s: &str, lo: u16, hi: u16) -> Result<Vec<u16>> {
 }
 
 fn mappings(s: &str) -> Result<Vec<Mapping>> {
-    let mut out = Vec::new();
-    for t in items("--mappings", s)? {
-        let m = Mapping::ALL
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(t))
-            .with_context(|| {
-                format!("--mappings: '{t}' is not a mapping (blocks, interleave, cyclic)")
-            })?;
-        if !out.contains(&m) {
-            out.push(m);
-        }
-    }
-    Ok(out)
+    named("--mappings", "mapping", s, &Mapping::ALL, Mapping::name)
 }
 
 fn placements(s: &str) -> Result<Vec<RayBuffer>> {
-    let mut out = Vec::new();
-    for t in items("--placements", s)? {
-        let p = [RayBuffer::OnChip, RayBuffer::External]
-            .into_iter()
-            .find(|p| p.name().eq_ignore_ascii_case(t))
-            .with_context(|| {
-                format!("--placements: '{t}' is not a placement (on-chip, external)")
-            })?;
-        if !out.contains(&p) {
-            out.push(p);
-        }
-    }
-    Ok(out)
+    let all = [RayBuffer::OnChip, RayBuffer::External];
+    named("--placements", "placement", s, &all, RayBuffer::name)
 }
 
 fn migrations(s: &str) -> Result<Vec<Migration>> {
+    let all = [Migration::BetweenSlices, Migration::Overlapped];
+    named("--migrations", "migration", s, &all, Migration::name)
+}
+
+/// The values of `all` that the comma-separated names of `flag` list
+/// (case-insensitive, each once, in the order given); an unknown name is a
+/// one-line error listing what `flag` takes.
+fn named<T: Copy + PartialEq>(
+    flag: &str,
+    what: &str,
+    s: &str,
+    all: &[T],
+    name: fn(T) -> &'static str,
+) -> Result<Vec<T>> {
     let mut out = Vec::new();
-    for t in items("--migrations", s)? {
-        let m = [Migration::BetweenSlices, Migration::Overlapped]
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(t))
+    for t in items(flag, s)? {
+        let v = all
+            .iter()
+            .copied()
+            .find(|&v| name(v).eq_ignore_ascii_case(t))
             .with_context(|| {
-                format!("--migrations: '{t}' is not a migration (between-slices, overlapped)")
+                let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
+                format!("{flag}: '{t}' is not a {what} ({})", names.join(", "))
             })?;
-        if !out.contains(&m) {
-            out.push(m);
+        if !out.contains(&v) {
+            out.push(v);
         }
     }
     Ok(out)

@@ -280,12 +280,13 @@ impl Array {
         let p = usize::from(cfg.pes);
         let nx = view.dims[0];
         let map = ColumnMap::of(cfg, nx);
-        let mems = load_memories(cfg, source, data_bits, map, view.dims, &mut host_stats);
+        let held: Vec<Vec<usize>> = (0..p).map(|k| map.held(k)).collect();
+        let mems = load_memories(cfg, source, data_bits, &held, view.dims, &mut host_stats);
         let pes = mems
             .into_iter()
             .enumerate()
             .map(|(k, mem)| {
-                let mut pe = Pe::new(k, map, mem, view.dims);
+                let mut pe = Pe::new(k, map, &held[k], mem, view.dims);
                 pe.sparse_links = cfg.link_skip_empty;
                 pe
             })
@@ -545,7 +546,8 @@ impl Array {
     }
 }
 
-/// Every PE's voxel memory, read from `source` in one pass: each voxel is
+/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
+/// `source` in one pass: each voxel is
 /// quantised once (its events counted in `st`, as the host's) and written
 /// to every PE holding its column (its owner and, under a round-robin
 /// mapping, the neighbours whose aprons include it).
@@ -553,11 +555,10 @@ fn load_memories(
     cfg: &PipelineConfig,
     source: VoxelSource,
     data_bits: u32,
-    map: ColumnMap,
+    held: &[Vec<usize>],
     [nx, ny, nz]: [usize; 3],
     st: &mut QuantStats,
 ) -> Vec<VoxelMem> {
-    let held: Vec<Vec<usize>> = (0..map.pes).map(|k| map.held(k)).collect();
     let mut holders = vec![Vec::new(); nx];
     for (k, cols) in held.iter().enumerate() {
         for &c in cols {

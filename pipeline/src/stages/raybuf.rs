@@ -135,7 +135,7 @@ impl Channel {
     }
 
     /// The cycle every issued transfer has completed.
-    pub(crate) fn idle_at(&mut self) -> u64 {
+    pub(crate) fn idle_at(&self) -> u64 {
         self.busy.last().map_or(0, |iv| iv.1)
     }
 

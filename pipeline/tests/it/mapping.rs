@@ -65,6 +65,32 @@ fn results(f: &Frame) -> (&[[i64; 4]], &[u64], u64, pipeline::fixed::QuantStats,
     )
 }
 
+/// The frame of `cfg` with skipping on and the sampling stage clocked cycle
+/// by cycle, PEs stepped in reverse when `reversed`: what the whole-slice
+/// path must agree with.
+fn clocked_frame(
+    cfg: &PipelineConfig,
+    vol: &Volume,
+    lut: &Lut,
+    prep: &Prepared,
+    reversed: bool,
+) -> Frame {
+    let layout = Method::Er.layout(&prep.view).expect("layout");
+    let mm = golden::occupancy::MinMax::new(vol, usize::from(cfg.occupancy_block)).expect("blocks");
+    let dp = pipeline::datapath::Datapath::new(
+        *cfg,
+        pipeline::tables::Tables::new(cfg, lut).expect("tables"),
+    );
+    let (mask, counts) = pipeline::skip::plan_mask(&dp, &mm, 8, prep, &layout, Skips::default());
+    let mut a = Array::new(cfg, vol, lut, &prep.view, Tracer::disabled()).expect("array");
+    a.set_skipping(mask, counts, &prep.view);
+    a.set_clocked(true);
+    if reversed {
+        a.set_step_order((0..usize::from(cfg.pes)).rev().collect());
+    }
+    a.run(&prep.view).expect("clocked frame")
+}
+
 #[derive(Debug, Clone)]
 struct Case {
     dims: [usize; 3],
@@ -316,19 +342,7 @@ fn round_robin_balances_skipped_rows() {
             on.pes.iter().map(|p| p.rays_held_peak).max().unwrap_or(0),
         );
         sample_cycles.push(on.stages.sample);
-        let layout = Method::Er.layout(&prep.view).expect("layout");
-        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
-        let dp = pipeline::datapath::Datapath::new(
-            cfg,
-            pipeline::tables::Tables::new(&cfg, &lut).expect("tables"),
-        );
-        let (mask, counts) =
-            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
-        let mut a = Array::new(&cfg, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
-        a.set_skipping(mask, counts, &prep.view);
-        a.set_clocked(true);
-        a.set_step_order((0..8).rev().collect());
-        let clocked = a.run(&prep.view).expect("clocked frame");
+        let clocked = clocked_frame(&cfg, &vol, &lut, &prep, true);
         assert_eq!(signature(&clocked), signature(&on), "{}", mapping.name());
     }
     assert!(
@@ -426,19 +440,7 @@ fn external_ray_buffer_changes_cycles_not_bits() {
             assert!(rb.read_bytes >= f.samples * per_ray);
             assert!(rb.written_bytes >= f.samples * per_ray);
             memory.push(f.stages.memory);
-            let layout = Method::Er.layout(&prep.view).expect("layout");
-            let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
-            let dp = pipeline::datapath::Datapath::new(
-                cfg,
-                pipeline::tables::Tables::new(&cfg, &lut).expect("tables"),
-            );
-            let (mask, counts) =
-                pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
-            let mut a =
-                Array::new(&cfg, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
-            a.set_skipping(mask, counts, &prep.view);
-            a.set_clocked(true);
-            let clocked = a.run(&prep.view).expect("clocked frame");
+            let clocked = clocked_frame(&cfg, &vol, &lut, &prep, false);
             assert_eq!(signature(&clocked), signature(&f), "{}", mapping.name());
         }
         println!("{}: memory cycles {memory:?}", order.name());
@@ -491,20 +493,7 @@ fn overlapped_migration_hides_link_time() {
         assert!(o.stages.migrate < b.stages.migrate);
         let sent = |f: &Frame| f.pes.iter().map(|p| p.rays_sent).sum::<u64>();
         assert_eq!(sent(&o), sent(&b), "the same rays cross the links");
-        let layout = Method::Er.layout(&prep.view).expect("layout");
-        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
-        let dp = pipeline::datapath::Datapath::new(
-            overlapped,
-            pipeline::tables::Tables::new(&overlapped, &lut).expect("tables"),
-        );
-        let (mask, counts) =
-            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
-        let mut a =
-            Array::new(&overlapped, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
-        a.set_skipping(mask, counts, &prep.view);
-        a.set_clocked(true);
-        a.set_step_order((0..8).rev().collect());
-        let clocked = a.run(&prep.view).expect("clocked frame");
+        let clocked = clocked_frame(&overlapped, &vol, &lut, &prep, true);
         assert_eq!(signature(&clocked), signature(&o), "{}", mapping.name());
     }
 }
@@ -553,19 +542,7 @@ fn transparent_rows_stay_off_the_links() {
         assert_eq!(s.samples_per_slice, d.samples_per_slice);
         assert!(sent(&s) * 2 < sent(&d), "{} vs {}", sent(&s), sent(&d));
         assert!(s.cycles < d.cycles);
-        let layout = Method::Er.layout(&prep.view).expect("layout");
-        let mm = golden::occupancy::MinMax::new(&vol, 4).expect("blocks");
-        let dp = pipeline::datapath::Datapath::new(
-            sparse_cfg,
-            pipeline::tables::Tables::new(&sparse_cfg, &lut).expect("tables"),
-        );
-        let (mask, counts) =
-            pipeline::skip::plan_mask(&dp, &mm, 8, &prep, &layout, Skips::default());
-        let mut a =
-            Array::new(&sparse_cfg, &vol, &lut, &prep.view, Tracer::disabled()).expect("array");
-        a.set_skipping(mask, counts, &prep.view);
-        a.set_clocked(true);
-        let clocked = a.run(&prep.view).expect("clocked frame");
+        let clocked = clocked_frame(&sparse_cfg, &vol, &lut, &prep, false);
         assert_eq!(signature(&clocked), signature(&s));
     }
 }
