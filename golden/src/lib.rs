@@ -24,6 +24,7 @@ pub mod ergaze;
 pub mod error;
 pub mod gaze;
 pub mod geometry;
+pub mod gradients;
 pub mod image;
 pub mod load;
 pub mod merge;

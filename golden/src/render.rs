@@ -13,6 +13,7 @@ use crate::ergaze::ErGazeStats;
 use crate::error::{input, Result};
 use crate::gaze::GazeStats;
 use crate::geometry::View;
+use crate::gradients::Gradients;
 use crate::image::Image;
 use crate::methods::{self, Method, Options, Output};
 use crate::mipcast::{self, MipOptions, MipStats};
@@ -20,7 +21,7 @@ use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
-use crate::shading::{gradients, GradientMode, Gradients, Shader};
+use crate::shading::{GradientMode, Shader};
 use crate::shearwarp::{Classified, SwOptions, SwStats};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -266,13 +267,13 @@ impl Prepared {
         &self.coarse
     }
 
-    /// The stack's shading gradients ([`crate::shading::gradients`]),
+    /// The stack's shading gradients ([`Gradients::new`]),
     /// built on the first call and shared by the views of a camera path
     /// that share the stack.
     pub fn gradients(&self) -> Arc<Gradients> {
         Arc::clone(
             self.gradients
-                .get_or_init(|| Arc::new(gradients(&self.view, &self.stack))),
+                .get_or_init(|| Arc::new(Gradients::new(&self.view, &self.stack))),
         )
     }
 

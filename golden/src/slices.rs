@@ -15,13 +15,12 @@ use crate::volume::{Volume, Voxel, Voxels};
 /// Memory the permuted stack may take (bytes).
 pub const STACK_LIMIT: u64 = 8 << 30;
 
-/// The voxels of a stack: the volume's own type for scalars (a byte per
-/// voxel for 8-bit data), `f32` for derived stacks such as gradients.
+/// The voxels of a stack, in the volume's own type (a byte per voxel for
+/// 8-bit data).
 #[derive(Debug, Clone, PartialEq)]
 enum StackData {
     U8(Vec<u8>),
     U16(Vec<u16>),
-    F32(Vec<f32>),
 }
 
 /// One padded slice of a [`SliceStack`], in the stack's voxel type.
@@ -31,8 +30,6 @@ pub enum Plane<'a> {
     U8(&'a [u8]),
     /// 16-bit scalars.
     U16(&'a [u16]),
-    /// Derived `f32` values (gradients).
-    F32(&'a [f32]),
 }
 
 impl Plane<'_> {
@@ -42,7 +39,6 @@ impl Plane<'_> {
         match self {
             Plane::U8(s) => s[i] as f32,
             Plane::U16(s) => s[i] as f32,
-            Plane::F32(s) => s[i],
         }
     }
 
@@ -69,17 +65,40 @@ pub struct SliceStack {
 /// type changes no bit.
 #[inline(always)]
 fn lerp2<T: Copy + Into<f32>>(s: &[T], i: usize, row: usize, tx: f32, ty: f32) -> f32 {
-    let (a, b): (f32, f32) = (s[i].into(), s[i + 1].into());
-    let (c, d): (f32, f32) = (s[i + row].into(), s[i + row + 1].into());
+    let (a, b) = (s[i].into(), s[i + 1].into());
+    let (c, d) = (s[i + row].into(), s[i + row + 1].into());
+    lerp2_values(a, b, c, d, tx, ty)
+}
+
+/// The bilinear formula on a cell's four values (`a`, `b` on the top row,
+/// `c`, `d` below), shared with [`crate::gradients`].
+#[inline(always)]
+pub(crate) fn lerp2_values(a: f32, b: f32, c: f32, d: f32, tx: f32, ty: f32) -> f32 {
     let top = a + tx * (b - a);
     let bot = c + tx * (d - c);
     top + ty * (bot - top)
 }
 
+/// [`lerp2`] on a plane of any type.
+#[inline(always)]
+fn lerp_plane(s: Plane, i: usize, row: usize, tx: f32, ty: f32) -> f32 {
+    match s {
+        Plane::U8(s) => lerp2(s, i, row, tx, ty),
+        Plane::U16(s) => lerp2(s, i, row, tx, ty),
+    }
+}
+
 /// Trilinear interpolation in `f64` at padded index `i` of `s`.
 #[inline(always)]
 fn lerp3<T: Copy + Into<f64>>(s: &[T], i: usize, r: usize, p: usize, t: [f64; 3]) -> f64 {
-    let v = |o: usize| -> f64 { s[i + o].into() };
+    lerp3_by(|o| s[i + o].into(), r, p, t)
+}
+
+/// The trilinear formula on the values `v(o)` at offsets `o` from a cell's
+/// first corner (row length `r`, plane size `p`), shared with
+/// [`crate::gradients`].
+#[inline(always)]
+pub(crate) fn lerp3_by(v: impl Fn(usize) -> f64, r: usize, p: usize, t: [f64; 3]) -> f64 {
     let lerp = |a: f64, b: f64, t: f64| a + t * (b - a);
     let [tx, ty, tz] = t;
     let s0 = lerp(lerp(v(0), v(1), tx), lerp(v(r), v(r + 1), tx), ty);
@@ -278,11 +297,10 @@ impl SliceStack {
 
     /// The value at padded index `i`.
     #[inline]
-    fn at(&self, i: usize) -> f32 {
+    pub(crate) fn value(&self, i: usize) -> f32 {
         match &self.data {
             StackData::U8(d) => d[i] as f32,
             StackData::U16(d) => d[i] as f32,
-            StackData::F32(d) => d[i],
         }
     }
 
@@ -291,40 +309,6 @@ impl SliceStack {
         match &self.data {
             StackData::U8(d) => d.len(),
             StackData::U16(d) => 2 * d.len(),
-            StackData::F32(d) => 4 * d.len(),
-        }
-    }
-
-    /// The central difference along view axis `axis` divided by
-    /// `2 spacing`, at every padded position (neighbours beyond the padding
-    /// are the padding's replicated edge), in this stack's layout: the
-    /// gradient component the shading interpolates like the scalar (see
-    /// [`crate::shading`]).
-    pub fn central_difference(&self, axis: usize, spacing: f64) -> SliceStack {
-        let (row, plane) = (self.row, self.plane);
-        let n = [row, self.dims[1] + 2, self.dims[2] + 2];
-        let stride = [1, row, plane];
-        let scale = (0.5 / spacing) as f32;
-        let len = plane * n[2];
-        let mut data = vec![0f32; len];
-        data.par_chunks_mut(plane).enumerate().for_each(|(z, out)| {
-            for y in 0..n[1] {
-                for x in 0..n[0] {
-                    let at = [x, y, z];
-                    let i = z * plane + y * row + x;
-                    let (lo, hi) = (at[axis].saturating_sub(1), (at[axis] + 1).min(n[axis] - 1));
-                    let base = i - at[axis] * stride[axis];
-                    out[y * row + x] = (self.at(base + hi * stride[axis])
-                        - self.at(base + lo * stride[axis]))
-                        * scale;
-                }
-            }
-        });
-        SliceStack {
-            dims: self.dims,
-            row,
-            plane,
-            data: StackData::F32(data),
         }
     }
 
@@ -335,7 +319,6 @@ impl SliceStack {
         match &self.data {
             StackData::U8(d) => Plane::U8(&d[r]),
             StackData::U16(d) => Plane::U16(&d[r]),
-            StackData::F32(d) => Plane::F32(&d[r]),
         }
     }
 
@@ -347,56 +330,81 @@ impl SliceStack {
 
     /// Bilinear interpolation in padded slice `s` at view `(x, y)`, which
     /// must lie in `[-1, nx) x [-1, ny)`.
-    #[inline]
+    #[inline(always)]
     pub fn bilinear(&self, s: Plane, x: f32, y: f32) -> f32 {
+        let (i, tx, ty) = self.cell(x, y);
+        lerp_plane(s, i, self.row, tx, ty)
+    }
+
+    /// The padded index (in a plane of row length `row`) of the cell
+    /// holding view `(x, y)` and the weights within it.
+    #[inline(always)]
+    pub(crate) fn cell_of(row: usize, x: f32, y: f32) -> (usize, f32, f32) {
         // Positions are at least -1, so truncation is the floor (and
         // avoids a libm call on targets without SSE4.1).
         let (fx, fy) = (x + 1.0, y + 1.0);
         let (x0, y0) = (fx as usize, fy as usize);
-        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-        let i = y0 * self.row + x0;
-        match s {
-            Plane::U8(s) => lerp2(s, i, self.row, tx, ty),
-            Plane::U16(s) => lerp2(s, i, self.row, tx, ty),
-            Plane::F32(s) => lerp2(s, i, self.row, tx, ty),
-        }
+        (y0 * row + x0, fx - x0 as f32, fy - y0 as f32)
+    }
+
+    #[inline(always)]
+    fn cell(&self, x: f32, y: f32) -> (usize, f32, f32) {
+        SliceStack::cell_of(self.row, x, y)
     }
 
     /// Trilinear interpolation as two bilinear ones, in `f32`: the slice-order
     /// methods' sub-slice samples. Positions beyond the volume read the
     /// nearest edge voxel.
-    #[inline]
+    #[inline(always)]
     pub fn trilinear_f32(&self, x: f32, y: f32, z: f32) -> f32 {
-        let x = x.clamp(-1.0, self.dims[0] as f32 - 1e-3);
-        let y = y.clamp(-1.0, self.dims[1] as f32 - 1e-3);
-        let fz = z.clamp(-1.0, self.dims[2] as f32 - 1e-3) + 1.0;
-        let z0 = fz as usize;
-        let t = fz - z0 as f32;
+        let (z0, t, x, y) = SliceStack::clamp_f32_in(self.dims, x, y, z);
         let a = self.bilinear(self.padded(z0), x, y);
         let b = self.bilinear(self.padded(z0 + 1), x, y);
         a + t * (b - a)
+    }
+
+    /// [`SliceStack::trilinear_f32`]'s clamped position in a stack of
+    /// `dims`: the padded slice below, the weight between it and the next,
+    /// and `x`, `y`.
+    #[inline(always)]
+    pub(crate) fn clamp_f32_in(dims: [usize; 3], x: f32, y: f32, z: f32) -> (usize, f32, f32, f32) {
+        let x = x.clamp(-1.0, dims[0] as f32 - 1e-3);
+        let y = y.clamp(-1.0, dims[1] as f32 - 1e-3);
+        let fz = z.clamp(-1.0, dims[2] as f32 - 1e-3) + 1.0;
+        let z0 = fz as usize;
+        (z0, fz - z0 as f32, x, y)
     }
 
     /// Trilinear interpolation at view `(x, y, z)`, in `f64`; positions
     /// beyond the volume read the nearest edge voxel.
     #[inline]
     pub fn trilinear(&self, x: f64, y: f64, z: f64) -> f64 {
-        // Beyond the padding the replicated edge holds, so clamping is exact.
-        let lim = |v: f64, n: usize| v.clamp(-1.0, n as f64 - 1e-9) + 1.0;
-        let (fx, fy, fz) = (
-            lim(x, self.dims[0]),
-            lim(y, self.dims[1]),
-            lim(z, self.dims[2]),
-        );
-        let (x0, y0, z0) = (fx as usize, fy as usize, fz as usize);
-        let (tx, ty, tz) = (fx - x0 as f64, fy - y0 as f64, fz - z0 as f64);
-        let i = z0 * self.plane + y0 * self.row + x0;
-        let (r, p, t) = (self.row, self.plane, [tx, ty, tz]);
+        let (i, t) = SliceStack::cell3_in(self.dims, self.row, self.plane, x, y, z);
+        let (r, p) = (self.row, self.plane);
         match &self.data {
             StackData::U8(d) => lerp3(d, i, r, p, t),
             StackData::U16(d) => lerp3(d, i, r, p, t),
-            StackData::F32(d) => lerp3(d, i, r, p, t),
         }
+    }
+
+    /// [`SliceStack::trilinear`]'s cell in a stack of `dims` (padded row
+    /// `row`, plane `plane`): its first corner's padded index and the
+    /// weights.
+    #[inline(always)]
+    pub(crate) fn cell3_in(
+        dims: [usize; 3],
+        row: usize,
+        plane: usize,
+        x: f64,
+        y: f64,
+        z: f64,
+    ) -> (usize, [f64; 3]) {
+        // Beyond the padding the replicated edge holds, so clamping is exact.
+        let lim = |v: f64, n: usize| v.clamp(-1.0, n as f64 - 1e-9) + 1.0;
+        let (fx, fy, fz) = (lim(x, dims[0]), lim(y, dims[1]), lim(z, dims[2]));
+        let (x0, y0, z0) = (fx as usize, fy as usize, fz as usize);
+        let t = [fx - x0 as f64, fy - y0 as f64, fz - z0 as f64];
+        (z0 * plane + y0 * row + x0, t)
     }
 }
 

@@ -125,7 +125,7 @@ pub struct FrameSpec {
     /// The golden technique, or `None` for the pipeline model (which also
     /// renders golden's mirror method for its comparison).
     pub technique: Option<Technique>,
-    /// Shading (gradient stacks).
+    /// Shading (voxel gradients).
     pub shade: bool,
     /// Image width and height.
     pub size: [u32; 2],
@@ -141,7 +141,7 @@ pub fn frame_bytes(dims: [usize; 3], voxel: VoxelType, spec: &FrameSpec) -> u128
     // The volume and its permuted, padded slice stack, in the file's type.
     let mut b = k * voxels + k * padded;
     if spec.shade {
-        // Three f32 gradient stacks.
+        // Three f32 gradient components per padded voxel.
         b += 12 * padded;
     }
     b += match spec.technique {

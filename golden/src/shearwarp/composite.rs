@@ -303,7 +303,7 @@ pub(crate) fn scanline(p: &Pass, v: usize, row: &mut [[f32; 4]], sc: &mut Scratc
 /// edge), as the colour is: the gradient interpolated like the scalar.
 #[inline]
 fn gather(
-    g: &crate::shading::Gradients,
+    g: &crate::gradients::Gradients,
     z: usize,
     k0: [i64; 2],
     w: [&[f32]; 2],
@@ -321,10 +321,10 @@ fn gather(
             }
             let kx = (k0[0] + s as i64).clamp(0, n[0] as i64 - 1) as usize;
             let k = wt * ws;
-            for (a, o) in out.iter_mut().enumerate() {
-                // The gradient stacks are padded by one voxel per side.
-                let slice = g[a].slice(z);
-                *o += k * slice.get((ky + 1) * g[a].row + kx + 1);
+            // The gradients are padded by one voxel per side.
+            let v = g.at(z, kx + 1, ky + 1);
+            for (o, v) in out.iter_mut().zip(v) {
+                *o += k * v;
             }
         }
     }

@@ -453,3 +453,52 @@ fn the_mipmap_shades_like_the_reference() {
         "{e}"
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// The slice-order methods' `f32` shader agrees with the `f64` one to
+    /// its stated tolerance, for any material, lights, fade, gradient
+    /// opacity and gradient (tiny, fading and steep).
+    #[test]
+    fn shade_f32_agrees_with_shade(
+        m in (0.0..2.0f64, 0.0..3.0f64, 0.0..3.0f64, 1.0..300.0f64, proptest::bool::ANY),
+        lights in proptest::collection::vec((-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64), 0..4),
+        fade in proptest::prop_oneof![proptest::strategy::Just(0.0), 0.1..20.0f64],
+        g_ref in proptest::prop_oneof![proptest::strategy::Just(0.0), 0.1..50.0f64],
+        samples in proptest::collection::vec(
+            ((0.0..1.0f32, 0.0..1.0f32, 0.0..1.0f32, 0.0..1.0f32), (-3.0..3.0f32, -3.0..3.0f32, -3.0..3.0f32), -6..3i32),
+            200,
+        ),
+    ) {
+        let vol = volume_u8([6, 6, 6], |x, y, z| (x + y + z) as u16);
+        let c = DVec3::from_array(vol.center_world());
+        let prep = Prepared::new(&vol, &cam(&vol, c + DVec3::new(3.0, -5.0, -30.0), 8)).unwrap();
+        let mut shade = Shade::default();
+        let (ka, kd, ks, p, integral) = m;
+        shade.material.ambient = ka;
+        shade.material.diffuse = kd;
+        shade.material.specular = ks;
+        shade.material.shininess = if integral { p.round() } else { p };
+        for (x, y, z) in lights {
+            if DVec3::new(x, y, z).length() > 1e-3 {
+                shade.add_light(DVec3::new(x, y, z)).unwrap();
+            }
+        }
+        shade.normal_fade = fade;
+        shade.gradient_opacity = g_ref;
+        let sh = Shader::new(&prep.view, &prep.stack, &shade).unwrap();
+        let tol = sh.f32_tolerance();
+        for ((r, gr, b, a), (gx, gy, gz), e) in samples {
+            // Gradient magnitudes from 1e-6 to 3e3, across the fade.
+            let k = 10f32.powi(e);
+            let g = [gx * k, gy * k, gz * k];
+            let want = sh.shade([r, gr, b, a].map(f64::from), g.map(f64::from));
+            let got = sh.shade_f32([r, gr, b, a], g);
+            for ch in 0..4 {
+                let d = (f64::from(got[ch]) - want[ch]).abs();
+                proptest::prop_assert!(d <= tol, "channel {ch}: {} against {} (tolerance {tol}), g {g:?}", got[ch], want[ch]);
+            }
+        }
+    }
+}

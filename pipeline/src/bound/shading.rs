@@ -37,7 +37,8 @@
 //! slice, as the unshaded `dc` and `da` do.
 
 use golden::geometry::View;
-use golden::shading::{gradients, Lighting, Shade};
+use golden::gradients::Gradients;
+use golden::shading::{Lighting, Shade};
 use golden::slices::SliceStack;
 use golden::volume::Volume;
 
@@ -67,23 +68,23 @@ impl ShadeInputs {
     /// Measures golden's voxel gradients of `volume` seen through `view`.
     pub fn measure(volume: &Volume, view: &View, shade: &Shade) -> golden::Result<ShadeInputs> {
         let stack = SliceStack::new(volume, &view.axes)?;
-        let g = gradients(view, &stack);
+        let g = Gradients::new(view, &stack);
         let [nx, ny, nz] = view.dims;
         let (mut lip, mut max) = (0f64, 0f64);
-        for comp in &g {
+        for comp in 0..3 {
             for z in 0..nz {
-                let s = comp.slice(z);
-                // Padded layout: (x, y) at (y + 1) row + x + 1; the padding
-                // is sampled too (a ray half a voxel outside reads it).
+                let at = |x, y| f64::from(g.at(z, x, y)[comp]);
+                // Padded positions: the padding is sampled too (a ray half
+                // a voxel outside reads it).
                 for y in 0..ny + 2 {
                     for x in 0..nx + 2 {
-                        let v = f64::from(s.get(y * comp.row + x));
+                        let v = at(x, y);
                         max = max.max(v.abs());
                         if x + 1 < nx + 2 {
-                            lip = lip.max((f64::from(s.get(y * comp.row + x + 1)) - v).abs());
+                            lip = lip.max((at(x + 1, y) - v).abs());
                         }
                         if y + 1 < ny + 2 {
-                            lip = lip.max((f64::from(s.get((y + 1) * comp.row + x)) - v).abs());
+                            lip = lip.max((at(x, y + 1) - v).abs());
                         }
                     }
                 }
