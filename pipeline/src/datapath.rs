@@ -39,6 +39,8 @@ pub struct SampleTrace {
     pub terminated: bool,
     /// The gradient and shading unit's words (zero when not shading).
     pub shade: crate::shading::ShadeTrace,
+    /// The volume-of-interest stage's words (zero without a VOI).
+    pub voi: crate::voi::VoiTrace,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the
@@ -58,6 +60,9 @@ pub struct Datapath {
     /// The gradient and shading unit's per-frame constants, when the frame
     /// is shaded ([`Datapath::with_shading`]).
     pub shade: Option<crate::shading::ShadeUnit>,
+    /// The volume-of-interest stage's per-frame constants, when the frame
+    /// has one ([`Datapath::with_voi`]).
+    pub voi: Option<crate::voi::VoiUnit>,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -110,7 +115,18 @@ impl Datapath {
             cfg,
             tables,
             shade: None,
+            voi: None,
         }
+    }
+
+    /// This datapath with the volume-of-interest stage loaded with
+    /// `unit`'s constants. The latency is unchanged: the stage's distance
+    /// and weight run beside interpolation and classification, and its
+    /// multiply shares the opacity correction's first stage
+    /// ([`crate::cost`] schedules it so).
+    pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
+        self.voi = Some(unit);
+        self
     }
 
     /// This datapath with the gradient and shading unit loaded with

@@ -196,6 +196,9 @@ pub enum RunError {
     /// The frame cannot be shaded as asked.
     #[error("{0}")]
     Shade(crate::shading::ShadeError),
+    /// The frame's volume of interest cannot be loaded.
+    #[error("{0}")]
+    Voi(crate::voi::VoiError),
 }
 
 /// The PE array for one frame.
@@ -348,6 +351,18 @@ impl Array {
             .map_err(RunError::Shade)?;
         self.host_stats.merge(&st);
         let dp = (*self.dp).clone().with_shading(unit);
+        self.dp = Arc::new(dp);
+        Ok(())
+    }
+
+    /// Scales the frame's opacities by `voi` ([`crate::voi`]): loads the
+    /// volume-of-interest stage's constants for `view`.
+    pub fn set_voi(&mut self, voi: &golden::voi::Voi, view: &View) -> Result<(), RunError> {
+        let mut st = QuantStats::default();
+        let unit =
+            crate::voi::VoiUnit::new(&self.dp.cfg, voi, view, &mut st).map_err(RunError::Voi)?;
+        self.host_stats.merge(&st);
+        let dp = (*self.dp).clone().with_voi(unit);
         self.dp = Arc::new(dp);
         Ok(())
     }
@@ -663,7 +678,7 @@ pub fn run_frame_shaded(
         prep,
         mm,
         skips,
-        shade,
+        (shade, None),
         tracer,
     )
 }
@@ -682,6 +697,20 @@ pub fn run_frame_from_stack(
     shade: Option<&golden::shading::Shade>,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, None), tracer)
+}
+
+/// [`run_frame_from_stack`] with the volume of interest `voi` when given
+/// ([`Array::set_voi`]).
+pub fn run_frame_from_stack_voi(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
     if prep.blocks.block != usize::from(cfg.occupancy_block) {
         return Err(RunError::Schedule(format!(
             "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
@@ -697,7 +726,7 @@ pub fn run_frame_from_stack(
         prep,
         mm,
         skips,
-        shade,
+        (shade, voi),
         tracer,
     )
 }
@@ -710,12 +739,15 @@ fn run_prepared(
     prep: &golden::render::Prepared,
     mm: golden::occupancy::MinMax,
     skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
     let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
     if let Some(sh) = shade {
         array.set_shading(sh, &prep.view, data_bits)?;
+    }
+    if let Some(v) = voi {
+        array.set_voi(v, &prep.view)?;
     }
     let layout = golden::methods::Method::Er
         .layout(&prep.view)
