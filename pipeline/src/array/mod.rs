@@ -443,7 +443,8 @@ impl Array {
         // only now.
         if let Some(t) = self.pending.take() {
             let p = self.clock.pes().len();
-            let probes = Probes::new(t, p, &self.dp.cfg, self.dp.shade.is_some())?;
+            let units = (self.dp.shade.is_some(), self.dp.voi.is_some());
+            let probes = Probes::new(t, p, &self.dp.cfg, units)?;
             self.clock.attach(probes);
         }
         let plan: FramePlan = plan(&self.dp.cfg, view)?;
@@ -663,6 +664,20 @@ pub fn run_frame_shaded(
     shade: Option<&golden::shading::Shade>,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_voi(cfg, volume, lut, prep, skips, (shade, None), tracer)
+}
+
+/// [`run_frame_shaded`] with the volume of interest `voi` when given
+/// ([`Array::set_voi`]).
+pub fn run_frame_voi(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
     let block = usize::from(cfg.occupancy_block);
     let mm = if prep.blocks.block == block {
         prep.blocks.clone()
@@ -678,7 +693,7 @@ pub fn run_frame_shaded(
         prep,
         mm,
         skips,
-        (shade, None),
+        (shade, voi),
         tracer,
     )
 }

@@ -19,7 +19,7 @@ use pipeline::bound::{
 };
 use pipeline::config::{Order, PipelineConfig};
 use proptest::prelude::*;
-use waves::Tracer;
+use waves::{Trace, TraceConfig, Tracer};
 
 use crate::chip::signature;
 use crate::scenes::{checker128_views, eye_for, max_diff, tf};
@@ -46,7 +46,20 @@ fn pipe_voi(
     voi: Option<&Voi>,
     clocked: bool,
 ) -> Result<Frame, pipeline::RunError> {
-    let mut a = Array::new(cfg, vol, lut, &prep.view, Tracer::disabled())?;
+    pipe_traced(cfg, vol, lut, prep, voi, clocked, Tracer::disabled())
+}
+
+/// [`pipe_voi`] traced by `tracer`.
+fn pipe_traced(
+    cfg: &PipelineConfig,
+    vol: &Volume,
+    lut: &Lut,
+    prep: &Prepared,
+    voi: Option<&Voi>,
+    clocked: bool,
+    tracer: Tracer,
+) -> Result<Frame, pipeline::RunError> {
+    let mut a = Array::new(cfg, vol, lut, &prep.view, tracer)?;
     if let Some(v) = voi {
         a.set_voi(v, &prep.view)?;
     }
@@ -365,4 +378,34 @@ fn voi_constant_that_does_not_fit_is_refused() {
     };
     let m = e.to_string();
     assert!(m.contains("voi_axis") && !m.contains('\n'), "{m}");
+}
+
+/// A trace with a VOI carries the stage's weight and factor registers,
+/// which move; one without a VOI has neither.
+#[test]
+fn voi_waveforms_carry_the_weight_and_factor() {
+    let (vol, lut, views) = small();
+    let cfg = PipelineConfig {
+        pes: 4,
+        ..PipelineConfig::default()
+    };
+    let v = make_voi(vol.dims(), true, [0.5; 3], 0.3, false, 3.0, 2.0);
+    let dir = tempfile::tempdir().unwrap();
+    let names = |with: bool| {
+        let p = dir.path().join(format!("v{with}.vcd"));
+        let tc = TraceConfig::new(&p).with_groups(["ctrl", "datapath"]);
+        let tr = Tracer::new(tc).unwrap();
+        pipe_traced(&cfg, &vol, &lut, &views[0], with.then_some(&v), false, tr).unwrap();
+        let t = Trace::read(&p).unwrap();
+        let set: std::collections::BTreeSet<String> = t.names().map(str::to_owned).collect();
+        (t, set)
+    };
+    let (t, with) = names(true);
+    let (_, plain) = names(false);
+    for s in ["top.pe_1.voi_weight", "top.pe_1.voi_factor"] {
+        assert!(with.contains(s), "{s} missing from the VOI trace");
+        assert!(!plain.contains(s), "{s} in the trace without a VOI");
+        let changes = t.signal(s).unwrap().changes().len();
+        assert!(changes > 2, "{s} changes {changes} times");
+    }
 }
