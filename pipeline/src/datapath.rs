@@ -120,11 +120,18 @@ impl Datapath {
     }
 
     /// This datapath with the volume-of-interest stage loaded with
-    /// `unit`'s constants. The latency is unchanged: the stage's distance
-    /// and weight run beside interpolation and classification, and its
-    /// multiply shares the opacity correction's first stage
-    /// ([`crate::cost`] schedules it so).
+    /// `unit`'s constants. A derived latency becomes the depth of the
+    /// schedule with the stage ([`crate::cost::unit_latency`]): its
+    /// distance and weight run beside interpolation and classification,
+    /// its multiply between classification and the opacity correction,
+    /// which at the default widths waits for the path length's square
+    /// root anyway (the depth does not grow). One the configuration
+    /// states is kept.
     pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
+        if self.cfg.datapath_latency == 0 {
+            let units = (self.shade.is_some(), true);
+            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
+        }
         self.voi = Some(unit);
         self
     }
@@ -135,7 +142,8 @@ impl Datapath {
     /// configuration states is kept.
     pub fn with_shading(mut self, unit: crate::shading::ShadeUnit) -> Datapath {
         if self.cfg.datapath_latency == 0 {
-            self.latency = u64::from(crate::cost::shaded_latency(&self.cfg));
+            let units = (true, self.voi.is_some());
+            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
         }
         self.shade = Some(unit);
         self
