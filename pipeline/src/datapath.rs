@@ -123,10 +123,10 @@ impl Datapath {
     /// `unit`'s constants. A derived latency becomes the depth of the
     /// schedule with the stage ([`crate::cost::unit_latency`]): its
     /// distance and weight run beside interpolation and classification,
-    /// its multiply between classification and the opacity correction,
-    /// which at the default widths waits for the path length's square
-    /// root anyway (the depth does not grow). One the configuration
-    /// states is kept.
+    /// its multiply between classification and the opacity correction;
+    /// the distance's square root makes the datapath deeper (49 clocks
+    /// against 26 at the default widths), which lengthens only what waits
+    /// for samples in flight. One the configuration states is kept.
     pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
         if self.cfg.datapath_latency == 0 {
             let units = (self.shade.is_some(), true);

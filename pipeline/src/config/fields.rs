@@ -610,6 +610,11 @@ mod tests {
                 "ufixed<13,1,RND,SAT>",
                 "ufixed<16,4,RND,SAT>",
                 "ufixed<24,4,RND,SAT>",
+                "ufixed<28,8,RND,SAT>",
+                "fixed<32,16,RND,SAT>",
+                "ufixed<13,1,RND,SAT>",
+                "fixed<20,8,RND,SAT>",
+                "ufixed<20,8,RND,SAT>",
             ]
         );
         assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));
