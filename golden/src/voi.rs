@@ -162,6 +162,23 @@ impl ViewVoi {
         })
     }
 
+    /// The region in the view's index space, for a fixed-point twin:
+    /// centre, box half extents (zero for a sphere), the sphere's radius in
+    /// world units (zero for a box) and whether it is a sphere.
+    pub fn region(&self) -> (DVec3, DVec3, f64, bool) {
+        (self.centre, self.half, self.radius, self.sphere)
+    }
+
+    /// The view's voxel spacing per view axis (index to world units).
+    pub fn spacing(&self) -> DVec3 {
+        self.spacing
+    }
+
+    /// Opacity scale, whether it applies outside, and the ramp width.
+    pub fn weighting(&self) -> (f64, bool, f64) {
+        (self.scale, self.outside, self.ramp)
+    }
+
     /// Signed distance in world units from view point `p` to the region's
     /// boundary, negative inside.
     pub fn distance(&self, p: DVec3) -> f64 {

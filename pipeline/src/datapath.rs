@@ -39,6 +39,8 @@ pub struct SampleTrace {
     pub terminated: bool,
     /// The gradient and shading unit's words (zero when not shading).
     pub shade: crate::shading::ShadeTrace,
+    /// The volume-of-interest stage's words (zero without a VOI).
+    pub voi: crate::voi::VoiTrace,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the
@@ -58,6 +60,9 @@ pub struct Datapath {
     /// The gradient and shading unit's per-frame constants, when the frame
     /// is shaded ([`Datapath::with_shading`]).
     pub shade: Option<crate::shading::ShadeUnit>,
+    /// The volume-of-interest stage's per-frame constants, when the frame
+    /// has one ([`Datapath::with_voi`]).
+    pub voi: Option<crate::voi::VoiUnit>,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -110,7 +115,25 @@ impl Datapath {
             cfg,
             tables,
             shade: None,
+            voi: None,
         }
+    }
+
+    /// This datapath with the volume-of-interest stage loaded with
+    /// `unit`'s constants. A derived latency becomes the depth of the
+    /// schedule with the stage ([`crate::cost::unit_latency`]): its
+    /// distance and weight run beside interpolation and classification,
+    /// its multiply between classification and the opacity correction;
+    /// the distance's square root makes the datapath deeper (49 clocks
+    /// against 26 at the default widths), which lengthens only what waits
+    /// for samples in flight. One the configuration states is kept.
+    pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
+        if self.cfg.datapath_latency == 0 {
+            let units = (self.shade.is_some(), true);
+            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
+        }
+        self.voi = Some(unit);
+        self
     }
 
     /// This datapath with the gradient and shading unit loaded with
@@ -119,7 +142,8 @@ impl Datapath {
     /// configuration states is kept.
     pub fn with_shading(mut self, unit: crate::shading::ShadeUnit) -> Datapath {
         if self.cfg.datapath_latency == 0 {
-            self.latency = u64::from(crate::cost::shaded_latency(&self.cfg));
+            let units = (true, self.voi.is_some());
+            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
         }
         self.shade = Some(unit);
         self

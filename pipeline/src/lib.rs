@@ -39,7 +39,9 @@ pub mod shading;
 pub mod skip;
 pub mod stages;
 pub mod tables;
+pub mod voi;
 
 pub use array::{
-    run_frame, run_frame_from_stack, run_frame_shaded, run_frame_with, Frame, RunError,
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_shaded, run_frame_voi,
+    run_frame_with, Frame, RunError,
 };

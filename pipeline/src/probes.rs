@@ -168,6 +168,9 @@ struct Probe<S> {
     /// Only in an array that shades (the gradient and shading unit's
     /// signals and port words), so unshaded waveforms stay as they were.
     shaded: bool,
+    /// Only in an array with a volume of interest (its stage's registers),
+    /// so waveforms without one stay as they were.
+    voi: bool,
     names: &'static [(u64, &'static str)],
 }
 
@@ -185,6 +188,7 @@ impl<S> Probe<S> {
             read,
             present: |_| true,
             shaded: false,
+            voi: false,
             names: &[],
         }
     }
@@ -195,6 +199,11 @@ impl<S> Probe<S> {
             shaded: true,
             ..self
         }
+    }
+
+    /// Only while the array has a volume of interest.
+    const fn with_voi(self) -> Self {
+        Probe { voi: true, ..self }
     }
 
     /// An enumeration whose values have `names`.
@@ -445,6 +454,20 @@ const PE_PROBES: &[Probe<PeView>] = &[
         |s| s.last.shade.rgb[2] as u64,
     )
     .shaded(),
+    Probe::<PeView>::new(
+        "voi_weight",
+        DATAPATH,
+        |c| bits(c.voi_weight),
+        |s| s.last.voi.weight as u64,
+    )
+    .with_voi(),
+    Probe::<PeView>::new(
+        "voi_factor",
+        DATAPATH,
+        |c| bits(c.voi_factor),
+        |s| s.last.voi.factor as u64,
+    )
+    .with_voi(),
     Probe::<PeView>::new("rays_sent", DATAPATH, |_| 32, |s| s.rays_sent & 0xffff_ffff),
     // Front to back only, so back-to-front waveforms stay as they were.
     Probe::<PeView>::new(
@@ -657,14 +680,14 @@ const PORT_PROBES: &[Probe<PortView>] = &[
 /// (NONE for the absent and the unselected).
 fn register<S>(
     tracer: &mut Tracer,
-    (cfg, shading): (&PipelineConfig, bool),
+    (cfg, shading, voi): (&PipelineConfig, bool, bool),
     scope: &ScopePath,
     table: &[Probe<S>],
 ) -> Result<Vec<SignalId>, WavesError> {
     table
         .iter()
         .map(|p| {
-            if !(p.present)(cfg) || (p.shaded && !shading) {
+            if !(p.present)(cfg) || (p.shaded && !shading) || (p.voi && !voi) {
                 return Ok(SignalId::NONE);
             }
             let width = (p.width)(cfg);
@@ -724,14 +747,15 @@ impl Probes {
     }
 
     /// Registers the signals of `p` PEs (with the shading unit's when
-    /// `shading`); an unknown group in the tracer's selection is an error.
+    /// `shading`, the volume-of-interest stage's when `voi`); an unknown
+    /// group in the tracer's selection is an error.
     pub(crate) fn new(
         mut tracer: Tracer,
         p: usize,
         cfg: &PipelineConfig,
-        shading: bool,
+        (shading, voi): (bool, bool),
     ) -> Result<Probes, WavesError> {
-        let c = (cfg, shading);
+        let c = (cfg, shading, voi);
         Probes::check_groups(&tracer)?;
         let ctrl = register(&mut tracer, c, &ScopePath::top().child("ctrl"), CTRL_PROBES)?;
         let mut pes = Vec::with_capacity(p);

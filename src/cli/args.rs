@@ -499,7 +499,7 @@ pub struct SliceArgs {
     pub voi_ramp: f64,
 }
 
-fn parse_voi(s: &str) -> std::result::Result<golden::voi::Shape, String> {
+pub(crate) fn parse_voi(s: &str) -> std::result::Result<golden::voi::Shape, String> {
     s.parse().map_err(|e: golden::Error| e.to_string())
 }
 

@@ -141,18 +141,24 @@ pub struct PipelineRun {
 
 /// Renders `prep` (of `data_bits`-bit data) through the pipeline, the PEs
 /// loading from its slice stack, the controller skipping what `skips`
-/// allows and clipping to `prep`'s planes.
+/// allows and clipping to `prep`'s planes, shaded with `shade` and
+/// scaled by the volume of interest `voi` when given.
 pub fn run(
     a: &PipelineArgs,
     cfg: &PipelineConfig,
     data_bits: u32,
     lut: &Lut,
     prep: &Prepared,
-    (skips, shade): (golden::skip::Skips, Option<&golden::shading::Shade>),
+    (skips, shade, voi): (
+        golden::skip::Skips,
+        Option<&golden::shading::Shade>,
+        Option<&golden::voi::Voi>,
+    ),
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
-    let frame = pipeline::run_frame_from_stack(cfg, data_bits, lut, prep, skips, shade, tr)?;
+    let frame =
+        pipeline::run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, voi), tr)?;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {
@@ -223,10 +229,11 @@ pub fn versus_golden(
     lut: &Lut,
     image: &golden::image::Image,
     cfg: &PipelineConfig,
-    shade: Option<golden::shading::Shade>,
+    (shade, voi): (Option<golden::shading::Shade>, Option<golden::voi::Voi>),
 ) -> Result<Value> {
     let mut opts = RenderOptions::default();
     opts.slice.shade = shade;
+    opts.slice.voi = voi;
     // The configuration's threshold was validated in (0, 1]; f32 is what
     // golden compares in.
     opts.slice.terminate = cfg.terminate as f32;

@@ -64,6 +64,20 @@ pub struct CostArgs {
     /// the default material; docs/pipeline.md#shading).
     #[arg(long)]
     pub shade: bool,
+    /// Cost and clock PEs with the volume-of-interest stage, scaling by
+    /// --voi-scale inside this region (box:x0,y0,z0,x1,y1,z1 or
+    /// sphere:cx,cy,cz,r, world units; docs/pipeline.md#volume-of-interest).
+    #[arg(long, value_parser = super::args::parse_voi, allow_hyphen_values = true)]
+    pub voi: Option<golden::voi::Shape>,
+    /// The VOI's opacity factor (0..=100).
+    #[arg(long, default_value_t = 2.0)]
+    pub voi_scale: f64,
+    /// Scale outside the VOI instead of inside.
+    #[arg(long)]
+    pub voi_outside: bool,
+    /// The VOI's transition width in world units.
+    #[arg(long, default_value_t = 0.0)]
+    pub voi_ramp: f64,
     /// Architectures to run and cost beside the configuration, at its P:
     /// "all" (blocks, interleave and cyclic at the configuration's
     /// cyclic_width, each with the ray buffer on chip and external) or
@@ -138,7 +152,7 @@ fn run_at(
     vol: &golden::volume::Volume,
     lut: &golden::tf::Lut,
     prep: &Prepared,
-    (label, shade): (&str, bool),
+    (label, shade, voi): (&str, bool, Option<&golden::voi::Voi>),
 ) -> Result<RunSummary> {
     let cfg = PipelineConfig { pes, ..*cfg };
     cfg.validate()?;
@@ -152,6 +166,9 @@ fn run_at(
             vol.kind().bits(),
         )?;
     }
+    if let Some(v) = voi {
+        array.set_voi(v, &prep.view)?;
+    }
     let frame = array.run(&prep.view)?;
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
@@ -162,6 +179,7 @@ fn run_at(
             pes,
             regions: plan.regions.len() as u32,
             shading: shade,
+            voi: voi.is_some(),
         },
         (&frame, &plan),
     ))
@@ -199,13 +217,23 @@ pub fn run(a: &CostArgs) -> Result<()> {
         cam.eye.y,
         cam.eye.z
     );
-    let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, (&label, a.shade))?;
+    let voi = a.voi.map(|shape| golden::voi::Voi {
+        shape,
+        scale: a.voi_scale,
+        outside: a.voi_outside,
+        ramp: a.voi_ramp,
+    });
+    if let Some(v) = &voi {
+        v.validate()?;
+    }
+    let units = (label.as_str(), a.shade, voi.as_ref());
+    let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, units)?;
     let mut runs = Vec::new();
     for &p in &sweep {
         if p == cfg.pes {
             runs.push(main.clone());
         } else {
-            runs.push(run_at(&cfg, p, &vol, &lut, &prep, (&label, a.shade))?);
+            runs.push(run_at(&cfg, p, &vol, &lut, &prep, units)?);
         }
     }
     let mut arch_runs = Vec::new();
@@ -213,7 +241,7 @@ pub fn run(a: &CostArgs) -> Result<()> {
         let r = if c == cfg {
             main.clone()
         } else {
-            run_at(&c, c.pes, &vol, &lut, &prep, (&label, a.shade))?
+            run_at(&c, c.pes, &vol, &lut, &prep, units)?
         };
         arch_runs.push((c, r));
     }

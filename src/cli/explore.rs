@@ -230,6 +230,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
                     pes: c.pes,
                     regions: plan.regions.len() as u32,
                     shading: a.shade,
+                    voi: false,
                 };
                 let run = RunSummary::new(c, label.as_str(), geo, (&frame, &plan));
                 Ok(design(c, Target::Xc7, &run))

@@ -370,9 +370,6 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     }
     cfg.validate()?;
     let opts = slice.options()?;
-    if opts.slice.voi.is_some() {
-        anyhow::bail!("the pipeline model has no volume of interest yet; drop --voi");
-    }
     if opts.slice.substeps != 1 {
         anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
@@ -389,7 +386,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     let (vol, tf, cam) = a.view.load_for(a.method.name(), &spec)?;
     let mut opts = opts;
     slice.apply_tf(&mut opts, &tf)?;
-    let shade = opts.slice.shade;
+    let (shade, voi) = (opts.slice.shade, opts.slice.voi);
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let shape = (vol.dims(), vol.spacing());
     let bits = vol.kind().bits();
@@ -405,7 +402,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
                 bits,
                 &lut,
                 &prep,
-                (opts.slice.skips, shade.as_ref()),
+                (opts.slice.skips, shade.as_ref(), voi.as_ref()),
             )
         })?
     };
@@ -413,7 +410,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         time_s: median(&times),
         ..run
     };
-    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg, shade)?;
+    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg, (shade, voi))?;
     let err = write_outputs(
         a,
         &prep,

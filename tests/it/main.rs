@@ -26,4 +26,5 @@ mod preint;
 mod shade;
 mod shards;
 mod shearwarp;
+mod voi;
 mod volumes;

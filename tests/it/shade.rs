@@ -155,8 +155,8 @@ fn bad_flags_are_one_line_errors() {
         (format!("{s} --voi sphere:4,4,4,3 --voi-scale -1"), "scale"),
         (format!("{s} --voi sphere:4,4,4,3 --voi-ramp -2"), "ramp"),
         (
-            format!("{s} --method pipeline --voi sphere:4,4,4,3"),
-            "volume of interest",
+            format!("{s} --method pipeline --voi sphere:4,4,4,3 --voi-ramp 0.001"),
+            "voi_axis",
         ),
         (
             format!("{s} --method mipmap --voi sphere:4,4,4,3"),

@@ -196,6 +196,9 @@ pub enum RunError {
     /// The frame cannot be shaded as asked.
     #[error("{0}")]
     Shade(crate::shading::ShadeError),
+    /// The frame's volume of interest cannot be loaded.
+    #[error("{0}")]
+    Voi(crate::voi::VoiError),
 }
 
 /// The PE array for one frame.
@@ -352,6 +355,18 @@ impl Array {
         Ok(())
     }
 
+    /// Scales the frame's opacities by `voi` ([`crate::voi`]): loads the
+    /// volume-of-interest stage's constants for `view`.
+    pub fn set_voi(&mut self, voi: &golden::voi::Voi, view: &View) -> Result<(), RunError> {
+        let mut st = QuantStats::default();
+        let unit =
+            crate::voi::VoiUnit::new(&self.dp.cfg, voi, view, &mut st).map_err(RunError::Voi)?;
+        self.host_stats.merge(&st);
+        let dp = (*self.dp).clone().with_voi(unit);
+        self.dp = Arc::new(dp);
+        Ok(())
+    }
+
     /// Skips what `mask` (golden's planner over this pipeline's occupancy
     /// memory, see [`crate::skip`]) leaves out of a frame of `view`: empty
     /// and clipped-away slices cost one cycle each (the controller reads
@@ -428,7 +443,8 @@ impl Array {
         // only now.
         if let Some(t) = self.pending.take() {
             let p = self.clock.pes().len();
-            let probes = Probes::new(t, p, &self.dp.cfg, self.dp.shade.is_some())?;
+            let units = (self.dp.shade.is_some(), self.dp.voi.is_some());
+            let probes = Probes::new(t, p, &self.dp.cfg, units)?;
             self.clock.attach(probes);
         }
         let plan: FramePlan = plan(&self.dp.cfg, view)?;
@@ -648,6 +664,20 @@ pub fn run_frame_shaded(
     shade: Option<&golden::shading::Shade>,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_voi(cfg, volume, lut, prep, skips, (shade, None), tracer)
+}
+
+/// [`run_frame_shaded`] with the volume of interest `voi` when given
+/// ([`Array::set_voi`]).
+pub fn run_frame_voi(
+    cfg: &PipelineConfig,
+    volume: &Volume,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
     let block = usize::from(cfg.occupancy_block);
     let mm = if prep.blocks.block == block {
         prep.blocks.clone()
@@ -663,7 +693,7 @@ pub fn run_frame_shaded(
         prep,
         mm,
         skips,
-        shade,
+        (shade, voi),
         tracer,
     )
 }
@@ -682,6 +712,20 @@ pub fn run_frame_from_stack(
     shade: Option<&golden::shading::Shade>,
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, None), tracer)
+}
+
+/// [`run_frame_from_stack`] with the volume of interest `voi` when given
+/// ([`Array::set_voi`]).
+pub fn run_frame_from_stack_voi(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
     if prep.blocks.block != usize::from(cfg.occupancy_block) {
         return Err(RunError::Schedule(format!(
             "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
@@ -697,7 +741,7 @@ pub fn run_frame_from_stack(
         prep,
         mm,
         skips,
-        shade,
+        (shade, voi),
         tracer,
     )
 }
@@ -710,12 +754,15 @@ fn run_prepared(
     prep: &golden::render::Prepared,
     mm: golden::occupancy::MinMax,
     skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
     let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
     if let Some(sh) = shade {
         array.set_shading(sh, &prep.view, data_bits)?;
+    }
+    if let Some(v) = voi {
+        array.set_voi(v, &prep.view)?;
     }
     let layout = golden::methods::Method::Er
         .layout(&prep.view)

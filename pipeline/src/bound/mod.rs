@@ -107,8 +107,10 @@ use crate::config::PipelineConfig;
 use crate::fixed::{Format, Quant};
 
 mod shading;
+mod voi;
 
 pub use shading::ShadeInputs;
+pub use voi::VoiInputs;
 
 /// Facts about the data that the bound needs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -221,14 +223,14 @@ struct SampleTerms {
 /// The per-channel bound `B` on `|pipeline - golden er|` of the final
 /// image (and of the baseplane).
 pub fn error_bound(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
-    btf_bound(cfg, d, None)
+    btf_bound(cfg, d, None, None)
 }
 
 /// [`error_bound`] of a shaded frame (against golden `er` shaded alike):
 /// the shading terms of [`ShadeInputs`] enter the sample's colour and
 /// opacity differences. Infinite when `s` has no normal fade.
 pub fn shaded_error_bound(cfg: &PipelineConfig, d: &BoundInputs, s: &ShadeInputs) -> f64 {
-    btf_bound(cfg, d, Some(s))
+    btf_bound(cfg, d, Some(s), None)
 }
 
 /// [`ftb_error_bound`] of a shaded frame.
@@ -238,17 +240,51 @@ pub fn shaded_ftb_error_bound(
     regions: &[usize],
     s: &ShadeInputs,
 ) -> f64 {
-    ftb_bound(cfg, d, regions, Some(s))
+    ftb_bound(cfg, d, regions, Some(s), None)
 }
 
-fn btf_bound(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInputs>) -> f64 {
+/// [`error_bound`] of a frame with a volume of interest (against golden
+/// `er` with the same VOI), shaded with `shade` when given: the terms of
+/// [`VoiInputs`] enter the sample's opacity difference, and without a
+/// ramp each region adds its boundary samples' flips.
+pub fn voi_error_bound(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    shade: Option<&ShadeInputs>,
+    voi: &VoiInputs,
+) -> f64 {
+    btf_bound(cfg, d, shade, Some(voi))
+}
+
+/// [`ftb_error_bound`] of a frame with a volume of interest.
+pub fn voi_ftb_error_bound(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    regions: &[usize],
+    shade: Option<&ShadeInputs>,
+    voi: &VoiInputs,
+) -> f64 {
+    ftb_bound(cfg, d, regions, shade, Some(voi))
+}
+
+fn btf_bound(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    shade: Option<&ShadeInputs>,
+    voi: Option<&VoiInputs>,
+) -> f64 {
     let e = 2f64.powi(-24);
-    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade, voi);
+    // 3v. boundary samples of a step VOI, one opacity error each.
+    let flips = voi.map_or(0.0, |v| {
+        v.flips_er.iter().sum::<usize>() as f64 * v.flip(d.ds_max)
+    });
     // 6-8. compositing, merges, saturation, warp.
     let racc = r(cfg.accum_color).max(r(cfg.accum_alpha));
     let per_slice = dcorr + racc + 3.0 * e;
     let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
     dc + d.slices as f64 * per_slice
+        + flips
         + d.merges as f64 * (r(cfg.merge) + racc + 3.0 * e)
         + qacc
         + 16.0 * e
@@ -260,7 +296,7 @@ fn btf_bound(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInputs>)
 /// number of slices region `i` can sample ([`region_slices`]); `d.slices`
 /// and `d.merges` are not used.
 pub fn ftb_error_bound(cfg: &PipelineConfig, d: &BoundInputs, regions: &[usize]) -> f64 {
-    ftb_bound(cfg, d, regions, None)
+    ftb_bound(cfg, d, regions, None, None)
 }
 
 fn ftb_bound(
@@ -268,9 +304,11 @@ fn ftb_bound(
     d: &BoundInputs,
     regions: &[usize],
     shade: Option<&ShadeInputs>,
+    voi: Option<&VoiInputs>,
 ) -> f64 {
     let e = 2f64.powi(-24);
-    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade);
+    let SampleTerms { dc, dcorr } = sample_terms(cfg, d, shade, voi);
+    let flip = voi.map_or(0.0, |v| v.flip(d.ds_max));
     let (rc, ra, rm) = (r(cfg.accum_color), r(cfg.accum_alpha), r(cfg.merge));
     let qacc = cfg.accum_color.lsb().max(cfg.accum_alpha.lsb());
     // 6'. per sample: k = (1 - A) a, then C += k c and A += k in f32.
@@ -282,8 +320,13 @@ fn ftb_bound(
     let mut inherited = 0.0;
     for (i, &n) in regions.iter().enumerate() {
         let n = n as f64;
-        let lc = n * ec + dc * (1.0 + n * ra) + qacc;
-        let la = n * ea + qacc;
+        // 3v. a step VOI's boundary samples: one opacity error each, in
+        // both channels.
+        let flips = voi.map_or(0.0, |v| {
+            v.flips_ftb.get(i).copied().unwrap_or(0) as f64 * flip
+        });
+        let lc = n * ec + dc * (1.0 + n * ra) + qacc + flips;
+        let la = n * ea + qacc + flips;
         if i > 0 {
             inherited += rho;
             // 8'. the inherited opacity error, once, and the fold's merge.
@@ -296,14 +339,26 @@ fn ftb_bound(
     total + 16.0 * e
 }
 
+/// Step 1: the position difference `ex` in voxels.
+fn position_error(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
+    let e = 2f64.powi(-24);
+    2.0 * r(cfg.position) + d.max_index * r(cfg.step) + d.max_coord * e
+}
+
 /// Steps 1 to 5: the colour and corrected-opacity differences of one
-/// sample (shaded, step 3 is followed by the shading terms).
-fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInputs>) -> SampleTerms {
+/// sample (with a VOI, step 3 is followed by its opacity terms; shaded,
+/// by the shading terms).
+fn sample_terms(
+    cfg: &PipelineConfig,
+    d: &BoundInputs,
+    shade: Option<&ShadeInputs>,
+    voi: Option<&VoiInputs>,
+) -> SampleTerms {
     let e = 2f64.powi(-24);
     let ln2 = std::f64::consts::LN_2;
     let rw = r(cfg.weight);
     // 1. positions.
-    let ex = 2.0 * r(cfg.position) + d.max_index * r(cfg.step) + d.max_coord * e;
+    let ex = position_error(cfg, d);
     // 2. sample, in data units.
     let word = 2f64.powi(d.data_bits as i32 - i32::from(cfg.voxel.bits()));
     let range = 2f64.powi(d.data_bits as i32);
@@ -322,6 +377,11 @@ fn sample_terms(cfg: &PipelineConfig, d: &BoundInputs, shade: Option<&ShadeInput
     let df = ds * entries / range;
     let dc = d.table_step[0] * (df + rw) + 2.0 * r(cfg.color) + 3.0 * e;
     let da = d.table_step[1] * (df + rw) + 2.0 * r(cfg.alpha) + 3.0 * e;
+    // 3v. the volume of interest scales the opacity.
+    let da = match voi {
+        Some(v) => v.alpha_term(cfg, ex, da),
+        None => da,
+    };
     // 3s. shading.
     let (dc, da) = match shade {
         Some(s) => s.terms(cfg, d, ex, (dc, da)),

@@ -425,6 +425,62 @@ config_fields! {
             toml: "reciprocals of the normal fade and gradient-opacity scales: unsigned, frac >= 1",
             check: rules::unsigned_frac,
         },
+        /// The volume of interest's per-axis scale `s_axis / R` (the
+        /// voxel spacing over the ramp width `R`, or over 1 with no ramp),
+        /// broadcast per frame: it turns a position difference in voxels
+        /// into a distance in ramp units. Unsigned.
+        ///
+        /// Default `ufixed<28,8,RND,SAT>`: up to 255 (a ramp down to 1/255
+        /// of the spacing), 20 fraction bits, so a 2048-voxel difference is
+        /// scaled to 2e-3 ramp units.
+        pub voi_axis: Format {
+            default: fmt(28, 20, false, Rnd, Sat),
+            toml: "volume of interest: per-axis scale spacing / ramp, unsigned, frac >= 1",
+            check: rules::unsigned_frac,
+        },
+        /// The volume of interest's distances in ramp units (world units
+        /// with no ramp): per-axis distances, the box's half extents, the
+        /// sphere's radius and the signed distance to the boundary. Signed,
+        /// at least 2 integer bits including the sign (the weight's `1/2`
+        /// offset).
+        ///
+        /// Default `fixed<32,16,RND,SAT>`: +-32767 ramp units, 16 fraction
+        /// bits. SAT keeps a far sample far (its weight is 0 or 1 either
+        /// way).
+        pub voi_dist: Format {
+            default: fmt(32, 16, true, Rnd, Sat),
+            toml: "volume of interest: distances in ramp units, signed, >= 2 integer bits",
+            check: rules::voi_dist,
+        },
+        /// The volume of interest's weight `w = clamp(1/2 - d, 0, 1)` (and
+        /// `1 - w` outside): in `[0, 1]`, unsigned, at most one integer bit.
+        ///
+        /// Default `ufixed<13,1,RND,SAT>`: 12 fraction bits, as `alpha`.
+        pub voi_weight: Format {
+            default: fmt(13, 12, false, Rnd, Sat),
+            toml: "volume of interest: weight in [0, 1], unsigned, <= 1 integer bit",
+            check: rules::voi_weight,
+        },
+        /// The volume of interest's gain `S - 1` (`S` the opacity scale in
+        /// `[0, 100]`), broadcast per frame: signed.
+        ///
+        /// Default `fixed<20,8,RND,SAT>`: -1 to 99 with 12 fraction bits.
+        pub voi_gain: Format {
+            default: fmt(20, 12, true, Rnd, Sat),
+            toml: "volume of interest: gain scale - 1 in [-1, 99], signed",
+            check: rules::voi_gain,
+        },
+        /// The volume of interest's opacity factor `1 + (S - 1) w` in
+        /// `[0, 100]`, which multiplies the classified opacity (the product
+        /// is assigned into `alpha`, saturating at its top): unsigned,
+        /// with an integer bit (a factor of 1 must be exact).
+        ///
+        /// Default `ufixed<20,8,RND,SAT>`: up to 255, 12 fraction bits.
+        pub voi_factor: Format {
+            default: fmt(20, 12, false, Rnd, Sat),
+            toml: "volume of interest: opacity factor in [0, 100], unsigned, >= 1 integer bit",
+            check: rules::voi_factor,
+        },
         /// Which PE owns which voxel columns while the array samples:
         /// `blocks` (`W = ceil(nx / P)` columns each), `interleave` (Cube-4:
         /// column `x` on PE `x mod P`) or `cyclic` (blocks of
@@ -554,6 +610,11 @@ mod tests {
                 "ufixed<13,1,RND,SAT>",
                 "ufixed<16,4,RND,SAT>",
                 "ufixed<24,4,RND,SAT>",
+                "ufixed<28,8,RND,SAT>",
+                "fixed<32,16,RND,SAT>",
+                "ufixed<13,1,RND,SAT>",
+                "fixed<20,8,RND,SAT>",
+                "ufixed<20,8,RND,SAT>",
             ]
         );
         assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));

@@ -444,6 +444,55 @@ pub(super) fn unsigned_frac(_: &PipelineConfig, field: &str, f: Format) -> Resul
     Ok(())
 }
 
+/// The check of `voi_dist`.
+pub(super) fn voi_dist(_: &PipelineConfig, field: &str, d: Format) -> Result<(), ConfigError> {
+    if !d.is_signed() || d.int_bits() < 2 || d.frac() == 0 {
+        return Err(invalid(
+            field,
+            format!("voi_dist = {d}, but signed distances need a signed format with >= 2 integer bits and fraction bits"),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `voi_weight`: a fraction that holds 1 (the weight of a
+/// sample deep inside).
+pub(super) fn voi_weight(c: &PipelineConfig, field: &str, w: Format) -> Result<(), ConfigError> {
+    fraction(c, field, w)?;
+    if w.int_bits() < 1 {
+        return Err(invalid(
+            field,
+            "voi_weight has no integer bit, so the weight 1 of a sample inside is not representable"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `voi_gain`.
+pub(super) fn voi_gain(_: &PipelineConfig, field: &str, g: Format) -> Result<(), ConfigError> {
+    if !g.is_signed() || g.int_bits() < 2 || g.frac() == 0 {
+        return Err(invalid(
+            field,
+            format!("voi_gain = {g}, but the gain scale - 1 needs a signed format with >= 2 integer bits and fraction bits"),
+        ));
+    }
+    Ok(())
+}
+
+/// The check of `voi_factor`.
+pub(super) fn voi_factor(c: &PipelineConfig, field: &str, f: Format) -> Result<(), ConfigError> {
+    unsigned_frac(c, field, f)?;
+    if f.int_bits() < 1 {
+        return Err(invalid(
+            field,
+            "voi_factor has no integer bit, so the factor 1 that leaves an opacity unchanged is not representable"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// The check of `pes`.
 pub(super) fn datapath_latency(
     _: &PipelineConfig,

@@ -131,6 +131,9 @@ pub struct Geometry {
     /// The PEs carry the gradient and shading unit ([`super::shading`]).
     #[serde(default)]
     pub shading: bool,
+    /// The PEs carry the volume-of-interest stage ([`super::voi`]).
+    #[serde(default)]
+    pub voi: bool,
 }
 
 impl Geometry {
@@ -143,12 +146,18 @@ impl Geometry {
             pes,
             regions: golden::geometry::Regions::new(d, dims[2]).count() as u32,
             shading: false,
+            voi: false,
         }
     }
 
     /// This geometry with (or without) the gradient and shading unit.
     pub fn with_shading(self, shading: bool) -> Geometry {
         Geometry { shading, ..self }
+    }
+
+    /// This geometry with (or without) the volume-of-interest stage.
+    pub fn with_voi(self, voi: bool) -> Geometry {
+        Geometry { voi, ..self }
     }
 
     /// Columns per PE, `W = ceil(nx / P)`.
@@ -531,6 +540,27 @@ fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         let extra = super::shading::steps(cfg, col_bits);
         steps.splice(at..at, extra);
     }
+    if geo.voi {
+        items.extend(super::voi::items(cfg));
+        // Golden scales the classified opacity before the shading's
+        // gradient opacity and the correction: whichever read it reads
+        // the scaled one.
+        let reader = if geo.shading {
+            "gradient opacity"
+        } else {
+            "log table"
+        };
+        for st in steps.iter_mut().filter(|st| st.0 == reader) {
+            for dep in st.1.iter_mut().filter(|d| d.0 == "class lerp") {
+                dep.0 = "voi opacity";
+            }
+        }
+        let at = steps
+            .iter()
+            .position(|st| st.0 == "class lerp")
+            .map_or(steps.len(), |i| i + 1);
+        steps.splice(at..at, super::voi::steps(cfg));
+    }
     let mut start: Vec<(String, u32, u32)> = Vec::new(); // name, start, ready
     let mut delays = Vec::new();
     for (name, deps, lat) in &steps {
@@ -580,6 +610,19 @@ pub fn schedule_depth(cfg: &PipelineConfig) -> u32 {
     datapath(cfg, &Geometry::new([64, 64, 64], cfg.pes))
         .schedule
         .depth
+}
+
+/// [`schedule_depth`] with the gradient and shading unit (`shading`)
+/// and the volume-of-interest stage (`voi`).
+pub fn unit_schedule_depth(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
+    datapath(
+        cfg,
+        &Geometry::new([64, 64, 64], cfg.pes)
+            .with_shading(shading)
+            .with_voi(voi),
+    )
+    .schedule
+    .depth
 }
 
 /// [`schedule_depth`] with the gradient and shading unit.

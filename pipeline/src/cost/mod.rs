@@ -31,6 +31,7 @@ pub mod shapes;
 pub mod target;
 pub mod throughput;
 pub mod units;
+pub mod voi;
 
 pub use target::{Resources, Target};
 
@@ -45,6 +46,16 @@ pub fn datapath_latency(cfg: &crate::config::PipelineConfig) -> u32 {
         return u32::from(cfg.datapath_latency);
     }
     inventory::schedule_depth(cfg).max(1)
+}
+
+/// [`datapath_latency`] of a datapath with the gradient and shading unit
+/// (`shading`) and the volume-of-interest stage (`voi`): the configured
+/// latency, or the depth of that schedule.
+pub fn unit_latency(cfg: &crate::config::PipelineConfig, units: (bool, bool)) -> u32 {
+    if cfg.datapath_latency > 0 {
+        return u32::from(cfg.datapath_latency);
+    }
+    inventory::unit_schedule_depth(cfg, units).max(1)
 }
 
 /// [`datapath_latency`] of a datapath with the gradient and shading unit:

@@ -160,12 +160,15 @@ fn fitting(cfg: &PipelineConfig, geo: &Geometry, parts: &[Part]) -> Vec<&'static
         .collect()
 }
 
-/// The most PEs of `cfg` (with the shading unit when `shading`) that fit
-/// `part` for a volume of `dims`.
-pub fn max_pes(cfg: &PipelineConfig, (dims, shading): ([usize; 3], bool), part: &Part) -> MaxPes {
+/// The most PEs of `cfg` (with the shading unit and the volume-of-interest
+/// stage as `geo` has them) that fit `part` for a volume of `geo.dims`.
+pub fn max_pes(cfg: &PipelineConfig, geo: &Geometry, part: &Part) -> MaxPes {
+    let dims = geo.dims;
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
     let fit_at = |p: u16| {
-        let g = Geometry::new(dims, p).with_shading(shading);
+        let g = Geometry::new(dims, p)
+            .with_shading(geo.shading)
+            .with_voi(geo.voi);
         let (r, _, mems) = design::array(cfg, &g, part.target);
         fit_memories(part, &r, &mems)
     };
@@ -206,10 +209,7 @@ pub fn build(
         .iter()
         .map(|p| fit_memories(p, &array, &mems))
         .collect();
-    let max = family
-        .iter()
-        .map(|p| max_pes(cfg, (geo.dims, geo.shading), p))
-        .collect();
+    let max = family.iter().map(|p| max_pes(cfg, &geo, p)).collect();
     let run_rate = rate(&geo, run.cycles, clock, vb);
     let bound = bound_cycles(&geo);
     let bound_rate = rate(&geo, bound, clock, vb);
@@ -235,7 +235,9 @@ pub fn build(
     let mut scaling = Vec::new();
     for n in SCALE_N {
         for p in SCALE_P {
-            let g = Geometry::new([n, n, n], p).with_shading(geo.shading);
+            let g = Geometry::new([n, n, n], p)
+                .with_shading(geo.shading)
+                .with_voi(geo.voi);
             let b = bound_cycles(&g);
             let r = array_cost(cfg, &g, target);
             scaling.push(ScaleRow {

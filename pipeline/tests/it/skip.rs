@@ -3,7 +3,7 @@
 //! word (empty space) or a final pixel (culling), in either compositing
 //! order, at random widths; they save cycles; the clocked and whole-slice
 //! paths agree with skipping on (every mapping, migration and ray buffer
-//! placement); and with golden's planner over the same
+//! placement), with a volume of interest too; and with golden's planner over the same
 //! blocks the pipeline takes exactly golden's samples, clip planes
 //! included.
 //!
@@ -17,7 +17,7 @@ use golden::render::{render, PrepareOptions, Prepared, RenderOptions, Technique}
 use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
-use pipeline::array::{run_frame_with, Array, Frame};
+use pipeline::array::{run_frame_voi, run_frame_with, Array, Frame};
 use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
@@ -180,6 +180,76 @@ fn config(c: &Case) -> PipelineConfig {
     }
 }
 
+/// A VOI drawn for a case: sphere or box, outside or not, ramp, scale.
+type VoiDraw = (bool, bool, f64, f64);
+
+fn voi_for(dims: [usize; 3], (sphere, outside, ramp, scale): VoiDraw) -> golden::voi::Voi {
+    let n = dims.map(|d| d as f64);
+    let shape = if sphere {
+        golden::voi::Shape::Sphere {
+            centre: [n[0] * 0.45, n[1] * 0.55, n[2] * 0.5],
+            radius: n[0].min(n[1]).min(n[2]) * 0.3,
+        }
+    } else {
+        golden::voi::Shape::Box {
+            lo: [n[0] * 0.2, n[1] * 0.3, n[2] * 0.25],
+            hi: [n[0] * 0.7, n[1] * 0.8, n[2] * 0.6],
+        }
+    };
+    golden::voi::Voi {
+        shape,
+        scale,
+        outside,
+        ramp,
+    }
+}
+
+/// The skipping identities of [`check`] with a volume of interest: a
+/// scaled zero opacity stays zero, so the occupancy memory built from the
+/// table alone stays exact.
+fn check_voi(c: &Case, v: VoiDraw) -> Result<(), TestCaseError> {
+    let cfg = config(c);
+    if cfg.validate().is_err() {
+        return Err(TestCaseError::reject("widths"));
+    }
+    let vol = sparse(c.dims, c.blobs, c.seed);
+    let lut = lut(&cfg, c.threshold);
+    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
+    let prep = Prepared::new(&vol, &camera(eye, look, c.fov))
+        .map_err(|e| TestCaseError::reject(e.to_string()))?;
+    for &n in &prep.view.dims {
+        if cfg.check_extent(n as u32).is_err() {
+            return Err(TestCaseError::reject("extent"));
+        }
+    }
+    let voi = voi_for(c.dims, v);
+    let run = |skips| {
+        run_frame_voi(
+            &cfg,
+            &vol,
+            &lut,
+            &prep,
+            skips,
+            (None, Some(&voi)),
+            Tracer::disabled(),
+        )
+        .expect("frame runs")
+    };
+    let off = run(OFF);
+    let empty = run(EMPTY);
+    prop_assert!(
+        empty.raw == off.raw,
+        "empty-space skipping with a VOI changed a raw word"
+    );
+    prop_assert!(empty.samples <= off.samples);
+    let all = run(Skips::default());
+    prop_assert!(
+        image_bits(&prep, &all) == image_bits(&prep, &off),
+        "culling with a VOI changed a pixel"
+    );
+    Ok(())
+}
+
 fn check(c: &Case) -> Result<(), TestCaseError> {
     let cfg = config(c);
     if cfg.validate().is_err() {
@@ -221,6 +291,24 @@ proptest! {
     #[test]
     fn pipeline_skipping_is_bit_identical(c in cases()) {
         check(&c)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    /// The same identities with a volume of interest: box or sphere,
+    /// inside or outside, with and without a ramp, scales 0, 0.5 and 2.
+    #[test]
+    fn pipeline_skipping_with_a_voi_is_bit_identical(
+        c in cases(),
+        v in (
+            any::<bool>(),
+            any::<bool>(),
+            prop_oneof![Just(0.0), 0.5..5.0f64],
+            prop_oneof![Just(0.0), Just(0.5), Just(2.0)],
+        ),
+    ) {
+        check_voi(&c, v)?;
     }
 }
 

@@ -242,11 +242,23 @@ const SHADING_FORMATS: [&str; 8] = [
     "grad_recip",
 ];
 
+/// The volume-of-interest stage's formats: the sweep renders without a
+/// VOI, so they are never counted.
+const VOI_FORMATS: [&str; 5] = [
+    "voi_axis",
+    "voi_dist",
+    "voi_weight",
+    "voi_gain",
+    "voi_factor",
+];
+
 /// The sum of the widths of every register format the datapath has (see
-/// the module docs): the shading unit's only when `shading`.
+/// the module docs): the shading unit's only when `shading`, the
+/// volume-of-interest stage's never.
 pub fn total_bits(c: &PipelineConfig, shading: bool) -> u32 {
     c.formats()
         .iter()
+        .filter(|(name, _)| !VOI_FORMATS.contains(name))
         .filter(|(name, _)| shading || !SHADING_FORMATS.contains(name))
         .map(|(_, f)| u32::from(f.bits()))
         .sum()

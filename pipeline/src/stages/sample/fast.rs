@@ -29,10 +29,11 @@ impl Array {
         let lens = &times.lens;
         let buses: Vec<RowBus> = rows
             .iter()
-            .map(|&(my, y, sy)| RowBus {
+            .map(|&(my, y, sy, yp)| RowBus {
                 slice,
                 row: (my - glo) as usize,
                 y,
+                yp,
                 slope_yz: (sy, region.slope_z),
                 slope_x: (region.slope_b[0], region.slope_k[0]),
             })

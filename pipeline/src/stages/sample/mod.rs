@@ -24,9 +24,10 @@ use crate::host::{RegionPlan, SlicePlan};
 use crate::probes::{Ctrl, Stage};
 
 /// One ray row of a slice as the controller broadcasts it: the row index
-/// `my`, the clamped voxel rows `y0, y0 + 1` with the y weight, and the
-/// spacing-scaled y slope.
-pub(crate) type Row = (i64, (usize, usize, Fx), Fx);
+/// `my`, the clamped voxel rows `y0, y0 + 1` with the y weight, the
+/// spacing-scaled y slope and the row's y position (the volume of
+/// interest's comparator reads it).
+pub(crate) type Row = (i64, (usize, usize, Fx), Fx, Fx);
 
 /// The controller's plan of a slice's rows: each row's cycles (the
 /// busiest PE's count), the cycle its first sample issues, and the stall
@@ -217,6 +218,7 @@ impl Array {
                     wy,
                 ),
                 sy,
+                y,
             ));
         }
         self.host_stats.merge(&st);
@@ -244,7 +246,7 @@ impl Array {
         let sampled: Vec<usize> = (0..rows.len()).filter(|&r| lens[r] > 0).collect();
         let mut following = sampled.iter().skip(1);
         let slope_x = (region.slope_b[0], region.slope_k[0]);
-        for (r, &(my, y, sy)) in rows.iter().enumerate() {
+        for (r, &(my, y, sy, yp)) in rows.iter().enumerate() {
             let row = (my - glo) as usize;
             // Each PE schedules its rays in the row's runs (front to back
             // its live ones, counting the rest).
@@ -276,6 +278,7 @@ impl Array {
                     my,
                     row,
                     y,
+                    yp,
                     cycle: usize::MAX,
                     slope_yz: (sy, region.slope_z),
                     slope_x,
@@ -302,6 +305,7 @@ impl Array {
                     my,
                     row,
                     y,
+                    yp,
                     cycle,
                     slope_yz: (sy, region.slope_z),
                     slope_x,

@@ -58,6 +58,8 @@ pub struct SampleBus<'a> {
     pub row: usize,
     /// Clamped voxel rows `y0, y0 + 1` and the y weight of this row.
     pub y: (usize, usize, Fx),
+    /// The row's y position (`position`).
+    pub yp: Fx,
     /// Cycle within the row.
     pub cycle: usize,
     /// Spacing-scaled y slope of this row and the region's z term.
@@ -110,6 +112,8 @@ pub struct RowBus<'a> {
     pub row: usize,
     /// Clamped voxel rows `y0, y0 + 1` and the y weight.
     pub y: (usize, usize, Fx),
+    /// The row's y position (`position`).
+    pub yp: Fx,
     /// Spacing-scaled y slope of the row and the region's z term.
     pub slope_yz: (Fx, Fx),
     /// Region slope constants on x.
@@ -123,6 +127,7 @@ impl<'a> RowBus<'a> {
             slice: b.slice,
             row: b.row,
             y: b.y,
+            yp: b.yp,
             slope_yz: b.slope_yz,
             slope_x: b.slope_x,
         }
@@ -352,6 +357,13 @@ impl Pe {
         let st = &mut self.stats;
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
+        let mut voi = crate::voi::VoiTrace::default();
+        if let Some(unit) = &dp.voi {
+            // Golden scales the classified opacity before it shades.
+            let f;
+            (f, voi) = unit.factor(&dp.cfg, (x, bus.yp, s.z), st)?;
+            alpha = crate::voi::VoiUnit::scale(&dp.cfg, alpha, f, st);
+        }
         let mut shade = Default::default();
         if let (Some(unit), Some(t)) = (&dp.shade, &taps) {
             // The gradient and shading of a sample that is visible
@@ -395,6 +407,7 @@ impl Pe {
             corrected,
             terminated,
             shade,
+            voi,
         })
     }
 
