@@ -465,7 +465,8 @@ fn the_pre_classified_mipmap_stores_the_shading() {
         let worst = amb
             .data
             .iter()
-            .zip(&flat.data)
+            .flatten()
+            .zip(flat.data.iter().flatten())
             .map(|(a, b)| (a - b).abs())
             .fold(0f32, f32::max);
         assert!(worst <= 1e-6, "{spec}: ambient-only differs by {worst}");
