@@ -14,7 +14,7 @@
 //! synthesizes them with yosys (`synth_xilinx`, `synth_ice40 -dsp`) and
 //! compares.
 //!
-//! The shading unit's square root and divider are in [`shading`]'s
+//! The shading unit's square root and divider are
 //! [`sqrt_norm`] and [`divider`].
 //!
 //! Quantisation modes other than `TRN` and `RND`, and `SAT_SYM` into a
