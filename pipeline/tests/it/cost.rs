@@ -461,7 +461,7 @@ fn shading_verilog_matches_the_model() {
             let x = if i == 0 {
                 (1u64 << (2 * n)) - 1
             } else {
-                rand(2 * n) >> rand(6) % u64::from(2 * n)
+                rand(2 * n) >> (rand(6) % u64::from(2 * n))
             };
             let y = pipeline::datapath::isqrt_into(
                 Wide::new(i128::from(x), 2 * pf),
@@ -486,7 +486,7 @@ fn shading_verilog_matches_the_model() {
         let mut script = comb(&m);
         let mut want = Vec::new();
         for i in 0..VECTORS {
-            let d = rand(nb).max(1) >> rand(4) % u64::from(nb) | 1;
+            let d = (rand(nb).max(1) >> (rand(4) % u64::from(nb))) | 1;
             let one = u128::from(d) << unit;
             let top = (1u128 << w) - 1;
             let num = match i % 4 {
