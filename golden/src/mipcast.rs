@@ -362,8 +362,13 @@ fn shader_for(view: &View, mip: &MipMap, opts: &MipOptions) -> Result<Option<Sha
         return Ok(None);
     };
     if mip.classify == Classify::Pre {
+        // The shading is in the pyramid's level 0 (mipmap::build_shaded);
+        // it must be this frame's.
+        if mip.shading == Some(crate::mipmap::shading_key(view, &sh)) {
+            return Ok(None);
+        }
         return Err(input(
-            "the pre-classified mip-map has no scalar to take gradients of: shade with --mip-classify post",
+            "this pre-classified mip-map was not built with the frame's shading (lights, eye direction, material): build it with Prepared::mipmap_shaded_for",
         ));
     }
     sh.gradient = crate::shading::GradientMode::Samples;

@@ -22,6 +22,19 @@
 //! material (the checkerboard's air-floor mean is the wall's value). The
 //! scalar pyramid does not depend on the table.
 //!
+//! **Shading, pre-classified** ([`MipMap::build_shaded`]): level 0 holds
+//! each voxel's shaded, opacity-weighted colour, Blinn-Phong
+//! ([`crate::shading::Shader::shade`]) of its classified colour with its
+//! voxel gradient ([`crate::gradients::Gradients`], central differences)
+//! and the frame's lights, as the paper stores its shading in the
+//! pyramid. The view direction is the golden shader's own: one direction
+//! for the whole volume, from its centre to the eye (the half vectors of
+//! [`crate::shading::Lighting`]), which is the paper's viewpoint-independent
+//! approximation within a frame and is exactly what every other method
+//! shades with. The pyramid then depends on the eye's direction (and the
+//! lights, material, fade and gradient opacity): it is cached by a key of
+//! them with the table's ([`shading_key`]) and rebuilt when they change.
+//!
 //! **Filter.** Each level is half the resolution of the one below
 //! (`ceil(n / 2)` per axis, down to one voxel): the paper's 2x2x2 box, the
 //! mean of the eight children, summed pairwise so that a constant volume
@@ -49,7 +62,10 @@ use std::hash::{Hash, Hasher};
 use rayon::prelude::*;
 
 use crate::error::{input, Error, Result};
+use crate::geometry::View;
 use crate::occupancy::VisibleEntries;
+use crate::gradients::Gradients;
+use crate::shading::{Lighting, Shade, Shader};
 use crate::slices::SliceStack;
 use crate::tf::Lut;
 
@@ -263,12 +279,40 @@ pub struct MipMap {
     pub classify: Classify,
     /// Levels, finest first.
     pub levels: Vec<Level>,
+    /// The [`shading_key`] of the shading level 0 holds (pre-classified
+    /// shaded pyramids only).
+    pub shading: Option<u64>,
 }
 
 impl MipMap {
     /// Classifies every voxel of `stack` with `lut` (pre-classified; a
     /// post-classified pyramid ignores `lut`) and filters it down.
     pub fn build(stack: &SliceStack, lut: &Lut, classify: Classify) -> Result<MipMap> {
+        MipMap::build_with(stack, lut, classify, None)
+    }
+
+    /// A pre-classified pyramid of shaded voxels: each voxel's classified
+    /// colour shaded by `shader` with its gradient from `grads` (the
+    /// stack's central differences), then opacity-weighted; `key` is
+    /// [`shading_key`] of the shading, kept in [`MipMap::shading`].
+    pub fn build_shaded(
+        stack: &SliceStack,
+        grads: &Gradients,
+        lut: &Lut,
+        shader: &Shader,
+        key: u64,
+    ) -> Result<MipMap> {
+        let mut m = MipMap::build_with(stack, lut, Classify::Pre, Some((grads, shader)))?;
+        m.shading = Some(key);
+        Ok(m)
+    }
+
+    fn build_with(
+        stack: &SliceStack,
+        lut: &Lut,
+        classify: Classify,
+        shading: Option<(&Gradients, &Shader)>,
+    ) -> Result<MipMap> {
         let dims = stack.dims;
         check_size(dims)?;
         let mut base = vec![[0f32; 4]; dims[0] * dims[1] * dims[2]];
@@ -277,11 +321,20 @@ impl MipMap {
             .for_each(|(z, slab)| {
                 let s = stack.slice(z);
                 for y in 0..dims[1] {
-                    let line = s.values((y + 1) * stack.row + 1, dims[0]);
-                    for (out, v) in slab[y * dims[0]..][..dims[0]].iter_mut().zip(line) {
+                    let start = (y + 1) * stack.row + 1;
+                    let line = s.values(start, dims[0]);
+                    for (x, (out, v)) in slab[y * dims[0]..][..dims[0]]
+                        .iter_mut()
+                        .zip(line)
+                        .enumerate()
+                    {
                         *out = match classify {
                             Classify::Pre => {
-                                let c = lut.lookup(v);
+                                let mut c = lut.lookup(v);
+                                if let (Some((g, sh)), true) = (shading, c[3] > 0.0) {
+                                    // The gradients are padded by one voxel per side.
+                                    c = sh.shade_f32(c, g.at(z, x + 1, y + 1));
+                                }
                                 [c[3] * c[0], c[3] * c[1], c[3] * c[2], c[3]]
                             }
                             Classify::Post => [v, v, v, 0.0],
@@ -312,7 +365,11 @@ impl MipMap {
             let next = levels.last().expect("a level").halve(classify);
             levels.push(next);
         }
-        Ok(MipMap { classify, levels })
+        Ok(MipMap {
+            classify,
+            levels,
+            shading: None,
+        })
     }
 
     /// Index of the coarsest level.
@@ -351,5 +408,29 @@ pub fn classification_key(lut: &Lut) -> u64 {
     for e in &lut.rgba {
         e.map(f32::to_bits).hash(&mut h);
     }
+    h.finish()
+}
+
+/// A key of everything a pre-classified shaded pyramid depends on besides
+/// the table: the lights and half vectors in `view`'s space (so the eye's
+/// direction from the volume's centre), the material, the normal fade and
+/// the gradient opacity.
+pub fn shading_key(view: &View, shade: &Shade) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let lit = Lighting::new(view, shade);
+    for v in lit.lights.iter().chain(&lit.halves) {
+        v.map(f64::to_bits).hash(&mut h);
+    }
+    let m = shade.material;
+    [
+        m.ambient,
+        m.diffuse,
+        m.specular,
+        m.shininess,
+        shade.normal_fade,
+        shade.gradient_opacity,
+    ]
+    .map(f64::to_bits)
+    .hash(&mut h);
     h.finish()
 }

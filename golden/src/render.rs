@@ -21,7 +21,7 @@ use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
 use crate::preint::PreTable;
 use crate::reference::{self, RefOptions};
-use crate::shading::{GradientMode, Shader};
+use crate::shading::{GradientMode, Shade, Shader};
 use crate::shearwarp::{Classified, SwOptions, SwStats};
 use crate::slices::SliceStack;
 use crate::tf::{Lut, TransferFunction};
@@ -351,6 +351,54 @@ impl Prepared {
 }
 
 impl Prepared {
+    /// The pyramid the mip-map caster reads with `mip`: shaded when
+    /// pre-classified and shading ([`Prepared::mipmap_shaded_for`]), else
+    /// [`Prepared::mipmap_for`].
+    pub fn mipmap_of(&self, lut: &Lut, mip: &MipOptions) -> Result<Arc<MipMap>> {
+        match (mip.classify, &mip.shade) {
+            (Classify::Pre, Some(sh)) => self.mipmap_shaded_for(lut, sh),
+            _ => self.mipmap_for(lut, mip.classify),
+        }
+    }
+
+    /// The pre-classified pyramid shaded with `shade`
+    /// ([`MipMap::build_shaded`]), cached in the pre-classified slot by the
+    /// table's and the shading's keys, so that frames from one eye
+    /// direction share it.
+    pub fn mipmap_shaded_for(&self, lut: &Lut, shade: &Shade) -> Result<Arc<MipMap>> {
+        let skey = crate::mipmap::shading_key(&self.view, shade);
+        let key = {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            std::hash::Hash::hash(&(classification_key(lut), skey), &mut h);
+            std::hash::Hasher::finish(&h)
+        };
+        let mut cached = self
+            .mipmap
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let slot = &mut cached[Classify::Pre as usize];
+        match slot {
+            Some((k, m)) if *k == key && m.shading == Some(skey) => Ok(Arc::clone(m)),
+            _ => {
+                // The shader's lights and material only: the gradient is
+                // each voxel's own.
+                let mut sh = *shade;
+                sh.gradient = GradientMode::Samples;
+                let shader = Shader::with_gradients(&self.view, None, &sh)?;
+                let grads = self.gradients();
+                let m = Arc::new(MipMap::build_shaded(
+                    &self.stack,
+                    &grads,
+                    lut,
+                    &shader,
+                    skey,
+                )?);
+                *slot = Some((key, Arc::clone(&m)));
+                Ok(m)
+            }
+        }
+    }
+
     /// The shear-warp classified stack under `lut` ([`Classified`]): the
     /// one built for the last table when `lut` has the same colours and
     /// opacities, else a new one, kept for the next frame.
@@ -528,7 +576,7 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             }
             let mip = opts.mip();
             mip.validate()?;
-            let pyramid = prep.mipmap_for(lut, mip.classify)?;
+            let pyramid = prep.mipmap_of(lut, &mip)?;
             let (image, stats, gaze) = match &opts.reference.gaze {
                 Some(g) => {
                     let (i, s, g) =

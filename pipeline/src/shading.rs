@@ -274,31 +274,14 @@ impl ShadeUnit {
         Ok(out)
     }
 
-    /// `|g . v| / |g|`: the divider's exact quotient truncated onto the
-    /// `normal_dot` grid and capped at 1 (quantised unit vectors can put a
-    /// dot product a hair above it).
+    /// `|g . v| / |g|`: the divider ([`divide`]) of the dot product's
+    /// magnitude by the norm.
     #[inline]
     fn cosine(cfg: &PipelineConfig, g: &[Fx; 3], v: &[Fx; 3], norm: Fx) -> Result<Wide, FxError> {
-        let nd = cfg.normal_dot;
         let dot = (g[0] * v[0])
             .checked_add(g[1] * v[1])?
             .checked_add(g[2] * v[2])?;
-        let num = dot.raw.unsigned_abs() as i128;
-        // value = (num 2^-fd) / (n 2^-fn); on the grid 2^-fo: floor(num
-        // 2^(fo + fn - fd) / n). Nested floors of positive integers are the
-        // floor of the whole, so a right shift first is exact too.
-        let s = i32::from(nd.frac()) + i32::from(norm.format().frac()) - dot.frac;
-        let scaled = if s >= 0 {
-            num.checked_shl(s as u32)
-                .filter(|v| v >> s as u32 == num)
-                .ok_or(FxError::WideOverflow {
-                    op: "shading divide",
-                })?
-        } else {
-            num >> (-s) as u32
-        };
-        let q = scaled / i128::from(norm.raw());
-        Ok(Wide::new(q.min(1i128 << nd.frac()), i32::from(nd.frac())))
+        divide(cfg, dot.raw.unsigned_abs() as i128, dot.frac, norm)
     }
 
     /// `x^p` for `x` in `[0, 1]` on the `normal_dot` grid: the power table
@@ -385,6 +368,31 @@ impl ShadeUnit {
         };
         Ok((out, alpha, trace))
     }
+}
+
+/// The shading divider: `num 2^-num_frac / norm` (`num >= 0`, `norm > 0`),
+/// the exact quotient truncated onto the `normal_dot` grid and capped at 1
+/// (quantised unit vectors can put a dot product a hair above it). Public
+/// so that the calibration Verilog ([`crate::rtl`]) can be checked
+/// against it.
+#[inline]
+pub fn divide(cfg: &PipelineConfig, num: i128, num_frac: i32, norm: Fx) -> Result<Wide, FxError> {
+    let nd = cfg.normal_dot;
+    // value = (num 2^-fd) / (n 2^-fn); on the grid 2^-fo: floor(num
+    // 2^(fo + fn - fd) / n). Nested floors of positive integers are the
+    // floor of the whole, so a right shift first is exact too.
+    let s = i32::from(nd.frac()) + i32::from(norm.format().frac()) - num_frac;
+    let scaled = if s >= 0 {
+        num.checked_shl(s as u32)
+            .filter(|v| v >> s as u32 == num)
+            .ok_or(FxError::WideOverflow {
+                op: "shading divide",
+            })?
+    } else {
+        num >> (-s) as u32
+    };
+    let q = scaled / i128::from(norm.raw());
+    Ok(Wide::new(q.min(1i128 << nd.frac()), i32::from(nd.frac())))
 }
 
 /// The smaller of two exact values (a comparator and a multiplexer).

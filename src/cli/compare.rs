@@ -138,7 +138,7 @@ fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
         // Built once per volume and table (cached in `prep`), so not part
         // of the frame time below; said apart.
         let t = Instant::now();
-        let m = prep.mipmap_for(&lut, opts.mip_classify)?;
+        let m = prep.mipmap_of(&lut, &opts.mip())?;
         super::say(&format!(
             "mipmap: {} levels, {} voxels, built in {:.3} s (cached per volume and table, not in the frame time)",
             m.levels.len(),

@@ -256,7 +256,8 @@ pub fn run(a: &CostArgs) -> Result<()> {
 
 /// Writes each calibration module as `<name>.v` into `dir`.
 fn write_verilog(dir: &std::path::Path, cfg: &PipelineConfig) -> Result<()> {
-    let mods = pipeline::rtl::calibration_modules(cfg)?;
+    let mut mods = pipeline::rtl::calibration_modules(cfg)?;
+    mods.extend(pipeline::rtl::shading_modules(cfg));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for m in &mods {
         let path = dir.join(format!("{}.v", m.name));

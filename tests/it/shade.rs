@@ -167,10 +167,6 @@ fn bad_flags_are_one_line_errors() {
             format!("{s} --method pipeline --pes 4 --shade --gradient samples"),
             "differences on voxels",
         ),
-        (
-            format!("{s} --method mipmap --mip-classify pre --shade"),
-            "--mip-classify post",
-        ),
     ];
     for (line, needle) in &cases {
         let args: Vec<&str> = line.split_whitespace().collect();

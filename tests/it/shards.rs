@@ -21,20 +21,20 @@ fn run(dir: &Path, args: &str) {
     );
 }
 
-/// The CSV's rows without the `time_s` column.
+/// The CSV's rows without its timing columns (`time_s`, and
+/// `unshaded_time_s` where there is one).
 fn rows_without_time(path: &Path) -> Vec<Vec<String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let t = head
-        .iter()
-        .position(|&c| c == "time_s")
-        .expect("a time_s column");
+    assert!(head.contains(&"time_s"), "a time_s column");
     lines
         .map(|l| {
-            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
-            cells.remove(t);
-            cells
+            l.split(',')
+                .zip(&head)
+                .filter(|(_, h)| !h.ends_with("time_s"))
+                .map(|(c, _)| c.to_owned())
+                .collect()
         })
         .collect()
 }
@@ -50,11 +50,34 @@ fn files(dir: &Path) -> Vec<String> {
 
 #[test]
 fn three_shards_merge_into_the_unsharded_result() {
+    three_shards_merge(SWEEP);
+}
+
+/// The same with shading: the shaded rows, errors against the shaded
+/// reference and unshaded timings survive the shard files.
+#[test]
+fn shaded_shards_merge_into_the_unsharded_result() {
+    let sweep = format!("{SWEEP} --shade");
+    three_shards_merge(&sweep);
+    let dir = tempfile::tempdir().unwrap();
+    run(dir.path(), &format!("{sweep} --out-dir full"));
+    let text = std::fs::read_to_string(dir.path().join("full/bench.csv")).unwrap();
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let u = head.iter().position(|&c| c == "unshaded_time_s").unwrap();
+    for l in text.lines().skip(1).filter(|l| !l.contains(",reference,")) {
+        let cell = l.split(',').nth(u).unwrap();
+        assert!(cell.parse::<f64>().is_ok(), "no unshaded time in {l}");
+    }
+    let md = std::fs::read_to_string(dir.path().join("full/summary.md")).unwrap();
+    assert!(md.contains("Shading's cost"), "no shading table");
+}
+
+fn three_shards_merge(sweep: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    run(d, &format!("{SWEEP} --out-dir full"));
+    run(d, &format!("{sweep} --out-dir full"));
     for k in 1..=3 {
-        run(d, &format!("{SWEEP} --shard {k}/3 --out-dir s{k}"));
+        run(d, &format!("{sweep} --shard {k}/3 --out-dir s{k}"));
         assert_eq!(
             files(&d.join(format!("s{k}"))),
             [format!("shard-{k}-of-3.json")]

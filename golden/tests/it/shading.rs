@@ -158,21 +158,13 @@ fn gradient_opacity_clears_homogeneous_regions() {
     assert!(cleared > 0.0);
 }
 
-/// Shading refuses what it cannot do: bad materials, zero lights, the
-/// pre-classified mip-map.
+/// Shading refuses what it cannot do: bad materials, zero lights.
 #[test]
 fn shading_refuses_bad_input() {
     let vol = scene("sphere:16");
     let lut = lut_for(vol.kind(), &tf_preset("sphere").unwrap());
     let prep = Prepared::new(&vol, &cam(&vol, DVec3::new(7.5, 7.5, -20.0), 16)).unwrap();
     let mut o = RenderOptions::default();
-    o.slice.shade = Some(Shade::default());
-    o.mip_classify = golden::mipmap::Classify::Pre;
-    let e = render(&prep, &lut, Technique::MipMap, &o)
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("mip-map"), "{e}");
     let mut bad = Shade::default();
     bad.material.shininess = 0.0;
     o.slice.shade = Some(bad);
@@ -408,7 +400,7 @@ fn normal_fade_bounds_the_shading_of_tiny_gradients() {
 /// The mip-map method shades too (post-classified: gradients of the
 /// level-blended scalar at the level's own resolution): against the shaded
 /// reference it is several times closer than unshaded, and the same bits
-/// whatever the thread count; pre-classified it refuses in one line.
+/// whatever the thread count.
 #[test]
 fn the_mipmap_shades_like_the_reference() {
     for (spec, preset, dist) in [("ml:32", "ml", 48.0), ("sphere:32", "sphere", 40.0)] {
@@ -438,20 +430,62 @@ fn the_mipmap_shades_like_the_reference() {
             "{spec}: thread count changed the bits"
         );
     }
-    let vol = scene("sphere:16");
-    let lut = lut_for(vol.kind(), &tf_preset("sphere").unwrap());
-    let c = DVec3::from_array(vol.center_world());
-    let prep = Prepared::new(&vol, &cam(&vol, c - DVec3::Z * 30.0, 16)).unwrap();
+}
+
+/// A pre-classified mip-map frame (`--mip-classify pre`), shaded or not.
+fn pre_mip(prep: &Prepared, lut: &golden::tf::Lut, shade: Option<Shade>) -> Image {
     let mut o = RenderOptions::default();
-    o.slice.shade = Some(Shade::default());
+    o.slice.shade = shade;
+    o.reference.shade = shade;
     o.mip_classify = golden::mipmap::Classify::Pre;
-    let e = render(&prep, &lut, Technique::MipMap, &o)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("--mip-classify post") && !e.contains('\n'),
-        "{e}"
-    );
+    render(prep, lut, Technique::MipMap, &o)
+        .expect("render")
+        .image
+}
+
+/// The pre-classified mip-map stores the shading in its level 0
+/// (`MipMap::build_shaded`): ambient-only shading (ka 1, kd = ks = 0)
+/// gives the unshaded pre-classified frame to 1e-6; with the default
+/// material it is closer to the shaded reference than the unshaded
+/// pre-classified frame; and a new light rebuilds the cached pyramid
+/// (the frame equals a fresh preparation's and differs from the old
+/// light's).
+#[test]
+fn the_pre_classified_mipmap_stores_the_shading() {
+    for (spec, preset, dist) in [("ml:32", "ml", 48.0), ("sphere:32", "sphere", 40.0)] {
+        let vol = scene(spec);
+        let lut = lut_for(vol.kind(), &tf_preset(preset).expect("preset"));
+        let c = DVec3::from_array(vol.center_world());
+        let eye = c + DVec3::new(9.0, 7.0, -dist);
+        let prep = Prepared::new(&vol, &cam(&vol, eye, 64)).unwrap();
+        let flat = pre_mip(&prep, &lut, None);
+        let mut ambient = Shade::default();
+        ambient.material = golden::shading::Material::parse("1,0,0,10").unwrap();
+        let amb = pre_mip(&prep, &lut, Some(ambient));
+        let worst = amb
+            .data
+            .iter()
+            .flatten()
+            .zip(flat.data.iter().flatten())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0f32, f32::max);
+        assert!(worst <= 1e-6, "{spec}: ambient-only differs by {worst}");
+        let sh = Some(Shade::default());
+        let reference = image(&prep, &lut, Technique::Reference, sh);
+        let shaded = compare(&pre_mip(&prep, &lut, sh), &reference).unwrap().rmse;
+        let unshaded = compare(&flat, &reference).unwrap().rmse;
+        eprintln!(
+            "{spec}: pre-classified mipmap vs shaded reference RMSE {shaded:.5} shaded, {unshaded:.5} unshaded"
+        );
+        assert!(shaded < unshaded, "{spec}: {shaded} vs {unshaded}");
+        // Another light: the cached pyramid must not be reused.
+        let mut side = Shade::default();
+        side.add_light(glam::DVec3::new(1.0, 0.0, 0.0)).unwrap();
+        let lit = pre_mip(&prep, &lut, Some(side));
+        let fresh = Prepared::new(&vol, &cam(&vol, eye, 64)).unwrap();
+        assert_eq!(lit.data, pre_mip(&fresh, &lut, Some(side)).data, "{spec}");
+        assert_ne!(lit.data, pre_mip(&prep, &lut, sh).data, "{spec}");
+    }
 }
 
 proptest::proptest! {

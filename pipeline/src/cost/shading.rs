@@ -34,7 +34,7 @@ fn bits(f: crate::fixed::Format) -> u32 {
 }
 
 /// Bits of the integer square root of `|g|^2` before any saturation.
-fn norm_root(cfg: &PipelineConfig) -> u32 {
+pub fn norm_root(cfg: &PipelineConfig) -> u32 {
     let gb = bits(cfg.gradient);
     let shift = 2 * i32::from(cfg.grad_norm.frac()) - 2 * i32::from(cfg.gradient.frac());
     let radicand = (2 * gb as i32 + 2 + shift).max(2) as u32;
@@ -52,6 +52,37 @@ fn mul(a: u32, a_signed: bool, b: u32, b_signed: bool, y: u32, post_add: Option<
         registered: true,
         operand_reg: 0,
     }
+}
+
+/// The square root `|g|` with its output register (one per shading unit;
+/// also the calibration module [`crate::rtl::sqrt_norm`]).
+pub fn sqrt_units(cfg: &PipelineConfig) -> Vec<Unit> {
+    vec![
+        Unit::Sqrt {
+            root: norm_root(cfg),
+        },
+        Unit::Reg {
+            bits: bits(cfg.grad_norm),
+        },
+    ]
+}
+
+/// One divider `|g . v| / |g|` with its cap at 1 and output register (two
+/// per light; also the calibration module [`crate::rtl::divider`]).
+pub fn divider_units(cfg: &PipelineConfig) -> Vec<Unit> {
+    let (nd, nb) = (bits(cfg.normal_dot), bits(cfg.grad_norm));
+    vec![
+        Unit::Div {
+            quotient: nd,
+            divisor: nb,
+        },
+        Unit::Cmp { width: nd },
+        Unit::Mux {
+            width: nd,
+            inputs: 2,
+        },
+        Unit::Reg { bits: nd },
+    ]
 }
 
 /// The unit's datapath items.
@@ -110,17 +141,7 @@ pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
             Unit::Reg { bits: 2 * gb + 2 },
         ],
     ));
-    out.push(Item::new(
-        "shading",
-        "|g|: square root",
-        1,
-        vec![
-            Unit::Sqrt {
-                root: norm_root(cfg),
-            },
-            Unit::Reg { bits: nb },
-        ],
-    ));
+    out.push(Item::new("shading", "|g|: square root", 1, sqrt_units(cfg)));
     let dot = gb + lb + 2;
     out.push(Item::new(
         "shading",
@@ -137,18 +158,7 @@ pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
         "shading",
         "divider |g . v| / |g|",
         2,
-        vec![
-            Unit::Div {
-                quotient: nd,
-                divisor: nb,
-            },
-            Unit::Cmp { width: nd },
-            Unit::Mux {
-                width: nd,
-                inputs: 2,
-            },
-            Unit::Reg { bits: nd },
-        ],
+        divider_units(cfg),
     ));
     out.push(Item::new(
         "shading",

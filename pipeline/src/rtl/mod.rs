@@ -14,10 +14,16 @@
 //! synthesizes them with yosys (`synth_xilinx`, `synth_ice40 -dsp`) and
 //! compares.
 //!
+//! The shading unit's square root and divider are
+//! [`sqrt_norm`] and [`divider`].
+//!
 //! Quantisation modes other than `TRN` and `RND`, and `SAT_SYM` into a
 //! signed format, are not emitted ([`RtlError::Unsupported`]).
 
 use std::fmt::Write as _;
+
+mod shading;
+pub use shading::{dividend_bits, divider, sqrt_norm};
 
 use crate::config::PipelineConfig;
 use crate::cost::shapes::{accum_word, table_word, Lerp, Quantizer, Word, RAY_INDEX_BITS};
@@ -567,4 +573,10 @@ pub fn calibration_modules(cfg: &PipelineConfig) -> Result<Vec<CalibrationModule
         composite(cfg)?,
         class_table(cfg),
     ])
+}
+
+/// The shading unit's calibration modules for `cfg`: the square root and
+/// the divider (synthesized at two width settings, being slower to map).
+pub fn shading_modules(cfg: &PipelineConfig) -> Vec<CalibrationModule> {
+    vec![sqrt_norm(cfg), divider(cfg)]
 }

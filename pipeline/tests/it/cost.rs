@@ -24,7 +24,7 @@ use std::sync::Mutex;
 
 use pipeline::config::PipelineConfig;
 use pipeline::cost::{Resources, Target};
-use pipeline::rtl::{calibration_modules, CalibrationModule};
+use pipeline::rtl::{calibration_modules, shading_modules, CalibrationModule};
 
 /// Relative tolerance on LUT and FF counts.
 const REL_TOL: f64 = 0.25;
@@ -32,7 +32,8 @@ const REL_TOL: f64 = 0.25;
 /// constant logic is below what the estimator models).
 const ABS_TOL: u64 = 3;
 
-/// Narrow widths: 8-bit voxels, 256-entry tables, 12-bit accumulators.
+/// Narrow widths: 8-bit voxels, 256-entry tables, 12-bit accumulators,
+/// 14-bit gradients, 8 fraction bits of `|n . L|`.
 const NARROW: &str = r#"
 voxel = { bits = 8, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
 position = { bits = 20, frac = 10, quant = "RND", overflow = "SAT", signed = true }
@@ -49,9 +50,14 @@ opacity_corr = { bits = 10, frac = 9, quant = "RND", overflow = "SAT", signed = 
 accum_color = { bits = 12, frac = 12, quant = "RND", overflow = "SAT", signed = false }
 accum_alpha = { bits = 12, frac = 12, quant = "RND", overflow = "SAT", signed = false }
 merge = { bits = 16, frac = 12, quant = "RND", overflow = "SAT", signed = false }
+gradient = { bits = 14, frac = 4, quant = "RND", overflow = "SAT", signed = true }
+grad_norm = { bits = 14, frac = 4, quant = "TRN", overflow = "SAT", signed = false }
+light = { bits = 12, frac = 10, quant = "RND", overflow = "SAT", signed = true }
+normal_dot = { bits = 9, frac = 8, quant = "TRN", overflow = "SAT", signed = false }
 "#;
 
-/// Wide widths: 16-bit voxels, 32-bit positions, 24-bit accumulators.
+/// Wide widths: 16-bit voxels, 32-bit positions, 24-bit accumulators,
+/// 24-bit gradients, 16 fraction bits of `|n . L|`.
 const WIDE: &str = r#"
 voxel = { bits = 16, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
 position = { bits = 32, frac = 18, quant = "RND", overflow = "SAT", signed = true }
@@ -68,6 +74,10 @@ opacity_corr = { bits = 20, frac = 19, quant = "RND", overflow = "SAT", signed =
 accum_color = { bits = 24, frac = 24, quant = "RND", overflow = "SAT", signed = false }
 accum_alpha = { bits = 24, frac = 24, quant = "RND", overflow = "SAT", signed = false }
 merge = { bits = 28, frac = 24, quant = "RND", overflow = "SAT", signed = false }
+gradient = { bits = 24, frac = 6, quant = "RND", overflow = "SAT", signed = true }
+grad_norm = { bits = 24, frac = 6, quant = "TRN", overflow = "SAT", signed = false }
+light = { bits = 18, frac = 16, quant = "RND", overflow = "SAT", signed = true }
+normal_dot = { bits = 17, frac = 16, quant = "TRN", overflow = "SAT", signed = false }
 "#;
 
 fn settings() -> Vec<(&'static str, PipelineConfig)> {
@@ -189,17 +199,20 @@ struct Row {
     got: Counted,
 }
 
-#[test]
-fn estimator_agrees_with_yosys() {
-    if !yosys("the estimator-vs-yosys calibration") {
-        return;
-    }
+/// Synthesizes `modules(cfg)` of every setting in `settings` on both
+/// targets, prints the comparison table and fails on any count outside
+/// the tolerance; `expect` rows in all.
+fn check_against_yosys(
+    settings: Vec<(&'static str, PipelineConfig)>,
+    modules: impl Fn(&PipelineConfig) -> Vec<CalibrationModule>,
+    expect: usize,
+) {
     let dir = tempfile::tempdir().expect("temp dir");
     let mut jobs = Vec::new();
-    for (setting, cfg) in settings() {
+    for (setting, cfg) in settings {
         let sub = dir.path().join(setting);
         std::fs::create_dir_all(&sub).expect("setting dir");
-        for m in calibration_modules(&cfg).expect("modules emit") {
+        for m in modules(&cfg) {
             std::fs::write(sub.join(format!("{}.v", m.name)), &m.verilog).expect("write .v");
             for target in [Target::Xc7, Target::Ice40] {
                 jobs.push((setting, sub.clone(), m.clone(), target));
@@ -297,12 +310,43 @@ fn estimator_agrees_with_yosys() {
             ));
         }
     }
-    assert_eq!(rows.len(), 36, "every module synthesized on both targets");
+    assert_eq!(
+        rows.len(),
+        expect,
+        "every module synthesized on both targets"
+    );
     assert!(
         failures.is_empty(),
         "estimator vs yosys:\n{}",
         failures.join("\n")
     );
+}
+
+#[test]
+fn estimator_agrees_with_yosys() {
+    if !yosys("the estimator-vs-yosys calibration") {
+        return;
+    }
+    check_against_yosys(
+        settings(),
+        |cfg| calibration_modules(cfg).expect("modules emit"),
+        36,
+    );
+}
+
+/// The shading unit's square root and divider against yosys at the
+/// default and the narrow widths (about 40 s on two cores; the wide
+/// setting's would double it).
+#[test]
+fn shading_units_agree_with_yosys() {
+    if !yosys("the shading units' calibration") {
+        return;
+    }
+    let two: Vec<_> = settings()
+        .into_iter()
+        .filter(|(s, _)| *s != "wide")
+        .collect();
+    check_against_yosys(two, shading_modules, 8);
 }
 
 /// The emitted Verilog is exactly what the estimator describes: one
@@ -333,6 +377,145 @@ fn modules_follow_the_config() {
     assert!(mods[0].verilog.contains("output reg [40:0] y"));
     // The table is table_entries deep and R, G, B, opacity wide.
     assert!(mods[5].verilog.contains("reg [38:0] mem [0:4095]"));
+    let mods = shading_modules(&cfg);
+    // |g|^2 of 20-bit components: a 40-bit radicand, a 20-bit root.
+    assert!(mods[0].verilog.contains("input [39:0] x"));
+    assert!(mods[0].verilog.contains("output reg [19:0] y"));
+    // |g . v| of 20-bit gradients and 16-bit lights over the 20-bit norm,
+    // 13 bits of quotient.
+    assert!(mods[1].verilog.contains("input [35:0] num"));
+    assert!(mods[1].verilog.contains("input [19:0] d"));
+    assert!(mods[1].verilog.contains("output reg [12:0] y"));
+}
+
+/// Runs `script` in yosys and returns its `eval -show` results, in order.
+fn eval_results(script: &str) -> Vec<(String, i64)> {
+    let out = Command::new("yosys")
+        .args(["-p", script])
+        .output()
+        .expect("yosys runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // "Eval result: \\y = 16'0000110010000000." per shown signal.
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines()
+        .filter_map(|l| l.trim().strip_prefix("Eval result: \\"))
+        .map(|r| {
+            let (name, val) = r.split_once(" = ").expect("name = value");
+            let bits = val
+                .trim_end_matches('.')
+                .split_once('\'')
+                .expect("width'bits")
+                .1;
+            let v = i64::from_str_radix(bits, 2).expect("binary value");
+            (name.to_owned(), v)
+        })
+        .collect()
+}
+
+/// The shading unit's square root and divider modules, made
+/// combinational, evaluated by yosys at each width setting, give the raw
+/// words of `datapath::isqrt_into` and `shading::divide` bit for bit: on
+/// random radicands, and on dividends below, at and above `d` (quotients
+/// under 1, exactly 1, and capped).
+#[test]
+fn shading_verilog_matches_the_model() {
+    use pipeline::cost::shading::norm_root;
+    use pipeline::fixed::{Fx, QuantStats, Wide};
+    use pipeline::rtl::{dividend_bits, divider, sqrt_norm};
+    if !yosys("the shading Verilog-vs-model check") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut rand = |bits: u32| -> u64 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed >> (64 - bits)
+    };
+    let bin = |w: u32, v: u64| format!("{w}'b{v:0w$b}", w = w as usize);
+    const VECTORS: usize = 16;
+    let mut checked = 0;
+    for (setting, cfg) in settings() {
+        let mut st = QuantStats::default();
+        let comb = |m: &CalibrationModule| {
+            let file = dir.path().join(format!("{setting}_{}.v", m.name));
+            let v = m
+                .verilog
+                .replace("always @(posedge clk) begin", "always @* begin");
+            std::fs::write(&file, v).expect("write");
+            format!("read_verilog {}; prep -top {};", file.display(), m.name)
+        };
+        // Square root.
+        let n = norm_root(&cfg);
+        let pf = i32::from(cfg.grad_norm.frac());
+        let m = sqrt_norm(&cfg);
+        let mut script = comb(&m);
+        let mut want = Vec::new();
+        for i in 0..VECTORS {
+            // The largest radicand, then random ones of every size.
+            let x = if i == 0 {
+                (1u64 << (2 * n)) - 1
+            } else {
+                rand(2 * n) >> (rand(6) % u64::from(2 * n))
+            };
+            let y = pipeline::datapath::isqrt_into(
+                Wide::new(i128::from(x), 2 * pf),
+                cfg.grad_norm,
+                "test",
+                &mut st,
+            )
+            .expect("root");
+            script += &format!(" eval -set x {} -show y;", bin(2 * n, x));
+            want.push(("y".to_owned(), y.raw()));
+        }
+        let got = eval_results(&script);
+        assert_eq!(got, want, "{setting} sqrt_norm: yosys eval vs isqrt_into");
+        checked += want.len();
+        // Divider.
+        let w = dividend_bits(&cfg);
+        let nb = u32::from(cfg.grad_norm.bits());
+        let fd = i32::from(cfg.gradient.frac()) + i32::from(cfg.light.frac());
+        // num = d 2^(fd - fn) is a quotient of exactly 1.
+        let unit = (fd - pf) as u32;
+        let m = divider(&cfg);
+        let mut script = comb(&m);
+        let mut want = Vec::new();
+        for i in 0..VECTORS {
+            let d = (rand(nb).max(1) >> (rand(4) % u64::from(nb))) | 1;
+            let one = u128::from(d) << unit;
+            let top = (1u128 << w) - 1;
+            let num = match i % 4 {
+                0 => rand(w),
+                1 => one.min(top) as u64,
+                _ => (u128::from(rand(w)) % one.min(top)) as u64,
+            };
+            let q = pipeline::shading::divide(
+                &cfg,
+                i128::from(num),
+                fd,
+                Fx::from_raw(d as i64, cfg.grad_norm).expect("norm"),
+            )
+            .expect("divide");
+            script += &format!(
+                " eval -set num {} -set d {} -show y;",
+                bin(w, num),
+                bin(nb, d)
+            );
+            want.push(("y".to_owned(), q.raw as i64));
+        }
+        let got = eval_results(&script);
+        assert_eq!(
+            got, want,
+            "{setting} divider: yosys eval vs shading::divide"
+        );
+        checked += want.len();
+    }
+    assert_eq!(checked, 3 * 2 * VECTORS);
 }
 
 /// The calibration Verilog computes what the model computes: the

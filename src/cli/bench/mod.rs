@@ -111,6 +111,13 @@ pub struct BenchArgs {
     /// the N shards into what the unsharded run writes.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<shard::Shard>,
+    /// Shade every method and the reference (a headlight and the default
+    /// material, or the transfer function's): errors are against the
+    /// shaded reference, and each method's shaded frame is followed by its
+    /// unshaded frame, timed too (`unshaded_time_s`), for the cost of
+    /// shading.
+    #[arg(long)]
+    pub shade: bool,
 }
 
 /// A method the bench runs.
@@ -288,6 +295,8 @@ pub struct Case {
     pub seed: u64,
     /// Distance of the per-slice plot.
     pub slices_at: f64,
+    /// Shading of every method and the reference (`None`: unshaded).
+    pub shade: Option<golden::shading::Shade>,
 }
 
 /// One CSV row: one method, distance and run.
@@ -317,6 +326,9 @@ pub struct Row {
     pub err: Option<ImageError>,
     /// The pipeline's error against golden `er` with the same table.
     pub vs_er: Option<ImageError>,
+    /// Wall-clock seconds of the same method's unshaded frame, taken right
+    /// after the shaded one (`--shade` only).
+    pub unshaded_time_s: Option<f64>,
 }
 
 /// Samples per slice measured at one distance, for the per-slice plot.
@@ -353,6 +365,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         if a.shard.is_some() {
             bail!("--shard splits a sweep's distances; the report's plan is not sharded");
         }
+        if a.shade {
+            bail!("--report runs the report's own plan; --shade is for a single sweep");
+        }
         if a.source.scene.is_some() || a.source.volume.is_some() {
             bail!("--report runs the report's own scenes; drop --scene and --volume");
         }
@@ -386,6 +401,11 @@ fn case_of(a: &BenchArgs) -> Result<Case> {
     };
     let (vol, default_tf) = a.source.load()?;
     let tf = a.tf.resolve(default_tf)?;
+    let shade = a.shade.then(|| {
+        let mut sh = golden::shading::Shade::default();
+        sh.material = tf.material.unwrap_or_default();
+        sh
+    });
     Ok(Case {
         label: a.source.label(),
         vol,
@@ -401,6 +421,7 @@ fn case_of(a: &BenchArgs) -> Result<Case> {
         frames: a.frames,
         seed: a.seed,
         slices_at,
+        shade,
     })
 }
 

@@ -185,6 +185,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
             frames,
             seed: a.seed,
             slices_at: plan.slices_at,
+            shade: None,
         };
         let out = bench_dir.join(plan.key);
         std::fs::create_dir_all(&out)

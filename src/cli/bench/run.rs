@@ -95,7 +95,11 @@ pub fn run_case(case: &Case) -> Result<CaseResult> {
 /// method order of every frame is the unsharded run's (the shuffle still
 /// walks the other shards' distances), so only the timings can differ.
 pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
-    let opts = RenderOptions::default();
+    let mut opts = RenderOptions::default();
+    opts.slice.shade = case.shade;
+    opts.reference.shade = case.shade;
+    // Each shaded frame is followed by the same method's unshaded frame.
+    let plain = RenderOptions::default();
     let lut = lut_for(case.vol.kind(), &case.tf);
     let timed_methods = case
         .methods
@@ -141,6 +145,11 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                 2,
             )?;
         }
+        if case.shade.is_some() {
+            // The voxel gradients belong to the stack, as the pyramid to
+            // the volume: built untimed, kept from frame to frame.
+            prep.gradients();
+        }
         let vd = prep.view.d;
         area = (prep.view.dims[0] * prep.view.dims[1]) as f64;
         nz = prep.view.dims[2];
@@ -157,7 +166,7 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
         }) {
             // The pyramid is cached per volume and table, as a renderer
             // drawing frame after frame keeps it: build it untimed.
-            prep.mipmap_for(&lut, opts.mip_classify)?;
+            prep.mipmap_of(&lut, &opts.mip())?;
         }
         if case
             .methods
@@ -180,6 +189,7 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
             utilization: None,
             err: None,
             vs_er: None,
+            unshaded_time_s: None,
         };
         // Golden er with each pipeline's table, untimed, for the
         // pipeline's bit-level comparison.
@@ -243,6 +253,14 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                         match render(&prep, &lut, *t, &o) {
                             Ok(f) => {
                                 r.time_s = Some(t0.elapsed().as_secs_f64());
+                                if case.shade.is_some() {
+                                    let mut p = plain;
+                                    p.reference.gaze = o.reference.gaze;
+                                    let t1 = Instant::now();
+                                    render(&prep, &lut, *t, &p)
+                                        .context(format!("{label} unshaded at D = {d}"))?;
+                                    r.unshaded_time_s = Some(t1.elapsed().as_secs_f64());
+                                }
                                 r.err = Some(compare(&f.image, &reference)?);
                                 r.samples = f.samples();
                                 if let Some(o) = &f.slice {
@@ -264,18 +282,41 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                     }
                     BenchMethod::Pipeline { cfg, .. } => {
                         let plut = &table_luts[&cfg.table_entries];
+                        // Shaded, the array runs through the prepared view
+                        // (the shading unit needs it), skipping nothing as
+                        // `run_frame` does, and so does its unshaded frame.
+                        let frame = |shade: Option<&golden::shading::Shade>| match shade {
+                            None if case.shade.is_none() => pipeline::run_frame(
+                                cfg,
+                                &case.vol,
+                                plut,
+                                &prep.view,
+                                waves::Tracer::disabled(),
+                            ),
+                            _ => pipeline::run_frame_shaded(
+                                cfg,
+                                &case.vol,
+                                plut,
+                                &prep,
+                                golden::skip::Skips {
+                                    empty: false,
+                                    cull: false,
+                                },
+                                shade,
+                                waves::Tracer::disabled(),
+                            ),
+                        };
                         let t0 = Instant::now();
-                        let res = pipeline::run_frame(
-                            cfg,
-                            &case.vol,
-                            plut,
-                            &prep.view,
-                            waves::Tracer::disabled(),
-                        );
+                        let res = frame(case.shade.as_ref());
                         match res {
                             Ok(f) => {
                                 let image = golden::warp::warp(&prep.view, &f.baseplane);
                                 r.time_s = Some(t0.elapsed().as_secs_f64());
+                                if case.shade.is_some() {
+                                    let t1 = Instant::now();
+                                    frame(None).context(format!("{label} unshaded at D = {d}"))?;
+                                    r.unshaded_time_s = Some(t1.elapsed().as_secs_f64());
+                                }
                                 r.err = Some(compare(&image, &reference)?);
                                 r.vs_er = Some(compare(&image, &er_for[&label])?);
                                 r.samples = Some(f.samples);

@@ -99,6 +99,8 @@ struct RowJson {
     utilization: Option<f64>,
     err: Option<ErrJson>,
     vs_er: Option<ErrJson>,
+    #[serde(default)]
+    unshaded_time_s: Option<f64>,
 }
 
 impl RowJson {
@@ -116,6 +118,7 @@ impl RowJson {
             utilization: r.utilization,
             err: r.err.map(ErrJson::of),
             vs_er: r.vs_er.map(ErrJson::of),
+            unshaded_time_s: r.unshaded_time_s,
         }
     }
     fn row(self) -> Row {
@@ -132,6 +135,7 @@ impl RowJson {
             utilization: self.utilization,
             err: self.err.map(ErrJson::error),
             vs_er: self.vs_er.map(ErrJson::error),
+            unshaded_time_s: self.unshaded_time_s,
         }
     }
 }

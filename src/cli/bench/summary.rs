@@ -98,6 +98,33 @@ pub fn summary(case: &Case, res: &CaseResult, img: &str, command: &str) -> Resul
         s,
         "\nA method is on the Pareto front at a distance when no other is both faster (median time) and closer to the reference (RMSE) there; the error-against-time plots draw the same front."
     )?;
+    // Shading's cost.
+    if case.shade.is_some() {
+        write!(
+            s,
+            "\nShading's cost: every method and the reference shaded (Blinn-Phong, docs/golden.md#shading); median seconds of the shaded and of the same method's unshaded frames, and the shaded frame's RMSE against the shaded reference:\n\n\
+             | D | method | shaded s | unshaded s | shaded / unshaded | RMSE vs shaded reference |\n| --- | --- | --- | --- | --- | --- |\n"
+        )?;
+        for &(d, _) in &ds {
+            for l in &errs {
+                let Some(p) = get(l, d) else { continue };
+                let ratio = match (p.time, p.unshaded_time) {
+                    (Some(a), Some(b)) if b > 0.0 => format!("{:.2}", a / b),
+                    _ => "-".into(),
+                };
+                writeln!(
+                    s,
+                    "| {d} | {l} | {} | {} | {ratio} | {} |",
+                    fmt_time(p.time),
+                    fmt_time(p.unshaded_time),
+                    p.first
+                        .err
+                        .map(|e| format!("{:.4}", e.rmse))
+                        .unwrap_or("-".into())
+                )?;
+            }
+        }
+    }
     // Samples beside the formulas.
     let (area, nz) = (res.area, res.nz);
     write!(

@@ -26,13 +26,13 @@ fn psnr_text(p: f64) -> String {
 pub fn csv(case: &Case, res: &CaseResult) -> String {
     let dims = case.vol.dims();
     let mut s = String::from(
-        "scene,volume,image,D,fov_deg,method,run,status,note,time_s,samples,regions,cycles,utilization,max_abs_255,rmse,psnr,vs_er_max_abs_255,vs_er_rmse\n",
+        "scene,volume,image,D,fov_deg,method,run,status,note,time_s,samples,regions,cycles,utilization,max_abs_255,rmse,psnr,vs_er_max_abs_255,vs_er_rmse,unshaded_time_s\n",
     );
     for r in &res.rows {
         let note = r.skipped.as_deref().unwrap_or("").replace(['"', ','], ";");
         let _ = writeln!(
             s,
-            "{},{}x{}x{},{}x{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{}x{}x{},{}x{},{},{:.4},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             case.label.replace(',', ";"),
             dims[0],
             dims[1],
@@ -57,6 +57,9 @@ pub fn csv(case: &Case, res: &CaseResult) -> String {
             r.vs_er
                 .map(|e| format!("{:.6}", e.rmse))
                 .unwrap_or_default(),
+            r.unshaded_time_s
+                .map(|t| format!("{t:.6}"))
+                .unwrap_or_default(),
         );
     }
     s
@@ -71,6 +74,8 @@ pub struct Point {
     pub d: f64,
     /// Median seconds over the frames (`None`: skipped).
     pub time: Option<f64>,
+    /// Median seconds of the unshaded frames (`--shade` only).
+    pub unshaded_time: Option<f64>,
     /// First run's row (counts and errors are identical in every run).
     pub first: Row,
 }
@@ -93,10 +98,12 @@ pub fn points(case: &Case, res: &CaseResult) -> Vec<Point> {
                 .filter(|r| r.method == label && r.d == d)
                 .collect();
             let times: Vec<f64> = rs.iter().filter_map(|r| r.time_s).collect();
+            let plain: Vec<f64> = rs.iter().filter_map(|r| r.unshaded_time_s).collect();
             out.push(Point {
                 method: label.clone(),
                 d,
                 time: (!times.is_empty()).then(|| median(&times)),
+                unshaded_time: (!plain.is_empty()).then(|| median(&plain)),
                 first: rs[0].clone(),
             });
         }
