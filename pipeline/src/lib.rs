@@ -41,5 +41,6 @@ pub mod stages;
 pub mod tables;
 
 pub use array::{
-    run_frame, run_frame_from_stack, run_frame_shaded, run_frame_with, Frame, RunError,
+    run_frame, run_frame_from_stack, run_frame_resident, run_frame_shaded, run_frame_with, Frame,
+    Resident, RunError, VoxelLoad,
 };

@@ -1,0 +1,138 @@
+//! PE memories kept loaded between frames: a camera path's frames that
+//! keep the view's axis map (principal axis, its direction and the near
+//! clip) find the volume already in PE memory, laid out as they need it,
+//! and the host loads nothing.
+//!
+//! A PE's memory holds its columns of the *permuted* volume, `[z][y][l]` in
+//! view space (see [`crate::pe::VoxelMem`]), so the contents depend on the
+//! axis map, the mapping (which columns a PE holds, aprons included) and
+//! the voxel word format. The model keeps one resident copy: a frame whose
+//! axis map or configuration differs reloads all of it, as the host of a
+//! chip with one copy would. Keeping three axis orders resident instead
+//! (Cube-4's skewed memories read beams along any axis from one copy)
+//! would be a different memory organisation, not modelled here.
+//!
+//! The load happens before a frame's first cycle and is not clocked in
+//! either case ([`Frame::cycles`] counts the same stages for a fresh and a
+//! resident frame, bit-identical); [`VoxelLoad`] says what the host wrote,
+//! so a reused frame shows the voxel words and bytes it did not load.
+
+use golden::geometry::{AxisMap, View};
+use waves::Tracer;
+
+use crate::config::PipelineConfig;
+use crate::fixed::QuantStats;
+use crate::host::VoxelSource;
+use crate::pe::VoxelMem;
+
+use super::{Array, Frame, RunError};
+
+/// The PE memories a frame ran with, kept for the next frame
+/// ([`run_frame_resident`]).
+pub struct Resident {
+    pub(crate) key: Key,
+    pub(crate) mems: Vec<VoxelMem>,
+    /// The host's quantisation events when it loaded them: a frame that
+    /// reuses them reports them again, so its stats equal a fresh frame's
+    /// (they describe the words in memory, not the act of writing them).
+    pub(crate) stats: QuantStats,
+}
+
+impl Resident {
+    /// Voxel words held over all PEs (aprons included).
+    pub fn words(&self) -> u64 {
+        self.mems.iter().map(|m| m.len() as u64).sum()
+    }
+}
+
+/// What the memories' contents depend on.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Key {
+    cfg: PipelineConfig,
+    data_bits: u32,
+    axes: AxisMap,
+    dims: [usize; 3],
+}
+
+impl Key {
+    pub(crate) fn of(cfg: &PipelineConfig, data_bits: u32, view: &View) -> Key {
+        Key {
+            cfg: *cfg,
+            data_bits,
+            axes: view.axes,
+            dims: view.dims,
+        }
+    }
+}
+
+/// How a frame's PE memories came to hold the volume.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct VoxelLoad {
+    /// Whether the memories already held this view's volume (the previous
+    /// frame's, same axis map and configuration): nothing was loaded.
+    pub resident: bool,
+    /// Voxel words the host wrote into the PE memories for this frame
+    /// (every PE's columns and aprons; 0 when resident).
+    pub words_loaded: u64,
+    /// `words_loaded` in bytes of `voxel`-bit words.
+    pub bytes_loaded: u64,
+    /// Voxel words the PE memories hold.
+    pub words_held: u64,
+    /// `words_held` in bytes of `voxel`-bit words: what a resident frame
+    /// did not load.
+    pub bytes_held: u64,
+}
+
+impl VoxelLoad {
+    pub(crate) fn new(cfg: &PipelineConfig, words_held: u64, resident: bool) -> VoxelLoad {
+        let bytes = |w: u64| (w * u64::from(cfg.voxel.bits())).div_ceil(8);
+        let words_loaded = if resident { 0 } else { words_held };
+        VoxelLoad {
+            resident,
+            words_loaded,
+            bytes_loaded: bytes(words_loaded),
+            words_held,
+            bytes_held: bytes(words_held),
+        }
+    }
+}
+
+/// [`crate::run_frame_from_stack`], keeping the PE memories in `resident`
+/// across calls: when `resident` holds the memories of a frame with the
+/// same axis map, configuration and data width, the PEs start from them
+/// and the host loads nothing (the frame's [`VoxelLoad`] says so);
+/// otherwise they load from `prep`'s stack. Either way `resident` holds
+/// this frame's memories afterwards. The frame is bit-identical, cycles
+/// included, to [`crate::run_frame_from_stack`]'s.
+#[allow(clippy::too_many_arguments)]
+pub fn run_frame_resident(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    shade: Option<&golden::shading::Shade>,
+    tracer: Tracer,
+    resident: &mut Option<Resident>,
+) -> Result<Frame, RunError> {
+    if prep.blocks.block != usize::from(cfg.occupancy_block) {
+        return Err(RunError::Schedule(format!(
+            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
+            prep.blocks.block, cfg.occupancy_block
+        )));
+    }
+    let source = VoxelSource::Stack(&prep.stack);
+    let array = Array::load_reusing(
+        cfg,
+        source,
+        data_bits,
+        lut,
+        &prep.view,
+        tracer,
+        resident.take(),
+    )?;
+    let (frame, kept) =
+        super::run_loaded(array, data_bits, prep, prep.blocks.clone(), skips, shade)?;
+    *resident = Some(kept);
+    Ok(frame)
+}
