@@ -162,10 +162,13 @@ pub fn run(a: &AnimateArgs) -> Result<()> {
 /// memories it keeps between frames.
 enum Renderer {
     Golden(Technique),
-    Pipeline {
-        cfg: PipelineConfig,
-        resident: Option<pipeline::Resident>,
-    },
+    Pipeline(Box<Chip>),
+}
+
+/// The PE array's configuration and the memories it keeps.
+struct Chip {
+    cfg: PipelineConfig,
+    resident: Option<pipeline::Resident>,
 }
 
 /// What the pipeline did in each frame, for the stats.
@@ -185,15 +188,15 @@ fn animate(a: &AnimateArgs) -> Result<()> {
         }
         None => {
             let (cfg, slice) = chip::configure(&a.pipeline, a.method, &a.slice)?;
-            let renderer = Renderer::Pipeline {
+            let renderer = Renderer::Pipeline(Box::new(Chip {
                 cfg,
                 resident: None,
-            };
+            }));
             (renderer, slice)
         }
     };
     let mut opts = slice.options()?;
-    if let Renderer::Pipeline { .. } = renderer {
+    if let Renderer::Pipeline(_) = renderer {
         chip::check_options(&opts)?;
     }
     let prep_opts = slice.prepare()?;
@@ -202,7 +205,7 @@ fn animate(a: &AnimateArgs) -> Result<()> {
     slice.apply_tf(&mut opts, &tf)?;
     let lut = match &renderer {
         Renderer::Golden(_) => lut_for(vol.kind(), &tf),
-        Renderer::Pipeline { cfg, .. } => chip::pipeline_lut(cfg, &vol, &tf),
+        Renderer::Pipeline(c) => chip::pipeline_lut(&c.cfg, &vol, &tf),
     };
     let load_s = t0.elapsed().as_secs_f64();
     let path = path_of(a, &first, frame.as_ref())?;
@@ -245,7 +248,8 @@ fn animate(a: &AnimateArgs) -> Result<()> {
                     .with_context(|| format!("frame {i}"))?
                     .image
             }
-            Renderer::Pipeline { cfg, resident } => {
+            Renderer::Pipeline(c) => {
+                let Chip { cfg, resident } = &mut **c;
                 if a.no_reuse {
                     *resident = None;
                 }
@@ -287,7 +291,8 @@ fn animate(a: &AnimateArgs) -> Result<()> {
         "eyes": path.iter().map(|(e, _)| e.to_array()).collect::<Vec<_>>(),
     });
     let mut chip_note = String::new();
-    if let Renderer::Pipeline { cfg, .. } = &renderer {
+    if let Renderer::Pipeline(c) = &renderer {
+        let cfg = &c.cfg;
         let resident = chip_frames.loads.iter().filter(|l| l.resident).count();
         let not_loaded: u64 = chip_frames
             .loads
