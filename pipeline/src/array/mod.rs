@@ -22,11 +22,11 @@
 //! front-to-back configuration.
 
 mod clock;
+mod memory;
 mod owners;
-mod resident;
 
 pub use clock::{Clock, Links};
-pub use resident::{run_frame_resident, Resident, VoxelLoad};
+pub use memory::{run_frame_resident, Resident, VoxelLoad};
 
 use golden::geometry::View;
 use golden::volume::Volume;
@@ -238,7 +238,7 @@ pub struct Array {
     /// What the PE memories' contents depend on, and the host's
     /// quantisation events in loading them (kept with them, see
     /// [`Resident`]).
-    resident_key: resident::Key,
+    resident_key: memory::Key,
     load_stats: QuantStats,
     voxel_load: VoxelLoad,
 }
@@ -307,12 +307,12 @@ impl Array {
         let nx = view.dims[0];
         let map = ColumnMap::of(cfg, nx);
         let held: Vec<Vec<usize>> = (0..p).map(|k| map.held(k)).collect();
-        let key = resident::Key::of(cfg, data_bits, view);
+        let key = memory::Key::of(cfg, data_bits, view);
         let (mems, load_stats, reused) = match resident.filter(|r| r.key == key) {
             Some(r) => (r.mems, r.stats, true),
             None => {
                 let mut st = QuantStats::default();
-                let mems = load_memories(cfg, source, data_bits, &held, view.dims, &mut st);
+                let mems = memory::load_memories(cfg, source, data_bits, &held, view.dims, &mut st);
                 (mems, st, false)
             }
         };
@@ -600,71 +600,6 @@ impl Array {
             quant,
         })
     }
-}
-
-/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
-/// `source` in one pass: each voxel is
-/// quantised once (its events counted in `st`, as the host's) and written
-/// to every PE holding its column (its owner and, under a round-robin
-/// mapping, the neighbours whose aprons include it).
-fn load_memories(
-    cfg: &PipelineConfig,
-    source: VoxelSource,
-    data_bits: u32,
-    held: &[Vec<usize>],
-    [nx, ny, nz]: [usize; 3],
-    st: &mut QuantStats,
-) -> Vec<VoxelMem> {
-    let mut holders = vec![Vec::new(); nx];
-    for (k, cols) in held.iter().enumerate() {
-        for &c in cols {
-            holders[c].push(k);
-        }
-    }
-    let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
-    if data_bits <= 8 {
-        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
-            word(v as u16, &mut QuantStats::default())
-        }));
-        let mut codes: Vec<Vec<u8>> = held
-            .iter()
-            .map(|h| Vec::with_capacity(h.len() * ny * nz))
-            .collect();
-        for z in 0..nz {
-            for y in 0..ny {
-                for (x, ks) in holders.iter().enumerate() {
-                    let v = source.get(x, y, z);
-                    let w = word(v, st);
-                    debug_assert_eq!(w, table[usize::from(v)]);
-                    for &k in ks {
-                        codes[k].push(v as u8);
-                    }
-                }
-            }
-        }
-        return codes
-            .into_iter()
-            .map(|codes| VoxelMem::Codes {
-                codes,
-                words: table.clone(),
-            })
-            .collect();
-    }
-    let mut words: Vec<Vec<u16>> = held
-        .iter()
-        .map(|h| Vec::with_capacity(h.len() * ny * nz))
-        .collect();
-    for z in 0..nz {
-        for y in 0..ny {
-            for (x, ks) in holders.iter().enumerate() {
-                let w = word(source.get(x, y, z), st);
-                for &k in ks {
-                    words[k].push(w);
-                }
-            }
-        }
-    }
-    words.into_iter().map(VoxelMem::Words).collect()
 }
 
 /// Runs one frame: plans, loads, clocks and reads out.

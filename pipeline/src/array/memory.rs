@@ -1,4 +1,5 @@
-//! PE memories kept loaded between frames: a camera path's frames that
+//! The PE memories: the host's load of the volume into them, and their
+//! keeping between frames. A camera path's frames that
 //! keep the view's axis map (principal axis, its direction and the near
 //! clip) find the volume already in PE memory, laid out as they need it,
 //! and the host loads nothing.
@@ -135,4 +136,69 @@ pub fn run_frame_resident(
         super::run_loaded(array, data_bits, prep, prep.blocks.clone(), skips, shade)?;
     *resident = Some(kept);
     Ok(frame)
+}
+
+/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
+/// `source` in one pass: each voxel is
+/// quantised once (its events counted in `st`, as the host's) and written
+/// to every PE holding its column (its owner and, under a round-robin
+/// mapping, the neighbours whose aprons include it).
+pub(super) fn load_memories(
+    cfg: &PipelineConfig,
+    source: VoxelSource,
+    data_bits: u32,
+    held: &[Vec<usize>],
+    [nx, ny, nz]: [usize; 3],
+    st: &mut QuantStats,
+) -> Vec<VoxelMem> {
+    let mut holders = vec![Vec::new(); nx];
+    for (k, cols) in held.iter().enumerate() {
+        for &c in cols {
+            holders[c].push(k);
+        }
+    }
+    let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
+    if data_bits <= 8 {
+        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
+            word(v as u16, &mut QuantStats::default())
+        }));
+        let mut codes: Vec<Vec<u8>> = held
+            .iter()
+            .map(|h| Vec::with_capacity(h.len() * ny * nz))
+            .collect();
+        for z in 0..nz {
+            for y in 0..ny {
+                for (x, ks) in holders.iter().enumerate() {
+                    let v = source.get(x, y, z);
+                    let w = word(v, st);
+                    debug_assert_eq!(w, table[usize::from(v)]);
+                    for &k in ks {
+                        codes[k].push(v as u8);
+                    }
+                }
+            }
+        }
+        return codes
+            .into_iter()
+            .map(|codes| VoxelMem::Codes {
+                codes,
+                words: table.clone(),
+            })
+            .collect();
+    }
+    let mut words: Vec<Vec<u16>> = held
+        .iter()
+        .map(|h| Vec::with_capacity(h.len() * ny * nz))
+        .collect();
+    for z in 0..nz {
+        for y in 0..ny {
+            for (x, ks) in holders.iter().enumerate() {
+                let w = word(source.get(x, y, z), st);
+                for &k in ks {
+                    words[k].push(w);
+                }
+            }
+        }
+    }
+    words.into_iter().map(VoxelMem::Words).collect()
 }
