@@ -63,8 +63,8 @@ use rayon::prelude::*;
 
 use crate::error::{input, Error, Result};
 use crate::geometry::View;
-use crate::occupancy::VisibleEntries;
 use crate::gradients::Gradients;
+use crate::occupancy::VisibleEntries;
 use crate::shading::{Lighting, Shade, Shader};
 use crate::slices::SliceStack;
 use crate::tf::Lut;

@@ -42,6 +42,6 @@ pub mod tables;
 pub mod voi;
 
 pub use array::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_shaded, run_frame_voi,
-    run_frame_with, Frame, RunError,
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_resident,
+    run_frame_shaded, run_frame_voi, run_frame_with, Frame, Resident, RunError, VoxelLoad,
 };

@@ -11,6 +11,14 @@
 //! equal steps) or a file of eyes (`--path F`, one `x,y,z` per line, or
 //! `x,y,z look x,y,z` to move the look-at point too; `#` starts a comment).
 //! The output folder gets one PNG per frame and an animated GIF of them.
+//!
+//! The pipeline methods (`pipeline`, `pipeline-ftb`) keep what the chip
+//! would keep: the volume in PE memory. A frame with the previous frame's
+//! axis map (principal axis, direction, near clip) starts from the PE
+//! memories as they were and the host loads nothing; a frame that changes
+//! it reloads them ([`pipeline::run_frame_resident`]). The load is not
+//! clocked, so a frame's cycles are the same either way; the stats give
+//! each frame's cycles and what the host loaded (`voxel_load`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -20,12 +28,16 @@ use clap::Args;
 use glam::{DMat3, DVec3};
 use golden::camera::Camera;
 use golden::orient::WorldFrame;
-use golden::render::{lut_for, render, Prepared};
+use golden::render::{lut_for, render, Prepared, Technique};
+use golden::warp::warp;
 use image::codecs::gif::{GifEncoder, Repeat};
 use image::{Delay, Frame, RgbaImage};
+use pipeline::config::PipelineConfig;
+use waves::Tracer;
 
 use super::args::{parse_vec3, with_threads, SliceArgs, ViewArgs};
 use super::bench::progress;
+use super::chip::{self, ConfigArgs};
 use super::method::MethodArg;
 use super::stats::{median, write_json};
 
@@ -39,9 +51,13 @@ const MAX_PATH_BYTES: u64 = 4 << 20;
 pub struct AnimateArgs {
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Golden method (the pipeline methods are not animated yet).
+    /// Method: a golden one, or the PE array (`pipeline`, `pipeline-ftb`),
+    /// which keeps the volume in PE memory while the axis map holds.
     #[arg(long, value_enum, default_value = "er")]
     pub method: MethodArg,
+    /// The pipeline's configuration (pipeline methods only).
+    #[command(flatten)]
+    pub pipeline: ConfigArgs,
     /// Degrees the eye orbits about the look-at point, around the up
     /// vector, over the whole path (default 360 unless --path is given).
     #[arg(long, allow_hyphen_values = true, conflicts_with = "path")]
@@ -58,7 +74,8 @@ pub struct AnimateArgs {
     /// Milliseconds each frame shows in the GIF.
     #[arg(long, default_value_t = 80)]
     pub frame_ms: u32,
-    /// Prepare every frame from scratch (to measure what reuse saves).
+    /// Prepare every frame from scratch, and for the pipeline reload its
+    /// PE memories every frame (to measure what reuse saves).
     #[arg(long)]
     pub no_reuse: bool,
     #[command(flatten)]
@@ -135,25 +152,61 @@ fn path_of(
 
 /// Runs `ercube animate`.
 pub fn run(a: &AnimateArgs) -> Result<()> {
-    let Some(tech) = a.method.technique() else {
-        bail!(
-            "animate renders the golden methods; {} is not animated yet",
-            a.method.name()
-        );
-    };
     if !(1..=10_000).contains(&a.frame_ms) {
         bail!("--frame-ms {} must be 1 to 10000", a.frame_ms);
     }
-    with_threads(a.threads, || animate(a, tech))
+    with_threads(a.threads, || animate(a))
 }
 
-fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
-    let mut opts = a.slice.options()?;
-    let prep_opts = a.slice.prepare()?;
+/// How the frames are drawn: a golden technique, or the PE array with the
+/// memories it keeps between frames.
+enum Renderer {
+    Golden(Technique),
+    Pipeline(Box<Chip>),
+}
+
+/// The PE array's configuration and the memories it keeps.
+struct Chip {
+    cfg: PipelineConfig,
+    resident: Option<pipeline::Resident>,
+}
+
+/// What the pipeline did in each frame, for the stats.
+#[derive(Default)]
+struct ChipFrames {
+    cycles: Vec<u64>,
+    loads: Vec<pipeline::VoxelLoad>,
+}
+
+fn animate(a: &AnimateArgs) -> Result<()> {
+    let (mut renderer, slice) = match a.method.technique() {
+        Some(t) => {
+            if a.pipeline.config.is_some() || a.pipeline.pes.is_some() {
+                bail!("--config and --pes apply only to --method pipeline or pipeline-ftb");
+            }
+            (Renderer::Golden(t), a.slice.clone())
+        }
+        None => {
+            let (cfg, slice) = chip::configure(&a.pipeline, a.method, &a.slice)?;
+            let renderer = Renderer::Pipeline(Box::new(Chip {
+                cfg,
+                resident: None,
+            }));
+            (renderer, slice)
+        }
+    };
+    let mut opts = slice.options()?;
+    if let Renderer::Pipeline(_) = renderer {
+        chip::check_options(&opts)?;
+    }
+    let prep_opts = slice.prepare()?;
     let t0 = Instant::now();
     let (vol, tf, first, frame) = a.view.load_framed()?;
-    a.slice.apply_tf(&mut opts, &tf)?;
-    let lut = lut_for(vol.kind(), &tf);
+    slice.apply_tf(&mut opts, &tf)?;
+    let lut = match &renderer {
+        Renderer::Golden(_) => lut_for(vol.kind(), &tf),
+        Renderer::Pipeline(c) => chip::pipeline_lut(&c.cfg, &vol, &tf),
+    };
     let load_s = t0.elapsed().as_secs_f64();
     let path = path_of(a, &first, frame.as_ref())?;
     std::fs::create_dir_all(&a.out_dir)
@@ -166,6 +219,7 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
     let mut times = Vec::with_capacity(path.len());
     let mut prepare_times = Vec::with_capacity(path.len());
     let mut stacks_reused = 0;
+    let mut chip_frames = ChipFrames::default();
     for (i, &(eye, look)) in path.iter().enumerate() {
         let t = Instant::now();
         // Camera::new validates each eye (an eye on the look-at point, or
@@ -188,19 +242,43 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
             stacks_reused += 1;
         }
         prepare_times.push(t.elapsed().as_secs_f64());
-        let frame = render(&prep, &lut, tech, &opts).with_context(|| format!("frame {i}"))?;
+        let image = match &mut renderer {
+            Renderer::Golden(tech) => {
+                render(&prep, &lut, *tech, &opts)
+                    .with_context(|| format!("frame {i}"))?
+                    .image
+            }
+            Renderer::Pipeline(c) => {
+                let Chip { cfg, resident } = &mut **c;
+                if a.no_reuse {
+                    *resident = None;
+                }
+                let f = pipeline::run_frame_resident(
+                    cfg,
+                    vol.kind().bits(),
+                    &lut,
+                    &prep,
+                    opts.slice.skips,
+                    (opts.slice.shade.as_ref(), opts.slice.voi.as_ref()),
+                    Tracer::disabled(),
+                    resident,
+                )
+                .with_context(|| format!("frame {i}"))?;
+                chip_frames.cycles.push(f.cycles);
+                chip_frames.loads.push(f.voxel_load);
+                warp(&prep.view, &f.baseplane)
+            }
+        };
         times.push(t.elapsed().as_secs_f64());
-        frame
-            .image
-            .write_png(&a.out_dir.join(format!("frame_{i:04}.png")))?;
-        gif.push(&frame.image)?;
+        image.write_png(&a.out_dir.join(format!("frame_{i:04}.png")))?;
+        gif.push(&image)?;
         prev = Some(prep);
         bar.inc(1);
     }
     bar.finish_and_clear();
     gif.finish()?;
     let rest = &times[1.min(times.len())..];
-    let stats = serde_json::json!({
+    let mut stats = serde_json::json!({
         "method": a.method.name(),
         "frames": path.len(),
         "reuse": !a.no_reuse,
@@ -212,12 +290,35 @@ fn animate(a: &AnimateArgs, tech: golden::render::Technique) -> Result<()> {
         "times_s": times,
         "eyes": path.iter().map(|(e, _)| e.to_array()).collect::<Vec<_>>(),
     });
+    let mut chip_note = String::new();
+    if let Renderer::Pipeline(c) = &renderer {
+        let cfg = &c.cfg;
+        let resident = chip_frames.loads.iter().filter(|l| l.resident).count();
+        let not_loaded: u64 = chip_frames
+            .loads
+            .iter()
+            .filter(|l| l.resident)
+            .map(|l| l.bytes_held)
+            .sum();
+        let loaded: u64 = chip_frames.loads.iter().map(|l| l.bytes_loaded).sum();
+        stats["order"] = serde_json::json!(cfg.order.name());
+        stats["pes"] = serde_json::json!(cfg.pes);
+        stats["cycles"] = serde_json::json!(chip_frames.cycles);
+        stats["voxel_load"] = serde_json::json!(chip_frames.loads);
+        stats["frames_resident"] = serde_json::json!(resident);
+        stats["voxel_bytes_loaded"] = serde_json::json!(loaded);
+        stats["voxel_bytes_not_loaded"] = serde_json::json!(not_loaded);
+        chip_note = format!(
+            "; {resident} of {} frames found the volume in PE memory ({not_loaded} bytes not loaded, {loaded} loaded)",
+            path.len()
+        );
+    }
     write_json(&a.out_dir.join("animate.json"), &stats)?;
     super::say(&format!(
-        "{}: {} frames, first {:.3} s, then median {:.3} s a frame (prepare {:.4} s; {} of {} slice stacks reused) -> {}",
+        "{}: {} frames, first {:.3} s, then median {:.3} s a frame (prepare {:.4} s; {} of {} slice stacks reused{chip_note}) -> {}",
         a.method.name(),
         path.len(),
-        times[0],
+        stats["first_frame_s"].as_f64().unwrap_or(f64::NAN),
         stats["median_frame_s"].as_f64().unwrap_or(f64::NAN),
         stats["median_prepare_s"].as_f64().unwrap_or(f64::NAN),
         stacks_reused,

@@ -60,6 +60,41 @@ pub fn apply_method(cfg: &mut PipelineConfig, method: MethodArg, terminate: f32)
     Ok(())
 }
 
+/// The configuration a pipeline method runs (`--config`, `--pes`, the
+/// order `method` names) and the slice options that go with it: `--block`
+/// sizes the occupancy memory's blocks, and golden's view of the volume
+/// then uses the same blocks (the configuration's when `--block` is not
+/// given).
+pub fn configure(
+    args: &ConfigArgs,
+    method: MethodArg,
+    slice: &super::args::SliceArgs,
+) -> Result<(PipelineConfig, super::args::SliceArgs)> {
+    let mut cfg = args.load()?;
+    apply_method(&mut cfg, method, slice.terminate)?;
+    let mut slice = slice.clone();
+    match slice.block {
+        Some(b) => {
+            golden::occupancy::check_block(b)?;
+            cfg.occupancy_block = b as u16;
+        }
+        None => slice.block = Some(usize::from(cfg.occupancy_block)),
+    }
+    cfg.validate()?;
+    Ok((cfg, slice))
+}
+
+/// Refuses the slice options the pipeline does not model.
+pub fn check_options(opts: &RenderOptions) -> Result<()> {
+    if opts.slice.substeps != 1 {
+        bail!("the pipeline models one sample per slice crossing; drop --substeps");
+    }
+    if opts.slice.preintegrate {
+        bail!("the pipeline model has no pre-integrated classification yet; drop --preintegrate");
+    }
+    Ok(())
+}
+
 /// The golden method a configuration mirrors: `er` back to front, `er-ftb`
 /// front to back.
 pub fn golden_method(cfg: &PipelineConfig) -> Method {
@@ -214,6 +249,7 @@ pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Val
         "pes": f.pes,
         "mapping": cfg.mapping.name(),
         "ray_buffer": f.ray_buffer,
+        "voxel_load": f.voxel_load,
         "quantization": f.quant,
         "pe_cycles_per_second": f.cycles as f64 * f64::from(cfg.pes) / run.time_s.max(1e-12),
         "config": serde_json::to_value(cfg).unwrap_or(Value::Null),

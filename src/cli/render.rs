@@ -356,28 +356,9 @@ fn write_outputs(
 
 /// `ercube render --method pipeline` or `pipeline-ftb`.
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
-    let mut cfg = a.pipeline.cfg.load()?;
-    chip::apply_method(&mut cfg, a.method, a.slice.terminate)?;
-    // --block sizes the occupancy memory's blocks; golden's view of the
-    // volume then uses the same blocks.
-    let mut slice = a.slice.clone();
-    match slice.block {
-        Some(b) => {
-            golden::occupancy::check_block(b)?;
-            cfg.occupancy_block = b as u16;
-        }
-        None => slice.block = Some(usize::from(cfg.occupancy_block)),
-    }
-    cfg.validate()?;
+    let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
-    if opts.slice.substeps != 1 {
-        anyhow::bail!("the pipeline models one sample per slice crossing; drop --substeps");
-    }
-    if opts.slice.preintegrate {
-        anyhow::bail!(
-            "the pipeline model has no pre-integrated classification yet; drop --preintegrate"
-        );
-    }
+    chip::check_options(&opts)?;
     let spec = FrameSpec {
         technique: None,
         shade: opts.slice.shade.is_some(),

@@ -32,9 +32,15 @@ const VIEW: [&str; 8] = [
 
 /// Animates `path` into `d/reuse` and, with `--no-reuse`, `d/fresh`.
 fn both_ways(d: &Path, path: &[&str]) {
+    both_ways_with(d, path, &[]);
+}
+
+/// [`both_ways`] with `extra` arguments (a method).
+fn both_ways_with(d: &Path, path: &[&str], extra_args: &[&str]) {
     for (out, extra) in [("reuse", None), ("fresh", Some("--no-reuse"))] {
         let mut args: Vec<&str> = vec!["animate"];
         args.extend(VIEW);
+        args.extend(extra_args);
         args.extend(path);
         args.extend(["--out-dir", out]);
         args.extend(extra);
@@ -157,7 +163,8 @@ fn path_files_and_bad_input() {
         ("--path missing.txt", "missing.txt"),
         ("--frames 0", "--frames"),
         ("--orbit nan", "--orbit"),
-        ("--method pipeline", "pipeline"),
+        ("--pes 4", "--pes"),
+        ("--method pipeline --substeps 2", "--substeps"),
         ("--frame-ms 0", "--frame-ms"),
     ] {
         let mut args: Vec<&str> = vec!["animate"];
@@ -165,5 +172,75 @@ fn path_files_and_bad_input() {
         args.extend(["--out-dir", "x"]);
         args.extend(extra.split_whitespace());
         assert_refused(&args, &ercube(d, &args), needle);
+    }
+}
+
+/// The pipeline keeps the volume in PE memory while the axis map holds: an
+/// orbit of 120 degrees in 4 frames looks along +z at 0 and 30 degrees and
+/// along +x at 60 and 90, so frames 1 and 3 find their volume resident
+/// and frames 0 and 2 load it. Every frame, resident or not, is
+/// bit-identical in image and cycles to `render` from the same eye (the
+/// exact eye the orbit computed, read back from the stats) and to the
+/// `--no-reuse` run, in both orders.
+#[test]
+fn pipeline_frames_reuse_the_volume_in_pe_memory() {
+    for method in ["pipeline", "pipeline-ftb"] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        both_ways_with(
+            d,
+            &["--frames", "4", "--orbit", "120"],
+            &["--method", method, "--pes", "4"],
+        );
+        let reuse = json(&d.join("reuse/animate.json"));
+        let fresh = json(&d.join("fresh/animate.json"));
+        let resident = |s: &Value| -> Vec<bool> {
+            s["voxel_load"]
+                .as_array()
+                .expect("voxel_load")
+                .iter()
+                .map(|l| l["resident"].as_bool().expect("resident"))
+                .collect()
+        };
+        assert_eq!(resident(&reuse), [false, true, false, true], "{method}");
+        assert_eq!(resident(&fresh), [false; 4], "{method}");
+        assert_eq!(reuse["frames_resident"], 2);
+        assert_eq!(reuse["cycles"], fresh["cycles"], "{method}");
+        for i in 0..4 {
+            let load = &reuse["voxel_load"][i];
+            let held = load["bytes_held"].as_u64().expect("bytes_held");
+            // ml:24 is 24^3 8-bit voxels, at least all of them held (as
+            // 12-bit words by default: 1.5 bytes each).
+            assert!(held >= 24 * 24 * 24, "{method} frame {i}: {load}");
+            let loaded = load["bytes_loaded"].as_u64().expect("bytes_loaded");
+            assert_eq!(loaded, if i % 2 == 1 { 0 } else { held }, "{load}");
+            let name = format!("frame_{i:04}.png");
+            let frame = png(&d.join("reuse").join(&name));
+            assert_eq!(frame, png(&d.join("fresh").join(&name)), "{method} {name}");
+            let eye: Vec<String> = reuse["eyes"][i]
+                .as_array()
+                .expect("eye")
+                .iter()
+                .map(|c| format!("{}", c.as_f64().expect("coordinate")))
+                .collect();
+            let eye = eye.join(",");
+            let mut args: Vec<&str> = vec!["render"];
+            args.extend(&VIEW[..4]);
+            args.extend(["--look-at", "11.5,11.5,11.5", "--eye", &eye]);
+            args.extend(["--method", method, "--pes", "4"]);
+            args.extend(["--out", "r.png", "--stats", "r.json"]);
+            let o = ercube(d, &args);
+            assert!(o.status.success(), "{}", describe(&args, &o));
+            let r = png(&d.join("r.png"));
+            let first = frame.iter().zip(&r).position(|(a, b)| a != b);
+            assert_eq!(
+                first, None,
+                "{method} {name}: first differing byte vs render"
+            );
+            assert_eq!(frame.len(), r.len());
+            let stats = json(&d.join("r.json"));
+            assert_eq!(reuse["cycles"][i], stats["cycles"], "{method} {name}");
+            assert_eq!(stats["voxel_load"]["resident"], false);
+        }
     }
 }

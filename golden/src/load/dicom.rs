@@ -1,14 +1,18 @@
-//! DICOM series: a folder of single-frame slices (CT, MR, ...) read with
-//! `dicom-object` and decoded with `dicom-pixeldata`, stacked along the
-//! slice normal in patient space.
+//! DICOM series: a folder of single-frame slices (CT, MR, ...), or one
+//! multi-frame object (Enhanced CT/MR, or plain multi-frame) whose frames
+//! are the slices, read with `dicom-object` and decoded with
+//! `dicom-pixeldata`, stacked along the slice normal in patient space.
+
+mod frames;
+mod pixels;
+
+use pixels::{dicom_err, quiet_unwind, read_pixels};
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use dicom_dictionary_std::tags;
-use dicom_object::mem::InMemElement;
 use dicom_object::{DefaultDicomObject, OpenFileOptions, Tag};
-use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder};
 
 use super::decode::{rescale, Decoded};
 use super::{format_err, from_file, io_err, open, Loaded};
@@ -50,10 +54,14 @@ const REFUSED: [(&str, &str); 7] = [
 /// (scanners write IOP to about six decimals).
 const ORIENT_TOL: f64 = 1e-4;
 
-/// What one slice's header says, read before any pixel data.
+/// What one slice's header says, read before any pixel data: a
+/// single-frame file's, or one frame's of a multi-frame object.
 #[derive(Debug, Clone)]
 struct Slice {
     path: PathBuf,
+    /// The frame in its file (0 for a single-frame file), of `frames`.
+    frame: usize,
+    frames: usize,
     rows: usize,
     cols: usize,
     /// Row direction (increasing column, volume x) and column direction
@@ -106,21 +114,52 @@ fn dicom_files(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
+impl Slice {
+    /// The file's name, and the frame's number (from 1) in a multi-frame
+    /// object, for messages.
+    fn label(&self) -> String {
+        let name = self.path.file_name().unwrap_or_default().to_string_lossy();
+        if self.frames > 1 {
+            format!("{name} frame {}", self.frame + 1)
+        } else {
+            name.into_owned()
+        }
+    }
+}
+
 /// Loads a DICOM series; see [`read_dicom_dir`].
 pub fn load_dicom_dir(dir: &Path, limit: u64) -> Result<Volume> {
     read_dicom_dir(dir, limit).map(|l| l.volume)
 }
 
+/// Reads one DICOM file: a multi-frame object, its frames the slices (see
+/// [`read_dicom_dir`]); a single-frame file is refused (its series is the
+/// folder).
+pub fn read_dicom_file(path: &Path, limit: u64) -> Result<Loaded> {
+    read_series(path, vec![path.to_owned()], limit)
+}
+
 /// Reads a folder holding one DICOM series of single-frame greyscale
-/// slices, with its placement in patient space (LPS, millimetres).
+/// slices, or one multi-frame object, with its placement in patient space
+/// (LPS, millimetres).
 ///
 /// Files are found by their `DICM` magic whatever their names; others in
 /// the folder are ignored. Every header is read and checked before any
 /// pixel data is decoded: one `SeriesInstanceUID`, the same `Rows`,
 /// `Columns`, `PixelSpacing`, `BitsAllocated`, `PixelRepresentation` and
-/// `ImageOrientationPatient` in every slice, one sample per pixel, one
-/// frame per file, and a supported transfer syntax (uncompressed, deflate,
-/// RLE lossless, JPEG baseline/extended/lossless; see the docs).
+/// `ImageOrientationPatient` in every slice, one sample per pixel, and a
+/// supported transfer syntax (uncompressed, deflate, RLE lossless, JPEG
+/// baseline/extended/lossless; see the docs).
+///
+/// A multi-frame object (`NumberOfFrames` > 1) must be the folder's only
+/// DICOM file; its frames are the slices, each placed and rescaled by its
+/// functional groups (`PlanePositionSequence`, `PlaneOrientationSequence`,
+/// `PixelMeasuresSequence`, `PixelValueTransformationSequence`; the
+/// frame's own before the shared ones) or else the top-level attributes,
+/// the frames of a plain multi-frame object without positions stepping
+/// along the normal by `SpacingBetweenSlices` (else `SliceThickness`).
+/// Its sizes are checked before its pixel data is decoded, and pixel data
+/// that does not hold `NumberOfFrames` frames is refused.
 ///
 /// Slices are sorted by their position along the slice normal
 /// `n = row x column` (`ImagePositionPatient . n`), whatever the file
@@ -147,10 +186,33 @@ pub fn read_dicom_dir(dir: &Path, limit: u64) -> Result<Loaded> {
             "the folder holds no DICOM files (no 'DICM' magic at byte 128)",
         ));
     }
+    read_series(dir, files, limit)
+}
+
+/// Reads the series of `files` (the folder, or the one file, `dir`).
+fn read_series(dir: &Path, files: Vec<PathBuf>, limit: u64) -> Result<Loaded> {
     check_dims([1, 1, files.len()], 2, u64::MAX).map_err(|e| from_file(dir, e))?;
     let mut slices = Vec::with_capacity(files.len());
     for f in &files {
-        slices.push(read_header(f, limit)?);
+        let frames = read_header(f, limit)?;
+        if frames.len() > 1 && files.len() > 1 {
+            return Err(format_err(
+                dir,
+                format!(
+                    "{} is a multi-frame object ({} frames) among {} DICOM files: give it alone",
+                    f.file_name().unwrap_or_default().to_string_lossy(),
+                    frames.len(),
+                    files.len()
+                ),
+            ));
+        }
+        slices.extend(frames);
+    }
+    if slices.len() == 1 && dir == files[0].as_path() {
+        return Err(format_err(
+            dir,
+            "a single DICOM file: give the folder that holds its series",
+        ));
     }
     let first = slices[0].clone();
     check_consistent(dir, &slices)?;
@@ -165,8 +227,13 @@ pub fn read_dicom_dir(dir: &Path, limit: u64) -> Result<Loaded> {
     // The rescaled values (f64) and the voxels are held together.
     let count = check_dims(dims, 10, limit).map_err(|e| from_file(dir, e))?;
     let mut vals: Vec<f64> = Vec::with_capacity(count);
-    for (_, s) in &keyed {
-        read_pixels(s, &mut vals)?;
+    if first.frames > 1 {
+        let order: Vec<&Slice> = keyed.iter().map(|(_, s)| s).collect();
+        read_pixels(&first.path, &order, &mut vals)?;
+    } else {
+        for (_, s) in &keyed {
+            read_pixels(&s.path, &[s], &mut vals)?;
+        }
     }
     let (kind, data, units) = map_values(&vals, first.bits);
     drop(vals);
@@ -202,8 +269,8 @@ fn map_values(vals: &[f64], bits: u16) -> Decoded {
 }
 
 /// Reads one file's header (up to the pixel data) and checks what the
-/// loader needs of it.
-fn read_header(path: &Path, limit: u64) -> Result<Slice> {
+/// loader needs of it: one slice per frame.
+fn read_header(path: &Path, limit: u64) -> Result<Vec<Slice>> {
     // dicom-object holds a file's elements in memory: bound the file first.
     let len = open(path)?.metadata().map_err(|e| io_err(path, e))?.len();
     if len > limit {
@@ -245,14 +312,17 @@ fn read_header(path: &Path, limit: u64) -> Result<Slice> {
             "{samples} samples per pixel: only greyscale (1 sample) slices are supported"
         )));
     }
-    let frames = elem(&obj, tags::NUMBER_OF_FRAMES)
-        .and_then(|e| e.to_int::<u32>().ok())
-        .unwrap_or(1);
-    if frames != 1 {
-        return Err(bad(format!(
-            "a multi-frame object ({frames} frames): give a folder of single-frame slices"
-        )));
-    }
+    let frames = match elem(&obj, tags::NUMBER_OF_FRAMES) {
+        None => 1,
+        Some(e) => e
+            .to_int::<u32>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| bad("NumberOfFrames is not a positive number".into()))?
+            as usize,
+    };
+    // Before anything per frame is allocated.
+    check_dims([cols, rows, frames], 2, limit).map_err(|e| from_file(path, e))?;
     let bits = need_int(tags::BITS_ALLOCATED, "BitsAllocated")?;
     if bits != 8 && bits != 16 {
         return Err(bad(format!(
@@ -260,59 +330,31 @@ fn read_header(path: &Path, limit: u64) -> Result<Slice> {
         )));
     }
     let signed = need_int(tags::PIXEL_REPRESENTATION, "PixelRepresentation")? == 1;
-    let floats = |tag: Tag, name: &str, n: usize| -> Result<Vec<f64>> {
-        let v = elem(&obj, tag)
-            .and_then(|e| e.to_multi_float64().ok())
-            .ok_or_else(|| bad(format!("{name} is missing or not numbers")))?;
-        if v.len() != n || v.iter().any(|c| !c.is_finite()) {
-            return Err(bad(format!("{name} {v:?} is not {n} finite numbers")));
-        }
-        Ok(v)
-    };
-    let iop = floats(
-        tags::IMAGE_ORIENTATION_PATIENT,
-        "ImageOrientationPatient",
-        6,
-    )?;
-    let ipp = floats(tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient", 3)?;
-    let ps = floats(tags::PIXEL_SPACING, "PixelSpacing", 2)?;
-    if ps.iter().any(|&s| s <= 0.0) {
-        return Err(bad(format!("PixelSpacing {ps:?} must be positive")));
-    }
-    let orient = orientation(&iop).ok_or_else(|| {
-        bad(format!(
-            "ImageOrientationPatient {iop:?} is not two orthogonal directions"
-        ))
-    })?;
-    let opt_float = |tag: Tag| {
-        elem(&obj, tag)
-            .and_then(|e| e.to_float64().ok())
-            .filter(|v| v.is_finite())
-    };
-    let slope = opt_float(tags::RESCALE_SLOPE).unwrap_or(1.0);
-    let intercept = opt_float(tags::RESCALE_INTERCEPT).unwrap_or(0.0);
-    if slope == 0.0 {
-        return Err(bad("RescaleSlope is 0".into()));
-    }
+    let geometry = frames::frame_geometry(&obj, frames).map_err(bad)?;
     let series = elem(&obj, tags::SERIES_INSTANCE_UID)
         .and_then(|e| e.to_str().ok())
         .map(|s| s.trim_end_matches('\0').trim().to_owned())
         .unwrap_or_default();
-    Ok(Slice {
-        path: path.to_owned(),
-        rows,
-        cols,
-        orient,
-        position: [ipp[0], ipp[1], ipp[2]],
-        // PixelSpacing is (between rows, between columns).
-        pixel_spacing: [ps[1], ps[0]],
-        bits: bits as u16,
-        signed,
-        slope,
-        intercept,
-        series,
-        thickness: opt_float(tags::SLICE_THICKNESS).filter(|&t| t > 0.0),
-    })
+    Ok(geometry
+        .into_iter()
+        .enumerate()
+        .map(|(frame, g)| Slice {
+            path: path.to_owned(),
+            frame,
+            frames,
+            rows,
+            cols,
+            orient: g.orient,
+            position: g.position,
+            pixel_spacing: g.pixel_spacing,
+            bits: bits as u16,
+            signed,
+            slope: g.slope,
+            intercept: g.intercept,
+            series: series.clone(),
+            thickness: g.thickness,
+        })
+        .collect())
 }
 
 /// Parses a file, up to its pixel data if `header_only`.
@@ -336,10 +378,7 @@ fn open_dicom(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
     }
 }
 
-/// An element, if present and readable.
-fn elem(obj: &DefaultDicomObject, tag: Tag) -> Option<&InMemElement> {
-    obj.element_opt(tag).ok().flatten()
-}
+use frames::elem;
 
 /// The unit row and column directions of an `ImageOrientationPatient`, if
 /// they are non-zero and orthogonal (to 1e-3 after normalising).
@@ -356,13 +395,7 @@ fn orientation(iop: &[f64]) -> Option<[[f64; 3]; 2]> {
 /// Every slice like the first in what makes a volume.
 fn check_consistent(dir: &Path, slices: &[Slice]) -> Result<()> {
     let first = &slices[0];
-    let name = |s: &Slice| {
-        s.path
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned()
-    };
+    let name = Slice::label;
     let series: std::collections::BTreeSet<&str> =
         slices.iter().map(|s| s.series.as_str()).collect();
     if series.len() > 1 {
@@ -438,15 +471,7 @@ fn slice_spacing(dir: &Path, keyed: &[(f64, Slice)], normal: [f64; 3]) -> Result
     if n == 1 {
         return Ok(keyed[0].1.thickness.unwrap_or(1.0));
     }
-    let name = |k: usize| {
-        keyed[k]
-            .1
-            .path
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned()
-    };
+    let name = |k: usize| keyed[k].1.label();
     let mean = (keyed[n - 1].0 - keyed[0].0) / (n - 1) as f64;
     let tol = (0.01 * mean).max(1e-3);
     for k in 1..n {
@@ -495,77 +520,6 @@ fn slice_spacing(dir: &Path, keyed: &[(f64, Slice)], normal: [f64; 3]) -> Result
         }
     }
     Ok(mean)
-}
-
-/// Decodes one slice's stored values, rescales them and appends them.
-fn read_pixels(s: &Slice, out: &mut Vec<f64>) -> Result<()> {
-    let obj = open_dicom(&s.path, false)?;
-    // dicom-rs 0.10's RLE decoder indexes past a cut segment: a panic in
-    // the decoder is the file's fault, reported like its errors.
-    let decoded = quiet_unwind(|| -> std::result::Result<Vec<f64>, String> {
-        let px = obj.decode_pixel_data().map_err(|e| e.to_string())?;
-        if (px.rows() as usize, px.columns() as usize) != (s.rows, s.cols) {
-            return Err("the pixel data disagrees with Rows and Columns".into());
-        }
-        // Stored values only: the slope and intercept are applied here,
-        // the same way for every transfer syntax.
-        let opts = ConvertOptions::new().with_modality_lut(ModalityLutOption::None);
-        px.to_vec_frame_with_options(0, &opts)
-            .map_err(|e| e.to_string())
-    });
-    let vals = match decoded {
-        Some(Ok(v)) => v,
-        Some(Err(e)) => return Err(dicom_err(&s.path, "undecodable pixel data", &e)),
-        None => {
-            return Err(format_err(
-                &s.path,
-                "undecodable pixel data: the decoder failed on corrupt or cut data",
-            ))
-        }
-    };
-    if vals.len() != s.rows * s.cols {
-        return Err(format_err(
-            &s.path,
-            format!(
-                "truncated: {} pixels decoded, {}x{} expected",
-                vals.len(),
-                s.cols,
-                s.rows
-            ),
-        ));
-    }
-    out.extend(vals.iter().map(|&v| v * s.slope + s.intercept));
-    Ok(())
-}
-
-thread_local! {
-    /// Set while [`quiet_unwind`] runs a decoder on this thread.
-    static QUIET: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-}
-
-/// Runs `f`, turning a panic into `None` without the panic message on
-/// stderr (for this thread only; other threads' panics print as before).
-fn quiet_unwind<T>(f: impl FnOnce() -> T) -> Option<T> {
-    static HOOK: std::sync::Once = std::sync::Once::new();
-    HOOK.call_once(|| {
-        let previous = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !QUIET.with(|q| q.get()) {
-                previous(info);
-            }
-        }));
-    });
-    QUIET.with(|q| q.set(true));
-    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).ok();
-    QUIET.with(|q| q.set(false));
-    out
-}
-
-/// A `dicom-rs` error as one line.
-fn dicom_err(path: &Path, what: &str, e: &dyn std::fmt::Display) -> crate::error::Error {
-    let msg = e.to_string();
-    let line = msg.split_whitespace().collect::<Vec<_>>().join(" ");
-    format_err(path, format!("{what}: {line}"))
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -1,7 +1,7 @@
 //! Volume loaders: headerless raw, VolPack `.den`, NIfTI-1 (`.nii`,
 //! `.nii.gz`), NRRD (`.nrrd`, `.nhdr`), MetaImage (`.mha`, `.mhd`), TIFF
 //! stacks (a multi-page `.tif`, or a folder of single-page ones) and DICOM
-//! series (a folder of slices).
+//! series (a folder of slices, or one multi-frame object).
 //!
 //! Every loader treats its input as untrusted: sizes come from a header or
 //! from the user, and they are checked against the file and against the
@@ -38,7 +38,7 @@ mod raw;
 mod tif;
 
 pub use den::load_den;
-pub use dicom::{load_dicom_dir, read_dicom_dir};
+pub use dicom::{load_dicom_dir, read_dicom_dir, read_dicom_file};
 pub use meta::{load_meta, read_meta};
 pub use nifti::{load_nifti, read_nifti};
 pub use nrrd::{load_nrrd, read_nrrd};
@@ -70,8 +70,10 @@ const FORMATS: &str = "use .den, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .tif, 
 /// `DICM` magic), else [`load_tiff_dir`]; otherwise the file name decides (any
 /// case): `.den` -> [`load_den`], `.nii` or `.nii.gz` -> [`load_nifti`],
 /// `.nrrd` or `.nhdr` -> [`load_nrrd`], `.mha` or `.mhd` -> [`load_meta`],
-/// `.tif` or `.tiff` -> [`load_tiff`]. A file with another name is tried by
-/// its magic bytes (NRRD, TIFF, NIfTI-1, MetaImage), if it has any.
+/// `.tif` or `.tiff` -> [`load_tiff`], `.dcm` or a file with the DICOM magic
+/// -> [`read_dicom_file`] (a multi-frame object). A file with another name
+/// is tried by its magic bytes (NRRD, TIFF, NIfTI-1, MetaImage), if it has
+/// any.
 pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volume> {
     if let Some(spec) = raw {
         return load_raw(path, spec, limit);
@@ -99,10 +101,7 @@ pub fn load_auto(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Volum
     } else if has(&[".tif", ".tiff"]) {
         load_tiff(path, limit)
     } else if has(&[".dcm"]) || dicom::is_dicom(path) {
-        Err(format_err(
-            path,
-            "a single DICOM file: give the folder that holds its series",
-        ))
+        read_dicom_file(path, limit).map(|l| l.volume)
     } else {
         match sniff(path) {
             Some(Sniffed::Nrrd) => load_nrrd(path, limit),
@@ -137,11 +136,14 @@ pub fn load_placed(path: &Path, raw: Option<&RawSpec>, limit: u64) -> Result<Loa
         Some(Sniffed::Meta)
     } else if has(&[".den", ".tif", ".tiff"]) {
         None
+    } else if has(&[".dcm"]) {
+        Some(Sniffed::Dicom)
     } else {
         sniff(path)
     };
     match placed {
-        Some(Sniffed::Dicom) => read_dicom_dir(path, limit),
+        Some(Sniffed::Dicom) if path.is_dir() => read_dicom_dir(path, limit),
+        Some(Sniffed::Dicom) => read_dicom_file(path, limit),
         Some(Sniffed::Nifti) => read_nifti(path, limit),
         Some(Sniffed::Nrrd) => read_nrrd(path, limit),
         Some(Sniffed::Meta) => read_meta(path, limit),

@@ -17,15 +17,31 @@ same voxels as the other formats' fixtures of its type:
     dicom_j2k  one slice labelled JPEG 2000 (encapsulated bytes that are
                not a real codestream): a transfer syntax the loader refuses
 
+and multi-frame objects of the same volume, one file each:
+
+    dicom_mf_i16.dcm  Enhanced CT: the dicom_i16 stored values and rescale,
+               explicit VR little endian, the geometry and rescale in the
+               functional groups (shared: PixelMeasuresSequence,
+               PlaneOrientationSequence, PixelValueTransformationSequence;
+               per frame: PlanePositionSequence), the frames stored in
+               shuffled position order
+    dicom_mf_u8.dcm   plain multi-frame: the dicom_u8 values, RLE lossless,
+               top-level geometry, frames stepping by SpacingBetweenSlices
+    dicom_mf_badcount.dcm  plain multi-frame uint16 saying NumberOfFrames 8
+               over 7 frames of pixel data: refused
+
 Run in a venv holding pydicom and numpy:
 
     python3 -m venv /tmp/venv && /tmp/venv/bin/pip install pydicom numpy
-    /tmp/venv/bin/python golden/tests/data/make_dicom.py
+    /tmp/venv/bin/python golden/tests/data/make_dicom.py [NAME ...]
+
+(names, e.g. dicom_mf_i16.dcm, write only those fixtures).
 """
 
 import os
 import random
 import shutil
+import sys
 
 import numpy as np
 import pydicom
@@ -123,14 +139,125 @@ def write_series(name, kind, syntax, sop_class, rescale, head_first=False, count
         ds.save_as(os.path.join(folder, names[i]), enforce_file_format=True)
 
 
+ENHANCED_CT = "1.2.840.10008.5.1.4.1.1.2.1"
+MULTIFRAME_BYTE_SC = "1.2.840.10008.5.1.4.1.1.7.2"
+MULTIFRAME_WORD_SC = "1.2.840.10008.5.1.4.1.1.7.3"
+
+
+def item(**attrs):
+    ds = Dataset()
+    for k, v in attrs.items():
+        setattr(ds, k, v)
+    return ds
+
+
+def multiframe_ds(arr, sop_class, syntax):
+    """A multi-frame object's common attributes (no geometry)."""
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = sop_class
+    meta.MediaStorageSOPInstanceUID = generate_uid()
+    meta.TransferSyntaxUID = syntax
+    ds = Dataset()
+    ds.file_meta = meta
+    ds.SOPClassUID = sop_class
+    ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+    ds.Modality = "CT" if sop_class == ENHANCED_CT else "OT"
+    ds.PatientName = "Synthetic^Fixture"
+    ds.StudyInstanceUID = generate_uid()
+    ds.SeriesInstanceUID = generate_uid()
+    ds.InstanceNumber = 1
+    ds.NumberOfFrames = arr.shape[0]
+    ds.Rows, ds.Columns = arr.shape[1], arr.shape[2]
+    ds.SamplesPerPixel = 1
+    ds.PhotometricInterpretation = "MONOCHROME2"
+    bits = arr.dtype.itemsize * 8
+    ds.BitsAllocated = bits
+    ds.BitsStored = bits
+    ds.HighBit = bits - 1
+    ds.PixelRepresentation = 1 if arr.dtype.kind == "i" else 0
+    return ds
+
+
+def write_enhanced_ct(name):
+    """dicom_i16's slices as the frames of one Enhanced CT object, stored
+    in shuffled position order, each placed by its PlanePositionSequence."""
+    arr = stored("i16")
+    order = random.Random(name).sample(range(NZ), NZ)
+    ds = multiframe_ds(arr[order], ENHANCED_CT, ExplicitVRLittleEndian)
+    ds.SharedFunctionalGroupsSequence = [
+        item(
+            PixelMeasuresSequence=[
+                item(
+                    PixelSpacing=[SPACING[1], SPACING[0]],
+                    SliceThickness=SPACING[2],
+                    SpacingBetweenSlices=SPACING[2],
+                )
+            ],
+            PlaneOrientationSequence=[item(ImageOrientationPatient=[1, 0, 0, 0, 1, 0])],
+            PixelValueTransformationSequence=[
+                item(RescaleIntercept=-1024, RescaleSlope=1, RescaleType="HU")
+            ],
+        )
+    ]
+    ds.PerFrameFunctionalGroupsSequence = [
+        item(
+            FrameContentSequence=[item(InStackPositionNumber=k + 1)],
+            PlanePositionSequence=[
+                item(ImagePositionPatient=[ORIGIN[0], ORIGIN[1], ORIGIN[2] + SPACING[2] * k])
+            ],
+        )
+        for k in order
+    ]
+    ds.PixelData = np.ascontiguousarray(arr[order]).tobytes()
+    ds.save_as(os.path.join(OUT, name), enforce_file_format=True)
+
+
+def plain_multiframe(arr, sop_class, syntax):
+    """A plain multi-frame object, its geometry at the top level."""
+    ds = multiframe_ds(arr, sop_class, syntax)
+    ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+    ds.ImagePositionPatient = list(ORIGIN)
+    ds.PixelSpacing = [SPACING[1], SPACING[0]]
+    ds.SliceThickness = SPACING[2]
+    ds.SpacingBetweenSlices = SPACING[2]
+    return ds
+
+
+def write_plain_u8(name):
+    arr = stored("u8")
+    ds = plain_multiframe(arr, MULTIFRAME_BYTE_SC, ExplicitVRLittleEndian)
+    ds.PixelData = arr.tobytes()
+    ds.compress(RLELossless, arr)
+    ds.save_as(os.path.join(OUT, name), enforce_file_format=True)
+
+
+def write_bad_count(name):
+    arr = stored("u16")
+    ds = plain_multiframe(arr, MULTIFRAME_WORD_SC, ExplicitVRLittleEndian)
+    ds.PixelData = arr.tobytes()
+    ds.NumberOfFrames = NZ + 1
+    ds.save_as(os.path.join(OUT, name), enforce_file_format=True)
+
+
 def main():
-    write_series("dicom_u16", "u16", ExplicitVRLittleEndian, MR_IMAGE, None)
-    write_series(
-        "dicom_i16", "i16", ImplicitVRLittleEndian, CT_IMAGE, (1, -1024), head_first=True
-    )
-    write_series("dicom_u8", "u8", RLELossless, MR_IMAGE, None)
-    write_series("dicom_f32", "f32", ExplicitVRLittleEndian, CT_IMAGE, (0.0625, 0))
-    write_series("dicom_j2k", "u8", JPEG2000, MR_IMAGE, None, count=1)
+    fixtures = {
+        "dicom_u16": lambda: write_series(
+            "dicom_u16", "u16", ExplicitVRLittleEndian, MR_IMAGE, None
+        ),
+        "dicom_i16": lambda: write_series(
+            "dicom_i16", "i16", ImplicitVRLittleEndian, CT_IMAGE, (1, -1024), head_first=True
+        ),
+        "dicom_u8": lambda: write_series("dicom_u8", "u8", RLELossless, MR_IMAGE, None),
+        "dicom_f32": lambda: write_series(
+            "dicom_f32", "f32", ExplicitVRLittleEndian, CT_IMAGE, (0.0625, 0)
+        ),
+        "dicom_j2k": lambda: write_series("dicom_j2k", "u8", JPEG2000, MR_IMAGE, None, count=1),
+        "dicom_mf_i16.dcm": lambda: write_enhanced_ct("dicom_mf_i16.dcm"),
+        "dicom_mf_u8.dcm": lambda: write_plain_u8("dicom_mf_u8.dcm"),
+        "dicom_mf_badcount.dcm": lambda: write_bad_count("dicom_mf_badcount.dcm"),
+    }
+    for name in sys.argv[1:] or fixtures:
+        fixtures[name]()
     for root, _, files in os.walk(OUT):
         for f in files:
             size = os.path.getsize(os.path.join(root, f))

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use golden::load::{load_auto, read_dicom_dir, read_meta, read_nrrd};
+use golden::load::{load_auto, read_dicom_dir, read_dicom_file, read_meta, read_nrrd};
 use golden::volume::{Volume, VoxelType, DEFAULT_MEMORY_LIMIT};
 
 const DIMS: [usize; 3] = [12, 10, 7];
@@ -79,6 +79,11 @@ fn fixtures(kind: &str) -> Vec<(String, bool)> {
     .collect();
     // A folder of DICOM slices (pydicom), with the spacing.
     names.push((format!("dicom_{kind}"), true));
+    // One multi-frame object (pydicom): Enhanced CT with per-frame
+    // positions, frames shuffled (i16); plain multi-frame, RLE (u8).
+    if kind == "u8" || kind == "i16" {
+        names.push((format!("dicom_mf_{kind}.dcm"), true));
+    }
     if kind == "u8" || kind == "u16" {
         names.push((format!("vol_{kind}.tif"), false));
         names.push((format!("vol_{kind}_pages"), false));
@@ -116,7 +121,7 @@ fn every_fixture_loads_to_the_formula() {
             loaded += 1;
         }
     }
-    assert_eq!(loaded, 4 * 10 + 2 * 2);
+    assert_eq!(loaded, 4 * 10 + 2 * 2 + 2);
 }
 
 #[test]
@@ -138,6 +143,72 @@ fn nrrd_and_metaimage_placement_is_kept() {
         let l = read_dicom_dir(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
         assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
         assert_eq!(l.volume.spacing(), SPACING, "{name}");
+    }
+    // A multi-frame object: placed like its series, from its functional
+    // groups (Enhanced CT) or top-level attributes (plain).
+    for (name, series) in [
+        ("dicom_mf_i16.dcm", "dicom_i16"),
+        ("dicom_mf_u8.dcm", "dicom_u8"),
+    ] {
+        let l = read_dicom_file(&data(name), DEFAULT_MEMORY_LIMIT).unwrap();
+        let s = read_dicom_dir(&data(series), DEFAULT_MEMORY_LIMIT).unwrap();
+        assert_eq!((l.origin, l.axes), (Some(ORIGIN), Some(IDENTITY)), "{name}");
+        assert_eq!((l.origin, l.axes), (s.origin, s.axes), "{name}");
+        assert_eq!(l.volume.spacing(), SPACING, "{name}");
+        assert_eq!(l.volume.units(), s.volume.units(), "{name}");
+    }
+}
+
+/// A multi-frame object renders bit-identically to the series of
+/// single-frame slices of the same data (the frames sorted by position,
+/// the spacing from the functional groups).
+#[test]
+fn multi_frame_dicom_renders_like_its_series() {
+    use golden::camera::Camera;
+    use golden::methods::Method;
+    use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
+    use golden::tf::{ControlPoint, TransferFunction};
+    for (name, series) in [
+        ("dicom_mf_i16.dcm", "dicom_i16"),
+        ("dicom_mf_u8.dcm", "dicom_u8"),
+    ] {
+        let mut images = Vec::new();
+        for n in [name, series] {
+            let v = load(n);
+            let cam = Camera::new(
+                glam::DVec3::new(2.0, 1.5, -9.0),
+                glam::DVec3::from_array(v.center_world()),
+                glam::DVec3::Y,
+                50.0,
+                24,
+                20,
+            )
+            .unwrap();
+            let prep = Prepared::new(&v, &cam).unwrap();
+            // A ramp over the data's values: every voxel counts.
+            let hi = f64::from(*v.data().iter().max().unwrap());
+            let p = |value: f64, a: f64| ControlPoint {
+                value,
+                rgba: [1.0, 0.8, 0.6, a],
+            };
+            let tf = TransferFunction::new(vec![p(0.0, 0.0), p(hi, 0.6)]).unwrap();
+            let lut = lut_for(v.kind(), &tf);
+            let img = render(
+                &prep,
+                &lut,
+                Technique::Slice(Method::Er),
+                &RenderOptions::default(),
+            )
+            .unwrap()
+            .image;
+            images.push(img.data);
+        }
+        let first = images[0].iter().zip(&images[1]).position(|(a, b)| a != b);
+        assert_eq!(first, None, "{name} vs {series}: first differing value");
+        assert!(
+            images[0].iter().any(|p| p[3] > 0.0),
+            "{name}: an empty image proves nothing"
+        );
     }
 }
 

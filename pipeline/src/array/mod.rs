@@ -22,9 +22,11 @@
 //! front-to-back configuration.
 
 mod clock;
+mod memory;
 mod owners;
 
 pub use clock::{Clock, Links};
+pub use memory::{run_frame_resident, Resident, VoxelLoad};
 
 use golden::geometry::View;
 use golden::volume::Volume;
@@ -159,6 +161,9 @@ pub struct Frame {
     pub skipped: SkipCounts,
     /// With the rays' buffer in external memory, what crossed its channel.
     pub ray_buffer: Option<RayBufferStats>,
+    /// What the host loaded into the PE memories before the frame (not
+    /// clocked: see [`run_frame_resident`]).
+    pub voxel_load: VoxelLoad,
 }
 
 impl Frame {
@@ -233,6 +238,12 @@ pub struct Array {
     pub(crate) links_free: u64,
     /// The waveform tracer until the frame starts (see [`Array::run`]).
     pending: Option<Tracer>,
+    /// What the PE memories' contents depend on, and the host's
+    /// quantisation events in loading them (kept with them, see
+    /// [`Resident`]).
+    resident_key: memory::Key,
+    load_stats: QuantStats,
+    voxel_load: VoxelLoad,
 }
 
 /// The controller's skipping state for one frame.
@@ -273,6 +284,21 @@ impl Array {
         view: &View,
         tracer: Tracer,
     ) -> Result<Array, RunError> {
+        Array::load_reusing(cfg, source, data_bits, lut, view, tracer, None)
+    }
+
+    /// [`Array::load`], starting from the memories of `resident` when they
+    /// hold this view's volume for this configuration (nothing is read
+    /// from `source` then); see [`run_frame_resident`].
+    pub fn load_reusing(
+        cfg: &PipelineConfig,
+        source: VoxelSource,
+        data_bits: u32,
+        lut: &golden::tf::Lut,
+        view: &View,
+        tracer: Tracer,
+        resident: Option<Resident>,
+    ) -> Result<Array, RunError> {
         cfg.validate()?;
         for &n in &view.dims {
             cfg.check_extent(n as u32)?;
@@ -284,7 +310,18 @@ impl Array {
         let nx = view.dims[0];
         let map = ColumnMap::of(cfg, nx);
         let held: Vec<Vec<usize>> = (0..p).map(|k| map.held(k)).collect();
-        let mems = load_memories(cfg, source, data_bits, &held, view.dims, &mut host_stats);
+        let key = memory::Key::of(cfg, data_bits, view);
+        let (mems, load_stats, reused) = match resident.filter(|r| r.key == key) {
+            Some(r) => (r.mems, r.stats, true),
+            None => {
+                let mut st = QuantStats::default();
+                let mems = memory::load_memories(cfg, source, data_bits, &held, view.dims, &mut st);
+                (mems, st, false)
+            }
+        };
+        host_stats.merge(&load_stats);
+        let words_held = mems.iter().map(|m| m.len() as u64).sum();
+        let voxel_load = VoxelLoad::new(cfg, words_held, reused);
         let pes = mems
             .into_iter()
             .enumerate()
@@ -321,6 +358,9 @@ impl Array {
             channel: Channel::of(cfg),
             links_from: 0,
             links_free: 0,
+            resident_key: key,
+            load_stats,
+            voxel_load,
         })
     }
 
@@ -438,7 +478,12 @@ impl Array {
 
     /// Runs a frame of `view`, in the configuration's compositing order
     /// (the schedule of [`crate::schedule`]).
-    pub fn run(mut self, view: &View) -> Result<Frame, RunError> {
+    pub fn run(self, view: &View) -> Result<Frame, RunError> {
+        self.run_keeping(view).map(|(frame, _)| frame)
+    }
+
+    /// [`Array::run`], handing back the PE memories for the next frame.
+    pub fn run_keeping(mut self, view: &View) -> Result<(Frame, Resident), RunError> {
         // The signals depend on the datapath (the shading unit's), final
         // only now.
         if let Some(t) = self.pending.take() {
@@ -454,7 +499,17 @@ impl Array {
             Order::FrontToBack => crate::schedule::front_to_back(&mut self, &plan)?,
         };
         let base = self.baseplane(&raw, view, fmt);
-        self.finish(base, raw, fmt, merges)
+        let kept = Resident {
+            key: self.resident_key.clone(),
+            mems: self
+                .clock
+                .pes_mut()
+                .iter_mut()
+                .map(|pe| std::mem::replace(&mut pe.mem, VoxelMem::Words(Vec::new())))
+                .collect(),
+            stats: self.load_stats,
+        };
+        Ok((self.finish(base, raw, fmt, merges)?, kept))
     }
 
     /// Creates a region's (empty, live) rays in the PEs that sample them
@@ -550,6 +605,7 @@ impl Array {
             cycles_saved: self.cycles_saved,
             skipped: self.skipped,
             ray_buffer: self.channel.as_ref().map(|c| c.stats),
+            voxel_load: self.voxel_load,
             cycles: self.clock.cycle(),
             stages: self.clock.stages(),
             samples,
@@ -560,71 +616,6 @@ impl Array {
             quant,
         })
     }
-}
-
-/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
-/// `source` in one pass: each voxel is
-/// quantised once (its events counted in `st`, as the host's) and written
-/// to every PE holding its column (its owner and, under a round-robin
-/// mapping, the neighbours whose aprons include it).
-fn load_memories(
-    cfg: &PipelineConfig,
-    source: VoxelSource,
-    data_bits: u32,
-    held: &[Vec<usize>],
-    [nx, ny, nz]: [usize; 3],
-    st: &mut QuantStats,
-) -> Vec<VoxelMem> {
-    let mut holders = vec![Vec::new(); nx];
-    for (k, cols) in held.iter().enumerate() {
-        for &c in cols {
-            holders[c].push(k);
-        }
-    }
-    let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
-    if data_bits <= 8 {
-        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
-            word(v as u16, &mut QuantStats::default())
-        }));
-        let mut codes: Vec<Vec<u8>> = held
-            .iter()
-            .map(|h| Vec::with_capacity(h.len() * ny * nz))
-            .collect();
-        for z in 0..nz {
-            for y in 0..ny {
-                for (x, ks) in holders.iter().enumerate() {
-                    let v = source.get(x, y, z);
-                    let w = word(v, st);
-                    debug_assert_eq!(w, table[usize::from(v)]);
-                    for &k in ks {
-                        codes[k].push(v as u8);
-                    }
-                }
-            }
-        }
-        return codes
-            .into_iter()
-            .map(|codes| VoxelMem::Codes {
-                codes,
-                words: table.clone(),
-            })
-            .collect();
-    }
-    let mut words: Vec<Vec<u16>> = held
-        .iter()
-        .map(|h| Vec::with_capacity(h.len() * ny * nz))
-        .collect();
-    for z in 0..nz {
-        for y in 0..ny {
-            for (x, ks) in holders.iter().enumerate() {
-                let w = word(source.get(x, y, z), st);
-                for &k in ks {
-                    words[k].push(w);
-                }
-            }
-        }
-    }
-    words.into_iter().map(VoxelMem::Words).collect()
 }
 
 /// Runs one frame: plans, loads, clocks and reads out.
@@ -726,23 +717,15 @@ pub fn run_frame_from_stack_voi(
     (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
-    if prep.blocks.block != usize::from(cfg.occupancy_block) {
-        return Err(RunError::Schedule(format!(
-            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
-            prep.blocks.block, cfg.occupancy_block
-        )));
-    }
-    let source = VoxelSource::Stack(&prep.stack);
-    let mm = prep.blocks.clone();
-    run_prepared(
+    run_frame_resident(
         cfg,
-        (source, data_bits),
+        data_bits,
         lut,
         prep,
-        mm,
         skips,
         (shade, voi),
         tracer,
+        &mut None,
     )
 }
 
@@ -757,7 +740,19 @@ fn run_prepared(
     (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
-    let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
+    let array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
+    run_loaded(array, data_bits, prep, mm, skips, (shade, voi)).map(|(frame, _)| frame)
+}
+
+/// Shades, plans the skipping of and runs a loaded array's frame of `prep`.
+fn run_loaded(
+    mut array: Array,
+    data_bits: u32,
+    prep: &golden::render::Prepared,
+    mm: golden::occupancy::MinMax,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+) -> Result<(Frame, Resident), RunError> {
     if let Some(sh) = shade {
         array.set_shading(sh, &prep.view, data_bits)?;
     }
@@ -769,7 +764,7 @@ fn run_prepared(
         .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
     let (mask, counts) = crate::skip::plan_mask(&array.dp, &mm, data_bits, prep, &layout, skips);
     array.set_skipping(mask, counts, &prep.view);
-    array.run(&prep.view)
+    array.run_keeping(&prep.view)
 }
 
 /// `v` clamped into `lo..=hi`; `lo` when the range is empty (an empty

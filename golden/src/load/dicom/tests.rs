@@ -126,6 +126,8 @@ fn positions_along_an_oblique_normal_sort_and_shear_is_refused() {
         intercept: 0.0,
         series: String::new(),
         thickness: None,
+        frame: 0,
+        frames: 1,
     };
     let keyed = |s: Vec<Slice>| -> Vec<(f64, Slice)> {
         let mut k: Vec<_> = s.into_iter().map(|s| (dot(s.position, n), s)).collect();
@@ -151,6 +153,80 @@ fn orientations_that_are_not_two_orthogonal_directions_are_refused() {
     assert_eq!(r, [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]);
     assert!(orientation(&[1.0, 0.0, 0.0, 1.0, 0.1, 0.0]).is_none());
     assert!(orientation(&[0.0; 6]).is_none());
+}
+
+/// A single file's volume.
+fn file_volume(path: &Path, limit: u64) -> crate::error::Result<crate::volume::Volume> {
+    read_dicom_file(path, limit).map(|l| l.volume)
+}
+
+/// A copy of a fixture file in a fresh folder.
+fn copy_file(name: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let to = dir.path().join(name);
+    std::fs::copy(fixture_dir(name), &to).unwrap();
+    (dir, to)
+}
+
+#[test]
+fn a_multi_frame_object_loads_as_a_file_or_alone_in_its_folder() {
+    let want = read_dicom_dir(&fixture_dir("dicom_i16"), LIM).unwrap();
+    let (dir, file) = copy_file("dicom_mf_i16.dcm");
+    let by_file = read_dicom_file(&file, LIM).unwrap();
+    let by_dir = read_dicom_dir(dir.path(), LIM).unwrap();
+    let auto = load_auto(&file, None, LIM).unwrap();
+    for v in [&by_file.volume, &by_dir.volume, &auto] {
+        assert_eq!(
+            (v.dims(), v.spacing(), v.data()),
+            (
+                want.volume.dims(),
+                want.volume.spacing(),
+                want.volume.data()
+            )
+        );
+    }
+    assert_eq!((by_file.origin, by_file.axes), (want.origin, want.axes));
+    // The frames are stored out of position order: sorting them is what
+    // makes the voxels agree.
+    let z: Vec<f64> = read_header(&file, LIM)
+        .unwrap()
+        .iter()
+        .map(|s| s.position[2])
+        .collect();
+    assert!(z.windows(2).any(|w| w[0] > w[1]), "{z:?}");
+    // Beside other slices it is refused; a single-frame file alone is too.
+    let series = dicom_files(&fixture_dir("dicom_i16")).unwrap();
+    std::fs::copy(&series[0], dir.path().join("slice")).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "give it alone");
+    assert_err(file_volume(&series[0], LIM), "give the folder");
+}
+
+#[test]
+fn cut_multi_frame_objects_and_wrong_frame_counts_are_one_line() {
+    let m = msg(file_volume(&fixture_dir("dicom_mf_badcount.dcm"), LIM));
+    assert!(
+        m.contains("NumberOfFrames 8 of 12x10 16-bit frames need 1920"),
+        "{m}"
+    );
+    assert!(!m.contains('\n'));
+    for name in ["dicom_mf_i16.dcm", "dicom_mf_u8.dcm"] {
+        let (_dir, file) = copy_file(name);
+        let bytes = std::fs::read(&file).unwrap();
+        // Cut in the pixel data (over a frame short, and the last frame's
+        // last bytes; the RLE object's sequence delimiter follows them), in
+        // the functional groups, and in the header.
+        for keep in [bytes.len() - 200, bytes.len() - 20, 900, 300] {
+            std::fs::write(&file, &bytes[..keep]).unwrap();
+            let m = msg(file_volume(&file, LIM));
+            assert!(!m.contains('\n'), "{name} cut to {keep}: {m}");
+            assert!(m.contains(name), "{name} cut to {keep}: {m}");
+        }
+    }
+    // The sizes are checked before the pixel data is decoded.
+    assert_err(
+        file_volume(&fixture_dir("dicom_mf_i16.dcm"), 2000),
+        "over the limit",
+    );
 }
 
 mod fuzz {
@@ -182,6 +258,30 @@ mod fuzz {
             }
             std::fs::write(&files[file], &bytes).unwrap();
             if let Err(e) = load_dicom_dir(dir.path(), 1 << 16) {
+                prop_assert!(!e.to_string().contains('\n'), "{}", e);
+            }
+        }
+
+        /// A multi-frame object with bytes corrupted or cut loads or fails
+        /// with one line, never panics.
+        #[test]
+        fn corrupted_multi_frame_objects_never_panic(
+            which in 0usize..2,
+            edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
+            cut in any::<prop::sample::Index>(),
+            do_cut in any::<bool>(),
+        ) {
+            let (_dir, file) = copy_file(["dicom_mf_i16.dcm", "dicom_mf_u8.dcm"][which]);
+            let mut bytes = std::fs::read(&file).unwrap();
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            if do_cut {
+                bytes.truncate(cut.index(bytes.len() + 1));
+            }
+            std::fs::write(&file, &bytes).unwrap();
+            if let Err(e) = read_dicom_file(&file, 1 << 16) {
                 prop_assert!(!e.to_string().contains('\n'), "{}", e);
             }
         }

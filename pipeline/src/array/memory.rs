@@ -1,0 +1,210 @@
+//! The PE memories: the host's load of the volume into them, and their
+//! keeping between frames. A camera path's frames that
+//! keep the view's axis map (principal axis, its direction and the near
+//! clip) find the volume already in PE memory, laid out as they need it,
+//! and the host loads nothing.
+//!
+//! A PE's memory holds its columns of the *permuted* volume, `[z][y][l]` in
+//! view space (see [`crate::pe::VoxelMem`]), so the contents depend on the
+//! axis map, the mapping (which columns a PE holds, aprons included) and
+//! the voxel word format. The model keeps one resident copy: a frame whose
+//! axis map or configuration differs reloads all of it, as the host of a
+//! chip with one copy would. Keeping three axis orders resident instead
+//! (Cube-4's skewed memories read beams along any axis from one copy)
+//! would be a different memory organisation, not modelled here.
+//!
+//! The load happens before a frame's first cycle and is not clocked in
+//! either case ([`Frame::cycles`] counts the same stages for a fresh and a
+//! resident frame, bit-identical); [`VoxelLoad`] says what the host wrote,
+//! so a reused frame shows the voxel words and bytes it did not load.
+
+use golden::geometry::{AxisMap, View};
+use waves::Tracer;
+
+use crate::config::PipelineConfig;
+use crate::fixed::QuantStats;
+use crate::host::VoxelSource;
+use crate::pe::VoxelMem;
+
+use super::{Array, Frame, RunError};
+
+/// The PE memories a frame ran with, kept for the next frame
+/// ([`run_frame_resident`]).
+pub struct Resident {
+    pub(crate) key: Key,
+    pub(crate) mems: Vec<VoxelMem>,
+    /// The host's quantisation events when it loaded them: a frame that
+    /// reuses them reports them again, so its stats equal a fresh frame's
+    /// (they describe the words in memory, not the act of writing them).
+    pub(crate) stats: QuantStats,
+}
+
+impl Resident {
+    /// Voxel words held over all PEs (aprons included).
+    pub fn words(&self) -> u64 {
+        self.mems.iter().map(|m| m.len() as u64).sum()
+    }
+}
+
+/// What the memories' contents depend on.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Key {
+    cfg: PipelineConfig,
+    data_bits: u32,
+    axes: AxisMap,
+    dims: [usize; 3],
+}
+
+impl Key {
+    pub(crate) fn of(cfg: &PipelineConfig, data_bits: u32, view: &View) -> Key {
+        Key {
+            cfg: *cfg,
+            data_bits,
+            axes: view.axes,
+            dims: view.dims,
+        }
+    }
+}
+
+/// How a frame's PE memories came to hold the volume.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct VoxelLoad {
+    /// Whether the memories already held this view's volume (the previous
+    /// frame's, same axis map and configuration): nothing was loaded.
+    pub resident: bool,
+    /// Voxel words the host wrote into the PE memories for this frame
+    /// (every PE's columns and aprons; 0 when resident).
+    pub words_loaded: u64,
+    /// `words_loaded` in bytes of `voxel`-bit words.
+    pub bytes_loaded: u64,
+    /// Voxel words the PE memories hold.
+    pub words_held: u64,
+    /// `words_held` in bytes of `voxel`-bit words: what a resident frame
+    /// did not load.
+    pub bytes_held: u64,
+}
+
+impl VoxelLoad {
+    pub(crate) fn new(cfg: &PipelineConfig, words_held: u64, resident: bool) -> VoxelLoad {
+        let bytes = |w: u64| (w * u64::from(cfg.voxel.bits())).div_ceil(8);
+        let words_loaded = if resident { 0 } else { words_held };
+        VoxelLoad {
+            resident,
+            words_loaded,
+            bytes_loaded: bytes(words_loaded),
+            words_held,
+            bytes_held: bytes(words_held),
+        }
+    }
+}
+
+/// [`crate::run_frame_from_stack_voi`], keeping the PE memories in `resident`
+/// across calls: when `resident` holds the memories of a frame with the
+/// same axis map, configuration and data width, the PEs start from them
+/// and the host loads nothing (the frame's [`VoxelLoad`] says so);
+/// otherwise they load from `prep`'s stack. Either way `resident` holds
+/// this frame's memories afterwards. The frame is bit-identical, cycles
+/// included, to [`crate::run_frame_from_stack_voi`]'s.
+#[allow(clippy::too_many_arguments)]
+pub fn run_frame_resident(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    tracer: Tracer,
+    resident: &mut Option<Resident>,
+) -> Result<Frame, RunError> {
+    if prep.blocks.block != usize::from(cfg.occupancy_block) {
+        return Err(RunError::Schedule(format!(
+            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
+            prep.blocks.block, cfg.occupancy_block
+        )));
+    }
+    let source = VoxelSource::Stack(&prep.stack);
+    let array = Array::load_reusing(
+        cfg,
+        source,
+        data_bits,
+        lut,
+        &prep.view,
+        tracer,
+        resident.take(),
+    )?;
+    let (frame, kept) = super::run_loaded(
+        array,
+        data_bits,
+        prep,
+        prep.blocks.clone(),
+        skips,
+        (shade, voi),
+    )?;
+    *resident = Some(kept);
+    Ok(frame)
+}
+
+/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
+/// `source` in one pass: each voxel is
+/// quantised once (its events counted in `st`, as the host's) and written
+/// to every PE holding its column (its owner and, under a round-robin
+/// mapping, the neighbours whose aprons include it).
+pub(super) fn load_memories(
+    cfg: &PipelineConfig,
+    source: VoxelSource,
+    data_bits: u32,
+    held: &[Vec<usize>],
+    [nx, ny, nz]: [usize; 3],
+    st: &mut QuantStats,
+) -> Vec<VoxelMem> {
+    let mut holders = vec![Vec::new(); nx];
+    for (k, cols) in held.iter().enumerate() {
+        for &c in cols {
+            holders[c].push(k);
+        }
+    }
+    let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
+    if data_bits <= 8 {
+        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
+            word(v as u16, &mut QuantStats::default())
+        }));
+        let mut codes: Vec<Vec<u8>> = held
+            .iter()
+            .map(|h| Vec::with_capacity(h.len() * ny * nz))
+            .collect();
+        for z in 0..nz {
+            for y in 0..ny {
+                for (x, ks) in holders.iter().enumerate() {
+                    let v = source.get(x, y, z);
+                    let w = word(v, st);
+                    debug_assert_eq!(w, table[usize::from(v)]);
+                    for &k in ks {
+                        codes[k].push(v as u8);
+                    }
+                }
+            }
+        }
+        return codes
+            .into_iter()
+            .map(|codes| VoxelMem::Codes {
+                codes,
+                words: table.clone(),
+            })
+            .collect();
+    }
+    let mut words: Vec<Vec<u16>> = held
+        .iter()
+        .map(|h| Vec::with_capacity(h.len() * ny * nz))
+        .collect();
+    for z in 0..nz {
+        for y in 0..ny {
+            for (x, ks) in holders.iter().enumerate() {
+                let w = word(source.get(x, y, z), st);
+                for &k in ks {
+                    words[k].push(w);
+                }
+            }
+        }
+    }
+    words.into_iter().map(VoxelMem::Words).collect()
+}
