@@ -48,6 +48,7 @@ use crate::mipmap::{Classify, Level, MipMap};
 use crate::occupancy::VisibleEntries;
 use crate::shading::Shader;
 use crate::tf::{correct_opacity, Lut};
+use crate::voi::ViewVoi;
 
 /// Settings of the mip-map ray caster.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,6 +66,12 @@ pub struct MipOptions {
     /// side of the sample (the footprint's own resolution), then
     /// [`crate::shading::Shader::shade`].
     pub shade: Option<crate::shading::Shade>,
+    /// Volume of interest: each sample's opacity (and, pre-classified, its
+    /// opacity-weighted colour, so its colour stays) scaled by the region's
+    /// factor at the sample ([`crate::voi`]), after classification and
+    /// filtering. The pyramid does not depend on it; an empty cell stays
+    /// empty, so skipping stays exact.
+    pub voi: Option<crate::voi::Voi>,
 }
 
 /// Default [`MipOptions::step`]: two samples per voxel of the level read.
@@ -82,6 +89,7 @@ impl Default for MipOptions {
             skip_empty: true,
             classify: Classify::Post,
             shade: None,
+            voi: None,
         }
     }
 }
@@ -303,6 +311,7 @@ struct Scene<'a> {
     clip: &'a ViewClip,
     opts: &'a MipOptions,
     shader: Option<Shader>,
+    voi: Option<ViewVoi>,
 }
 
 impl<'a> Scene<'a> {
@@ -331,6 +340,7 @@ impl<'a> Scene<'a> {
             clip,
             opts,
             shader: shader_for(view, mip, opts)?,
+            voi: opts.voi.map(|v| ViewVoi::new(view, &v)).transpose()?,
         })
     }
 
@@ -455,7 +465,7 @@ fn cast(sc: &Scene, pixel: &Ray, l: u32, st: &mut MipStats) -> [f32; 4] {
         st.level_histogram[lo] += 1;
         let frac = (l - lo as f64) as f32;
         let (lo, hi) = (&mip.levels[lo], &mip.levels[hi]);
-        let (c, wgt_of) = match mip.classify {
+        let (mut c, mut wgt_of) = match mip.classify {
             Classify::Pre => {
                 let mut c = lo.trilinear(p);
                 if frac > 0.0 {
@@ -489,6 +499,16 @@ fn cast(sc: &Scene, pixel: &Ray, l: u32, st: &mut MipStats) -> [f32; 4] {
                 (c, 1.0)
             }
         };
+        if let Some(v) = &sc.voi {
+            let f = v.factor(DVec3::from_array(p)) as f32;
+            match mip.classify {
+                Classify::Pre => {
+                    c = c.map(|x| x * f);
+                    wgt_of *= f;
+                }
+                Classify::Post => c[3] *= f,
+            }
+        }
         probe = c[3] <= 0.0;
         if probe {
             continue;

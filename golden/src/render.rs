@@ -470,20 +470,23 @@ impl RenderOptions {
             skip_empty: self.slice.skips.empty,
             classify: self.mip_classify,
             shade: self.slice.shade,
+            voi: self.slice.voi,
         }
     }
 }
 
 impl RenderOptions {
     /// The shear-warp renderer's options: its scale, er-ftb's termination
-    /// threshold, the empty-space switch (the runs) and culling (the
-    /// intermediate image cut to what the final image reads).
+    /// threshold, the empty-space switch (the runs), culling (the
+    /// intermediate image cut to what the final image reads) and the volume
+    /// of interest.
     pub fn shear_warp(&self) -> SwOptions {
         SwOptions {
             scale: self.sw_scale,
             terminate: self.slice.terminate,
             skip_empty: self.slice.skips.empty,
             cull: self.slice.skips.cull,
+            voi: self.slice.voi,
         }
     }
 }
@@ -569,11 +572,6 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             }),
         },
         Technique::MipMap => {
-            if opts.slice.voi.is_some() {
-                return Err(crate::error::input(
-                    "the mip-map method has no volume of interest; drop --voi",
-                ));
-            }
             let mip = opts.mip();
             mip.validate()?;
             let pyramid = prep.mipmap_of(lut, &mip)?;
@@ -602,9 +600,6 @@ pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions)
             let refuse = |what: &str| -> Result<Frame> {
                 Err(crate::error::input(format!("the shear-warp method {what}")))
             };
-            if o.voi.is_some() {
-                return refuse("has no volume of interest; drop --voi");
-            }
             if opts.reference.gaze.is_some() {
                 return refuse("has no gaze-directed resolution");
             }

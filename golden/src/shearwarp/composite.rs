@@ -35,6 +35,7 @@ use crate::geometry::View;
 use crate::shading::Shader;
 use crate::slices::SliceStack;
 use crate::tf::correct_opacity;
+use crate::voi::ViewVoi;
 
 use super::factor::Factor;
 use super::rle::Classified;
@@ -155,6 +156,8 @@ pub(crate) struct Pass<'a> {
     pub rle: bool,
     /// Shading, and the scalar stack its samples mode differentiates.
     pub shade: Option<(&'a Shader, &'a SliceStack)>,
+    /// The volume of interest, in view space.
+    pub voi: Option<&'a ViewVoi>,
 }
 
 /// A scanline task's reusable buffers.
@@ -253,6 +256,11 @@ pub(crate) fn scanline(p: &Pass, v: usize, row: &mut [[f32; 4]], sc: &mut Scratc
                             c[ch] += k * q[ch];
                         }
                     }
+                }
+                if let Some(vv) = p.voi {
+                    let at = glam::DVec3::new(xt.pos[u - xt.lo], ypos, zf);
+                    let f = vv.factor(at) as f32;
+                    c = c.map(|x| x * f);
                 }
                 if c[3] > 0.0 {
                     st.samples_composited += 1;

@@ -46,6 +46,12 @@ pub struct SwOptions {
     pub skip_empty: bool,
     /// Cut the intermediate image to what the final image reads (exact).
     pub cull: bool,
+    /// Volume of interest: each resampled sample's opacity-weighted colour
+    /// and opacity scaled by the region's factor at the sample
+    /// ([`crate::voi`]) before the opacity correction, as the slice-order
+    /// methods scale theirs. A transparent run stays transparent, so
+    /// skipping stays exact.
+    pub voi: Option<crate::voi::Voi>,
 }
 
 impl Default for SwOptions {
@@ -55,6 +61,7 @@ impl Default for SwOptions {
             terminate: 0.99,
             skip_empty: true,
             cull: true,
+            voi: None,
         }
     }
 }
@@ -155,6 +162,10 @@ pub fn render_shaded(
     if case == EyeCase::Behind {
         return Ok((Image::new(w, h), stats));
     }
+    let voi = opts
+        .voi
+        .map(|v| crate::voi::ViewVoi::new(view, &v))
+        .transpose()?;
     let factor = Factor::new(view, opts.scale, opts.cull)?;
     let [iw, ih] = factor.grid.counts;
     stats.intermediate = [iw, ih];
@@ -177,6 +188,7 @@ pub fn render_shaded(
         terminate: opts.terminate,
         rle: opts.skip_empty,
         shade,
+        voi: voi.as_ref(),
     };
     let mut inter = vec![[0f32; 4]; iw * ih];
     let rows: Vec<SwStats> = if iw == 0 {

@@ -21,3 +21,4 @@ mod shearwarp;
 mod skipping;
 mod substeps;
 mod swshade;
+mod voi;
