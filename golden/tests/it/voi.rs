@@ -46,8 +46,10 @@ fn the_mipmap_and_shear_warp_take_the_volume_of_interest() {
         ramp: 0.0,
     };
     let run = |tech, classify, voi: Option<Voi>, skip: bool| {
-        let mut o = RenderOptions::default();
-        o.mip_classify = classify;
+        let mut o = RenderOptions {
+            mip_classify: classify,
+            ..RenderOptions::default()
+        };
         o.slice.voi = voi;
         o.reference.voi = voi;
         o.slice.skips.empty = skip;
