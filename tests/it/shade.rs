@@ -159,7 +159,11 @@ fn bad_flags_are_one_line_errors() {
             "voi_axis",
         ),
         (
-            format!("{s} --method mipmap --voi sphere:4,4,4,3"),
+            format!("{s} --method mipmap --voi sphere:4,4,4,3 --voi-scale 200"),
+            "scale",
+        ),
+        (
+            format!("{s} --preintegrate --voi sphere:4,4,4,3"),
             "volume of interest",
         ),
         (format!("{s} --no-shade --light 1,0,0"), "no-shade"),

@@ -134,7 +134,7 @@ fn options_shear_warp_cannot_honour_are_one_line_errors() {
             format!("{s} --intermediate-scale nan"),
             "intermediate scale",
         ),
-        (format!("{s} --voi sphere:4,4,4,3"), "volume of interest"),
+        (format!("{s} --voi sphere:4,4,4,3 --voi-scale 200"), "scale"),
         (format!("{s} --gaze 3,3"), "gaze"),
         (format!("{s} --substeps 2"), "substeps"),
         (format!("{s} --baseplane-npy b.npy"), "baseplane"),
