@@ -16,9 +16,10 @@
 //! would keep: the volume in PE memory. A frame with the previous frame's
 //! axis map (principal axis, direction, near clip) starts from the PE
 //! memories as they were and the host loads nothing; a frame that changes
-//! it reloads them ([`pipeline::run_frame_resident`]). The load is not
-//! clocked, so a frame's cycles are the same either way; the stats give
-//! each frame's cycles and what the host loaded (`voxel_load`).
+//! it reloads them ([`pipeline::run_frame_resident`]). A frame's cycles are
+//! the same either way; the load's cycles come before them
+//! (`voxel_load.cycles`, 0 when resident), and the stats give each frame's
+//! cycles, its load and both together (`cycles_with_load`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -304,12 +305,18 @@ fn animate(a: &AnimateArgs) -> Result<()> {
         stats["order"] = serde_json::json!(cfg.order.name());
         stats["pes"] = serde_json::json!(cfg.pes);
         stats["cycles"] = serde_json::json!(chip_frames.cycles);
+        let with_load: Vec<u64> = (chip_frames.cycles.iter().zip(&chip_frames.loads))
+            .map(|(c, l)| c + l.cycles)
+            .collect();
+        let load_cycles: u64 = chip_frames.loads.iter().map(|l| l.cycles).sum();
+        stats["cycles_with_load"] = serde_json::json!(with_load);
+        stats["load_cycles"] = serde_json::json!(load_cycles);
         stats["voxel_load"] = serde_json::json!(chip_frames.loads);
         stats["frames_resident"] = serde_json::json!(resident);
         stats["voxel_bytes_loaded"] = serde_json::json!(loaded);
         stats["voxel_bytes_not_loaded"] = serde_json::json!(not_loaded);
         chip_note = format!(
-            "; {resident} of {} frames found the volume in PE memory ({not_loaded} bytes not loaded, {loaded} loaded)",
+            "; {resident} of {} frames found the volume in PE memory ({not_loaded} bytes not loaded, {loaded} loaded in {load_cycles} cycles)",
             path.len()
         );
     }

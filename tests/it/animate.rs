@@ -214,6 +214,20 @@ fn pipeline_frames_reuse_the_volume_in_pe_memory() {
             assert!(held >= 24 * 24 * 24, "{method} frame {i}: {load}");
             let loaded = load["bytes_loaded"].as_u64().expect("bytes_loaded");
             assert_eq!(loaded, if i % 2 == 1 { 0 } else { held }, "{load}");
+            // The load's cycles: none when resident; otherwise at least the
+            // bytes over the default 32-byte host link and at least one
+            // cycle per word of the busiest of the 4 PEs' memories.
+            let cycles = load["cycles"].as_u64().expect("load cycles");
+            if i % 2 == 1 {
+                assert_eq!(cycles, 0, "{method} frame {i}: {load}");
+            } else {
+                let words = load["words_held"].as_u64().expect("words_held");
+                assert!(cycles >= held.div_ceil(32), "{method} frame {i}: {load}");
+                assert!(cycles >= words.div_ceil(4), "{method} frame {i}: {load}");
+                assert_eq!(fresh["voxel_load"][i]["cycles"], load["cycles"]);
+            }
+            let total = reuse["cycles"][i].as_u64().expect("cycles") + cycles;
+            assert_eq!(reuse["cycles_with_load"][i], total, "{method} frame {i}");
             let name = format!("frame_{i:04}.png");
             let frame = png(&d.join("reuse").join(&name));
             assert_eq!(frame, png(&d.join("fresh").join(&name)), "{method} {name}");
@@ -241,6 +255,7 @@ fn pipeline_frames_reuse_the_volume_in_pe_memory() {
             let stats = json(&d.join("r.json"));
             assert_eq!(reuse["cycles"][i], stats["cycles"], "{method} {name}");
             assert_eq!(stats["voxel_load"]["resident"], false);
+            assert_eq!(stats["voxel_load"]["cycles"], fresh["voxel_load"][i]["cycles"]);
         }
     }
 }

@@ -13,10 +13,12 @@
 //! (Cube-4's skewed memories read beams along any axis from one copy)
 //! would be a different memory organisation, not modelled here.
 //!
-//! The load happens before a frame's first cycle and is not clocked in
-//! either case ([`Frame::cycles`] counts the same stages for a fresh and a
-//! resident frame, bit-identical); [`VoxelLoad`] says what the host wrote,
-//! so a reused frame shows the voxel words and bytes it did not load.
+//! The load happens before a frame's first cycle, so [`Frame::cycles`]
+//! counts the same stages for a fresh and a resident frame, bit-identical;
+//! [`VoxelLoad`] says what the host wrote and the cycles the load took
+//! (0 for a resident frame): the bytes over the host link of
+//! [`PipelineConfig::host_bandwidth`] bytes a cycle, or, if longer, the
+//! busiest PE's words at one word a cycle through its memory's write port.
 
 use golden::geometry::{AxisMap, View};
 use waves::Tracer;
@@ -82,18 +84,34 @@ pub struct VoxelLoad {
     /// `words_held` in bytes of `voxel`-bit words: what a resident frame
     /// did not load.
     pub bytes_held: u64,
+    /// Cycles the load took before the frame's first cycle (0 when
+    /// resident): `max(ceil(bytes_loaded / host_bandwidth), the most
+    /// words one PE's memory takes)`.
+    pub cycles: u64,
 }
 
 impl VoxelLoad {
-    pub(crate) fn new(cfg: &PipelineConfig, words_held: u64, resident: bool) -> VoxelLoad {
+    /// The load of memories holding `words` voxel words (PE by PE), or
+    /// none when `resident`.
+    pub(crate) fn new(cfg: &PipelineConfig, words: &[u64], resident: bool) -> VoxelLoad {
         let bytes = |w: u64| (w * u64::from(cfg.voxel.bits())).div_ceil(8);
+        let words_held = words.iter().sum();
         let words_loaded = if resident { 0 } else { words_held };
+        let busiest = if resident {
+            0
+        } else {
+            words.iter().copied().max().unwrap_or(0)
+        };
+        let bytes_loaded = bytes(words_loaded);
         VoxelLoad {
             resident,
             words_loaded,
-            bytes_loaded: bytes(words_loaded),
+            bytes_loaded,
             words_held,
             bytes_held: bytes(words_held),
+            cycles: bytes_loaded
+                .div_ceil(u64::from(cfg.host_bandwidth))
+                .max(busiest),
         }
     }
 }
@@ -207,4 +225,25 @@ pub(super) fn load_memories(
         }
     }
     words.into_iter().map(VoxelMem::Words).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A load takes the host link's cycles or, when the link is faster
+    /// than the PEs' write ports together, the busiest PE's words.
+    #[test]
+    fn a_load_takes_the_link_or_the_busiest_port() {
+        let mut cfg = PipelineConfig::default();
+        let words = [10, 30, 20];
+        let bytes = (60 * u64::from(cfg.voxel.bits())).div_ceil(8);
+        cfg.host_bandwidth = 1;
+        let slow = VoxelLoad::new(&cfg, &words, false);
+        assert_eq!((slow.bytes_loaded, slow.cycles), (bytes, bytes));
+        cfg.host_bandwidth = 4096;
+        assert_eq!(VoxelLoad::new(&cfg, &words, false).cycles, 30);
+        let kept = VoxelLoad::new(&cfg, &words, true);
+        assert_eq!((kept.cycles, kept.words_loaded, kept.words_held), (0, 0, 60));
+    }
 }

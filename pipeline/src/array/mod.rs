@@ -320,8 +320,8 @@ impl Array {
             }
         };
         host_stats.merge(&load_stats);
-        let words_held = mems.iter().map(|m| m.len() as u64).sum();
-        let voxel_load = VoxelLoad::new(cfg, words_held, reused);
+        let words: Vec<u64> = mems.iter().map(|m| m.len() as u64).collect();
+        let voxel_load = VoxelLoad::new(cfg, &words, reused);
         let pes = mems
             .into_iter()
             .enumerate()

@@ -569,6 +569,18 @@ config_fields! {
             toml: "external ray buffer latency in cycles, 0..=4096",
             check: rules::ray_buffer_latency,
         },
+        /// Bytes per cycle of the host's link into the PE memories,
+        /// `1..=4096`: a frame that finds the volume not yet in PE memory
+        /// spends [`crate::VoxelLoad::cycles`] loading it first, each PE's
+        /// memory taking at most one voxel word a cycle.
+        ///
+        /// Default 32: PCIe 3.0 x8 (7.9 GB/s) at a 250 MHz clock.
+        pub host_bandwidth: u16 {
+            default: 32,
+            range: 1..=4096,
+            toml: "host-to-PE-memory voxel load bytes per cycle, 1..=4096",
+            check: rules::host_bandwidth,
+        },
     }
 }
 

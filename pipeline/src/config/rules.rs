@@ -548,6 +548,11 @@ pub(super) fn ray_buffer_rows(_: &PipelineConfig, field: &str, r: u16) -> Result
     in_range(field, i64::from(r), 2, 64)
 }
 
+/// `host_bandwidth` in `1..=4096`.
+pub(super) fn host_bandwidth(_: &PipelineConfig, field: &str, b: u16) -> Result<(), ConfigError> {
+    in_range(field, i64::from(b), 1, 4096)
+}
+
 /// `ray_buffer_latency` in `0..=4096`.
 pub(super) fn ray_buffer_latency(
     _: &PipelineConfig,
