@@ -255,7 +255,10 @@ fn pipeline_frames_reuse_the_volume_in_pe_memory() {
             let stats = json(&d.join("r.json"));
             assert_eq!(reuse["cycles"][i], stats["cycles"], "{method} {name}");
             assert_eq!(stats["voxel_load"]["resident"], false);
-            assert_eq!(stats["voxel_load"]["cycles"], fresh["voxel_load"][i]["cycles"]);
+            assert_eq!(
+                stats["voxel_load"]["cycles"],
+                fresh["voxel_load"][i]["cycles"]
+            );
         }
     }
 }

@@ -244,6 +244,9 @@ mod tests {
         cfg.host_bandwidth = 4096;
         assert_eq!(VoxelLoad::new(&cfg, &words, false).cycles, 30);
         let kept = VoxelLoad::new(&cfg, &words, true);
-        assert_eq!((kept.cycles, kept.words_loaded, kept.words_held), (0, 0, 60));
+        assert_eq!(
+            (kept.cycles, kept.words_loaded, kept.words_held),
+            (0, 0, 60)
+        );
     }
 }
