@@ -151,11 +151,6 @@ impl Options {
                     "--preintegrate does not shade yet; drop the shading options",
                 ));
             }
-            if self.voi.is_some() {
-                return Err(input(
-                    "--preintegrate has no volume of interest yet; drop --voi",
-                ));
-            }
         }
         Ok(())
     }

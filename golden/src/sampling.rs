@@ -398,9 +398,16 @@ impl<'a> RayRow<'a> {
                 (y + back * slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3),
             );
             let sb = stack.bilinear(if back == 1.0 { self.next } else { self.data }, bx, by);
-            let step = |ray: &mut Rgba, s0: f32, s1: f32, len: f32| {
+            // A volume of interest scales the segment's extinction by its
+            // factor at the segment's middle (the colour stays).
+            let factor = |o: f32| {
+                voi.map_or(1.0, |v| {
+                    v.factor_f32(x + o * slope_x, y + o * slope_y, z as f32 + o)
+                })
+            };
+            let step = |ray: &mut Rgba, s0: f32, s1: f32, len: f32, f: f32| {
                 let e = pt.lookup(s0, s1);
-                let a = segment_opacity(e[3], len);
+                let a = segment_opacity(e[3] * f, len);
                 if a > 0.0 {
                     let inv = 1.0 / e[3];
                     let c = [e[0], e[1], e[2]].map(|v| (v * inv).min(1.0));
@@ -408,19 +415,19 @@ impl<'a> RayRow<'a> {
                 }
             };
             // Slice 0 also owns the half step in front of it, at its scalar.
-            let lead = (front < 0.0).then_some(ds * -front);
-            let main = ds * back;
+            let lead = (front < 0.0).then(|| (ds * -front, factor(front / 2.0)));
+            let main = (ds * back, factor(back / 2.0));
             match order {
                 Order::FrontToBack { .. } => {
-                    if let Some(l) = lead {
-                        step(ray, sf, sf, l);
+                    if let Some((l, f)) = lead {
+                        step(ray, sf, sf, l, f);
                     }
-                    step(ray, sf, sb, main);
+                    step(ray, sf, sb, main.0, main.1);
                 }
                 Order::BackToFront => {
-                    step(ray, sf, sb, main);
-                    if let Some(l) = lead {
-                        step(ray, sf, sf, l);
+                    step(ray, sf, sb, main.0, main.1);
+                    if let Some((l, f)) = lead {
+                        step(ray, sf, sf, l, f);
                     }
                 }
             }

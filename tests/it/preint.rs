@@ -48,8 +48,8 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
         ),
         (format!("{s} --method er --preintegrate --shade"), "shade"),
         (
-            format!("{s} --method er --preintegrate --voi sphere:10,10,10,5"),
-            "--voi",
+            format!("{s} --method er --preintegrate --voi sphere:10,10,10,5 --voi-ramp -1"),
+            "ramp",
         ),
     ];
     for (line, needle) in &cases {

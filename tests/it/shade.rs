@@ -162,10 +162,6 @@ fn bad_flags_are_one_line_errors() {
             format!("{s} --method mipmap --voi sphere:4,4,4,3 --voi-scale 200"),
             "scale",
         ),
-        (
-            format!("{s} --preintegrate --voi sphere:4,4,4,3"),
-            "volume of interest",
-        ),
         (format!("{s} --no-shade --light 1,0,0"), "no-shade"),
         (
             format!("{s} --method pipeline --pes 4 --shade --gradient samples"),

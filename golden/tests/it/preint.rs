@@ -295,7 +295,7 @@ fn preint_sees_the_thin_layer_post_classification_misses() {
 }
 
 #[test]
-fn preint_refuses_substeps_shading_and_voi() {
+fn preint_refuses_substeps() {
     let o = Options {
         preintegrate: true,
         substeps: 2,

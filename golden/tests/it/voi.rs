@@ -1,10 +1,12 @@
-//! The volume of interest in the mip-map caster (pre- and post-classified)
-//! and in shear-warp: the slice-order methods' properties (`shading.rs`'s
-//! `volume_of_interest_scales_opacity`) hold there too.
+//! The volume of interest in the mip-map caster (pre- and post-classified),
+//! in shear-warp and with pre-integration: the slice-order methods'
+//! properties (`shading.rs`'s `volume_of_interest_scales_opacity`) hold
+//! there too.
 
 use glam::DVec3;
 use golden::camera::Camera;
 use golden::image::Image;
+use golden::methods::Method;
 use golden::metrics::compare;
 use golden::mipmap::Classify;
 use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
@@ -18,7 +20,7 @@ fn bits(i: &Image) -> Vec<[u32; 4]> {
 }
 
 #[test]
-fn the_mipmap_and_shear_warp_take_the_volume_of_interest() {
+fn the_mipmap_shear_warp_and_preintegration_take_the_volume_of_interest() {
     let vol = scene("ml:24");
     let translucent =
         crate::scenes::tf(&[(0.0, [1.0, 0.8, 0.6, 0.01]), (255.0, [1.0, 1.0, 1.0, 0.06])]);
@@ -45,23 +47,35 @@ fn the_mipmap_and_shear_warp_take_the_volume_of_interest() {
         outside: true,
         ramp: 0.0,
     };
-    let run = |tech, classify, voi: Option<Voi>, skip: bool| {
+    let run = |tech, (classify, pre): (Classify, bool), voi: Option<Voi>, skip: bool| {
         let mut o = RenderOptions {
             mip_classify: classify,
             ..RenderOptions::default()
         };
+        o.slice.preintegrate = pre;
         o.slice.voi = voi;
         o.reference.voi = voi;
         o.slice.skips.empty = skip;
         render(&prep, &lut, tech, &o).unwrap().image
     };
     let alpha = |i: &Image| i.data.iter().map(|p| f64::from(p[3])).sum::<f64>();
-    let reference = run(Technique::Reference, Classify::Post, Some(sphere), true);
-    let plain_ref = run(Technique::Reference, Classify::Post, None, true);
+    let post = (Classify::Post, false);
+    let reference = run(Technique::Reference, post, Some(sphere), true);
+    let plain_ref = run(Technique::Reference, post, None, true);
     for (name, tech, classify) in [
-        ("mipmap post", Technique::MipMap, Classify::Post),
-        ("mipmap pre", Technique::MipMap, Classify::Pre),
-        ("shear-warp", Technique::ShearWarp, Classify::Post),
+        ("mipmap post", Technique::MipMap, post),
+        ("mipmap pre", Technique::MipMap, (Classify::Pre, false)),
+        ("shear-warp", Technique::ShearWarp, post),
+        (
+            "er preintegrated",
+            Technique::Slice(Method::Er),
+            (Classify::Post, true),
+        ),
+        (
+            "er-ftb preintegrated",
+            Technique::Slice(Method::ErFtb),
+            (Classify::Post, true),
+        ),
     ] {
         let plain = run(tech, classify, None, true);
         let one = Voi {
