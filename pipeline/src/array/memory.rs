@@ -150,7 +150,7 @@ pub fn run_frame_resident(
         tracer,
         resident.take(),
     )?;
-    let (frame, kept) = super::run_loaded(
+    let (frame, kept) = super::run::run_loaded(
         array,
         data_bits,
         prep,

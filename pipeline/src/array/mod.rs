@@ -24,9 +24,14 @@
 mod clock;
 mod memory;
 mod owners;
+mod run;
 
 pub use clock::{Clock, Links};
 pub use memory::{run_frame_resident, Resident, VoxelLoad};
+pub use run::{
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_shaded, run_frame_voi,
+    run_frame_with,
+};
 
 use golden::geometry::View;
 use golden::volume::Volume;
@@ -616,155 +621,6 @@ impl Array {
             quant,
         })
     }
-}
-
-/// Runs one frame: plans, loads, clocks and reads out.
-pub fn run_frame(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    view: &View,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    Array::new(cfg, volume, lut, view, tracer)?.run(view)
-}
-
-/// Runs one frame of `prep` with the controller skipping what `skips`
-/// allows and clipping to `prep`'s planes: the occupancy memory is built
-/// from the volume's min-max blocks (`occupancy_block` voxels) and this
-/// pipeline's classification table (see [`crate::skip`]).
-pub fn run_frame_with(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_shaded(cfg, volume, lut, prep, skips, None, tracer)
-}
-
-/// [`run_frame_with`], shaded with `shade` when given
-/// ([`Array::set_shading`]).
-pub fn run_frame_shaded(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_voi(cfg, volume, lut, prep, skips, (shade, None), tracer)
-}
-
-/// [`run_frame_shaded`] with the volume of interest `voi` when given
-/// ([`Array::set_voi`]).
-pub fn run_frame_voi(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    let block = usize::from(cfg.occupancy_block);
-    let mm = if prep.blocks.block == block {
-        prep.blocks.clone()
-    } else {
-        golden::occupancy::MinMax::new(volume, block)
-            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?
-    };
-    let source = VoxelSource::Volume(volume, &prep.view);
-    run_prepared(
-        cfg,
-        (source, volume.kind().bits()),
-        lut,
-        prep,
-        mm,
-        skips,
-        (shade, voi),
-        tracer,
-    )
-}
-
-/// [`run_frame_shaded`] without the volume: the PEs load from `prep`'s
-/// slice stack (the same view-space scalars, `data_bits` bits each), so a
-/// caller that handed its volume to the stack holds the voxels once.
-/// `prep` must have been prepared with min-max blocks of the
-/// configuration's `occupancy_block`.
-pub fn run_frame_from_stack(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, None), tracer)
-}
-
-/// [`run_frame_from_stack`] with the volume of interest `voi` when given
-/// ([`Array::set_voi`]).
-pub fn run_frame_from_stack_voi(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_resident(
-        cfg,
-        data_bits,
-        lut,
-        prep,
-        skips,
-        (shade, voi),
-        tracer,
-        &mut None,
-    )
-}
-
-#[allow(clippy::too_many_arguments)]
-fn run_prepared(
-    cfg: &PipelineConfig,
-    (source, data_bits): (VoxelSource, u32),
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    mm: golden::occupancy::MinMax,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    let array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
-    run_loaded(array, data_bits, prep, mm, skips, (shade, voi)).map(|(frame, _)| frame)
-}
-
-/// Shades, plans the skipping of and runs a loaded array's frame of `prep`.
-fn run_loaded(
-    mut array: Array,
-    data_bits: u32,
-    prep: &golden::render::Prepared,
-    mm: golden::occupancy::MinMax,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-) -> Result<(Frame, Resident), RunError> {
-    if let Some(sh) = shade {
-        array.set_shading(sh, &prep.view, data_bits)?;
-    }
-    if let Some(v) = voi {
-        array.set_voi(v, &prep.view)?;
-    }
-    let layout = golden::methods::Method::Er
-        .layout(&prep.view)
-        .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
-    let (mask, counts) = crate::skip::plan_mask(&array.dp, &mm, data_bits, prep, &layout, skips);
-    array.set_skipping(mask, counts, &prep.view);
-    array.run_keeping(&prep.view)
 }
 
 /// `v` clamped into `lo..=hi`; `lo` when the range is empty (an empty
