@@ -6,7 +6,7 @@
 //! [`PipelineConfig`]: full-precision operators, quantise on assignment.
 
 use crate::config::PipelineConfig;
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::fixed::{Format, Fx, FxError, QuantStats, Wide, Word64};
 use crate::tables::Tables;
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
@@ -66,17 +66,43 @@ pub struct Datapath {
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
-#[inline]
+#[inline(always)]
 pub fn lerp(a: Fx, b: Fx, w: Fx, out: Format, st: &mut QuantStats) -> Result<Fx, FxError> {
+    if let Some(v) = lerp64(a, b, w) {
+        return Ok(out.assign(v, st));
+    }
     let d = b - a;
     let wd = Wide::from(w).checked_mul(d)?;
     Ok(out.assign(Wide::from(a).checked_add(wd)?, st))
 }
 
+/// [`lerp`]'s exact `a + w (b - a)` before assignment, in 64-bit words,
+/// when the operands' widths prove every intermediate fits (`None`
+/// otherwise, and the caller takes the 128-bit path). The same value and
+/// fraction as the 128-bit path: exact integer arithmetic does not depend
+/// on the word it runs in. With `a`, `b` aligned to their larger fraction
+/// in `B` bits and `w` in `bw`: `|b - a| < 2^(B+1)`, the product below
+/// `2^(B+bw+1)`, `a` shifted by `w`'s fraction below `2^(B+bw)`, so the
+/// sum stays below `2^(B+bw+2)`.
+#[inline(always)]
+fn lerp64(a: Fx, b: Fx, w: Fx) -> Option<Wide> {
+    let (fa, fb, fw) = (a.format().frac(), b.format().frac(), w.format().frac());
+    let f = fa.max(fb);
+    let (sa, sb) = (f - fa, f - fb);
+    // Widths and fractions are at most 63, so these sums fit u8.
+    let bits = (a.format().bits() + sa).max(b.format().bits() + sb);
+    if u32::from(bits) + u32::from(w.format().bits()) + 2 > 62 {
+        return None;
+    }
+    let (x, y) = (a.raw() << sa, b.raw() << sb);
+    let v = (x << fw) + w.raw() * (y - x);
+    Some(Wide::new(i128::from(v), i32::from(f) + i32::from(fw)))
+}
+
 /// `sqrt(v)` truncated onto `f`'s grid: an exact integer square root of
 /// the radicand aligned to `2 f.frac` fraction bits (the path length's and
 /// the gradient norm's unit). `op` names it in an overflow error.
-#[inline]
+#[inline(always)]
 pub fn isqrt_into(
     v: Wide,
     f: Format,
@@ -95,8 +121,28 @@ pub fn isqrt_into(
     } else {
         v.raw >> (-shift) as u32
     };
-    let root = (radicand.max(0) as u128).isqrt() as i128;
+    let root = isqrt(radicand.max(0) as u128) as i128;
     Ok(f.assign(Wide::new(root, pf), st))
+}
+
+/// `floor(sqrt(v))`, exactly: a float estimate corrected by at most a few
+/// steps when `v` fits 64 bits (the datapath's radicands), the integer
+/// algorithm otherwise. The unit it models is the exact root either way.
+#[inline]
+fn isqrt(v: u128) -> u128 {
+    let Ok(small) = u64::try_from(v) else {
+        return v.isqrt();
+    };
+    // The estimate is within one or two of the root for any u64; the
+    // loops make it exact (squares of roots below 2^32 + 2 fit u128).
+    let mut r = u128::from((small as f64).sqrt() as u64);
+    while r * r > v {
+        r -= 1;
+    }
+    while (r + 1) * (r + 1) <= v {
+        r += 1;
+    }
+    r
 }
 
 /// Integer and fraction of a non-negative or negative fixed value at a
@@ -152,23 +198,32 @@ impl Datapath {
     /// The termination comparator: whether a ray whose opacity word is
     /// `acc.raw[3]` takes no more samples (a compare against a per-frame
     /// constant; never when termination is off).
-    #[inline]
+    #[inline(always)]
     pub fn terminated(&self, acc: &Acc) -> bool {
         self.threshold.is_some_and(|t| acc.raw[3] >= t)
     }
 
     /// Ray position `a + m t` on one axis, in the `position` format (the
     /// host broadcasts `a` in `position` and `t` in `step`).
-    #[inline]
+    #[inline(always)]
     pub fn position(&self, a: Fx, t: Fx, m: i64, st: &mut QuantStats) -> Result<Fx, FxError> {
-        let mt = Wide::new(i128::from(m), 0).checked_mul(t)?;
-        Ok(self.cfg.position.assign(Wide::from(a).checked_add(mt)?, st))
+        let fast = Word64::int(m)
+            .checked_mul(Word64::of(t))
+            .and_then(|mt| Word64::of(a).checked_add(mt));
+        let v = match fast {
+            Some(v) => Wide::from(v),
+            None => {
+                let mt = Wide::new(i128::from(m), 0).checked_mul(t)?;
+                Wide::from(a).checked_add(mt)?
+            }
+        };
+        Ok(self.cfg.position.assign(v, st))
     }
 
     /// Voxel address and interpolation weight of a position:
     /// `(floor(x), weight)`, the weight being the position's fraction
     /// assigned into the `weight` format.
-    #[inline]
+    #[inline(always)]
     pub fn address(&self, x: Fx, st: &mut QuantStats) -> (i64, Fx) {
         let f = u32::from(self.cfg.position.frac());
         let (i, r) = split(x.raw(), f);
@@ -183,7 +238,7 @@ impl Datapath {
     /// Bilinear interpolation of four voxel codes (`v[row][col]`, rows
     /// `y0, y0 + 1`, columns `x0, x0 + 1`) with weights `wx`, `wy`: first
     /// along x on both rows, then along y, as `golden::slices::bilinear`.
-    #[inline]
+    #[inline(always)]
     pub fn bilinear(
         &self,
         v: [[u16; 2]; 2],
@@ -203,7 +258,7 @@ impl Datapath {
     /// splits into an entry index and a weight; colour and opacity are
     /// interpolated between adjacent entries (a dual-port table), as
     /// `golden::tf::Lut::lookup`.
-    #[inline]
+    #[inline(always)]
     pub fn classify(&self, s: Fx, st: &mut QuantStats) -> Result<([Fx; 3], Fx), FxError> {
         let t = &self.tables;
         let last = t.color.len() - 1;
@@ -232,7 +287,7 @@ impl Datapath {
     /// Opacity correction `1 - (1 - a)^ds` in the log domain:
     /// `p = -log2(1 - a) ds`, `T = 2^-frac(p)` from the interpolated exp
     /// table, shifted right by `int(p)`, and `a' = 1 - T`.
-    #[inline]
+    #[inline(always)]
     pub fn correct(&self, a: Fx, ds: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let t = &self.tables;
         let lf = self.cfg.log_transmittance;
@@ -260,7 +315,7 @@ impl Datapath {
 
     /// Back-to-front compositing of colour `c` with corrected opacity `a`:
     /// `C = a c + (1 - a) C`, `A = a + (1 - a) A`.
-    #[inline]
+    #[inline(always)]
     pub fn composite_btf(
         &self,
         acc: &mut Acc,
@@ -270,13 +325,26 @@ impl Datapath {
     ) -> Result<(), FxError> {
         let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
         let k = Wide::new(1, 0).checked_sub(a)?;
+        // The same expressions in 64-bit words where they fit.
+        let (a64, k64) = (Word64::of(a), Word64::int(1).checked_sub(Word64::of(a)));
         for (word, &colour) in acc.raw.iter_mut().zip(&c) {
             let old = Fx::from_raw_unchecked(*word, fc);
-            let v = (a * colour).checked_add(k.checked_mul(old)?)?;
+            let fast = k64.and_then(|k| {
+                a64.checked_mul(Word64::of(colour))?
+                    .checked_add(k.checked_mul(Word64::of(old))?)
+            });
+            let v = match fast {
+                Some(v) => Wide::from(v),
+                None => (a * colour).checked_add(k.checked_mul(old)?)?,
+            };
             *word = fc.assign(v, st).raw();
         }
         let old = Fx::from_raw_unchecked(acc.raw[3], fa);
-        let v = Wide::from(a).checked_add(k.checked_mul(old)?)?;
+        let fast = k64.and_then(|k| a64.checked_add(k.checked_mul(Word64::of(old))?));
+        let v = match fast {
+            Some(v) => Wide::from(v),
+            None => Wide::from(a).checked_add(k.checked_mul(old)?)?,
+        };
         acc.raw[3] = fa.assign(v, st).raw();
         Ok(())
     }
@@ -288,7 +356,7 @@ impl Datapath {
     /// roundings per sample (colour and opacity), each the accumulator's
     /// mode; with a monotone rounding and no wrap-around, neither word
     /// ever decreases (the fold's differences rely on it).
-    #[inline]
+    #[inline(always)]
     pub fn composite_ftb(
         &self,
         acc: &mut Acc,
@@ -299,12 +367,25 @@ impl Datapath {
         let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
         let old_a = Fx::from_raw_unchecked(acc.raw[3], fa);
         let k = Wide::new(1, 0).checked_sub(old_a)?.checked_mul(a)?;
+        // The same expressions in 64-bit words where they fit.
+        let k64 = Word64::int(1)
+            .checked_sub(Word64::of(old_a))
+            .and_then(|d| d.checked_mul(Word64::of(a)));
         for (word, &colour) in acc.raw.iter_mut().zip(&c) {
             let old = Fx::from_raw_unchecked(*word, fc);
-            let v = Wide::from(old).checked_add(k.checked_mul(colour)?)?;
+            let fast =
+                k64.and_then(|k| Word64::of(old).checked_add(k.checked_mul(Word64::of(colour))?));
+            let v = match fast {
+                Some(v) => Wide::from(v),
+                None => Wide::from(old).checked_add(k.checked_mul(colour)?)?,
+            };
             *word = fc.assign(v, st).raw();
         }
-        let v = Wide::from(old_a).checked_add(k)?;
+        let fast = k64.and_then(|k| Word64::of(old_a).checked_add(k));
+        let v = match fast {
+            Some(v) => Wide::from(v),
+            None => Wide::from(old_a).checked_add(k)?,
+        };
         acc.raw[3] = fa.assign(v, st).raw();
         Ok(())
     }
@@ -349,7 +430,7 @@ impl Datapath {
     /// The ray's path length per slice step, `sqrt(sx^2 + sy^2 + sz^2)`
     /// from its spacing-scaled slopes, truncated into the `path` format
     /// (an exact integer square root).
-    #[inline]
+    #[inline(always)]
     pub fn path(&self, sx: Fx, sy: Fx, sz: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let sum = (sx * sx).checked_add(sy * sy)?.checked_add(sz * sz)?;
         isqrt_into(sum, self.cfg.path, "path length", st)
@@ -363,5 +444,60 @@ impl Datapath {
         // Three words of at most 63 bits: the sum fits i128 trivially.
         let sum = i128::from(p[0]) + 2 * i128::from(p[1]) + i128::from(p[2]);
         to.assign(Wide::new(sum, i32::from(from.frac()) + 2), st)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn fx(raw: i64, bits: u8, frac: u8, signed: bool) -> Fx {
+        let f = if signed {
+            Format::signed(bits, frac.min(bits))
+        } else {
+            Format::unsigned(bits, frac.min(bits))
+        }
+        .unwrap();
+        let span = i128::from(f.max_raw()) - i128::from(f.min_raw()) + 1;
+        let raw = i128::from(raw).rem_euclid(span) + i128::from(f.min_raw());
+        Fx::from_raw(raw as i64, f).unwrap()
+    }
+
+    proptest! {
+        /// Where the 64-bit lerp runs, it gives the 128-bit expression's
+        /// word and fraction.
+        #[test]
+        fn lerp64_is_the_wide_lerp(
+            r in any::<[i64; 3]>(),
+            bits in proptest::array::uniform3(1u8..=63),
+            frac in proptest::array::uniform3(0u8..=63),
+            signed in any::<[bool; 3]>(),
+        ) {
+            let v: Vec<Fx> = (0..3).map(|i| fx(r[i], bits[i], frac[i], signed[i])).collect();
+            let (a, b, w) = (v[0], v[1], v[2]);
+            if let Some(got) = lerp64(a, b, w) {
+                let want = Wide::from(a).checked_add(Wide::from(w).checked_mul(b - a).unwrap());
+                prop_assert_eq!(got, want.unwrap());
+            }
+        }
+    }
+
+    /// The default widths take the 64-bit path in every lerp of the
+    /// datapath (interpolation, classification, the exp table), so the
+    /// fast path is the one that runs.
+    #[test]
+    fn default_lerps_run_in_64_bits() {
+        let c = PipelineConfig::default();
+        let max = |f: Format| f.max_value();
+        for (ab, w) in [
+            (c.voxel, c.weight),
+            (c.sample, c.weight),
+            (c.color, c.weight),
+            (c.alpha, c.weight),
+            (c.opacity_corr, c.weight),
+        ] {
+            assert!(lerp64(max(ab), ab.min_value(), max(w)).is_some(), "{ab:?} {w:?}");
+        }
     }
 }

@@ -190,17 +190,28 @@ pub(super) fn load_memories(
             .iter()
             .map(|h| Vec::with_capacity(h.len() * ny * nz))
             .collect();
+        // Each voxel's word is the table's; its quantisation events are
+        // its code's, counted once per code times the code's voxels.
+        let mut count = [0u64; 256];
         for z in 0..nz {
             for y in 0..ny {
                 for (x, ks) in holders.iter().enumerate() {
                     let v = source.get(x, y, z);
-                    let w = word(v, st);
-                    debug_assert_eq!(w, table[usize::from(v)]);
+                    count[usize::from(v)] += 1;
                     for &k in ks {
                         codes[k].push(v as u8);
                     }
                 }
             }
+        }
+        for (v, &n) in count.iter().enumerate() {
+            let mut one = QuantStats::default();
+            word(v as u16, &mut one);
+            st.merge(&QuantStats {
+                assignments: one.assignments * n,
+                overflows: one.overflows * n,
+                inexact: one.inexact * n,
+            });
         }
         return codes
             .into_iter()

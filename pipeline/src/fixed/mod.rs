@@ -43,6 +43,7 @@ mod format;
 mod pack;
 mod quantize;
 mod value;
+mod word;
 
 #[cfg(test)]
 mod tests;
@@ -52,3 +53,4 @@ pub use format::{Format, FormatSpec, Overflow, Quant, MAX_BITS};
 pub use pack::{pack, unpack, Bits};
 pub use quantize::{QuantStats, Quantized};
 pub use value::{Fx, Wide};
+pub use word::Word64;

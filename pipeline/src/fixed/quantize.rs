@@ -140,35 +140,50 @@ impl Format {
     /// [`overflow`](Format::overflow) if the rounded value is out of range.
     ///
     /// This is exact for every [`Wide`]: no intermediate step rounds.
-    #[inline]
+    #[inline(always)]
     pub fn quantize(&self, w: Wide) -> Quantized {
         // i32 minus u8 in i64 cannot overflow.
         let k = i64::from(w.frac) - i64::from(self.frac());
-        // Fast path for the datapath's common case: TRN or RND dropping
-        // fraction bits, result in range. It computes what round_shift
-        // does for these two modes; anything else takes the general path.
-        if (1..127).contains(&k) {
-            let mask = (1i128 << k) - 1;
-            let q = match self.quant() {
-                Quant::Trn => Some(w.raw >> k),
+        // Fast path for the datapath's common case, in 64-bit words: a
+        // source that fits i64, at most 62 fraction bits dropped or added,
+        // TRN or RND (or nothing dropped), the result in range. It computes
+        // what the general path does for these cases; anything else takes
+        // it.
+        if let (Ok(raw), true) = (i64::try_from(w.raw), (-62..63).contains(&k)) {
+            let q = match (k, self.quant()) {
+                (0, _) => Some(raw),
+                // Exact when shifting back recovers the word.
+                (..0, _) => Some(raw << -k).filter(|v| v >> -k == raw),
+                (_, Quant::Trn) => Some(raw >> k),
                 // floor((raw / 2^(k-1) + 1) / 2) = floor(raw / 2^k + 1/2).
-                Quant::Rnd => (w.raw >> (k - 1)).checked_add(1).map(|v| v >> 1),
+                (_, Quant::Rnd) => (raw >> (k - 1)).checked_add(1).map(|v| v >> 1),
                 _ => None,
             };
-            // SAT_SYM's lower limit is -max, not min_raw: leave it to the
-            // general path.
-            let sym = self.overflow() == Overflow::SatSym && self.is_signed();
-            if let (Some(q), false) = (q, sym) {
-                if q >= i128::from(self.min_raw()) && q <= i128::from(self.max_raw()) {
-                    return Quantized {
-                        // In range, so it fits the format's i64 word.
-                        value: Fx::from_raw_unchecked(q as i64, *self),
-                        overflow: false,
-                        inexact: w.raw & mask != 0,
-                    };
-                }
+            let max = self.max_raw();
+            // SAT_SYM's lower limit is -max, not min_raw.
+            let min = if self.overflow() == Overflow::SatSym && self.is_signed() {
+                -max
+            } else {
+                self.min_raw()
+            };
+            if let Some(q) = q.filter(|q| (min..=max).contains(q)) {
+                // Dropped bits: k in 1..63 keeps the mask exact in i64.
+                let dropped = k > 0 && raw & ((1i64 << k) - 1) != 0;
+                return Quantized {
+                    value: Fx::from_raw_unchecked(q, *self),
+                    overflow: false,
+                    inexact: dropped,
+                };
             }
         }
+        self.quantize_general(w, k)
+    }
+
+    /// [`Format::quantize`] for every case: `k` is the number of fraction
+    /// bits dropped (negative: added).
+    #[cold]
+    #[inline(never)]
+    fn quantize_general(&self, w: Wide, k: i64) -> Quantized {
         let (v, fits, inexact) = if k > 0 {
             let (v, inexact) = round_shift(w.raw, k.unsigned_abs(), self.quant());
             (v, true, inexact)
@@ -211,7 +226,7 @@ impl Format {
     }
 
     /// [`quantize`](Format::quantize), recording the event in `stats`.
-    #[inline]
+    #[inline(always)]
     pub fn assign(&self, w: impl Into<Wide>, stats: &mut QuantStats) -> Fx {
         let q = self.quantize(w.into());
         stats.record(&q);

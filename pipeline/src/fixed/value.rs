@@ -292,8 +292,18 @@ impl Wide {
     }
 
     /// Both raw words at the larger fraction, or `None` if that does not fit.
+    #[inline(always)]
     fn aligned(self, rhs: Wide) -> Option<(i128, i128, i32)> {
         let f = self.frac.max(rhs.frac);
+        // Words below 2^63 shifted by less than 64 stay below 2^127: no
+        // check needed (the datapath's common case).
+        let (da, db) = (
+            i64::from(f) - i64::from(self.frac),
+            i64::from(f) - i64::from(rhs.frac),
+        );
+        if da < 64 && db < 64 && i64::try_from(self.raw).is_ok() && i64::try_from(rhs.raw).is_ok() {
+            return Some((self.raw << da, rhs.raw << db, f));
+        }
         // f >= each frac and both are i32, so the differences fit u64.
         let a = checked_scale(self.raw, (i64::from(f) - i64::from(self.frac)) as u64)?;
         let b = checked_scale(rhs.raw, (i64::from(f) - i64::from(rhs.frac)) as u64)?;
@@ -301,7 +311,7 @@ impl Wide {
     }
 
     /// Exact sum, or [`FxError::WideOverflow`].
-    #[inline]
+    #[inline(always)]
     pub fn checked_add(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
         self.aligned(rhs)
@@ -310,7 +320,7 @@ impl Wide {
     }
 
     /// Exact difference, or [`FxError::WideOverflow`].
-    #[inline]
+    #[inline(always)]
     pub fn checked_sub(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
         self.aligned(rhs)
@@ -319,9 +329,17 @@ impl Wide {
     }
 
     /// Exact product, or [`FxError::WideOverflow`].
-    #[inline]
+    #[inline(always)]
     pub fn checked_mul(self, rhs: impl Into<Wide>) -> Result<Wide, FxError> {
         let rhs = rhs.into();
+        // Two words below 2^63 multiply to below 2^126: no check needed.
+        if let (Ok(a), Ok(b), Some(frac)) = (
+            i64::try_from(self.raw),
+            i64::try_from(rhs.raw),
+            self.frac.checked_add(rhs.frac),
+        ) {
+            return Ok(Wide::new(i128::from(a) * i128::from(b), frac));
+        }
         match (
             self.raw.checked_mul(rhs.raw),
             self.frac.checked_add(rhs.frac),

@@ -132,8 +132,9 @@ pub enum BenchMethod {
     Pipeline {
         /// `pipeline` or `pipeline:STEM`.
         label: String,
-        /// Widths and PEs.
-        cfg: PipelineConfig,
+        /// Widths and PEs (boxed: a configuration is large beside a
+        /// technique).
+        cfg: Box<PipelineConfig>,
     },
 }
 
@@ -216,7 +217,10 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
                     cfg.pes = p;
                 }
                 cfg.validate().with_context(|| format!("method '{tok}'"))?;
-                BenchMethod::Pipeline { label, cfg }
+                BenchMethod::Pipeline {
+                    label,
+                    cfg: Box::new(cfg),
+                }
             }
         };
         if out.iter().any(|o| o.label() == m.label()) {

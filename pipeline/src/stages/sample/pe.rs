@@ -6,7 +6,7 @@
 use crate::array::Links;
 use crate::config::Order;
 use crate::datapath::{Datapath, SampleTrace};
-use crate::fixed::Fx;
+use crate::fixed::{Fx, QuantStats};
 use crate::host::SlicePlan;
 use crate::pe::{Pe, Ports, StepError};
 use crate::shading::{outer_rows, Halo, Taps};
@@ -220,7 +220,7 @@ impl Pe {
             halo: links.from_right.halo,
             left: links.from_left.edge,
         };
-        self.last = self.sample_ray(dp, &RowBus::of(bus), j, &edge, nx, bus.now)?;
+        self.sample_ray::<true>(dp, &RowBus::of(bus), j, &edge, nx, bus.now)?;
         Ok(out)
     }
 
@@ -304,9 +304,11 @@ impl Pe {
     /// whole-slice paths. The result is computed here and written back
     /// `dp.latency` cycles later: nothing reads the ray's accumulators
     /// before then (the scoreboard in `land`, the drain), so computing
-    /// early cannot be observed.
+    /// early cannot be observed. With `TRACE` the cycle's words go to
+    /// [`Pe::last`] for the waveforms; the whole-slice path, which never
+    /// traces, skips that copy (and the accumulator read it needs).
     #[inline]
-    fn sample_ray(
+    fn sample_ray<const TRACE: bool>(
         &mut self,
         dp: &Datapath,
         bus: &RowBus,
@@ -314,7 +316,27 @@ impl Pe {
         edge_in: &EdgeIn,
         nx: usize,
         now: u64,
-    ) -> Result<SampleTrace, StepError> {
+    ) -> Result<(), StepError> {
+        // The quantisation counters live in a local while the sample runs:
+        // then they can stay in registers across the datapath's two dozen
+        // assignments instead of chaining loads and stores through the PE.
+        let mut st = self.stats;
+        let done = self.sample_datapath::<TRACE>(dp, bus, j, edge_in, (nx, now), &mut st);
+        self.stats = st;
+        done
+    }
+
+    /// [`Pe::sample_ray`]'s datapath, counting into `st`.
+    #[inline(always)]
+    fn sample_datapath<const TRACE: bool>(
+        &mut self,
+        dp: &Datapath,
+        bus: &RowBus,
+        j: usize,
+        edge_in: &EdgeIn,
+        (nx, now): (usize, u64),
+        st: &mut QuantStats,
+    ) -> Result<(), StepError> {
         self.counters.busy += 1;
         self.counters.samples += 1;
         let land = now + dp.latency;
@@ -322,7 +344,6 @@ impl Pe {
         self.drained_at = self.drained_at.max(land);
         let mx = self.rays[j].mx;
         let s = bus.slice;
-        let st = &mut self.stats;
         let x = dp.position(s.a[0], s.t[0], mx, st)?;
         let (x0, wx) = dp.address(x, st);
         let last = nx as i64 - 1;
@@ -354,7 +375,6 @@ impl Pe {
             }
             None => None,
         };
-        let st = &mut self.stats;
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
         let mut voi = crate::voi::VoiTrace::default();
@@ -377,12 +397,9 @@ impl Pe {
         let mut terminated = false;
         let row = bus.row;
         if alpha.raw() > 0 {
+            // The ray's x slope `b + mx k`, in `position` like a position.
             let (b, k) = bus.slope_x;
-            let mt = crate::fixed::Wide::new(i128::from(mx), 0).checked_mul(k)?;
-            let sx = dp
-                .cfg
-                .position
-                .assign(crate::fixed::Wide::from(b).checked_add(mt)?, st);
+            let sx = dp.position(b, k, mx, st)?;
             let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
             let a = dp.correct(alpha, ds, st)?;
             corrected = a.raw();
@@ -397,18 +414,21 @@ impl Pe {
                 dp.composite_btf(&mut ray.acc[row], rgb, a, st)?;
             }
         }
-        Ok(SampleTrace {
-            busy: true,
-            mx,
-            row,
-            acc: self.rays[j].acc[row],
-            sample: sample.raw(),
-            alpha: alpha.raw(),
-            corrected,
-            terminated,
-            shade,
-            voi,
-        })
+        if TRACE {
+            self.last = SampleTrace {
+                busy: true,
+                mx,
+                row,
+                acc: self.rays[j].acc[row],
+                sample: sample.raw(),
+                alpha: alpha.raw(),
+                corrected,
+                terminated,
+                shade,
+                voi,
+            };
+        }
+        Ok(())
     }
 
     /// Where column `c` lives for this PE.
@@ -588,7 +608,7 @@ impl Pe {
             };
             let live = std::mem::take(&mut self.row_live);
             for (c, &j) in live.iter().enumerate() {
-                self.last = self.sample_ray(dp, bus, j, &edge, nx, starts[r] + c as u64)?;
+                self.sample_ray::<false>(dp, bus, j, &edge, nx, starts[r] + c as u64)?;
             }
             self.counters.idle += (lens[r] - live.len()) as u64;
             self.row_live = live;
