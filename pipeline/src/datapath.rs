@@ -114,9 +114,13 @@ pub fn isqrt_into(
     let shift = 2 * pf - v.frac;
     // `Wide` shifts move the exponent, so align the raw word by hand.
     let radicand = if shift >= 0 {
-        1i128
-            .checked_shl(shift as u32)
-            .and_then(|m| v.raw.checked_mul(m))
+        // Exact iff shifting back recovers the word.
+        u32::try_from(shift)
+            .ok()
+            .filter(|&s| s < 127)
+            .map(|s| (v.raw << s, s))
+            .filter(|&(r, s)| r >> s == v.raw)
+            .map(|(r, _)| r)
             .ok_or(FxError::WideOverflow { op })?
     } else {
         v.raw >> (-shift) as u32
@@ -497,7 +501,10 @@ mod tests {
             (c.alpha, c.weight),
             (c.opacity_corr, c.weight),
         ] {
-            assert!(lerp64(max(ab), ab.min_value(), max(w)).is_some(), "{ab:?} {w:?}");
+            assert!(
+                lerp64(max(ab), ab.min_value(), max(w)).is_some(),
+                "{ab:?} {w:?}"
+            );
         }
     }
 }
