@@ -166,6 +166,22 @@ fn pad_in_place<T: Voxel>(mut v: Vec<T>, dims: [usize; 3], flip: bool) -> Vec<T>
             v.copy_within(src..src + nx, (z + 1) * plane + (y + 1) * row + 1);
         }
     }
+    fill_padding(&mut v, dims);
+    if flip {
+        let k = nz + 2;
+        for i in 0..k / 2 {
+            let (head, tail) = v.split_at_mut((k - 1 - i) * plane);
+            head[i * plane..(i + 1) * plane].swap_with_slice(&mut tail[..plane]);
+        }
+    }
+    v
+}
+
+/// Fills the padding of a padded stack of `dims` whose interior is in
+/// place, as [`permute_into`] fills it: each row's ends, each plane's first
+/// and last rows, then the first and last planes repeat their neighbours.
+fn fill_padding<T: Voxel>(v: &mut [T], [nx, ny, nz]: [usize; 3]) {
+    let (row, plane) = (nx + 2, (nx + 2) * (ny + 2));
     v.par_chunks_mut(plane).skip(1).take(nz).for_each(|out| {
         for y in 1..=ny {
             out[y * row] = out[y * row + 1];
@@ -176,14 +192,87 @@ fn pad_in_place<T: Voxel>(mut v: Vec<T>, dims: [usize; 3], flip: bool) -> Vec<T>
     });
     v.copy_within(plane..2 * plane, 0);
     v.copy_within(nz * plane..(nz + 1) * plane, (nz + 1) * plane);
-    if flip {
-        let k = nz + 2;
-        for i in 0..k / 2 {
-            let (head, tail) = v.split_at_mut((k - 1 - i) * plane);
-            head[i * plane..(i + 1) * plane].swap_with_slice(&mut tail[..plane]);
+}
+
+/// The stack of a side view (the volume's z axis is view x when
+/// `along_x`, else view y), built
+/// while the volume's buffer `src` (dims `id`, x fastest) is given back:
+/// the volume's z slabs are read last first, each slab's voxels written to
+/// their view places, and the buffer shortened behind them. The stack's
+/// pages are touched as they are written, and each slab lands in a band of
+/// them (view rows, or with the volume's z as view x, rows of a transposed
+/// plane that is put right afterwards), so the frame holds little more
+/// than one copy of the voxels at any time instead of two.
+fn permute_consuming<T: Voxel>(
+    mut src: Vec<T>,
+    id: [usize; 3],
+    g: &Permute,
+    along_x: bool,
+) -> Vec<T> {
+    let Permute {
+        dims,
+        row,
+        plane,
+        base0,
+        sx,
+        sy,
+        sz,
+    } = *g;
+    let slab = id[0] * id[1];
+    // `along_x`: the volume's z is view x (else view y), so slab `k` holds
+    // view column (else row) `k` of every plane.
+    // With z as view x, each plane is first laid out transposed (view y
+    // fastest, rows of `dims[1] + 2`), so that a slab fills whole rows.
+    let trow = dims[1] + 2;
+    let mut data = vec![T::default(); plane * (dims[2] + 2)];
+    // Shorten the buffer every few slabs: each shrink gives pages back.
+    let release = (16 << 20) / (slab * std::mem::size_of::<T>()).max(1) + 1;
+    for k in (0..id[2]).rev() {
+        let s = &src[..];
+        data.par_chunks_mut(plane)
+            .enumerate()
+            .skip(1)
+            .take(dims[2])
+            .for_each(|(zp, out)| {
+                let base = base0 + (zp as isize - 1) * sz;
+                if along_x {
+                    let line = base + k as isize * sx;
+                    let dst = &mut out[(k + 1) * trow + 1..(k + 1) * trow + 1 + dims[1]];
+                    for (y, d) in dst.iter_mut().enumerate() {
+                        *d = s[(line + y as isize * sy) as usize];
+                    }
+                } else {
+                    let line = base + k as isize * sy;
+                    let dst = &mut out[(k + 1) * row + 1..(k + 1) * row + 1 + dims[0]];
+                    for (x, d) in dst.iter_mut().enumerate() {
+                        *d = s[(line + x as isize * sx) as usize];
+                    }
+                }
+            });
+        src.truncate(k * slab);
+        if k % release == 0 {
+            src.shrink_to_fit();
         }
     }
-    v
+    drop(src);
+    if along_x {
+        data.par_chunks_mut(plane)
+            .skip(1)
+            .take(dims[2])
+            .for_each_init(
+                || vec![T::default(); plane],
+                |scratch, out| {
+                    scratch.copy_from_slice(out);
+                    for x in 0..dims[0] {
+                        for y in 0..dims[1] {
+                            out[(y + 1) * row + x + 1] = scratch[(x + 1) * trow + y + 1];
+                        }
+                    }
+                },
+            );
+    }
+    fill_padding(&mut data, dims);
+    data
 }
 
 /// Where view voxels come from in the volume: the padded layout and the
@@ -214,8 +303,9 @@ impl SliceStack {
             * bytes_per_voxel as u128
     }
 
-    /// Permutes `volume` into the view space of `axes`.
-    pub fn new(volume: &Volume, axes: &AxisMap) -> Result<SliceStack> {
+    /// The layout of `volume`'s stack under `axes`, refused above
+    /// [`STACK_LIMIT`].
+    fn layout(volume: &Volume, axes: &AxisMap) -> Result<Permute> {
         let id = volume.dims();
         let p = axes.perm;
         let dims = [id[p[0]], id[p[1]], id[p[2]] - axes.z_first];
@@ -230,7 +320,7 @@ impl SliceStack {
         }
         let stride = [1isize, id[0] as isize, (id[0] * id[1]) as isize];
         let z0 = axes.to_index(glam::DVec3::ZERO)[p[2]] as isize;
-        let g = Permute {
+        Ok(Permute {
             dims,
             row,
             plane,
@@ -242,7 +332,15 @@ impl SliceStack {
             } else {
                 stride[p[2]]
             },
-        };
+        })
+    }
+
+    /// Permutes `volume` into the view space of `axes`.
+    pub fn new(volume: &Volume, axes: &AxisMap) -> Result<SliceStack> {
+        let g = SliceStack::layout(volume, axes)?;
+        let Permute {
+            dims, row, plane, ..
+        } = g;
         let len = plane * (dims[2] + 2);
         let data = match volume.voxels() {
             Voxels::U8(src) => {
@@ -267,9 +365,26 @@ impl SliceStack {
     /// [`SliceStack::new`], taking the volume's voxels: when the view's
     /// slices are the volume's own z slices in either direction (principal
     /// axis +z or -z, no near clip) the stack is laid out in the volume's
-    /// own buffer, so the frame never holds the voxels twice; otherwise the
-    /// volume is freed once the stack is copied out of it.
+    /// own buffer; in a side view (principal axis x or y) the volume's
+    /// buffer is given back slab by slab as the stack fills
+    /// (`permute_consuming`), so the frame never holds the voxels twice.
+    /// With principal axis z and a near clip, the volume is freed once the
+    /// stack is copied out of it.
     pub fn from_volume(volume: Volume, axes: &AxisMap) -> Result<SliceStack> {
+        if axes.perm[2] != 2 {
+            let g = SliceStack::layout(&volume, axes)?;
+            let (id, along_x) = (volume.dims(), axes.perm[0] == 2);
+            let data = match volume.into_voxels() {
+                Voxels::U8(v) => StackData::U8(permute_consuming(v, id, &g, along_x)),
+                Voxels::U16(v) => StackData::U16(permute_consuming(v, id, &g, along_x)),
+            };
+            return Ok(SliceStack {
+                dims: g.dims,
+                row: g.row,
+                plane: g.plane,
+                data,
+            });
+        }
         if axes.perm != [0, 1, 2] || axes.z_first != 0 {
             return SliceStack::new(&volume, axes);
         }
@@ -416,6 +531,16 @@ mod tests {
     use crate::volume::{VoxelType, DEFAULT_MEMORY_LIMIT};
     use glam::DVec3;
 
+    fn bytes_of(vol: &Volume) -> Volume {
+        Volume::from_fn(
+            vol.dims(),
+            VoxelType::U8,
+            DEFAULT_MEMORY_LIMIT,
+            |x, y, z| vol.get(x, y, z) % 251,
+        )
+        .unwrap()
+    }
+
     #[test]
     fn permutation_matches_axis_map_on_all_six_sides() {
         let vol = Volume::from_fn(
@@ -466,6 +591,16 @@ mod tests {
                         assert_eq!(got, want, "side {dir} at {x},{y},{z}");
                     }
                 }
+            }
+            // An eye inside the volume clips the near slices: the taken
+            // stack still equals the copied one, both voxel types.
+            let near = Camera::new(c - dir * 1.0, c + dir, up, 60.0, 8, 8).unwrap();
+            let clipped = View::new(vol.dims(), [1.0; 3], &near, 1.0).unwrap();
+            assert!(clipped.axes.z_first > 0, "side {dir}: no near clip");
+            for v in [vol.clone(), bytes_of(&vol)] {
+                let want = SliceStack::new(&v, &clipped.axes).unwrap();
+                let taken = SliceStack::from_volume(v, &clipped.axes).unwrap();
+                assert!(taken == want, "side {dir}: the clipped stack differs");
             }
             // The padding repeats the edge voxels.
             let n = view.dims;
