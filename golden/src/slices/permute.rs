@@ -13,26 +13,22 @@ pub(super) fn permute_into<T: Voxel>(src: &[T], data: &mut [T], g: &Permute) {
         dims,
         row,
         plane,
-        base0,
         sx,
-        sy,
-        sz,
+        ..
     } = *g;
     data.par_chunks_mut(plane)
         .enumerate()
         .skip(1)
         .take(dims[2])
         .for_each(|(zp, out)| {
-            // Index offset of view voxel (0, 0, zp - 1).
-            let base = base0 + (zp as isize - 1) * sz;
             for y in 0..dims[1] {
-                let line = base + y as isize * sy;
+                let line = g.source(0, y, zp - 1);
                 let dst = &mut out[(y + 1) * row + 1..(y + 1) * row + 1 + dims[0]];
                 if sx == 1 {
-                    dst.copy_from_slice(&src[line as usize..line as usize + dims[0]]);
+                    dst.copy_from_slice(&src[line..line + dims[0]]);
                 } else {
                     for (x, d) in dst.iter_mut().enumerate() {
-                        *d = src[(line + x as isize * sx) as usize];
+                        *d = src[g.source(x, y, zp - 1)];
                     }
                 }
                 out[(y + 1) * row] = out[(y + 1) * row + 1];
@@ -105,21 +101,18 @@ pub(super) fn permute_consuming<T: Voxel>(
     g: &Permute,
     along_x: bool,
 ) -> Vec<T> {
-    let Permute {
-        dims,
-        row,
-        plane,
-        base0,
-        sx,
-        sy,
-        sz,
-    } = *g;
+    let (dims, row, plane) = (g.dims, g.row, g.plane);
     let slab = id[0] * id[1];
     // `along_x`: the volume's z is view x (else view y), so slab `k` holds
-    // view column (else row) `k` of every plane.
-    // With z as view x, each plane is first laid out transposed (view y
-    // fastest, rows of `dims[1] + 2`), so that a slab fills whole rows.
+    // view column (else row) `k` of every plane. With z as view x, each
+    // plane is first laid out transposed (view y fastest, rows of
+    // `dims[1] + 2`), so that a slab fills whole rows either way.
     let trow = dims[1] + 2;
+    let (width, n) = if along_x {
+        (trow, dims[1])
+    } else {
+        (row, dims[0])
+    };
     let mut data = vec![T::default(); plane * (dims[2] + 2)];
     // Shorten the buffer every few slabs: each shrink gives pages back.
     let release = (16 << 20) / (slab * std::mem::size_of::<T>()).max(1) + 1;
@@ -130,19 +123,10 @@ pub(super) fn permute_consuming<T: Voxel>(
             .skip(1)
             .take(dims[2])
             .for_each(|(zp, out)| {
-                let base = base0 + (zp as isize - 1) * sz;
-                if along_x {
-                    let line = base + k as isize * sx;
-                    let dst = &mut out[(k + 1) * trow + 1..(k + 1) * trow + 1 + dims[1]];
-                    for (y, d) in dst.iter_mut().enumerate() {
-                        *d = s[(line + y as isize * sy) as usize];
-                    }
-                } else {
-                    let line = base + k as isize * sy;
-                    let dst = &mut out[(k + 1) * row + 1..(k + 1) * row + 1 + dims[0]];
-                    for (x, d) in dst.iter_mut().enumerate() {
-                        *d = s[(line + x as isize * sx) as usize];
-                    }
+                let dst = &mut out[(k + 1) * width + 1..][..n];
+                for (u, d) in dst.iter_mut().enumerate() {
+                    let (x, y) = if along_x { (k, u) } else { (u, k) };
+                    *d = s[g.source(x, y, zp - 1)];
                 }
             });
         src.truncate(k * slab);
@@ -182,4 +166,13 @@ pub(super) struct Permute {
     pub(super) sx: isize,
     pub(super) sy: isize,
     pub(super) sz: isize,
+}
+
+impl Permute {
+    /// The volume index of view voxel `(x, y, z)` (unpadded view indices).
+    #[inline]
+    fn source(&self, x: usize, y: usize, z: usize) -> usize {
+        // The view voxels lie in the volume, so the offset is non-negative.
+        (self.base0 + z as isize * self.sz + y as isize * self.sy + x as isize * self.sx) as usize
+    }
 }
