@@ -233,6 +233,9 @@ pub struct Pe {
     /// Whether migrating columns leave their transparent rows behind
     /// (`link_skip_empty`).
     pub(crate) sparse_links: bool,
+    /// Whether the merge and the readout visit only non-zero rays
+    /// (`pass_skip_empty`).
+    pub(crate) sparse_passes: bool,
     pub(crate) ny: usize,
     pub(crate) nz: usize,
     /// Ray columns held, in increasing `mx`.
@@ -300,6 +303,7 @@ impl Pe {
             local,
             width: w,
             sparse_links: false,
+            sparse_passes: false,
             mem,
             ny,
             nz,

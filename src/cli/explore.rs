@@ -34,7 +34,8 @@ pub struct ExploreArgs {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Base pipeline configuration (TOML); the sweep sets its mapping,
-    /// cyclic_width, ray_buffer and pes.
+    /// cyclic_width, migration, link_lanes, ray_buffer and pes (the rest,
+    /// e.g. link_skip_empty and pass_skip_empty, it keeps).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Mappings to sweep: blocks, interleave, cyclic.
@@ -52,6 +53,10 @@ pub struct ExploreArgs {
     /// Cyclic block widths to sweep (1..=256; the cyclic mapping only).
     #[arg(long, default_value = "1,2,4,8")]
     pub widths: String,
+    /// Link lanes to sweep (1..=4; the overlapped migration only, the
+    /// between-slices one always runs one lane).
+    #[arg(long, default_value = "1")]
+    pub lanes: String,
     /// Clock of the table's and plot's frame rates, MHz (each part's own
     /// clock is used for its column of fits).
     #[arg(long, default_value_t = 300.0, allow_hyphen_values = true)]
@@ -140,7 +145,7 @@ fn named<T: Copy + PartialEq>(
 }
 
 /// The sweep's configurations, in output order: mapping, then width, then
-/// migration, then placement, then P. Cyclic at width 1 is the interleave and is left out
+/// migration, then lanes, then placement, then P. Cyclic at width 1 is the interleave and is left out
 /// when the interleave is swept too.
 fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>> {
     let maps = mappings(&a.mappings)?;
@@ -148,6 +153,7 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
     let migs = migrations(&a.migrations)?;
     let pes = numbers("--pes", &a.pes, 1, MAX_PES)?;
     let widths = numbers("--widths", &a.widths, 1, 256)?;
+    let lanes = numbers("--lanes", &a.lanes, 1, 4)?;
     let mut out = Vec::new();
     for &mapping in &maps {
         let ws: Vec<u16> = match mapping {
@@ -160,18 +166,25 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
         };
         for &cyclic_width in &ws {
             for &migration in &migs {
-                for &ray_buffer in &places {
-                    for &p in &pes {
-                        let c = PipelineConfig {
-                            mapping,
-                            cyclic_width,
-                            migration,
-                            ray_buffer,
-                            pes: p,
-                            ..*base
-                        };
-                        c.validate()?;
-                        out.push(c);
+                let ls = match migration {
+                    Migration::Overlapped => lanes.clone(),
+                    Migration::BetweenSlices => vec![1],
+                };
+                for &link_lanes in &ls {
+                    for &ray_buffer in &places {
+                        for &p in &pes {
+                            let c = PipelineConfig {
+                                mapping,
+                                cyclic_width,
+                                migration,
+                                link_lanes,
+                                ray_buffer,
+                                pes: p,
+                                ..*base
+                            };
+                            c.validate()?;
+                            out.push(c);
+                        }
                     }
                 }
             }
@@ -240,7 +253,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
     let heading = format!(
-        "{label}, eye ({}, {}, {}), skipping {}, {} configurations; frames/s at {} MHz",
+        "{label}, eye ({}, {}, {}), skipping {}{}{}, {} configurations; frames/s at {} MHz",
         cam.eye.x,
         cam.eye.y,
         cam.eye.z,
@@ -249,6 +262,16 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
             (true, false) => "empty space",
             (false, true) => "culling",
             (false, false) => "off",
+        },
+        if base.link_skip_empty {
+            ", transparent rows off the links"
+        } else {
+            ""
+        },
+        if base.pass_skip_empty {
+            ", transparent rays out of the merge and readout"
+        } else {
+            ""
         },
         designs.len(),
         a.clock_mhz

@@ -138,7 +138,7 @@ fn explore_runs_a_tiny_sweep() {
 fn explore_refuses_bad_options() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
-    let cases: [(&[&str], &str); 10] = [
+    let cases: [(&[&str], &str); 12] = [
         (&["--pes", "0"], "--pes"),
         (&["--pes", "300"], "--pes"),
         (&["--pes", "4,,8"], "--pes"),
@@ -147,6 +147,8 @@ fn explore_refuses_bad_options() {
         (&["--placements", "dram"], "dram"),
         (&["--migrations", "later"], "later"),
         (&["--widths", "0"], "--widths"),
+        (&["--lanes", "5"], "--lanes"),
+        (&["--lanes", "1,,2"], "--lanes"),
         (&["--clock-mhz", "0"], "clock"),
         (&["--threads", "0"], "threads"),
     ];
@@ -161,4 +163,50 @@ fn explore_refuses_bad_options() {
         assert_refused(&args, &out, needle);
     }
     assert!(!d.join("x").exists(), "nothing written for bad options");
+}
+
+/// Lanes sweep with the overlapped migration only: a between-slices row
+/// runs one lane, each overlapped row its own (named `overlapped:2`), and
+/// a second lane never adds cycles on this view.
+#[test]
+fn explore_sweeps_lanes_with_the_overlapped_migration() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let a: Vec<String> = [
+        "explore",
+        "--scene",
+        "checker:32",
+        "--eye",
+        "16,16,-16",
+        "--pes",
+        "4",
+        "--mappings",
+        "interleave",
+        "--migrations",
+        "between-slices,overlapped",
+        "--lanes",
+        "1,2",
+        "--placements",
+        "on-chip",
+        "--out-dir",
+        "lanes",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let out = ercube(d, &a);
+    assert!(out.status.success(), "{}", describe(&a, &out));
+    let csv = std::fs::read_to_string(d.join("lanes/explore.csv")).expect("csv");
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let migrations: Vec<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(
+        migrations,
+        vec!["between-slices", "overlapped", "overlapped:2"]
+    );
+    let cycles: Vec<u64> = rows.iter().map(|r| r[4].parse().expect("cycles")).collect();
+    assert!(cycles[2] <= cycles[1], "{cycles:?}");
 }

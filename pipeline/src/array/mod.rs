@@ -333,6 +333,7 @@ impl Array {
             .map(|(k, mem)| {
                 let mut pe = Pe::new(k, map, &held[k], mem, view.dims);
                 pe.sparse_links = cfg.link_skip_empty;
+                pe.sparse_passes = cfg.pass_skip_empty;
                 pe
             })
             .collect();

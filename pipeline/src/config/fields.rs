@@ -526,6 +526,37 @@ config_fields! {
             default: false,
             toml: "migrating columns leave their transparent rows behind (true) or send every row (false)",
         },
+        /// Rays each link carries per cycle and direction, `1..=4`, while
+        /// the overlapped migration runs (`migration = "overlapped"`): lane
+        /// `i` of a port is its own register, so a ray still hops one link
+        /// a cycle, but up to `link_lanes` rays leave a PE each way in a
+        /// cycle. Costs the ray ports' registers and the compositing
+        /// buffer's write ports per lane.
+        ///
+        /// Default 1: one ray per link and direction, the original link.
+        pub link_lanes: u16 {
+            default: 1,
+            range: 1..=4,
+            toml: "rays per link, direction and cycle during the overlapped migration, 1..=4",
+            check: rules::link_lanes,
+        },
+        /// Whether the back-to-front merge and the readout (both orders)
+        /// spend cycles only on rays that can be non-zero: the merge skips
+        /// parent rows no PE holds anything in, child rows whose parents
+        /// are all transparent, and within a row each PE works only its
+        /// children with a non-zero parent (the slot lasts as long as the
+        /// busiest PE's list); the readout streams only non-zero rays (the
+        /// host's baseplane starts cleared). Costs a valid bitmap beside
+        /// each compositing bank and the line buffer (see
+        /// `pipeline::stages::passes`). Front to back the split and the
+        /// fold stay dense.
+        ///
+        /// Default false: every ray is merged and read out, the original
+        /// schedule.
+        pub pass_skip_empty: bool {
+            default: false,
+            toml: "the merge and the readout skip transparent rays (true) or visit every ray (false)",
+        },
         /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
         /// each PE) or `external` (DDR/HBM, streamed a row at a time). See
         /// [`RayBuffer`].

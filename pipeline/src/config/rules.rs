@@ -534,6 +534,19 @@ pub(super) fn cyclic_width(_: &PipelineConfig, field: &str, w: u16) -> Result<()
     in_range(field, i64::from(w), 1, 256)
 }
 
+/// `link_lanes` in `1..=4`, and above 1 only with the overlapped
+/// migration (the between-slices one clocks the array's single ray port).
+pub(super) fn link_lanes(c: &PipelineConfig, field: &str, n: u16) -> Result<(), ConfigError> {
+    in_range(field, i64::from(n), 1, 4)?;
+    if n > 1 && c.migration != super::Migration::Overlapped {
+        return Err(invalid(
+            field,
+            format!("{field} = {n} needs migration = \"overlapped\" (between slices a link carries one ray a cycle)"),
+        ));
+    }
+    Ok(())
+}
+
 /// `ray_buffer_bandwidth` in `1..=4096`.
 pub(super) fn ray_buffer_bandwidth(
     _: &PipelineConfig,

@@ -138,6 +138,73 @@ pub fn owner_logic(cfg: &PipelineConfig) -> Option<Item> {
     ))
 }
 
+/// The extra lanes of the ray ports (`link_lanes` above 1): each lane a
+/// port register of its own per side (accumulators, index, row, valid).
+/// The compositing buffer takes a write per arriving lane; the model
+/// charges the registers, not the buffer's extra write ports (a banked or
+/// multi-pumped buffer), which stay a designer's choice.
+pub fn lane_ports(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
+    let extra = u32::from(cfg.link_lanes.max(1)) - 1;
+    if extra == 0 {
+        return None;
+    }
+    let row_bits = addr_bits(2 * geo.dims[1] as u64 + 2);
+    Some(Item::new(
+        "links",
+        format!("ray port lanes 2..={} (left, right)", extra + 1),
+        2 * extra,
+        vec![Unit::Reg {
+            bits: ray_bits(cfg) + RAY_INDEX_BITS + row_bits + 1,
+        }],
+    ))
+}
+
+/// The valid bits that let transparent rays skip work
+/// (`link_skip_empty`, `pass_skip_empty`): one per ray slot and bank,
+/// kept a row to a word so a pass reads a row's bits at once (cleared a
+/// word a cycle while the other bank is in use); with `pass_skip_empty`
+/// also the line buffer's valid bits and the encoder that turns a row's
+/// bits into the slot's work list, one child a cycle.
+pub fn valid_bits(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
+    if !(cfg.link_skip_empty || cfg.pass_skip_empty) {
+        return Vec::new();
+    }
+    let row = rays_per_row(cfg, geo);
+    let rows = match cfg.ray_buffer {
+        RayBuffer::OnChip => 2 * geo.dims[1] as u64 + 1,
+        RayBuffer::External => row_buffers(cfg),
+    };
+    let mut items = vec![Item::new(
+        "memories",
+        "ray valid bits (a row per word, 2 banks)",
+        2,
+        vec![Unit::Mem {
+            depth: rows,
+            width: row as u32,
+            ports: super::memory::MemPorts::Sdp,
+        }],
+    )];
+    if cfg.pass_skip_empty {
+        let children = row.div_ceil(2) as u32;
+        items.push(Item::new(
+            "merge",
+            "work list: line-buffer valid bits, row bits to next child",
+            1,
+            vec![
+                Unit::Reg { bits: 3 * children },
+                Unit::Reduce {
+                    width: 3 * children,
+                },
+                Unit::Mux {
+                    width: addr_bits(u64::from(children)),
+                    inputs: children,
+                },
+            ],
+        ));
+    }
+    items
+}
+
 /// The ring's wrap link from PE `P - 1` to PE 0 (round-robin mappings): one
 /// more ray port, carrying only migrating rays (accumulators, index, row,
 /// valid), once per array.
@@ -191,17 +258,27 @@ pub fn mapping_name(cfg: &PipelineConfig) -> String {
     }
 }
 
-/// A short name of the architecture: mapping, `overlapped` when the
-/// migration is, and placement, e.g. `cyclic:4/overlapped/external`.
+/// The migration's name, with the links' lanes when there are more than
+/// one: `overlapped:2`.
+pub fn migration_name(cfg: &PipelineConfig) -> String {
+    match cfg.link_lanes {
+        0 | 1 => cfg.migration.name().to_owned(),
+        n => format!("{}:{n}", cfg.migration.name()),
+    }
+}
+
+/// A short name of the architecture: mapping, the migration when
+/// overlapped (with its lanes), and placement, e.g.
+/// `cyclic:4/overlapped:2/external`.
 pub fn label(cfg: &PipelineConfig) -> String {
     match cfg.migration {
         Migration::BetweenSlices => {
             format!("{}/{}", mapping_name(cfg), cfg.ray_buffer.name())
         }
-        m => format!(
+        _ => format!(
             "{}/{}/{}",
             mapping_name(cfg),
-            m.name(),
+            migration_name(cfg),
             cfg.ray_buffer.name()
         ),
     }

@@ -48,8 +48,9 @@ pub struct Design {
     pub utilization: f64,
     /// The mapping, e.g. `cyclic:4`.
     pub mapping: String,
-    /// The migration (`between-slices`, `overlapped`).
-    pub migration: &'static str,
+    /// The migration (`between-slices`, `overlapped`, `overlapped:2` with
+    /// two lanes).
+    pub migration: String,
     /// The ray-buffer placement (`on-chip`, `external`).
     pub ray_buffer: &'static str,
     /// Stall cycles of the run (rows waiting for a ray in the datapath or
@@ -181,7 +182,7 @@ pub fn design(cfg: &PipelineConfig, t: Target, run: &RunSummary) -> Design {
         cycles: run.cycles,
         utilization: run.utilization,
         mapping: arch::mapping_name(cfg),
-        migration: cfg.migration.name(),
+        migration: arch::migration_name(cfg),
         ray_buffer: cfg.ray_buffer.name(),
         stall: run.stages.stall,
         memory: run.stages.memory,

@@ -890,6 +890,8 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         }
     }
     items.extend(arch::owner_logic(cfg));
+    items.extend(arch::lane_ports(cfg, geo));
+    items.extend(arch::valid_bits(cfg, geo));
     items
 }
 

@@ -9,7 +9,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{tent_needs, PassBus};
+use super::passes::{inside, plan_slots_where, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
@@ -37,24 +37,17 @@ impl Pe {
     }
 
     /// Accumulators of held column `mx` at `row`, or the neighbours' edge
-    /// rays when `mx` is just beyond the held span; empty rays otherwise.
-    fn parent(&self, mx: i64, row: usize, links: &Links<'_>) -> Acc {
+    /// rays `(left, right)` when `mx` is just beyond the held span; empty
+    /// rays otherwise.
+    fn parent(&self, mx: i64, row: usize, (left, right): (Acc, Acc)) -> Acc {
         let Some((lo, hi)) = self.span() else {
             return Acc::default();
         };
         if mx < lo {
-            return if mx == lo - 1 {
-                links.from_left.edge_acc
-            } else {
-                Acc::default()
-            };
+            return if mx == lo - 1 { left } else { Acc::default() };
         }
         if mx > hi {
-            return if mx == hi + 1 {
-                links.from_right.edge_acc
-            } else {
-                Acc::default()
-            };
+            return if mx == hi + 1 { right } else { Acc::default() };
         }
         self.rays[(mx - lo) as usize].acc[row]
     }
@@ -83,55 +76,139 @@ impl Pe {
         links: Links<'_>,
         (bg, fg): (&RayGrid, &RayGrid),
     ) -> Result<Ports, StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         let c = bus.col;
-        let prows = bg.counts()[1] as i64;
+        let edges = (links.from_left.edge_acc, links.from_right.edge_acc);
         if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
-            let my = fg.lo[1] + i as i64;
-            let mut taps = [[0i64; 4]; 3];
-            for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
-                let row = py - bg.lo[1];
-                if (0..prows).contains(&row) {
-                    *t = self.pass.line.read(self.k, row as usize, c)?;
-                }
-            }
-            let out = &mut self.pass.next[c].acc[i].raw;
-            for (ch, o) in out.iter_mut().enumerate() {
-                let to = if ch < 3 { fc } else { fa };
-                let v = dp.tent(
-                    [taps[0][ch], taps[1][ch], taps[2][ch]],
-                    fm,
-                    to,
-                    &mut self.stats,
-                );
-                *o = v.raw();
-            }
-            self.counters.merge_outputs += 1;
+            self.merge_y(dp, c, i, (bg, fg), false)?;
         }
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
-            let m = self.pass.children[c];
-            let p = [
-                self.parent(2 * m - 1, q, &links),
-                self.parent(2 * m, q, &links),
-                self.parent(2 * m + 1, q, &links),
-            ];
-            let mut out = [0i64; 4];
-            for (ch, o) in out.iter_mut().enumerate() {
-                let f = if ch < 3 { fc } else { fa };
-                *o = dp
-                    .tent(
-                        [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]],
-                        f,
-                        fm,
-                        &mut self.stats,
-                    )
-                    .raw();
-            }
-            self.pass.line.write(q, c, out);
+            self.merge_x(dp, c, q, edges);
         }
         Ok(bus
             .drive
             .map_or_else(Ports::default, |r| self.merge_drive(r)))
+    }
+
+    /// One clock of the sparse merge (`pass_skip_empty`): in the slot's
+    /// first cycle the PE latches the neighbours' edge rays of the slot's
+    /// parent row and forms its work list; each cycle it works the list's
+    /// next entry (y pass before x pass, as in [`Pe::merge_step`]), and it
+    /// drives the next slot's edge rays throughout.
+    pub fn merge_step_sparse(
+        &mut self,
+        dp: &Datapath,
+        bus: &PassBus,
+        links: Links<'_>,
+        (bg, fg): (&RayGrid, &RayGrid),
+    ) -> Result<Ports, StepError> {
+        if bus.col == 0 {
+            self.pass.edge_in = (links.from_left.edge_acc, links.from_right.edge_acc);
+            self.plan_slot(bus, (bg, fg));
+        }
+        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
+            if let Some(i) = bus.y.filter(|_| y) {
+                self.merge_y(dp, c, i, (bg, fg), true)?;
+            }
+            if let Some(q) = bus.x.filter(|_| x) {
+                self.merge_x(dp, c, q, self.pass.edge_in);
+            }
+        }
+        Ok(bus
+            .drive
+            .map_or_else(Ports::default, |r| self.merge_drive(r)))
+    }
+
+    /// The sparse slot's work list: the children whose x-filtered value
+    /// in parent row `bus.x` can be non-zero (a held parent's valid bit or
+    /// a latched edge ray is set; the tent of zeros is zero), and those of
+    /// child row `bus.y` with a valid line-buffer entry to read.
+    fn plan_slot(&mut self, bus: &PassBus, (bg, fg): (&RayGrid, &RayGrid)) {
+        let mut slot = std::mem::take(&mut self.pass.slot);
+        slot.clear();
+        let prows = bg.counts()[1] as i64;
+        let edges = self.pass.edge_in;
+        for (c, &m) in self.pass.children.iter().enumerate() {
+            let x = bus.x.is_some_and(|q| {
+                (2 * m - 1..=2 * m + 1).any(|p| self.parent(p, q, edges).raw != [0; 4])
+            });
+            let y = bus.y.is_some_and(|i| {
+                let my = fg.lo[1] + i as i64;
+                (2 * my - 1..=2 * my + 1).any(|py| {
+                    let row = py - bg.lo[1];
+                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
+                })
+            });
+            if x || y {
+                slot.push((c, x, y));
+            }
+        }
+        self.pass.slot = slot;
+    }
+
+    /// The y pass for child `c` of child row `i`: the tent of the line
+    /// buffer's parent rows `2 my - 1 ..= 2 my + 1` into the children's
+    /// bank (`sparse`: entries the x pass left unwritten read zero).
+    fn merge_y(
+        &mut self,
+        dp: &Datapath,
+        c: usize,
+        i: usize,
+        (bg, fg): (&RayGrid, &RayGrid),
+        sparse: bool,
+    ) -> Result<(), StepError> {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let prows = bg.counts()[1] as i64;
+        let my = fg.lo[1] + i as i64;
+        let mut taps = [[0i64; 4]; 3];
+        for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
+            let row = py - bg.lo[1];
+            if (0..prows).contains(&row) {
+                *t = if sparse {
+                    self.pass.line.read_sparse(self.k, row as usize, c)?
+                } else {
+                    self.pass.line.read(self.k, row as usize, c)?
+                };
+            }
+        }
+        let out = &mut self.pass.next[c].acc[i].raw;
+        for (ch, o) in out.iter_mut().enumerate() {
+            let to = if ch < 3 { fc } else { fa };
+            let v = dp.tent(
+                [taps[0][ch], taps[1][ch], taps[2][ch]],
+                fm,
+                to,
+                &mut self.stats,
+            );
+            *o = v.raw();
+        }
+        self.counters.merge_outputs += 1;
+        Ok(())
+    }
+
+    /// The x pass for child `c` of parent row `q`: the tent of parents
+    /// `2m - 1 ..= 2m + 1` (the neighbours' edge rays `edges` beyond the
+    /// held span) into the line buffer.
+    fn merge_x(&mut self, dp: &Datapath, c: usize, q: usize, edges: (Acc, Acc)) {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let m = self.pass.children[c];
+        let p = [
+            self.parent(2 * m - 1, q, edges),
+            self.parent(2 * m, q, edges),
+            self.parent(2 * m + 1, q, edges),
+        ];
+        let mut out = [0i64; 4];
+        for (ch, o) in out.iter_mut().enumerate() {
+            let f = if ch < 3 { fc } else { fa };
+            *o = dp
+                .tent(
+                    [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]],
+                    f,
+                    fm,
+                    &mut self.stats,
+                )
+                .raw();
+        }
+        self.pass.line.write(q, c, out);
     }
 
     /// Ends a merge: the children become the held columns (the bank
@@ -146,6 +223,9 @@ impl Array {
     /// Bartlett merge of `back`'s rays into `front`'s.
     pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
+        if dp.cfg.pass_skip_empty {
+            return self.merge_sparse(&dp, bg, fg);
+        }
         self.run_pass(
             Stage::Merge,
             (bg.counts()[1], &tent_needs(fg, bg)),
@@ -153,5 +233,46 @@ impl Array {
             |pe, bus, links| pe.merge_step(&dp, bus, links, (bg, fg)),
             Pe::end_merge,
         )
+    }
+
+    /// The sparse merge (`pass_skip_empty`): the controller filters only
+    /// the parent rows some PE holds a non-zero ray in (each PE's row
+    /// valid bits, ORed over the report lines) and writes only the child
+    /// rows that read one; each slot lasts as long as the busiest PE's
+    /// work list ([`Pe::merge_step_sparse`]). What it skips is zero, so
+    /// the children's words equal the dense merge's.
+    fn merge_sparse(&mut self, dp: &Datapath, bg: &RayGrid, fg: &RayGrid) -> Result<(), RunError> {
+        let prows = bg.counts()[1];
+        let mut live = vec![false; prows];
+        for pe in self.clock.pes() {
+            for col in &pe.rays {
+                for (l, a) in live.iter_mut().zip(&col.acc) {
+                    *l |= a.raw != [0; 4];
+                }
+            }
+        }
+        let needs: Vec<_> = (fg.lo[1]..=fg.hi[1])
+            .map(|my| {
+                let rows = (2 * my - 1..=2 * my + 1)
+                    .map(|py| py - bg.lo[1])
+                    .filter(|&r| r >= 0 && (r as usize) < prows && live[r as usize]);
+                inside(rows, prows)
+            })
+            .collect();
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(|pe| pe.begin_merge(bg, fg))
+            .max()
+            .unwrap_or(0);
+        if width > 0 {
+            let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+            self.clock_sparse_slots(Stage::Merge, &slots, &mut |pe, bus, links| {
+                pe.merge_step_sparse(dp, bus, links, (bg, fg))
+            })?;
+        }
+        self.clock.pes_mut().iter_mut().for_each(Pe::end_merge);
+        Ok(())
     }
 }

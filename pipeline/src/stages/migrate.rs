@@ -61,16 +61,18 @@ impl Pe {
         }
     }
 
-    /// One migration clock at cycle `now`: receives what the neighbours
-    /// sent last cycle, sends one ray each way if its last sample has been
-    /// written back; a column that is whole joins the held columns (or
-    /// moves on if its owner is further along).
+    /// One migration clock of one lane at cycle `now`: receives what the
+    /// neighbours sent on this lane last cycle, sends one ray each way if
+    /// its last sample has been written back; a column that is whole joins
+    /// the held columns (or moves on if its owner is further along). A ray
+    /// received this cycle leaves no earlier than the next, on any lane.
+    /// The cycle's waits and queue are counted with its `last` lane.
     pub fn migrate_step(
         &mut self,
         links: Links<'_>,
         now: u64,
         owner: impl Fn(i64) -> usize,
-        route: Route,
+        (route, last): (Route, bool),
     ) -> Ports {
         let mut out = Ports::default();
         for (incoming, from_left_side) in
@@ -140,8 +142,10 @@ impl Pe {
                 None => {}
             }
         }
-        self.counters.waits += u64::from(waited);
-        self.counters.link_queue += queued as u64;
+        if last {
+            self.counters.waits += u64::from(waited);
+            self.counters.link_queue += queued as u64;
+        }
         out
     }
 
@@ -231,17 +235,24 @@ impl Array {
             pe.plan_moves(&owner, route);
         }
         let p = self.clock.pes().len();
-        let mut ports = (vec![Ports::default(); p], vec![Ports::default(); p]);
+        // One pair of port registers per lane: a ray sent on lane `i`
+        // arrives through lane `i` next cycle, whatever the other lanes do.
+        let lanes = usize::from(self.dp.cfg.link_lanes);
+        let mut ports: Vec<_> = (0..lanes)
+            .map(|_| (vec![Ports::default(); p], vec![Ports::default(); p]))
+            .collect();
         let mut now = self.links_from.max(self.links_free);
-        while !(self.clock.pes().iter().all(Pe::settled)
-            && ports
-                .0
-                .iter()
-                .all(|p| p.left.ray.is_none() && p.right.ray.is_none()))
-        {
-            self.clock.tick_links(&mut ports, |pe, links| {
-                Ok(pe.migrate_step(links, now, &owner, route))
-            })?;
+        let idle = |l: &(Vec<Ports>, Vec<Ports>)| {
+            l.0.iter()
+                .all(|p| p.left.ray.is_none() && p.right.ray.is_none())
+        };
+        while !(self.clock.pes().iter().all(Pe::settled) && ports.iter().all(idle)) {
+            for (i, lane) in ports.iter_mut().enumerate() {
+                let last = i + 1 == lanes;
+                self.clock.tick_links(lane, |pe, links| {
+                    Ok(pe.migrate_step(links, now, &owner, (route, last)))
+                })?;
+            }
             now += 1;
         }
         self.links_free = now;
@@ -314,7 +325,7 @@ impl Array {
             let now = self.clock.now();
             self.clock
                 .tick(Ctrl::at(Stage::Migrate, z, 0), |pe, links| {
-                    Ok(pe.migrate_step(links, now, &owner, route))
+                    Ok(pe.migrate_step(links, now, &owner, (route, true)))
                 })?;
         }
         self.settle_links();

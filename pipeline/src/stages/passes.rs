@@ -24,6 +24,7 @@
 use golden::geometry::RayGrid;
 
 use crate::array::{Array, Links, RunError};
+use crate::datapath::Acc;
 use crate::pe::{Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
 
@@ -63,7 +64,33 @@ impl LineBuffer {
             _ => Err(StepError::LineBuffer { pe, row }),
         }
     }
+
+    /// Whether entry `c` holds parent row `row` (its valid bit: the sparse
+    /// x pass writes only entries that can be non-zero).
+    pub(crate) fn holds(&self, row: usize, c: usize) -> bool {
+        matches!(self.slots[row % LINE_ROWS][c], Some((r, _)) if r == row)
+    }
+
+    /// The sparse y pass's read: entry `c` of parent row `row`, zero when
+    /// the x pass left it unwritten (the entry is empty or holds an older
+    /// row); a newer row there means the schedule overran the buffer.
+    pub(crate) fn read_sparse(
+        &self,
+        pe: usize,
+        row: usize,
+        c: usize,
+    ) -> Result<[i64; 4], StepError> {
+        match self.slots[row % LINE_ROWS][c] {
+            Some((r, v)) if r == row => Ok(v),
+            Some((r, _)) if r > row => Err(StepError::LineBuffer { pe, row }),
+            _ => Ok([0; 4]),
+        }
+    }
 }
+
+/// One cycle of a sparse slot for one PE: the child column, and whether
+/// the x pass and the y pass each work it.
+pub(crate) type SlotWork = (usize, bool, bool);
 
 /// A PE's registers for the pass in progress.
 #[derive(Debug, Clone, Default)]
@@ -78,6 +105,12 @@ pub struct PassState {
     pub(crate) dline: Option<(usize, Vec<[i64; 4]>)>,
     /// Fold: the next row's, formed when its edge is driven.
     pub(crate) dnext: Option<(usize, Vec<[i64; 4]>)>,
+    /// Sparse merge: this slot's work list, formed in its first cycle
+    /// from the valid bits (one entry a cycle, ascending columns).
+    pub(crate) slot: Vec<SlotWork>,
+    /// Sparse merge: the neighbours' edge rays of the slot's parent row
+    /// (left, right), latched in its first cycle.
+    pub(crate) edge_in: (Acc, Acc),
 }
 
 impl PassState {
@@ -88,6 +121,7 @@ impl PassState {
         self.next = next;
         self.dline = None;
         self.dnext = None;
+        self.slot.clear();
     }
 }
 
@@ -122,6 +156,18 @@ pub struct Slot {
 /// would otherwise wait for the x pass, the rest at the end. Parent rows no
 /// child row reads are not filtered at all.
 pub fn plan_slots(prows: usize, needs: &[Option<(usize, usize)>]) -> Result<Vec<Slot>, RunError> {
+    plan_slots_where(prows, needs, |_| true, true)
+}
+
+/// [`plan_slots`] filtering only the parent rows `filtered` accepts, and
+/// without the child rows that read nothing when `keep_empty` is false
+/// (the sparse merge: such rows stay invalid, which reads as zero).
+pub fn plan_slots_where(
+    prows: usize,
+    needs: &[Option<(usize, usize)>],
+    filtered: impl Fn(usize) -> bool,
+    keep_empty: bool,
+) -> Result<Vec<Slot>, RunError> {
     let reading: Vec<(usize, (usize, usize))> = needs
         .iter()
         .enumerate()
@@ -130,12 +176,16 @@ pub fn plan_slots(prows: usize, needs: &[Option<(usize, usize)>]) -> Result<Vec<
     let mut empty = needs
         .iter()
         .enumerate()
-        .filter(|(_, n)| n.is_none())
+        .filter(|(_, n)| keep_empty && n.is_none())
         .map(|(i, _)| i);
     let xrows: Vec<usize> = (0..prows)
-        .filter(|&q| reading.iter().any(|(_, (lo, hi))| (*lo..=*hi).contains(&q)))
+        .filter(|&q| filtered(q) && reading.iter().any(|(_, (lo, hi))| (*lo..=*hi).contains(&q)))
         .collect();
-    let mut left = needs.len();
+    let mut left = if keep_empty {
+        needs.len()
+    } else {
+        reading.len()
+    };
     let (mut xd, mut yd) = (0, 0);
     let mut slots = Vec::with_capacity(xrows.len() + needs.len());
     while xd < xrows.len() || left > 0 {
@@ -215,6 +265,58 @@ impl Array {
         let slots = plan_slots(prows, needs)?;
         self.clock_slots(stage, width, &slots, &mut step)?;
         self.clock.pes_mut().iter_mut().for_each(end);
+        Ok(())
+    }
+
+    /// Clocks `slots` whose lengths the PEs' work lists set (the sparse
+    /// merge): in a slot's first cycle every PE forms its list and drives
+    /// the next slot's edge rays (its neighbours latched this slot's in
+    /// the same cycle); the slot ends after the cycle in which the last
+    /// PE works its last entry (the PEs' done lines, an AND tree like the
+    /// sampling's report lines). The prologue drives the first row's edges.
+    pub(crate) fn clock_sparse_slots(
+        &mut self,
+        stage: Stage,
+        slots: &[Slot],
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+    ) -> Result<(), RunError> {
+        let first = slots.first().and_then(|s| s.x);
+        if self.clock.pes().len() > 1 && first.is_some() {
+            let bus = PassBus {
+                drive: first,
+                ..PassBus::default()
+            };
+            let ctrl = Ctrl {
+                pass: Some(bus),
+                ..Ctrl::at(stage, 0, 0)
+            };
+            self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+        }
+        for (s, slot) in slots.iter().enumerate() {
+            let after = slots.get(s + 1).and_then(|n| n.x);
+            let shown = slot.x.or(slot.y).unwrap_or(0);
+            for col in 0.. {
+                let bus = PassBus {
+                    x: slot.x,
+                    y: slot.y,
+                    col,
+                    drive: after,
+                };
+                let ctrl = Ctrl {
+                    pass: Some(bus),
+                    ..Ctrl::at(stage, 0, shown)
+                };
+                self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+                if self
+                    .clock
+                    .pes()
+                    .iter()
+                    .all(|pe| pe.pass.slot.len() <= col + 1)
+                {
+                    break;
+                }
+            }
+        }
         Ok(())
     }
 
@@ -314,6 +416,55 @@ mod tests {
                 }
             ]
         );
+    }
+
+    /// The sparse merge's plan: parent rows the filter refuses are never
+    /// filtered, child rows that read none are not written at all, and the
+    /// rest keep the dense plan's order within the line buffer's depth.
+    #[test]
+    fn sparse_plan_skips_empty_rows() {
+        let prows = 9;
+        let live = [false, false, true, true, false, false, false, true, false];
+        let needs: Vec<_> = (0..5i64)
+            .map(|i| {
+                inside(
+                    (2 * i - 1..=2 * i + 1)
+                        .filter(|&r| (0..prows as i64).contains(&r) && live[r as usize]),
+                    prows,
+                )
+            })
+            .collect();
+        assert_eq!(
+            needs,
+            vec![None, Some((2, 3)), Some((3, 3)), Some((7, 7)), Some((7, 7))]
+        );
+        let slots = plan_slots_where(prows, &needs, |q| live[q], false).unwrap();
+        let xs: Vec<_> = slots.iter().filter_map(|s| s.x).collect();
+        let ys: Vec<_> = slots.iter().filter_map(|s| s.y).collect();
+        assert_eq!(xs, vec![2, 3, 7]);
+        assert_eq!(ys, vec![1, 2, 3, 4]);
+        let dense: Vec<_> = (0..5i64)
+            .map(|i| inside(2 * i - 1..=2 * i + 1, prows))
+            .collect();
+        // x 2; x 3; y 1 (row 7 would overwrite row 2's slot); x 7 with
+        // y 2; y 3; y 4: six slots against the dense plan's ten.
+        assert_eq!(slots.len(), 6);
+        assert_eq!(plan_slots(prows, &dense).unwrap().len(), 10);
+    }
+
+    /// The sparse read: a written entry, zero for one the x pass skipped
+    /// (empty or an older row), and a refusal for a newer row (overrun).
+    #[test]
+    fn sparse_reads_treat_skipped_entries_as_zero() {
+        let mut b = LineBuffer::default();
+        b.reset(2);
+        assert_eq!(b.read_sparse(0, 0, 0).unwrap(), [0; 4]);
+        b.write(1, 0, [1, 2, 3, 4]);
+        assert!(b.holds(1, 0) && !b.holds(4, 0));
+        assert_eq!(b.read_sparse(0, 1, 0).unwrap(), [1, 2, 3, 4]);
+        assert_eq!(b.read_sparse(0, 4, 0).unwrap(), [0; 4]);
+        b.write(4, 0, [5; 4]);
+        assert!(b.read_sparse(0, 1, 0).is_err());
     }
 
     /// Rows the schedule let the x pass overwrite are refused on read.

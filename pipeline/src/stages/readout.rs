@@ -1,6 +1,7 @@
 //! The readout: each PE streams its region-0 rays to the host, one per
 //! cycle on its host port, column by column and row by row; the host
-//! writes each word where its ray index puts it in the baseplane that
+//! writes each word where its ray index puts it in the baseplane (cleared
+//! first: with `pass_skip_empty` the PEs leave their zero rays out) that
 //! [`golden::warp::warp`] then resamples (a [`golden::warp::Baseplane`]
 //! in float, the raw words beside it).
 
@@ -11,14 +12,36 @@ use crate::pe::{Pe, Ports, Readout};
 use crate::probes::{Ctrl, Stage};
 
 impl Pe {
-    /// Rewinds the readout cursor.
+    /// Rewinds the readout cursor to the first ray it streams.
     pub fn begin_readout(&mut self) {
         self.readout_at = (0, 0);
+        self.skip_unread();
     }
 
     /// Whether every held ray has been streamed out.
     pub fn readout_done(&self) -> bool {
         self.readout_at.0 >= self.rays.len()
+    }
+
+    /// Moves the cursor past what is not streamed: columns without rows
+    /// (an empty region) and, with `pass_skip_empty`, rays whose valid bit
+    /// is clear (all-zero words, which the host's cleared baseplane
+    /// already holds).
+    fn skip_unread(&mut self) {
+        while let Some(col) = self.rays.get(self.readout_at.0) {
+            let (c, r) = self.readout_at;
+            if col.acc.is_empty() {
+                self.readout_at = (c + 1, 0);
+            } else if self.sparse_passes && col.acc[r].raw == [0; 4] {
+                self.readout_at = if r + 1 < col.acc.len() {
+                    (c, r + 1)
+                } else {
+                    (c + 1, 0)
+                };
+            } else {
+                break;
+            }
+        }
     }
 
     /// One readout clock: the next held ray on the host port.
@@ -37,14 +60,7 @@ impl Pe {
                 (c + 1, 0)
             };
         }
-        // Columns without rows (an empty region) stream nothing.
-        while self
-            .rays
-            .get(self.readout_at.0)
-            .is_some_and(|c| c.acc.is_empty())
-        {
-            self.readout_at.0 += 1;
-        }
+        self.skip_unread();
         out
     }
 }
@@ -56,13 +72,6 @@ impl Array {
         let mut raw = vec![[0i64; 4]; w * h];
         for pe in self.clock.pes_mut() {
             pe.begin_readout();
-            while pe
-                .rays
-                .get(pe.readout_at.0)
-                .is_some_and(|c| c.acc.is_empty())
-            {
-                pe.readout_at.0 += 1;
-            }
         }
         while !self.clock.pes().iter().all(Pe::readout_done) {
             self.clock.tick(

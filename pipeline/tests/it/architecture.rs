@@ -167,3 +167,42 @@ fn a_256_cubed_array_fits_ultrascale_plus() {
     // UltraRAM never holds more than the part has.
     assert!(fits(&on, 32, "XCKU5P").uram <= 64);
 }
+
+/// The skipping options cost what they add: the valid bits (a row of a
+/// bank per word, two banks of `2 ny + 1` rows) for either sparse option,
+/// the work-list logic for the sparse merge, and one more pair of ray
+/// port registers per extra lane; none of them changes the datapath's DSPs.
+#[test]
+fn sparse_options_and_lanes_are_charged() {
+    let geo = Geometry::new([256, 256, 256], 16);
+    let base = cfg(Mapping::Interleave, 1, RayBuffer::OnChip);
+    let plain = pe_inventory(&base, &geo);
+    assert!(!has(&plain.items, "ray valid bits") && !has(&plain.items, "work list"));
+    assert!(!has(&plain.items, "ray port lanes"));
+    let sparse = PipelineConfig {
+        link_skip_empty: true,
+        pass_skip_empty: true,
+        migration: pipeline::config::Migration::Overlapped,
+        link_lanes: 3,
+        ..base
+    };
+    let pe = pe_inventory(&sparse, &geo);
+    let valid = item(&pe.items, "ray valid bits");
+    assert_eq!(mem_depth(valid), 2 * 256 + 1);
+    assert_eq!(valid.count, 2);
+    assert!(has(&pe.items, "work list"));
+    let lanes = item(&pe.items, "ray port lanes");
+    assert_eq!(lanes.count, 4);
+    let (a, b) = (plain.cost(Target::Xc7), pe.cost(Target::Xc7));
+    assert_eq!(a.dsp, b.dsp);
+    assert!(b.lut > a.lut && b.ff > a.ff, "{a:?} -> {b:?}");
+    // The links alone need the valid bits, not the work list.
+    let links_only = pe_inventory(
+        &PipelineConfig {
+            link_skip_empty: true,
+            ..base
+        },
+        &geo,
+    );
+    assert!(has(&links_only.items, "ray valid bits") && !has(&links_only.items, "work list"));
+}

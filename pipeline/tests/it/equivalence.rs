@@ -96,6 +96,10 @@ fn widths(
         cyclic_width: 2,
         migration,
         ray_buffer,
+        // The interleave also runs the sparse links, merge and readout.
+        link_skip_empty: arch == 1,
+        pass_skip_empty: arch == 1,
+        link_lanes: if arch == 1 { 2 } else { 1 },
         weight: format(weight, weight, Quant::Trn),
         sample: format(12 + sample_frac, sample_frac, Quant::Rnd),
         alpha: format(alpha, alpha, Quant::Rnd),

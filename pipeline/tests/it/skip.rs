@@ -99,7 +99,8 @@ const ARCHS: [(Mapping, u16, Migration, RayBuffer); 4] = [
     ),
 ];
 
-/// Whether architecture `arch` also leaves transparent rows off the links.
+/// Whether architecture `arch` also leaves transparent rows off the links
+/// (and transparent rays out of the merge and the readout, with two lanes).
 fn sparse_links(arch: usize) -> bool {
     arch == 2
 }
@@ -169,6 +170,10 @@ fn config(c: &Case) -> PipelineConfig {
         migration,
         ray_buffer,
         link_skip_empty: sparse_links(c.arch),
+        // The sparse architecture also skips transparent rays in the
+        // merge and the readout, on two lanes.
+        pass_skip_empty: sparse_links(c.arch),
+        link_lanes: if sparse_links(c.arch) { 2 } else { 1 },
         occupancy_block: c.block,
         position,
         order: if c.ftb {

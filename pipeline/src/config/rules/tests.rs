@@ -199,3 +199,45 @@ fn code_built_configs_are_validated() {
     let err = serde_json::from_value::<PipelineConfig>(bad).unwrap_err();
     assert!(err.to_string().contains("pes = 0"), "{err}");
 }
+
+/// `link_lanes` stays in `1..=4` and above one needs the overlapped
+/// migration, each refused in one line naming the field.
+#[test]
+fn link_lanes_need_the_overlapped_migration() {
+    use crate::config::Migration;
+    let ok = PipelineConfig {
+        link_lanes: 4,
+        migration: Migration::Overlapped,
+        ..PipelineConfig::default()
+    };
+    assert!(ok.validate().is_ok());
+    for (c, want) in [
+        (
+            PipelineConfig {
+                link_lanes: 2,
+                ..PipelineConfig::default()
+            },
+            "link_lanes = 2 needs migration = \"overlapped\"",
+        ),
+        (
+            PipelineConfig {
+                link_lanes: 5,
+                ..ok
+            },
+            "link_lanes = 5 is outside 1..=4",
+        ),
+        (
+            PipelineConfig {
+                link_lanes: 0,
+                ..ok
+            },
+            "link_lanes = 0 is outside 1..=4",
+        ),
+    ] {
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.starts_with(want), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+    let e = PipelineConfig::from_toml_str("link_lanes = 3\n").unwrap_err();
+    assert!(e.to_string().contains("needs migration"), "{e}");
+}
