@@ -16,79 +16,21 @@
 //! GTKWave through the translate filter file written beside the `.gtkw`
 //! (`<name>.stage.txt`).
 
-use waves::{Group, Sampler, ScopePath, SignalId, Tracer, WavesError};
+mod groups;
+mod recorder;
+mod stage;
+
+pub use groups::{parse_groups, ACC, CTRL, DATAPATH, GROUPS, PORTS, REGS};
+pub(crate) use recorder::Probes;
+pub use stage::Stage;
+
+use waves::Group;
 
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::SampleTrace;
 use crate::fixed::Format;
-use crate::pe::{Pe, Port, Ports, Readout};
+use crate::pe::{Pe, Port, Readout};
 use crate::stages::passes::PassBus;
-
-/// The controller's stage, `top.ctrl.stage`. The codes are those the
-/// waveforms have always carried, so raw traces compare across versions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stage {
-    /// Sampling a slice.
-    Sample = 0,
-    /// Rays migrating to their owners.
-    Migrate = 1,
-    /// The Bartlett merge at a region boundary.
-    Merge = 2,
-    /// Streaming the baseplane out.
-    Readout = 3,
-    /// A slice the controller skipped (its occupancy bits are all clear).
-    Skip = 4,
-    /// Front to back: the bilinear split at a region boundary.
-    Split = 5,
-    /// Front to back: the fold after the last region.
-    Fold = 6,
-    /// Waiting for the samples in flight in the datapath to be written
-    /// back (before a merge, split, fold or the readout).
-    Drain = 7,
-    /// A row start held back because one of its rays is still in the
-    /// datapath from the previous slice (read after write).
-    Stall = 8,
-    /// Waiting for the external ray buffer: a row's rays still arriving,
-    /// a pass's traffic, or the write-backs before a drain completes.
-    Memory = 9,
-}
-
-impl Stage {
-    /// Every stage, in code order.
-    pub const ALL: [Stage; 10] = [
-        Stage::Sample,
-        Stage::Migrate,
-        Stage::Merge,
-        Stage::Readout,
-        Stage::Skip,
-        Stage::Split,
-        Stage::Fold,
-        Stage::Drain,
-        Stage::Stall,
-        Stage::Memory,
-    ];
-
-    /// The code on `top.ctrl.stage`.
-    pub fn code(self) -> u64 {
-        self as u64
-    }
-
-    /// The name viewers show.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Stage::Sample => "sample",
-            Stage::Migrate => "migrate",
-            Stage::Merge => "merge",
-            Stage::Readout => "readout",
-            Stage::Skip => "skip",
-            Stage::Split => "split",
-            Stage::Fold => "fold",
-            Stage::Drain => "drain",
-            Stage::Stall => "stall",
-            Stage::Memory => "memory",
-        }
-    }
-}
 
 /// The stages' codes and names, for the translate filter.
 const STAGE_NAMES: [(u64, &str); 10] = {
@@ -100,61 +42,6 @@ const STAGE_NAMES: [(u64, &str); 10] = {
     }
     names
 };
-
-/// The controller: stage, slice and row broadcast.
-pub const CTRL: Group = Group {
-    name: "ctrl",
-    default: true,
-};
-/// A PE's sample path (ray, sample, opacities) and its ray counter.
-pub const DATAPATH: Group = Group {
-    name: "datapath",
-    default: true,
-};
-/// A PE's accumulators after compositing.
-pub const ACC: Group = Group {
-    name: "acc",
-    default: true,
-};
-/// Both link ports of every PE, valid and payload per kind, and its host
-/// port (the readout).
-pub const PORTS: Group = Group {
-    name: "ports",
-    default: false,
-};
-/// A PE's registers and FIFO levels: rays held, migration FIFOs, columns
-/// arriving, the edge register, whether samples are in flight, the pass's
-/// children, the stall counter.
-pub const REGS: Group = Group {
-    name: "regs",
-    default: false,
-};
-/// Every group, in the order `--trace-signals` lists them.
-pub const GROUPS: [Group; 5] = [CTRL, PORTS, DATAPATH, ACC, REGS];
-
-/// Parses a comma-separated group list such as `ctrl,ports`; `all` is
-/// every group. An unknown name is an error naming the known ones.
-pub fn parse_groups(text: &str) -> Result<Vec<&'static str>, String> {
-    if text.trim().eq_ignore_ascii_case("all") {
-        return Ok(GROUPS.iter().map(|g| g.name).collect());
-    }
-    text.split(',')
-        .map(str::trim)
-        .map(|name| {
-            GROUPS
-                .iter()
-                .find(|g| g.name == name)
-                .map(|g| g.name)
-                .ok_or_else(|| {
-                    let known: Vec<_> = GROUPS.iter().map(|g| g.name).collect();
-                    format!(
-                        "unknown signal group {name:?} (known: {}, or all)",
-                        known.join(", ")
-                    )
-                })
-        })
-        .collect()
-}
 
 /// One signal: its name, group, width (from the configuration), how it
 /// is read from the state `S` of its scope, whether the configuration has
@@ -675,152 +562,3 @@ const PORT_PROBES: &[Probe<PortView>] = &[
     Probe::<PortView>::new("parent_b", PORTS, link_color, |s| s.parent(2)),
     Probe::<PortView>::new("parent_a", PORTS, link_alpha, |s| s.parent(3)),
 ];
-
-/// Registers every present signal of `table` in `scope`; one id per line
-/// (NONE for the absent and the unselected).
-fn register<S>(
-    tracer: &mut Tracer,
-    (cfg, shading, voi): (&PipelineConfig, bool, bool),
-    scope: &ScopePath,
-    table: &[Probe<S>],
-) -> Result<Vec<SignalId>, WavesError> {
-    table
-        .iter()
-        .map(|p| {
-            if !(p.present)(cfg) || (p.shaded && !shading) || (p.voi && !voi) {
-                return Ok(SignalId::NONE);
-            }
-            let width = (p.width)(cfg);
-            if p.names.is_empty() {
-                tracer.register_in(&p.group, scope, p.name, width)
-            } else {
-                tracer.register_enum_in(&p.group, scope, p.name, width, p.names)
-            }
-        })
-        .collect()
-}
-
-/// Sets every signal of `table` from `state`.
-#[inline]
-fn sample<S>(s: &mut Sampler<'_>, table: &[Probe<S>], ids: &[SignalId], state: &S) {
-    for (p, &id) in table.iter().zip(ids) {
-        if id.is_traced() {
-            s.set(id, (p.read)(state));
-        }
-    }
-}
-
-/// The ids of one PE's signals.
-struct PeIds {
-    pe: Vec<SignalId>,
-    /// Left and right port.
-    ports: [Vec<SignalId>; 2],
-    host: Vec<SignalId>,
-    any_port: bool,
-}
-
-/// The probes of a run: the tracer and the ids of every table's signals.
-pub(crate) struct Probes {
-    tracer: Tracer,
-    ctrl: Vec<SignalId>,
-    pes: Vec<PeIds>,
-    color: u32,
-    alpha: u32,
-    grad: u32,
-}
-
-impl Probes {
-    /// Refuses a selection naming an unknown group (before a frame is
-    /// loaded: the signals are registered when it starts).
-    pub(crate) fn check_groups(tracer: &Tracer) -> Result<(), WavesError> {
-        if let Some(bad) = tracer
-            .selected_groups()
-            .and_then(|set| set.iter().find(|g| !GROUPS.iter().any(|k| k.name == *g)))
-        {
-            return Err(WavesError::InvalidSpec {
-                what: "signal group",
-                text: bad.clone(),
-                reason: parse_groups(bad).err().unwrap_or_default(),
-            });
-        }
-        Ok(())
-    }
-
-    /// Registers the signals of `p` PEs (with the shading unit's when
-    /// `shading`, the volume-of-interest stage's when `voi`); an unknown
-    /// group in the tracer's selection is an error.
-    pub(crate) fn new(
-        mut tracer: Tracer,
-        p: usize,
-        cfg: &PipelineConfig,
-        (shading, voi): (bool, bool),
-    ) -> Result<Probes, WavesError> {
-        let c = (cfg, shading, voi);
-        Probes::check_groups(&tracer)?;
-        let ctrl = register(&mut tracer, c, &ScopePath::top().child("ctrl"), CTRL_PROBES)?;
-        let mut pes = Vec::with_capacity(p);
-        for k in 0..p {
-            let scope = ScopePath::pe(k as u32);
-            let pe = register(&mut tracer, c, &scope, PE_PROBES)?;
-            let ports = [
-                register(&mut tracer, c, &scope.child("left"), PORT_PROBES)?,
-                register(&mut tracer, c, &scope.child("right"), PORT_PROBES)?,
-            ];
-            let host = register(&mut tracer, c, &scope.child("host"), HOST_PROBES)?;
-            let any_port = ports.iter().flatten().any(|id| id.is_traced());
-            pes.push(PeIds {
-                pe,
-                ports,
-                host,
-                any_port,
-            });
-        }
-        Ok(Probes {
-            tracer,
-            ctrl,
-            pes,
-            color: link_color(cfg),
-            alpha: link_alpha(cfg),
-            grad: bits(cfg.gradient),
-        })
-    }
-
-    /// Records cycle `cycle`: the controller's `ctrl`, every PE, and the
-    /// ports the PEs drove in it (`ports[k]`: PE `k`'s; an empty slice
-    /// when no PE drives a link in this cycle).
-    pub(crate) fn sample(&mut self, cycle: u64, pes: &[Pe], ports: &[Ports], ctrl: Ctrl) {
-        let Probes {
-            tracer,
-            ctrl: ctrl_ids,
-            pes: ids,
-            color,
-            alpha,
-            grad,
-        } = self;
-        tracer.sample(cycle, |s| {
-            sample(s, CTRL_PROBES, ctrl_ids, &ctrl);
-            let idle = Ports::default();
-            for (k, (pe, id)) in pes.iter().zip(ids.iter()).enumerate() {
-                let view = PeView::of(pe, ctrl.stage, cycle, *grad);
-                sample(s, PE_PROBES, &id.pe, &view);
-                if id.any_port {
-                    let driven = ports.get(k).copied().unwrap_or(idle);
-                    sample(s, HOST_PROBES, &id.host, &driven.host);
-                    for (port, pids) in [driven.left, driven.right].into_iter().zip(&id.ports) {
-                        let view = PortView {
-                            port,
-                            color: *color,
-                            alpha: *alpha,
-                        };
-                        sample(s, PORT_PROBES, pids, &view);
-                    }
-                }
-            }
-        });
-    }
-
-    /// Completes the trace files.
-    pub(crate) fn finish(self) -> Result<Option<waves::TraceInfo>, WavesError> {
-        self.tracer.finish()
-    }
-}
