@@ -53,8 +53,8 @@ pub struct ExploreArgs {
     /// Cyclic block widths to sweep (1..=256; the cyclic mapping only).
     #[arg(long, default_value = "1,2,4,8")]
     pub widths: String,
-    /// Link lanes to sweep (1..=4; the overlapped migration only, the
-    /// between-slices one always runs one lane).
+    /// Link lanes to sweep (1..=4; the overlapped migration with the rays
+    /// on chip only: between slices, or with the rays external, one lane).
     #[arg(long, default_value = "1")]
     pub lanes: String,
     /// Clock of the table's and plot's frame rates, MHz (each part's own
@@ -171,7 +171,12 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
                     Migration::BetweenSlices => vec![1],
                 };
                 for &link_lanes in &ls {
-                    for &ray_buffer in &places {
+                    // With the rays external nothing travels the links, so
+                    // more lanes would repeat the one-lane rows.
+                    for &ray_buffer in places
+                        .iter()
+                        .filter(|&&r| link_lanes == 1 || r == RayBuffer::OnChip)
+                    {
                         for &p in &pes {
                             let c = PipelineConfig {
                                 mapping,

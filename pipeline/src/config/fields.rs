@@ -531,7 +531,8 @@ config_fields! {
         /// `i` of a port is its own register, so a ray still hops one link
         /// a cycle, but up to `link_lanes` rays leave a PE each way in a
         /// cycle. Costs the ray ports' registers and the compositing
-        /// buffer's write ports per lane.
+        /// buffer's write ports per lane. With `ray_buffer = "external"`
+        /// rays do not travel and the lanes change nothing.
         ///
         /// Default 1: one ray per link and direction, the original link.
         pub link_lanes: u16 {
