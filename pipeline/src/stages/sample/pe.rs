@@ -255,18 +255,41 @@ impl Pe {
     ) -> u64 {
         let (first, n) = self.active;
         let mut terminated = 0;
-        let mut run = runs.iter().peekable();
-        for j in first..first + n {
-            let mx = self.rays[j].mx;
-            while run.next_if(|r| r.1 < mx).is_some() {}
-            let Some(&&(lo, _)) = run.peek() else { break };
-            if mx < lo {
-                continue;
-            }
-            if ftb && self.rays[j].ftb[row].done {
-                terminated += 1;
+        // The held columns ascend in `mx` and the runs are ascending and
+        // disjoint: each run's first column is found by bisection (the
+        // comparator pair's answer), so a row costs its runs and its
+        // rays, not every held column.
+        let (front, back) = self.rays.as_slices();
+        let mx_at = |j: usize| {
+            if j < front.len() {
+                front[j].mx
             } else {
-                take(j);
+                back[j - front.len()].mx
+            }
+        };
+        let end = first + n;
+        let mut j = first;
+        for &(lo, hi) in runs {
+            let (mut a, mut b) = (j, end);
+            while a < b {
+                let mid = a + (b - a) / 2;
+                if mx_at(mid) < lo {
+                    a = mid + 1;
+                } else {
+                    b = mid;
+                }
+            }
+            j = a;
+            while j < end && mx_at(j) <= hi {
+                if ftb && self.rays[j].ftb[row].done {
+                    terminated += 1;
+                } else {
+                    take(j);
+                }
+                j += 1;
+            }
+            if j >= end {
+                break;
             }
         }
         terminated
