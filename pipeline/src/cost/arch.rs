@@ -160,7 +160,8 @@ pub fn lane_ports(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
 }
 
 /// The valid bits that let transparent rays skip work
-/// (`link_skip_empty`, `pass_skip_empty`): one per ray slot and bank,
+/// (`link_skip_empty`, `pass_skip_empty`): one per ray and bank (on chip
+/// also when the rays live in DDR),
 /// kept a row to a word so a pass reads a row's bits at once (cleared a
 /// word a cycle while the other bank is in use); with `pass_skip_empty`
 /// also the line buffer's valid bits and the encoder that turns a row's
@@ -170,10 +171,9 @@ pub fn valid_bits(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         return Vec::new();
     }
     let row = rays_per_row(cfg, geo);
-    let rows = match cfg.ray_buffer {
-        RayBuffer::OnChip => 2 * geo.dims[1] as u64 + 1,
-        RayBuffer::External => row_buffers(cfg),
-    };
+    // Every ray's bit stays on chip, also with the rays in DDR: a pass
+    // reads from DDR only the rays its bits say are non-zero.
+    let rows = 2 * geo.dims[1] as u64 + 1;
     let mut items = vec![Item::new(
         "memories",
         "ray valid bits (a row per word, 2 banks)",

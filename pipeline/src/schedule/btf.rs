@@ -40,8 +40,8 @@ pub(crate) fn back_to_front(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             a.drain()?;
             let start = a.clock.now();
             let (bg, fg) = (&region.grid, &plan.regions[i - 1].grid);
-            a.merge(bg, fg)?;
-            a.ray_buffer_pass(start, rays(bg), rays(fg))?;
+            let (reads, writes) = a.merge(bg, fg)?;
+            a.ray_buffer_pass(start, reads, writes)?;
             a.settle_links();
             merges += 1;
         }

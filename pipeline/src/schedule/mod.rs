@@ -3,7 +3,7 @@
 //! baseplane's raw words, their formats (colour, opacity) and the number
 //! of region boundaries filtered.
 
-mod btf;
+pub(crate) mod btf;
 mod ftb;
 
 pub(crate) use btf::back_to_front;

@@ -9,6 +9,8 @@
 
 use golden::geometry::RayGrid;
 
+use crate::schedule::btf::rays;
+
 use super::passes::{inside, plan_slots_where, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
@@ -220,8 +222,11 @@ impl Pe {
 }
 
 impl Array {
-    /// Bartlett merge of `back`'s rays into `front`'s.
-    pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(), RunError> {
+    /// Bartlett merge of `back`'s rays into `front`'s. Returns the rays
+    /// it read and wrote (an external ray buffer's traffic): every parent
+    /// and child, or with `pass_skip_empty` the non-zero parents and the
+    /// children written.
+    pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(u64, u64), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         if dp.cfg.pass_skip_empty {
             return self.merge_sparse(&dp, bg, fg);
@@ -232,7 +237,8 @@ impl Array {
             |pe| pe.begin_merge(bg, fg),
             |pe, bus, links| pe.merge_step(&dp, bus, links, (bg, fg)),
             Pe::end_merge,
-        )
+        )?;
+        Ok((rays(bg), rays(fg)))
     }
 
     /// The sparse merge (`pass_skip_empty`): the controller filters only
@@ -241,16 +247,27 @@ impl Array {
     /// rows that read one; each slot lasts as long as the busiest PE's
     /// work list ([`Pe::merge_step_sparse`]). What it skips is zero, so
     /// the children's words equal the dense merge's.
-    fn merge_sparse(&mut self, dp: &Datapath, bg: &RayGrid, fg: &RayGrid) -> Result<(), RunError> {
+    fn merge_sparse(
+        &mut self,
+        dp: &Datapath,
+        bg: &RayGrid,
+        fg: &RayGrid,
+    ) -> Result<(u64, u64), RunError> {
         let prows = bg.counts()[1];
         let mut live = vec![false; prows];
+        let mut reads = 0u64;
         for pe in self.clock.pes() {
             for col in &pe.rays {
                 for (l, a) in live.iter_mut().zip(&col.acc) {
-                    *l |= a.raw != [0; 4];
+                    let set = a.raw != [0; 4];
+                    *l |= set;
+                    reads += u64::from(set);
                 }
             }
         }
+        let written =
+            |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.merge_outputs).sum() };
+        let before = written(self);
         let needs: Vec<_> = (fg.lo[1]..=fg.hi[1])
             .map(|my| {
                 let rows = (2 * my - 1..=2 * my + 1)
@@ -273,6 +290,6 @@ impl Array {
             })?;
         }
         self.clock.pes_mut().iter_mut().for_each(Pe::end_merge);
-        Ok(())
+        Ok((reads, written(self) - before))
     }
 }

@@ -641,6 +641,35 @@ fn transparent_rays_skip_the_merge_and_the_readout() {
         let clocked = clocked_frame(&cfg, &vol, &lut, &prep, true);
         assert_eq!(signature(&clocked), signature(&s));
 
+        // With the rays in DDR the sparse merge reads only the non-zero
+        // parents and writes only the children it computes.
+        let ext = PipelineConfig {
+            ray_buffer: RayBuffer::External,
+            ..dense
+        };
+        let (de, se) = (
+            frame(&ext, &vol, &lut, &prep, Skips::default(), None).expect("frame"),
+            frame(
+                &PipelineConfig {
+                    pass_skip_empty: true,
+                    ..ext
+                },
+                &vol,
+                &lut,
+                &prep,
+                Skips::default(),
+                None,
+            )
+            .expect("frame"),
+        );
+        assert_eq!(se.raw, de.raw);
+        let (dt, st) = (de.ray_buffer.expect("stats"), se.ray_buffer.expect("stats"));
+        if order == Order::BackToFront {
+            assert!(st.read_bytes < dt.read_bytes && st.written_bytes < dt.written_bytes);
+        } else {
+            assert_eq!((st.read_bytes, st.written_bytes), (dt.read_bytes, dt.written_bytes));
+        }
+
         let two = PipelineConfig {
             link_lanes: 2,
             link_skip_empty: false,
