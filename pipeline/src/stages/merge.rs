@@ -54,6 +54,13 @@ impl Pe {
         self.rays[(mx - lo) as usize].acc[row]
     }
 
+    /// What the PE drives in a merge cycle: the edge rays of the row the
+    /// bus names, or nothing.
+    fn merge_ports(&self, bus: &PassBus) -> Ports {
+        bus.drive
+            .map_or_else(Ports::default, |r| self.merge_drive(r))
+    }
+
     /// Drives this PE's edge rays of parent row `row`: its first held
     /// column to the left, its last to the right.
     pub fn merge_drive(&self, row: usize) -> Ports {
@@ -86,9 +93,7 @@ impl Pe {
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
             self.merge_x(dp, c, q, edges);
         }
-        Ok(bus
-            .drive
-            .map_or_else(Ports::default, |r| self.merge_drive(r)))
+        Ok(self.merge_ports(bus))
     }
 
     /// One clock of the sparse merge (`pass_skip_empty`): in the slot's
@@ -115,9 +120,7 @@ impl Pe {
                 self.merge_x(dp, c, q, self.pass.edge_in);
             }
         }
-        Ok(bus
-            .drive
-            .map_or_else(Ports::default, |r| self.merge_drive(r)))
+        Ok(self.merge_ports(bus))
     }
 
     /// The sparse slot's work list: the children whose x-filtered value

@@ -268,13 +268,9 @@ impl Array {
         Ok(())
     }
 
-    /// Clocks `slots` whose lengths the PEs' work lists set (the sparse
-    /// merge): in a slot's first cycle every PE forms its list and drives
-    /// the next slot's edge rays (its neighbours latched this slot's in
-    /// the same cycle); the slot ends after the cycle in which the last
-    /// PE works its last entry (the PEs' done lines, an AND tree like the
-    /// sampling's report lines). The prologue drives the first row's edges.
-    pub(crate) fn clock_sparse_slots(
+    /// The cycle ahead of a pass's first slot (with more than one PE) in
+    /// which the PEs drive the first row's edge rays.
+    fn prologue(
         &mut self,
         stage: Stage,
         slots: &[Slot],
@@ -292,6 +288,22 @@ impl Array {
             };
             self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
         }
+        Ok(())
+    }
+
+    /// Clocks `slots` whose lengths the PEs' work lists set (the sparse
+    /// merge): in a slot's first cycle every PE forms its list and drives
+    /// the next slot's edge rays (its neighbours latched this slot's in
+    /// the same cycle); the slot ends after the cycle in which the last
+    /// PE works its last entry (the PEs' done lines, an AND tree like the
+    /// sampling's report lines). The prologue drives the first row's edges.
+    pub(crate) fn clock_sparse_slots(
+        &mut self,
+        stage: Stage,
+        slots: &[Slot],
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+    ) -> Result<(), RunError> {
+        self.prologue(stage, slots, step)?;
         for (s, slot) in slots.iter().enumerate() {
             let after = slots.get(s + 1).and_then(|n| n.x);
             let shown = slot.x.or(slot.y).unwrap_or(0);
@@ -331,18 +343,7 @@ impl Array {
         if width == 0 {
             return Ok(());
         }
-        let first = slots.first().and_then(|s| s.x);
-        if self.clock.pes().len() > 1 && first.is_some() {
-            let bus = PassBus {
-                drive: first,
-                ..PassBus::default()
-            };
-            let ctrl = Ctrl {
-                pass: Some(bus),
-                ..Ctrl::at(stage, 0, 0)
-            };
-            self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
-        }
+        self.prologue(stage, slots, step)?;
         for (s, slot) in slots.iter().enumerate() {
             let after = slots.get(s + 1).and_then(|n| n.x);
             let shown = slot.x.or(slot.y).unwrap_or(0);

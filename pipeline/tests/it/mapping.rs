@@ -337,16 +337,7 @@ fn round_robin_owners_and_aprons() {
 /// wrap link included), and the rays crossing links are counted.
 #[test]
 fn round_robin_balances_skipped_rows() {
-    let vol = sparse([48, 40, 44], 2, 7);
-    let prep = Prepared::new(
-        &vol,
-        &camera(
-            DVec3::new(23.5, 19.5, -30.0),
-            DVec3::new(23.5, 19.5, 21.5),
-            70.0,
-        ),
-    )
-    .expect("view");
+    let (vol, prep) = two_blobs();
     let mut sample_cycles = Vec::new();
     for (mapping, width) in [
         (Mapping::Blocks, 4),
@@ -487,16 +478,7 @@ fn external_ray_buffer_changes_cycles_not_bits() {
 /// whole-slice path.
 #[test]
 fn overlapped_migration_hides_link_time() {
-    let vol = sparse([48, 40, 44], 2, 7);
-    let prep = Prepared::new(
-        &vol,
-        &camera(
-            DVec3::new(23.5, 19.5, -30.0),
-            DVec3::new(23.5, 19.5, 21.5),
-            70.0,
-        ),
-    )
-    .expect("view");
+    let (vol, prep) = two_blobs();
     for mapping in [Mapping::Blocks, Mapping::Interleave] {
         let between = PipelineConfig {
             mapping,
@@ -530,11 +512,9 @@ fn overlapped_migration_hides_link_time() {
     }
 }
 
-/// Leaving transparent rows off the links changes no bit and no sample,
-/// sends fewer rays and shortens the frame where most rays are still
-/// transparent; the clocked path agrees.
-#[test]
-fn transparent_rows_stay_off_the_links() {
+/// Two blobs in empty space, seen from in front at 70 degrees: most rays
+/// stay transparent for most of the frame.
+fn two_blobs() -> (Volume, Prepared) {
     let vol = sparse([48, 40, 44], 2, 7);
     let prep = Prepared::new(
         &vol,
@@ -545,6 +525,15 @@ fn transparent_rows_stay_off_the_links() {
         ),
     )
     .expect("view");
+    (vol, prep)
+}
+
+/// Leaving transparent rows off the links changes no bit and no sample,
+/// sends fewer rays and shortens the frame where most rays are still
+/// transparent; the clocked path agrees.
+#[test]
+fn transparent_rows_stay_off_the_links() {
+    let (vol, prep) = two_blobs();
     for order in [Order::BackToFront, Order::FrontToBack] {
         let dense = PipelineConfig {
             mapping: Mapping::Interleave,
@@ -586,16 +575,7 @@ fn transparent_rows_stay_off_the_links() {
 /// clocked path agrees with the whole-slice path under both.
 #[test]
 fn transparent_rays_skip_the_merge_and_the_readout() {
-    let vol = sparse([48, 40, 44], 2, 7);
-    let prep = Prepared::new(
-        &vol,
-        &camera(
-            DVec3::new(23.5, 19.5, -30.0),
-            DVec3::new(23.5, 19.5, 21.5),
-            70.0,
-        ),
-    )
-    .expect("view");
+    let (vol, prep) = two_blobs();
     for order in [Order::BackToFront, Order::FrontToBack] {
         let dense = PipelineConfig {
             mapping: Mapping::Interleave,
@@ -667,7 +647,10 @@ fn transparent_rays_skip_the_merge_and_the_readout() {
         if order == Order::BackToFront {
             assert!(st.read_bytes < dt.read_bytes && st.written_bytes < dt.written_bytes);
         } else {
-            assert_eq!((st.read_bytes, st.written_bytes), (dt.read_bytes, dt.written_bytes));
+            assert_eq!(
+                (st.read_bytes, st.written_bytes),
+                (dt.read_bytes, dt.written_bytes)
+            );
         }
 
         let two = PipelineConfig {
