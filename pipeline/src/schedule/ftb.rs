@@ -30,9 +30,9 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             a.migrate_pass(&front.rear)?;
             a.drain()?;
             let start = a.clock.now();
-            a.split(&front.grid, &region.grid)?;
+            let (reads, writes) = a.split(&front.grid, &region.grid)?;
             // The parents' final states stay in the buffer for the fold.
-            a.ray_buffer_pass(start, rays(&front.grid), rays(&region.grid))?;
+            a.ray_buffer_pass(start, reads, writes)?;
             a.settle_links();
             merges += 1;
         }

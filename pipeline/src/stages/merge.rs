@@ -244,6 +244,24 @@ impl Array {
         Ok((rays(bg), rays(fg)))
     }
 
+    /// The parent rows some PE holds a non-zero ray in (each PE's row
+    /// valid bits, ORed over the report lines), and how many non-zero rays
+    /// the PEs hold.
+    pub(crate) fn live_rows(&self, prows: usize) -> (Vec<bool>, u64) {
+        let mut live = vec![false; prows];
+        let mut count = 0u64;
+        for pe in self.clock.pes() {
+            for col in &pe.rays {
+                for (l, a) in live.iter_mut().zip(&col.acc) {
+                    let set = a.raw != [0; 4];
+                    *l |= set;
+                    count += u64::from(set);
+                }
+            }
+        }
+        (live, count)
+    }
+
     /// The sparse merge (`pass_skip_empty`): the controller filters only
     /// the parent rows some PE holds a non-zero ray in (each PE's row
     /// valid bits, ORed over the report lines) and writes only the child
@@ -257,17 +275,7 @@ impl Array {
         fg: &RayGrid,
     ) -> Result<(u64, u64), RunError> {
         let prows = bg.counts()[1];
-        let mut live = vec![false; prows];
-        let mut reads = 0u64;
-        for pe in self.clock.pes() {
-            for col in &pe.rays {
-                for (l, a) in live.iter_mut().zip(&col.acc) {
-                    let set = a.raw != [0; 4];
-                    *l |= set;
-                    reads += u64::from(set);
-                }
-            }
-        }
+        let (live, reads) = self.live_rows(prows);
         let written =
             |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.merge_outputs).sum() };
         let before = written(self);

@@ -11,11 +11,12 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{inside, PassBus};
+use super::passes::{inside, plan_slots_where, PassBus};
 use crate::array::{clamp, Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{FtbState, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
+use crate::schedule::btf::rays;
 
 impl Pe {
     /// Starts a split of the front grid `fg`'s rays into the back grid
@@ -58,7 +59,7 @@ impl Pe {
         mx: i64,
         row: usize,
         grid: (i64, i64),
-        links: &Links<'_>,
+        (right, right_mx): (Acc, Option<i64>),
     ) -> Result<Acc, StepError> {
         if mx < grid.0 || mx > grid.1 {
             return Ok(Acc::default());
@@ -68,10 +69,31 @@ impl Pe {
                 return Ok(self.rays[(mx - lo) as usize].acc[row]);
             }
         }
-        if links.from_right.edge_mx == Some(mx) {
-            return Ok(links.from_right.edge_acc);
+        if right_mx == Some(mx) {
+            return Ok(right);
         }
         Err(StepError::Unreachable { pe: self.k, mx })
+    }
+
+    /// Child `c`'s two parents in parent row `q` (the same one twice for
+    /// an even child), the right neighbour's edge ray `right` beyond the
+    /// held span.
+    fn split_parents(
+        &self,
+        c: usize,
+        q: usize,
+        grid: (i64, i64),
+        right: (Acc, Option<i64>),
+    ) -> Result<(Acc, Acc), StepError> {
+        let n = self.pass.children[c];
+        let m = n.div_euclid(2);
+        let a = self.split_parent(m, q, grid, right)?;
+        let b = if n.rem_euclid(2) == 0 {
+            a
+        } else {
+            self.split_parent(m + 1, q, grid, right)?
+        };
+        Ok((a, b))
     }
 
     /// One split clock: the y pass writes child `col` of child row `bus.y`
@@ -85,56 +107,151 @@ impl Pe {
         links: Links<'_>,
         (fg, bg): (&RayGrid, &RayGrid),
     ) -> Result<Ports, StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         let c = bus.col;
-        let prows = fg.counts()[1] as i64;
+        let right = (links.from_right.edge_acc, links.from_right.edge_mx);
         if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
-            let my = bg.lo[1] + i as i64;
-            let py = my.div_euclid(2);
-            let mut taps = [[0i64; 4]; 2];
-            for (t, p) in taps.iter_mut().zip([py, py + my.rem_euclid(2)]) {
-                let row = p - fg.lo[1];
-                if (0..prows).contains(&row) {
-                    *t = self.pass.line.read(self.k, row as usize, c)?;
-                }
-            }
-            let col = &mut self.pass.next[c];
-            for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
-                let to = if ch < 3 { fc } else { fa };
-                *o = dp
-                    .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.stats)
-                    .raw();
-            }
-            col.ftb[i] = FtbState {
-                inh: col.acc[i],
-                // A child of terminated parents is terminated: the
-                // comparator checks every child as it is written.
-                done: dp.terminated(&col.acc[i]),
-            };
-            self.counters.split_outputs += 1;
+            self.split_y(dp, c, i, (fg, bg), false)?;
         }
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
-            let n = self.pass.children[c];
-            let grid = (fg.lo[0], fg.hi[0]);
-            let m = n.div_euclid(2);
-            let a = self.split_parent(m, q, grid, &links)?;
-            let b = if n.rem_euclid(2) == 0 {
-                a
-            } else {
-                self.split_parent(m + 1, q, grid, &links)?
-            };
-            let mut out = [0i64; 4];
-            for (ch, o) in out.iter_mut().enumerate() {
-                let f = if ch < 3 { fc } else { fa };
-                *o = dp
-                    .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.stats)
-                    .raw();
-            }
-            self.pass.line.write(q, c, out);
+            self.split_x(dp, c, q, fg, right)?;
         }
-        Ok(bus
-            .drive
-            .map_or_else(Ports::default, |r| self.split_drive(r)))
+        Ok(self.split_ports(bus))
+    }
+
+    /// One clock of the sparse split (`pass_skip_empty`), as
+    /// [`Pe::merge_step_sparse`]: the slot's first cycle latches the right
+    /// neighbour's edge ray and forms the work list (children with a
+    /// non-zero parent in the x row, or a valid line-buffer entry for the
+    /// y row); children left out stay transparent, live and inheriting
+    /// nothing, which is what the dense split writes for them.
+    pub fn split_step_sparse(
+        &mut self,
+        dp: &Datapath,
+        bus: &PassBus,
+        links: Links<'_>,
+        (fg, bg): (&RayGrid, &RayGrid),
+    ) -> Result<Ports, StepError> {
+        if bus.col == 0 {
+            self.pass.edge_in.1 = links.from_right.edge_acc;
+            self.pass.edge_right_mx = links.from_right.edge_mx;
+            self.plan_split_slot(bus, (fg, bg))?;
+        }
+        let right = (self.pass.edge_in.1, self.pass.edge_right_mx);
+        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
+            if let Some(i) = bus.y.filter(|_| y) {
+                self.split_y(dp, c, i, (fg, bg), true)?;
+            }
+            if let Some(q) = bus.x.filter(|_| x) {
+                self.split_x(dp, c, q, fg, right)?;
+            }
+        }
+        Ok(self.split_ports(bus))
+    }
+
+    /// What the PE drives in a split cycle.
+    fn split_ports(&self, bus: &PassBus) -> Ports {
+        bus.drive
+            .map_or_else(Ports::default, |r| self.split_drive(r))
+    }
+
+    /// The sparse split's work list for the slot on `bus`.
+    fn plan_split_slot(
+        &mut self,
+        bus: &PassBus,
+        (fg, bg): (&RayGrid, &RayGrid),
+    ) -> Result<(), StepError> {
+        let mut slot = std::mem::take(&mut self.pass.slot);
+        slot.clear();
+        let prows = fg.counts()[1] as i64;
+        let grid = (fg.lo[0], fg.hi[0]);
+        let right = (self.pass.edge_in.1, self.pass.edge_right_mx);
+        for c in 0..self.pass.children.len() {
+            let x = match bus.x {
+                Some(q) => {
+                    let (a, b) = self.split_parents(c, q, grid, right)?;
+                    a.raw != [0; 4] || b.raw != [0; 4]
+                }
+                None => false,
+            };
+            let y = bus.y.is_some_and(|i| {
+                let my = bg.lo[1] + i as i64;
+                let py = my.div_euclid(2);
+                [py, py + my.rem_euclid(2)].into_iter().any(|p| {
+                    let row = p - fg.lo[1];
+                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
+                })
+            });
+            if x || y {
+                slot.push((c, x, y));
+            }
+        }
+        self.pass.slot = slot;
+        Ok(())
+    }
+
+    /// The y pass for child `c` of child row `i`: the mean of its parent
+    /// rows from the line buffer, with the inherited state and the flag.
+    fn split_y(
+        &mut self,
+        dp: &Datapath,
+        c: usize,
+        i: usize,
+        (fg, bg): (&RayGrid, &RayGrid),
+        sparse: bool,
+    ) -> Result<(), StepError> {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let prows = fg.counts()[1] as i64;
+        let my = bg.lo[1] + i as i64;
+        let py = my.div_euclid(2);
+        let mut taps = [[0i64; 4]; 2];
+        for (t, p) in taps.iter_mut().zip([py, py + my.rem_euclid(2)]) {
+            let row = p - fg.lo[1];
+            if (0..prows).contains(&row) {
+                *t = if sparse {
+                    self.pass.line.read_sparse(self.k, row as usize, c)?
+                } else {
+                    self.pass.line.read(self.k, row as usize, c)?
+                };
+            }
+        }
+        let col = &mut self.pass.next[c];
+        for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
+            let to = if ch < 3 { fc } else { fa };
+            *o = dp
+                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.stats)
+                .raw();
+        }
+        col.ftb[i] = FtbState {
+            inh: col.acc[i],
+            // A child of terminated parents is terminated: the
+            // comparator checks every child as it is written.
+            done: dp.terminated(&col.acc[i]),
+        };
+        self.counters.split_outputs += 1;
+        Ok(())
+    }
+
+    /// The x pass for child `c` of parent row `q`: the mean of its two
+    /// parents into the line buffer.
+    fn split_x(
+        &mut self,
+        dp: &Datapath,
+        c: usize,
+        q: usize,
+        fg: &RayGrid,
+        right: (Acc, Option<i64>),
+    ) -> Result<(), StepError> {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let (a, b) = self.split_parents(c, q, (fg.lo[0], fg.hi[0]), right)?;
+        let mut out = [0i64; 4];
+        for (ch, o) in out.iter_mut().enumerate() {
+            let f = if ch < 3 { fc } else { fa };
+            *o = dp
+                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.stats)
+                .raw();
+        }
+        self.pass.line.write(q, c, out);
+        Ok(())
     }
 
     /// Ends a split: the parents' final states are kept for the fold and
@@ -149,9 +266,18 @@ impl Pe {
 
 impl Array {
     /// Front to back: the split of `fg`'s rays (on their rear plane) into
-    /// `bg`'s.
-    pub(crate) fn split(&mut self, fg: &RayGrid, bg: &RayGrid) -> Result<(), RunError> {
+    /// `bg`'s. Returns the rays it read and wrote (an external ray
+    /// buffer's traffic): every parent and child, or with
+    /// `pass_skip_empty` the non-zero parents and the children written.
+    pub(crate) fn split(&mut self, fg: &RayGrid, bg: &RayGrid) -> Result<(u64, u64), RunError> {
         let prows = fg.counts()[1];
+        let dp = std::sync::Arc::clone(&self.dp);
+        // A datapath that would flag a transparent child as terminated (a
+        // threshold rounded to zero) splits densely: skipped children are
+        // live.
+        if dp.cfg.pass_skip_empty && !dp.terminated(&Acc::default()) {
+            return self.split_sparse(&dp, fg, bg);
+        }
         // Child row my reads parent rows floor(my / 2) and, when odd, the next.
         let needs: Vec<_> = (bg.lo[1]..=bg.hi[1])
             .map(|my| {
@@ -159,13 +285,53 @@ impl Array {
                 inside([py, py + my.rem_euclid(2)].into_iter(), prows)
             })
             .collect();
-        let dp = std::sync::Arc::clone(&self.dp);
         self.run_pass(
             Stage::Split,
             (prows, &needs),
             |pe| pe.begin_split(fg, bg),
             |pe, bus, links| pe.split_step(&dp, bus, links, (fg, bg)),
             Pe::end_split,
-        )
+        )?;
+        Ok((rays(fg), rays(bg)))
+    }
+
+    /// The sparse split (`pass_skip_empty`), planned as the sparse merge
+    /// ([`Array::merge`]): only the parent rows some PE holds a non-zero
+    /// ray in are filtered, only the child rows reading one are written.
+    fn split_sparse(
+        &mut self,
+        dp: &Datapath,
+        fg: &RayGrid,
+        bg: &RayGrid,
+    ) -> Result<(u64, u64), RunError> {
+        let prows = fg.counts()[1];
+        let (live, reads) = self.live_rows(prows);
+        let needs: Vec<_> = (bg.lo[1]..=bg.hi[1])
+            .map(|my| {
+                let py = my.div_euclid(2) - fg.lo[1];
+                let rows = [py, py + my.rem_euclid(2)]
+                    .into_iter()
+                    .filter(|&r| r >= 0 && (r as usize) < prows && live[r as usize]);
+                inside(rows, prows)
+            })
+            .collect();
+        let written =
+            |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.split_outputs).sum() };
+        let before = written(self);
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(|pe| pe.begin_split(fg, bg))
+            .max()
+            .unwrap_or(0);
+        if width > 0 {
+            let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+            self.clock_sparse_slots(Stage::Split, &slots, &mut |pe, bus, links| {
+                pe.split_step_sparse(dp, bus, links, (fg, bg))
+            })?;
+        }
+        self.clock.pes_mut().iter_mut().for_each(Pe::end_split);
+        Ok((reads, written(self) - before))
     }
 }
