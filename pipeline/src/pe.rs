@@ -233,7 +233,7 @@ pub struct Pe {
     /// Whether migrating columns leave their transparent rows behind
     /// (`link_skip_empty`).
     pub(crate) sparse_links: bool,
-    /// Whether the merge, the split and the readout visit only non-zero rays
+    /// Whether the passes and the readout visit only non-zero rays
     /// (`pass_skip_empty`).
     pub(crate) sparse_passes: bool,
     pub(crate) ny: usize,

@@ -541,21 +541,23 @@ config_fields! {
             toml: "rays per link, direction and cycle during the overlapped migration, 1..=4",
             check: rules::link_lanes,
         },
-        /// Whether the back-to-front merge, the front-to-back split and the
-        /// readout spend cycles only on rays that can be non-zero: a pass
+        /// Whether the back-to-front merge, the front-to-back split and
+        /// fold, and the readout spend cycles only on rays that can be
+        /// non-zero: a pass
         /// skips parent rows no PE holds anything in and child rows whose
         /// parents are all transparent, and within a row each PE works
         /// only its children with a non-zero parent (the slot lasts as long
         /// as the busiest PE's list); the readout streams only non-zero
         /// rays (the host's baseplane starts cleared). Costs a valid bitmap
         /// beside each compositing bank and the line buffer (see
-        /// `pipeline::stages::passes`). The fold stays dense.
+        /// `pipeline::stages::passes`). The fold skips within slots only:
+        /// every back row keeps a slot.
         ///
         /// Default false: every ray is merged and read out, the original
         /// schedule.
         pub pass_skip_empty: bool {
             default: false,
-            toml: "the merge, the split and the readout skip transparent rays (true) or visit every ray (false)",
+            toml: "the merge, split, fold and readout skip transparent rays (true) or visit every ray (false)",
         },
         /// Where the rays' compositing buffer lives: `on-chip` (block RAM in
         /// each PE) or `external` (DDR/HBM, streamed a row at a time). See

@@ -12,7 +12,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{tent_needs, PassBus};
+use super::passes::{plan_slots, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::fixed::Format;
@@ -106,7 +106,12 @@ impl Pe {
     /// A tap of the x pass, back ray `n`'s difference in the current row:
     /// held here, or the left neighbour's last column on its port, or
     /// empty outside the back rectangle `grid`.
-    fn fold_tap(&self, n: i64, grid: (i64, i64), links: &Links<'_>) -> Result<[i64; 4], StepError> {
+    fn fold_tap(
+        &self,
+        n: i64,
+        grid: (i64, i64),
+        (left, left_mx): (Acc, Option<i64>),
+    ) -> Result<[i64; 4], StepError> {
         if n < grid.0 || n > grid.1 {
             return Ok([0; 4]);
         }
@@ -115,10 +120,25 @@ impl Pe {
                 return Ok(line[(n - lo) as usize]);
             }
         }
-        if links.from_left.edge_mx == Some(n) {
-            return Ok(links.from_left.edge_acc.raw);
+        if left_mx == Some(n) {
+            return Ok(left.raw);
         }
         Err(StepError::Unreachable { pe: self.k, mx: n })
+    }
+
+    /// Child `c`'s three taps in the current x row's differences.
+    fn fold_taps(
+        &self,
+        c: usize,
+        grid: (i64, i64),
+        left: (Acc, Option<i64>),
+    ) -> Result<[[i64; 4]; 3], StepError> {
+        let m = self.pass.children[c];
+        Ok([
+            self.fold_tap(2 * m - 1, grid, left)?,
+            self.fold_tap(2 * m, grid, left)?,
+            self.fold_tap(2 * m + 1, grid, left)?,
+        ])
     }
 
     /// One fold clock: the y pass writes child `col` of front row `bus.y`
@@ -133,58 +153,158 @@ impl Pe {
         links: Links<'_>,
         g: FoldGrids,
     ) -> Result<Ports, StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         let c = bus.col;
         let n = self.pass.children.len();
-        let prows = g.back.counts()[1] as i64;
         if let Some(i) = bus.y.filter(|_| c < n) {
-            let my = g.front.lo[1] + i as i64;
-            let mut taps = [[0i64; 4]; 3];
-            for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
-                let row = py - g.back.lo[1];
-                if (0..prows).contains(&row) {
-                    *t = self.pass.line.read(self.k, row as usize, c)?;
-                }
-            }
-            let fin = self.finals.last().map(|f| f[c].acc[i]).unwrap_or_default();
-            let out = &mut self.pass.next[c].acc[i].raw;
-            for (ch, o) in out.iter_mut().enumerate() {
-                let merged = dp.tent(
-                    [taps[0][ch], taps[1][ch], taps[2][ch]],
-                    fm,
-                    fm,
-                    &mut self.stats,
-                );
-                let ff = if ch < 3 { fc } else { fa };
-                *o = dp
-                    .fold_add(fin.raw[ch], ff, merged.raw(), &mut self.stats)
-                    .raw();
-            }
-            self.counters.merge_outputs += 1;
+            self.fold_y(dp, c, i, g, false)?;
         }
         if let Some(q) = bus.x {
             self.fold_line(dp, q, g.rf);
             if c < n {
-                let m = self.pass.children[c];
-                let grid = (g.back.lo[0], g.back.hi[0]);
-                let p = [
-                    self.fold_tap(2 * m - 1, grid, &links)?,
-                    self.fold_tap(2 * m, grid, &links)?,
-                    self.fold_tap(2 * m + 1, grid, &links)?,
-                ];
-                let mut out = [0i64; 4];
-                for (ch, o) in out.iter_mut().enumerate() {
-                    *o = dp
-                        .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut self.stats)
-                        .raw();
-                }
-                self.pass.line.write(q, c, out);
+                let left = (links.from_left.edge_acc, links.from_left.edge_mx);
+                self.fold_x(dp, c, q, g, left)?;
             }
         }
-        Ok(match bus.drive {
+        Ok(self.fold_ports(dp, bus, g))
+    }
+
+    /// One clock of the sparse fold (`pass_skip_empty`), as
+    /// [`Pe::merge_step_sparse`]: in the slot's first cycle the PE forms
+    /// the x row's differences, latches the left neighbour's edge
+    /// difference and forms its work list (children with a non-zero tap
+    /// difference in the x row; children of the y row with a non-zero
+    /// kept final state or a valid line-buffer entry). A child left out is
+    /// `final + merged` with both zero: zero, as the bank reads.
+    pub fn fold_step_sparse(
+        &mut self,
+        dp: &Datapath,
+        bus: &PassBus,
+        links: Links<'_>,
+        g: FoldGrids,
+    ) -> Result<Ports, StepError> {
+        if bus.col == 0 {
+            if let Some(q) = bus.x {
+                self.fold_line(dp, q, g.rf);
+            }
+            self.pass.edge_in.0 = links.from_left.edge_acc;
+            self.pass.edge_mx.0 = links.from_left.edge_mx;
+            self.plan_fold_slot(bus, g)?;
+        }
+        let left = (self.pass.edge_in.0, self.pass.edge_mx.0);
+        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
+            if let Some(i) = bus.y.filter(|_| y) {
+                self.fold_y(dp, c, i, g, true)?;
+            }
+            if let Some(q) = bus.x.filter(|_| x) {
+                self.fold_x(dp, c, q, g, left)?;
+            }
+        }
+        Ok(self.fold_ports(dp, bus, g))
+    }
+
+    /// What the PE drives in a fold cycle (forming the driven row's
+    /// differences if they are not formed yet).
+    fn fold_ports(&mut self, dp: &Datapath, bus: &PassBus, g: FoldGrids) -> Ports {
+        match bus.drive {
             Some(r) => self.fold_drive(dp, r, g.rf),
             None => Ports::default(),
-        })
+        }
+    }
+
+    /// The sparse fold's work list for the slot on `bus`.
+    fn plan_fold_slot(&mut self, bus: &PassBus, g: FoldGrids) -> Result<(), StepError> {
+        let mut slot = std::mem::take(&mut self.pass.slot);
+        slot.clear();
+        let prows = g.back.counts()[1] as i64;
+        let grid = (g.back.lo[0], g.back.hi[0]);
+        let left = (self.pass.edge_in.0, self.pass.edge_mx.0);
+        for c in 0..self.pass.children.len() {
+            let x = match bus.x {
+                Some(_) => self.fold_taps(c, grid, left)?.iter().any(|t| *t != [0; 4]),
+                None => false,
+            };
+            let y = bus.y.is_some_and(|i| {
+                let kept = self
+                    .finals
+                    .last()
+                    .is_some_and(|f| f[c].acc[i].raw != [0; 4]);
+                let my = g.front.lo[1] + i as i64;
+                kept || (2 * my - 1..=2 * my + 1).any(|py| {
+                    let row = py - g.back.lo[1];
+                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
+                })
+            });
+            if x || y {
+                slot.push((c, x, y));
+            }
+        }
+        self.pass.slot = slot;
+        Ok(())
+    }
+
+    /// The y pass for child `c` of front row `i`: the tent of the line
+    /// buffer's back rows plus the kept final state (`sparse`: entries the
+    /// x pass left unwritten read zero).
+    fn fold_y(
+        &mut self,
+        dp: &Datapath,
+        c: usize,
+        i: usize,
+        g: FoldGrids,
+        sparse: bool,
+    ) -> Result<(), StepError> {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let prows = g.back.counts()[1] as i64;
+        let my = g.front.lo[1] + i as i64;
+        let mut taps = [[0i64; 4]; 3];
+        for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
+            let row = py - g.back.lo[1];
+            if (0..prows).contains(&row) {
+                *t = if sparse {
+                    self.pass.line.read_sparse(self.k, row as usize, c)?
+                } else {
+                    self.pass.line.read(self.k, row as usize, c)?
+                };
+            }
+        }
+        let fin = self.finals.last().map(|f| f[c].acc[i]).unwrap_or_default();
+        let out = &mut self.pass.next[c].acc[i].raw;
+        for (ch, o) in out.iter_mut().enumerate() {
+            let merged = dp.tent(
+                [taps[0][ch], taps[1][ch], taps[2][ch]],
+                fm,
+                fm,
+                &mut self.stats,
+            );
+            let ff = if ch < 3 { fc } else { fa };
+            *o = dp
+                .fold_add(fin.raw[ch], ff, merged.raw(), &mut self.stats)
+                .raw();
+        }
+        self.counters.merge_outputs += 1;
+        Ok(())
+    }
+
+    /// The x pass for child `c` of back row `q`: the tent of its three
+    /// taps' differences into the line buffer.
+    fn fold_x(
+        &mut self,
+        dp: &Datapath,
+        c: usize,
+        q: usize,
+        g: FoldGrids,
+        left: (Acc, Option<i64>),
+    ) -> Result<(), StepError> {
+        let fm = dp.cfg.merge;
+        let p = self.fold_taps(c, (g.back.lo[0], g.back.hi[0]), left)?;
+        let mut out = [0i64; 4];
+        for (ch, o) in out.iter_mut().enumerate() {
+            *o = dp
+                .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut self.stats)
+                .raw();
+        }
+        self.pass.line.write(q, c, out);
+        Ok(())
     }
 
     /// Ends a fold step: the kept final states are spent and the results
@@ -198,15 +318,36 @@ impl Pe {
 
 impl Array {
     /// Front to back: one step of the fold, `g.back`'s rays into
-    /// `g.front`'s.
+    /// `g.front`'s. With `pass_skip_empty` every slot lasts as long as the
+    /// busiest PE's work list ([`Pe::fold_step_sparse`]); every row keeps
+    /// its slot, since which back rows hold a difference is known only
+    /// once each PE forms them.
     pub(crate) fn fold(&mut self, g: FoldGrids) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
-        self.run_pass(
-            Stage::Fold,
-            (g.back.counts()[1], &tent_needs(g.front, g.back)),
-            |pe| pe.begin_fold(g.front),
-            |pe, bus, links| pe.fold_step(&dp, bus, links, g),
-            Pe::end_fold,
-        )
+        let needs = tent_needs(g.front, g.back);
+        if !dp.cfg.pass_skip_empty {
+            return self.run_pass(
+                Stage::Fold,
+                (g.back.counts()[1], &needs),
+                |pe| pe.begin_fold(g.front),
+                |pe, bus, links| pe.fold_step(&dp, bus, links, g),
+                Pe::end_fold,
+            );
+        }
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(|pe| pe.begin_fold(g.front))
+            .max()
+            .unwrap_or(0);
+        if width > 0 {
+            let slots = plan_slots(g.back.counts()[1], &needs)?;
+            self.clock_sparse_slots(Stage::Fold, &slots, &mut |pe, bus, links| {
+                pe.fold_step_sparse(&dp, bus, links, g)
+            })?;
+        }
+        self.clock.pes_mut().iter_mut().for_each(Pe::end_fold);
+        Ok(())
     }
 }

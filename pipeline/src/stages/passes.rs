@@ -111,9 +111,9 @@ pub struct PassState {
     /// Sparse merge: the neighbours' edge rays of the slot's parent row
     /// (left, right), latched in its first cycle.
     pub(crate) edge_in: (Acc, Acc),
-    /// Sparse split: the index of the right neighbour's edge ray latched
-    /// with it.
-    pub(crate) edge_right_mx: Option<i64>,
+    /// Sparse split and fold: the indices of the edge rays latched with
+    /// them (left, right).
+    pub(crate) edge_mx: (Option<i64>, Option<i64>),
 }
 
 impl PassState {

@@ -133,10 +133,10 @@ impl Pe {
     ) -> Result<Ports, StepError> {
         if bus.col == 0 {
             self.pass.edge_in.1 = links.from_right.edge_acc;
-            self.pass.edge_right_mx = links.from_right.edge_mx;
+            self.pass.edge_mx.1 = links.from_right.edge_mx;
             self.plan_split_slot(bus, (fg, bg))?;
         }
-        let right = (self.pass.edge_in.1, self.pass.edge_right_mx);
+        let right = (self.pass.edge_in.1, self.pass.edge_mx.1);
         if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
             if let Some(i) = bus.y.filter(|_| y) {
                 self.split_y(dp, c, i, (fg, bg), true)?;
@@ -164,7 +164,7 @@ impl Pe {
         slot.clear();
         let prows = fg.counts()[1] as i64;
         let grid = (fg.lo[0], fg.hi[0]);
-        let right = (self.pass.edge_in.1, self.pass.edge_right_mx);
+        let right = (self.pass.edge_in.1, self.pass.edge_mx.1);
         for c in 0..self.pass.children.len() {
             let x = match bus.x {
                 Some(q) => {

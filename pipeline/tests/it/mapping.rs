@@ -568,9 +568,9 @@ fn transparent_rows_stay_off_the_links() {
     }
 }
 
-/// Skipping transparent rays in the merge, the split and the readout
-/// changes no raw word, sample or rounding event and shortens those stages
-/// on a sparse view (the fold stays dense); a second lane on the
+/// Skipping transparent rays in the merge, the split, the fold and the
+/// readout changes no raw word, sample or rounding event and shortens
+/// those stages on a sparse view; a second lane on the
 /// links sends the same rays in fewer stall and migration cycles. The
 /// clocked path agrees with the whole-slice path under both.
 #[test]
@@ -594,12 +594,14 @@ fn transparent_rays_skip_the_merge_and_the_readout() {
         };
         let s = frame(&cfg, &vol, &lut, &prep, Skips::default(), None).expect("frame");
         println!(
-            "{}: merge {} -> {}, split {} -> {}, readout {} -> {}, cycles {} -> {}",
+            "{}: merge {} -> {}, split {} -> {}, fold {} -> {}, readout {} -> {}, cycles {} -> {}",
             order.name(),
             d.stages.merge,
             s.stages.merge,
             d.stages.split,
             s.stages.split,
+            d.stages.fold,
+            s.stages.fold,
             d.stages.readout,
             s.stages.readout,
             d.cycles,
@@ -617,9 +619,8 @@ fn transparent_rays_skip_the_merge_and_the_readout() {
         if order == Order::BackToFront {
             assert!(s.stages.merge * 2 < d.stages.merge);
         } else {
-            // Front to back the split is sparse, the fold dense.
             assert!(s.stages.split * 2 < d.stages.split);
-            assert_eq!(s.stages.fold, d.stages.fold);
+            assert!(s.stages.fold * 2 < d.stages.fold);
         }
         assert_eq!(s.stages.sample, d.stages.sample);
         let clocked = clocked_frame(&cfg, &vol, &lut, &prep, true);
