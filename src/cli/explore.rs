@@ -274,7 +274,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
             ""
         },
         if base.pass_skip_empty {
-            ", transparent rays out of the merge and readout"
+            ", transparent rays out of the passes and readout"
         } else {
             ""
         },

@@ -9,13 +9,12 @@
 
 use golden::geometry::RayGrid;
 
-use crate::schedule::btf::rays;
-
 use super::passes::{inside, plan_slots_where, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
+use crate::schedule::btf::rays;
 
 impl Pe {
     /// Starts a merge of the back grid `bg`'s rays into the front grid
