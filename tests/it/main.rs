@@ -2,7 +2,8 @@
 //! the command-line contract (`cli`), the benchmark commands (`bench`),
 //! the PE array run through the program (`array`), the peer renderer
 //! comparison (`peers`, VTK when a Python has it), shading through the
-//! program (`shade`) and the rustdoc's intra-doc links (`docs`). Each
+//! program (`shade`), the skipping benchmark on a given architecture
+//! (`skipbench`) and the rustdoc's intra-doc links (`docs`). Each
 //! crate's own tests live beside it (`golden/tests/it`,
 //! `pipeline/tests/it`, `waves/tests/it`); the helpers all of them share
 //! are in `tests/support/`.
@@ -26,5 +27,6 @@ mod preint;
 mod shade;
 mod shards;
 mod shearwarp;
+mod skipbench;
 mod voi;
 mod volumes;

@@ -308,6 +308,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
         n: 256,
         brainsmall: a.brainsmall.clone(),
         no_pipeline: false,
+        config: None,
         threads: None,
     };
     md.push('\n');
