@@ -1,0 +1,468 @@
+//! The sample datapath of one PE as units, step by step after
+//! `crate::datapath` (one sample a clock, fully pipelined), and its
+//! as-soon-as-possible schedule: when each step starts and the delay lines
+//! that carry values to later steps (see the parent module).
+
+use super::{addr_bits, fmt_bits, Geometry, Item};
+use crate::config::PipelineConfig;
+use crate::cost::arch;
+use crate::cost::shapes::{
+    class_weight, exp_weight, table_word, Lerp, MulAdd, Quantizer, Word, RAY_INDEX_BITS,
+};
+use crate::cost::units::Unit;
+use serde::Serialize;
+
+/// An ASAP schedule of the sample pipeline: when each step starts, and
+/// the delay lines that bring values to later steps.
+#[derive(Debug, Clone, Serialize)]
+pub struct Schedule {
+    /// Clock at which each step starts, in pipeline order.
+    pub steps: Vec<(String, u32)>,
+    /// Pipeline depth: clocks from the ray slot read to the accumulator
+    /// write.
+    pub depth: u32,
+    /// Delay lines: `(value, bits, clocks)`.
+    pub delays: Vec<(String, u32, u32)>,
+}
+
+/// One pipeline step: its name, the steps it needs with the bits each
+/// brings, and its latency in clocks.
+pub(crate) type Step<'a> = (&'a str, Vec<(&'a str, u32)>, u32);
+
+/// Per-PE datapath: the steps of one sample, their units, and the
+/// schedule.
+pub(super) struct Datapath {
+    pub(super) items: Vec<Item>,
+    pub(super) schedule: Schedule,
+}
+
+pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
+    let pos = Word::from(cfg.position);
+    let step = Word::from(cfg.step);
+    let m = Word::signed(RAY_INDEX_BITS, 0);
+    let (pn, v, wt, sm) = (
+        fmt_bits(cfg.position),
+        fmt_bits(cfg.voxel),
+        fmt_bits(cfg.weight),
+        fmt_bits(cfg.sample),
+    );
+    let (c, al, pa, lt, oc) = (
+        fmt_bits(cfg.color),
+        fmt_bits(cfg.alpha),
+        fmt_bits(cfg.path),
+        fmt_bits(cfg.log_transmittance),
+        fmt_bits(cfg.opacity_corr),
+    );
+    let w = geo.block();
+    let col_bits = addr_bits(w + 1);
+    let slot_bits = addr_bits(arch::slots(cfg, geo));
+    let int_bits = pos.int_bits().max(1) as u32;
+    let e = u32::from(cfg.exp_table_bits);
+    let entry_bits = addr_bits(u64::from(cfg.table_entries));
+
+    let mut items = Vec::new();
+    // Position and slope of the ray on x: the same multiply-add shape.
+    let xpos = MulAdd::new(pos, m, step, cfg.position);
+    let mut u = xpos.units();
+    u.push(Unit::Reg { bits: pn });
+    items.push(Item::new("position", "ray x: A + m t", 1, u.clone()));
+    items.push(Item::new("position", "slope x: b + m k", 1, u));
+    // The row's schedule: is the held ray's index inside the broadcast run
+    // (empty-space skipping), and is its termination flag clear.
+    items.push(Item::new(
+        "position",
+        "schedule: ray index in run",
+        1,
+        vec![
+            Unit::Cmp {
+                width: RAY_INDEX_BITS,
+            },
+            Unit::Cmp {
+                width: RAY_INDEX_BITS,
+            },
+        ],
+    ));
+    // Address: floor(x) clamped into the volume (two compares and a mux
+    // per tap), the right tap one column on, the local column in the
+    // block, whether it is the neighbour's edge column; the weight is the
+    // position's top fraction wires.
+    let mut u = vec![
+        Unit::Cmp { width: int_bits },
+        Unit::Cmp { width: int_bits },
+        Unit::Inc { width: int_bits },
+        Unit::Mux {
+            width: col_bits,
+            inputs: 3,
+        },
+        Unit::Mux {
+            width: col_bits,
+            inputs: 3,
+        },
+        Unit::Sub { width: col_bits },
+        Unit::Cmp { width: col_bits },
+    ];
+    let weight_q = Quantizer::new(
+        Word::unsigned(
+            u32::from(cfg.position.frac()),
+            i32::from(cfg.position.frac()),
+        ),
+        cfg.weight,
+    );
+    u.extend(weight_q.units());
+    u.push(Unit::Reg {
+        bits: 2 * col_bits + wt + 1,
+    });
+    items.push(Item::new("position", "address and weight", 1, u));
+
+    // Bilinear interpolation.
+    let lx = Lerp::new(
+        cfg.voxel.into(),
+        Some(cfg.voxel.into()),
+        cfg.weight.into(),
+        cfg.sample,
+    );
+    let ly = Lerp::new(
+        cfg.sample.into(),
+        Some(cfg.sample.into()),
+        cfg.weight.into(),
+        cfg.sample,
+    );
+    let mut u = lx.units();
+    u.push(Unit::Reg { bits: sm });
+    items.push(Item::new("interpolation", "x lerp (rows y0, y0+1)", 2, u));
+    // The y weight is the PE's copy of the row broadcast, feeding only
+    // the multiplier.
+    let mut u = ly.units_with_weight_register();
+    u.push(Unit::Reg { bits: sm });
+    items.push(Item::new("interpolation", "y lerp", 1, u));
+
+    // Classification.
+    let cw = class_weight(cfg);
+    let cw_bits = cw.map(|x| x.bits).unwrap_or(0);
+    let sample_int = u32::from(cfg.sample.int_bits());
+    let mut u = vec![
+        Unit::Cmp {
+            width: sample_int.max(entry_bits),
+        },
+        Unit::Inc { width: entry_bits },
+        Unit::Mux {
+            width: entry_bits,
+            inputs: 2,
+        },
+    ];
+    u.push(Unit::Reg {
+        bits: 2 * entry_bits + cw_bits,
+    });
+    items.push(Item::new("classification", "table position", 1, u));
+    if let Some(cw) = cw {
+        let lc = Lerp::new(cfg.color.into(), Some(cfg.color.into()), cw, cfg.color);
+        let la = Lerp::new(cfg.alpha.into(), Some(cfg.alpha.into()), cw, cfg.alpha);
+        let mut u = lc.units();
+        u.push(Unit::Reg { bits: c });
+        items.push(Item::new("classification", "colour lerp (R, G, B)", 3, u));
+        let mut u = la.units();
+        u.push(Unit::Reg { bits: al });
+        items.push(Item::new("classification", "opacity lerp", 1, u));
+    } else {
+        items.push(Item::new(
+            "classification",
+            "entry register (no interpolation)",
+            1,
+            vec![Unit::Reg { bits: 3 * c + al }],
+        ));
+    }
+    items.push(Item::new(
+        "classification",
+        "opacity != 0",
+        1,
+        vec![Unit::Reduce { width: al }, Unit::Reg { bits: 1 }],
+    ));
+
+    // Path length: sx^2 + sy^2 + sz^2 (sz^2 is a region constant from the
+    // controller), then an integer square root into `path`.
+    items.push(Item::new(
+        "path length",
+        "slope squares sx^2, sy^2",
+        2,
+        vec![Unit::Mul {
+            a: pn,
+            a_signed: true,
+            b: pn,
+            b_signed: true,
+            y: 2 * pn,
+            post_add: None,
+            registered: true,
+            operand_reg: 0,
+        }],
+    ));
+    let sum_bits = 2 * pn + 2;
+    items.push(Item::new(
+        "path length",
+        "sum of squares",
+        1,
+        vec![
+            Unit::Add { width: 2 * pn },
+            Unit::Add { width: 2 * pn + 1 },
+            Unit::Reg { bits: sum_bits },
+        ],
+    ));
+    let pf = i32::from(cfg.path.frac());
+    let shift = 2 * pf - 2 * i32::from(cfg.position.frac());
+    let radicand = (sum_bits as i32 + shift).max(2) as u32;
+    let full_root = radicand.div_ceil(2);
+    let root = full_root.min(pa);
+    let mut u = vec![Unit::Sqrt { root }];
+    if full_root > pa {
+        // Radicands of 2^(2 pa) and up saturate instead of widening the root.
+        u.push(Unit::Reduce {
+            width: radicand - 2 * pa,
+        });
+        u.push(Unit::Mux {
+            width: pa,
+            inputs: 2,
+        });
+    }
+    u.push(Unit::Reg { bits: pa });
+    items.push(Item::new("path length", "square root", 1, u));
+
+    // Opacity correction.
+    let lp = Quantizer::new(
+        Word::unsigned(lt + pa, i32::from(cfg.log_transmittance.frac()) + pf),
+        cfg.log_transmittance,
+    );
+    let mut u = vec![Unit::Mul {
+        a: lt,
+        a_signed: false,
+        b: pa,
+        b_signed: false,
+        y: lt + pa,
+        post_add: None,
+        registered: false,
+        operand_reg: 0,
+    }];
+    u.extend(lp.units());
+    u.push(Unit::Inc { width: e });
+    u.push(Unit::Reg { bits: lt });
+    items.push(Item::new("opacity", "p = -log2(1 - a) ds", 1, u));
+    let ew = exp_weight(cfg);
+    if let Some(ew) = ew {
+        let le = Lerp::new(
+            cfg.opacity_corr.into(),
+            Some(cfg.opacity_corr.into()),
+            ew,
+            cfg.opacity_corr,
+        );
+        let mut u = le.units();
+        u.push(Unit::Reg { bits: oc });
+        items.push(Item::new("opacity", "exp lerp 2^-frac(p)", 1, u));
+    }
+    let lt_int = u32::from(cfg.log_transmittance.int_bits());
+    let amount = lt_int.min(addr_bits(u64::from(oc) + 1));
+    let sq = Quantizer::new(
+        Word::unsigned(oc + 1, i32::from(cfg.opacity_corr.frac()) + 1),
+        cfg.opacity_corr,
+    );
+    let mut u = vec![
+        Unit::Shift {
+            width: oc + 1,
+            amount,
+        },
+        Unit::Cmp { width: lt_int },
+    ];
+    u.extend(sq.units());
+    u.push(Unit::Reg { bits: oc });
+    items.push(Item::new("opacity", "T = 2^-frac >> int(p)", 1, u));
+    let om = Quantizer::new(
+        Word::signed(oc + 1, i32::from(cfg.opacity_corr.frac())),
+        cfg.opacity_corr,
+    );
+    let mut u = vec![Unit::Sub { width: oc }];
+    u.extend(om.units());
+    u.push(Unit::Reg { bits: oc });
+    items.push(Item::new("opacity", "a' = 1 - T", 1, u));
+
+    // Compositing: C + a (c - C) per colour, A + a (1 - A); the result is
+    // written straight into the compositing buffer.
+    let lcomp = Lerp::new(
+        cfg.accum_color.into(),
+        Some(cfg.color.into()),
+        cfg.opacity_corr.into(),
+        cfg.accum_color,
+    );
+    let lalpha = Lerp::new(
+        cfg.accum_alpha.into(),
+        None,
+        cfg.opacity_corr.into(),
+        cfg.accum_alpha,
+    );
+    items.push(Item::new(
+        "compositing",
+        "colour: C + a (c - C)",
+        3,
+        lcomp.units(),
+    ));
+    items.push(Item::new(
+        "compositing",
+        "opacity: A + a (1 - A)",
+        1,
+        lalpha.units(),
+    ));
+
+    // Schedule: (step, dependencies with the bits each brings, latency).
+    let root_lat = root.max(1);
+    let mut steps: Vec<Step> = vec![
+        ("slot", vec![], 1),
+        ("x", vec![("slot", RAY_INDEX_BITS)], 1),
+        ("sx", vec![("slot", RAY_INDEX_BITS)], 1),
+        ("address", vec![("x", pn)], 1),
+        ("voxels", vec![("address", 2 * col_bits)], 1),
+        ("x lerp", vec![("voxels", 4 * v), ("address", wt)], 1),
+        ("y lerp", vec![("x lerp", 2 * sm)], 1),
+        ("table position", vec![("y lerp", sm)], 1),
+        ("table", vec![("table position", 2 * entry_bits)], 1),
+        (
+            "class lerp",
+            vec![("table", 2 * table_word(cfg)), ("table position", cw_bits)],
+            1,
+        ),
+        ("log table", vec![("class lerp", al)], 1),
+        ("squares", vec![("sx", pn)], 1),
+        ("sum", vec![("squares", 4 * pn)], 1),
+        ("sqrt", vec![("sum", sum_bits)], root_lat),
+        ("p", vec![("log table", lt), ("sqrt", pa)], 1),
+        ("exp table", vec![("p", e)], 1),
+        (
+            "exp lerp",
+            vec![
+                ("exp table", 2 * oc),
+                ("p", ew.map(|x| x.bits).unwrap_or(0)),
+            ],
+            1,
+        ),
+        ("shift", vec![("exp lerp", oc), ("p", lt_int)], 1),
+        ("1 - T", vec![("shift", oc)], 1),
+        (
+            "composite",
+            vec![
+                ("1 - T", oc),
+                ("class lerp", 3 * c + 1),
+                ("slot", slot_bits),
+            ],
+            1,
+        ),
+    ];
+    if geo.shading {
+        items.extend(crate::cost::shading::items(cfg));
+        // The opacity correction reads the gradient-modulated opacity and
+        // the compositing the shaded colour.
+        for st in steps.iter_mut() {
+            for dep in st.1.iter_mut() {
+                if st.0 == "log table" && dep.0 == "class lerp" {
+                    dep.0 = "gradient opacity";
+                }
+                if st.0 == "composite" && dep.0 == "class lerp" {
+                    dep.0 = "shade";
+                }
+            }
+        }
+        let at = steps
+            .iter()
+            .position(|st| st.0 == "log table")
+            .unwrap_or(steps.len());
+        let extra = crate::cost::shading::steps(cfg, col_bits);
+        steps.splice(at..at, extra);
+    }
+    if geo.voi {
+        items.extend(crate::cost::voi::items(cfg));
+        // Golden scales the classified opacity before the shading's
+        // gradient opacity and the correction: whichever read it reads
+        // the scaled one.
+        let reader = if geo.shading {
+            "gradient opacity"
+        } else {
+            "log table"
+        };
+        for st in steps.iter_mut().filter(|st| st.0 == reader) {
+            for dep in st.1.iter_mut().filter(|d| d.0 == "class lerp") {
+                dep.0 = "voi opacity";
+            }
+        }
+        let at = steps
+            .iter()
+            .position(|st| st.0 == "class lerp")
+            .map_or(steps.len(), |i| i + 1);
+        steps.splice(at..at, crate::cost::voi::steps(cfg));
+    }
+    let mut start: Vec<(String, u32, u32)> = Vec::new(); // name, start, ready
+    let mut delays = Vec::new();
+    for (name, deps, lat) in &steps {
+        let s = deps
+            .iter()
+            .filter_map(|(d, _)| start.iter().find(|x| x.0 == *d).map(|x| x.2))
+            .max()
+            .unwrap_or(0);
+        for (d, bits) in deps {
+            if let Some(p) = start.iter().find(|x| x.0 == *d) {
+                let gap = s - p.2;
+                if gap > 0 && *bits > 0 {
+                    delays.push((format!("{d} -> {name}"), *bits, gap));
+                }
+            }
+        }
+        start.push(((*name).to_owned(), s, s + lat));
+    }
+    let depth = start.last().map(|x| x.2).unwrap_or(0);
+    let delay_units: Vec<Unit> = delays
+        .iter()
+        .map(|(_, bits, cycles)| Unit::Delay {
+            bits: *bits,
+            cycles: *cycles,
+        })
+        .collect();
+    items.push(Item::new(
+        "pipeline",
+        "delay lines (schedule)",
+        1,
+        delay_units,
+    ));
+    Datapath {
+        items,
+        schedule: Schedule {
+            steps: start.into_iter().map(|(n, s, _)| (n, s)).collect(),
+            depth,
+            delays,
+        },
+    }
+}
+
+/// The sample datapath's scheduled depth for `cfg`'s widths: the
+/// datapath part of [`super::pe_inventory`] alone (the depth depends on the widths
+/// only, so any geometry gives the same).
+pub fn schedule_depth(cfg: &PipelineConfig) -> u32 {
+    datapath(cfg, &Geometry::new([64, 64, 64], cfg.pes))
+        .schedule
+        .depth
+}
+
+/// [`schedule_depth`] with the gradient and shading unit (`shading`)
+/// and the volume-of-interest stage (`voi`).
+pub fn unit_schedule_depth(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
+    datapath(
+        cfg,
+        &Geometry::new([64, 64, 64], cfg.pes)
+            .with_shading(shading)
+            .with_voi(voi),
+    )
+    .schedule
+    .depth
+}
+
+/// [`schedule_depth`] with the gradient and shading unit.
+pub fn shaded_schedule_depth(cfg: &PipelineConfig) -> u32 {
+    datapath(
+        cfg,
+        &Geometry::new([64, 64, 64], cfg.pes).with_shading(true),
+    )
+    .schedule
+    .depth
+}
