@@ -213,33 +213,25 @@ impl Pe {
 
     /// The sparse fold's work list for the slot on `bus`.
     fn plan_fold_slot(&mut self, bus: &PassBus, g: FoldGrids) -> Result<(), StepError> {
-        let mut slot = std::mem::take(&mut self.pass.slot);
-        slot.clear();
         let prows = g.back.counts()[1] as i64;
         let grid = (g.back.lo[0], g.back.hi[0]);
         let left = (self.pass.edge_in.0, self.pass.edge_mx.0);
-        for c in 0..self.pass.children.len() {
+        self.set_work_list(|pe, c| {
             let x = match bus.x {
-                Some(_) => self.fold_taps(c, grid, left)?.iter().any(|t| *t != [0; 4]),
+                Some(_) => pe.fold_taps(c, grid, left)?.iter().any(|t| *t != [0; 4]),
                 None => false,
             };
             let y = bus.y.is_some_and(|i| {
-                let kept = self
-                    .finals
-                    .last()
-                    .is_some_and(|f| f[c].acc[i].raw != [0; 4]);
+                let kept = pe.finals.last().is_some_and(|f| f[c].acc[i].raw != [0; 4]);
                 let my = g.front.lo[1] + i as i64;
-                kept || (2 * my - 1..=2 * my + 1).any(|py| {
-                    let row = py - g.back.lo[1];
-                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
-                })
+                kept || pe.pass.line.holds_any(
+                    (2 * my - 1..=2 * my + 1).map(|py| py - g.back.lo[1]),
+                    prows,
+                    c,
+                )
             });
-            if x || y {
-                slot.push((c, x, y));
-            }
-        }
-        self.pass.slot = slot;
-        Ok(())
+            Ok((x, y))
+        })
     }
 
     /// The y pass for child `c` of front row `i`: the tent of the line
@@ -334,20 +326,13 @@ impl Array {
                 Pe::end_fold,
             );
         }
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_fold(g.front))
-            .max()
-            .unwrap_or(0);
-        if width > 0 {
-            let slots = plan_slots(g.back.counts()[1], &needs)?;
-            self.clock_sparse_slots(Stage::Fold, &slots, &mut |pe, bus, links| {
-                pe.fold_step_sparse(&dp, bus, links, g)
-            })?;
-        }
-        self.clock.pes_mut().iter_mut().for_each(Pe::end_fold);
-        Ok(())
+        let slots = plan_slots(g.back.counts()[1], &needs)?;
+        self.run_sparse_pass(
+            Stage::Fold,
+            &slots,
+            |pe| pe.begin_fold(g.front),
+            |pe, bus, links| pe.fold_step_sparse(&dp, bus, links, g),
+            Pe::end_fold,
+        )
     }
 }

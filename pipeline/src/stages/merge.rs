@@ -109,7 +109,7 @@ impl Pe {
     ) -> Result<Ports, StepError> {
         if bus.col == 0 {
             self.pass.edge_in = (links.from_left.edge_acc, links.from_right.edge_acc);
-            self.plan_slot(bus, (bg, fg));
+            self.plan_slot(bus, (bg, fg))?;
         }
         if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
             if let Some(i) = bus.y.filter(|_| y) {
@@ -126,27 +126,26 @@ impl Pe {
     /// in parent row `bus.x` can be non-zero (a held parent's valid bit or
     /// a latched edge ray is set; the tent of zeros is zero), and those of
     /// child row `bus.y` with a valid line-buffer entry to read.
-    fn plan_slot(&mut self, bus: &PassBus, (bg, fg): (&RayGrid, &RayGrid)) {
-        let mut slot = std::mem::take(&mut self.pass.slot);
-        slot.clear();
+    fn plan_slot(
+        &mut self,
+        bus: &PassBus,
+        (bg, fg): (&RayGrid, &RayGrid),
+    ) -> Result<(), StepError> {
         let prows = bg.counts()[1] as i64;
         let edges = self.pass.edge_in;
-        for (c, &m) in self.pass.children.iter().enumerate() {
+        self.set_work_list(|pe, c| {
+            let m = pe.pass.children[c];
             let x = bus.x.is_some_and(|q| {
-                (2 * m - 1..=2 * m + 1).any(|p| self.parent(p, q, edges).raw != [0; 4])
+                (2 * m - 1..=2 * m + 1).any(|p| pe.parent(p, q, edges).raw != [0; 4])
             });
             let y = bus.y.is_some_and(|i| {
                 let my = fg.lo[1] + i as i64;
-                (2 * my - 1..=2 * my + 1).any(|py| {
-                    let row = py - bg.lo[1];
-                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
-                })
+                pe.pass
+                    .line
+                    .holds_any((2 * my - 1..=2 * my + 1).map(|py| py - bg.lo[1]), prows, c)
             });
-            if x || y {
-                slot.push((c, x, y));
-            }
-        }
-        self.pass.slot = slot;
+            Ok((x, y))
+        })
     }
 
     /// The y pass for child `c` of child row `i`: the tent of the line
@@ -286,20 +285,14 @@ impl Array {
                 inside(rows, prows)
             })
             .collect();
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_merge(bg, fg))
-            .max()
-            .unwrap_or(0);
-        if width > 0 {
-            let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
-            self.clock_sparse_slots(Stage::Merge, &slots, &mut |pe, bus, links| {
-                pe.merge_step_sparse(dp, bus, links, (bg, fg))
-            })?;
-        }
-        self.clock.pes_mut().iter_mut().for_each(Pe::end_merge);
+        let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+        self.run_sparse_pass(
+            Stage::Merge,
+            &slots,
+            |pe| pe.begin_merge(bg, fg),
+            |pe, bus, links| pe.merge_step_sparse(dp, bus, links, (bg, fg)),
+            Pe::end_merge,
+        )?;
         Ok((reads, written(self) - before))
     }
 }

@@ -71,6 +71,19 @@ impl LineBuffer {
         matches!(self.slots[row % LINE_ROWS][c], Some((r, _)) if r == row)
     }
 
+    /// Whether entry `c` holds any of parent rows `rows` (relative to the
+    /// parent grid, whose `prows` rows the rest fall outside of): the y
+    /// pass has something to read for child `c`.
+    pub(crate) fn holds_any(
+        &self,
+        rows: impl IntoIterator<Item = i64>,
+        prows: i64,
+        c: usize,
+    ) -> bool {
+        rows.into_iter()
+            .any(|row| (0..prows).contains(&row) && self.holds(row as usize, c))
+    }
+
     /// The sparse y pass's read: entry `c` of parent row `row`, zero when
     /// the x pass left it unwritten (the entry is empty or holds an older
     /// row); a newer row there means the schedule overran the buffer.
@@ -125,6 +138,31 @@ impl PassState {
         self.dline = None;
         self.dnext = None;
         self.slot.clear();
+    }
+}
+
+impl Pe {
+    /// Forms a sparse slot's work list, in ascending child order: `work(pe,
+    /// c)` says whether the x pass and the y pass each have child `c` to
+    /// work this slot; children with neither are left out.
+    pub(crate) fn set_work_list(
+        &mut self,
+        work: impl Fn(&Pe, usize) -> Result<(bool, bool), StepError>,
+    ) -> Result<(), StepError> {
+        let mut slot = std::mem::take(&mut self.pass.slot);
+        slot.clear();
+        for c in 0..self.pass.children.len() {
+            match work(self, c) {
+                Ok((x, y)) if x || y => slot.push((c, x, y)),
+                Ok(_) => {}
+                Err(e) => {
+                    self.pass.slot = slot;
+                    return Err(e);
+                }
+            }
+        }
+        self.pass.slot = slot;
+        Ok(())
     }
 }
 
@@ -271,6 +309,31 @@ impl Array {
         Ok(())
     }
 
+    /// [`Array::run_pass`] with the PEs' work lists setting each slot's
+    /// length (`pass_skip_empty`), over `slots` the caller planned
+    /// ([`plan_slots_where`]).
+    pub(crate) fn run_sparse_pass(
+        &mut self,
+        stage: Stage,
+        slots: &[Slot],
+        begin: impl FnMut(&mut Pe) -> usize,
+        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        end: impl FnMut(&mut Pe),
+    ) -> Result<(), RunError> {
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(begin)
+            .max()
+            .unwrap_or(0);
+        if width > 0 {
+            self.clock_sparse_slots(stage, slots, &mut step)?;
+        }
+        self.clock.pes_mut().iter_mut().for_each(end);
+        Ok(())
+    }
+
     /// The cycle ahead of a pass's first slot (with more than one PE) in
     /// which the PEs drive the first row's edge rays.
     fn prologue(
@@ -300,7 +363,7 @@ impl Array {
     /// the same cycle); the slot ends after the cycle in which the last
     /// PE works its last entry (the PEs' done lines, an AND tree like the
     /// sampling's report lines). The prologue drives the first row's edges.
-    pub(crate) fn clock_sparse_slots(
+    fn clock_sparse_slots(
         &mut self,
         stage: Stage,
         slots: &[Slot],

@@ -23,6 +23,16 @@ impl Pe {
         self.readout_at.0 >= self.rays.len()
     }
 
+    /// The cursor's next position after `(c, r)`: the next row of the
+    /// column, or the next column's first.
+    fn after(&self, (c, r): (usize, usize)) -> (usize, usize) {
+        if self.rays.get(c).is_some_and(|col| r + 1 < col.acc.len()) {
+            (c, r + 1)
+        } else {
+            (c + 1, 0)
+        }
+    }
+
     /// Moves the cursor past what is not streamed: columns without rows
     /// (an empty region) and, with `pass_skip_empty`, rays whose valid bit
     /// is clear (all-zero words, which the host's cleared baseplane
@@ -33,11 +43,7 @@ impl Pe {
             if col.acc.is_empty() {
                 self.readout_at = (c + 1, 0);
             } else if self.sparse_passes && col.acc[r].raw == [0; 4] {
-                self.readout_at = if r + 1 < col.acc.len() {
-                    (c, r + 1)
-                } else {
-                    (c + 1, 0)
-                };
+                self.readout_at = self.after((c, r));
             } else {
                 break;
             }
@@ -54,11 +60,7 @@ impl Pe {
                 row: r as u32,
                 acc: col.acc[r],
             });
-            self.readout_at = if r + 1 < col.acc.len() {
-                (c, r + 1)
-            } else {
-                (c + 1, 0)
-            };
+            self.readout_at = self.after((c, r));
         }
         self.skip_unread();
         out

@@ -160,33 +160,26 @@ impl Pe {
         bus: &PassBus,
         (fg, bg): (&RayGrid, &RayGrid),
     ) -> Result<(), StepError> {
-        let mut slot = std::mem::take(&mut self.pass.slot);
-        slot.clear();
         let prows = fg.counts()[1] as i64;
         let grid = (fg.lo[0], fg.hi[0]);
         let right = (self.pass.edge_in.1, self.pass.edge_mx.1);
-        for c in 0..self.pass.children.len() {
+        self.set_work_list(|pe, c| {
             let x = match bus.x {
                 Some(q) => {
-                    let (a, b) = self.split_parents(c, q, grid, right)?;
+                    let (a, b) = pe.split_parents(c, q, grid, right)?;
                     a.raw != [0; 4] || b.raw != [0; 4]
                 }
                 None => false,
             };
             let y = bus.y.is_some_and(|i| {
                 let my = bg.lo[1] + i as i64;
-                let py = my.div_euclid(2);
-                [py, py + my.rem_euclid(2)].into_iter().any(|p| {
-                    let row = p - fg.lo[1];
-                    (0..prows).contains(&row) && self.pass.line.holds(row as usize, c)
-                })
+                let py = my.div_euclid(2) - fg.lo[1];
+                pe.pass
+                    .line
+                    .holds_any([py, py + my.rem_euclid(2)], prows, c)
             });
-            if x || y {
-                slot.push((c, x, y));
-            }
-        }
-        self.pass.slot = slot;
-        Ok(())
+            Ok((x, y))
+        })
     }
 
     /// The y pass for child `c` of child row `i`: the mean of its parent
@@ -318,20 +311,14 @@ impl Array {
         let written =
             |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.split_outputs).sum() };
         let before = written(self);
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_split(fg, bg))
-            .max()
-            .unwrap_or(0);
-        if width > 0 {
-            let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
-            self.clock_sparse_slots(Stage::Split, &slots, &mut |pe, bus, links| {
-                pe.split_step_sparse(dp, bus, links, (fg, bg))
-            })?;
-        }
-        self.clock.pes_mut().iter_mut().for_each(Pe::end_split);
+        let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+        self.run_sparse_pass(
+            Stage::Split,
+            &slots,
+            |pe| pe.begin_split(fg, bg),
+            |pe, bus, links| pe.split_step_sparse(dp, bus, links, (fg, bg)),
+            Pe::end_split,
+        )?;
         Ok((reads, written(self) - before))
     }
 }
