@@ -66,6 +66,7 @@ fn golden_benches(c: &mut Criterion) {
         shader: None,
         voi: None,
         preint: None,
+        lanes: true,
     };
     let n: u64 = sample_region(&pass, k, grid, &mut buf).samples.iter().sum();
     let mut g = c.benchmark_group("golden");
@@ -73,6 +74,14 @@ fn golden_benches(c: &mut Criterion) {
     g.throughput(Throughput::Elements(n));
     g.bench_function("sample_region_er_btf", |b| {
         b.iter(|| black_box(sample_region(&pass, black_box(k), grid, &mut buf)))
+    });
+    // The same frame one ray at a time (the path the batches must match).
+    let one_ray = Pass {
+        lanes: false,
+        ..pass
+    };
+    g.bench_function("sample_region_er_btf_one_ray", |b| {
+        b.iter(|| black_box(sample_region(&one_ray, black_box(k), grid, &mut buf)))
     });
     // The front region's merge: the back region's rays into region k - 1's.
     if k >= 1 {

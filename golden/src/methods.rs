@@ -99,6 +99,11 @@ pub struct Options {
     /// Pre-integrated classification of each slice step from its front
     /// and back scalars (see [`crate::preint`]).
     pub preintegrate: bool,
+    /// Plain samples (one substep, no pre-integration, shading or volume
+    /// of interest) taken eight rays at a time (see `sampling::lanes`),
+    /// which gives the one-ray path's bits faster; `false` takes the
+    /// one-ray path, for the identity tests and benchmarks.
+    pub lanes: bool,
 }
 
 impl Default for Options {
@@ -110,6 +115,7 @@ impl Default for Options {
             shade: None,
             voi: None,
             preintegrate: false,
+            lanes: true,
         }
     }
 }
@@ -277,6 +283,7 @@ pub fn render_within(
         shader: shader.as_ref(),
         voi: voi.as_ref(),
         preint: preint.as_deref(),
+        lanes: opts.lanes,
     };
     let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;

@@ -27,6 +27,8 @@
 //! it replaces. `tests/it/opacity.rs` checks both against
 //! [`correct_opacity_exact`] (`f64` libm) over a dense grid of `a` and `ds`.
 
+use wide::{f64x4, u64x4};
+
 /// `1 - (1 - a)^ds` for opacity `a` per unit length over a step of length
 /// `ds >= 0`: 0 for `a <= 0`, 1 for `a >= 1`, else within one `f32` ulp
 /// of the exact value (see the module notes).
@@ -102,6 +104,108 @@ fn expm1_series(r: f64) -> f64 {
         720.0, 120.0, 24.0, 6.0, 2.0,
     ] {
         p = p * r + 1.0 / f;
+    }
+    r + r * r * p
+}
+
+/// [`correct_opacity`] over `N` independent lanes (`N` a multiple of 4),
+/// with the same bits in every lane: both halves of each of its branches
+/// are computed and the wanted one selected, four lanes at a time in
+/// `f64` vectors, so a batch of samples runs without a data-dependent
+/// branch (a row's opacities cross `1/4` and `ln 2 / 2` unpredictably).
+/// `golden::sampling` composites a row's rays through it.
+#[inline(always)]
+pub fn correct_opacity_lanes<const N: usize>(a: &[f32; N], ds: &[f32; N]) -> [f32; N] {
+    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
+    let mut out = [0f32; N];
+    for q in 0..N / 4 {
+        let (mut av, mut dv) = ([0.5f64; 4], [0f64; 4]);
+        for l in 0..4 {
+            let x = a[4 * q + l];
+            // Out-of-range lanes run the arithmetic on a harmless value and
+            // are replaced below (a NaN stays inside, as in the scalar form).
+            if !(x <= 0.0 || x >= 1.0) {
+                av[l] = f64::from(x);
+            }
+            dv[l] = f64::from(ds[4 * q + l]);
+        }
+        let v = correct_x4(f64x4::new(av), f64x4::new(dv)).to_array();
+        for l in 0..4 {
+            let x = a[4 * q + l];
+            out[4 * q + l] = if x <= 0.0 {
+                0.0
+            } else if x >= 1.0 {
+                1.0
+            } else {
+                v[l] as f32
+            };
+        }
+    }
+    out
+}
+
+/// `1 - (1 - a)^ds` for four `a` in `(0, 1)`: [`correct_opacity`]'s
+/// arithmetic, operation for operation, with its branches as selects and
+/// its two integer conversions done in the floating-point unit (both are
+/// small integers, exact either way).
+#[inline(always)]
+fn correct_x4(a: f64x4, ds: f64x4) -> f64x4 {
+    const LN2: f64 = std::f64::consts::LN_2;
+    // Adding then subtracting 2^52 rounds a value in [0, 2^51) to an
+    // integer, which then sits in the low mantissa bits of the sum.
+    const MAGIC: f64 = 4_503_599_627_370_496.0;
+    let c = f64x4::splat;
+    let (one, magic) = (c(1.0), c(MAGIC));
+    // ln(1 - a): ln_one_minus's two reductions.
+    let small = a.simd_le(c(0.25));
+    let bits = (one - a).to_bits();
+    let m = f64x4::from_bits(
+        (bits & u64x4::splat(0x000f_ffff_ffff_ffff)) | u64x4::splat(0x3ff0_0000_0000_0000),
+    );
+    let wide = m.simd_gt(c(std::f64::consts::SQRT_2));
+    // The biased exponent (below 2^11) as a float, plus one when `m` halves.
+    let biased = f64x4::from_bits(magic.to_bits() | (bits >> 52)) - magic;
+    let e = biased - c(1023.0) + wide.select(one, c(0.0));
+    let m = wide.select(m * c(0.5), m);
+    let num = small.select(a, m - one);
+    let den = small.select(c(2.0) - a, m + one);
+    let t = atanh_x4(num / den);
+    let ln = small.select(c(-2.0) * t, e * c(LN2) + c(2.0) * t);
+    // 1 - e^y: neg_expm1's two reductions.
+    let y = ds * ln;
+    let near = y.simd_ge(c(-0.5 * LN2));
+    let yc = y.max(c(-700.0));
+    // The scalar form's `(0.5 - y / ln 2) as i64`, a truncation of a value
+    // in [0.5, 1010.4]: round to an integer, then step down if it rose.
+    let v = c(0.5) - yc / c(LN2);
+    let rounded = (v + magic) - magic;
+    let n = rounded.simd_gt(v).select(rounded - one, rounded);
+    let r = near.select(y, yc + n * c(LN2));
+    let p = expm1_x4(r);
+    // 2^-n from n's bits in the sum (n <= 1010: the exponent stays positive).
+    let n_bits = (n + magic).to_bits() - magic.to_bits();
+    let scale = f64x4::from_bits((u64x4::splat(1023) - n_bits) << 52);
+    near.select(-p, one - scale * (one + p))
+}
+
+/// [`atanh_series`] in four lanes.
+#[inline(always)]
+fn atanh_x4(s: f64x4) -> f64x4 {
+    let c = f64x4::splat;
+    let z = s * s;
+    let p = c(1.0 / 9.0);
+    let p = p * z + c(1.0 / 7.0);
+    let p = p * z + c(1.0 / 5.0);
+    let p = p * z + c(1.0 / 3.0);
+    s + s * z * p
+}
+
+/// [`expm1_series`] in four lanes.
+#[inline(always)]
+fn expm1_x4(r: f64x4) -> f64x4 {
+    let mut p = f64x4::splat(1.0 / 40_320.0);
+    for f in [5_040.0, 720.0, 120.0, 24.0, 6.0, 2.0] {
+        p = p * r + f64x4::splat(1.0 / f);
     }
     r + r * r * p
 }

@@ -15,7 +15,11 @@
 //! The pipeline's PEs mirror [`sample_region`] sample for sample: the same
 //! rays (from [`crate::geometry`]), positions, slopes and compositing order.
 
+mod lanes;
+
 use rayon::prelude::*;
+
+use self::lanes::LANES;
 
 use crate::geometry::{inside, Affine, RayGrid, View};
 use crate::merge::Rgba;
@@ -75,6 +79,8 @@ pub struct Pass<'a> {
     /// Pre-integrated classification of each slice step (one substep,
     /// no shading or volume of interest), if any.
     pub preint: Option<&'a PreTable>,
+    /// Plain samples in batches of rays ([`crate::methods::Options::lanes`]).
+    pub lanes: bool,
 }
 
 /// What sampling one region did.
@@ -247,6 +253,36 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
             }
             let ray_row = RayRow::new(pass, grid, g, my, yf, ds);
             let mut taken = 0u64;
+            if ray_row.plain() {
+                // A ray's termination only stops its later slices, so a
+                // batch may gather live rays before any of them composites.
+                let mut batch = [0usize; LANES];
+                for &(m0, m1) in runs.iter() {
+                    let (mut i, end) = (at(m0), at(m1));
+                    if links {
+                        i = find(next, i);
+                    }
+                    while i <= end {
+                        let mut k = 0;
+                        while k < LANES && i <= end {
+                            batch[k] = i;
+                            k += 1;
+                            i = if links { find(next, i + 1) } else { i + 1 };
+                        }
+                        ray_row.sample_lanes(row, &batch[..k]);
+                        taken += k as u64;
+                        if links {
+                            for &j in &batch[..k] {
+                                if row[j][3] >= terminate {
+                                    next[j] = j as u32 + 1;
+                                }
+                            }
+                        }
+                    }
+                }
+                counts[s] += taken;
+                continue;
+            }
             for &(m0, m1) in runs.iter() {
                 if !links {
                     for mx in m0..=m1 {
@@ -379,6 +415,7 @@ impl<'a> RayRow<'a> {
             shader,
             voi,
             preint,
+            ..
         } = *self.pass;
         let (y, slope_y, z) = (self.y, self.slope_y, self.z);
         let x = (self.px.a + mx as f64 * self.px.t) as f32;

@@ -125,6 +125,11 @@ impl PixelWindow {
 /// frame culled to that window ([`crate::skip::SampleMask::within`])
 /// can show. Every pixel it computes has the bits [`warp`] gives it.
 pub fn warp_window(view: &View, base: &Baseplane, win: &PixelWindow) -> Image {
+    warp_tiles(view, base, win, &Occupied::new(base))
+}
+
+/// [`warp_window`] with the baseplane's non-zero tiles given.
+fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occupied) -> Image {
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
     let m = pixel_to_base(view, &base.grid);
     let half = 1.0 / base.grid.spacing;
@@ -172,6 +177,17 @@ pub fn warp_window(view: &View, base: &Baseplane, win: &PixelWindow) -> Image {
                     lo..hi
                 };
                 let (xs, ys) = (span(x0, nx, wx.len()), span(y0, ny, wy.len()));
+                let first = |k0: i64, r: &std::ops::Range<usize>| (k0 + r.start as i64) as usize;
+                if xs.is_empty()
+                    || ys.is_empty()
+                    || !occupied.any(
+                        [first(x0, &xs), first(x0, &xs) + xs.len() - 1],
+                        [first(y0, &ys), first(y0, &ys) + ys.len() - 1],
+                    )
+                {
+                    // Every tap is zero: the pixel stays the zero it is.
+                    continue;
+                }
                 let mut acc = [0f32; 4];
                 for dy in ys {
                     let fy = wy[dy];
@@ -193,9 +209,111 @@ pub fn warp_window(view: &View, base: &Baseplane, win: &PixelWindow) -> Image {
     img
 }
 
+/// Which `BLOCK x BLOCK` tiles of a baseplane hold a sample that is not
+/// all zero bits, so the warp can leave a pixel whose taps all read zero
+/// at its zero (summing zeros with non-negative weights gives `+0`, the
+/// bits the image starts with): most of a frame's pixels see only air.
+struct Occupied {
+    /// Tiles per row.
+    cols: usize,
+    bits: Vec<bool>,
+}
+
+impl Occupied {
+    const BLOCK: usize = 8;
+
+    fn new(base: &Baseplane) -> Occupied {
+        let [nx, ny] = base.grid.counts;
+        let (cols, rows) = (nx.div_ceil(Self::BLOCK), ny.div_ceil(Self::BLOCK));
+        let mut bits = vec![false; cols * rows];
+        for (y, line) in base.data.chunks(nx.max(1)).enumerate() {
+            let tiles = &mut bits[(y / Self::BLOCK) * cols..][..cols];
+            for (x, p) in line.iter().enumerate() {
+                if p.iter().any(|c| c.to_bits() != 0) {
+                    tiles[x / Self::BLOCK] = true;
+                }
+            }
+        }
+        Occupied { cols, bits }
+    }
+
+    /// Every tile occupied: the warp computes every pixel (the slow path
+    /// the tiles are tested against).
+    #[cfg(test)]
+    fn all(base: &Baseplane) -> Occupied {
+        let mut o = Occupied::new(base);
+        o.bits.fill(true);
+        o
+    }
+
+    /// True when a sample of columns `x[0]..=x[1]`, rows `y[0]..=y[1]`
+    /// (inside the baseplane) may be non-zero.
+    #[inline]
+    fn any(&self, x: [usize; 2], y: [usize; 2]) -> bool {
+        let b = Self::BLOCK;
+        (y[0] / b..=y[1] / b)
+            .any(|ty| (x[0] / b..=x[1] / b).any(|tx| self.bits[ty * self.cols + tx]))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Leaving pixels whose taps read only zero tiles changes no bit of
+    /// any pixel: sparse baseplanes (a few lit samples, at tile corners and
+    /// edges too) warped through perspective views, against every pixel
+    /// computed.
+    #[test]
+    fn skipping_zero_tiles_changes_no_pixel() {
+        use crate::camera::Camera;
+        use crate::geometry::BaseGrid;
+        use crate::render::Prepared;
+        use crate::scenes::Scene;
+        let vol = "sphere:24"
+            .parse::<Scene>()
+            .unwrap()
+            .build(1 << 30)
+            .unwrap();
+        let mut skipped_some = false;
+        for (k, (eye, fov)) in [([12.0, 12.0, -30.0], 60.0), ([40.0, 5.0, -8.0], 110.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let at = glam::DVec3::splat(11.5);
+            let cam = Camera::new(eye.into(), at, glam::DVec3::Y, fov, 53, 41).unwrap();
+            let prep = Prepared::new(&vol, &cam).unwrap();
+            let grid = BaseGrid {
+                origin: [-3.0, -2.0],
+                spacing: 0.5,
+                counts: [61, 57],
+            };
+            let mut base = Baseplane {
+                grid,
+                data: vec![[0.0; 4]; 61 * 57],
+            };
+            for (i, p) in [0, 7, 8, 60, 61 * 8 + 15, 61 * 30 + 31, 61 * 56 + 60]
+                .into_iter()
+                .enumerate()
+            {
+                base.data[p] = [0.1 * (i + 1) as f32, 0.3, 0.05, 0.5];
+            }
+            base.data[61 * 20 + 40 + k] = [0.0, 0.0, 0.0, 1e-30];
+            let win = PixelWindow::all(prep.view.size);
+            let fast = warp_tiles(&prep.view, &base, &win, &Occupied::new(&base));
+            let slow = warp_tiles(&prep.view, &base, &win, &Occupied::all(&base));
+            let bits = |im: &Image| -> Vec<[u32; 4]> {
+                im.data.iter().map(|p| p.map(f32::to_bits)).collect()
+            };
+            assert_eq!(bits(&fast), bits(&slow), "view {k}");
+            assert!(
+                fast.data.iter().any(|p| p[3] > 0.0),
+                "view {k} sees a lit sample"
+            );
+            skipped_some |= Occupied::new(&base).bits.iter().any(|b| !b);
+        }
+        assert!(skipped_some);
+    }
 
     #[test]
     fn tent_of_two_samples_is_bartlett_on_a_sample() {

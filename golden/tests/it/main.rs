@@ -11,6 +11,7 @@ mod figures;
 mod formats;
 mod foundation;
 mod gaze;
+mod lanes;
 mod mipgaze;
 mod mipmap;
 mod opacity;

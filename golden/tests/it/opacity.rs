@@ -9,7 +9,9 @@
 //!
 //! `cargo test --release -p golden --test it -- opacity`
 
-use golden::opacity::{correct_opacity, correct_opacity_exact, correct_opacity_libm};
+use golden::opacity::{
+    correct_opacity, correct_opacity_exact, correct_opacity_lanes, correct_opacity_libm,
+};
 
 const E: f64 = 1.0 / 16_777_216.0;
 
@@ -103,4 +105,55 @@ fn opacity_correction_edges() {
             last = v;
         }
     }
+}
+
+/// The branch-free lanes give the scalar form's bits in every lane, for
+/// every opacity of the grid (both reductions of both halves, their
+/// boundaries at 1/4, sqrt 2 and ln 2 / 2, and the clamped ends: zero,
+/// negative, one and above) and every path length, whatever the lane.
+#[test]
+fn opacity_lanes_equal_the_scalar_correction_bit_for_bit() {
+    let mut a = opacities();
+    a.extend([
+        -0.0,
+        -1.0,
+        1.0,
+        1.5,
+        0.25,
+        0.250_000_03,
+        0.249_999_98,
+        0.292_893_2,
+        0.292_893_23,
+    ]);
+    let mut paths = PATHS.to_vec();
+    paths.extend([0.999_999_94, 2.0, 1e-6, 40.0]);
+    let mut checked = 0u64;
+    for &ds in &paths {
+        // Lanes of 8 with a path length per lane, the grid shifted by one
+        // lane each round so every value meets every lane.
+        for shift in 0..8 {
+            for chunk in a[shift.min(a.len())..].chunks(8) {
+                let mut lane_a = [0.5f32; 8];
+                let mut lane_ds = [ds; 8];
+                for (l, &v) in chunk.iter().enumerate() {
+                    lane_a[l] = v;
+                    lane_ds[l] = if l % 2 == 0 { ds } else { ds * 0.5 };
+                }
+                let got = correct_opacity_lanes(&lane_a, &lane_ds);
+                for l in 0..chunk.len() {
+                    let want = correct_opacity(lane_a[l], lane_ds[l]);
+                    assert_eq!(
+                        got[l].to_bits(),
+                        want.to_bits(),
+                        "a {} ds {}: lanes {} scalar {want}",
+                        lane_a[l],
+                        lane_ds[l],
+                        got[l]
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 5_000_000, "{checked} lanes checked");
 }

@@ -44,6 +44,7 @@ fn slice(m: Method, p: &Prepared, l: &Lut, terminate: f32, substeps: u32, skips:
         shade: None,
         voi: None,
         preintegrate: false,
+        lanes: true,
     };
     methods::render(m, p, l, &o).expect("render")
 }
@@ -169,6 +170,7 @@ fn check_identity(c: &Case) -> Result<(), TestCaseError> {
             shade: None,
             voi: None,
             preintegrate: false,
+            lanes: true,
         };
         prop_assert_eq!(
             bits(&image(&prep, &lut, m, o(Skips::default()))),
@@ -288,6 +290,7 @@ fn termination_error_stays_within_the_threshold() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                lanes: true,
             },
         );
         for t in [0.99f32, 0.9, 0.5] {
@@ -298,6 +301,7 @@ fn termination_error_stays_within_the_threshold() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                lanes: true,
             };
             let got = image(&prep, &lut, Method::ErFtb, o);
             let worst = got
@@ -367,6 +371,7 @@ fn a_slice_aligned_clip_plane_equals_emptying_the_slices_in_front() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                lanes: true,
             };
             let a = image(&clipped, &lut, m, o);
             assert_eq!(bits(&a), bits(&image(&emptied, &lut, m, o)), "{}", m.name());
