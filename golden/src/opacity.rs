@@ -120,16 +120,24 @@ pub fn correct_opacity_lanes<const N: usize>(a: &[f32; N], ds: &[f32; N]) -> [f3
     let mut out = [0f32; N];
     for q in 0..N / 4 {
         let (mut av, mut dv) = ([0.5f64; 4], [0f64; 4]);
+        let mut any = false;
         for l in 0..4 {
             let x = a[4 * q + l];
             // Out-of-range lanes run the arithmetic on a harmless value and
             // are replaced below (a NaN stays inside, as in the scalar form).
             if !(x <= 0.0 || x >= 1.0) {
                 av[l] = f64::from(x);
+                any = true;
             }
             dv[l] = f64::from(ds[4 * q + l]);
         }
-        let v = correct_x4(f64x4::new(av), f64x4::new(dv)).to_array();
+        // Four transparent or opaque lanes (air, or a solid material's
+        // inside) need no arithmetic: the selects below give 0 or 1.
+        let v = if any {
+            correct_x4(f64x4::new(av), f64x4::new(dv)).to_array()
+        } else {
+            [0.0; 4]
+        };
         for l in 0..4 {
             let x = a[4 * q + l];
             out[4 * q + l] = if x <= 0.0 {
