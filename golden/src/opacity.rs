@@ -158,13 +158,19 @@ pub fn correct_opacity_lanes<const N: usize>(a: &[f32; N], ds: &[f32; N]) -> [f3
 /// small integers, exact either way).
 #[inline(always)]
 fn correct_x4(a: f64x4, ds: f64x4) -> f64x4 {
+    neg_expm1_x4(ds * ln_one_minus_x4(a))
+}
+
+/// Adding then subtracting 2^52 rounds a value in [0, 2^51) to an
+/// integer, which then sits in the low mantissa bits of the sum.
+const MAGIC: f64 = 4_503_599_627_370_496.0;
+
+/// [`ln_one_minus`] in four lanes, both reductions selected.
+#[inline(always)]
+fn ln_one_minus_x4(a: f64x4) -> f64x4 {
     const LN2: f64 = std::f64::consts::LN_2;
-    // Adding then subtracting 2^52 rounds a value in [0, 2^51) to an
-    // integer, which then sits in the low mantissa bits of the sum.
-    const MAGIC: f64 = 4_503_599_627_370_496.0;
     let c = f64x4::splat;
     let (one, magic) = (c(1.0), c(MAGIC));
-    // ln(1 - a): ln_one_minus's two reductions.
     let small = a.simd_le(c(0.25));
     let bits = (one - a).to_bits();
     let m = f64x4::from_bits(
@@ -178,9 +184,15 @@ fn correct_x4(a: f64x4, ds: f64x4) -> f64x4 {
     let num = small.select(a, m - one);
     let den = small.select(c(2.0) - a, m + one);
     let t = atanh_x4(num / den);
-    let ln = small.select(c(-2.0) * t, e * c(LN2) + c(2.0) * t);
-    // 1 - e^y: neg_expm1's two reductions.
-    let y = ds * ln;
+    small.select(c(-2.0) * t, e * c(LN2) + c(2.0) * t)
+}
+
+/// [`neg_expm1`] in four lanes, both reductions selected.
+#[inline(always)]
+fn neg_expm1_x4(y: f64x4) -> f64x4 {
+    const LN2: f64 = std::f64::consts::LN_2;
+    let c = f64x4::splat;
+    let (one, magic) = (c(1.0), c(MAGIC));
     let near = y.simd_ge(c(-0.5 * LN2));
     let yc = y.max(c(-700.0));
     // The scalar form's `(0.5 - y / ln 2) as i64`, a truncation of a value
@@ -194,6 +206,31 @@ fn correct_x4(a: f64x4, ds: f64x4) -> f64x4 {
     let n_bits = (n + magic).to_bits() - magic.to_bits();
     let scale = f64x4::from_bits((u64x4::splat(1023) - n_bits) << 52);
     near.select(-p, one - scale * (one + p))
+}
+
+/// `1 - e^(-ds tau)` over `N` lanes (`N` a multiple of 4): the
+/// pre-integrated step's opacity, `crate::preint::segment_opacity`'s bits
+/// in every lane, branch-free as [`correct_opacity_lanes`] (a quad of
+/// empty steps skips the arithmetic).
+#[inline(always)]
+pub fn segment_opacity_lanes<const N: usize>(tau: &[f32; N], ds: &[f32; N]) -> [f32; N] {
+    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
+    let mut out = [0f32; N];
+    for q in 0..N / 4 {
+        let t = &tau[4 * q..4 * q + 4];
+        if t.iter().all(|&t| t <= 0.0) {
+            continue;
+        }
+        let mut y = [0f64; 4];
+        for l in 0..4 {
+            y[l] = -f64::from(ds[4 * q + l]) * f64::from(t[l]);
+        }
+        let v = neg_expm1_x4(f64x4::new(y)).to_array();
+        for l in 0..4 {
+            out[4 * q + l] = if t[l] <= 0.0 { 0.0 } else { v[l] as f32 };
+        }
+    }
+    out
 }
 
 /// [`atanh_series`] in four lanes.

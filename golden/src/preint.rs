@@ -164,7 +164,7 @@ impl PreTable {
     /// and mean extinction per unit length of a linear segment from scalar
     /// `front` to scalar `back`, interpolated bilinearly between bins; the
     /// segment's colour is the first three over the fourth.
-    #[inline]
+    #[inline(always)]
     pub fn lookup(&self, front: f32, back: f32) -> [f32; 4] {
         let last = (self.bins - 1) as f32;
         let pos = |s: f32| {
@@ -176,11 +176,14 @@ impl PreTable {
         let r = i * self.bins + j;
         let (a, b) = (self.data[r], self.data[r + 1]);
         let (c, d) = (self.data[r + self.bins], self.data[r + self.bins + 1]);
-        std::array::from_fn(|k| {
+        // A plain loop: `array::from_fn` kept this call out of line.
+        let mut e = [0f32; 4];
+        for k in 0..4 {
             let top = a[k] + tj * (b[k] - a[k]);
             let bot = c[k] + tj * (d[k] - c[k]);
-            top + ti * (bot - top)
-        })
+            e[k] = top + ti * (bot - top);
+        }
+        e
     }
 }
 

@@ -253,7 +253,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
             }
             let ray_row = RayRow::new(pass, grid, g, my, yf, ds);
             let mut taken = 0u64;
-            if ray_row.plain() {
+            if let Some(kind) = ray_row.batch() {
                 // A ray's termination only stops its later slices, so a
                 // batch may gather live rays before any of them composites.
                 let mut batch = [0usize; LANES];
@@ -269,7 +269,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                             k += 1;
                             i = if links { find(next, i + 1) } else { i + 1 };
                         }
-                        ray_row.sample_lanes(row, &batch[..k]);
+                        ray_row.sample_batch(kind, row, &batch[..k]);
                         taken += k as u64;
                         if links {
                             for &j in &batch[..k] {

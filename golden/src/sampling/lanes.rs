@@ -1,5 +1,7 @@
 //! A row's plain samples (one substep, no pre-integration, shading or
-//! volume of interest: the default frame) taken [`LANES`] rays at a time.
+//! volume of interest: the default frame) and its pre-integrated steps
+//! (no volume of interest or clip plane, past the first slice) taken
+//! [`LANES`] rays at a time.
 //!
 //! [`RayRow::sample`] is a chain of dependent steps per ray (position,
 //! bilinear tap, table lookup, opacity correction, compositing) whose
@@ -11,26 +13,89 @@
 //! the same order, so the bits do not change (`golden/tests/it/lanes.rs`
 //! checks frames against the one-ray path).
 
-use super::{composite_alpha, RayRow};
+use super::{composite_alpha, preint_span, Order, RayRow};
 use crate::merge::Rgba;
-use crate::opacity::correct_opacity_lanes;
+use crate::opacity::{correct_opacity_lanes, segment_opacity_lanes};
 use crate::slices::{lerp2_values, Plane, SliceStack};
 
 /// Rays per batch.
 pub(super) const LANES: usize = 8;
 
+/// The batched paths.
+#[derive(Clone, Copy)]
+pub(super) enum Batch {
+    /// One bilinear sample per crossing ([`RayRow::sample_lanes`]).
+    Plain,
+    /// A pre-integrated step per crossing ([`RayRow::preint_lanes`]).
+    Preint,
+}
+
 impl RayRow<'_> {
-    /// True when this frame's samples take the plain path that
-    /// [`RayRow::sample_lanes`] covers.
-    pub(super) fn plain(&self) -> bool {
+    /// Which batched path, if any, this row's samples take.
+    pub(super) fn batch(&self) -> Option<Batch> {
         let p = self.pass;
-        p.lanes && p.substeps == 1 && p.preint.is_none() && p.shader.is_none() && p.voi.is_none()
+        if !p.lanes || p.shader.is_some() || p.voi.is_some() {
+            return None;
+        }
+        match p.preint {
+            None => (p.substeps == 1).then_some(Batch::Plain),
+            // Slice 0's extra half step in front and a clip plane's per-ray
+            // test stay on the one-ray path.
+            Some(_) => (self.z > 0 && p.mask.clip().is_empty()).then_some(Batch::Preint),
+        }
+    }
+
+    /// [`RayRow::sample_lanes`] or [`RayRow::preint_lanes`].
+    #[inline(always)]
+    pub(super) fn sample_batch(&self, kind: Batch, row: &mut [Rgba], idx: &[usize]) {
+        match kind {
+            Batch::Plain => self.sample_lanes(row, idx),
+            Batch::Preint => self.preint_lanes(row, idx),
+        }
+    }
+
+    /// The pre-integrated path of [`RayRow::sample`] for the rays at row
+    /// offsets `idx` (one to [`LANES`]): the step from the ray's scalar on
+    /// this slice to its scalar on the next, through the 2D table.
+    #[inline(always)]
+    fn preint_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
+        let (view, stack) = (self.pass.view, self.pass.stack);
+        let pt = self.pass.preint.expect("a pre-integrated pass");
+        let n = idx.len();
+        let mut at = [idx[n - 1]; LANES];
+        at[..n].copy_from_slice(idx);
+        let back = preint_span(self.z, view.dims[2])[1] as f32;
+        let (back_plane, y) = (if back == 1.0 { self.next } else { self.data }, self.y);
+        let by = (y + back * self.slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3);
+        let mut e = [[0f32; 4]; LANES];
+        let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
+        for l in 0..LANES {
+            let mx = self.grid.lo[0] + at[l] as i64;
+            let x = (self.px.a + mx as f64 * self.px.t) as f32;
+            let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
+            let sf = stack.bilinear(self.data, x, y);
+            let bx = (x + back * slope_x).clamp(-1.0, stack.dims[0] as f32 - 1e-3);
+            let sb = stack.bilinear(back_plane, bx, by);
+            e[l] = pt.lookup(sf, sb);
+            // Without a volume of interest the extinction's factor is 1.
+            tau[l] = e[l][3] * 1.0;
+            len[l] = self.ds[at[l]] * back;
+        }
+        let a = segment_opacity_lanes(&tau, &len);
+        let order: Order = self.pass.order;
+        for l in 0..n {
+            if a[l] > 0.0 {
+                let inv = 1.0 / e[l][3];
+                let c = [e[l][0], e[l][1], e[l][2]].map(|v| (v * inv).min(1.0));
+                composite_alpha(&mut row[at[l]], [c[0], c[1], c[2], 0.0], a[l], order);
+            }
+        }
     }
 
     /// [`RayRow::sample`] for the rays at row offsets `idx` (one to
     /// [`LANES`] distinct offsets), composited into `row`.
     #[inline(always)]
-    pub(super) fn sample_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
+    fn sample_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
         let n = idx.len();
         debug_assert!((1..=LANES).contains(&n));
         // Spare lanes repeat the last ray; only the first `n` are stored.

@@ -1,5 +1,6 @@
 //! Batched sampling (`golden::methods::Options::lanes`, eight rays at a
-//! time with a branch-free opacity correction) against the one-ray path:
+//! time with a branch-free opacity correction, plain or pre-integrated)
+//! against the one-ray path:
 //! every slice-order method's baseplane, image and sample counts are bit
 //! for bit the same, back to front and front to back, with and without
 //! skipping, termination and clip planes, on random sparse volumes,
@@ -91,12 +92,15 @@ fn check(
         Prepared::with(vol, &cam, &opts).map_err(|e| TestCaseError::reject(e.to_string()))?;
     let mut samples = 0;
     for m in Method::ALL {
-        let slice = Options {
-            terminate,
-            skips,
-            ..Options::default()
-        };
-        samples += same_both_ways(&prep, &lut, m, slice)?;
+        for preintegrate in [false, true] {
+            let slice = Options {
+                terminate,
+                skips,
+                preintegrate,
+                ..Options::default()
+            };
+            samples += same_both_ways(&prep, &lut, m, slice)?;
+        }
     }
     Ok(samples)
 }

@@ -11,7 +11,9 @@
 
 use golden::opacity::{
     correct_opacity, correct_opacity_exact, correct_opacity_lanes, correct_opacity_libm,
+    segment_opacity_lanes,
 };
+use golden::preint::segment_opacity;
 
 const E: f64 = 1.0 / 16_777_216.0;
 
@@ -156,4 +158,29 @@ fn opacity_lanes_equal_the_scalar_correction_bit_for_bit() {
         }
     }
     assert!(checked > 5_000_000, "{checked} lanes checked");
+}
+
+/// The pre-integrated step's lanes give `segment_opacity`'s bits: mean
+/// extinctions from zero (and below) through the grid to far past the
+/// point where `e^(-ds tau)` underflows, over every path length, with
+/// empty and non-empty steps mixed in a quad.
+#[test]
+fn segment_lanes_equal_the_scalar_step_bit_for_bit() {
+    let mut tau = opacities();
+    tau.extend([-0.5, 2.0, 37.0, 700.0, 1e4, 1e30]);
+    let mut checked = 0u64;
+    for &ds in PATHS.iter().chain(&[0.999_999_94, 40.0]) {
+        for chunk in tau.chunks(8) {
+            let mut t = [0f32; 8];
+            t[..chunk.len()].copy_from_slice(chunk);
+            let d: [f32; 8] = std::array::from_fn(|l| ds * (1.0 + l as f32 / 7.0));
+            let got = segment_opacity_lanes(&t, &d);
+            for l in 0..chunk.len() {
+                let want = segment_opacity(t[l], d[l]);
+                assert_eq!(got[l].to_bits(), want.to_bits(), "tau {} ds {}", t[l], d[l]);
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 900_000, "{checked} lanes checked");
 }
