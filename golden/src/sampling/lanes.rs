@@ -1,7 +1,7 @@
 //! A row's plain samples (one substep, no pre-integration, shading or
-//! volume of interest: the default frame) and its pre-integrated steps
-//! (no volume of interest or clip plane, past the first slice) taken
-//! [`LANES`] rays at a time.
+//! volume of interest: the default frame), its substeps and its
+//! pre-integrated steps (no volume of interest or clip plane; past the
+//! first slice) taken [`LANES`] rays at a time.
 //!
 //! [`RayRow::sample`] is a chain of dependent steps per ray (position,
 //! bilinear tap, table lookup, opacity correction, compositing) whose
@@ -28,6 +28,8 @@ pub(super) enum Batch {
     Plain,
     /// A pre-integrated step per crossing ([`RayRow::preint_lanes`]).
     Preint,
+    /// Several trilinear samples per crossing ([`RayRow::substep_lanes`]).
+    Substeps,
 }
 
 impl RayRow<'_> {
@@ -37,11 +39,13 @@ impl RayRow<'_> {
         if !p.lanes || p.shader.is_some() || p.voi.is_some() {
             return None;
         }
+        // Slice 0's extra half step in front and a clip plane's per-ray
+        // test stay on the one-ray path.
+        let clipped = !p.mask.clip().is_empty();
         match p.preint {
-            None => (p.substeps == 1).then_some(Batch::Plain),
-            // Slice 0's extra half step in front and a clip plane's per-ray
-            // test stay on the one-ray path.
-            Some(_) => (self.z > 0 && p.mask.clip().is_empty()).then_some(Batch::Preint),
+            None if p.substeps == 1 => Some(Batch::Plain),
+            None => (!clipped).then_some(Batch::Substeps),
+            Some(_) => (self.z > 0 && !clipped).then_some(Batch::Preint),
         }
     }
 
@@ -51,6 +55,52 @@ impl RayRow<'_> {
         match kind {
             Batch::Plain => self.sample_lanes(row, idx),
             Batch::Preint => self.preint_lanes(row, idx),
+            Batch::Substeps => self.substep_lanes(row, idx),
+        }
+    }
+
+    /// The substep path of [`RayRow::sample`] for the rays at row offsets
+    /// `idx` (one to [`LANES`]): substep by substep over all the lanes,
+    /// which keeps each ray's own samples in order.
+    #[inline(always)]
+    fn substep_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
+        let (view, stack, lut) = (self.pass.view, self.pass.stack, self.pass.lut);
+        let (substeps, order) = (self.pass.substeps, self.pass.order);
+        let n = idx.len();
+        let mut at = [idx[n - 1]; LANES];
+        at[..n].copy_from_slice(idx);
+        let (mut x, mut slope_x, mut ds) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        for l in 0..LANES {
+            let mx = self.grid.lo[0] + at[l] as i64;
+            x[l] = (self.px.a + mx as f64 * self.px.t) as f32;
+            slope_x[l] = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
+            ds[l] = self.ds[at[l]] / substeps as f32;
+        }
+        for j in 0..substeps {
+            // Back-to-front walks the substeps from the rear.
+            let j = match order {
+                Order::BackToFront => substeps - 1 - j,
+                Order::FrontToBack { .. } => j,
+            };
+            let o = (j as f32 + 0.5) / substeps as f32 - 0.5;
+            let (py, pz) = (self.y + o * self.slope_y, self.z as f32 + o);
+            // A substep behind an eye less than half a slice in front of
+            // slice 0: the same for every ray of the row.
+            if pz + view.d as f32 <= 0.0 {
+                continue;
+            }
+            let mut c = [[0f32; 4]; LANES];
+            let mut alpha = [0f32; LANES];
+            for l in 0..LANES {
+                c[l] = lut.lookup(stack.trilinear_f32(x[l] + o * slope_x[l], py, pz));
+                alpha[l] = c[l][3];
+            }
+            let a = correct_opacity_lanes(&alpha, &ds);
+            // A transparent lane composites `a = 0`: no bit changes (see
+            // `sample_lanes`).
+            for l in 0..n {
+                composite_alpha(&mut row[at[l]], c[l], a[l], order);
+            }
         }
     }
 

@@ -1,5 +1,6 @@
 //! Batched sampling (`golden::methods::Options::lanes`, eight rays at a
-//! time with a branch-free opacity correction, plain or pre-integrated)
+//! time with a branch-free opacity correction: plain, with substeps or
+//! pre-integrated)
 //! against the one-ray path:
 //! every slice-order method's baseplane, image and sample counts are bit
 //! for bit the same, back to front and front to back, with and without
@@ -92,11 +93,12 @@ fn check(
         Prepared::with(vol, &cam, &opts).map_err(|e| TestCaseError::reject(e.to_string()))?;
     let mut samples = 0;
     for m in Method::ALL {
-        for preintegrate in [false, true] {
+        for (preintegrate, substeps) in [(false, 1), (true, 1), (false, 2), (false, 3)] {
             let slice = Options {
                 terminate,
                 skips,
                 preintegrate,
+                substeps,
                 ..Options::default()
             };
             samples += same_both_ways(&prep, &lut, m, slice)?;
