@@ -1,7 +1,7 @@
-//! A row's plain samples (one substep, no pre-integration, shading or
-//! volume of interest: the default frame), its substeps and its
-//! pre-integrated steps (no volume of interest or clip plane; past the
-//! first slice) taken [`LANES`] rays at a time.
+//! A row's samples taken [`LANES`] rays at a time, in frames without
+//! shading or a volume of interest: plain samples (one substep: the
+//! default frame), substeps and pre-integrated steps (both without a clip
+//! plane; pre-integration past the first slice).
 //!
 //! [`RayRow::sample`] is a chain of dependent steps per ray (position,
 //! bilinear tap, table lookup, opacity correction, compositing) whose
@@ -49,7 +49,7 @@ impl RayRow<'_> {
         }
     }
 
-    /// [`RayRow::sample_lanes`] or [`RayRow::preint_lanes`].
+    /// The batched path `kind` for the rays at row offsets `idx`.
     #[inline(always)]
     pub(super) fn sample_batch(&self, kind: Batch, row: &mut [Rgba], idx: &[usize]) {
         match kind {
