@@ -66,9 +66,7 @@ impl RayRow<'_> {
     fn substep_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
         let (view, stack, lut) = (self.pass.view, self.pass.stack, self.pass.lut);
         let (substeps, order) = (self.pass.substeps, self.pass.order);
-        let n = idx.len();
-        let mut at = [idx[n - 1]; LANES];
-        at[..n].copy_from_slice(idx);
+        let (n, at) = spread(idx);
         let (mut x, mut slope_x, mut ds) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
         for l in 0..LANES {
             let mx = self.grid.lo[0] + at[l] as i64;
@@ -111,9 +109,7 @@ impl RayRow<'_> {
     fn preint_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
         let (view, stack) = (self.pass.view, self.pass.stack);
         let pt = self.pass.preint.expect("a pre-integrated pass");
-        let n = idx.len();
-        let mut at = [idx[n - 1]; LANES];
-        at[..n].copy_from_slice(idx);
+        let (n, at) = spread(idx);
         let back = preint_span(self.z, view.dims[2])[1] as f32;
         let (back_plane, y) = (if back == 1.0 { self.next } else { self.data }, self.y);
         let by = (y + back * self.slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3);
@@ -146,11 +142,7 @@ impl RayRow<'_> {
     /// [`LANES`] distinct offsets), composited into `row`.
     #[inline(always)]
     fn sample_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
-        let n = idx.len();
-        debug_assert!((1..=LANES).contains(&n));
-        // Spare lanes repeat the last ray; only the first `n` are stored.
-        let mut at = [idx[n - 1]; LANES];
-        at[..n].copy_from_slice(idx);
+        let (n, at) = spread(idx);
         let mut x = [0f32; LANES];
         let mut ds = [0f32; LANES];
         for l in 0..LANES {
@@ -178,6 +170,17 @@ impl RayRow<'_> {
             composite_alpha(&mut row[at[l]], c[l], a[l], self.pass.order);
         }
     }
+}
+
+/// The batch's ray offsets `idx` (one to [`LANES`]) in all the lanes:
+/// spare lanes repeat the last ray, and only the first `n` are stored.
+#[inline(always)]
+fn spread(idx: &[usize]) -> (usize, [usize; LANES]) {
+    let n = idx.len();
+    debug_assert!((1..=LANES).contains(&n));
+    let mut at = [idx[n - 1]; LANES];
+    at[..n].copy_from_slice(idx);
+    (n, at)
 }
 
 /// The bilinear sample at `(x[l], y)` of padded plane `p` (row length

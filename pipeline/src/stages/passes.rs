@@ -296,17 +296,21 @@ impl Array {
         mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
         end: impl FnMut(&mut Pe),
     ) -> Result<(), RunError> {
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(begin)
-            .max()
-            .unwrap_or(0);
+        let width = self.begin_pass(begin);
         let slots = plan_slots(prows, needs)?;
         self.clock_slots(stage, width, &slots, &mut step)?;
         self.clock.pes_mut().iter_mut().for_each(end);
         Ok(())
+    }
+
+    /// Begins a pass in every PE; the widest PE's row length.
+    fn begin_pass(&mut self, begin: impl FnMut(&mut Pe) -> usize) -> usize {
+        self.clock
+            .pes_mut()
+            .iter_mut()
+            .map(begin)
+            .max()
+            .unwrap_or(0)
     }
 
     /// [`Array::run_pass`] with the PEs' work lists setting each slot's
@@ -320,13 +324,7 @@ impl Array {
         mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
         end: impl FnMut(&mut Pe),
     ) -> Result<(), RunError> {
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(begin)
-            .max()
-            .unwrap_or(0);
+        let width = self.begin_pass(begin);
         if width > 0 {
             self.clock_sparse_slots(stage, slots, &mut step)?;
         }
