@@ -51,27 +51,37 @@ pub fn pixel_to_base(view: &View, grid: &BaseGrid) -> DMat3 {
     to_samples * p * l
 }
 
-/// Normalised tent weights of half-width `h` (in samples) around `u`, over
-/// every integer `k` with `|u - k| < h`; returns the first `k`.
+/// The integers `k` with `|u - k| < h`: the first and how many.
 #[inline]
-fn tent(u: f64, h: f64, w: &mut Vec<f32>) -> i64 {
-    w.clear();
+fn tent_span(u: f64, h: f64) -> (i64, usize) {
     let k0 = floor(u - h) + 1;
     let k1 = -floor(-(u + h)) - 1;
+    (k0, (k1 - k0 + 1).max(0) as usize)
+}
+
+/// Normalised tent weights of half-width `h` (in samples) around `u` over
+/// `w.len()` integers from `k0` (a [`tent_span`]).
+#[inline]
+fn tent(u: f64, h: f64, k0: i64, w: &mut [f32]) {
     // A multiply, not a division per tap (exact for ER's h = 2).
     let inv_h = 1.0 / h;
     let mut sum = 0.0;
-    for k in k0..=k1 {
-        let x = 1.0 - (u - k as f64).abs() * inv_h;
-        let x = x.max(0.0);
-        sum += x;
-        w.push(x as f32);
+    for (k, x) in (k0..).zip(w.iter_mut()) {
+        let t = (1.0 - (u - k as f64).abs() * inv_h).max(0.0);
+        sum += t;
+        *x = t as f32;
     }
     if sum > 0.0 {
         let inv = (1.0 / sum) as f32;
         w.iter_mut().for_each(|x| *x *= inv);
     }
-    k0
+}
+
+/// The most integers a [`tent_span`] holds for half-width `h`: the integers
+/// strictly within `h` of a point, and one more for the rounding of
+/// `u - h` and `u + h`.
+fn tent_taps(h: f64) -> usize {
+    (2.0 * h).ceil() as usize + 2
 }
 
 /// `floor` of a finite value below `2^52` in magnitude, without a libm
@@ -145,8 +155,9 @@ fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occup
         win.x[0] as usize..=win.x[1] as usize,
         win.y[0] as usize..=win.y[1] as usize,
     );
+    let taps = tent_taps(half);
     img.data.par_chunks_mut(w).enumerate().for_each_init(
-        || (Vec::new(), Vec::new()),
+        || (vec![0f32; taps], vec![0f32; taps]),
         |(wx, wy), (j, row)| {
             if !rows.contains(&j) {
                 return;
@@ -167,8 +178,7 @@ fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occup
                 {
                     continue;
                 }
-                let x0 = tent(u, half, wx);
-                let y0 = tent(v, half, wy);
+                let ((x0, nwx), (y0, nwy)) = (tent_span(u, half), tent_span(v, half));
                 // Taps outside the baseplane read nothing: clip the tap
                 // ranges once instead of testing every tap.
                 let span = |k0: i64, n: usize, len: usize| {
@@ -176,7 +186,7 @@ fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occup
                     let hi = (n as i64 - k0).clamp(lo as i64, len as i64) as usize;
                     lo..hi
                 };
-                let (xs, ys) = (span(x0, nx, wx.len()), span(y0, ny, wy.len()));
+                let (xs, ys) = (span(x0, nx, nwx), span(y0, ny, nwy));
                 let first = |k0: i64, r: &std::ops::Range<usize>| (k0 + r.start as i64) as usize;
                 if xs.is_empty()
                     || ys.is_empty()
@@ -185,9 +195,14 @@ fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occup
                         [first(y0, &ys), first(y0, &ys) + ys.len() - 1],
                     )
                 {
-                    // Every tap is zero: the pixel stays the zero it is.
+                    // Every tap is zero: the pixel stays the zero it is
+                    // (decided before the weights, which cost more than
+                    // the test).
                     continue;
                 }
+                let (wx, wy) = (&mut wx[..nwx], &mut wy[..nwy]);
+                tent(u, half, x0, wx);
+                tent(v, half, y0, wy);
                 let mut acc = [0f32; 4];
                 for dy in ys {
                     let fy = wy[dy];
@@ -317,14 +332,16 @@ mod tests {
 
     #[test]
     fn tent_of_two_samples_is_bartlett_on_a_sample() {
-        let mut w = Vec::new();
-        let k0 = tent(5.0, 2.0, &mut w);
-        assert_eq!(k0, 4);
-        assert_eq!(w, vec![0.25, 0.5, 0.25]);
-        let k0 = tent(5.5, 2.0, &mut w);
-        assert_eq!(k0, 4);
+        let mut w = vec![0f32; tent_taps(2.0)];
+        let (k0, n) = tent_span(5.0, 2.0);
+        assert_eq!((k0, n), (4, 3));
+        tent(5.0, 2.0, k0, &mut w[..n]);
+        assert_eq!(w[..n], [0.25, 0.5, 0.25]);
+        let (k0, n) = tent_span(5.5, 2.0);
+        assert_eq!((k0, n), (4, 4));
+        tent(5.5, 2.0, k0, &mut w[..n]);
         let want = [0.125, 0.375, 0.375, 0.125];
-        for (a, b) in w.iter().zip(want) {
+        for (a, b) in w[..n].iter().zip(want) {
             assert!((a - b).abs() < 1e-7);
         }
     }
