@@ -50,7 +50,10 @@ pub struct Datapath {
     /// Widths and modes.
     pub cfg: PipelineConfig,
     /// Classification and opacity tables.
-    pub tables: Tables,
+    tables: Tables,
+    /// The classification unit's output for every sample word, when the
+    /// sample format is narrow enough to list ([`Classes`]).
+    classes: Option<Classes>,
     /// The early-termination comparator's constant, a raw `accum_alpha`
     /// word ([`PipelineConfig::termination_raw`]), fixed per frame.
     threshold: Option<i64>,
@@ -159,14 +162,22 @@ fn split(raw: i64, frac: u32) -> (i64, i64) {
 impl Datapath {
     /// Builds the datapath for `cfg` and its tables.
     pub fn new(cfg: PipelineConfig, tables: Tables) -> Datapath {
-        Datapath {
+        let mut dp = Datapath {
             threshold: cfg.termination_raw(),
             latency: u64::from(crate::cost::datapath_latency(&cfg)),
             cfg,
             tables,
+            classes: None,
             shade: None,
             voi: None,
-        }
+        };
+        dp.classes = Classes::list(&dp);
+        dp
+    }
+
+    /// Classification and opacity tables.
+    pub fn tables(&self) -> &Tables {
+        &self.tables
     }
 
     /// This datapath with the volume-of-interest stage loaded with
@@ -264,6 +275,15 @@ impl Datapath {
     /// `golden::tf::Lut::lookup`.
     #[inline(always)]
     pub fn classify(&self, s: Fx, st: &mut QuantStats) -> Result<([Fx; 3], Fx), FxError> {
+        match &self.classes {
+            Some(c) => Ok(c.get(s, st)),
+            None => self.classify_unit(s, st),
+        }
+    }
+
+    /// [`Datapath::classify`]'s arithmetic, operation by operation.
+    #[inline(always)]
+    fn classify_unit(&self, s: Fx, st: &mut QuantStats) -> Result<([Fx; 3], Fx), FxError> {
         let t = &self.tables;
         let last = t.color.len() - 1;
         let shift = self.cfg.table_shift();
@@ -451,6 +471,75 @@ impl Datapath {
     }
 }
 
+/// The classification unit's truth table: its output and the
+/// quantisation events it records for every word of the sample format,
+/// each computed once per frame by [`Datapath::classify`]'s own
+/// arithmetic. Classification is a function of the sample word alone, so
+/// looking a sample up here returns the bits and counts the unit would
+/// have produced, in one read instead of five rounded assignments (the
+/// hardware is still the table and interpolator; this is how the model
+/// evaluates it quickly). Listed only for sample formats of at most
+/// [`Classes::MAX_BITS`] bits and when no word's classification fails.
+#[derive(Debug, Clone)]
+struct Classes {
+    /// Per sample word: raw R, G, B (`color`) and opacity (`alpha`), and
+    /// the assignments, overflows and inexact results classifying it
+    /// records.
+    words: Vec<([i64; 4], [u8; 3])>,
+    color: Format,
+    alpha: Format,
+}
+
+impl Classes {
+    /// Widest sample format listed (64 Ki words).
+    const MAX_BITS: u8 = 16;
+
+    fn list(dp: &Datapath) -> Option<Classes> {
+        let f = dp.cfg.sample;
+        if f.bits() > Self::MAX_BITS || f.is_signed() {
+            return None;
+        }
+        let (color, alpha) = (dp.cfg.color, dp.cfg.alpha);
+        let mut words = Vec::with_capacity(1 << f.bits());
+        for raw in 0..=f.max_raw() {
+            let mut st = QuantStats::default();
+            let (rgb, a) = dp.classify_unit(Fx::from_raw(raw, f).ok()?, &mut st).ok()?;
+            let count = |n: u64| u8::try_from(n).ok();
+            if rgb.iter().any(|c| c.format() != color) || a.format() != alpha {
+                return None;
+            }
+            words.push((
+                [rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()],
+                [
+                    count(st.assignments)?,
+                    count(st.overflows)?,
+                    count(st.inexact)?,
+                ],
+            ));
+        }
+        Some(Classes {
+            words,
+            color,
+            alpha,
+        })
+    }
+
+    #[inline(always)]
+    fn get(&self, s: Fx, st: &mut QuantStats) -> ([Fx; 3], Fx) {
+        let (raw, [n, o, i]) = self.words[s.raw() as usize];
+        st.merge(&QuantStats {
+            assignments: u64::from(n),
+            overflows: u64::from(o),
+            inexact: u64::from(i),
+        });
+        let c = |r: i64| Fx::from_raw_unchecked(r, self.color);
+        (
+            [c(raw[0]), c(raw[1]), c(raw[2])],
+            Fx::from_raw_unchecked(raw[3], self.alpha),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -466,6 +555,65 @@ mod tests {
         let span = i128::from(f.max_raw()) - i128::from(f.min_raw()) + 1;
         let raw = i128::from(raw).rem_euclid(span) + i128::from(f.min_raw());
         Fx::from_raw(raw as i64, f).unwrap()
+    }
+
+    /// The listed classification gives, for every sample word, the words
+    /// and the quantisation counts of the unit's own arithmetic: 8- and
+    /// 12-bit voxels, tables with fewer and more entries than voxel codes
+    /// (the weight split both ways), several rounding modes. A sample
+    /// format wider than the list's limit classifies through the unit.
+    #[test]
+    fn listed_classes_are_the_unit_word_for_word() {
+        use crate::fixed::{Overflow, Quant};
+        let tf = golden::scenes::tf_preset("grey-ramp").unwrap();
+        let base = PipelineConfig::default();
+        let u = |bits, frac, q| Format::new(bits, frac, false, q, Overflow::Sat).unwrap();
+        let cases = [
+            base,
+            PipelineConfig {
+                voxel: u(12, 0, Quant::Trn),
+                sample: u(16, 4, Quant::RndConv),
+                ..base
+            },
+            PipelineConfig {
+                table_entries: 64,
+                color: u(9, 8, Quant::Rnd),
+                ..base
+            },
+            PipelineConfig {
+                table_entries: 1 << 12,
+                voxel: u(8, 0, Quant::Trn),
+                sample: u(13, 5, Quant::Trn),
+                alpha: u(12, 12, Quant::RndInf),
+                ..base
+            },
+        ];
+        for (n, cfg) in cases.into_iter().enumerate() {
+            let bits = u32::from(cfg.voxel.bits());
+            let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, bits);
+            let dp = Datapath::new(cfg, Tables::new(&cfg, &lut).unwrap());
+            assert!(dp.classes.is_some(), "case {n} is listed");
+            let mut lit = 0;
+            for raw in 0..=cfg.sample.max_raw() {
+                let s = Fx::from_raw(raw, cfg.sample).unwrap();
+                let (mut a, mut b) = (QuantStats::default(), QuantStats::default());
+                let listed = dp.classify(s, &mut a).unwrap();
+                let unit = dp.classify_unit(s, &mut b).unwrap();
+                assert_eq!(listed, unit, "case {n} word {raw}");
+                assert_eq!(a, b, "case {n} word {raw}");
+                lit += usize::from(unit.1.raw() > 0);
+            }
+            assert!(lit > 0, "case {n} classifies something visible");
+        }
+        let wide = PipelineConfig {
+            sample: Format::new(Classes::MAX_BITS + 1, 4, false, Quant::Trn, Overflow::Sat)
+                .unwrap(),
+            ..base
+        };
+        let lut = golden::tf::Lut::for_bits(&tf, wide.table_entries as usize, 8);
+        assert!(Datapath::new(wide, Tables::new(&wide, &lut).unwrap())
+            .classes
+            .is_none());
     }
 
     proptest! {

@@ -44,8 +44,8 @@ impl OccupancyMemory {
                 table_index(dp, voxel_word(&dp.cfg, hi, data_bits, &mut st), &mut st),
             );
             // Entries a..=b are indexed; each interpolates toward the next.
-            let last = dp.tables.alpha.len() - 1;
-            dp.tables.alpha[a.min(last)..=(b + 1).min(last)]
+            let last = dp.tables().alpha.len() - 1;
+            dp.tables().alpha[a.min(last)..=(b + 1).min(last)]
                 .iter()
                 .any(|w| w.raw() != 0)
         };

@@ -259,3 +259,47 @@ impl Format {
         Fx::from_raw_unchecked(self.max_raw(), *self)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A source word of any magnitude: small ones make ties and carries
+    /// common, large ones reach the edges of i64.
+    fn words() -> impl Strategy<Value = i64> {
+        prop_oneof![
+            -300i64..300,
+            any::<i64>(),
+            (0u32..63).prop_map(|s| -(1i64 << s))
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// [`Format::quantize`] (its 64-bit fast path where that applies)
+        /// gives what the general path gives, word, overflow and inexact
+        /// flag, for every rounding and overflow mode and shift in both
+        /// directions.
+        #[test]
+        fn fast_path_is_the_general_path(
+            raw in words(),
+            wfrac in -70i32..=70,
+            bits in 1u8..=63,
+            frac in 0u8..=63,
+            signed in any::<bool>(),
+            q in 0usize..Quant::ALL.len(),
+            o in 0usize..Overflow::ALL.len(),
+        ) {
+            let Ok(f) = Format::new(bits, frac, signed, Quant::ALL[q], Overflow::ALL[o]) else {
+                return Ok(());
+            };
+            let w = Wide::new(i128::from(raw), wfrac);
+            let k = i64::from(wfrac) - i64::from(frac);
+            let (fast, general) = (f.quantize(w), f.quantize_general(w, k));
+            prop_assert_eq!(fast.value.raw(), general.value.raw());
+            prop_assert_eq!(fast.overflow, general.overflow);
+            prop_assert_eq!(fast.inexact, general.inexact);
+        }
+    }
+}

@@ -249,7 +249,7 @@ fn long_accumulation_pipeline_saturates_within_the_bound() {
             eprintln!(
                 "a {a:e}: alpha word {} of {}, {composited} slices composited, final words \
                  {:?} (max {}), opacity {opacity:.6} vs closed form {:.6}",
-                dp.tables.alpha[0].raw(),
+                dp.tables().alpha[0].raw(),
                 cfg.alpha.max_raw(),
                 acc.raw,
                 max[3],
