@@ -169,8 +169,11 @@ impl PreTable {
         let last = (self.bins - 1) as f32;
         let pos = |s: f32| {
             let f = (s * self.per_scalar).clamp(0.0, last);
-            let i = (f as usize).min(self.bins - 2);
-            (i, f - i as f32)
+            // `f` lies in `0..=last` (at most 255), so truncating through
+            // `u32` is truncating through `usize`, and the conversions
+            // stay one instruction each (`usize` to `f32` is several).
+            let i = (f as u32).min(self.bins as u32 - 2);
+            (i as usize, f - i as f32)
         };
         let ((i, ti), (j, tj)) = (pos(front), pos(back));
         let r = i * self.bins + j;

@@ -280,9 +280,15 @@ impl SliceStack {
     pub(crate) fn cell_of(row: usize, x: f32, y: f32) -> (usize, f32, f32) {
         // Positions are at least -1, so truncation is the floor (and
         // avoids a libm call on targets without SSE4.1).
+        // Through `u32`: the padded plane's rows are far below 2^32
+        // samples, and `u32` converts to `f32` in one instruction.
         let (fx, fy) = (x + 1.0, y + 1.0);
-        let (x0, y0) = (fx as usize, fy as usize);
-        (y0 * row + x0, fx - x0 as f32, fy - y0 as f32)
+        let (x0, y0) = (fx as u32, fy as u32);
+        (
+            y0 as usize * row + x0 as usize,
+            fx - x0 as f32,
+            fy - y0 as f32,
+        )
     }
 
     #[inline(always)]
@@ -309,8 +315,9 @@ impl SliceStack {
         let x = x.clamp(-1.0, dims[0] as f32 - 1e-3);
         let y = y.clamp(-1.0, dims[1] as f32 - 1e-3);
         let fz = z.clamp(-1.0, dims[2] as f32 - 1e-3) + 1.0;
-        let z0 = fz as usize;
-        (z0, fz - z0 as f32, x, y)
+        // Through `u32`, as `cell_of`.
+        let z0 = fz as u32;
+        (z0 as usize, fz - z0 as f32, x, y)
     }
 
     /// Trilinear interpolation at view `(x, y, z)`, in `f64`; positions
@@ -340,8 +347,10 @@ impl SliceStack {
         // Beyond the padding the replicated edge holds, so clamping is exact.
         let lim = |v: f64, n: usize| v.clamp(-1.0, n as f64 - 1e-9) + 1.0;
         let (fx, fy, fz) = (lim(x, dims[0]), lim(y, dims[1]), lim(z, dims[2]));
-        let (x0, y0, z0) = (fx as usize, fy as usize, fz as usize);
-        let t = [fx - x0 as f64, fy - y0 as f64, fz - z0 as f64];
+        // Through `u32`, as `cell_of`.
+        let (x0, y0, z0) = (fx as u32, fy as u32, fz as u32);
+        let t = [fx - f64::from(x0), fy - f64::from(y0), fz - f64::from(z0)];
+        let (x0, y0, z0) = (x0 as usize, y0 as usize, z0 as usize);
         (z0 * plane + y0 * row + x0, t)
     }
 }

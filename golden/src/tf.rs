@@ -124,6 +124,12 @@ impl TransferFunction {
     /// `0..=max_value`, the form both the golden model and the chip use.
     pub fn table(&self, entries: usize, max_value: f64) -> Lut {
         assert!(entries >= 2, "a lookup table needs at least two entries");
+        // `Lut::lookup` indexes in 32 bits; positions finer than 2^-24 of
+        // the range are not representable in `f32` anyway.
+        assert!(
+            entries <= 1 << 24,
+            "a lookup table holds at most 2^24 entries"
+        );
         let step = max_value / (entries - 1) as f64;
         let rgba = (0..entries)
             .map(|i| {
@@ -178,9 +184,12 @@ impl Lut {
     pub fn lookup(&self, s: f32) -> [f32; 4] {
         let last = self.rgba.len() - 1;
         let f = (s * self.per_scalar).clamp(0.0, last as f32);
-        let i = (f as usize).min(last - 1);
+        // `f` lies in `0..=last` (at most 2^24 entries, see `table`), so
+        // truncating through `u32` is truncating through `usize`, with
+        // one-instruction conversions (`usize` to `f32` is several).
+        let i = (f as u32).min(last as u32 - 1);
         let t = f - i as f32;
-        let (a, b) = (self.rgba[i], self.rgba[i + 1]);
+        let (a, b) = (self.rgba[i as usize], self.rgba[i as usize + 1]);
         [
             a[0] + t * (b[0] - a[0]),
             a[1] + t * (b[1] - a[1]),
@@ -194,8 +203,10 @@ impl Lut {
     pub fn lookup_f64(&self, s: f64) -> [f64; 4] {
         let last = self.rgba.len() - 1;
         let f = (s * self.per_scalar as f64).clamp(0.0, last as f64);
-        let i = (f as usize).min(last - 1);
-        let t = f - i as f64;
+        // Through `u32`, as `lookup`.
+        let i = (f as u32).min(last as u32 - 1);
+        let t = f - f64::from(i);
+        let i = i as usize;
         let (a, b) = (self.rgba[i], self.rgba[i + 1]);
         std::array::from_fn(|k| a[k] as f64 + t * (b[k] as f64 - a[k] as f64))
     }
