@@ -483,9 +483,8 @@ impl Datapath {
 #[derive(Debug, Clone)]
 struct Classes {
     /// Per sample word: raw R, G, B (`color`) and opacity (`alpha`), and
-    /// the assignments, overflows and inexact results classifying it
-    /// records.
-    words: Vec<([i64; 4], [u8; 3])>,
+    /// the quantisation events classifying it records.
+    words: Vec<([i64; 4], QuantStats)>,
     color: Format,
     alpha: Format,
 }
@@ -504,18 +503,10 @@ impl Classes {
         for raw in 0..=f.max_raw() {
             let mut st = QuantStats::default();
             let (rgb, a) = dp.classify_unit(Fx::from_raw(raw, f).ok()?, &mut st).ok()?;
-            let count = |n: u64| u8::try_from(n).ok();
-            if rgb.iter().any(|c| c.format() != color) || a.format() != alpha {
-                return None;
-            }
-            words.push((
-                [rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()],
-                [
-                    count(st.assignments)?,
-                    count(st.overflows)?,
-                    count(st.inexact)?,
-                ],
-            ));
+            // The unit's words are in the table's formats (its entries and
+            // its interpolations are assigned into them).
+            debug_assert!(rgb.iter().all(|c| c.format() == color) && a.format() == alpha);
+            words.push(([rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()], st));
         }
         Some(Classes {
             words,
@@ -526,12 +517,8 @@ impl Classes {
 
     #[inline(always)]
     fn get(&self, s: Fx, st: &mut QuantStats) -> ([Fx; 3], Fx) {
-        let (raw, [n, o, i]) = self.words[s.raw() as usize];
-        st.merge(&QuantStats {
-            assignments: u64::from(n),
-            overflows: u64::from(o),
-            inexact: u64::from(i),
-        });
+        let (raw, events) = &self.words[s.raw() as usize];
+        st.merge(events);
         let c = |r: i64| Fx::from_raw_unchecked(r, self.color);
         (
             [c(raw[0]), c(raw[1]), c(raw[2])],

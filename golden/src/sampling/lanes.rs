@@ -52,8 +52,9 @@ impl RayRow<'_> {
     /// The batched path `kind` for the rays at row offsets `idx`. Each
     /// path is its own function (`inline(never)`): compiled into the row
     /// loop together, a change to one moved the others' code generation
-    /// (a u32 cast in the substep taps made pre-integrated frames 17 %
-    /// slower); a call per batch of eight rays costs nothing measurable.
+    /// (a u32 cast in the substep path's slice position made
+    /// pre-integrated frames 17 % slower); a call per batch of eight rays
+    /// costs nothing measurable.
     #[inline(always)]
     pub(super) fn sample_batch(&self, kind: Batch, row: &mut [Rgba], idx: &[usize]) {
         match kind {
