@@ -7,6 +7,7 @@ use glam::DVec3;
 use golden::geometry::{Layout, RayGrid, View};
 use golden::methods::Method;
 use golden::sampling::slice_rays;
+use golden::slices::Plane;
 use golden::volume::Volume;
 
 use crate::config::PipelineConfig;
@@ -158,6 +159,31 @@ impl VoxelSource<'_> {
             }
             // Stacks hold u8 or u16 scalars, exact in f32.
             VoxelSource::Stack(s) => s.slice(z).get((y + 1) * s.row + x + 1) as u16,
+        }
+    }
+
+    /// The scalars of view-space row `(y, z)`, `x` from 0, into `out`
+    /// (one per element): [`VoxelSource::get`] along the row, with the
+    /// stack's plane and voxel type resolved once per row instead of per
+    /// voxel.
+    pub fn row(&self, y: usize, z: usize, out: &mut [u16]) {
+        match self {
+            VoxelSource::Stack(s) => {
+                let start = (y + 1) * s.row + 1;
+                match s.slice(z) {
+                    Plane::U8(p) => {
+                        for (o, &v) in out.iter_mut().zip(&p[start..]) {
+                            *o = u16::from(v);
+                        }
+                    }
+                    Plane::U16(p) => out.copy_from_slice(&p[start..start + out.len()]),
+                }
+            }
+            VoxelSource::Volume(..) => {
+                for (x, o) in out.iter_mut().enumerate() {
+                    *o = self.get(x, y, z);
+                }
+            }
         }
     }
 }

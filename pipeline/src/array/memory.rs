@@ -162,8 +162,8 @@ pub fn run_frame_resident(
     Ok(frame)
 }
 
-/// Every PE's voxel memory (PE `k` holding columns `held[k]`), read from
-/// `source` in one pass: each voxel is
+/// Every PE's voxel memory (PE `k` holding columns `held[k]`, ascending),
+/// read from `source` in one pass, a row at a time: each voxel is
 /// quantised once (its events counted in `st`, as the host's) and written
 /// to every PE holding its column (its owner and, under a round-robin
 /// mapping, the neighbours whose aprons include it).
@@ -175,13 +175,8 @@ pub(super) fn load_memories(
     [nx, ny, nz]: [usize; 3],
     st: &mut QuantStats,
 ) -> Vec<VoxelMem> {
-    let mut holders = vec![Vec::new(); nx];
-    for (k, cols) in held.iter().enumerate() {
-        for &c in cols {
-            holders[c].push(k);
-        }
-    }
     let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
+    let mut row = vec![0u16; nx];
     if data_bits <= 8 {
         let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
             word(v as u16, &mut QuantStats::default())
@@ -195,12 +190,13 @@ pub(super) fn load_memories(
         let mut count = [0u64; 256];
         for z in 0..nz {
             for y in 0..ny {
-                for (x, ks) in holders.iter().enumerate() {
-                    let v = source.get(x, y, z);
+                source.row(y, z, &mut row);
+                for &v in &row {
                     count[usize::from(v)] += 1;
-                    for &k in ks {
-                        codes[k].push(v as u8);
-                    }
+                }
+                for (mem, cols) in codes.iter_mut().zip(held) {
+                    // 8-bit data: every scalar is below 256.
+                    mem.extend(cols.iter().map(|&c| row[c] as u8));
                 }
             }
         }
@@ -227,11 +223,12 @@ pub(super) fn load_memories(
         .collect();
     for z in 0..nz {
         for y in 0..ny {
-            for (x, ks) in holders.iter().enumerate() {
-                let w = word(source.get(x, y, z), st);
-                for &k in ks {
-                    words[k].push(w);
-                }
+            source.row(y, z, &mut row);
+            for v in row.iter_mut() {
+                *v = word(*v, st);
+            }
+            for (mem, cols) in words.iter_mut().zip(held) {
+                mem.extend(cols.iter().map(|&c| row[c]));
             }
         }
     }
