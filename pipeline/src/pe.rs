@@ -263,6 +263,8 @@ pub struct Pe {
     /// The held columns (indices into `rays`) sampled in the current row,
     /// in order: the row's schedule, one per cycle.
     pub(crate) row_live: Vec<usize>,
+    /// The slice's row schedules as this PE reported them.
+    pub(crate) row_plan: crate::stages::sample::RowPlan,
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).
     pub drained_at: u64,
@@ -318,6 +320,7 @@ impl Pe {
             edge_latch: None,
             edge_value: Default::default(),
             row_live: Vec::new(),
+            row_plan: Default::default(),
             drained_at: 0,
             readout_at: (0, 0),
             finals: Vec::new(),

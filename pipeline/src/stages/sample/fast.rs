@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use super::{EdgeWords, Row, RowBus, RowRuns, RowTimes};
+use super::{EdgeWords, Row, RowBus, RowTimes};
 use crate::array::{Array, RunError};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::StepError;
@@ -21,7 +21,6 @@ impl Array {
         region: &RegionPlan,
         slice: &SlicePlan,
         rows: &[Row],
-        runs: &RowRuns,
         times: &RowTimes,
     ) -> Result<(), RunError> {
         let p = self.clock.pes().len();
@@ -73,7 +72,6 @@ impl Array {
                 pe.sample_slice(
                     dp,
                     &buses,
-                    runs,
                     (lens, &times.starts),
                     stalls,
                     (

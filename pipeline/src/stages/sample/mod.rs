@@ -15,7 +15,7 @@
 mod fast;
 mod pe;
 
-pub use pe::{EdgeWords, RowBus, RowRuns, SampleBus};
+pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
 
 use crate::array::{Array, RunError};
 use crate::config::Order;
@@ -94,10 +94,10 @@ impl Array {
             let row = (ylo + r as i64 - glo) as usize;
             let (most, ready, all) =
                 self.clock
-                    .pes()
-                    .iter()
+                    .pes_mut()
+                    .iter_mut()
                     .fold((0, 0, 0), |(most, ready, all), pe| {
-                        let (n, at) = pe.row_report(row, runs.row(r), ftb);
+                        let (n, at) = pe.row_report(r, row, runs.row(r), ftb);
                         (most.max(n), ready.max(at), all + n as u64)
                     });
             taken += all;
@@ -121,9 +121,8 @@ impl Array {
             // Nothing to sample (empty, clipped or terminated): no cycle, no
             // read; the schedules only count the terminated rays.
             for r in 0..nrows {
-                let row = (ylo + r as i64 - glo) as usize;
                 for pe in self.clock.pes_mut() {
-                    pe.begin_row(row, runs.row(r), ftb);
+                    pe.begin_row(r);
                 }
             }
             self.runs = runs;
@@ -134,9 +133,9 @@ impl Array {
         self.links_from = self.clock.now();
         let rows = self.rows(region, slice)?;
         let r = if self.clock.tracing() || self.clocked {
-            self.sample_clocked(region, slice, &rows, &runs, &times)
+            self.sample_clocked(region, slice, &rows, &times)
         } else {
-            self.sample_whole(region, slice, &rows, &runs, &times)
+            self.sample_whole(region, slice, &rows, &times)
         };
         self.runs = runs;
         r
@@ -232,12 +231,10 @@ impl Array {
         region: &RegionPlan,
         slice: &SlicePlan,
         rows: &[Row],
-        runs: &RowRuns,
         times: &RowTimes,
     ) -> Result<(), RunError> {
         let glo = region.grid.lo[1];
         let p = self.clock.pes().len();
-        let ftb = self.dp.cfg.order == Order::FrontToBack;
         let dp = std::sync::Arc::clone(&self.dp);
         let nx = self.nx;
         let lens = &times.lens;
@@ -251,7 +248,7 @@ impl Array {
             // Each PE schedules its rays in the row's runs (front to back
             // its live ones, counting the rest).
             for pe in self.clock.pes_mut() {
-                pe.begin_row(row, runs.row(r), ftb);
+                pe.begin_row(r);
             }
             let len = lens[r];
             if len == 0 {

@@ -47,6 +47,27 @@ enum Col {
     Left,
 }
 
+/// One slice's schedules as the PE reported them ([`Pe::row_report`]),
+/// row by row: the held columns each row samples, in issue order, and how
+/// many in-run columns were terminated. Reused from slice to slice.
+#[derive(Debug, Clone, Default)]
+pub struct RowPlan {
+    /// Every row's columns (indices into the rays), row after row.
+    live: Vec<usize>,
+    /// Where each row's columns end in `live`.
+    ends: Vec<usize>,
+    /// Each row's terminated in-run columns.
+    terminated: Vec<u64>,
+}
+
+impl RowPlan {
+    fn clear(&mut self) {
+        self.live.clear();
+        self.ends.clear();
+        self.terminated.clear();
+    }
+}
+
 /// What the controller broadcasts in a sampling cycle.
 #[derive(Debug, Clone, Copy)]
 pub struct SampleBus<'a> {
@@ -295,31 +316,55 @@ impl Pe {
         terminated
     }
 
-    /// How many columns this PE samples in `row` (see [`Pe::begin_row`]),
-    /// and the earliest cycle the row may start so that each of them
-    /// issues after its accumulators were written back (its `c`-th column
-    /// issues `c` cycles after the start). The PE reports both at the start
-    /// of the row; the controller runs the row for as many cycles as the
-    /// largest count, from the latest start (a max tree over the PEs' report
-    /// lines, the one signal besides the broadcast that is not
-    /// nearest-neighbour).
-    pub fn row_report(&self, row: usize, runs: &[(i64, i64)], ftb: bool) -> (usize, u64) {
+    /// How many columns this PE samples in `row`, the slice's `r`-th row
+    /// (see [`Pe::begin_row`]), and the earliest cycle the row may start
+    /// so that each of them issues after its accumulators were written
+    /// back (its `c`-th column issues `c` cycles after the start). The PE
+    /// reports both at the start of the row; the controller runs the row
+    /// for as many cycles as the largest count, from the latest start (a
+    /// max tree over the PEs' report lines, the one signal besides the
+    /// broadcast that is not nearest-neighbour).
+    ///
+    /// The rows are reported in order from `r = 0`, before the slice
+    /// samples; each report keeps the row's schedule for
+    /// [`Pe::begin_row`]. Nothing a schedule reads changes in between:
+    /// the held columns stay, and a row's termination flags change only
+    /// when that row samples, after it began.
+    pub fn row_report(
+        &mut self,
+        r: usize,
+        row: usize,
+        runs: &[(i64, i64)],
+        ftb: bool,
+    ) -> (usize, u64) {
+        let mut plan = std::mem::take(&mut self.row_plan);
+        if r == 0 {
+            plan.clear();
+        }
+        debug_assert_eq!(plan.ends.len(), r, "rows reported out of order");
         let (mut n, mut ready) = (0, 0);
-        self.schedule(row, runs, ftb, |j| {
+        let terminated = self.schedule(row, runs, ftb, |j| {
             ready = ready.max(self.rays[j].land[row].saturating_sub(n as u64));
             n += 1;
+            plan.live.push(j);
         });
+        plan.ends.push(plan.live.len());
+        plan.terminated.push(terminated);
+        self.row_plan = plan;
         (n, ready)
     }
 
-    /// Schedules `row`: its columns inside the row's runs (front to back
-    /// only the live ones), one per cycle; rays left out cost no cycle.
-    /// Counts the terminated ones.
-    pub fn begin_row(&mut self, row: usize, runs: &[(i64, i64)], ftb: bool) {
-        let mut live = std::mem::take(&mut self.row_live);
-        live.clear();
-        self.counters.terminated += self.schedule(row, runs, ftb, |j| live.push(j));
-        self.row_live = live;
+    /// Schedules the slice's `r`-th row as its report planned it: its
+    /// columns inside the row's runs (front to back only the live ones),
+    /// one per cycle; rays left out cost no cycle. Counts the terminated
+    /// ones.
+    pub fn begin_row(&mut self, r: usize) {
+        let plan = &self.row_plan;
+        let start = r.checked_sub(1).map_or(0, |q| plan.ends[q]);
+        self.row_live.clear();
+        self.row_live
+            .extend_from_slice(&plan.live[start..plan.ends[r]]);
+        self.counters.terminated += plan.terminated[r];
     }
 
     /// The sample of held column `j` in the bus's row, issued in cycle
@@ -600,23 +645,21 @@ impl Pe {
     /// `lens[r]` is row `r`'s length in cycles (the busiest PE's count)
     /// and `starts[r]` the cycle its first sample issues; rows of length 0
     /// are skipped, and each row samples only its scheduled columns
-    /// ([`Pe::begin_row`] with `runs.row(r)`), in order, as the clocked
+    /// ([`Pe::begin_row`], as reported), in order, as the clocked
     /// schedule does. `stalls` is the slice's stall cycles.
     #[allow(clippy::too_many_arguments)]
     pub fn sample_slice(
         &mut self,
         dp: &Datapath,
         rows: &[RowBus],
-        runs: &RowRuns,
         (lens, starts): (&[usize], &[u64]),
         stalls: u64,
         (right_edges, left_edges): (Option<&[EdgeWords]>, Option<&[EdgeWords]>),
         nx: usize,
     ) -> Result<(), StepError> {
-        let ftb = dp.cfg.order == Order::FrontToBack;
         self.counters.stalls += stalls;
         for (r, bus) in rows.iter().enumerate() {
-            self.begin_row(bus.row, runs.row(r), ftb);
+            self.begin_row(r);
             if lens[r] == 0 {
                 continue;
             }
