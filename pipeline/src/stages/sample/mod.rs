@@ -17,6 +17,8 @@ mod pe;
 
 pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
 
+use rayon::prelude::*;
+
 use crate::array::{Array, RunError};
 use crate::config::Order;
 use crate::fixed::{Fx, QuantStats, Wide};
@@ -88,16 +90,21 @@ impl Array {
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.
+        // The PEs plan their rows independently, so in parallel.
+        let first_row = (ylo - glo) as usize;
+        self.clock
+            .pes_mut()
+            .par_iter_mut()
+            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, ftb));
         let mut taken = 0u64;
         let mut reports = Vec::with_capacity(nrows);
         for r in 0..nrows {
-            let row = (ylo + r as i64 - glo) as usize;
             let (most, ready, all) =
                 self.clock
-                    .pes_mut()
-                    .iter_mut()
+                    .pes()
+                    .iter()
                     .fold((0, 0, 0), |(most, ready, all), pe| {
-                        let (n, at) = pe.row_report(r, row, runs.row(r), ftb);
+                        let (n, at) = pe.row_report(r);
                         (most.max(n), ready.max(at), all + n as u64)
                     });
             taken += all;

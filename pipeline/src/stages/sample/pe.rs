@@ -47,9 +47,10 @@ enum Col {
     Left,
 }
 
-/// One slice's schedules as the PE reported them ([`Pe::row_report`]),
-/// row by row: the held columns each row samples, in issue order, and how
-/// many in-run columns were terminated. Reused from slice to slice.
+/// One slice's schedules as the PE planned them ([`Pe::plan_rows`]), row
+/// by row: the held columns each row samples, in issue order, how many
+/// in-run columns were terminated, and the row's report. Reused from
+/// slice to slice.
 #[derive(Debug, Clone, Default)]
 pub struct RowPlan {
     /// Every row's columns (indices into the rays), row after row.
@@ -58,6 +59,8 @@ pub struct RowPlan {
     ends: Vec<usize>,
     /// Each row's terminated in-run columns.
     terminated: Vec<u64>,
+    /// Each row's report: columns sampled, earliest start.
+    reports: Vec<(usize, u64)>,
 }
 
 impl RowPlan {
@@ -65,6 +68,7 @@ impl RowPlan {
         self.live.clear();
         self.ends.clear();
         self.terminated.clear();
+        self.reports.clear();
     }
 }
 
@@ -316,42 +320,42 @@ impl Pe {
         terminated
     }
 
-    /// How many columns this PE samples in `row`, the slice's `r`-th row
-    /// (see [`Pe::begin_row`]), and the earliest cycle the row may start
-    /// so that each of them issues after its accumulators were written
-    /// back (its `c`-th column issues `c` cycles after the start). The PE
-    /// reports both at the start of the row; the controller runs the row
-    /// for as many cycles as the largest count, from the latest start (a
-    /// max tree over the PEs' report lines, the one signal besides the
-    /// broadcast that is not nearest-neighbour).
+    /// Schedules the slice's rows `first_row..first_row + n` (the `r`-th
+    /// in `runs.row(r)`) and reports, for each, how many columns this PE
+    /// samples in it (see [`Pe::begin_row`]) and the earliest cycle the
+    /// row may start so that each of them issues after its accumulators
+    /// were written back (its `c`-th column issues `c` cycles after the
+    /// start): [`Pe::row_report`]. The controller runs each row for as
+    /// many cycles as the largest count, from the latest start (a max tree
+    /// over the PEs' report lines, the one signal besides the broadcast
+    /// that is not nearest-neighbour).
     ///
-    /// The rows are reported in order from `r = 0`, before the slice
-    /// samples; each report keeps the row's schedule for
-    /// [`Pe::begin_row`]. Nothing a schedule reads changes in between:
-    /// the held columns stay, and a row's termination flags change only
-    /// when that row samples, after it began.
-    pub fn row_report(
-        &mut self,
-        r: usize,
-        row: usize,
-        runs: &[(i64, i64)],
-        ftb: bool,
-    ) -> (usize, u64) {
+    /// The rows are scheduled before the slice samples, and each schedule
+    /// is kept for [`Pe::begin_row`]. Nothing a schedule reads changes in
+    /// between: the held columns stay, and a row's termination flags
+    /// change only when that row samples, after it began.
+    pub fn plan_rows(&mut self, first_row: usize, n: usize, runs: &RowRuns, ftb: bool) {
         let mut plan = std::mem::take(&mut self.row_plan);
-        if r == 0 {
-            plan.clear();
+        plan.clear();
+        for r in 0..n {
+            let row = first_row + r;
+            let (mut k, mut ready) = (0, 0);
+            let terminated = self.schedule(row, runs.row(r), ftb, |j| {
+                ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
+                k += 1;
+                plan.live.push(j);
+            });
+            plan.ends.push(plan.live.len());
+            plan.terminated.push(terminated);
+            plan.reports.push((k, ready));
         }
-        debug_assert_eq!(plan.ends.len(), r, "rows reported out of order");
-        let (mut n, mut ready) = (0, 0);
-        let terminated = self.schedule(row, runs, ftb, |j| {
-            ready = ready.max(self.rays[j].land[row].saturating_sub(n as u64));
-            n += 1;
-            plan.live.push(j);
-        });
-        plan.ends.push(plan.live.len());
-        plan.terminated.push(terminated);
         self.row_plan = plan;
-        (n, ready)
+    }
+
+    /// What this PE reported for the slice's `r`-th row ([`Pe::plan_rows`]):
+    /// the columns it samples there and the earliest start.
+    pub fn row_report(&self, r: usize) -> (usize, u64) {
+        self.row_plan.reports[r]
     }
 
     /// Schedules the slice's `r`-th row as its report planned it: its
