@@ -238,6 +238,101 @@ pub(super) fn load_memories(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Mapping;
+    use crate::mapping::ColumnMap;
+    use golden::geometry::AxisMap;
+    use golden::slices::SliceStack;
+    use golden::volume::{Volume, VoxelType};
+
+    /// A permuted, flipped stack of a small volume of `kind` whose voxels
+    /// all differ (modulo the type's range).
+    fn stack(kind: VoxelType) -> SliceStack {
+        let dims = [7, 5, 6];
+        let vol = Volume::from_fn(dims, kind, u64::MAX, |x, y, z| {
+            (x * 37 + y * 11 + z * 5) as u16 * if kind == VoxelType::U16 { 301 } else { 1 }
+        })
+        .unwrap();
+        let axes = AxisMap {
+            perm: [2, 0, 1],
+            flip_z: true,
+            index_dims: dims,
+            z_first: 0,
+        };
+        SliceStack::new(&vol, &axes).unwrap()
+    }
+
+    /// A row read at once is the row read voxel by voxel.
+    #[test]
+    fn a_source_row_is_its_voxels() {
+        for kind in [VoxelType::U8, VoxelType::U16] {
+            let s = stack(kind);
+            let src = VoxelSource::Stack(&s);
+            let [nx, ny, nz] = s.dims;
+            let mut row = vec![0; nx];
+            for z in 0..nz {
+                for y in 0..ny {
+                    src.row(y, z, &mut row);
+                    let one: Vec<u16> = (0..nx).map(|x| src.get(x, y, z)).collect();
+                    assert_eq!(row, one, "{kind:?} row {y} of slice {z}");
+                }
+            }
+        }
+    }
+
+    /// The row-at-a-time load fills every PE's memory, under blocks and a
+    /// round-robin mapping with aprons, with each held column's words in
+    /// `[z][y][l]` order, and counts each voxel's quantisation once: what
+    /// quantising voxel by voxel gives.
+    #[test]
+    fn memories_hold_their_columns_words() {
+        for kind in [VoxelType::U8, VoxelType::U16] {
+            let s = stack(kind);
+            let src = VoxelSource::Stack(&s);
+            let [nx, ny, nz] = s.dims;
+            let bits = kind.bits();
+            for (mapping, pes) in [
+                (Mapping::Blocks, 3),
+                (Mapping::Cyclic, 2),
+                (Mapping::Interleave, 4),
+            ] {
+                let mut cfg = PipelineConfig::default();
+                (cfg.mapping, cfg.pes, cfg.cyclic_width) = (mapping, pes, 2);
+                let map = ColumnMap::of(&cfg, nx);
+                let held: Vec<Vec<usize>> = (0..usize::from(pes)).map(|k| map.held(k)).collect();
+                let mut st = QuantStats::default();
+                let mems = load_memories(&cfg, src, bits, &held, s.dims, &mut st);
+                let mut want_st = QuantStats::default();
+                for z in 0..nz {
+                    for y in 0..ny {
+                        for x in 0..nx {
+                            crate::skip::voxel_word(&cfg, src.get(x, y, z), bits, &mut want_st);
+                        }
+                    }
+                }
+                assert_eq!(st, want_st, "{kind:?} {mapping:?}");
+                for (k, (mem, cols)) in mems.iter().zip(&held).enumerate() {
+                    assert_eq!(mem.len(), cols.len() * ny * nz);
+                    for z in 0..nz {
+                        for y in 0..ny {
+                            for (l, &c) in cols.iter().enumerate() {
+                                let want = crate::skip::voxel_word(
+                                    &cfg,
+                                    src.get(c, y, z),
+                                    bits,
+                                    &mut QuantStats::default(),
+                                );
+                                let got = mem.get((z * ny + y) * cols.len() + l);
+                                assert_eq!(
+                                    got, want,
+                                    "{kind:?} {mapping:?} PE {k} ({c}, {y}, {z})"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
 
     /// A load takes the host link's cycles or, when the link is faster
     /// than the PEs' write ports together, the busiest PE's words.
