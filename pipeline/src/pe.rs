@@ -263,7 +263,7 @@ pub struct Pe {
     /// The held columns (indices into `rays`) sampled in the current row,
     /// in order: the row's schedule, one per cycle.
     pub(crate) row_live: Vec<usize>,
-    /// The slice's row schedules as this PE reported them.
+    /// The slice's row schedules and reports, as this PE planned them.
     pub(crate) row_plan: crate::stages::sample::RowPlan,
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).

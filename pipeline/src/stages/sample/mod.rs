@@ -87,15 +87,15 @@ impl Array {
                 self.run_tmp = tmp;
             }
         }
-        // Each row's cycles: as many as the busiest PE has scheduled rays
-        // (in the runs, and front to back live); and the earliest start the
-        // PEs' scoreboards allow.
         // The PEs plan their rows independently, so in parallel.
         let first_row = (ylo - glo) as usize;
         self.clock
             .pes_mut()
             .par_iter_mut()
             .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, ftb));
+        // Each row's cycles: as many as the busiest PE has scheduled rays
+        // (in the runs, and front to back live); and the earliest start the
+        // PEs' scoreboards allow.
         let mut taken = 0u64;
         let mut reports = Vec::with_capacity(nrows);
         for r in 0..nrows {
