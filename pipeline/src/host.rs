@@ -170,13 +170,14 @@ impl VoxelSource<'_> {
         match self {
             VoxelSource::Stack(s) => {
                 let start = (y + 1) * s.row + 1;
+                let voxels = start..start + out.len();
                 match s.slice(z) {
                     Plane::U8(p) => {
-                        for (o, &v) in out.iter_mut().zip(&p[start..]) {
+                        for (o, &v) in out.iter_mut().zip(&p[voxels]) {
                             *o = u16::from(v);
                         }
                     }
-                    Plane::U16(p) => out.copy_from_slice(&p[start..start + out.len()]),
+                    Plane::U16(p) => out.copy_from_slice(&p[voxels]),
                 }
             }
             VoxelSource::Volume(..) => {
@@ -201,16 +202,14 @@ pub fn voxel_words(
     let data_bits = volume.kind().bits();
     let source = VoxelSource::Volume(volume, view);
     let mut out = Vec::with_capacity(nx * ny * nz);
+    let mut row = vec![0; nx];
     for z in 0..nz {
         for y in 0..ny {
-            for x in 0..nx {
-                out.push(crate::skip::voxel_word(
-                    cfg,
-                    source.get(x, y, z),
-                    data_bits,
-                    st,
-                ));
-            }
+            source.row(y, z, &mut row);
+            out.extend(
+                row.iter()
+                    .map(|&v| crate::skip::voxel_word(cfg, v, data_bits, st)),
+            );
         }
     }
     out

@@ -260,9 +260,9 @@ pub struct Pe {
     /// The edge registers: what this PE drives on its ports while it
     /// samples (see [`crate::stages::sample`]).
     pub(crate) edge_value: crate::stages::sample::EdgeWords,
-    /// The held columns (indices into `rays`) sampled in the current row,
-    /// in order: the row's schedule, one per cycle.
-    pub(crate) row_live: Vec<usize>,
+    /// The row being sampled, as an index into [`Pe::row_plan`]: its
+    /// schedule is the held columns sampled, one per cycle.
+    pub(crate) row_now: usize,
     /// The slice's row schedules and reports, as this PE planned them.
     pub(crate) row_plan: crate::stages::sample::RowPlan,
     /// The first cycle in which every sample this PE issued has been
@@ -319,7 +319,7 @@ impl Pe {
             last: SampleTrace::default(),
             edge_latch: None,
             edge_value: Default::default(),
-            row_live: Vec::new(),
+            row_now: 0,
             row_plan: Default::default(),
             drained_at: 0,
             readout_at: (0, 0),

@@ -64,6 +64,20 @@ pub struct RowPlan {
 }
 
 impl RowPlan {
+    /// Where row `r`'s columns lie in `live`.
+    fn span(&self, r: usize) -> std::ops::Range<usize> {
+        r.checked_sub(1).map_or(0, |q| self.ends[q])..self.ends[r]
+    }
+
+    /// Row `r`'s columns, in issue order (none before a slice is planned).
+    fn live(&self, r: usize) -> &[usize] {
+        if r < self.ends.len() {
+            &self.live[self.span(r)]
+        } else {
+            &[]
+        }
+    }
+
     fn clear(&mut self) {
         self.live.clear();
         self.ends.clear();
@@ -234,12 +248,11 @@ impl Pe {
         self.drive_edge(bus.next, shade);
         self.drive_ports(&mut out, shade);
         out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
-        if bus.cycle >= self.row_live.len() {
+        let Some(&j) = self.row_plan.live(self.row_now).get(bus.cycle) else {
             self.counters.idle += 1;
             self.last.busy = false;
             return Ok(out);
-        }
-        let j = self.row_live[bus.cycle];
+        };
         let edge = EdgeIn {
             right: links.from_right.edge,
             halo: links.from_right.halo,
@@ -363,12 +376,8 @@ impl Pe {
     /// one per cycle; rays left out cost no cycle. Counts the terminated
     /// ones.
     pub fn begin_row(&mut self, r: usize) {
-        let plan = &self.row_plan;
-        let start = r.checked_sub(1).map_or(0, |q| plan.ends[q]);
-        self.row_live.clear();
-        self.row_live
-            .extend_from_slice(&plan.live[start..plan.ends[r]]);
-        self.counters.terminated += plan.terminated[r];
+        self.row_now = r;
+        self.counters.terminated += self.row_plan.terminated[r];
     }
 
     /// The sample of held column `j` in the bus's row, issued in cycle
@@ -676,12 +685,12 @@ impl Pe {
                 halo: rw.halo,
                 left: lw.right,
             };
-            let live = std::mem::take(&mut self.row_live);
-            for (c, &j) in live.iter().enumerate() {
+            let span = self.row_plan.span(r);
+            self.counters.idle += (lens[r] - span.len()) as u64;
+            for (c, i) in span.enumerate() {
+                let j = self.row_plan.live[i];
                 self.sample_ray::<false>(dp, bus, j, &edge, nx, starts[r] + c as u64)?;
             }
-            self.counters.idle += (lens[r] - live.len()) as u64;
-            self.row_live = live;
         }
         Ok(())
     }
