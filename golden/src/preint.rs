@@ -160,6 +160,19 @@ impl PreTable {
         self.stride
     }
 
+    /// Bin position per scalar unit (what [`PreTable::lookup`] scales a
+    /// scalar by).
+    pub fn per_scalar(&self) -> f32 {
+        self.per_scalar
+    }
+
+    /// The words at bins `(front, back)`: mean extinction-weighted colour
+    /// and mean extinction per unit length, what [`PreTable::lookup`]
+    /// interpolates (the pipeline's host quantises them into its table).
+    pub fn entry(&self, front: usize, back: usize) -> [f32; 4] {
+        self.data[front * self.bins + back]
+    }
+
     /// Mean extinction-weighted colour (`int tau c / len`, per channel)
     /// and mean extinction per unit length of a linear segment from scalar
     /// `front` to scalar `back`, interpolated bilinearly between bins; the

@@ -41,6 +41,8 @@ pub struct SampleTrace {
     pub shade: crate::shading::ShadeTrace,
     /// The volume-of-interest stage's words (zero without a VOI).
     pub voi: crate::voi::VoiTrace,
+    /// The pre-integration unit's words (zero unless pre-integrating).
+    pub preint: crate::preint::PreintTrace,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the
@@ -66,6 +68,9 @@ pub struct Datapath {
     /// The volume-of-interest stage's per-frame constants, when the frame
     /// has one ([`Datapath::with_voi`]).
     pub voi: Option<crate::voi::VoiUnit>,
+    /// The pre-integration unit's table and constants, when the frame is
+    /// pre-integrated ([`Datapath::with_preint`]).
+    pub preint: Option<crate::preint::PreintUnit>,
 }
 
 /// `a + w (b - a)`, exactly, assigned into `out`.
@@ -170,6 +175,7 @@ impl Datapath {
             classes: None,
             shade: None,
             voi: None,
+            preint: None,
         };
         dp.classes = Classes::list(&dp);
         dp
@@ -207,6 +213,18 @@ impl Datapath {
             self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
         }
         self.shade = Some(unit);
+        self
+    }
+
+    /// This datapath with the pre-integration unit loaded
+    /// ([`crate::preint`]). A derived latency becomes the depth of the
+    /// schedule with the unit ([`crate::cost::preint_latency`]); one the
+    /// configuration states is kept.
+    pub fn with_preint(mut self, unit: crate::preint::PreintUnit) -> Datapath {
+        if self.cfg.datapath_latency == 0 {
+            self.latency = u64::from(crate::cost::preint_latency(&self.cfg));
+        }
+        self.preint = Some(unit);
         self
     }
 
@@ -315,9 +333,21 @@ impl Datapath {
     pub fn correct(&self, a: Fx, ds: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let t = &self.tables;
         let lf = self.cfg.log_transmittance;
-        let oc = self.cfg.opacity_corr;
         let code = (a.raw().max(0) as usize).min(t.log_t.len() - 1);
         let p = lf.assign(t.log_t[code] * ds, st);
+        self.transmit(p, st)
+    }
+
+    /// Steps 3 and 4 of the opacity correction: from `p`
+    /// (`log_transmittance`), `T = 2^-frac(p)` from the interpolated exp
+    /// table shifted right by `int(p)`, and the opacity `1 - T`
+    /// (`opacity_corr`). The pre-integration unit shares it
+    /// ([`crate::preint`]).
+    #[inline(always)]
+    pub fn transmit(&self, p: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+        let t = &self.tables;
+        let lf = self.cfg.log_transmittance;
+        let oc = self.cfg.opacity_corr;
         let fbits = u32::from(lf.frac());
         let (int, frac) = split(p.raw(), fbits);
         let e = u32::from(self.cfg.exp_table_bits);

@@ -24,6 +24,145 @@ pub struct SlicePlan {
     pub t: [Fx; 2],
     /// Rays sampling this slice on x and y, inclusive (empty when lo > hi).
     pub range: [(i64, i64); 2],
+    /// In a pre-integrated frame, what the pass does with its samples
+    /// (`range` is then the hull of the step's ranges).
+    pub pre: Option<PreStep>,
+}
+
+/// What a pre-integrated pass broadcasts beside its slice plan
+/// ([`crate::preint`]): which rays composite a step, which record their
+/// sample as the back (back to front) or front (front to back) scalar of
+/// the next, and which take slice 0's half step in front. Each is a ray
+/// rectangle, inclusive, empty when `lo > hi` on an axis; a PE compares
+/// its ray's indices with them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PreStep {
+    /// Rays that composite the step between this pass's sample and their
+    /// previous one.
+    pub comp: [(i64, i64); 2],
+    /// Rays that keep this pass's sample for their next step.
+    pub keep: [(i64, i64); 2],
+    /// Rays that composite slice 0's half step at their own scalar.
+    pub lead: [(i64, i64); 2],
+    /// The composited step is half a slice step long (the last slice's,
+    /// to the volume's face).
+    pub half: bool,
+}
+
+impl PreStep {
+    /// Whether ray `(mx, my)` lies in rectangle `r`.
+    #[inline(always)]
+    pub fn within(r: &[(i64, i64); 2], mx: i64, my: i64) -> bool {
+        (r[0].0..=r[0].1).contains(&mx) && (r[1].0..=r[1].1).contains(&my)
+    }
+}
+
+/// Nothing (an empty ray rectangle).
+const NONE: [(i64, i64); 2] = [(0, -1), (0, -1)];
+
+/// The smallest rectangle holding both (an empty one holds nothing).
+fn hull(a: [(i64, i64); 2], b: [(i64, i64); 2]) -> [(i64, i64); 2] {
+    let empty = |r: &[(i64, i64); 2]| r[0].0 > r[0].1 || r[1].0 > r[1].1;
+    match (empty(&a), empty(&b)) {
+        (true, _) => b,
+        (_, true) => a,
+        _ => std::array::from_fn(|k| (a[k].0.min(b[k].0), a[k].1.max(b[k].1))),
+    }
+}
+
+/// The passes a pre-integrated frame runs over region `region` (its plan
+/// `rp`, slices back to front), in the order `order` runs them
+/// ([`crate::preint`]). Slice `z`'s step is `[z, z + 1]`, the last
+/// slice's `[nz - 1, nz - 1/2]`, and slice 0 adds `[-1/2, 0]` at its own
+/// scalar, as golden's. Back to front a *prime* pass first samples the
+/// step's back end of the region's rear slice (slice `z + 1`, or the face
+/// at depth `nz - 1/2` in slice `nz - 1`'s data) with this region's rays,
+/// then each slice composites its step and keeps its sample for the slice
+/// in front; front to back each slice composites the step of the slice
+/// before and keeps its own, and a *finish* pass samples the rear slice's
+/// back end. The host's roundings of the extra passes' constants count
+/// into `st`.
+pub fn preint_passes(
+    cfg: &PipelineConfig,
+    view: &View,
+    rp: &RegionPlan,
+    st: &mut QuantStats,
+) -> Result<Vec<SlicePlan>, PlanError> {
+    let nz = view.dims[2];
+    let z_range = rp.grid.slices.clone();
+    if z_range.is_empty() {
+        return Ok(Vec::new());
+    }
+    let (lo, hi) = (z_range.start, z_range.end - 1);
+    // Slices back to front in the plan: slice z at index hi - z.
+    let at = |z: usize| &rp.slices[hi - z];
+    let range = |z: usize| at(z).range;
+    let end = |st: &mut QuantStats| -> Result<SlicePlan, PlanError> {
+        let (depth, z) = if hi + 1 < nz {
+            ((hi + 1) as f64, hi + 1)
+        } else {
+            (nz as f64 - 0.5, nz - 1)
+        };
+        let q = |f: crate::fixed::Format, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
+            let r = f.from_f64(v)?;
+            st.record(&r);
+            Ok(r.value)
+        };
+        let p = |k| rp.grid.at(view.eye, view.d, depth, k);
+        Ok(SlicePlan {
+            z,
+            a: [q(cfg.position, p(0).a, st)?, q(cfg.position, p(1).a, st)?],
+            t: [q(cfg.step, p(0).t, st)?, q(cfg.step, p(1).t, st)?],
+            range: NONE,
+            pre: None,
+        })
+    };
+    let with = |s: SlicePlan, pre: PreStep| SlicePlan {
+        range: hull(hull(pre.comp, pre.keep), pre.lead),
+        pre: Some(pre),
+        ..s
+    };
+    let lead = |z: usize| if z == 0 { range(0) } else { NONE };
+    let mut out = Vec::with_capacity(z_range.len() + 1);
+    match cfg.order {
+        crate::config::Order::BackToFront => {
+            let prime = PreStep {
+                comp: NONE,
+                keep: range(hi),
+                lead: NONE,
+                half: false,
+            };
+            out.push(with(end(st)?, prime));
+            for z in (lo..=hi).rev() {
+                let pre = PreStep {
+                    comp: range(z),
+                    keep: if z > lo { range(z - 1) } else { NONE },
+                    lead: lead(z),
+                    half: z + 1 == nz,
+                };
+                out.push(with(*at(z), pre));
+            }
+        }
+        crate::config::Order::FrontToBack => {
+            for z in lo..=hi {
+                let pre = PreStep {
+                    comp: if z > lo { range(z - 1) } else { NONE },
+                    keep: range(z),
+                    lead: lead(z),
+                    half: false,
+                };
+                out.push(with(*at(z), pre));
+            }
+            let finish = PreStep {
+                comp: range(hi),
+                keep: NONE,
+                lead: NONE,
+                half: hi + 1 == nz,
+            };
+            out.push(with(end(st)?, finish));
+        }
+    }
+    Ok(out)
 }
 
 /// What the controller holds for one region.
@@ -59,6 +198,22 @@ pub struct FramePlan {
     pub dims: [usize; 3],
     /// Quantisation events of the host's own conversions.
     pub stats: QuantStats,
+    /// In a pre-integrated frame, each region's passes in the order they
+    /// run ([`preint_passes`]); empty otherwise (the regions' slices run).
+    pub passes: Vec<Vec<SlicePlan>>,
+}
+
+impl FramePlan {
+    /// The passes region `i` samples, in the order `ftb` runs them: its
+    /// slices (back to front, or front to back), or a pre-integrated
+    /// frame's planned passes.
+    pub fn region_passes(&self, i: usize, ftb: bool) -> Vec<&SlicePlan> {
+        match self.passes.get(i) {
+            Some(p) => p.iter().collect(),
+            None if ftb => self.regions[i].slices.iter().rev().collect(),
+            None => self.regions[i].slices.iter().collect(),
+        }
+    }
 }
 
 /// Plans a frame of `view` for ER (both orders share the layout).
@@ -95,6 +250,7 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
                 ],
                 t: [q(cfg.step, p[0].t, &mut st)?, q(cfg.step, p[1].t, &mut st)?],
                 range,
+                pre: None,
             });
         }
         let boundary = |b: f64, st: &mut QuantStats| -> Result<SlicePlan, FxError> {
@@ -109,6 +265,7 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
                     q(cfg.step, grid.at(e, view.d, b, 1).t, st)?,
                 ],
                 range: [(0, -1); 2],
+                pre: None,
             })
         };
         let front = boundary(layout.bounds[regions.len()], &mut st)?;
@@ -133,6 +290,7 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
         regions,
         dims: view.dims,
         stats: st,
+        passes: Vec::new(),
     })
 }
 

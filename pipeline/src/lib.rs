@@ -9,7 +9,8 @@
 //! [`mapping`] says which PE owns which columns; [`mod@array`] clocks the [`pe`]s through migrate, sample, merge (front to
 //! back: split and fold) and readout;
 //! each sample runs the [`datapath`] (position, bilinear, classify,
-//! correct, composite), the bit-exact mirror of `golden::sampling`. The
+//! correct, composite; [`preint`] for a pre-integrated frame), the
+//! bit-exact mirror of `golden::sampling`. The
 //! baseplane comes out as raw accumulator words and, scaled to float, goes
 //! through the golden warp.
 //!
@@ -32,6 +33,7 @@ pub mod fixed;
 pub mod host;
 pub mod mapping;
 pub mod pe;
+pub mod preint;
 pub mod probes;
 pub mod rtl;
 pub mod schedule;
@@ -42,6 +44,7 @@ pub mod tables;
 pub mod voi;
 
 pub use array::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_resident,
-    run_frame_shaded, run_frame_voi, run_frame_with, Frame, Resident, RunError, VoxelLoad,
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint,
+    run_frame_resident, run_frame_shaded, run_frame_voi, run_frame_with, Frame, Resident, RunError,
+    VoxelLoad,
 };

@@ -74,13 +74,24 @@ pub struct RayColumn {
     /// read again: the sample in flight in the datapath writes them back
     /// then (the scoreboard; 0 once written back).
     pub land: Vec<u64>,
+    /// In a pre-integrated frame, per row, the ray's last recorded sample
+    /// word (raw `sample`): the other end of its next step
+    /// ([`crate::preint`]). Empty otherwise.
+    pub prev: Vec<i64>,
 }
 
 impl RayColumn {
     /// An empty (transparent, live) column of `rows` rays, with the
     /// front-to-back state when `ftb`.
     pub fn empty(mx: i64, rows: usize, ftb: bool) -> RayColumn {
+        RayColumn::empty_with(mx, rows, ftb, false)
+    }
+
+    /// [`RayColumn::empty`], with the previous-sample registers of a
+    /// pre-integrated frame when `preint`.
+    pub fn empty_with(mx: i64, rows: usize, ftb: bool, preint: bool) -> RayColumn {
         RayColumn {
+            prev: if preint { vec![0; rows] } else { Vec::new() },
             mx,
             acc: vec![Acc::default(); rows],
             ftb: if ftb {
@@ -121,6 +132,9 @@ pub struct RayMove {
     /// Front to back: its inherited state and flag, on a link as wide as
     /// both (so a move still takes one cycle).
     pub ftb: Option<FtbState>,
+    /// In a pre-integrated frame, its previous-sample word (raw `sample`),
+    /// on a link one `sample` word wider.
+    pub prev: Option<i64>,
 }
 
 /// What a PE drives towards one neighbour in a cycle.

@@ -75,6 +75,58 @@ pub fn brainsmall() -> Option<std::path::PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// brainsmall with the golden issue's camera (eye (64, 64, -64) to the
+/// centre, 90 degrees, 256x256); `None`, after printing the skip line,
+/// when the file is absent.
+pub fn brainsmall_view() -> Option<(Volume, golden::camera::Camera)> {
+    let Some(path) = brainsmall() else {
+        eprintln!("skipped: shared/data/brainsmall.den is absent");
+        return None;
+    };
+    let vol = golden::load::load_den(&path, DEFAULT_MEMORY_LIMIT).expect("brainsmall loads");
+    let c = DVec3::from_array(vol.center_world());
+    let eye = DVec3::new(64.0, 64.0, -64.0);
+    let cam = golden::camera::Camera::new(eye, c, DVec3::Y, 90.0, 256, 256).expect("camera");
+    Some((vol, cam))
+}
+
+/// `vol` prepared for a `w x h` camera at `eye` looking at its centre
+/// (`None` when the camera or the view is refused).
+pub fn centred_view(
+    vol: &Volume,
+    eye: DVec3,
+    up: DVec3,
+    fov: f64,
+    w: u32,
+    h: u32,
+) -> Option<golden::render::Prepared> {
+    let c = DVec3::from_array(vol.center_world());
+    let cam = golden::camera::Camera::new(eye, c, up, fov, w, h).ok()?;
+    golden::render::Prepared::new(vol, &cam).ok()
+}
+
+/// A small two-blob scene, its table at `entries` entries, and three
+/// views: from the front, from a side and from close up (several
+/// regions).
+pub fn small_views(entries: usize) -> (Volume, Lut, Vec<golden::render::Prepared>) {
+    let vol = blobs(
+        [20, 18, 22],
+        &[(0.4, 0.5, 0.5, 0.3, 220.0), (0.7, 0.4, 0.6, 0.2, 160.0)],
+        10,
+        7,
+    );
+    let tf = tf(&[(30.0, [1.0, 0.5, 0.2, 0.0]), (200.0, [0.9, 0.9, 1.0, 0.7])]);
+    let lut = Lut::for_bits(&tf, entries, vol.kind().bits());
+    let views = [(0, 30.0), (3, 8.0), (4, 2.0)]
+        .into_iter()
+        .filter_map(|(side, dist)| {
+            let (eye, up) = eye_for(vol.dims(), side, dist, (0.3, 0.6));
+            centred_view(&vol, eye, up, 50.0, 24, 20)
+        })
+        .collect();
+    (vol, lut, views)
+}
+
 /// Air (values below 40) with `blobs` random balls of tissue (60..255)
 /// and some noise: mostly empty, as real scans are.
 pub fn sparse(dims: [usize; 3], blobs: usize, seed: u64) -> Volume {

@@ -29,8 +29,8 @@ mod run;
 pub use clock::{Clock, Links};
 pub use memory::{run_frame_resident, Resident, VoxelLoad};
 pub use run::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_shaded, run_frame_voi,
-    run_frame_with,
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint, run_frame_shaded,
+    run_frame_voi, run_frame_with,
 };
 
 use golden::geometry::View;
@@ -209,6 +209,9 @@ pub enum RunError {
     /// The frame's volume of interest cannot be loaded.
     #[error("{0}")]
     Voi(crate::voi::VoiError),
+    /// The frame cannot be pre-integrated as asked.
+    #[error("{0}")]
+    Preint(#[from] crate::preint::PreintError),
 }
 
 /// The PE array for one frame.
@@ -401,6 +404,33 @@ impl Array {
         Ok(())
     }
 
+    /// Pre-integrates the frame's classification ([`crate::preint`]):
+    /// loads golden's table `pt` (built from this array's classification
+    /// table) into the unit. A pre-integrated frame samples every crossing
+    /// (the controller's skipping plan would need the union of two slices'
+    /// runs per pass) and takes neither shading nor a volume of interest.
+    pub fn set_preint(&mut self, pt: &golden::preint::PreTable) -> Result<(), RunError> {
+        let unsupported = |what: &str| {
+            crate::preint::PreintError::Table(format!(
+                "frame without {what} (the pipeline's pre-integrated frames are unshaded and take no volume of interest)"
+            ))
+        };
+        if self.dp.shade.is_some() {
+            return Err(unsupported("shading").into());
+        }
+        if self.dp.voi.is_some() {
+            return Err(unsupported("a volume of interest").into());
+        }
+        let mut st = QuantStats::default();
+        let entries = self.dp.tables().color.len();
+        let unit = crate::preint::PreintUnit::new(&self.dp.cfg, pt, entries, &mut st)?;
+        self.host_stats.merge(&st);
+        let dp = (*self.dp).clone().with_preint(unit);
+        self.dp = Arc::new(dp);
+        self.skip = None;
+        Ok(())
+    }
+
     /// Scales the frame's opacities by `voi` ([`crate::voi`]): loads the
     /// volume-of-interest stage's constants for `view`.
     pub fn set_voi(&mut self, voi: &golden::voi::Voi, view: &View) -> Result<(), RunError> {
@@ -494,11 +524,24 @@ impl Array {
         // only now.
         if let Some(t) = self.pending.take() {
             let p = self.clock.pes().len();
-            let units = (self.dp.shade.is_some(), self.dp.voi.is_some());
+            let units = (
+                self.dp.shade.is_some(),
+                self.dp.voi.is_some(),
+                self.dp.preint.is_some(),
+            );
             let probes = Probes::new(t, p, &self.dp.cfg, units)?;
             self.clock.attach(probes);
         }
-        let plan: FramePlan = plan(&self.dp.cfg, view)?;
+        let mut plan: FramePlan = plan(&self.dp.cfg, view)?;
+        if self.dp.preint.is_some() {
+            let mut st = QuantStats::default();
+            plan.passes = plan
+                .regions
+                .iter()
+                .map(|r| crate::host::preint_passes(&self.dp.cfg, view, r, &mut st))
+                .collect::<Result<_, _>>()?;
+            plan.stats.merge(&st);
+        }
         self.host_stats.merge(&plan.stats);
         let (raw, fmt, merges) = match self.dp.cfg.order {
             Order::BackToFront => crate::schedule::back_to_front(&mut self, &plan)?,

@@ -123,6 +123,25 @@ pub fn run_frame_from_stack_voi(
     )
 }
 
+/// Runs one pre-integrated frame of `prep` ([`crate::preint`]), the PEs
+/// loading from its slice stack (`data_bits`-bit scalars): golden's table
+/// `pt`, pre-integrated from `lut`, goes into the unit; the controller
+/// samples every crossing (no skipping or clipping) and the frame is
+/// unshaded, without a volume of interest ([`Array::set_preint`]).
+pub fn run_frame_preint(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    pt: &golden::preint::PreTable,
+    tracer: Tracer,
+) -> Result<Frame, RunError> {
+    let source = VoxelSource::Stack(&prep.stack);
+    let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
+    array.set_preint(pt)?;
+    array.run(&prep.view)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run_prepared(
     cfg: &PipelineConfig,

@@ -96,6 +96,17 @@
 //! cannot see that those contributions share one transmittance (along one
 //! ray they add up to at most 1), because the split and the fold mix
 //! neighbouring rays. It assumes early ray termination is off.
+//!
+//! # Pre-integrated frames ([`preint_error_bound`], [`preint_ftb_error_bound`])
+//!
+//! Steps 1, 2, 4 and the exp stage of 5 stay; classification (3) and the
+//! log table of 5 are replaced by the pre-integration unit's terms, with
+//! each step's opacity and colour *contribution* `a c` bounded (never the
+//! ill-conditioned colour `wc / tau` alone), and a window's position term
+//! split into a per-step part and a part weighted by the step's opacity
+//! (summing to at most once over a ray, as `dc` above). Derivation in
+//! [`preint`](self::preint) (the module `bound::preint`); the facts come
+//! from golden's table ([`PreintInputs`]).
 
 use glam::DVec3;
 use golden::geometry::View;
@@ -106,9 +117,14 @@ use golden::volume::Volume;
 use crate::config::PipelineConfig;
 use crate::fixed::{Format, Quant};
 
+pub mod preint;
 mod shading;
 mod voi;
 
+pub use preint::{
+    preint_error_bound, preint_ftb_error_bound, preint_step_bound, PreintInputs, StepBound,
+    StepTerms, Window,
+};
 pub use shading::ShadeInputs;
 pub use voi::VoiInputs;
 
@@ -345,6 +361,54 @@ fn position_error(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
     2.0 * r(cfg.position) + d.max_index * r(cfg.step) + d.max_coord * e
 }
 
+/// Step 2: the sample difference in data units, from a position
+/// difference `ex` in voxels.
+fn sample_error(cfg: &PipelineConfig, d: &BoundInputs, ex: f64) -> f64 {
+    let e = 2f64.powi(-24);
+    let rw = r(cfg.weight);
+    let word = 2f64.powi(d.data_bits as i32 - i32::from(cfg.voxel.bits()));
+    let range = 2f64.powi(d.data_bits as i32);
+    let vox = if cfg.voxel.bits() as u32 >= d.data_bits {
+        0.0
+    } else {
+        r(cfg.voxel) * word
+    };
+    d.gradient[0] * (ex + rw)
+        + d.gradient[1] * (ex + rw)
+        + 2.0 * r(cfg.sample) * word
+        + vox
+        + 4.0 * range * e
+}
+
+/// Step 4: the path-length difference per slice step.
+fn path_error(cfg: &PipelineConfig, d: &BoundInputs) -> f64 {
+    let e = 2f64.powi(-24);
+    let es = 2.0 * r(cfg.position) + d.max_index * r(cfg.step);
+    2f64.sqrt() * es + cfg.path.lsb() + d.ds_max * 2.0 * e
+}
+
+/// Step 5's exp stage ([`crate::datapath::Datapath::transmit`]) from an
+/// exact `p`: the exp table's entries, its interpolation (`(ln 2)^2 h^2 /
+/// 8`), the assignment and the shift (`3 r(opacity_corr)`), the weight
+/// when it drops bits (`ln 2 h r(weight)`), and `1 - T` saturating below
+/// 1 when `opacity_corr` has no integer bit.
+fn transmit_error(cfg: &PipelineConfig) -> f64 {
+    let ln2 = std::f64::consts::LN_2;
+    let lt = cfg.log_transmittance;
+    let h = 2f64.powi(-i32::from(cfg.exp_table_bits));
+    let weight_drop =
+        i32::from(lt.frac()) - i32::from(cfg.exp_table_bits) > i32::from(cfg.weight.frac());
+    let oc = cfg.opacity_corr;
+    let mut t = 3.0 * r(oc) + ln2 * ln2 * h * h / 8.0;
+    if weight_drop {
+        t += ln2 * h * r(cfg.weight);
+    }
+    if oc.int_bits() == 0 {
+        t += r(oc);
+    }
+    t
+}
+
 /// Steps 1 to 5: the colour and corrected-opacity differences of one
 /// sample (with a VOI, step 3 is followed by its opacity terms; shaded,
 /// by the shading terms).
@@ -355,25 +419,14 @@ fn sample_terms(
     voi: Option<&VoiInputs>,
 ) -> SampleTerms {
     let e = 2f64.powi(-24);
-    let ln2 = std::f64::consts::LN_2;
     let rw = r(cfg.weight);
     // 1. positions.
     let ex = position_error(cfg, d);
     // 2. sample, in data units.
-    let word = 2f64.powi(d.data_bits as i32 - i32::from(cfg.voxel.bits()));
-    let range = 2f64.powi(d.data_bits as i32);
-    let vox = if cfg.voxel.bits() as u32 >= d.data_bits {
-        0.0
-    } else {
-        r(cfg.voxel) * word
-    };
-    let ds = d.gradient[0] * (ex + rw)
-        + d.gradient[1] * (ex + rw)
-        + 2.0 * r(cfg.sample) * word
-        + vox
-        + 4.0 * range * e;
+    let ds = sample_error(cfg, d, ex);
     // 3. classification.
     let entries = f64::from(cfg.table_entries);
+    let range = 2f64.powi(d.data_bits as i32);
     let df = ds * entries / range;
     let dc = d.table_step[0] * (df + rw) + 2.0 * r(cfg.color) + 3.0 * e;
     let da = d.table_step[1] * (df + rw) + 2.0 * r(cfg.alpha) + 3.0 * e;
@@ -388,26 +441,15 @@ fn sample_terms(
         None => (dc, da),
     };
     // 4. path length.
-    let es = 2.0 * r(cfg.position) + d.max_index * r(cfg.step);
-    let dpath = 2f64.sqrt() * es + cfg.path.lsb() + d.ds_max * 2.0 * e;
-    // 5. opacity correction.
-    let lt = cfg.log_transmittance;
-    let h = 2f64.powi(-i32::from(cfg.exp_table_bits));
-    let weight_drop =
-        i32::from(lt.frac()) - i32::from(cfg.exp_table_bits) > i32::from(cfg.weight.frac());
-    let oc = cfg.opacity_corr;
-    let mut dcorr = d.ds_max * da
+    let dpath = path_error(cfg, d);
+    // 5. opacity correction: the log table's entry and the product round
+    // (`(1 + ds_max) r(log_t)` through `2^-p`), then the exp stage.
+    let ln2 = std::f64::consts::LN_2;
+    let dcorr = d.ds_max * da
         + dpath / std::f64::consts::E
-        + ln2 * (1.0 + d.ds_max) * r(lt)
-        + 3.0 * r(oc)
-        + ln2 * ln2 * h * h / 8.0
+        + ln2 * (1.0 + d.ds_max) * r(cfg.log_transmittance)
+        + transmit_error(cfg)
         + 4.0 * e;
-    if weight_drop {
-        dcorr += ln2 * h * rw;
-    }
-    if oc.int_bits() == 0 {
-        dcorr += r(oc);
-    }
     SampleTerms { dc, dcorr }
 }
 

@@ -481,6 +481,33 @@ config_fields! {
             toml: "volume of interest: opacity factor in [0, 100], unsigned, >= 1 integer bit",
             check: rules::voi_factor,
         },
+        /// Pre-integrated classification ([`crate::preint`]): the table's
+        /// mean extinction per unit length of a linear segment, in `log2`
+        /// units (`tau / ln 2`, so that `p = tau len` feeds the `2^-p`
+        /// stage of [opacity correction](PipelineConfig#opacity-correction)
+        /// directly), its entries and their bilinear interpolation:
+        /// unsigned, with fraction bits. Unused unless a frame is
+        /// pre-integrated.
+        ///
+        /// Default `ufixed<22,7,RND,SAT>`: 7 integer bits reach 128, above
+        /// golden's opaque entry (`80 / ln 2 = 115.4`); 15 fraction bits, as
+        /// `log_transmittance`, resolve the faintest opacity `alpha` holds.
+        pub preint_tau: Format {
+            default: fmt(22, 15, false, Rnd, Sat),
+            toml: "pre-integration: mean extinction per unit length in log2 units, unsigned with fraction bits",
+            check: rules::unsigned_frac,
+        },
+        /// Pre-integrated classification: the table's extinction-weighted
+        /// mean colour per channel (`c tau / ln 2`, at most `preint_tau`'s
+        /// value), its entries and their interpolation; the divider turns it
+        /// into the segment's colour (`color`): unsigned, with fraction bits.
+        ///
+        /// Default `ufixed<22,7,RND,SAT>`, as `preint_tau`.
+        pub preint_color: Format {
+            default: fmt(22, 15, false, Rnd, Sat),
+            toml: "pre-integration: extinction-weighted colour in log2 units, unsigned with fraction bits",
+            check: rules::unsigned_frac,
+        },
         /// Which PE owns which voxel columns while the array samples:
         /// `blocks` (`W = ceil(nx / P)` columns each), `interleave` (Cube-4:
         /// column `x` on PE `x mod P`) or `cyclic` (blocks of

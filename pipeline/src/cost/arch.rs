@@ -154,7 +154,7 @@ pub fn lane_ports(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
         format!("ray port lanes 2..={} (left, right)", extra + 1),
         2 * extra,
         vec![Unit::Reg {
-            bits: ray_bits(cfg) + RAY_INDEX_BITS + row_bits + 1,
+            bits: ray_bits(cfg) + super::preint::ray_bits(cfg, geo) + RAY_INDEX_BITS + row_bits + 1,
         }],
     ))
 }
@@ -216,7 +216,7 @@ pub fn wrap_link(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
         "wrap link P-1 -> 0 (migrating rays)",
         1,
         vec![Unit::Reg {
-            bits: ray_bits(cfg) + RAY_INDEX_BITS + row_bits + 1,
+            bits: ray_bits(cfg) + super::preint::ray_bits(cfg, geo) + RAY_INDEX_BITS + row_bits + 1,
         }],
     ))
 }

@@ -34,7 +34,9 @@
 //!   the merge's y pass;
 //! - **migration FIFOs**: one ray column arriving from each side;
 //! - the three **tables** (classification, `-log2(1 - a)`, `2^-f`), loaded
-//!   by the host between frames.
+//!   by the host between frames; a pre-integrating PE holds the
+//!   pre-integration table in place of the first two
+//!   ([`super::preint`]).
 //!
 //! Voxel memory (all `W x ny x nz` voxels of the PE's block) is external:
 //! at 128^3 and beyond it is megabits per PE, far beyond on-chip RAM. The
@@ -44,7 +46,9 @@ mod datapath;
 
 use datapath::datapath;
 pub(super) use datapath::Step;
-pub use datapath::{schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule};
+pub use datapath::{
+    preint_schedule_depth, schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule,
+};
 
 use super::arch;
 use super::memory::MemPorts;
@@ -138,6 +142,13 @@ pub struct Geometry {
     /// The PEs carry the volume-of-interest stage ([`super::voi`]).
     #[serde(default)]
     pub voi: bool,
+    /// The PEs carry the pre-integration unit ([`super::preint`]) in place
+    /// of the classification: not with `shading` (golden does not shade
+    /// pre-integrated steps) nor `voi` (the unit has no VOI factor).
+    /// Left out of the JSON when false, so reports without it read as
+    /// before.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub preint: bool,
 }
 
 impl Geometry {
@@ -151,6 +162,7 @@ impl Geometry {
             regions: golden::geometry::Regions::new(d, dims[2]).count() as u32,
             shading: false,
             voi: false,
+            preint: false,
         }
     }
 
@@ -162,6 +174,11 @@ impl Geometry {
     /// This geometry with (or without) the volume-of-interest stage.
     pub fn with_voi(self, voi: bool) -> Geometry {
         Geometry { voi, ..self }
+    }
+
+    /// This geometry with (or without) the pre-integration unit.
+    pub fn with_preint(self, preint: bool) -> Geometry {
+        Geometry { preint, ..self }
     }
 
     /// Columns per PE, `W = ceil(nx / P)`.
@@ -222,40 +239,50 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         b
     };
     let mut items = buffers;
-    items.extend(vec![
-        Item::new(
-            "memories",
-            "classification table",
-            1,
-            vec![mem(
-                u64::from(cfg.table_entries),
-                table_word(cfg),
-                MemPorts::DualRead,
-            )],
-        ),
-        Item::new(
-            "memories",
-            "-log2(1 - a) table",
-            1,
-            vec![mem(
-                1u64 << cfg.alpha.bits(),
-                fmt_bits(cfg.log_transmittance),
-                MemPorts::Sdp,
-            )],
-        ),
-        Item::new(
-            "memories",
-            "2^-f table",
-            1,
-            vec![mem(
-                (1u64 << cfg.exp_table_bits) + 1,
-                fmt_bits(cfg.opacity_corr),
-                MemPorts::DualRead,
-            )],
-        ),
-    ]);
+    // A pre-integrating PE reads its own table instead of the
+    // classification and `-log2(1 - a)` tables.
+    let tables = if geo.preint {
+        super::preint::memories(cfg)
+    } else {
+        vec![
+            Item::new(
+                "memories",
+                "classification table",
+                1,
+                vec![mem(
+                    u64::from(cfg.table_entries),
+                    table_word(cfg),
+                    MemPorts::DualRead,
+                )],
+            ),
+            Item::new(
+                "memories",
+                "-log2(1 - a) table",
+                1,
+                vec![mem(
+                    1u64 << cfg.alpha.bits(),
+                    fmt_bits(cfg.log_transmittance),
+                    MemPorts::Sdp,
+                )],
+            ),
+        ]
+    };
+    items.extend(tables);
+    items.extend(vec![Item::new(
+        "memories",
+        "2^-f table",
+        1,
+        vec![mem(
+            (1u64 << cfg.exp_table_bits) + 1,
+            fmt_bits(cfg.opacity_corr),
+            MemPorts::DualRead,
+        )],
+    )]);
     let rays = arch::rays_per_pe(cfg, geo);
     let row = arch::rays_per_row(cfg, geo);
+    // A pre-integrating ray keeps its previous sample beside its
+    // accumulators, wherever they go.
+    let prev = super::preint::ray_bits(cfg, geo);
     if cfg.ray_buffer == RayBuffer::External {
         // Every ray's state lives in DDR; the PE keeps the row it samples
         // and the rows the controller reads ahead (and writes back).
@@ -266,7 +293,7 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             2,
             vec![mem(
                 (rows * row).div_ceil(2),
-                arch::ray_bits(cfg),
+                arch::ray_bits(cfg) + prev,
                 MemPorts::Sdp,
             )],
         ));
@@ -275,7 +302,7 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             "memories",
             "compositing buffer (2 column banks)",
             2,
-            vec![mem(rays.div_ceil(2), acc, MemPorts::Sdp)],
+            vec![mem(rays.div_ceil(2), acc + prev, MemPorts::Sdp)],
         ));
     }
     items.extend(vec![
@@ -297,7 +324,7 @@ fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             2,
             vec![mem(
                 2 * ny + 1,
-                acc + RAY_INDEX_BITS + row_bits,
+                acc + prev + RAY_INDEX_BITS + row_bits,
                 MemPorts::Sdp,
             )],
         ),
@@ -381,13 +408,20 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let s = fmt_bits(cfg.step);
     let col_bits = addr_bits(geo.block() + 1);
     let slot_bits = addr_bits(arch::slots(cfg, geo));
+    // A pre-integrating ray migrates with its previous sample (merges drop
+    // it: the merge ports stay).
+    let prev = super::preint::ray_bits(cfg, geo);
     let mut items = vec![
         Item::new(
             "links",
-            "ray ports (left, right): accumulators, m, row, valid",
+            if geo.preint {
+                "ray ports (left, right): accumulators, sample, m, row, valid"
+            } else {
+                "ray ports (left, right): accumulators, m, row, valid"
+            },
             2,
             vec![Unit::Reg {
-                bits: acc + RAY_INDEX_BITS + row_bits + 1,
+                bits: acc + prev + RAY_INDEX_BITS + row_bits + 1,
             }],
         ),
         Item::new(

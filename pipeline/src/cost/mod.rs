@@ -25,6 +25,7 @@ pub mod dsp;
 pub mod inventory;
 pub mod memory;
 pub mod parts;
+pub mod preint;
 pub mod report;
 pub mod shading;
 pub mod shapes;
@@ -65,4 +66,20 @@ pub fn shaded_latency(cfg: &crate::config::PipelineConfig) -> u32 {
         return u32::from(cfg.datapath_latency);
     }
     inventory::shaded_schedule_depth(cfg).max(1)
+}
+
+/// [`datapath_latency`] of a datapath with the pre-integration unit
+/// ([`crate::preint`], priced in [`preint`]): the configured latency, or
+/// the depth of that schedule, where the unit takes the classification's
+/// and the log table's place: from the sample, the table position
+/// multiply, the address, the table read, two lerp levels and `tau len`
+/// into the exp stage, and the colour dividers beside it, before the
+/// compositing. The dividers' quotient bits set it: 29 clocks against 26
+/// at the default widths (`p` and the exp stage finish where the plain
+/// datapath's do, both waiting for the path length's square root).
+pub fn preint_latency(cfg: &crate::config::PipelineConfig) -> u32 {
+    if cfg.datapath_latency > 0 {
+        return u32::from(cfg.datapath_latency);
+    }
+    inventory::preint_schedule_depth(cfg).max(1)
 }

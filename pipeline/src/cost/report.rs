@@ -160,15 +160,17 @@ fn fitting(cfg: &PipelineConfig, geo: &Geometry, parts: &[Part]) -> Vec<&'static
         .collect()
 }
 
-/// The most PEs of `cfg` (with the shading unit and the volume-of-interest
-/// stage as `geo` has them) that fit `part` for a volume of `geo.dims`.
+/// The most PEs of `cfg` (with the shading unit, the volume-of-interest
+/// stage and the pre-integration unit as `geo` has them) that fit `part`
+/// for a volume of `geo.dims`.
 pub fn max_pes(cfg: &PipelineConfig, geo: &Geometry, part: &Part) -> MaxPes {
     let dims = geo.dims;
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
     let fit_at = |p: u16| {
         let g = Geometry::new(dims, p)
             .with_shading(geo.shading)
-            .with_voi(geo.voi);
+            .with_voi(geo.voi)
+            .with_preint(geo.preint);
         let (r, _, mems) = design::array(cfg, &g, part.target);
         fit_memories(part, &r, &mems)
     };
@@ -237,7 +239,8 @@ pub fn build(
         for p in SCALE_P {
             let g = Geometry::new([n, n, n], p)
                 .with_shading(geo.shading)
-                .with_voi(geo.voi);
+                .with_voi(geo.voi)
+                .with_preint(geo.preint);
             let b = bound_cycles(&g);
             let r = array_cost(cfg, &g, target);
             scaling.push(ScaleRow {
@@ -394,6 +397,17 @@ impl CostReport {
             c.accum_color.bits(),
             c.accum_alpha.bits()
         );
+        if g.preint {
+            let n = super::preint::bins(c) + 1;
+            let _ = writeln!(
+                o,
+                "  pre-integration: {n} x {n} table of {} bits ({:.2} Mbit per PE), tau {}, colour {}, in place of the classification and -log2(1 - a) tables",
+                super::preint::table_word(c),
+                super::preint::table_bits(c) as f64 / 1e6,
+                c.preint_tau.bits(),
+                c.preint_color.bits()
+            );
+        }
         let _ = writeln!(
             o,
             "  array: P = {} PEs, volume {}x{}x{} (view space), W = {} columns per PE; run: {}\n",

@@ -58,6 +58,9 @@ struct Probe<S> {
     /// Only in an array with a volume of interest (its stage's registers),
     /// so waveforms without one stay as they were.
     voi: bool,
+    /// Only in a pre-integrated frame (the unit's words), so other
+    /// waveforms stay as they were.
+    preint: bool,
     names: &'static [(u64, &'static str)],
 }
 
@@ -76,6 +79,7 @@ impl<S> Probe<S> {
             present: |_| true,
             shaded: false,
             voi: false,
+            preint: false,
             names: &[],
         }
     }
@@ -91,6 +95,14 @@ impl<S> Probe<S> {
     /// Only while the array has a volume of interest.
     const fn with_voi(self) -> Self {
         Probe { voi: true, ..self }
+    }
+
+    /// Only in a pre-integrated frame.
+    const fn with_preint(self) -> Self {
+        Probe {
+            preint: true,
+            ..self
+        }
     }
 
     /// An enumeration whose values have `names`.
@@ -355,6 +367,20 @@ const PE_PROBES: &[Probe<PeView>] = &[
         |s| s.last.voi.factor as u64,
     )
     .with_voi(),
+    Probe::<PeView>::new(
+        "pre_back",
+        DATAPATH,
+        |c| bits(c.sample),
+        |s| s.last.preint.back as u64,
+    )
+    .with_preint(),
+    Probe::<PeView>::new(
+        "pre_tau",
+        DATAPATH,
+        |c| bits(c.preint_tau),
+        |s| s.last.preint.tau as u64,
+    )
+    .with_preint(),
     Probe::<PeView>::new("rays_sent", DATAPATH, |_| 32, |s| s.rays_sent & 0xffff_ffff),
     // Front to back only, so back-to-front waveforms stay as they were.
     Probe::<PeView>::new(

@@ -13,14 +13,18 @@ use crate::pe::{Pe, Ports};
 /// (NONE for the absent and the unselected).
 fn register<S>(
     tracer: &mut Tracer,
-    (cfg, shading, voi): (&PipelineConfig, bool, bool),
+    (cfg, (shading, voi, preint)): (&PipelineConfig, (bool, bool, bool)),
     scope: &ScopePath,
     table: &[Probe<S>],
 ) -> Result<Vec<SignalId>, WavesError> {
     table
         .iter()
         .map(|p| {
-            if !(p.present)(cfg) || (p.shaded && !shading) || (p.voi && !voi) {
+            if !(p.present)(cfg)
+                || (p.shaded && !shading)
+                || (p.voi && !voi)
+                || (p.preint && !preint)
+            {
                 return Ok(SignalId::NONE);
             }
             let width = (p.width)(cfg);
@@ -80,15 +84,16 @@ impl Probes {
     }
 
     /// Registers the signals of `p` PEs (with the shading unit's when
-    /// `shading`, the volume-of-interest stage's when `voi`); an unknown
-    /// group in the tracer's selection is an error.
+    /// `units.0`, the volume-of-interest stage's when `units.1`, the
+    /// pre-integration unit's when `units.2`); an unknown group in the
+    /// tracer's selection is an error.
     pub(crate) fn new(
         mut tracer: Tracer,
         p: usize,
         cfg: &PipelineConfig,
-        (shading, voi): (bool, bool),
+        units: (bool, bool, bool),
     ) -> Result<Probes, WavesError> {
-        let c = (cfg, shading, voi);
+        let c = (cfg, units);
         Probes::check_groups(&tracer)?;
         let ctrl = register(&mut tracer, c, &ScopePath::top().child("ctrl"), CTRL_PROBES)?;
         let mut pes = Vec::with_capacity(p);

@@ -23,7 +23,7 @@ pub(crate) fn back_to_front(a: &mut Array, plan: &FramePlan) -> Result<Output, R
         if i == k - 1 {
             a.distribute(region);
         }
-        for slice in &region.slices {
+        for slice in plan.region_passes(i, false) {
             let Some(slice) = a.visit(i, slice)? else {
                 continue;
             };

@@ -36,7 +36,7 @@ pub(crate) fn front_to_back(a: &mut Array, plan: &FramePlan) -> Result<Output, R
             a.settle_links();
             merges += 1;
         }
-        for slice in region.slices.iter().rev() {
+        for slice in plan.region_passes(i, true) {
             let Some(slice) = a.visit(i, slice)? else {
                 continue;
             };

@@ -99,6 +99,12 @@ impl Pe {
             if let Some(f) = m.ftb {
                 col.ftb[row] = f;
             }
+            if let Some(p) = m.prev {
+                if col.prev.is_empty() {
+                    col.prev = vec![0; col.acc.len()];
+                }
+                col.prev[row] = p;
+            }
             // A column's rows travel in order on one path, its last row
             // always (it closes the column).
             if m.row + 1 == m.rows {
@@ -158,16 +164,19 @@ impl Pe {
 /// Splits a column into ray moves, row by row, each with the cycle from
 /// which it may leave.
 /// With `sparse`, rows that hold nothing (transparent accumulators and,
-/// front to back, nothing inherited and no termination) stay behind, but
+/// front to back, nothing inherited and no termination; pre-integrated,
+/// a zero previous sample) stay behind, but
 /// the last row always goes: it closes the column at the receiver.
 fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
     let rows = c.acc.len() as u32;
     for (row, acc) in c.acc.into_iter().enumerate() {
         let ftb = c.ftb.get(row).copied();
+        let prev = c.prev.get(row).copied();
         if sparse
             && row + 1 < rows as usize
             && acc == Acc::default()
             && ftb.is_none_or(|f| f == FtbState::default())
+            && prev.is_none_or(|p| p == 0)
         {
             continue;
         }
@@ -177,6 +186,7 @@ fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
             rows,
             acc,
             ftb,
+            prev,
         };
         q.push_back((mv, c.land.get(row).copied().unwrap_or(0)));
     }

@@ -204,14 +204,10 @@ fn default_widths_within_one_grey_level_on_the_checkerboard() {
 /// The same on brainsmall at the golden issue's view.
 #[test]
 fn default_widths_within_one_grey_level_on_brainsmall() {
-    let Some(path) = crate::scenes::brainsmall() else {
-        eprintln!("skipped: shared/data/brainsmall.den is absent");
+    let Some((vol, cam)) = crate::scenes::brainsmall_view() else {
         return;
     };
-    let vol = golden::load::load_den(&path, DEFAULT_MEMORY_LIMIT).unwrap();
     let tf = golden::scenes::tf_preset("grey-ramp").unwrap();
-    let c = DVec3::from_array(vol.center_world());
-    let cam = Camera::new(DVec3::new(64.0, 64.0, -64.0), c, DVec3::Y, 90.0, 256, 256).unwrap();
     let m = default_width_view(&vol, &tf, &cam);
     eprintln!("brainsmall: max {m} /255");
     assert!(m <= 1.0, "max difference {m} grey levels");

@@ -5,7 +5,7 @@
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
 //! estimator against yosys (`cost`), what the mappings and ray-buffer
 //! placements cost (`architecture`), the waveforms beyond the default set (`traces`), and the gradient and
-//! shading unit against golden's shading (`shading`), the volume-of-interest stage against golden's (`voi`). What runs the `ercube` program is in
+//! shading unit against golden's shading (`shading`), the volume-of-interest stage against golden's (`voi`), the pre-integration unit against golden's pre-integrated frames (`preint`). What runs the `ercube` program is in
 //! the root `tests/it/`.
 
 #[path = "../../../tests/support/chip.rs"]
@@ -23,6 +23,7 @@ mod ftb;
 mod load;
 mod mapping;
 mod model;
+mod preint;
 mod shading;
 mod skip;
 mod stress;

@@ -63,12 +63,6 @@ fn pipe_shaded(
     a.run(&prep.view)
 }
 
-fn camera(vol: &Volume, eye: DVec3, up: DVec3, fov: f64, w: u32, h: u32) -> Option<Prepared> {
-    let c = DVec3::from_array(vol.center_world());
-    let cam = Camera::new(eye, c, up, fov, w, h).ok()?;
-    Prepared::new(vol, &cam).ok()
-}
-
 /// One random shaded case.
 struct ShadeCase {
     vol: Volume,
@@ -93,7 +87,7 @@ impl std::fmt::Debug for ShadeCase {
 
 /// Runs a case; returns (image difference, bound).
 fn run_case(c: &ShadeCase) -> Result<(f64, f64), TestCaseError> {
-    let prep = camera(&c.vol, c.eye, c.up, 50.0, 24, 20)
+    let prep = crate::scenes::centred_view(&c.vol, c.eye, c.up, 50.0, 24, 20)
         .ok_or_else(|| TestCaseError::reject("no view"))?;
     let lut = Lut::for_bits(&c.tf, c.cfg.table_entries as usize, c.vol.kind().bits());
     let golden = golden_shaded(&c.cfg, &prep, &lut, c.shade);
@@ -253,7 +247,7 @@ fn shaded_bound_is_informative_on_smooth_data() {
     assert!(b < 0.25, "bound {b} is too loose to mean anything here");
     assert!(d < b);
     // No fade: no finite bound (a tiny gradient's direction is arbitrary).
-    let prep = camera(&c.vol, c.eye, c.up, 50.0, 24, 20).unwrap();
+    let prep = crate::scenes::centred_view(&c.vol, c.eye, c.up, 50.0, 24, 20).unwrap();
     let lut = Lut::for_bits(&c.tf, 4096, 8);
     let d = BoundInputs::measure(&c.vol, &lut, &prep.view).unwrap();
     let mut abrupt = Shade::default();
@@ -286,14 +280,10 @@ fn default_width_shaded(vol: &Volume, tf: &golden::tf::TransferFunction, cam: &C
 /// (its shaded preset, the view), both orders.
 #[test]
 fn shaded_default_widths_within_one_grey_level_on_brainsmall() {
-    let Some(path) = crate::scenes::brainsmall() else {
-        eprintln!("skipped: shared/data/brainsmall.den is absent");
+    let Some((vol, cam)) = crate::scenes::brainsmall_view() else {
         return;
     };
-    let vol = golden::load::load_den(&path, DEFAULT_MEMORY_LIMIT).unwrap();
     let tf = golden::scenes::tf_preset("brain-shaded").unwrap();
-    let c = DVec3::from_array(vol.center_world());
-    let cam = Camera::new(DVec3::new(64.0, 64.0, -64.0), c, DVec3::Y, 90.0, 256, 256).unwrap();
     let m = default_width_shaded(&vol, &tf, &cam);
     eprintln!("brainsmall shaded: max {m:?} /255 (back to front, front to back)");
     assert!(

@@ -22,7 +22,7 @@ use proptest::prelude::*;
 use waves::{Trace, TraceConfig, Tracer};
 
 use crate::chip::signature;
-use crate::scenes::{checker128_views, eye_for, max_diff, tf};
+use crate::scenes::{checker128_views, eye_for, max_diff, small_views, tf};
 
 /// Golden `er` or `er-ftb` (by `cfg.order`), unskipped, with `voi`.
 fn golden_voi(cfg: &PipelineConfig, prep: &Prepared, lut: &Lut, voi: Voi) -> golden::render::Frame {
@@ -67,12 +67,6 @@ fn pipe_traced(
     a.run(&prep.view)
 }
 
-fn camera(vol: &Volume, eye: DVec3, up: DVec3, fov: f64, w: u32, h: u32) -> Option<Prepared> {
-    let c = DVec3::from_array(vol.center_world());
-    let cam = Camera::new(eye, c, up, fov, w, h).ok()?;
-    Prepared::new(vol, &cam).ok()
-}
-
 /// One random case.
 struct VoiCase {
     vol: Volume,
@@ -110,7 +104,7 @@ fn bound(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared, voi: &V
 
 /// Runs a case; returns (image difference, bound).
 fn run_case(c: &VoiCase) -> Result<(f64, f64), TestCaseError> {
-    let prep = camera(&c.vol, c.eye, c.up, 50.0, 24, 20)
+    let prep = crate::scenes::centred_view(&c.vol, c.eye, c.up, 50.0, 24, 20)
         .ok_or_else(|| TestCaseError::reject("no view"))?;
     let lut = Lut::for_bits(&c.tf, c.cfg.table_entries as usize, c.vol.kind().bits());
     let d = BoundInputs::measure(&c.vol, &lut, &prep.view).expect("ER layout");
@@ -289,14 +283,10 @@ fn voi_default_widths_within_one_grey_level_on_the_checkerboard() {
 /// The same on brainsmall.
 #[test]
 fn voi_default_widths_within_one_grey_level_on_brainsmall() {
-    let Some(path) = crate::scenes::brainsmall() else {
-        eprintln!("skipped: shared/data/brainsmall.den is absent");
+    let Some((vol, cam)) = crate::scenes::brainsmall_view() else {
         return;
     };
-    let vol = golden::load::load_den(&path, DEFAULT_MEMORY_LIMIT).unwrap();
     let tf = golden::scenes::tf_preset("grey-ramp").unwrap();
-    let c = DVec3::from_array(vol.center_world());
-    let cam = Camera::new(DVec3::new(64.0, 64.0, -64.0), c, DVec3::Y, 90.0, 256, 256).unwrap();
     let n = vol.dims();
     let vois = [
         make_voi(n, true, [0.5, 0.5, 0.5], 0.3, false, 4.0, 2.0),
@@ -309,27 +299,6 @@ fn voi_default_widths_within_one_grey_level_on_brainsmall() {
     }
 }
 
-/// A small scene and views for the exact checks.
-fn small() -> (Volume, Lut, Vec<Prepared>) {
-    let vol = crate::scenes::blobs(
-        [20, 18, 22],
-        &[(0.4, 0.5, 0.5, 0.3, 220.0), (0.7, 0.4, 0.6, 0.2, 160.0)],
-        10,
-        7,
-    );
-    let tf = tf(&[(30.0, [1.0, 0.5, 0.2, 0.0]), (200.0, [0.9, 0.9, 1.0, 0.7])]);
-    let entries = PipelineConfig::default().table_entries as usize;
-    let lut = Lut::for_bits(&tf, entries, vol.kind().bits());
-    let views = [(0, 30.0), (3, 8.0), (4, 2.0)]
-        .into_iter()
-        .filter_map(|(side, dist)| {
-            let (eye, up) = eye_for(vol.dims(), side, dist, (0.3, 0.6));
-            camera(&vol, eye, up, 50.0, 24, 20)
-        })
-        .collect();
-    (vol, lut, views)
-}
-
 /// A VOI of scale 1 changes no bit; any VOI takes the same samples and
 /// the same sampling, merge and readout cycles, its deeper datapath (the
 /// distance's square root, [`pipeline::cost::unit_latency`]) only
@@ -338,7 +307,7 @@ fn small() -> (Volume, Lut, Vec<Prepared>) {
 /// gives the whole-slice path's bits and counters.
 #[test]
 fn voi_scale_one_is_none_and_only_the_drains_grow() {
-    let (vol, lut, views) = small();
+    let (vol, lut, views) = small_views(PipelineConfig::default().table_entries as usize);
     assert!(!views.is_empty());
     for order in [Order::BackToFront, Order::FrontToBack] {
         for pes in [1u16, 3, 4] {
@@ -380,7 +349,7 @@ fn voi_scale_one_is_none_and_only_the_drains_grow() {
 /// in one line naming the field.
 #[test]
 fn voi_constant_that_does_not_fit_is_refused() {
-    let (vol, lut, views) = small();
+    let (vol, lut, views) = small_views(PipelineConfig::default().table_entries as usize);
     let v = make_voi(vol.dims(), true, [0.5; 3], 0.3, false, 1e-3, 2.0);
     let cfg = PipelineConfig::default();
     let Err(e) = pipe_voi(&cfg, &vol, &lut, &views[0], Some(&v), false) else {
@@ -394,7 +363,7 @@ fn voi_constant_that_does_not_fit_is_refused() {
 /// which move; one without a VOI has neither.
 #[test]
 fn voi_waveforms_carry_the_weight_and_factor() {
-    let (vol, lut, views) = small();
+    let (vol, lut, views) = small_views(PipelineConfig::default().table_entries as usize);
     let cfg = PipelineConfig {
         pes: 4,
         ..PipelineConfig::default()

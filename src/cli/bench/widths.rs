@@ -252,13 +252,17 @@ const VOI_FORMATS: [&str; 5] = [
     "voi_factor",
 ];
 
+/// The pre-integration unit's formats: the sweep renders without it, so
+/// they are never counted.
+const PREINT_FORMATS: [&str; 2] = ["preint_tau", "preint_color"];
+
 /// The sum of the widths of every register format the datapath has (see
 /// the module docs): the shading unit's only when `shading`, the
 /// volume-of-interest stage's never.
 pub fn total_bits(c: &PipelineConfig, shading: bool) -> u32 {
     c.formats()
         .iter()
-        .filter(|(name, _)| !VOI_FORMATS.contains(name))
+        .filter(|(name, _)| !VOI_FORMATS.contains(name) && !PREINT_FORMATS.contains(name))
         .filter(|(name, _)| shading || !SHADING_FORMATS.contains(name))
         .map(|(_, f)| u32::from(f.bits()))
         .sum()

@@ -136,47 +136,50 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     u.push(Unit::Reg { bits: sm });
     items.push(Item::new("interpolation", "y lerp", 1, u));
 
-    // Classification.
+    // Classification (a pre-integrating PE classifies whole steps in its
+    // unit instead: `crate::cost::preint`).
     let cw = class_weight(cfg);
     let cw_bits = cw.map(|x| x.bits).unwrap_or(0);
     let sample_int = u32::from(cfg.sample.int_bits());
-    let mut u = vec![
-        Unit::Cmp {
-            width: sample_int.max(entry_bits),
-        },
-        Unit::Inc { width: entry_bits },
-        Unit::Mux {
-            width: entry_bits,
-            inputs: 2,
-        },
-    ];
-    u.push(Unit::Reg {
-        bits: 2 * entry_bits + cw_bits,
-    });
-    items.push(Item::new("classification", "table position", 1, u));
-    if let Some(cw) = cw {
-        let lc = Lerp::new(cfg.color.into(), Some(cfg.color.into()), cw, cfg.color);
-        let la = Lerp::new(cfg.alpha.into(), Some(cfg.alpha.into()), cw, cfg.alpha);
-        let mut u = lc.units();
-        u.push(Unit::Reg { bits: c });
-        items.push(Item::new("classification", "colour lerp (R, G, B)", 3, u));
-        let mut u = la.units();
-        u.push(Unit::Reg { bits: al });
-        items.push(Item::new("classification", "opacity lerp", 1, u));
-    } else {
+    if !geo.preint {
+        let mut u = vec![
+            Unit::Cmp {
+                width: sample_int.max(entry_bits),
+            },
+            Unit::Inc { width: entry_bits },
+            Unit::Mux {
+                width: entry_bits,
+                inputs: 2,
+            },
+        ];
+        u.push(Unit::Reg {
+            bits: 2 * entry_bits + cw_bits,
+        });
+        items.push(Item::new("classification", "table position", 1, u));
+        if let Some(cw) = cw {
+            let lc = Lerp::new(cfg.color.into(), Some(cfg.color.into()), cw, cfg.color);
+            let la = Lerp::new(cfg.alpha.into(), Some(cfg.alpha.into()), cw, cfg.alpha);
+            let mut u = lc.units();
+            u.push(Unit::Reg { bits: c });
+            items.push(Item::new("classification", "colour lerp (R, G, B)", 3, u));
+            let mut u = la.units();
+            u.push(Unit::Reg { bits: al });
+            items.push(Item::new("classification", "opacity lerp", 1, u));
+        } else {
+            items.push(Item::new(
+                "classification",
+                "entry register (no interpolation)",
+                1,
+                vec![Unit::Reg { bits: 3 * c + al }],
+            ));
+        }
         items.push(Item::new(
             "classification",
-            "entry register (no interpolation)",
+            "opacity != 0",
             1,
-            vec![Unit::Reg { bits: 3 * c + al }],
+            vec![Unit::Reduce { width: al }, Unit::Reg { bits: 1 }],
         ));
     }
-    items.push(Item::new(
-        "classification",
-        "opacity != 0",
-        1,
-        vec![Unit::Reduce { width: al }, Unit::Reg { bits: 1 }],
-    ));
 
     // Path length: sx^2 + sy^2 + sz^2 (sz^2 is a region constant from the
     // controller), then an integer square root into `path`.
@@ -243,7 +246,9 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     u.extend(lp.units());
     u.push(Unit::Inc { width: e });
     u.push(Unit::Reg { bits: lt });
-    items.push(Item::new("opacity", "p = -log2(1 - a) ds", 1, u));
+    if !geo.preint {
+        items.push(Item::new("opacity", "p = -log2(1 - a) ds", 1, u));
+    }
     let ew = exp_weight(cfg);
     if let Some(ew) = ew {
         let le = Lerp::new(
@@ -351,6 +356,29 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             1,
         ),
     ];
+    if geo.preint {
+        debug_assert!(
+            !(geo.shading || geo.voi),
+            "pre-integration is priced without the shading unit and the VOI stage"
+        );
+        items.extend(crate::cost::preint::items(cfg));
+        // The unit replaces the classification and the log table's
+        // product; the exp stage reads its `p`, the compositing its colour
+        // and keeps the sample as the ray's next back scalar.
+        let replaced = ["table position", "table", "class lerp", "log table", "p"];
+        steps.retain(|st| !replaced.contains(&st.0));
+        for st in steps.iter_mut().filter(|st| st.0 == "composite") {
+            for dep in st.1.iter_mut().filter(|d| d.0 == "class lerp") {
+                dep.0 = "preint divide";
+            }
+            st.1.push(("y lerp", sm));
+        }
+        let at = steps
+            .iter()
+            .position(|st| st.0 == "exp table")
+            .unwrap_or(steps.len());
+        steps.splice(at..at, crate::cost::preint::steps(cfg));
+    }
     if geo.shading {
         items.extend(crate::cost::shading::items(cfg));
         // The opacity correction reads the gradient-modulated opacity and
@@ -455,6 +483,14 @@ pub fn unit_schedule_depth(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -
     )
     .schedule
     .depth
+}
+
+/// [`schedule_depth`] with the pre-integration unit in place of the
+/// classification and the log table's product ([`crate::cost::preint`]).
+pub fn preint_schedule_depth(cfg: &PipelineConfig) -> u32 {
+    datapath(cfg, &Geometry::new([64, 64, 64], cfg.pes).with_preint(true))
+        .schedule
+        .depth
 }
 
 /// [`schedule_depth`] with the gradient and shading unit.

@@ -30,6 +30,7 @@ impl Array {
             .iter()
             .map(|&(my, y, sy, yp)| RowBus {
                 slice,
+                my,
                 row: (my - glo) as usize,
                 y,
                 yp,

@@ -7,8 +7,9 @@ use crate::array::Links;
 use crate::config::Order;
 use crate::datapath::{Datapath, SampleTrace};
 use crate::fixed::{Fx, QuantStats};
-use crate::host::SlicePlan;
+use crate::host::{PreStep, SlicePlan};
 use crate::pe::{Pe, Ports, StepError};
+use crate::preint::{PreintTrace, PreintUnit};
 use crate::shading::{outer_rows, Halo, Taps};
 
 /// The words a PE drives on its ports while sampling a row (its edge
@@ -147,6 +148,8 @@ impl RowRuns {
 pub struct RowBus<'a> {
     /// The slice being sampled.
     pub slice: &'a SlicePlan,
+    /// Ray row.
+    pub my: i64,
     /// Row in the region's buffer.
     pub row: usize,
     /// Clamped voxel rows `y0, y0 + 1` and the y weight.
@@ -164,6 +167,7 @@ impl<'a> RowBus<'a> {
     pub fn of(b: &SampleBus<'a>) -> RowBus<'a> {
         RowBus {
             slice: b.slice,
+            my: b.my,
             row: b.row,
             y: b.y,
             yp: b.yp,
@@ -457,6 +461,9 @@ impl Pe {
             None => None,
         };
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
+        if let Some(unit) = &dp.preint {
+            return self.preint_sample::<TRACE>(dp, unit, bus, j, sample, st);
+        }
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
         let mut voi = crate::voi::VoiTrace::default();
         if let Some(unit) = &dp.voi {
@@ -507,6 +514,103 @@ impl Pe {
                 terminated,
                 shade,
                 voi,
+                preint: Default::default(),
+            };
+        }
+        Ok(())
+    }
+
+    /// The pre-integrated half of a sample ([`crate::preint`]): with the
+    /// pass's broadcast ([`PreStep`]), composites the step between this
+    /// sample and the ray's previous one (back to front this sample is the
+    /// step's front, front to back its back), slice 0's half step at this
+    /// sample, and records the sample for the next step. Front to back the
+    /// termination comparator reads the accumulators after a whole step
+    /// only, as golden checks termination between slices (slice 0's half
+    /// step and its whole one composite together).
+    #[inline(always)]
+    fn preint_sample<const TRACE: bool>(
+        &mut self,
+        dp: &Datapath,
+        unit: &PreintUnit,
+        bus: &RowBus,
+        j: usize,
+        sample: Fx,
+        st: &mut QuantStats,
+    ) -> Result<(), StepError> {
+        let Some(pre) = bus.slice.pre else {
+            // Every pass of a pre-integrated frame is planned with its
+            // broadcast ([`crate::host::preint_passes`]).
+            unreachable!("a pre-integrated frame samples only planned passes");
+        };
+        let (mx, my, row) = (self.rays[j].mx, bus.my, bus.row);
+        let comp = PreStep::within(&pre.comp, mx, my);
+        let lead = PreStep::within(&pre.lead, mx, my);
+        let keep = PreStep::within(&pre.keep, mx, my);
+        let ftb = dp.cfg.order == Order::FrontToBack;
+        let mut trace = PreintTrace::default();
+        let (mut corrected, mut terminated) = (0, false);
+        if comp || lead {
+            let (b, k) = bus.slope_x;
+            let sx = dp.position(b, k, mx, st)?;
+            let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
+            // A ray composites only after a pass recorded its sample.
+            let prev = Fx::from_raw_unchecked(
+                self.rays[j].prev.get(row).copied().unwrap_or(0),
+                dp.cfg.sample,
+            );
+            let acc = &mut self.rays[j].acc[row];
+            let mut step = |s0: Fx, s1: Fx, half: bool, st: &mut QuantStats| {
+                let e = unit.lookup(&dp.cfg, s0, s1, st)?;
+                let out = PreintUnit::step(dp, e, (ds, half), st)?;
+                if let Some((rgb, a)) = out {
+                    if ftb {
+                        dp.composite_ftb(acc, rgb, a, st)?;
+                    } else {
+                        dp.composite_btf(acc, rgb, a, st)?;
+                    }
+                }
+                Ok::<_, crate::fixed::FxError>((e[3].raw(), out.map_or(0, |o| o.1.raw())))
+            };
+            if ftb && lead {
+                step(sample, sample, true, st)?;
+            }
+            if comp {
+                let (front, back) = if ftb { (prev, sample) } else { (sample, prev) };
+                (trace.tau, corrected) = step(front, back, pre.half, st)?;
+                trace.back = back.raw();
+            }
+            if !ftb && lead {
+                step(sample, sample, true, st)?;
+            }
+            if ftb && comp {
+                let ray = &mut self.rays[j];
+                terminated = dp.terminated(&ray.acc[row]);
+                ray.ftb[row].done = terminated;
+            }
+        }
+        if keep {
+            let ray = &mut self.rays[j];
+            if ray.prev.is_empty() {
+                // A column a merge or split made has no register yet: its
+                // first pass allocates it (once per column and region).
+                ray.prev = vec![0; ray.acc.len()];
+            }
+            ray.prev[row] = sample.raw();
+        }
+        if TRACE {
+            self.last = SampleTrace {
+                busy: true,
+                mx,
+                row,
+                acc: self.rays[j].acc[row],
+                sample: sample.raw(),
+                alpha: 0,
+                corrected,
+                terminated,
+                shade: Default::default(),
+                voi: Default::default(),
+                preint: trace,
             };
         }
         Ok(())

@@ -1,0 +1,510 @@
+//! The pre-integration unit's hardware ([`crate::preint`]), for an array
+//! built with it ([`Geometry::preint`]). Such a PE classifies whole slice
+//! steps: the unit takes the place of the classification (its table
+//! position, table, lerps and zero test) and of the opacity correction's
+//! `-log2(1 - a)` table and product, and feeds the correction's exp stage
+//! ([`crate::datapath::Datapath::transmit`]), which it shares, with its own
+//! `p`.
+//!
+//! - **Table positions**: `f = s K` for the front scalar (the sample) and
+//!   the back scalar (the ray's previous sample, read with its
+//!   accumulators), each a multiply by the per-frame `step` constant, then
+//!   the clamp at the last bin and the split into a bin index and a
+//!   `weight`.
+//! - **Table**: `(bins + 1)^2` words of `3 preint_color + preint_tau` bits
+//!   ([`table_bits`]), in two banks by the front bin's parity so that the
+//!   four words a step reads are two reads of each dual-read bank (bins
+//!   `j` and `j + 1` of rows `i` and `i + 1`), as the slice buffer splits
+//!   its rows; each bank's address is `row (bins + 1) + j`, and a mux puts
+//!   the two banks' rows back in order when `i` is odd. It is block RAM:
+//!   at 256 bins, 66 049 words per PE.
+//! - **Lerps**: twelve, three per channel: along the back scalar on both
+//!   rows (side by side), then along the front, each into its channel's
+//!   format: two lerp levels deep.
+//! - **`p = tau len`** into `log_transmittance` (a half step's `len`
+//!   halved by a shift the mux picks), the extinction's zero test, and
+//!   then the exp stage.
+//! - **Dividers** `min(wc / tau, 1)`, one per channel, non-restoring with
+//!   [`crate::preint::GUARD_BITS`] quotient bits below `color`'s LSB and an
+//!   integer bit for the cap, beside the exp stage: at the default widths
+//!   they, not the exp stage, set the depth ([`crate::cost::preint_latency`]).
+//! - **The pass's rays**: the controller broadcasts per pass which rays
+//!   composite a step, keep their sample and take slice 0's half step
+//!   ([`crate::host::PreStep`]); each PE holds the three rectangles and
+//!   tests its ray against them, and the half step's back scalar is the
+//!   sample itself (a mux).
+//! - **The previous sample**: every ray carries one more `sample` word
+//!   ([`ray_bits`]) in the compositing buffer (or the external ray
+//!   buffer's row buffers), the migration FIFOs and the ray ports; merges
+//!   and splits drop it, so the merge ports and the front-to-back
+//!   inherited states stay as they are.
+//!
+//! [`Geometry::preint`]: super::inventory::Geometry::preint
+
+use super::inventory::{addr_bits, Geometry, Item, Step};
+use super::memory::MemPorts;
+use super::shapes::{Lerp, Quantizer, Word, RAY_INDEX_BITS};
+use super::units::Unit;
+use crate::config::PipelineConfig;
+
+fn bits(f: crate::fixed::Format) -> u32 {
+    u32::from(f.bits())
+}
+
+fn frac(f: crate::fixed::Format) -> i32 {
+    i32::from(f.frac())
+}
+
+/// Bins per table axis: golden's, one per classification entry up to
+/// [`golden::preint::MAX_BINS`] ([`crate::preint::PreintUnit::bins`]).
+pub fn bins(cfg: &PipelineConfig) -> u64 {
+    u64::from(cfg.table_entries).min(golden::preint::MAX_BINS as u64)
+}
+
+/// Bits of one table word: R, G, B in `preint_color`, the extinction in
+/// `preint_tau`.
+pub fn table_word(cfg: &PipelineConfig) -> u32 {
+    3 * bits(cfg.preint_color) + bits(cfg.preint_tau)
+}
+
+/// Bits of the table: `(bins + 1)^2` words (golden's `bins^2` with the
+/// last row and column repeated) of [`table_word`].
+pub fn table_bits(cfg: &PipelineConfig) -> u64 {
+    let n = bins(cfg) + 1;
+    n * n * u64::from(table_word(cfg))
+}
+
+/// Bits a ray carries beyond its accumulators (and front to back its
+/// inherited state) in the buffers and on the links: its previous sample
+/// when `geo` pre-integrates, else none.
+pub fn ray_bits(cfg: &PipelineConfig, geo: &Geometry) -> u32 {
+    if geo.preint {
+        bits(cfg.sample)
+    } else {
+        0
+    }
+}
+
+/// Bits of the divider's quotient: `color`'s fraction bits, the guard
+/// bits below them, and an integer bit, so that the cap at 1 sees the
+/// quotients from 1 up.
+fn quotient_bits(cfg: &PipelineConfig) -> u32 {
+    (frac(cfg.color) + crate::preint::GUARD_BITS + 1).max(1) as u32
+}
+
+/// Bits of a table position `s K`: the sample times the `step` constant.
+fn position_word(cfg: &PipelineConfig) -> Word {
+    let (s, k) = (Word::from(cfg.sample), Word::from(cfg.step));
+    Word {
+        bits: s.bits + k.bits,
+        frac: s.frac + k.frac,
+        signed: k.signed,
+    }
+}
+
+/// Bits of a bin index, `0..bins`.
+fn bin_bits(cfg: &PipelineConfig) -> u32 {
+    addr_bits(bins(cfg))
+}
+
+/// Front rows of the two banks: the even rows `0, 2, ..., bins` and the
+/// odd ones.
+fn bank_rows(cfg: &PipelineConfig) -> [u64; 2] {
+    let n = bins(cfg) + 1;
+    [n.div_ceil(2), n / 2]
+}
+
+/// The table's memories: the two banks, loaded by the host between
+/// frames through their read-write ports.
+pub(super) fn memories(cfg: &PipelineConfig) -> Vec<Item> {
+    let n = bins(cfg) + 1;
+    let word = table_word(cfg);
+    let [even, odd] = bank_rows(cfg);
+    vec![Item::new(
+        "memories",
+        format!("pre-integration table ({n} x {n}, even and odd front rows)"),
+        1,
+        vec![
+            Unit::Mem {
+                depth: even * n,
+                width: word,
+                ports: MemPorts::DualRead,
+            },
+            Unit::Mem {
+                depth: odd * n,
+                width: word,
+                ports: MemPorts::DualRead,
+            },
+        ],
+    )]
+}
+
+/// The unit's datapath items.
+pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
+    let (sm, stb, wt, c, pa, lt) = (
+        bits(cfg.sample),
+        bits(cfg.step),
+        bits(cfg.weight),
+        bits(cfg.color),
+        bits(cfg.path),
+        bits(cfg.log_transmittance),
+    );
+    let (pc, pt) = (bits(cfg.preint_color), bits(cfg.preint_tau));
+    let (bb, word) = (bin_bits(cfg), table_word(cfg));
+    let e = u32::from(cfg.exp_table_bits);
+    let n = bins(cfg) + 1;
+    let bank_addr = addr_bits(bank_rows(cfg)[0] * n);
+    let row_bits = addr_bits(bank_rows(cfg)[0]);
+    let f = position_word(cfg);
+    let mut out = Vec::new();
+
+    out.push(Item::new(
+        "preint",
+        "broadcast copy: K, comp/keep/lead rays, half",
+        1,
+        vec![Unit::Reg {
+            bits: stb + 12 * RAY_INDEX_BITS + 1,
+        }],
+    ));
+    // Which of the pass's three rectangles the ray is in (two compares per
+    // axis and rectangle), and the half step's back scalar: the sample.
+    let mut u = vec![
+        Unit::Cmp {
+            width: RAY_INDEX_BITS,
+        };
+        12
+    ];
+    u.push(Unit::Mux {
+        width: sm,
+        inputs: 2,
+    });
+    u.push(Unit::Reg { bits: 3 });
+    out.push(Item::new("preint", "pass rays: comp, keep, lead", 1, u));
+
+    // Front and back positions: the multiply, the clamp at the last bin
+    // (index and weight), and the weight from the fraction.
+    let int_bits = f.int_bits().max(1) as u32;
+    let weight_q = Quantizer::new(Word::unsigned(f.frac.max(0) as u32, f.frac), cfg.weight);
+    let mut u = vec![Unit::Mul {
+        a: sm,
+        a_signed: false,
+        b: stb,
+        b_signed: f.signed,
+        y: f.bits,
+        post_add: None,
+        registered: true,
+        operand_reg: 0,
+    }];
+    u.push(Unit::Cmp { width: int_bits });
+    u.push(Unit::Mux {
+        width: bb,
+        inputs: 2,
+    });
+    u.extend(weight_q.units());
+    u.push(Unit::Mux {
+        width: wt,
+        inputs: 2,
+    });
+    u.push(Unit::Reg { bits: bb + wt });
+    out.push(Item::new(
+        "preint",
+        "table position f = s K (front, back)",
+        2,
+        u,
+    ));
+    // Bank addresses: row (bins + 1) + j (a shift-add for the constant,
+    // the column), the even bank's row rounded up, the second port's j + 1.
+    let mut u = Vec::new();
+    for _ in 0..2 {
+        u.push(Unit::Add { width: bank_addr });
+        u.push(Unit::Add { width: bank_addr });
+        u.push(Unit::Inc { width: bank_addr });
+    }
+    u.push(Unit::Inc { width: row_bits });
+    u.push(Unit::Reg {
+        bits: 4 * bank_addr + 1,
+    });
+    out.push(Item::new(
+        "preint",
+        "table address (2 banks x 2 ports)",
+        1,
+        u,
+    ));
+    out.push(Item::new(
+        "preint",
+        "table rows i, i+1: swap by i's parity",
+        2,
+        vec![Unit::Mux {
+            width: 2 * word,
+            inputs: 2,
+        }],
+    ));
+
+    let lerp = |fmt: crate::fixed::Format, register: bool| {
+        let l = Lerp::new(fmt.into(), Some(fmt.into()), cfg.weight.into(), fmt);
+        let mut u = l.units();
+        if register {
+            u.push(Unit::Reg { bits: bits(fmt) });
+        }
+        u
+    };
+    out.push(Item::new(
+        "preint",
+        "back lerp, colour (R, G, B; rows i, i+1)",
+        6,
+        lerp(cfg.preint_color, true),
+    ));
+    out.push(Item::new(
+        "preint",
+        "back lerp, extinction (rows i, i+1)",
+        2,
+        lerp(cfg.preint_tau, true),
+    ));
+    out.push(Item::new(
+        "preint",
+        "front lerp, colour (R, G, B)",
+        3,
+        lerp(cfg.preint_color, true),
+    ));
+    out.push(Item::new(
+        "preint",
+        "front lerp, extinction",
+        1,
+        lerp(cfg.preint_tau, true),
+    ));
+    out.push(Item::new(
+        "preint",
+        "extinction != 0",
+        1,
+        vec![Unit::Reduce { width: pt }, Unit::Reg { bits: 1 }],
+    ));
+
+    // p = tau len: the half step's product is the whole step's one bit
+    // lower (a mux before the assignment); the exp table's second index.
+    let prod = Word::unsigned(pt + pa, frac(cfg.preint_tau) + frac(cfg.path));
+    let lp = Quantizer::new(
+        Word {
+            bits: prod.bits + 1,
+            frac: prod.frac + 1,
+            ..prod
+        },
+        cfg.log_transmittance,
+    );
+    let mut u = vec![
+        Unit::Mul {
+            a: pt,
+            a_signed: false,
+            b: pa,
+            b_signed: false,
+            y: pt + pa,
+            post_add: None,
+            registered: false,
+            operand_reg: 0,
+        },
+        Unit::Mux {
+            width: pt + pa + 1,
+            inputs: 2,
+        },
+    ];
+    u.extend(lp.units());
+    u.push(Unit::Inc { width: e });
+    u.push(Unit::Reg { bits: lt });
+    out.push(Item::new("preint", "p = tau len", 1, u));
+
+    // The colour divider per channel: the quotient capped at 1, assigned
+    // into `color`.
+    let qb = quotient_bits(cfg);
+    let cq = Quantizer::new(
+        Word::unsigned(qb, frac(cfg.color) + crate::preint::GUARD_BITS),
+        cfg.color,
+    );
+    let mut u = vec![
+        Unit::Div {
+            quotient: qb,
+            divisor: pt,
+        },
+        Unit::Cmp { width: qb },
+        Unit::Mux {
+            width: qb,
+            inputs: 2,
+        },
+    ];
+    u.extend(cq.units());
+    u.push(Unit::Reg { bits: c });
+    out.push(Item::new(
+        "preint",
+        format!("colour min(wc / tau, 1) ({pc}b / {pt}b)"),
+        3,
+        u,
+    ));
+    out
+}
+
+/// The unit's pipeline steps, in dependency order: the back position from
+/// the ray slot (the previous sample comes with the accumulators), the
+/// front one from the sample (`y lerp`); `p`, which the exp stage reads
+/// under that name, from the front lerp and the path length (`sqrt`); the
+/// dividers beside the exp stage. The caller drops the classification and
+/// log-table steps and rewires the compositing to `preint divide`.
+pub(super) fn steps(cfg: &PipelineConfig) -> Vec<Step<'static>> {
+    let (sm, wt, pa, pt) = (
+        bits(cfg.sample),
+        bits(cfg.weight),
+        bits(cfg.path),
+        bits(cfg.preint_tau),
+    );
+    let (bb, word) = (bin_bits(cfg), table_word(cfg));
+    let bank_addr = addr_bits(bank_rows(cfg)[0] * (bins(cfg) + 1));
+    vec![
+        ("preint back position", vec![("slot", sm)], 1),
+        ("preint front position", vec![("y lerp", sm)], 1),
+        (
+            "preint address",
+            vec![("preint front position", bb), ("preint back position", bb)],
+            1,
+        ),
+        (
+            "preint table",
+            vec![("preint address", 4 * bank_addr + 1)],
+            1,
+        ),
+        (
+            "preint back lerp",
+            vec![("preint table", 4 * word), ("preint back position", wt)],
+            1,
+        ),
+        (
+            "preint front lerp",
+            vec![
+                ("preint back lerp", 2 * word),
+                ("preint front position", wt),
+            ],
+            1,
+        ),
+        ("p", vec![("preint front lerp", pt), ("sqrt", pa)], 1),
+        (
+            "preint divide",
+            vec![("preint front lerp", word)],
+            quotient_bits(cfg),
+        ),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::inventory::pe_inventory;
+    use crate::cost::target::Target;
+    use crate::fixed::{Format, Overflow, Quant};
+
+    fn mem_bits(item: &Item) -> u64 {
+        item.units
+            .iter()
+            .map(|u| match u {
+                Unit::Mem { depth, width, .. } => depth * u64::from(*width),
+                _ => 0,
+            })
+            .sum::<u64>()
+            * u64::from(item.count)
+    }
+
+    fn table_item(items: &[Item]) -> Option<&Item> {
+        items
+            .iter()
+            .find(|i| i.name.starts_with("pre-integration table"))
+    }
+
+    #[test]
+    fn unit_items_only_with_the_flag() {
+        let cfg = PipelineConfig::default();
+        let geo = Geometry::new([128, 128, 128], 16);
+        let plain = pe_inventory(&cfg, &geo);
+        let pre = pe_inventory(&cfg, &geo.with_preint(true));
+        let unit = |items: &[Item]| items.iter().filter(|i| i.group == "preint").count();
+        assert_eq!(unit(&plain.items), 0);
+        assert!(table_item(&plain.items).is_none());
+        assert_eq!(unit(&pre.items), items(&cfg).len());
+        assert!(table_item(&pre.items).is_some());
+        // The unit takes the classification's place, tables included.
+        let named = |items: &[Item], s: &str| items.iter().any(|i| i.name.contains(s));
+        assert!(named(&plain.items, "classification table"));
+        assert!(!named(&pre.items, "classification table"));
+        assert!(!named(&pre.items, "-log2(1 - a)"));
+        assert!(!pre.items.iter().any(|i| i.group == "classification"));
+        // Each ray carries its previous sample in the buffer and the FIFOs.
+        let width = |items: &[Item], s: &str| {
+            items
+                .iter()
+                .find(|i| i.name.starts_with(s))
+                .and_then(|i| match i.units[0] {
+                    Unit::Mem { width, .. } => Some(width),
+                    _ => None,
+                })
+        };
+        let sm = u32::from(cfg.sample.bits());
+        for m in ["compositing buffer", "migration FIFO"] {
+            assert_eq!(
+                width(&pre.items, m),
+                width(&plain.items, m).map(|w| w + sm),
+                "{m}"
+            );
+        }
+        let r = pre.cost(Target::Xc7);
+        assert!(r.bram > plain.cost(Target::Xc7).bram);
+    }
+
+    #[test]
+    fn table_bits_are_the_formats() {
+        let mut cfg = PipelineConfig::default();
+        // 256 bins at 4096 entries: 257^2 words of 3 x 22 + 22 bits.
+        assert_eq!(table_bits(&cfg), 257 * 257 * 88);
+        let check = |cfg: &PipelineConfig| {
+            let geo = Geometry::new([64, 64, 64], 8).with_preint(true);
+            let pe = pe_inventory(cfg, &geo);
+            let n = bins(cfg) + 1;
+            let word = 3 * u64::from(cfg.preint_color.bits()) + u64::from(cfg.preint_tau.bits());
+            let item = table_item(&pe.items).expect("the table");
+            assert_eq!(mem_bits(item), n * n * word);
+            assert_eq!(table_bits(cfg), n * n * word);
+        };
+        check(&cfg);
+        cfg.table_entries = 64;
+        cfg.preint_color = Format::new(16, 10, false, Quant::Rnd, Overflow::Sat).unwrap();
+        cfg.preint_tau = Format::new(18, 11, false, Quant::Rnd, Overflow::Sat).unwrap();
+        cfg.validate().unwrap();
+        assert_eq!(bins(&cfg), 64);
+        check(&cfg);
+        assert_eq!(table_bits(&cfg), 65 * 65 * (3 * 16 + 18));
+    }
+
+    #[test]
+    fn plain_cost_unchanged_without_the_flag() {
+        let cfg = PipelineConfig::default();
+        let geo = Geometry::new([128, 128, 128], 16);
+        assert_eq!(geo.with_preint(false), geo);
+        assert_eq!(ray_bits(&cfg, &geo), 0);
+        let pe = pe_inventory(&cfg, &geo.with_preint(true).with_preint(false));
+        // The default PE as `ercube cost` priced it before the unit.
+        let r = pe.cost(Target::Xc7);
+        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (25, 2324, 1975, 47));
+        assert_eq!(pe.schedule.depth, 26);
+        // A report's JSON leaves the flag out unless it is set.
+        let json = serde_json::to_string(&geo).unwrap();
+        assert!(!json.contains("preint"), "{json}");
+    }
+
+    #[test]
+    fn preint_latency_exceeds_plain() {
+        let mut cfg = PipelineConfig::default();
+        let (plain, pre) = (
+            crate::cost::datapath_latency(&cfg),
+            crate::cost::preint_latency(&cfg),
+        );
+        assert!(pre > plain, "{pre} vs {plain}");
+        let pe = pe_inventory(&cfg, &Geometry::new([128, 128, 128], 16).with_preint(true));
+        assert_eq!(pe.schedule.depth, pre);
+        // A stated latency is kept.
+        cfg.datapath_latency = 40;
+        assert_eq!(crate::cost::preint_latency(&cfg), 40);
+    }
+}
