@@ -199,6 +199,11 @@ fn animate(a: &AnimateArgs) -> Result<()> {
     let mut opts = slice.options()?;
     if let Renderer::Pipeline(_) = renderer {
         chip::check_options(&opts)?;
+        if opts.slice.preintegrate {
+            // Its frames keep the PE memories resident, which the
+            // pre-integrated runner does not do yet.
+            bail!("ercube animate does not run the pipeline pre-integrated; drop --preintegrate (ercube render does)");
+        }
     }
     let prep_opts = slice.prepare()?;
     let t0 = Instant::now();

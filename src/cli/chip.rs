@@ -89,8 +89,21 @@ pub fn check_options(opts: &RenderOptions) -> Result<()> {
     if opts.slice.substeps != 1 {
         bail!("the pipeline models one sample per slice crossing; drop --substeps");
     }
-    if opts.slice.preintegrate {
-        bail!("the pipeline model has no pre-integrated classification yet; drop --preintegrate");
+    if opts.slice.preintegrate && opts.slice.shade.is_some() {
+        bail!("the pipeline's pre-integrated frames are unshaded; drop --shade or --preintegrate");
+    }
+    if opts.slice.preintegrate && opts.slice.voi.is_some() {
+        bail!("the pipeline's pre-integrated frames take no volume of interest; drop --voi or --preintegrate");
+    }
+    Ok(())
+}
+
+/// Refuses what a prepared view adds that the pipeline's pre-integrated
+/// frames do not model: clip planes (the controller's clipping is part of
+/// its skipping plan, which a pre-integrated frame does not run yet).
+fn check_preint(prep: &Prepared) -> Result<()> {
+    if !prep.clip.is_empty() {
+        bail!("the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate");
     }
     Ok(())
 }
@@ -177,23 +190,33 @@ pub struct PipelineRun {
 /// Renders `prep` (of `data_bits`-bit data) through the pipeline, the PEs
 /// loading from its slice stack, the controller skipping what `skips`
 /// allows and clipping to `prep`'s planes, shaded with `shade` and
-/// scaled by the volume of interest `voi` when given.
+/// scaled by the volume of interest `voi` when given; or pre-integrated
+/// with golden's table `preint` (no skipping, shading, volume of interest
+/// or clipping).
 pub fn run(
     a: &PipelineArgs,
     cfg: &PipelineConfig,
     data_bits: u32,
     lut: &Lut,
     prep: &Prepared,
-    (skips, shade, voi): (
+    (skips, shade, voi, preint): (
         golden::skip::Skips,
         Option<&golden::shading::Shade>,
         Option<&golden::voi::Voi>,
+        Option<&golden::preint::PreTable>,
     ),
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
-    let frame =
-        pipeline::run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, voi), tr)?;
+    let frame = match preint {
+        Some(pt) => {
+            check_preint(prep)?;
+            pipeline::run_frame_preint(cfg, data_bits, lut, prep, pt, tr)?
+        }
+        None => {
+            pipeline::run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, voi), tr)?
+        }
+    };
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {
@@ -265,11 +288,16 @@ pub fn versus_golden(
     lut: &Lut,
     image: &golden::image::Image,
     cfg: &PipelineConfig,
-    (shade, voi): (Option<golden::shading::Shade>, Option<golden::voi::Voi>),
+    (shade, voi, preint): (
+        Option<golden::shading::Shade>,
+        Option<golden::voi::Voi>,
+        bool,
+    ),
 ) -> Result<Value> {
     let mut opts = RenderOptions::default();
     opts.slice.shade = shade;
     opts.slice.voi = voi;
+    opts.slice.preintegrate = preint;
     // The configuration's threshold was validated in (0, 1]; f32 is what
     // golden compares in.
     opts.slice.terminate = cfg.terminate as f32;

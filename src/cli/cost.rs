@@ -78,6 +78,12 @@ pub struct CostArgs {
     /// The VOI's transition width in world units.
     #[arg(long, default_value_t = 0.0)]
     pub voi_ramp: f64,
+    /// Cost and clock PEs with the pre-integration unit in place of the
+    /// classification (its table, lerps, dividers and the previous sample
+    /// each ray carries; docs/cost.md#pre-integration). Not with --shade
+    /// or --voi.
+    #[arg(long)]
+    pub preintegrate: bool,
     /// Architectures to run and cost beside the configuration, at its P:
     /// "all" (blocks, interleave and cyclic at the configuration's
     /// cyclic_width, each with the ray buffer on chip and external) or
@@ -145,6 +151,10 @@ fn parse_sweep(s: &str) -> Result<Vec<u16>> {
     Ok(out)
 }
 
+/// The units a run's PEs carry: the label of the run, the shading unit,
+/// the volume-of-interest stage and the pre-integration unit.
+type Units<'a> = (&'a str, bool, Option<&'a golden::voi::Voi>, bool);
+
 /// Runs one frame at `pes` PEs and summarises it.
 fn run_at(
     cfg: &PipelineConfig,
@@ -152,7 +162,7 @@ fn run_at(
     vol: &golden::volume::Volume,
     lut: &golden::tf::Lut,
     prep: &Prepared,
-    (label, shade, voi): (&str, bool, Option<&golden::voi::Voi>),
+    (label, shade, voi, preint): Units,
 ) -> Result<RunSummary> {
     let cfg = PipelineConfig { pes, ..*cfg };
     cfg.validate()?;
@@ -169,6 +179,11 @@ fn run_at(
     if let Some(v) = voi {
         array.set_voi(v, &prep.view)?;
     }
+    if preint {
+        // The unit's table is golden's, from the same classification
+        // table; the frame's cycles include the prime and finish passes.
+        array.set_preint(&golden::preint::PreTable::new(lut))?;
+    }
     let frame = array.run(&prep.view)?;
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
@@ -180,6 +195,7 @@ fn run_at(
             regions: plan.regions.len() as u32,
             shading: shade,
             voi: voi.is_some(),
+            preint,
         },
         (&frame, &plan),
     ))
@@ -226,7 +242,12 @@ pub fn run(a: &CostArgs) -> Result<()> {
     if let Some(v) = &voi {
         v.validate()?;
     }
-    let units = (label.as_str(), a.shade, voi.as_ref());
+    if a.preintegrate && (a.shade || voi.is_some()) {
+        // Golden does not shade pre-integrated steps, and the unit has no
+        // VOI factor for their extinction.
+        bail!("--preintegrate is costed without the shading unit and the VOI stage; drop --shade and --voi");
+    }
+    let units = (label.as_str(), a.shade, voi.as_ref(), a.preintegrate);
     let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, units)?;
     let mut runs = Vec::new();
     for &p in &sweep {

@@ -249,6 +249,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
                     regions: plan.regions.len() as u32,
                     shading: a.shade,
                     voi: false,
+                    preint: false,
                 };
                 let run = RunSummary::new(c, label.as_str(), geo, (&frame, &plan));
                 Ok(design(c, Target::Xc7, &run))

@@ -374,6 +374,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     // The PEs load from golden's stack, which takes the volume's voxels:
     // the frame holds them once.
     let prep = slice.prepared_owning(vol, &cam)?;
+    // Golden's own table from the same classification table: the unit
+    // quantises it, and the comparison below renders golden with it.
+    let preint = opts
+        .slice
+        .preintegrate
+        .then(|| golden::preint::PreTable::new(&lut));
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         timed(a.repeat, || {
@@ -383,7 +389,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
                 bits,
                 &lut,
                 &prep,
-                (opts.slice.skips, shade.as_ref(), voi.as_ref()),
+                (
+                    opts.slice.skips,
+                    shade.as_ref(),
+                    voi.as_ref(),
+                    preint.as_ref(),
+                ),
             )
         })?
     };
@@ -391,7 +402,13 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         time_s: median(&times),
         ..run
     };
-    let vs_golden = chip::versus_golden(&prep, &lut, &run.image, &cfg, (shade, voi))?;
+    let vs_golden = chip::versus_golden(
+        &prep,
+        &lut,
+        &run.image,
+        &cfg,
+        (shade, voi, opts.slice.preintegrate),
+    )?;
     let err = write_outputs(
         a,
         &prep,

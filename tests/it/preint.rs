@@ -1,7 +1,8 @@
-//! `--preintegrate` through the program: the slice-order methods take it
-//! (and it changes their image), everything else refuses it in one line:
-//! the pipeline model, the reference and the mip-map, and the options it
-//! does not combine with.
+//! `--preintegrate` through the program: the slice-order methods and the
+//! pipeline model take it (and it changes their image; the pipeline's
+//! stays within a grey level of golden's pre-integrated frame), and
+//! `ercube cost` prices it; the reference and the mip-map refuse it in
+//! one line, as do the options it does not combine with.
 
 use crate::bin::{assert_refused, describe, ercube};
 
@@ -10,7 +11,7 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let d = dir.path();
     let s = "render --scene sphere:20 --size 20x20";
-    for m in ["er", "er-ftb", "under", "over", "box"] {
+    for m in ["er", "er-ftb", "under", "over", "box", "pipeline", "pipeline-ftb"] {
         let plain = format!("{s} --method {m} --out p.png --npy p.npy");
         let pre = format!("{s} --method {m} --preintegrate --out q.png --npy q.npy");
         for line in [&plain, &pre] {
@@ -28,14 +29,30 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
             "{m}: --preintegrate changed nothing"
         );
     }
+    for m in ["pipeline", "pipeline-ftb"] {
+        let line = format!("{s} --method {m} --preintegrate --out q.png --stats q.json");
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let out = ercube(d, &args);
+        assert!(out.status.success(), "{}", describe(&args, &out));
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("q.json")).unwrap()).unwrap();
+        let err = &stats["error_vs_golden"];
+        let max = err["max_abs_255"].as_f64().expect("the pipeline's error against golden");
+        assert!(max <= 1.0, "{m}: {max} grey levels from golden's pre-integrated frame");
+    }
+    let args = ["cost", "--preintegrate", "--scene", "checker:32", "--sweep-pes", "none"];
+    let out = ercube(d, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("preint"), "the report names no pre-integration unit:\n{text}");
     let cases: Vec<(String, &str)> = vec![
         (
-            format!("{s} --method pipeline --preintegrate"),
-            "pre-integrated",
+            format!("{s} --method pipeline --preintegrate --clip 1,0,0,-10"),
+            "clip planes",
         ),
         (
-            format!("{s} --method pipeline-ftb --preintegrate"),
-            "pre-integrated",
+            format!("{s} --method pipeline-ftb --preintegrate --shade"),
+            "shade",
         ),
         (
             format!("{s} --method reference --preintegrate"),
