@@ -517,8 +517,9 @@ impl<'a> RayRow<'a> {
 
 /// The depths, relative to slice `z` of `nz`, where slice `z`'s
 /// pre-integrated step begins and ends: `[0, 1]`, from `-1/2` at slice 0
-/// and to `1/2` at the last slice (the volume's faces).
-fn preint_span(z: usize, nz: usize) -> [f64; 2] {
+/// and to `1/2` at the last slice (the volume's faces). The pipeline's
+/// controller plans its pre-integrated skipping over the same steps.
+pub fn preint_span(z: usize, nz: usize) -> [f64; 2] {
     [
         if z == 0 { -0.5 } else { 0.0 },
         if z + 1 >= nz { 0.5 } else { 1.0 },

@@ -47,6 +47,11 @@ pub struct PreStep {
     /// The composited step is half a slice step long (the last slice's,
     /// to the volume's face).
     pub half: bool,
+    /// The slice whose step `comp` composites (its runs decide which of
+    /// those rays a skipping controller samples).
+    pub comp_z: Option<usize>,
+    /// The slice whose step `keep`'s sample serves.
+    pub keep_z: Option<usize>,
 }
 
 impl PreStep {
@@ -58,10 +63,10 @@ impl PreStep {
 }
 
 /// Nothing (an empty ray rectangle).
-const NONE: [(i64, i64); 2] = [(0, -1), (0, -1)];
+pub(crate) const NONE: [(i64, i64); 2] = [(0, -1), (0, -1)];
 
 /// The smallest rectangle holding both (an empty one holds nothing).
-fn hull(a: [(i64, i64); 2], b: [(i64, i64); 2]) -> [(i64, i64); 2] {
+pub(crate) fn hull(a: [(i64, i64); 2], b: [(i64, i64); 2]) -> [(i64, i64); 2] {
     let empty = |r: &[(i64, i64); 2]| r[0].0 > r[0].1 || r[1].0 > r[1].1;
     match (empty(&a), empty(&b)) {
         (true, _) => b,
@@ -131,6 +136,8 @@ pub fn preint_passes(
                 keep: range(hi),
                 lead: NONE,
                 half: false,
+                comp_z: None,
+                keep_z: Some(hi),
             };
             out.push(with(end(st)?, prime));
             for z in (lo..=hi).rev() {
@@ -139,6 +146,8 @@ pub fn preint_passes(
                     keep: if z > lo { range(z - 1) } else { NONE },
                     lead: lead(z),
                     half: z + 1 == nz,
+                    comp_z: Some(z),
+                    keep_z: (z > lo).then(|| z - 1),
                 };
                 out.push(with(*at(z), pre));
             }
@@ -150,6 +159,8 @@ pub fn preint_passes(
                     keep: range(z),
                     lead: lead(z),
                     half: false,
+                    comp_z: (z > lo).then(|| z - 1),
+                    keep_z: Some(z),
                 };
                 out.push(with(*at(z), pre));
             }
@@ -158,6 +169,8 @@ pub fn preint_passes(
                 keep: NONE,
                 lead: NONE,
                 half: hi + 1 == nz,
+                comp_z: Some(hi),
+                keep_z: None,
             };
             out.push(with(end(st)?, finish));
         }

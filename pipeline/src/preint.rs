@@ -84,6 +84,9 @@ pub enum PreintError {
     /// The table's geometry does not match the classification table.
     #[error("pre-integration needs the classification table's {0}")]
     Table(String),
+    /// The frame asks for what a pre-integrated frame does not model.
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 impl PreintUnit {
@@ -149,6 +152,13 @@ impl PreintUnit {
         }
         let rem = f.raw & ((1i128 << frac) - 1);
         (int as usize, cfg.weight.assign(Wide::new(rem, f.frac), st))
+    }
+
+    /// The bin sample `s` interpolates from (its table position's
+    /// integer part, at most the last bin): what the controller's
+    /// occupancy memory classifies by ([`crate::skip`]).
+    pub fn bin(&self, cfg: &PipelineConfig, s: Fx) -> usize {
+        self.position(cfg, s, &mut QuantStats::default()).0
     }
 
     /// The interpolated table words of a step from `front` to `back`

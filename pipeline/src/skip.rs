@@ -21,6 +21,8 @@ use crate::bound::r;
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::Datapath;
 use crate::fixed::{Fx, QuantStats, Wide};
+use crate::preint::PreintUnit;
+use golden::tf::Lut;
 
 /// One bit per block of the volume (index space), as the controller holds it.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +50,50 @@ impl OccupancyMemory {
             dp.tables().alpha[a.min(last)..=(b + 1).min(last)]
                 .iter()
                 .any(|w| w.raw() != 0)
+        };
+        OccupancyMemory {
+            block: mm.block,
+            counts: mm.counts,
+            bits: mm.range.iter().map(|&(lo, hi)| visible(lo, hi)).collect(),
+        }
+    }
+
+    /// Classifies `mm`'s blocks for a pre-integrated frame: a block is
+    /// empty when every step between two of its samples has zero
+    /// extinction in the unit's table. A sample in the block's `[min, max]`
+    /// interpolates bins `a ..= b + 1` (`a`, `b` the bins of its ends;
+    /// [`PreintUnit::bin`] is monotonic), and each table word over two of
+    /// them is golden's mean over the classification table's entries
+    /// between them (`stride` entries a bin): when every entry there has
+    /// zero opacity in golden's table `lut`, each word is exactly zero, and
+    /// so is its quantised word. A step whose front and back both lie in
+    /// empty blocks passes only through empty blocks (the runs cover its
+    /// whole segment), so every scalar between its ends lies in some empty
+    /// block's range (the interpolated field is continuous along it): its
+    /// extinction is zero and skipping it changes no bit.
+    pub fn for_preint(
+        dp: &Datapath,
+        unit: &PreintUnit,
+        (lut, stride): (&Lut, f64),
+        mm: &MinMax,
+        data_bits: u32,
+    ) -> OccupancyMemory {
+        let mut st = QuantStats::default();
+        let cfg = &dp.cfg;
+        let last = lut.rgba.len() - 1;
+        let bins = unit.bins();
+        let mut visible = |lo: u16, hi: u16| {
+            let mut bin = |v: u16| {
+                let w = voxel_word(cfg, v, data_bits, &mut st);
+                let vox = Fx::from_raw_unchecked(i64::from(w), cfg.voxel);
+                unit.bin(cfg, cfg.sample.assign(Wide::from(vox), &mut st))
+            };
+            let (a, b) = (bin(lo), (bin(hi) + 1).min(bins - 1));
+            let (e0, e1) = (
+                ((a as f64 * stride).floor() as usize).min(last),
+                ((b as f64 * stride).ceil() as usize).min(last),
+            );
+            lut.rgba[e0..=e1].iter().any(|c| c[3] > 0.0)
         };
         OccupancyMemory {
             block: mm.block,
@@ -139,6 +185,39 @@ pub fn plan_mask(
     skips: Skips,
 ) -> (SampleMask, SkipCounts) {
     let memory = skips.empty.then(|| OccupancyMemory::new(dp, mm, data_bits));
+    mask_from(dp, memory, prep, layout, skips, 1)
+}
+
+/// [`plan_mask`] for a pre-integrated frame: the occupancy memory of
+/// [`OccupancyMemory::for_preint`] (golden's table `lut` and the unit's
+/// bins, `stride` entries each), and each step's runs over the slices it
+/// reads (as golden plans its pre-integrated frames, like two substeps).
+#[allow(clippy::too_many_arguments)]
+pub fn plan_preint_mask(
+    dp: &Datapath,
+    unit: &PreintUnit,
+    (lut, stride): (&Lut, f64),
+    mm: &MinMax,
+    data_bits: u32,
+    prep: &Prepared,
+    layout: &Layout,
+    skips: Skips,
+) -> (SampleMask, SkipCounts) {
+    let memory = skips
+        .empty
+        .then(|| OccupancyMemory::for_preint(dp, unit, (lut, stride), mm, data_bits));
+    mask_from(dp, memory, prep, layout, skips, 2)
+}
+
+/// The mask of `memory`'s occupancy (none: no empty-space skipping).
+fn mask_from(
+    dp: &Datapath,
+    memory: Option<OccupancyMemory>,
+    prep: &Prepared,
+    layout: &Layout,
+    skips: Skips,
+    substeps: u32,
+) -> (SampleMask, SkipCounts) {
     let max_index = layout
         .grids
         .iter()
@@ -156,7 +235,7 @@ pub fn plan_mask(
             cull: skips.cull,
             ftb: dp.cfg.order == Order::FrontToBack,
             margin: margin(&dp.cfg, max_index),
-            substeps: 1,
+            substeps,
         },
     );
     let counts = SkipCounts {

@@ -98,16 +98,6 @@ pub fn check_options(opts: &RenderOptions) -> Result<()> {
     Ok(())
 }
 
-/// Refuses what a prepared view adds that the pipeline's pre-integrated
-/// frames do not model: clip planes (the controller's clipping is part of
-/// its skipping plan, which a pre-integrated frame does not run yet).
-fn check_preint(prep: &Prepared) -> Result<()> {
-    if !prep.clip.is_empty() {
-        bail!("the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate");
-    }
-    Ok(())
-}
-
 /// The golden method a configuration mirrors: `er` back to front, `er-ftb`
 /// front to back.
 pub fn golden_method(cfg: &PipelineConfig) -> Method {
@@ -191,8 +181,8 @@ pub struct PipelineRun {
 /// loading from its slice stack, the controller skipping what `skips`
 /// allows and clipping to `prep`'s planes, shaded with `shade` and
 /// scaled by the volume of interest `voi` when given; or pre-integrated
-/// with golden's table `preint` (no skipping, shading, volume of interest
-/// or clipping).
+/// with golden's table `preint` (no shading, volume of interest or
+/// clipping).
 pub fn run(
     a: &PipelineArgs,
     cfg: &PipelineConfig,
@@ -209,10 +199,7 @@ pub fn run(
     let tr = tracer(a)?;
     let t = Instant::now();
     let frame = match preint {
-        Some(pt) => {
-            check_preint(prep)?;
-            pipeline::run_frame_preint(cfg, data_bits, lut, prep, pt, tr)?
-        }
+        Some(pt) => pipeline::run_frame_preint(cfg, data_bits, lut, prep, (pt, skips), tr)?,
         None => {
             pipeline::run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, voi), tr)?
         }

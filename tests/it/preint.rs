@@ -11,7 +11,15 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let d = dir.path();
     let s = "render --scene sphere:20 --size 20x20";
-    for m in ["er", "er-ftb", "under", "over", "box", "pipeline", "pipeline-ftb"] {
+    for m in [
+        "er",
+        "er-ftb",
+        "under",
+        "over",
+        "box",
+        "pipeline",
+        "pipeline-ftb",
+    ] {
         let plain = format!("{s} --method {m} --out p.png --npy p.npy");
         let pre = format!("{s} --method {m} --preintegrate --out q.png --npy q.npy");
         for line in [&plain, &pre] {
@@ -37,14 +45,29 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
         let stats: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("q.json")).unwrap()).unwrap();
         let err = &stats["error_vs_golden"];
-        let max = err["max_abs_255"].as_f64().expect("the pipeline's error against golden");
-        assert!(max <= 1.0, "{m}: {max} grey levels from golden's pre-integrated frame");
+        let max = err["max_abs_255"]
+            .as_f64()
+            .expect("the pipeline's error against golden");
+        assert!(
+            max <= 1.0,
+            "{m}: {max} grey levels from golden's pre-integrated frame"
+        );
     }
-    let args = ["cost", "--preintegrate", "--scene", "checker:32", "--sweep-pes", "none"];
+    let args = [
+        "cost",
+        "--preintegrate",
+        "--scene",
+        "checker:32",
+        "--sweep-pes",
+        "none",
+    ];
     let out = ercube(d, &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("preint"), "the report names no pre-integration unit:\n{text}");
+    assert!(
+        text.contains("preint"),
+        "the report names no pre-integration unit:\n{text}"
+    );
     let cases: Vec<(String, &str)> = vec![
         (
             format!("{s} --method pipeline --preintegrate --clip 1,0,0,-10"),

@@ -43,7 +43,9 @@ use std::sync::Arc;
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
-use crate::host::{plan, FramePlan, PlanError, RegionPlan, SlicePlan, VoxelSource};
+use crate::host::{
+    hull, plan, FramePlan, PlanError, PreStep, RegionPlan, SlicePlan, VoxelSource, NONE,
+};
 use crate::mapping::ColumnMap;
 use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError, VoxelMem};
 use crate::probes::{Ctrl, Probes, Stage};
@@ -234,6 +236,8 @@ pub struct Array {
     pub(crate) skip: Option<Skipper>,
     /// The current slice's runs per row (reused).
     pub(crate) runs: RowRuns,
+    /// A pre-integrated pass's runs of compositing and keeping rays.
+    pub(crate) pre_runs: crate::stages::sample::PreRuns,
     pub(crate) run_tmp: Vec<(i64, i64)>,
     pub(crate) skipped: SkipCounts,
     /// The external ray buffer's channel (`None` on chip).
@@ -362,6 +366,7 @@ impl Array {
             cycles_saved: 0,
             skip: None,
             runs: RowRuns::default(),
+            pre_runs: Default::default(),
             run_tmp: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),
@@ -406,20 +411,21 @@ impl Array {
 
     /// Pre-integrates the frame's classification ([`crate::preint`]):
     /// loads golden's table `pt` (built from this array's classification
-    /// table) into the unit. A pre-integrated frame samples every crossing
-    /// (the controller's skipping plan would need the union of two slices'
-    /// runs per pass) and takes neither shading nor a volume of interest.
+    /// table) into the unit. A pre-integrated frame takes neither shading
+    /// nor a volume of interest; it skips only with a plan made for it
+    /// ([`crate::skip::plan_preint_mask`], [`crate::run_frame_preint`]):
+    /// loading the unit drops any other.
     pub fn set_preint(&mut self, pt: &golden::preint::PreTable) -> Result<(), RunError> {
         let unsupported = |what: &str| {
-            crate::preint::PreintError::Table(format!(
-                "frame without {what} (the pipeline's pre-integrated frames are unshaded and take no volume of interest)"
+            crate::preint::PreintError::Unsupported(format!(
+                "the pipeline's pre-integrated frames take no {what}; drop it or --preintegrate"
             ))
         };
         if self.dp.shade.is_some() {
             return Err(unsupported("shading").into());
         }
         if self.dp.voi.is_some() {
-            return Err(unsupported("a volume of interest").into());
+            return Err(unsupported("volume of interest").into());
         }
         let mut st = QuantStats::default();
         let entries = self.dp.tables().color.len();
@@ -487,6 +493,33 @@ impl Array {
         let Some(sk) = &self.skip else {
             return Ok(Some(*slice));
         };
+        if let Some(pre) = slice.pre {
+            // A pre-integrated pass serves two steps: each set keeps its
+            // rays only where its step's slices hold something, narrowed
+            // by culling like a slice's range.
+            let visible = |z: Option<usize>| z.is_some_and(|z| sk.mask.slice_visible(z));
+            let narrow = |r, on: bool| if on { sk.mask.rays(i, r) } else { NONE };
+            let (c, k) = (visible(pre.comp_z), visible(pre.keep_z));
+            let pre = PreStep {
+                comp: narrow(pre.comp, c),
+                keep: narrow(pre.keep, k),
+                // Slice 0's half step goes with slice 0's step, which the
+                // pass composites or keeps for.
+                lead: narrow(pre.lead, visible(Some(0))),
+                ..pre
+            };
+            let range = hull(hull(pre.comp, pre.keep), pre.lead);
+            if !(c || k) {
+                self.skipped.slices += 1;
+                self.skip_slice(slice.z)?;
+                return Ok(None);
+            }
+            return Ok(Some(SlicePlan {
+                range,
+                pre: Some(pre),
+                ..*slice
+            }));
+        }
         if !sk.mask.slice_visible(slice.z) {
             self.skipped.slices += 1;
             self.skip_slice(slice.z)?;

@@ -125,20 +125,57 @@ pub fn run_frame_from_stack_voi(
 
 /// Runs one pre-integrated frame of `prep` ([`crate::preint`]), the PEs
 /// loading from its slice stack (`data_bits`-bit scalars): golden's table
-/// `pt`, pre-integrated from `lut`, goes into the unit; the controller
-/// samples every crossing (no skipping or clipping) and the frame is
-/// unshaded, without a volume of interest ([`Array::set_preint`]).
+/// `pt`, pre-integrated from `lut`, goes into the unit, and the controller
+/// skips what `skips` allows with an occupancy memory built for the
+/// unit's table ([`crate::skip::plan_preint_mask`]), each step's runs over
+/// the segment it integrates. The frame is unshaded, without a volume of
+/// interest or clip planes ([`Array::set_preint`]). `prep` must have been
+/// prepared with min-max blocks of the configuration's `occupancy_block`.
 pub fn run_frame_preint(
     cfg: &PipelineConfig,
     data_bits: u32,
     lut: &golden::tf::Lut,
     prep: &golden::render::Prepared,
-    pt: &golden::preint::PreTable,
+    (pt, skips): (&golden::preint::PreTable, golden::skip::Skips),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    if prep.blocks.block != usize::from(cfg.occupancy_block) {
+        return Err(RunError::Schedule(format!(
+            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
+            prep.blocks.block, cfg.occupancy_block
+        )));
+    }
+    if !prep.clip.is_empty() {
+        return Err(crate::preint::PreintError::Unsupported(
+            "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
+                .into(),
+        )
+        .into());
+    }
     let source = VoxelSource::Stack(&prep.stack);
     let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
     array.set_preint(pt)?;
+    if skips.empty || skips.cull {
+        let layout = golden::methods::Method::Er
+            .layout(&prep.view)
+            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
+        let unit = array
+            .dp
+            .preint
+            .as_ref()
+            .expect("set_preint loaded the unit");
+        let (mask, counts) = crate::skip::plan_preint_mask(
+            &array.dp,
+            unit,
+            (lut, pt.stride()),
+            &prep.blocks,
+            data_bits,
+            prep,
+            &layout,
+            skips,
+        );
+        array.set_skipping(mask, counts, &prep.view);
+    }
     array.run(&prep.view)
 }
 

@@ -105,7 +105,7 @@
 //! ill-conditioned colour `wc / tau` alone), and a window's position term
 //! split into a per-step part and a part weighted by the step's opacity
 //! (summing to at most once over a ray, as `dc` above). Derivation in
-//! [`preint`](self::preint) (the module `bound::preint`); the facts come
+//! [`preint`] (the module `bound::preint`); the facts come
 //! from golden's table ([`PreintInputs`]).
 
 use glam::DVec3;

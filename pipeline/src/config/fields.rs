@@ -687,6 +687,8 @@ mod tests {
                 "ufixed<13,1,RND,SAT>",
                 "fixed<20,8,RND,SAT>",
                 "ufixed<20,8,RND,SAT>",
+                "ufixed<22,7,RND,SAT>",
+                "ufixed<22,7,RND,SAT>",
             ]
         );
         assert_eq!((c.table_entries, c.exp_table_bits, c.pes), (4096, 10, 16));

@@ -299,6 +299,109 @@ proptest! {
     }
 }
 
+/// A pre-integrated frame of `prep` with `skips` (golden's table of
+/// `lut`).
+fn run_pre(cfg: &PipelineConfig, lut: &Lut, prep: &Prepared, skips: Skips) -> Frame {
+    let pt = golden::preint::PreTable::new(lut);
+    pipeline::run_frame_preint(cfg, 8, lut, prep, (&pt, skips), Tracer::disabled())
+        .expect("pre-integrated frame runs")
+}
+
+/// [`check`] for pre-integrated frames: each step's runs cover its whole
+/// segment over an occupancy memory of the unit's table, so empty-space
+/// skipping changes no raw word and culling no pixel.
+fn check_preint(c: &Case) -> Result<(), TestCaseError> {
+    let cfg = config(c);
+    if cfg.validate().is_err() {
+        return Err(TestCaseError::reject("widths"));
+    }
+    let vol = sparse(c.dims, c.blobs, c.seed);
+    let lut = lut(&cfg, c.threshold);
+    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
+    let popts = PrepareOptions {
+        block: usize::from(cfg.occupancy_block),
+        ..PrepareOptions::default()
+    };
+    let prep = Prepared::with(&vol, &camera(eye, look, c.fov), &popts)
+        .map_err(|e| TestCaseError::reject(e.to_string()))?;
+    for &n in &prep.view.dims {
+        if cfg.check_extent(n as u32).is_err() {
+            return Err(TestCaseError::reject("extent"));
+        }
+    }
+    let off = run_pre(&cfg, &lut, &prep, OFF);
+    let empty = run_pre(&cfg, &lut, &prep, EMPTY);
+    prop_assert_eq!(
+        &empty.raw,
+        &off.raw,
+        "pre-integrated empty-space skipping changed a raw word"
+    );
+    prop_assert!(empty.samples <= off.samples);
+    let all = run_pre(&cfg, &lut, &prep, Skips::default());
+    prop_assert_eq!(
+        image_bits(&prep, &all),
+        image_bits(&prep, &off),
+        "pre-integrated culling changed a pixel"
+    );
+    prop_assert!(all.samples <= empty.samples);
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    /// The same for pre-integrated frames.
+    #[test]
+    fn pipeline_preint_skipping_is_bit_identical(c in cases()) {
+        check_preint(&c)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+    /// The long run: `cargo test --release -p pipeline --test it -- --ignored preint_skipping_long`.
+    #[test]
+    #[ignore = "long run: 1024 cases"]
+    fn pipeline_preint_skipping_long(c in cases()) {
+        check_preint(&c)?;
+    }
+}
+
+/// Pre-integrated skipping saves work where the volume is empty: on a
+/// sparse scene it takes fewer samples and cycles than sampling every
+/// crossing, with the same raw words (empty space) and pixels (culling
+/// too).
+#[test]
+fn preint_skipping_saves_samples_and_cycles() {
+    let cfg = PipelineConfig::default();
+    let vol = sparse([40, 36, 44], 3, 5);
+    let lut = lut(&cfg, 60.0);
+    let (eye, look) = eye_and_look(vol.dims(), 0, 30.0, [0.1, -0.2]);
+    let popts = PrepareOptions {
+        block: usize::from(cfg.occupancy_block),
+        ..PrepareOptions::default()
+    };
+    let prep = Prepared::with(&vol, &camera(eye, look, 60.0), &popts).unwrap();
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let cfg = PipelineConfig { order, ..cfg };
+        let off = run_pre(&cfg, &lut, &prep, OFF);
+        let empty = run_pre(&cfg, &lut, &prep, EMPTY);
+        assert_eq!(empty.raw, off.raw, "{order:?}");
+        let on = run_pre(&cfg, &lut, &prep, Skips::default());
+        assert_eq!(image_bits(&prep, &on), image_bits(&prep, &off), "{order:?}");
+        eprintln!(
+            "{order:?}: {} samples / {} cycles skipping, {} / {} not",
+            on.samples, on.cycles, off.samples, off.cycles
+        );
+        assert!(
+            on.samples * 2 < off.samples,
+            "{order:?}: {} against {}",
+            on.samples,
+            off.samples
+        );
+        assert!(on.cycles < off.cycles, "{order:?}");
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
     /// The same identities with a volume of interest: box or sphere,

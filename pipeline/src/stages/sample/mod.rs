@@ -15,7 +15,7 @@
 mod fast;
 mod pe;
 
-pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
+pub use pe::{EdgeWords, PrePlan, PreRuns, RowBus, RowPlan, RowRuns, SampleBus};
 
 use rayon::prelude::*;
 
@@ -74,7 +74,16 @@ impl Array {
         // the exact geometry the host holds).
         let mut runs = std::mem::take(&mut self.runs);
         runs.clear();
+        let mut pre_runs = std::mem::take(&mut self.pre_runs);
+        let pre_skip = match (&self.skip, slice.pre) {
+            (Some(sk), Some(pre)) => {
+                self.plan_pre_runs(sk, region, slice.range, &pre, &mut runs, &mut pre_runs);
+                true
+            }
+            _ => false,
+        };
         match &self.skip {
+            _ if pre_skip => {}
             None => (0..nrows).for_each(|_| runs.push_row(&[(xlo, xhi)])),
             Some(sk) => {
                 let ([px, py], _) = golden::sampling::slice_rays(&sk.view, &region.grid, slice.z);
@@ -89,10 +98,15 @@ impl Array {
         }
         // The PEs plan their rows independently, so in parallel.
         let first_row = (ylo - glo) as usize;
+        let pre = slice.pre.map(|p| PrePlan {
+            step: p,
+            my0: ylo,
+            runs: pre_skip.then_some(&pre_runs),
+        });
         self.clock
             .pes_mut()
             .par_iter_mut()
-            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, ftb));
+            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, ftb, pre.as_ref()));
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.
@@ -133,6 +147,7 @@ impl Array {
                 }
             }
             self.runs = runs;
+            self.pre_runs = pre_runs;
             return Ok(());
         }
         let times = self.row_times(&reports);
@@ -145,7 +160,69 @@ impl Array {
             self.sample_whole(region, slice, &rows, &times)
         };
         self.runs = runs;
+        self.pre_runs = pre_runs;
         r
+    }
+
+    /// The controller's runs of a pre-integrated pass over the slice's
+    /// rows (`range`, the hull of the pass's rectangles): per row the
+    /// runs of the rays that composite (`pre.comp` within its step's
+    /// runs) and of those that keep their sample (`pre.keep` within its
+    /// step's), into `pre_runs`, and their union, which the PEs schedule,
+    /// into `runs`. A step's runs are golden's planner over the whole
+    /// segment it integrates ([`golden::skip::SampleMask::substep_runs`]
+    /// between the step's two ends, [`golden::sampling::preint_span`]).
+    fn plan_pre_runs(
+        &self,
+        sk: &crate::array::Skipper,
+        region: &RegionPlan,
+        range: [(i64, i64); 2],
+        pre: &crate::host::PreStep,
+        runs: &mut RowRuns,
+        pre_runs: &mut PreRuns,
+    ) {
+        let view = &sk.view;
+        let nz = view.dims[2];
+        let g = &region.grid;
+        // A step's two ends: the rays' positions where it begins and ends.
+        let ends = |z: usize| {
+            golden::sampling::preint_span(z, nz).map(|o| {
+                let at = |k| g.at(view.eye, view.d, z as f64 + o, k);
+                [at(0), at(1)]
+            })
+        };
+        pre_runs.comp.clear();
+        pre_runs.keep.clear();
+        let (mut tmp, mut union) = (Vec::new(), Vec::new());
+        let mut merged: Vec<(i64, i64)> = Vec::new();
+        for my in range[1].0..=range[1].1 {
+            for (rect, z, out) in [
+                (&pre.comp, pre.comp_z, &mut pre_runs.comp),
+                (&pre.keep, pre.keep_z, &mut pre_runs.keep),
+            ] {
+                tmp.clear();
+                if let Some(z) = z.filter(|_| (rect[1].0..=rect[1].1).contains(&my)) {
+                    let [f, b] = ends(z);
+                    let ys = [f[1].a + my as f64 * f[1].t, b[1].a + my as f64 * b[1].t];
+                    sk.mask.substep_runs(z, [f[0], b[0]], ys, rect[0], &mut tmp);
+                }
+                out.push_row(&tmp);
+            }
+            let r = pre_runs.comp.rows() - 1;
+            union.clear();
+            union.extend_from_slice(pre_runs.comp.row(r));
+            union.extend_from_slice(pre_runs.keep.row(r));
+            union.sort_unstable();
+            // Merge overlapping or touching runs.
+            merged.clear();
+            for &(lo, hi) in &union {
+                match merged.last_mut() {
+                    Some(last) if lo <= last.1 + 1 => last.1 = last.1.max(hi),
+                    _ => merged.push((lo, hi)),
+                }
+            }
+            runs.push_row(&merged);
+        }
     }
 
     /// Each row's start: after the previous row (and the prologue before

@@ -62,6 +62,9 @@ pub struct RowPlan {
     terminated: Vec<u64>,
     /// Each row's report: columns sampled, earliest start.
     reports: Vec<(usize, u64)>,
+    /// In a pre-integrated pass, what each of `live` does
+    /// ([`PrePlan::flags`]); empty otherwise.
+    flags: Vec<u8>,
 }
 
 impl RowPlan {
@@ -79,11 +82,18 @@ impl RowPlan {
         }
     }
 
+    /// What row `r`'s `c`-th column does in a pre-integrated pass (0
+    /// otherwise).
+    fn flag(&self, r: usize, c: usize) -> u8 {
+        self.flags.get(self.span(r).start + c).copied().unwrap_or(0)
+    }
+
     fn clear(&mut self) {
         self.live.clear();
         self.ends.clear();
         self.terminated.clear();
         self.reports.clear();
+        self.flags.clear();
     }
 }
 
@@ -124,6 +134,11 @@ pub struct RowRuns {
 }
 
 impl RowRuns {
+    /// Rows held.
+    pub fn rows(&self) -> usize {
+        self.starts.len()
+    }
+
     /// Forgets every row.
     pub fn clear(&mut self) {
         self.runs.clear();
@@ -142,6 +157,66 @@ impl RowRuns {
         &self.runs[self.starts[r]..end]
     }
 }
+
+/// A skipping controller's runs of a pre-integrated pass, per row: of the
+/// rays that composite and of those that keep their sample (the union is
+/// what the PEs schedule).
+#[derive(Debug, Clone, Default)]
+pub struct PreRuns {
+    /// The compositing rays' runs.
+    pub comp: RowRuns,
+    /// The keeping rays' runs.
+    pub keep: RowRuns,
+}
+
+/// What a PE plans a pre-integrated pass's rows with: the pass's
+/// broadcast, the first row's index `my0`, and a skipping controller's
+/// runs (none: every ray of a rectangle takes its part).
+#[derive(Debug, Clone, Copy)]
+pub struct PrePlan<'a> {
+    /// The pass's broadcast.
+    pub step: PreStep,
+    /// `my` of the slice's first row.
+    pub my0: i64,
+    /// The runs, when the controller skips.
+    pub runs: Option<&'a PreRuns>,
+}
+
+impl PrePlan<'_> {
+    /// What ray `(mx, my)`, the `r`-th row's, does in the pass:
+    /// [`PRE_COMP`], [`PRE_KEEP`], [`PRE_LEAD`] (the PE's comparators on
+    /// the broadcast rectangles and runs).
+    fn flags(&self, r: usize, mx: i64) -> u8 {
+        let my = self.my0 + r as i64;
+        let within = |rect: &[(i64, i64); 2]| PreStep::within(rect, mx, my);
+        let runs_hold = |runs: &RowRuns| runs.row(r).iter().any(|&(a, b)| (a..=b).contains(&mx));
+        let (c, k) = match self.runs {
+            Some(p) => (runs_hold(&p.comp), runs_hold(&p.keep)),
+            None => (true, true),
+        };
+        let s = &self.step;
+        let mut f = 0;
+        if c && within(&s.comp) {
+            f |= PRE_COMP;
+        }
+        if k && within(&s.keep) {
+            f |= PRE_KEEP;
+        }
+        // Slice 0's half step goes with slice 0's step: the pass's
+        // composited one back to front, its kept one front to back.
+        if (c || k) && within(&s.lead) {
+            f |= PRE_LEAD;
+        }
+        f
+    }
+}
+
+/// A ray composites the step between this sample and its previous one.
+pub(crate) const PRE_COMP: u8 = 1;
+/// A ray keeps this sample for its next step.
+pub(crate) const PRE_KEEP: u8 = 2;
+/// A ray composites slice 0's half step at this sample.
+pub(crate) const PRE_LEAD: u8 = 4;
 
 /// The part of the bus that is constant over a row.
 #[derive(Debug, Clone, Copy)]
@@ -257,12 +332,13 @@ impl Pe {
             self.last.busy = false;
             return Ok(out);
         };
+        let flags = self.row_plan.flag(self.row_now, bus.cycle);
         let edge = EdgeIn {
             right: links.from_right.edge,
             halo: links.from_right.halo,
             left: links.from_left.edge,
         };
-        self.sample_ray::<true>(dp, &RowBus::of(bus), j, &edge, nx, bus.now)?;
+        self.sample_ray::<true>(dp, &RowBus::of(bus), (j, flags), &edge, nx, bus.now)?;
         Ok(out)
     }
 
@@ -338,7 +414,8 @@ impl Pe {
     }
 
     /// Schedules the slice's rows `first_row..first_row + n` (the `r`-th
-    /// in `runs.row(r)`) and reports, for each, how many columns this PE
+    /// in `runs.row(r)`; in a pre-integrated pass each column with what it
+    /// does there, from `pre`) and reports, for each, how many columns this PE
     /// samples in it (see [`Pe::begin_row`]) and the earliest cycle the
     /// row may start so that each of them issues after its accumulators
     /// were written back (its `c`-th column issues `c` cycles after the
@@ -351,7 +428,14 @@ impl Pe {
     /// is kept for [`Pe::begin_row`]. Nothing a schedule reads changes in
     /// between: the held columns stay, and a row's termination flags
     /// change only when that row samples, after it began.
-    pub fn plan_rows(&mut self, first_row: usize, n: usize, runs: &RowRuns, ftb: bool) {
+    pub fn plan_rows(
+        &mut self,
+        first_row: usize,
+        n: usize,
+        runs: &RowRuns,
+        ftb: bool,
+        pre: Option<&PrePlan>,
+    ) {
         let mut plan = std::mem::take(&mut self.row_plan);
         plan.clear();
         for r in 0..n {
@@ -361,6 +445,9 @@ impl Pe {
                 ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
                 k += 1;
                 plan.live.push(j);
+                if let Some(p) = pre {
+                    plan.flags.push(p.flags(r, self.rays[j].mx));
+                }
             });
             plan.ends.push(plan.live.len());
             plan.terminated.push(terminated);
@@ -397,7 +484,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &RowBus,
-        j: usize,
+        (j, flags): (usize, u8),
         edge_in: &EdgeIn,
         nx: usize,
         now: u64,
@@ -406,7 +493,7 @@ impl Pe {
         // then they can stay in registers across the datapath's two dozen
         // assignments instead of chaining loads and stores through the PE.
         let mut st = self.stats;
-        let done = self.sample_datapath::<TRACE>(dp, bus, j, edge_in, (nx, now), &mut st);
+        let done = self.sample_datapath::<TRACE>(dp, bus, (j, flags), edge_in, (nx, now), &mut st);
         self.stats = st;
         done
     }
@@ -417,7 +504,7 @@ impl Pe {
         &mut self,
         dp: &Datapath,
         bus: &RowBus,
-        j: usize,
+        (j, flags): (usize, u8),
         edge_in: &EdgeIn,
         (nx, now): (usize, u64),
         st: &mut QuantStats,
@@ -462,7 +549,7 @@ impl Pe {
         };
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
         if let Some(unit) = &dp.preint {
-            return self.preint_sample::<TRACE>(dp, unit, bus, j, sample, st);
+            return self.preint_sample::<TRACE>(dp, unit, bus, (j, flags), sample, st);
         }
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
         let mut voi = crate::voi::VoiTrace::default();
@@ -520,8 +607,9 @@ impl Pe {
         Ok(())
     }
 
-    /// The pre-integrated half of a sample ([`crate::preint`]): with the
-    /// pass's broadcast ([`PreStep`]), composites the step between this
+    /// The pre-integrated half of a sample ([`crate::preint`]): with what
+    /// the ray does in the pass (`flags`, from the broadcast [`PreStep`]
+    /// and runs, [`PrePlan::flags`]), composites the step between this
     /// sample and the ray's previous one (back to front this sample is the
     /// step's front, front to back its back), slice 0's half step at this
     /// sample, and records the sample for the next step. Front to back the
@@ -534,7 +622,7 @@ impl Pe {
         dp: &Datapath,
         unit: &PreintUnit,
         bus: &RowBus,
-        j: usize,
+        (j, flags): (usize, u8),
         sample: Fx,
         st: &mut QuantStats,
     ) -> Result<(), StepError> {
@@ -543,10 +631,10 @@ impl Pe {
             // broadcast ([`crate::host::preint_passes`]).
             unreachable!("a pre-integrated frame samples only planned passes");
         };
-        let (mx, my, row) = (self.rays[j].mx, bus.my, bus.row);
-        let comp = PreStep::within(&pre.comp, mx, my);
-        let lead = PreStep::within(&pre.lead, mx, my);
-        let keep = PreStep::within(&pre.keep, mx, my);
+        let (mx, row) = (self.rays[j].mx, bus.row);
+        let comp = flags & PRE_COMP != 0;
+        let lead = flags & PRE_LEAD != 0;
+        let keep = flags & PRE_KEEP != 0;
         let ftb = dp.cfg.order == Order::FrontToBack;
         let mut trace = PreintTrace::default();
         let (mut corrected, mut terminated) = (0, false);
@@ -793,7 +881,8 @@ impl Pe {
             self.counters.idle += (lens[r] - span.len()) as u64;
             for (c, i) in span.enumerate() {
                 let j = self.row_plan.live[i];
-                self.sample_ray::<false>(dp, bus, j, &edge, nx, starts[r] + c as u64)?;
+                let flags = self.row_plan.flags.get(i).copied().unwrap_or(0);
+                self.sample_ray::<false>(dp, bus, (j, flags), &edge, nx, starts[r] + c as u64)?;
             }
         }
         Ok(())
