@@ -133,8 +133,9 @@ pub struct RayMove {
     /// both (so a move still takes one cycle).
     pub ftb: Option<FtbState>,
     /// In a pre-integrated frame, its previous-sample word (raw `sample`),
-    /// on a link one `sample` word wider.
-    pub prev: Option<i64>,
+    /// on a link one `sample` word wider; 0 otherwise (a column without
+    /// registers reads 0 too, so a zero word need not allocate them).
+    pub prev: i64,
 }
 
 /// What a PE drives towards one neighbour in a cycle.

@@ -239,7 +239,14 @@ impl PreintUnit {
             } else {
                 raw >> (-shift).min(127)
             };
-            let q = Wide::new(num / i128::from(tau.raw()), qf);
+            // Both non-negative: truncating division, in 64 bits where the
+            // numerator fits (the same quotient; a 128-bit divide is a
+            // library call).
+            let quot = match i64::try_from(num) {
+                Ok(n) => i128::from(n / tau.raw()),
+                Err(_) => num / i128::from(tau.raw()),
+            };
+            let q = Wide::new(quot, qf);
             let q = if q.cmp_value(one).is_gt() { one } else { q };
             *out = c.assign(q, st);
         }

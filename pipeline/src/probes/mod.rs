@@ -548,6 +548,13 @@ const PORT_PROBES: &[Probe<PortView>] = &[
     Probe::<PortView>::new("ray_a", PORTS, link_alpha, |s| {
         s.ray(|r| word(r.acc.raw[3], s.alpha))
     }),
+    Probe::<PortView>::new(
+        "ray_prev",
+        PORTS,
+        |c| bits(c.sample),
+        |s| s.ray(|r| r.prev as u64),
+    )
+    .with_preint(),
     Probe::<PortView>::new("edge_valid", PORTS, |_| 1, |s| u64::from(s.port.edge_valid)),
     Probe::<PortView>::new(
         "edge_0",

@@ -99,11 +99,11 @@ impl Pe {
             if let Some(f) = m.ftb {
                 col.ftb[row] = f;
             }
-            if let Some(p) = m.prev {
+            if m.prev != 0 {
                 if col.prev.is_empty() {
                     col.prev = vec![0; col.acc.len()];
                 }
-                col.prev[row] = p;
+                col.prev[row] = m.prev;
             }
             // A column's rows travel in order on one path, its last row
             // always (it closes the column).
@@ -171,12 +171,12 @@ fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
     let rows = c.acc.len() as u32;
     for (row, acc) in c.acc.into_iter().enumerate() {
         let ftb = c.ftb.get(row).copied();
-        let prev = c.prev.get(row).copied();
+        let prev = c.prev.get(row).copied().unwrap_or(0);
         if sparse
             && row + 1 < rows as usize
             && acc == Acc::default()
             && ftb.is_none_or(|f| f == FtbState::default())
-            && prev.is_none_or(|p| p == 0)
+            && prev == 0
         {
             continue;
         }

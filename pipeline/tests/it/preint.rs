@@ -398,8 +398,9 @@ fn preint_sees_what_golden_pre_integration_sees() {
     );
 }
 
-/// A pre-integrated trace carries the unit's back scalar and extinction,
-/// which move; a plain trace has neither.
+/// A pre-integrated trace carries the unit's back scalar and extinction
+/// and the links' previous-sample words, which move; a plain trace has
+/// none of them.
 #[test]
 fn preint_waveforms_carry_the_back_scalar_and_extinction() {
     let (vol, lut, views) = small_views(PipelineConfig::default().table_entries as usize);
@@ -410,7 +411,7 @@ fn preint_waveforms_carry_the_back_scalar_and_extinction() {
     let dir = tempfile::tempdir().unwrap();
     let names = |with: bool| {
         let p = dir.path().join(format!("p{with}.vcd"));
-        let tc = TraceConfig::new(&p).with_groups(["ctrl", "datapath"]);
+        let tc = TraceConfig::new(&p).with_groups(["ctrl", "datapath", "ports"]);
         let tr = Tracer::new(tc).unwrap();
         if with {
             pipe_pre(&cfg, &vol, &lut, &views[0], false, None, tr).unwrap();
@@ -435,4 +436,16 @@ fn preint_waveforms_carry_the_back_scalar_and_extinction() {
         let changes = t.signal(s).unwrap().changes().len();
         assert!(changes > 2, "{s} changes {changes} times");
     }
+    // The previous-sample word travels with the migrating rays.
+    let links: Vec<&String> = with.iter().filter(|n| n.ends_with(".ray_prev")).collect();
+    assert_eq!(links.len(), 8, "one per port of 4 PEs: {links:?}");
+    assert!(!plain.iter().any(|n| n.ends_with(".ray_prev")));
+    let moved: usize = links
+        .iter()
+        .map(|n| t.signal(n).unwrap().changes().len())
+        .sum();
+    assert!(
+        moved > 2,
+        "the links' previous samples change {moved} times"
+    );
 }

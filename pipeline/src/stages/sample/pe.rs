@@ -642,7 +642,8 @@ impl Pe {
             let (b, k) = bus.slope_x;
             let sx = dp.position(b, k, mx, st)?;
             let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
-            // A ray composites only after a pass recorded its sample.
+            // A column without registers has recorded only zeros (a
+            // migration leaves a zero word's registers unallocated).
             let prev = Fx::from_raw_unchecked(
                 self.rays[j].prev.get(row).copied().unwrap_or(0),
                 dp.cfg.sample,
