@@ -199,11 +199,6 @@ fn animate(a: &AnimateArgs) -> Result<()> {
     let mut opts = slice.options()?;
     if let Renderer::Pipeline(_) = renderer {
         chip::check_options(&opts)?;
-        if opts.slice.preintegrate {
-            // Its frames keep the PE memories resident, which the
-            // pre-integrated runner does not do yet.
-            bail!("ercube animate does not run the pipeline pre-integrated; drop --preintegrate (ercube render does)");
-        }
     }
     let prep_opts = slice.prepare()?;
     let t0 = Instant::now();
@@ -213,6 +208,10 @@ fn animate(a: &AnimateArgs) -> Result<()> {
         Renderer::Golden(_) => lut_for(vol.kind(), &tf),
         Renderer::Pipeline(c) => chip::pipeline_lut(&c.cfg, &vol, &tf),
     };
+    // The pipeline's pre-integration table, once for every frame (the
+    // classification does not change along the path).
+    let preint = (matches!(renderer, Renderer::Pipeline(_)) && opts.slice.preintegrate)
+        .then(|| golden::preint::PreTable::new(&lut));
     let load_s = t0.elapsed().as_secs_f64();
     let path = path_of(a, &first, frame.as_ref())?;
     std::fs::create_dir_all(&a.out_dir)
@@ -259,16 +258,27 @@ fn animate(a: &AnimateArgs) -> Result<()> {
                 if a.no_reuse {
                     *resident = None;
                 }
-                let f = pipeline::run_frame_resident(
-                    cfg,
-                    vol.kind().bits(),
-                    &lut,
-                    &prep,
-                    opts.slice.skips,
-                    (opts.slice.shade.as_ref(), opts.slice.voi.as_ref()),
-                    Tracer::disabled(),
-                    resident,
-                )
+                let f = match &preint {
+                    Some(pt) => pipeline::run_frame_preint_resident(
+                        cfg,
+                        vol.kind().bits(),
+                        &lut,
+                        &prep,
+                        (pt, opts.slice.skips),
+                        Tracer::disabled(),
+                        resident,
+                    ),
+                    None => pipeline::run_frame_resident(
+                        cfg,
+                        vol.kind().bits(),
+                        &lut,
+                        &prep,
+                        opts.slice.skips,
+                        (opts.slice.shade.as_ref(), opts.slice.voi.as_ref()),
+                        Tracer::disabled(),
+                        resident,
+                    ),
+                }
                 .with_context(|| format!("frame {i}"))?;
                 chip_frames.cycles.push(f.cycles);
                 chip_frames.loads.push(f.voxel_load);

@@ -181,17 +181,21 @@ fn path_files_and_bad_input() {
 /// and frames 0 and 2 load it. Every frame, resident or not, is
 /// bit-identical in image and cycles to `render` from the same eye (the
 /// exact eye the orbit computed, read back from the stats) and to the
-/// `--no-reuse` run, in both orders.
+/// `--no-reuse` run, in both orders, plain and pre-integrated.
 #[test]
 fn pipeline_frames_reuse_the_volume_in_pe_memory() {
-    for method in ["pipeline", "pipeline-ftb"] {
+    for (method, pre) in [
+        ("pipeline", &[][..]),
+        ("pipeline-ftb", &[][..]),
+        ("pipeline", &["--preintegrate"][..]),
+        ("pipeline-ftb", &["--preintegrate"][..]),
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        both_ways_with(
-            d,
-            &["--frames", "4", "--orbit", "120"],
-            &["--method", method, "--pes", "4"],
-        );
+        let mut opts = vec!["--method", method, "--pes", "4"];
+        opts.extend(pre);
+        both_ways_with(d, &["--frames", "4", "--orbit", "120"], &opts);
+        let method = format!("{method} {pre:?}");
         let reuse = json(&d.join("reuse/animate.json"));
         let fresh = json(&d.join("fresh/animate.json"));
         let resident = |s: &Value| -> Vec<bool> {
@@ -241,7 +245,7 @@ fn pipeline_frames_reuse_the_volume_in_pe_memory() {
             let mut args: Vec<&str> = vec!["render"];
             args.extend(&VIEW[..4]);
             args.extend(["--look-at", "11.5,11.5,11.5", "--eye", &eye]);
-            args.extend(["--method", method, "--pes", "4"]);
+            args.extend(&opts);
             args.extend(["--out", "r.png", "--stats", "r.json"]);
             let o = ercube(d, &args);
             assert!(o.status.success(), "{}", describe(&args, &o));

@@ -29,8 +29,8 @@ mod run;
 pub use clock::{Clock, Links};
 pub use memory::{run_frame_resident, Resident, VoxelLoad};
 pub use run::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint, run_frame_shaded,
-    run_frame_voi, run_frame_with,
+    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint,
+    run_frame_preint_resident, run_frame_shaded, run_frame_voi, run_frame_with,
 };
 
 use golden::geometry::View;

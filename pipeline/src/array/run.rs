@@ -139,6 +139,22 @@ pub fn run_frame_preint(
     (pt, skips): (&golden::preint::PreTable, golden::skip::Skips),
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
+    run_frame_preint_resident(cfg, data_bits, lut, prep, (pt, skips), tracer, &mut None)
+}
+
+/// [`run_frame_preint`], keeping the PE memories in `resident` across
+/// calls as [`crate::run_frame_resident`] does (the same bits and cycles
+/// as a fresh load; the frame's [`crate::VoxelLoad`] says whether the host
+/// loaded anything).
+pub fn run_frame_preint_resident(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &golden::tf::Lut,
+    prep: &golden::render::Prepared,
+    (pt, skips): (&golden::preint::PreTable, golden::skip::Skips),
+    tracer: Tracer,
+    resident: &mut Option<super::Resident>,
+) -> Result<Frame, RunError> {
     if prep.blocks.block != usize::from(cfg.occupancy_block) {
         return Err(RunError::Schedule(format!(
             "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
@@ -153,7 +169,15 @@ pub fn run_frame_preint(
         .into());
     }
     let source = VoxelSource::Stack(&prep.stack);
-    let mut array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
+    let mut array = Array::load_reusing(
+        cfg,
+        source,
+        data_bits,
+        lut,
+        &prep.view,
+        tracer,
+        resident.take(),
+    )?;
     array.set_preint(pt)?;
     if skips.empty || skips.cull {
         let layout = golden::methods::Method::Er
@@ -176,7 +200,9 @@ pub fn run_frame_preint(
         );
         array.set_skipping(mask, counts, &prep.view);
     }
-    array.run(&prep.view)
+    let (frame, kept) = array.run_keeping(&prep.view)?;
+    *resident = Some(kept);
+    Ok(frame)
 }
 
 #[allow(clippy::too_many_arguments)]
