@@ -19,6 +19,7 @@ use pipeline::bound::{
     preint_error_bound, preint_ftb_error_bound, region_slices, BoundInputs, PreintInputs,
 };
 use pipeline::config::{Mapping, Order, PipelineConfig};
+use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 use waves::{Trace, TraceConfig, Tracer};
 
@@ -76,6 +77,10 @@ impl std::fmt::Debug for PreCase {
             .field("cfg.order", &self.cfg.order)
             .field("cfg.mapping", &self.cfg.mapping)
             .field("cfg.table_entries", &self.cfg.table_entries)
+            .field("cfg.weight", &self.cfg.weight.to_string())
+            .field("cfg.color", &self.cfg.color.to_string())
+            .field("cfg.accum", &self.cfg.accum_color.to_string())
+            .field("cfg.preint", &self.cfg.preint_tau.to_string())
             .finish()
     }
 }
@@ -147,11 +152,35 @@ fn cases() -> impl Strategy<Value = PreCase> {
         crate::scenes::tf_points_strategy(),
         eye,
         (1u16..=8, any::<bool>(), 0usize..3, any::<bool>()),
+        // Widths: weight, colour fraction, accumulators, the unit's
+        // fraction bits (half the cases at the defaults).
+        prop_oneof![
+            Just(None),
+            (8u8..=14, 6u8..=10, 12u8..=20, 8u8..=18).prop_map(Some)
+        ],
     )
         .prop_filter_map(
             "the case must validate",
-            |(dims, blobs, noise, seed, points, (side, dist, off), (pes, ftb, map, small))| {
+            |(dims, blobs, noise, seed, points, (side, dist, off), (pes, ftb, map, small), w)| {
+                let d = PipelineConfig::default();
+                let f = |bits: u8, frac: u8, q| Format::new(bits, frac, false, q, Overflow::Sat);
+                let (weight, color, accum, pre) = match w {
+                    Some((wb, cb, ab, pf)) => (
+                        f(wb, wb, Quant::Trn).ok()?,
+                        f(cb + 1, cb, Quant::Rnd).ok()?,
+                        f(ab, ab, Quant::Rnd).ok()?,
+                        f(pf + 7, pf, Quant::Rnd).ok()?,
+                    ),
+                    None => (d.weight, d.color, d.accum_color, d.preint_tau),
+                };
                 let cfg = PipelineConfig {
+                    weight,
+                    color,
+                    accum_color: accum,
+                    accum_alpha: accum,
+                    merge: f(accum.bits() + 4, accum.frac(), Quant::Rnd).ok()?,
+                    preint_tau: pre,
+                    preint_color: pre,
                     pes,
                     order: if ftb {
                         Order::FrontToBack
@@ -183,8 +212,8 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(96))]
 
     /// Random small volumes, eyes on all sides (some inside the volume's
-    /// slab), tables, both orders, mappings and PE counts: the derived
-    /// bound holds for every channel.
+    /// slab), tables, widths, both orders, mappings and PE counts: the
+    /// derived bound holds for every channel.
     #[test]
     fn preint_pipeline_matches_golden_within_the_derived_bound(c in cases()) {
         run_case(&c)?;
