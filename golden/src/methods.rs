@@ -101,8 +101,10 @@ pub struct Options {
     pub preintegrate: bool,
     /// Plain samples (one substep, no pre-integration, shading or volume
     /// of interest) taken eight rays at a time (see `sampling::lanes`),
-    /// which gives the one-ray path's bits faster; `false` takes the
-    /// one-ray path, for the identity tests and benchmarks.
+    /// which gives the one-ray path's bits faster, and pre-integrated
+    /// steps reusing their neighbour step's tap (`sampling::TapCache`);
+    /// `false` takes the one-ray path with both taps of every step, for
+    /// the identity tests and benchmarks.
     pub lanes: bool,
 }
 

@@ -207,9 +207,16 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
             runs,
             next,
             ds,
+            taps,
         } = acc;
         let my = grid.lo[1] + r as i64;
         ds.clear();
+        taps.clear();
+        // The one-ray path of `Options::lanes = false` takes both taps of
+        // every step: the slow path the cache is tested against.
+        if pass.preint.is_some() && pass.lanes {
+            taps.resize(w, TapCache::NONE);
+        }
         if links {
             next.clear();
             next.extend(row.iter().enumerate().map(|(i, ray)| {
@@ -269,7 +276,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                             k += 1;
                             i = if links { find(next, i + 1) } else { i + 1 };
                         }
-                        ray_row.sample_batch(kind, row, &batch[..k]);
+                        ray_row.sample_batch(kind, row, taps, &batch[..k]);
                         taken += k as u64;
                         if links {
                             for &j in &batch[..k] {
@@ -286,7 +293,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
             for &(m0, m1) in runs.iter() {
                 if !links {
                     for mx in m0..=m1 {
-                        ray_row.sample(&mut row[at(mx)], mx);
+                        ray_row.sample(&mut row[at(mx)], mx, taps.get_mut(at(mx)));
                     }
                     taken += (m1 - m0 + 1) as u64;
                     continue;
@@ -294,7 +301,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 let mut i = find(next, at(m0));
                 while i <= at(m1) {
                     let ray = &mut row[i];
-                    ray_row.sample(ray, grid.lo[0] + i as i64);
+                    ray_row.sample(ray, grid.lo[0] + i as i64, taps.get_mut(i));
                     taken += 1;
                     if ray[3] >= terminate {
                         next[i] = i as u32 + 1;
@@ -315,6 +322,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                 runs: Vec::new(),
                 next: Vec::new(),
                 ds: Vec::new(),
+                taps: Vec::new(),
             },
             |mut acc, (r, row)| {
                 row_pass(&mut acc, r, row);
@@ -348,6 +356,38 @@ struct RowScratch {
     next: Vec<u32>,
     /// The current row's path lengths per slice step, per ray.
     ds: Vec<f32>,
+    /// Pre-integrated: per ray of the current row its last scalar taken at
+    /// a slice's own position and that slice ([`TapCache`]).
+    taps: Vec<TapCache>,
+}
+
+/// A ray's last scalar taken where it crosses a slice, and the slice
+/// (`u32::MAX`: none yet). A pre-integrated step reads the scalars at
+/// slices `z` and `z + 1`; its neighbour step read one of them, at the
+/// same position with the same arithmetic, so that tap is reused (back to
+/// front the step's back is the previous step's front, front to back its
+/// front is the previous step's back) and only the other is taken.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TapCache {
+    pub(crate) value: f32,
+    pub(crate) slice: u32,
+}
+
+impl TapCache {
+    const NONE: TapCache = TapCache {
+        value: 0.0,
+        slice: u32::MAX,
+    };
+
+    /// The scalar at slice `z` if this cache holds it, else `take()`'s.
+    #[inline(always)]
+    pub(crate) fn get(&self, z: usize, take: impl FnOnce() -> f32) -> f32 {
+        if self.slice as usize == z {
+            self.value
+        } else {
+            take()
+        }
+    }
 }
 
 /// One ray row crossing one slice: what its rays share.
@@ -363,6 +403,10 @@ struct RayRow<'a> {
     inv: f64,
     /// Path length per slice step of each ray of the row.
     ds: &'a [f32],
+    /// Pre-integrated, when the step ends on slice `z + 1`: the rays' `x`
+    /// there and the row's `y` (clamped into the padding), the positions
+    /// slice `z + 1` samples them at itself.
+    back: Option<(Affine, f32)>,
 }
 
 impl<'a> RayRow<'a> {
@@ -377,6 +421,14 @@ impl<'a> RayRow<'a> {
         let view = pass.view;
         let inv = 1.0 / (grid.z_ref + view.d);
         let slope_y = ((grid.phi[1] + my as f64 - view.eye.y) * inv) as f32;
+        let whole = g.z + 1 < view.dims[2];
+        let back = match (pass.preint, g.reach) {
+            (Some(_), Some([_, [bx, by]])) if whole => {
+                let y = (by.a + my as f64 * by.t) as f32;
+                Some((bx, y.clamp(-1.0, pass.stack.dims[1] as f32 - 1e-3)))
+            }
+            _ => None,
+        };
         RayRow {
             pass,
             grid,
@@ -388,6 +440,75 @@ impl<'a> RayRow<'a> {
             slope_y,
             inv,
             ds,
+            back,
+        }
+    }
+
+    /// Ray `mx`'s scalar where it crosses slice `z + 1` (its position there
+    /// clamped into the padding), or at the volume's face (`z + 1/2`) for
+    /// the last slice: a pre-integrated step's back end.
+    #[inline(always)]
+    pub(crate) fn back_tap(&self, mx: i64, x: f32, slope_x: f32) -> f32 {
+        let stack = self.pass.stack;
+        let clamp = |v: f32, n: usize| v.clamp(-1.0, n as f32 - 1e-3);
+        match self.back {
+            Some((bx, by)) => {
+                let x = (bx.a + mx as f64 * bx.t) as f32;
+                stack.bilinear(self.next, clamp(x, stack.dims[0]), by)
+            }
+            // The face: the padding repeats the slice there.
+            None => stack.bilinear(
+                self.data,
+                clamp(x + 0.5 * slope_x, stack.dims[0]),
+                clamp(self.y + 0.5 * self.slope_y, stack.dims[1]),
+            ),
+        }
+    }
+
+    /// A pre-integrated step's front and back scalars for ray `mx` at `x`,
+    /// reusing the tap its neighbour step took (`slot`, see [`TapCache`])
+    /// and leaving there the one the next step can reuse.
+    #[inline(always)]
+    pub(crate) fn step_scalars(
+        &self,
+        mx: i64,
+        (x, slope_x): (f32, f32),
+        slot: Option<&mut TapCache>,
+    ) -> (f32, f32) {
+        let stack = self.pass.stack;
+        let z = self.z;
+        let own = || stack.bilinear(self.data, x, self.y);
+        let back = || self.back_tap(mx, x, slope_x);
+        let Some(c) = slot else {
+            return (own(), back());
+        };
+        match self.pass.order {
+            // From the rear: this step's back is the previous step's front.
+            Order::BackToFront => {
+                let sb = if self.back.is_some() {
+                    c.get(z + 1, back)
+                } else {
+                    back()
+                };
+                let sf = own();
+                *c = TapCache {
+                    value: sf,
+                    slice: z as u32,
+                };
+                (sf, sb)
+            }
+            // From the front: this step's front is the previous step's back.
+            Order::FrontToBack { .. } => {
+                let sf = c.get(z, own);
+                let sb = back();
+                if self.back.is_some() {
+                    *c = TapCache {
+                        value: sb,
+                        slice: z as u32 + 1,
+                    };
+                }
+                (sf, sb)
+            }
         }
     }
 
@@ -402,9 +523,10 @@ impl<'a> RayRow<'a> {
         ((slope_x * sx).powi(2) + ((slope_y * sy).powi(2) + sz * sz)).sqrt()
     }
 
-    /// Ray `mx`'s samples in this slice, composited into `ray`.
+    /// Ray `mx`'s samples in this slice, composited into `ray` (`slot`:
+    /// its tap cache in a pre-integrated frame).
     #[inline(always)]
-    fn sample(&self, ray: &mut Rgba, mx: i64) {
+    fn sample(&self, ray: &mut Rgba, mx: i64, slot: Option<&mut TapCache>) {
         let Pass {
             view,
             stack,
@@ -427,14 +549,7 @@ impl<'a> RayRow<'a> {
             }
             let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
             let [front, back] = preint_span(z, view.dims[2]).map(|o| o as f32);
-            let sf = stack.bilinear(self.data, x, y);
-            // The back scalar where the ray meets slice z + 1 (at the last
-            // slice, the face: the padding repeats the slice there).
-            let (bx, by) = (
-                (x + back * slope_x).clamp(-1.0, stack.dims[0] as f32 - 1e-3),
-                (y + back * slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3),
-            );
-            let sb = stack.bilinear(if back == 1.0 { self.next } else { self.data }, bx, by);
+            let (sf, sb) = self.step_scalars(mx, (x, slope_x), slot);
             // A volume of interest scales the segment's extinction by its
             // factor at the segment's middle (the colour stays).
             let factor = |o: f32| {

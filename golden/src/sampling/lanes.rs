@@ -13,7 +13,7 @@
 //! the same order, so the bits do not change (`golden/tests/it/lanes.rs`
 //! checks frames against the one-ray path).
 
-use super::{composite_alpha, preint_span, Order, RayRow};
+use super::{composite_alpha, preint_span, Order, RayRow, TapCache};
 use crate::merge::Rgba;
 use crate::opacity::{correct_opacity_lanes, segment_opacity_lanes};
 use crate::slices::{lerp2_values, Plane, SliceStack};
@@ -56,10 +56,16 @@ impl RayRow<'_> {
     /// pre-integrated frames 17 % slower); a call per batch of eight rays
     /// costs nothing measurable.
     #[inline(always)]
-    pub(super) fn sample_batch(&self, kind: Batch, row: &mut [Rgba], idx: &[usize]) {
+    pub(super) fn sample_batch(
+        &self,
+        kind: Batch,
+        row: &mut [Rgba],
+        taps: &mut [TapCache],
+        idx: &[usize],
+    ) {
         match kind {
             Batch::Plain => self.sample_lanes(row, idx),
-            Batch::Preint => self.preint_lanes(row, idx),
+            Batch::Preint => self.preint_lanes(row, taps, idx),
             Batch::Substeps => self.substep_lanes(row, idx),
         }
     }
@@ -111,22 +117,25 @@ impl RayRow<'_> {
     /// offsets `idx` (one to [`LANES`]): the step from the ray's scalar on
     /// this slice to its scalar on the next, through the 2D table.
     #[inline(never)]
-    fn preint_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
-        let (view, stack) = (self.pass.view, self.pass.stack);
+    fn preint_lanes(&self, row: &mut [Rgba], taps: &mut [TapCache], idx: &[usize]) {
+        let view = self.pass.view;
         let pt = self.pass.preint.expect("a pre-integrated pass");
         let (n, at) = spread(idx);
         let back = preint_span(self.z, view.dims[2])[1] as f32;
-        let (back_plane, y) = (if back == 1.0 { self.next } else { self.data }, self.y);
-        let by = (y + back * self.slope_y).clamp(-1.0, stack.dims[1] as f32 - 1e-3);
         let mut e = [[0f32; 4]; LANES];
         let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
         for l in 0..LANES {
             let mx = self.grid.lo[0] + at[l] as i64;
             let x = (self.px.a + mx as f64 * self.px.t) as f32;
             let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
-            let sf = stack.bilinear(self.data, x, y);
-            let bx = (x + back * slope_x).clamp(-1.0, stack.dims[0] as f32 - 1e-3);
-            let sb = stack.bilinear(back_plane, bx, by);
+            // Spare lanes repeat the last ray: they read its cache without
+            // writing it (their results are not stored).
+            let (sf, sb) = if l < n {
+                self.step_scalars(mx, (x, slope_x), Some(&mut taps[at[l]]))
+            } else {
+                let mut spare = taps[at[l]];
+                self.step_scalars(mx, (x, slope_x), Some(&mut spare))
+            };
             e[l] = pt.lookup(sf, sb);
             // Without a volume of interest the extinction's factor is 1.
             tau[l] = e[l][3] * 1.0;
