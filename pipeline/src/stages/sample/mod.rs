@@ -14,8 +14,10 @@
 
 mod fast;
 mod pe;
+mod preint;
 
-pub use pe::{EdgeWords, PrePlan, PreRuns, RowBus, RowPlan, RowRuns, SampleBus};
+pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
+pub use preint::{PrePlan, PreRuns};
 
 use rayon::prelude::*;
 
@@ -162,67 +164,6 @@ impl Array {
         self.runs = runs;
         self.pre_runs = pre_runs;
         r
-    }
-
-    /// The controller's runs of a pre-integrated pass over the slice's
-    /// rows (`range`, the hull of the pass's rectangles): per row the
-    /// runs of the rays that composite (`pre.comp` within its step's
-    /// runs) and of those that keep their sample (`pre.keep` within its
-    /// step's), into `pre_runs`, and their union, which the PEs schedule,
-    /// into `runs`. A step's runs are golden's planner over the whole
-    /// segment it integrates ([`golden::skip::SampleMask::substep_runs`]
-    /// between the step's two ends, [`golden::sampling::preint_span`]).
-    fn plan_pre_runs(
-        &self,
-        sk: &crate::array::Skipper,
-        region: &RegionPlan,
-        range: [(i64, i64); 2],
-        pre: &crate::host::PreStep,
-        runs: &mut RowRuns,
-        pre_runs: &mut PreRuns,
-    ) {
-        let view = &sk.view;
-        let nz = view.dims[2];
-        let g = &region.grid;
-        // A step's two ends: the rays' positions where it begins and ends.
-        let ends = |z: usize| {
-            golden::sampling::preint_span(z, nz).map(|o| {
-                let at = |k| g.at(view.eye, view.d, z as f64 + o, k);
-                [at(0), at(1)]
-            })
-        };
-        pre_runs.comp.clear();
-        pre_runs.keep.clear();
-        let (mut tmp, mut union) = (Vec::new(), Vec::new());
-        let mut merged: Vec<(i64, i64)> = Vec::new();
-        for my in range[1].0..=range[1].1 {
-            for (rect, z, out) in [
-                (&pre.comp, pre.comp_z, &mut pre_runs.comp),
-                (&pre.keep, pre.keep_z, &mut pre_runs.keep),
-            ] {
-                tmp.clear();
-                if let Some(z) = z.filter(|_| (rect[1].0..=rect[1].1).contains(&my)) {
-                    let [f, b] = ends(z);
-                    let ys = [f[1].a + my as f64 * f[1].t, b[1].a + my as f64 * b[1].t];
-                    sk.mask.substep_runs(z, [f[0], b[0]], ys, rect[0], &mut tmp);
-                }
-                out.push_row(&tmp);
-            }
-            let r = pre_runs.comp.rows() - 1;
-            union.clear();
-            union.extend_from_slice(pre_runs.comp.row(r));
-            union.extend_from_slice(pre_runs.keep.row(r));
-            union.sort_unstable();
-            // Merge overlapping or touching runs.
-            merged.clear();
-            for &(lo, hi) in &union {
-                match merged.last_mut() {
-                    Some(last) if lo <= last.1 + 1 => last.1 = last.1.max(hi),
-                    _ => merged.push((lo, hi)),
-                }
-            }
-            runs.push_row(&merged);
-        }
     }
 
     /// Each row's start: after the previous row (and the prologue before

@@ -7,10 +7,11 @@ use crate::array::Links;
 use crate::config::Order;
 use crate::datapath::{Datapath, SampleTrace};
 use crate::fixed::{Fx, QuantStats};
-use crate::host::{PreStep, SlicePlan};
+use crate::host::SlicePlan;
 use crate::pe::{Pe, Ports, StepError};
-use crate::preint::{PreintTrace, PreintUnit};
 use crate::shading::{outer_rows, Halo, Taps};
+
+use super::preint::PrePlan;
 
 /// The words a PE drives on its ports while sampling a row (its edge
 /// registers): its first column at the row's two voxel rows to the left
@@ -157,66 +158,6 @@ impl RowRuns {
         &self.runs[self.starts[r]..end]
     }
 }
-
-/// A skipping controller's runs of a pre-integrated pass, per row: of the
-/// rays that composite and of those that keep their sample (the union is
-/// what the PEs schedule).
-#[derive(Debug, Clone, Default)]
-pub struct PreRuns {
-    /// The compositing rays' runs.
-    pub comp: RowRuns,
-    /// The keeping rays' runs.
-    pub keep: RowRuns,
-}
-
-/// What a PE plans a pre-integrated pass's rows with: the pass's
-/// broadcast, the first row's index `my0`, and a skipping controller's
-/// runs (none: every ray of a rectangle takes its part).
-#[derive(Debug, Clone, Copy)]
-pub struct PrePlan<'a> {
-    /// The pass's broadcast.
-    pub step: PreStep,
-    /// `my` of the slice's first row.
-    pub my0: i64,
-    /// The runs, when the controller skips.
-    pub runs: Option<&'a PreRuns>,
-}
-
-impl PrePlan<'_> {
-    /// What ray `(mx, my)`, the `r`-th row's, does in the pass:
-    /// [`PRE_COMP`], [`PRE_KEEP`], [`PRE_LEAD`] (the PE's comparators on
-    /// the broadcast rectangles and runs).
-    fn flags(&self, r: usize, mx: i64) -> u8 {
-        let my = self.my0 + r as i64;
-        let within = |rect: &[(i64, i64); 2]| PreStep::within(rect, mx, my);
-        let runs_hold = |runs: &RowRuns| runs.row(r).iter().any(|&(a, b)| (a..=b).contains(&mx));
-        let (c, k) = match self.runs {
-            Some(p) => (runs_hold(&p.comp), runs_hold(&p.keep)),
-            None => (true, true),
-        };
-        let s = &self.step;
-        let mut f = 0;
-        if c && within(&s.comp) {
-            f |= PRE_COMP;
-        }
-        if k && within(&s.keep) {
-            f |= PRE_KEEP;
-        }
-        // Slice 0's half step goes with slice 0's step: the pass's
-        // composited one back to front, its kept one front to back.
-        if (c || k) && within(&s.lead) {
-            f |= PRE_LEAD;
-        }
-        f
-    }
-}
-
-/// A ray composites the step between this sample and its previous one.
-pub(crate) const PRE_COMP: u8 = 1;
-/// A ray keeps this sample for its next step.
-pub(crate) const PRE_KEEP: u8 = 2;
-/// A ray composites slice 0's half step at this sample.
-pub(crate) const PRE_LEAD: u8 = 4;
 
 /// The part of the bus that is constant over a row.
 #[derive(Debug, Clone, Copy)]
@@ -602,104 +543,6 @@ impl Pe {
                 shade,
                 voi,
                 preint: Default::default(),
-            };
-        }
-        Ok(())
-    }
-
-    /// The pre-integrated half of a sample ([`crate::preint`]): with what
-    /// the ray does in the pass (`flags`, from the broadcast [`PreStep`]
-    /// and runs, [`PrePlan::flags`]), composites the step between this
-    /// sample and the ray's previous one (back to front this sample is the
-    /// step's front, front to back its back), slice 0's half step at this
-    /// sample, and records the sample for the next step. Front to back the
-    /// termination comparator reads the accumulators after a whole step
-    /// only, as golden checks termination between slices (slice 0's half
-    /// step and its whole one composite together).
-    #[inline(always)]
-    fn preint_sample<const TRACE: bool>(
-        &mut self,
-        dp: &Datapath,
-        unit: &PreintUnit,
-        bus: &RowBus,
-        (j, flags): (usize, u8),
-        sample: Fx,
-        st: &mut QuantStats,
-    ) -> Result<(), StepError> {
-        let Some(pre) = bus.slice.pre else {
-            // Every pass of a pre-integrated frame is planned with its
-            // broadcast ([`crate::host::preint_passes`]).
-            unreachable!("a pre-integrated frame samples only planned passes");
-        };
-        let (mx, row) = (self.rays[j].mx, bus.row);
-        let comp = flags & PRE_COMP != 0;
-        let lead = flags & PRE_LEAD != 0;
-        let keep = flags & PRE_KEEP != 0;
-        let ftb = dp.cfg.order == Order::FrontToBack;
-        let mut trace = PreintTrace::default();
-        let (mut corrected, mut terminated) = (0, false);
-        if comp || lead {
-            let (b, k) = bus.slope_x;
-            let sx = dp.position(b, k, mx, st)?;
-            let ds = dp.path(sx, bus.slope_yz.0, bus.slope_yz.1, st)?;
-            // A column without registers has recorded only zeros (a
-            // migration leaves a zero word's registers unallocated).
-            let prev = Fx::from_raw_unchecked(
-                self.rays[j].prev.get(row).copied().unwrap_or(0),
-                dp.cfg.sample,
-            );
-            let acc = &mut self.rays[j].acc[row];
-            let mut step = |s0: Fx, s1: Fx, half: bool, st: &mut QuantStats| {
-                let e = unit.lookup(&dp.cfg, s0, s1, st)?;
-                let out = PreintUnit::step(dp, e, (ds, half), st)?;
-                if let Some((rgb, a)) = out {
-                    if ftb {
-                        dp.composite_ftb(acc, rgb, a, st)?;
-                    } else {
-                        dp.composite_btf(acc, rgb, a, st)?;
-                    }
-                }
-                Ok::<_, crate::fixed::FxError>((e[3].raw(), out.map_or(0, |o| o.1.raw())))
-            };
-            if ftb && lead {
-                step(sample, sample, true, st)?;
-            }
-            if comp {
-                let (front, back) = if ftb { (prev, sample) } else { (sample, prev) };
-                (trace.tau, corrected) = step(front, back, pre.half, st)?;
-                trace.back = back.raw();
-            }
-            if !ftb && lead {
-                step(sample, sample, true, st)?;
-            }
-            if ftb && comp {
-                let ray = &mut self.rays[j];
-                terminated = dp.terminated(&ray.acc[row]);
-                ray.ftb[row].done = terminated;
-            }
-        }
-        if keep {
-            let ray = &mut self.rays[j];
-            if ray.prev.is_empty() {
-                // A column a merge or split made has no register yet: its
-                // first pass allocates it (once per column and region).
-                ray.prev = vec![0; ray.acc.len()];
-            }
-            ray.prev[row] = sample.raw();
-        }
-        if TRACE {
-            self.last = SampleTrace {
-                busy: true,
-                mx,
-                row,
-                acc: self.rays[j].acc[row],
-                sample: sample.raw(),
-                alpha: 0,
-                corrected,
-                terminated,
-                shade: Default::default(),
-                voi: Default::default(),
-                preint: trace,
             };
         }
         Ok(())
