@@ -102,26 +102,13 @@ pub fn preint_passes(
     // Slices back to front in the plan: slice z at index hi - z.
     let at = |z: usize| &rp.slices[hi - z];
     let range = |z: usize| at(z).range;
-    let end = |st: &mut QuantStats| -> Result<SlicePlan, PlanError> {
-        let (depth, z) = if hi + 1 < nz {
-            ((hi + 1) as f64, hi + 1)
-        } else {
-            (nz as f64 - 0.5, nz - 1)
-        };
-        let q = |f: crate::fixed::Format, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
-            let r = f.from_f64(v)?;
-            st.record(&r);
-            Ok(r.value)
-        };
-        let p = |k| rp.grid.at(view.eye, view.d, depth, k);
-        Ok(SlicePlan {
-            z,
-            a: [q(cfg.position, p(0).a, st)?, q(cfg.position, p(1).a, st)?],
-            t: [q(cfg.step, p(0).t, st)?, q(cfg.step, p(1).t, st)?],
-            range: NONE,
-            pre: None,
-        })
+    // The back end of the region's rear step: slice `hi + 1`, or the face.
+    let end_depth = if hi + 1 < nz {
+        (hi + 1) as f64
+    } else {
+        nz as f64 - 0.5
     };
+    let end = |st: &mut QuantStats| depth_plan(cfg, view, &rp.grid, end_depth, st);
     let with = |s: SlicePlan, pre: PreStep| SlicePlan {
         range: hull(hull(pre.comp, pre.keep), pre.lead),
         pre: Some(pre),
@@ -229,6 +216,31 @@ impl FramePlan {
     }
 }
 
+/// The plan of `grid`'s rays at depth `depth` (no ray range: a boundary
+/// plane, or a pre-integrated step's back end): their positions there,
+/// the data slice `ceil(depth)` (at most the last).
+fn depth_plan(
+    cfg: &PipelineConfig,
+    view: &View,
+    grid: &RayGrid,
+    depth: f64,
+    st: &mut QuantStats,
+) -> Result<SlicePlan, FxError> {
+    let q = |f: crate::fixed::Format, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
+        let r = f.from_f64(v)?;
+        st.record(&r);
+        Ok(r.value)
+    };
+    let p = |k| grid.at(view.eye, view.d, depth, k);
+    Ok(SlicePlan {
+        z: (depth.ceil() as usize).min(view.dims[2].saturating_sub(1)),
+        a: [q(cfg.position, p(0).a, st)?, q(cfg.position, p(1).a, st)?],
+        t: [q(cfg.step, p(0).t, st)?, q(cfg.step, p(1).t, st)?],
+        range: NONE,
+        pre: None,
+    })
+}
+
 /// Plans a frame of `view` for ER (both orders share the layout).
 pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
     let layout: Layout = Method::Er.layout(view).map_err(PlanError::Golden)?;
@@ -266,21 +278,7 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
                 pre: None,
             });
         }
-        let boundary = |b: f64, st: &mut QuantStats| -> Result<SlicePlan, FxError> {
-            Ok(SlicePlan {
-                z: (b.ceil() as usize).min(view.dims[2].saturating_sub(1)),
-                a: [
-                    q(cfg.position, grid.at(e, view.d, b, 0).a, st)?,
-                    q(cfg.position, grid.at(e, view.d, b, 1).a, st)?,
-                ],
-                t: [
-                    q(cfg.step, grid.at(e, view.d, b, 0).t, st)?,
-                    q(cfg.step, grid.at(e, view.d, b, 1).t, st)?,
-                ],
-                range: [(0, -1); 2],
-                pre: None,
-            })
-        };
+        let boundary = |b: f64, st: &mut QuantStats| depth_plan(cfg, view, grid, b, st);
         let front = boundary(layout.bounds[regions.len()], &mut st)?;
         // Quantised only front to back, so back to front the host's
         // counters stay as they were.

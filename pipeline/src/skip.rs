@@ -40,7 +40,7 @@ impl OccupancyMemory {
     /// scalars with the datapath's table.
     pub fn new(dp: &Datapath, mm: &MinMax, data_bits: u32) -> OccupancyMemory {
         let mut st = QuantStats::default();
-        let mut visible = |lo: u16, hi: u16| {
+        let visible = |lo: u16, hi: u16| {
             let (a, b) = (
                 table_index(dp, voxel_word(&dp.cfg, lo, data_bits, &mut st), &mut st),
                 table_index(dp, voxel_word(&dp.cfg, hi, data_bits, &mut st), &mut st),
@@ -51,6 +51,12 @@ impl OccupancyMemory {
                 .iter()
                 .any(|w| w.raw() != 0)
         };
+        OccupancyMemory::classify(mm, visible)
+    }
+
+    /// One bit per block of `mm`: whether `visible` holds for its
+    /// `[min, max]`.
+    fn classify(mm: &MinMax, mut visible: impl FnMut(u16, u16) -> bool) -> OccupancyMemory {
         OccupancyMemory {
             block: mm.block,
             counts: mm.counts,
@@ -82,11 +88,10 @@ impl OccupancyMemory {
         let cfg = &dp.cfg;
         let last = lut.rgba.len() - 1;
         let bins = unit.bins();
-        let mut visible = |lo: u16, hi: u16| {
+        let visible = |lo: u16, hi: u16| {
             let mut bin = |v: u16| {
                 let w = voxel_word(cfg, v, data_bits, &mut st);
-                let vox = Fx::from_raw_unchecked(i64::from(w), cfg.voxel);
-                unit.bin(cfg, cfg.sample.assign(Wide::from(vox), &mut st))
+                unit.bin(cfg, sample_of(cfg, w, &mut st))
             };
             let (a, b) = (bin(lo), (bin(hi) + 1).min(bins - 1));
             let (e0, e1) = (
@@ -95,11 +100,7 @@ impl OccupancyMemory {
             );
             lut.rgba[e0..=e1].iter().any(|c| c[3] > 0.0)
         };
-        OccupancyMemory {
-            block: mm.block,
-            counts: mm.counts,
-            bits: mm.range.iter().map(|&(lo, hi)| visible(lo, hi)).collect(),
-        }
+        OccupancyMemory::classify(mm, visible)
     }
 
     /// Size of the memory in bits.
@@ -136,11 +137,17 @@ pub fn voxel_word(cfg: &PipelineConfig, v: u16, data_bits: u32, st: &mut QuantSt
 /// sample, so a block's entries lie between its ends'.
 fn table_index(dp: &Datapath, w: u16, st: &mut QuantStats) -> usize {
     let cfg = &dp.cfg;
-    let vox = Fx::from_raw_unchecked(i64::from(w), cfg.voxel);
-    let s = cfg.sample.assign(Wide::from(vox), st);
+    let s = sample_of(cfg, w, st);
     let f = i32::from(cfg.sample.frac()) - cfg.table_shift();
     let i = if f > 0 { s.raw() >> f } else { s.raw() << (-f) };
     i.max(0) as usize
+}
+
+/// Voxel word `w` in the `sample` format: what a sample equal to it holds
+/// (a block's ends, whose samples stay between them).
+fn sample_of(cfg: &PipelineConfig, w: u16, st: &mut QuantStats) -> Fx {
+    let vox = Fx::from_raw_unchecked(i64::from(w), cfg.voxel);
+    cfg.sample.assign(Wide::from(vox), st)
 }
 
 /// Margin (voxels) by which empty-space runs are widened: twice the

@@ -178,3 +178,24 @@ pub fn check_gtkw(vcd: &Path) -> usize {
     );
     named.len()
 }
+
+/// Golden's frame of `prep` by the method `cfg` mirrors (`er` back to
+/// front, `er-ftb` front to back at `cfg`'s threshold), unskipped, with the
+/// slice options `set` adds (shading, a VOI, pre-integration).
+pub fn golden_twin(
+    cfg: &PipelineConfig,
+    prep: &golden::render::Prepared,
+    lut: &Lut,
+    set: impl FnOnce(&mut golden::methods::Options),
+) -> golden::render::Frame {
+    use golden::render::{render, RenderOptions, Technique};
+    let mut o = RenderOptions::unskipped();
+    set(&mut o.slice);
+    // Golden er-ftb terminates by default; the pipeline's threshold rules.
+    o.slice.terminate = cfg.terminate as f32;
+    let m = match cfg.order {
+        pipeline::config::Order::BackToFront => golden::methods::Method::Er,
+        pipeline::config::Order::FrontToBack => golden::methods::Method::ErFtb,
+    };
+    render(prep, lut, Technique::Slice(m), &o).expect("golden renders the pipeline's twin")
+}

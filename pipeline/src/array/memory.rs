@@ -28,6 +28,7 @@ use crate::fixed::QuantStats;
 use crate::host::VoxelSource;
 use crate::pe::VoxelMem;
 
+use super::run::Units;
 use super::{Array, Frame, RunError};
 
 /// The PE memories a frame ran with, kept for the next frame
@@ -134,6 +135,26 @@ pub fn run_frame_resident(
     tracer: Tracer,
     resident: &mut Option<Resident>,
 ) -> Result<Frame, RunError> {
+    let units = Units {
+        shade,
+        voi,
+        preint: None,
+    };
+    run_resident(cfg, (data_bits, lut), prep, skips, units, tracer, resident)
+}
+
+/// The frame of `prep` with `units`, the PEs starting from `resident`'s
+/// memories when they fit (see [`run_frame_resident`]) and leaving this
+/// frame's there.
+pub(super) fn run_resident(
+    cfg: &PipelineConfig,
+    (data_bits, lut): (u32, &golden::tf::Lut),
+    prep: &golden::render::Prepared,
+    skips: golden::skip::Skips,
+    units: Units,
+    tracer: Tracer,
+    resident: &mut Option<Resident>,
+) -> Result<Frame, RunError> {
     if prep.blocks.block != usize::from(cfg.occupancy_block) {
         return Err(RunError::Schedule(format!(
             "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
@@ -152,11 +173,11 @@ pub fn run_frame_resident(
     )?;
     let (frame, kept) = super::run::run_loaded(
         array,
-        data_bits,
+        (data_bits, lut),
         prep,
         prep.blocks.clone(),
         skips,
-        (shade, voi),
+        units,
     )?;
     *resident = Some(kept);
     Ok(frame)

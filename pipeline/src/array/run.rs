@@ -10,6 +10,7 @@ use waves::Tracer;
 use crate::config::PipelineConfig;
 use crate::host::{PlanError, VoxelSource};
 
+use super::memory::run_resident;
 use super::{run_frame_resident, Array, Frame, Resident, RunError};
 
 /// Runs one frame: plans, loads, clocks and reads out.
@@ -155,54 +156,12 @@ pub fn run_frame_preint_resident(
     tracer: Tracer,
     resident: &mut Option<super::Resident>,
 ) -> Result<Frame, RunError> {
-    if prep.blocks.block != usize::from(cfg.occupancy_block) {
-        return Err(RunError::Schedule(format!(
-            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
-            prep.blocks.block, cfg.occupancy_block
-        )));
-    }
-    if !prep.clip.is_empty() {
-        return Err(crate::preint::PreintError::Unsupported(
-            "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
-                .into(),
-        )
-        .into());
-    }
-    let source = VoxelSource::Stack(&prep.stack);
-    let mut array = Array::load_reusing(
-        cfg,
-        source,
-        data_bits,
-        lut,
-        &prep.view,
-        tracer,
-        resident.take(),
-    )?;
-    array.set_preint(pt)?;
-    if skips.empty || skips.cull {
-        let layout = golden::methods::Method::Er
-            .layout(&prep.view)
-            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
-        let unit = array
-            .dp
-            .preint
-            .as_ref()
-            .expect("set_preint loaded the unit");
-        let (mask, counts) = crate::skip::plan_preint_mask(
-            &array.dp,
-            unit,
-            (lut, pt.stride()),
-            &prep.blocks,
-            data_bits,
-            prep,
-            &layout,
-            skips,
-        );
-        array.set_skipping(mask, counts, &prep.view);
-    }
-    let (frame, kept) = array.run_keeping(&prep.view)?;
-    *resident = Some(kept);
-    Ok(frame)
+    let units = Units {
+        shade: None,
+        voi: None,
+        preint: Some(pt),
+    };
+    run_resident(cfg, (data_bits, lut), prep, skips, units, tracer, resident)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -217,28 +176,67 @@ fn run_prepared(
     tracer: Tracer,
 ) -> Result<Frame, RunError> {
     let array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
-    run_loaded(array, data_bits, prep, mm, skips, (shade, voi)).map(|(frame, _)| frame)
+    let units = Units {
+        shade,
+        voi,
+        preint: None,
+    };
+    run_loaded(array, (data_bits, lut), prep, mm, skips, units).map(|(frame, _)| frame)
 }
 
-/// Shades, plans the skipping of and runs a loaded array's frame of `prep`.
+/// The units a frame loads beside the datapath: the gradient and shading
+/// unit's constants, a volume of interest, golden's pre-integration table.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Units<'a> {
+    pub(super) shade: Option<&'a golden::shading::Shade>,
+    pub(super) voi: Option<&'a golden::voi::Voi>,
+    pub(super) preint: Option<&'a golden::preint::PreTable>,
+}
+
+/// Loads `units` into a loaded array, plans the skipping of its frame of
+/// `prep` (`lut` the classification table, for a pre-integrated frame's
+/// occupancy memory) and runs it.
 pub(super) fn run_loaded(
     mut array: Array,
-    data_bits: u32,
+    (data_bits, lut): (u32, &golden::tf::Lut),
     prep: &golden::render::Prepared,
     mm: golden::occupancy::MinMax,
     skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
+    units: Units,
 ) -> Result<(Frame, Resident), RunError> {
-    if let Some(sh) = shade {
+    if let Some(sh) = units.shade {
         array.set_shading(sh, &prep.view, data_bits)?;
     }
-    if let Some(v) = voi {
+    if let Some(v) = units.voi {
         array.set_voi(v, &prep.view)?;
+    }
+    if let Some(pt) = units.preint {
+        if !prep.clip.is_empty() {
+            return Err(crate::preint::PreintError::Unsupported(
+                "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
+                    .into(),
+            )
+            .into());
+        }
+        array.set_preint(pt)?;
     }
     let layout = golden::methods::Method::Er
         .layout(&prep.view)
         .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
-    let (mask, counts) = crate::skip::plan_mask(&array.dp, &mm, data_bits, prep, &layout, skips);
+    let dp = &array.dp;
+    let (mask, counts) = match (units.preint, &dp.preint) {
+        (Some(pt), Some(unit)) => crate::skip::plan_preint_mask(
+            dp,
+            unit,
+            (lut, pt.stride()),
+            &mm,
+            data_bits,
+            prep,
+            &layout,
+            skips,
+        ),
+        _ => crate::skip::plan_mask(dp, &mm, data_bits, prep, &layout, skips),
+    };
     array.set_skipping(mask, counts, &prep.view);
     array.run_keeping(&prep.view)
 }

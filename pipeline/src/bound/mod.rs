@@ -332,9 +332,7 @@ fn ftb_bound(
     let ea = dcorr + ra + 4.0 * e;
     // 7'. a split: two roundings, and golden's weighted f32 sum.
     let rho = rm + ra + 4.0 * e;
-    let mut total = 0.0;
-    let mut inherited = 0.0;
-    for (i, &n) in regions.iter().enumerate() {
+    let per_region = regions.iter().enumerate().map(|(i, &n)| {
         let n = n as f64;
         // 3v. a step VOI's boundary samples: one opacity error each, in
         // both channels.
@@ -343,6 +341,22 @@ fn ftb_bound(
         });
         let lc = n * ec + dc * (1.0 + n * ra) + qacc + flips;
         let la = n * ea + qacc + flips;
+        (lc, la)
+    });
+    ftb_total(per_region, rho, rm)
+}
+
+/// 7' and 8': the front-to-back total from each region's own colour and
+/// opacity errors from an exact start (`lc_i`, `la_i`), a split's two
+/// roundings `rho` and the fold's merge rounding `rm`: region `i` inherits
+/// the opacity errors of the regions before it and the splits' roundings,
+/// which the fold's difference carries once, and the warp adds golden's
+/// `f32` terms.
+fn ftb_total(regions: impl Iterator<Item = (f64, f64)>, rho: f64, rm: f64) -> f64 {
+    let e = 2f64.powi(-24);
+    let mut total = 0.0;
+    let mut inherited = 0.0;
+    for (i, (lc, la)) in regions.enumerate() {
         if i > 0 {
             inherited += rho;
             // 8'. the inherited opacity error, once, and the fold's merge.

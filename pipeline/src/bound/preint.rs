@@ -77,7 +77,7 @@
 
 use golden::preint::PreTable;
 
-use super::{path_error, position_error, r, sample_error, transmit_error, BoundInputs};
+use super::{ftb_total, path_error, position_error, r, sample_error, transmit_error, BoundInputs};
 use crate::config::PipelineConfig;
 use crate::preint::GUARD_BITS;
 
@@ -412,9 +412,7 @@ pub fn preint_ftb_error_bound(
         let ec = t.d_len + t.q_a + t.q_p + div + rc + ra + 6.0 * e;
         let ea = t.d_len + t.q_a + ra + 4.0 * e;
         let rho = rm + ra + 4.0 * e;
-        let mut total = 0.0;
-        let mut inherited = 0.0;
-        for (i, &n) in regions.iter().enumerate() {
+        let per_region = regions.iter().enumerate().map(|(i, &n)| {
             // Half steps: region 0's lead, the last region's face.
             let halves = usize::from(i == 0) + usize::from(i == last && n > 0);
             let steps = n + usize::from(i == 0);
@@ -423,14 +421,9 @@ pub fn preint_ftb_error_bound(
             let window = fulls * xf + halves * xh;
             let lc = steps * ec + window + (w + p.spread + t.q_div) * (1.0 + steps * ra) + qacc;
             let la = steps * ea + window + w * (1.0 + steps * ra) + qacc;
-            if i > 0 {
-                inherited += rho;
-                total += inherited + 2.0 * rm + 16.0 * e;
-            }
-            total += lc;
-            inherited += la;
-        }
-        total + 16.0 * e
+            (lc, la)
+        });
+        ftb_total(per_region, rho, rm)
     };
     p.splits()
         .into_iter()

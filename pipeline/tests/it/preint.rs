@@ -9,9 +9,8 @@
 
 use glam::DVec3;
 use golden::camera::Camera;
-use golden::methods::Method;
 use golden::preint::PreTable;
-use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::render::Prepared;
 use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::array::{Array, Frame};
@@ -28,14 +27,7 @@ use crate::scenes::{checker128_views, eye_for, max_diff, small_views, tf};
 
 /// Golden `er` or `er-ftb` (by `cfg.order`), unskipped, pre-integrated.
 fn golden_pre(cfg: &PipelineConfig, prep: &Prepared, lut: &Lut) -> golden::render::Frame {
-    let mut o = RenderOptions::unskipped();
-    o.slice.preintegrate = true;
-    o.slice.terminate = cfg.terminate as f32;
-    let m = match cfg.order {
-        Order::BackToFront => Method::Er,
-        Order::FrontToBack => Method::ErFtb,
-    };
-    render(prep, lut, Technique::Slice(m), &o).expect("golden renders pre-integrated")
+    crate::chip::golden_twin(cfg, prep, lut, |o| o.preintegrate = true)
 }
 
 /// The pipeline's pre-integrated frame (`clocked`: the sampling stage

@@ -7,8 +7,7 @@
 
 use glam::DVec3;
 use golden::camera::Camera;
-use golden::methods::Method;
-use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::render::Prepared;
 use golden::shading::{Material, Shade};
 use golden::tf::Lut;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
@@ -31,15 +30,7 @@ fn golden_shaded(
     lut: &Lut,
     sh: Shade,
 ) -> golden::render::Frame {
-    let mut o = RenderOptions::unskipped();
-    o.slice.shade = Some(sh);
-    // Golden er-ftb terminates by default; the pipeline's threshold rules.
-    o.slice.terminate = cfg.terminate as f32;
-    let m = match cfg.order {
-        Order::BackToFront => Method::Er,
-        Order::FrontToBack => Method::ErFtb,
-    };
-    render(prep, lut, Technique::Slice(m), &o).expect("golden renders shaded")
+    crate::chip::golden_twin(cfg, prep, lut, |o| o.shade = Some(sh))
 }
 
 /// The pipeline's shaded frame; `clocked` steps the sampling stage cycle

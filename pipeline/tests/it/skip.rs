@@ -213,20 +213,7 @@ fn voi_for(dims: [usize; 3], (sphere, outside, ramp, scale): VoiDraw) -> golden:
 /// scaled zero opacity stays zero, so the occupancy memory built from the
 /// table alone stays exact.
 fn check_voi(c: &Case, v: VoiDraw) -> Result<(), TestCaseError> {
-    let cfg = config(c);
-    if cfg.validate().is_err() {
-        return Err(TestCaseError::reject("widths"));
-    }
-    let vol = sparse(c.dims, c.blobs, c.seed);
-    let lut = lut(&cfg, c.threshold);
-    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
-    let prep = Prepared::new(&vol, &camera(eye, look, c.fov))
-        .map_err(|e| TestCaseError::reject(e.to_string()))?;
-    for &n in &prep.view.dims {
-        if cfg.check_extent(n as u32).is_err() {
-            return Err(TestCaseError::reject("extent"));
-        }
-    }
+    let (cfg, vol, lut, prep) = setup(c, false)?;
     let voi = voi_for(c.dims, v);
     let run = |skips| {
         run_frame_voi(
@@ -255,7 +242,10 @@ fn check_voi(c: &Case, v: VoiDraw) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-fn check(c: &Case) -> Result<(), TestCaseError> {
+/// A case's configuration, volume, table and view (`blocks`: prepared
+/// with the configuration's occupancy blocks); rejected when the widths
+/// or the view's extent do not validate.
+fn setup(c: &Case, blocks: bool) -> Result<(PipelineConfig, Volume, Lut, Prepared), TestCaseError> {
     let cfg = config(c);
     if cfg.validate().is_err() {
         return Err(TestCaseError::reject("widths"));
@@ -263,13 +253,27 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
     let vol = sparse(c.dims, c.blobs, c.seed);
     let lut = lut(&cfg, c.threshold);
     let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
-    let prep = Prepared::new(&vol, &camera(eye, look, c.fov))
-        .map_err(|e| TestCaseError::reject(e.to_string()))?;
+    let cam = camera(eye, look, c.fov);
+    let prep = if blocks {
+        let popts = PrepareOptions {
+            block: usize::from(cfg.occupancy_block),
+            ..PrepareOptions::default()
+        };
+        Prepared::with(&vol, &cam, &popts)
+    } else {
+        Prepared::new(&vol, &cam)
+    }
+    .map_err(|e| TestCaseError::reject(e.to_string()))?;
     for &n in &prep.view.dims {
         if cfg.check_extent(n as u32).is_err() {
             return Err(TestCaseError::reject("extent"));
         }
     }
+    Ok((cfg, vol, lut, prep))
+}
+
+fn check(c: &Case) -> Result<(), TestCaseError> {
+    let (cfg, vol, lut, prep) = setup(c, false)?;
     let off = run(&cfg, &vol, &lut, &prep, OFF);
     let empty = run(&cfg, &vol, &lut, &prep, EMPTY);
     prop_assert_eq!(
@@ -311,24 +315,7 @@ fn run_pre(cfg: &PipelineConfig, lut: &Lut, prep: &Prepared, skips: Skips) -> Fr
 /// segment over an occupancy memory of the unit's table, so empty-space
 /// skipping changes no raw word and culling no pixel.
 fn check_preint(c: &Case) -> Result<(), TestCaseError> {
-    let cfg = config(c);
-    if cfg.validate().is_err() {
-        return Err(TestCaseError::reject("widths"));
-    }
-    let vol = sparse(c.dims, c.blobs, c.seed);
-    let lut = lut(&cfg, c.threshold);
-    let (eye, look) = eye_and_look(c.dims, c.side, c.dist, c.look);
-    let popts = PrepareOptions {
-        block: usize::from(cfg.occupancy_block),
-        ..PrepareOptions::default()
-    };
-    let prep = Prepared::with(&vol, &camera(eye, look, c.fov), &popts)
-        .map_err(|e| TestCaseError::reject(e.to_string()))?;
-    for &n in &prep.view.dims {
-        if cfg.check_extent(n as u32).is_err() {
-            return Err(TestCaseError::reject("extent"));
-        }
-    }
+    let (cfg, _, lut, prep) = setup(c, true)?;
     let off = run_pre(&cfg, &lut, &prep, OFF);
     let empty = run_pre(&cfg, &lut, &prep, EMPTY);
     prop_assert_eq!(

@@ -8,8 +8,7 @@
 
 use glam::DVec3;
 use golden::camera::Camera;
-use golden::methods::Method;
-use golden::render::{render, Prepared, RenderOptions, Technique};
+use golden::render::Prepared;
 use golden::tf::{Lut, TransferFunction};
 use golden::voi::{Shape, Voi};
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
@@ -26,14 +25,7 @@ use crate::scenes::{checker128_views, eye_for, max_diff, small_views, tf};
 
 /// Golden `er` or `er-ftb` (by `cfg.order`), unskipped, with `voi`.
 fn golden_voi(cfg: &PipelineConfig, prep: &Prepared, lut: &Lut, voi: Voi) -> golden::render::Frame {
-    let mut o = RenderOptions::unskipped();
-    o.slice.voi = Some(voi);
-    o.slice.terminate = cfg.terminate as f32;
-    let m = match cfg.order {
-        Order::BackToFront => Method::Er,
-        Order::FrontToBack => Method::ErFtb,
-    };
-    render(prep, lut, Technique::Slice(m), &o).expect("golden renders with a VOI")
+    crate::chip::golden_twin(cfg, prep, lut, |o| o.voi = Some(voi))
 }
 
 /// The pipeline's frame with `voi` (none: without); `clocked` steps the
