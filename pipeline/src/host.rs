@@ -60,13 +60,18 @@ impl PreStep {
     pub fn within(r: &[(i64, i64); 2], mx: i64, my: i64) -> bool {
         (r[0].0..=r[0].1).contains(&mx) && (r[1].0..=r[1].1).contains(&my)
     }
+
+    /// The rays the pass samples: the hull of its three rectangles.
+    pub fn rays(&self) -> [(i64, i64); 2] {
+        hull(hull(self.comp, self.keep), self.lead)
+    }
 }
 
 /// Nothing (an empty ray rectangle).
 pub(crate) const NONE: [(i64, i64); 2] = [(0, -1), (0, -1)];
 
 /// The smallest rectangle holding both (an empty one holds nothing).
-pub(crate) fn hull(a: [(i64, i64); 2], b: [(i64, i64); 2]) -> [(i64, i64); 2] {
+fn hull(a: [(i64, i64); 2], b: [(i64, i64); 2]) -> [(i64, i64); 2] {
     let empty = |r: &[(i64, i64); 2]| r[0].0 > r[0].1 || r[1].0 > r[1].1;
     match (empty(&a), empty(&b)) {
         (true, _) => b,
@@ -110,7 +115,7 @@ pub fn preint_passes(
     };
     let end = |st: &mut QuantStats| depth_plan(cfg, view, &rp.grid, end_depth, st);
     let with = |s: SlicePlan, pre: PreStep| SlicePlan {
-        range: hull(hull(pre.comp, pre.keep), pre.lead),
+        range: pre.rays(),
         pre: Some(pre),
         ..s
     };

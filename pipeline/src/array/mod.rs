@@ -43,9 +43,7 @@ use std::sync::Arc;
 use crate::config::{Order, PipelineConfig};
 use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
-use crate::host::{
-    hull, plan, FramePlan, PlanError, PreStep, RegionPlan, SlicePlan, VoxelSource, NONE,
-};
+use crate::host::{plan, FramePlan, PlanError, PreStep, RegionPlan, SlicePlan, VoxelSource, NONE};
 use crate::mapping::ColumnMap;
 use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError, VoxelMem};
 use crate::probes::{Ctrl, Probes, Stage};
@@ -508,14 +506,13 @@ impl Array {
                 lead: narrow(pre.lead, visible(Some(0))),
                 ..pre
             };
-            let range = hull(hull(pre.comp, pre.keep), pre.lead);
             if !(c || k) {
                 self.skipped.slices += 1;
                 self.skip_slice(slice.z)?;
                 return Ok(None);
             }
             return Ok(Some(SlicePlan {
-                range,
+                range: pre.rays(),
                 pre: Some(pre),
                 ..*slice
             }));

@@ -103,18 +103,20 @@ impl Array {
                 [at(0), at(1)]
             })
         };
+        // Per slice, not per row: the ends are the pass's.
+        let (comp_ends, keep_ends) = (pre.comp_z.map(ends), pre.keep_z.map(ends));
         pre_runs.comp.clear();
         pre_runs.keep.clear();
         let (mut tmp, mut union) = (Vec::new(), Vec::new());
         let mut merged: Vec<(i64, i64)> = Vec::new();
         for my in range[1].0..=range[1].1 {
-            for (rect, z, out) in [
-                (&pre.comp, pre.comp_z, &mut pre_runs.comp),
-                (&pre.keep, pre.keep_z, &mut pre_runs.keep),
+            for (rect, z, step_ends, out) in [
+                (&pre.comp, pre.comp_z, comp_ends, &mut pre_runs.comp),
+                (&pre.keep, pre.keep_z, keep_ends, &mut pre_runs.keep),
             ] {
                 tmp.clear();
-                if let Some(z) = z.filter(|_| (rect[1].0..=rect[1].1).contains(&my)) {
-                    let [f, b] = ends(z);
+                let in_rows = (rect[1].0..=rect[1].1).contains(&my);
+                if let (true, Some(z), Some([f, b])) = (in_rows, z, step_ends) {
                     let ys = [f[1].a + my as f64 * f[1].t, b[1].a + my as f64 * b[1].t];
                     sk.mask.substep_runs(z, [f[0], b[0]], ys, rect[0], &mut tmp);
                 }
