@@ -25,24 +25,47 @@ thread_local! {
 /// Spare buffers kept per thread.
 const MAX_SPARE: usize = 12;
 
-/// An empty buffer with room for `n` states, recycled when one is spare.
-pub fn with_room(n: usize) -> Vec<Rgba> {
-    let mut v = SPARE
+/// A spare buffer of this thread with room for `n` states, as it was
+/// recycled (its length kept), or a new empty one.
+fn spare(n: usize) -> Vec<Rgba> {
+    SPARE
         .with(|s| {
             let mut s = s.borrow_mut();
             let i = s.iter().position(|b| b.capacity() >= n)?;
             Some(s.swap_remove(i))
         })
-        .unwrap_or_default();
-    v.clear();
-    v.reserve(n);
+        .unwrap_or_default()
+}
+
+/// States one task of [`zeroed`] or [`copied`] writes (128 KiB): a
+/// frame's ray buffers and image are megabytes, and one thread writing
+/// them while the other waited was 6 % of an `er-ftb` frame.
+const CHUNK: usize = 1 << 13;
+
+/// A recycled (or new) buffer of `n` states whose values are left over:
+/// a recycled buffer keeps its length, so only states past it are pushed.
+fn sized(n: usize) -> Vec<Rgba> {
+    let mut v = spare(n);
+    v.truncate(n);
+    v.resize(n, [0.0; 4]);
     v
 }
 
-/// `n` empty states (zeros), in a recycled buffer when one is spare.
+/// `n` empty states (zeros), in a recycled buffer when one is spare,
+/// written in parallel.
 pub fn zeroed(n: usize) -> Vec<Rgba> {
-    let mut v = with_room(n);
-    v.resize(n, [0.0; 4]);
+    let mut v = sized(n);
+    v.par_chunks_mut(CHUNK).for_each(|c| c.fill([0.0; 4]));
+    v
+}
+
+/// A copy of `src`, in a recycled buffer when one is spare, written in
+/// parallel.
+pub fn copied(src: &[Rgba]) -> Vec<Rgba> {
+    let mut v = sized(src.len());
+    v.par_chunks_mut(CHUNK)
+        .zip(src.par_chunks(CHUNK))
+        .for_each(|(d, s)| d.copy_from_slice(s));
     v
 }
 
@@ -205,6 +228,26 @@ mod tests {
             buf[r * w + (n - g.lo[0]) as usize] = [1.0; 4];
         }
         buf
+    }
+
+    /// A recycled buffer keeps its old states; `zeroed` and `copied` must
+    /// overwrite every one of them, in every chunk, whatever the lengths.
+    #[test]
+    fn recycled_buffers_are_overwritten() {
+        for (old, n) in [(50_000, 20_000), (20_000, 50_000), (9_000, 8_193), (100, 7)] {
+            recycle(vec![[1.5; 4]; old]);
+            let z = zeroed(n);
+            assert_eq!(z.len(), n);
+            assert!(
+                z.iter().all(|s| s.iter().all(|c| c.to_bits() == 0)),
+                "{old} {n}"
+            );
+            drop(z);
+            recycle(vec![[2.5; 4]; old]);
+            let src: Vec<Rgba> = (0..n).map(|i| [i as f32, 1.0, 2.0, 3.0]).collect();
+            let c = copied(&src);
+            assert_eq!(c, src, "{old} {n}");
+        }
     }
 
     /// Output ray 0's weight for an impulse at each input ray after two

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
-use crate::merge::{merge, recycle, split, with_room, zeroed, Rgba};
+use crate::merge::{copied, merge, recycle, split, zeroed, Rgba};
 use crate::occupancy::Occupancy;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
@@ -343,9 +343,7 @@ fn front_to_back(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -
             let next = split(&buf, &layout.grids[i - 1], grid);
             finals.push(std::mem::replace(&mut buf, next));
             stats.merges += 1;
-            let mut copy = with_room(buf.len());
-            copy.extend_from_slice(&buf);
-            inherited.push(copy);
+            inherited.push(copied(&buf));
         }
         stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
     }

@@ -241,14 +241,18 @@ impl Occupied {
         let [nx, ny] = base.grid.counts;
         let (cols, rows) = (nx.div_ceil(Self::BLOCK), ny.div_ceil(Self::BLOCK));
         let mut bits = vec![false; cols * rows];
-        for (y, line) in base.data.chunks(nx.max(1)).enumerate() {
-            let tiles = &mut bits[(y / Self::BLOCK) * cols..][..cols];
-            for (x, p) in line.iter().enumerate() {
-                if p.iter().any(|c| c.to_bits() != 0) {
-                    tiles[x / Self::BLOCK] = true;
+        // A row of tiles per task (the scan reads the whole baseplane).
+        bits.par_chunks_mut(cols.max(1))
+            .zip(base.data.par_chunks((nx * Self::BLOCK).max(1)))
+            .for_each(|(tiles, band)| {
+                for line in band.chunks(nx.max(1)) {
+                    for (x, p) in line.iter().enumerate() {
+                        if p.iter().any(|c| c.to_bits() != 0) {
+                            tiles[x / Self::BLOCK] = true;
+                        }
+                    }
                 }
-            }
-        }
+            });
         Occupied { cols, bits }
     }
 

@@ -429,7 +429,7 @@ pub struct SliceArgs {
     #[arg(long)]
     pub no_cull: bool,
     /// Edge of the empty-space blocks in voxels (power of two, 2..64;
-    /// default 8 in golden, the config's `occupancy_block` (16) in the
+    /// default 4 in golden, the config's `occupancy_block` (16) in the
     /// pipeline).
     #[arg(long)]
     pub block: Option<usize>,

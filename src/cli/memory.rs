@@ -140,6 +140,8 @@ pub fn frame_bytes(dims: [usize; 3], voxel: VoxelType, spec: &FrameSpec) -> u128
     let k = u128::from(voxel.bits() / 8);
     // The volume and its permuted, padded slice stack, in the file's type.
     let mut b = k * voxels + k * padded;
+    // The empty-space map: a (min, max) pair of u16 per default block.
+    b += 4 * voxels / (golden::occupancy::DEFAULT_BLOCK as u128).pow(3);
     if spec.shade {
         // Three f32 gradient components per padded voxel.
         b += 12 * padded;

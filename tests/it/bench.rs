@@ -136,8 +136,12 @@ fn bench_writes_csv_plots_and_summary() {
         assert_eq!(at.len(), 9, "D = {d}");
         let er = at.iter().find(|r| r[col("method")] == "er").unwrap();
         let pipe = at.iter().find(|r| r[col("method")] == "pipeline").unwrap();
-        // Same geometry, same samples; the pipeline has cycles, er none.
-        assert_eq!(er[col("samples")], pipe[col("samples")]);
+        // Same geometry; golden's 4-voxel empty-space blocks nest in the
+        // pipeline's 16-voxel ones, so the pipeline skips a subset of what
+        // golden skips: at least golden's samples. The pipeline has
+        // cycles, er none.
+        let samples = |r: &Vec<String>| r[col("samples")].parse::<u64>().unwrap();
+        assert!(samples(pipe) >= samples(er), "D = {d}");
         assert!(pipe[col("cycles")].parse::<u64>().unwrap() > 0);
         assert!(er[col("cycles")].is_empty());
         assert!(pipe[col("vs_er_max_abs_255")].parse::<f64>().unwrap() <= 1.0);
