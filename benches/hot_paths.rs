@@ -67,6 +67,7 @@ fn golden_benches(c: &mut Criterion) {
         voi: None,
         preint: None,
         lanes: true,
+        clear_below: lut.clear_below(),
     };
     let n: u64 = sample_region(&pass, k, grid, &mut buf).samples.iter().sum();
     let mut g = c.benchmark_group("golden");

@@ -286,6 +286,7 @@ pub fn render_within(
         voi: voi.as_ref(),
         preint: preint.as_deref(),
         lanes: opts.lanes,
+        clear_below: lut.clear_below(),
     };
     let runs = mask.regions_to_run();
     stats.regions_skipped = (layout.grids.len() - runs) as u64;

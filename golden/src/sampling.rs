@@ -83,6 +83,10 @@ pub struct Pass<'a> {
     pub preint: Option<&'a PreTable>,
     /// Plain samples in batches of rays ([`crate::methods::Options::lanes`]).
     pub lanes: bool,
+    /// At most the table's [`Lut::clear_below`]: a batch of plain samples
+    /// whose table positions all lie below it composites nothing and stops
+    /// early (`f32::NEG_INFINITY` never stops one).
+    pub clear_below: f32,
 }
 
 /// What sampling one region did.

@@ -217,6 +217,17 @@ impl Lut {
         crate::occupancy::VisibleEntries::new(self.rgba.iter().map(|e| e[3]), self.per_scalar)
     }
 
+    /// A table position below which every lookup has zero opacity: with
+    /// `k` the first entry of non-zero opacity, a position under `k - 1`
+    /// interpolates between two transparent entries (`0 + t (0 - 0) = 0`
+    /// exactly). Infinite for a table with no visible entry.
+    pub fn clear_below(&self) -> f32 {
+        match self.rgba.iter().position(|e| e[3] != 0.0) {
+            Some(k) => k as f32 - 1.0,
+            None => f32::INFINITY,
+        }
+    }
+
     /// True when every entry has zero opacity (nothing can be seen).
     pub fn is_transparent(&self) -> bool {
         self.rgba.iter().all(|e| e[3] == 0.0)
@@ -252,6 +263,29 @@ mod tests {
         let lut = tf.table(256, 255.0);
         assert!((lut.lookup(90.0)[3] - 0.5).abs() < 1e-6);
         assert!((lut.lookup(90.5)[3] - 60.5 / 120.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn below_clear_below_every_lookup_is_transparent() {
+        let lut = ramp().table(256, 255.0);
+        let k = lut.rgba.iter().position(|e| e[3] != 0.0).unwrap();
+        let clear = lut.clear_below();
+        assert_eq!(clear, k as f32 - 1.0);
+        // Every position up to the bound, in steps finer than an entry.
+        let mut pos = 0.0f32;
+        while pos < clear {
+            assert_eq!(lut.lookup(pos / lut.per_scalar)[3], 0.0, "at {pos}");
+            pos += 1.0 / 64.0;
+        }
+        // Just past entry `k - 1` the opacity rises from entry `k`'s.
+        assert!(lut.lookup((clear + 0.5) / lut.per_scalar)[3] > 0.0);
+        let clear_table = TransferFunction::new(vec![ControlPoint {
+            value: 0.0,
+            rgba: [1.0, 1.0, 1.0, 0.0],
+        }])
+        .unwrap()
+        .table(16, 15.0);
+        assert_eq!(clear_table.clear_below(), f32::INFINITY);
     }
 
     #[test]

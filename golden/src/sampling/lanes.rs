@@ -169,6 +169,14 @@ impl RayRow<'_> {
             Plane::U16(p) => taps(p, self.pass.stack.row, &x, self.y),
         };
         let lut = self.pass.lut;
+        // Every lane classifies to zero opacity (air, most of a head's
+        // occupied blocks): each would composite `a = 0`, which changes no
+        // bit (see below), so the batch stops before the table.
+        if s.iter()
+            .all(|&v| v * lut.per_scalar < self.pass.clear_below)
+        {
+            return;
+        }
         let mut c = [[0f32; 4]; LANES];
         let mut alpha = [0f32; LANES];
         for l in 0..LANES {
