@@ -141,9 +141,11 @@ pub fn warp_window(view: &View, base: &Baseplane, win: &PixelWindow) -> Image {
 /// [`warp_window`] with the baseplane's non-zero tiles given.
 fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occupied) -> Image {
     let (w, h) = (view.size[0] as usize, view.size[1] as usize);
-    let m = pixel_to_base(view, &base.grid);
-    let half = 1.0 / base.grid.spacing;
-    let [nx, ny] = base.grid.counts;
+    let map = Footprint {
+        m: pixel_to_base(view, &base.grid),
+        half: 1.0 / base.grid.spacing,
+        counts: base.grid.counts,
+    };
     // The image's buffer comes from the ray-buffer pool (see
     // `crate::merge::recycle`; a caller done with a frame can give it back).
     let mut img = Image {
@@ -151,77 +153,149 @@ fn warp_tiles(view: &View, base: &Baseplane, win: &PixelWindow, occupied: &Occup
         height: h,
         data: crate::merge::zeroed(w * h),
     };
-    let (cols, rows) = (
-        win.x[0] as usize..=win.x[1] as usize,
-        win.y[0] as usize..=win.y[1] as usize,
-    );
-    let taps = tent_taps(half);
-    img.data.par_chunks_mut(w).enumerate().for_each_init(
+    let taps = tent_taps(map.half);
+    const T: usize = PIXEL_TILE;
+    // A band of `T` rows per task, `T x T` pixels at a time: a tile whose
+    // whole footprint on the baseplane reads only zero tiles stays zero
+    // without a pixel computed (most of a frame's air).
+    img.data.par_chunks_mut(w * T).enumerate().for_each_init(
         || (vec![0f32; taps], vec![0f32; taps]),
-        |(wx, wy), (j, row)| {
-            if !rows.contains(&j) {
-                return;
-            }
-            for (i, out) in row.iter_mut().enumerate() {
-                if !cols.contains(&i) {
+        |(wx, wy), (band, rows)| {
+            let j0 = band * T;
+            let j1 = (j0 + rows.len() / w).min(win.y[1] as usize + 1);
+            let j0 = j0.max(win.y[0] as usize);
+            for i0 in (0..w).step_by(T) {
+                let i1 = (i0 + T).min(win.x[1] as usize + 1);
+                let i0 = i0.max(win.x[0] as usize);
+                if i0 >= i1 || j0 >= j1 || !map.may_show([i0, i1], [j0, j1], occupied) {
                     continue;
                 }
-                let q = m * DVec3::new(i as f64 + 0.5, j as f64 + 0.5, 1.0);
-                if q.z <= 0.0 {
-                    continue;
-                }
-                let (u, v) = (q.x / q.z, q.y / q.z);
-                if !(u > -half - 1.0
-                    && u < nx as f64 + half
-                    && v > -half - 1.0
-                    && v < ny as f64 + half)
-                {
-                    continue;
-                }
-                let ((x0, nwx), (y0, nwy)) = (tent_span(u, half), tent_span(v, half));
-                // Taps outside the baseplane read nothing: clip the tap
-                // ranges once instead of testing every tap.
-                let span = |k0: i64, n: usize, len: usize| {
-                    let lo = (-k0).clamp(0, len as i64) as usize;
-                    let hi = (n as i64 - k0).clamp(lo as i64, len as i64) as usize;
-                    lo..hi
-                };
-                let (xs, ys) = (span(x0, nx, nwx), span(y0, ny, nwy));
-                let first = |k0: i64, r: &std::ops::Range<usize>| (k0 + r.start as i64) as usize;
-                if xs.is_empty()
-                    || ys.is_empty()
-                    || !occupied.any(
-                        [first(x0, &xs), first(x0, &xs) + xs.len() - 1],
-                        [first(y0, &ys), first(y0, &ys) + ys.len() - 1],
-                    )
-                {
-                    // Every tap is zero: the pixel stays the zero it is
-                    // (decided before the weights, which cost more than
-                    // the test).
-                    continue;
-                }
-                let (wx, wy) = (&mut wx[..nwx], &mut wy[..nwy]);
-                tent(u, half, x0, wx);
-                tent(v, half, y0, wy);
-                let mut acc = [0f32; 4];
-                for dy in ys {
-                    let fy = wy[dy];
-                    let y = (y0 + dy as i64) as usize;
-                    let first = y * nx + (x0 + xs.start as i64) as usize;
-                    let line = &base.data[first..first + xs.len()];
-                    for (&fx, p) in wx[xs.clone()].iter().zip(line) {
-                        let f = fx * fy;
-                        for c in 0..4 {
-                            acc[c] += f * p[c];
+                for j in j0..j1 {
+                    let row = &mut rows[(j - band * T) * w..][..w];
+                    for (i, out) in row.iter_mut().enumerate().take(i1).skip(i0) {
+                        if let Some(p) = map.pixel(base, occupied, i, j, wx, wy) {
+                            *out = p;
                         }
                     }
                 }
-                // The normalised f32 weights may sum to a hair over 1.
-                *out = acc.map(|v| v.min(1.0));
             }
         },
     );
     img
+}
+
+/// Pixels a side of the warp's tiles.
+const PIXEL_TILE: usize = 8;
+
+/// The warp's map from pixels to the baseplane samples they read.
+struct Footprint {
+    /// [`pixel_to_base`].
+    m: DMat3,
+    /// The tent's half-width in samples.
+    half: f64,
+    /// The baseplane's samples per row and rows.
+    counts: [usize; 2],
+}
+
+impl Footprint {
+    /// False only when no pixel of columns `i[0]..i[1]`, rows `j[0]..j[1]`
+    /// can read a non-zero sample. Where the map's denominator is positive
+    /// at the four corner pixels it is positive over the tile, and the
+    /// tile maps to the convex quadrilateral of their images, so the
+    /// corners bound every pixel's `(u, v)`; a sample of margin on each
+    /// side covers the rounding of one pixel's map against another's.
+    fn may_show(&self, i: [usize; 2], j: [usize; 2], occupied: &Occupied) -> bool {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (x, y) in [
+            (i[0], j[0]),
+            (i[1] - 1, j[0]),
+            (i[0], j[1] - 1),
+            (i[1] - 1, j[1] - 1),
+        ] {
+            let q = self.m * DVec3::new(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            if q.z <= 0.0 || q.z.is_nan() {
+                return true;
+            }
+            for (a, v) in [q.x / q.z, q.y / q.z].into_iter().enumerate() {
+                lo[a] = lo[a].min(v);
+                hi[a] = hi[a].max(v);
+            }
+        }
+        let mut range = [[0usize; 2]; 2];
+        for a in 0..2 {
+            let n = self.counts[a] as f64;
+            // A tap `k` read by a pixel at `u` has `|u - k| < half`.
+            let (k0, k1) = (lo[a] - self.half - 1.0, hi[a] + self.half + 1.0);
+            if !(k1 >= 0.0 && k0 <= n - 1.0) {
+                // Every tap lies off the baseplane (or the map is not finite).
+                return k0.is_nan() || k1.is_nan();
+            }
+            range[a] = [k0.max(0.0) as usize, (k1.min(n - 1.0)) as usize];
+        }
+        occupied.any(range[0], range[1])
+    }
+
+    /// Pixel `(i, j)`, or `None` where it stays zero; `wx`, `wy` hold room
+    /// for [`tent_taps`] weights.
+    #[inline]
+    fn pixel(
+        &self,
+        base: &Baseplane,
+        occupied: &Occupied,
+        i: usize,
+        j: usize,
+        wx: &mut [f32],
+        wy: &mut [f32],
+    ) -> Option<[f32; 4]> {
+        let (half, [nx, ny]) = (self.half, self.counts);
+        let q = self.m * DVec3::new(i as f64 + 0.5, j as f64 + 0.5, 1.0);
+        if q.z <= 0.0 {
+            return None;
+        }
+        let (u, v) = (q.x / q.z, q.y / q.z);
+        if !(u > -half - 1.0 && u < nx as f64 + half && v > -half - 1.0 && v < ny as f64 + half) {
+            return None;
+        }
+        let ((x0, nwx), (y0, nwy)) = (tent_span(u, half), tent_span(v, half));
+        // Taps outside the baseplane read nothing: clip the tap ranges once
+        // instead of testing every tap.
+        let span = |k0: i64, n: usize, len: usize| {
+            let lo = (-k0).clamp(0, len as i64) as usize;
+            let hi = (n as i64 - k0).clamp(lo as i64, len as i64) as usize;
+            lo..hi
+        };
+        let (xs, ys) = (span(x0, nx, nwx), span(y0, ny, nwy));
+        let first = |k0: i64, r: &std::ops::Range<usize>| (k0 + r.start as i64) as usize;
+        if xs.is_empty()
+            || ys.is_empty()
+            || !occupied.any(
+                [first(x0, &xs), first(x0, &xs) + xs.len() - 1],
+                [first(y0, &ys), first(y0, &ys) + ys.len() - 1],
+            )
+        {
+            // Every tap is zero: the pixel stays the zero it is (decided
+            // before the weights, which cost more than the test).
+            return None;
+        }
+        let (wx, wy) = (&mut wx[..nwx], &mut wy[..nwy]);
+        tent(u, half, x0, wx);
+        tent(v, half, y0, wy);
+        let mut acc = [0f32; 4];
+        for dy in ys {
+            let fy = wy[dy];
+            let y = (y0 + dy as i64) as usize;
+            let first = y * nx + (x0 + xs.start as i64) as usize;
+            let line = &base.data[first..first + xs.len()];
+            for (&fx, p) in wx[xs.clone()].iter().zip(line) {
+                let f = fx * fy;
+                for c in 0..4 {
+                    acc[c] += f * p[c];
+                }
+            }
+        }
+        // The normalised f32 weights may sum to a hair over 1.
+        Some(acc.map(|v| v.min(1.0)))
+    }
 }
 
 /// Which `BLOCK x BLOCK` tiles of a baseplane hold a sample that is not
@@ -330,6 +404,26 @@ mod tests {
                 "view {k} sees a lit sample"
             );
             skipped_some |= Occupied::new(&base).bits.iter().any(|b| !b);
+            // Some pixel tiles are left whole, and some are computed.
+            let map = Footprint {
+                m: pixel_to_base(&prep.view, &base.grid),
+                half: 1.0 / base.grid.spacing,
+                counts: base.grid.counts,
+            };
+            let occupied = Occupied::new(&base);
+            let (w, h) = (prep.view.size[0] as usize, prep.view.size[1] as usize);
+            let shown: Vec<bool> = (0..h)
+                .step_by(PIXEL_TILE)
+                .flat_map(|j| (0..w).step_by(PIXEL_TILE).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let (i1, j1) = ((i + PIXEL_TILE).min(w), (j + PIXEL_TILE).min(h));
+                    map.may_show([i, i1], [j, j1], &occupied)
+                })
+                .collect();
+            assert!(
+                shown.iter().any(|&s| s) && shown.iter().any(|&s| !s),
+                "view {k}"
+            );
         }
         assert!(skipped_some);
     }
