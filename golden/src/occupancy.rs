@@ -199,8 +199,12 @@ pub struct ViewOccupancy {
     pub counts: [usize; 2],
     /// Index-space block slab (along the principal axis) of each slice.
     pub slab_of_slice: Vec<usize>,
-    /// Occupied flags, `[slab][by][bx]`.
-    bits: Vec<bool>,
+    /// Occupied flags, `[slab][by]` rows of [`ViewOccupancy::words`]
+    /// words, block `bx` at bit `bx % 64` of word `bx / 64` (bits past
+    /// the last block clear): a row's runs are found a word at a time.
+    mask: Vec<u64>,
+    /// Words per block row.
+    words: usize,
     /// Any occupied block per `[slab][by]`.
     row_any: Vec<bool>,
     /// Any occupied block per slab.
@@ -213,7 +217,8 @@ impl ViewOccupancy {
         let p = axes.perm;
         let counts = [occ.counts[p[0]], occ.counts[p[1]]];
         let slabs = occ.counts[p[2]];
-        let mut bits = vec![false; slabs * counts[0] * counts[1]];
+        let words = counts[0].div_ceil(64).max(1);
+        let mut mask = vec![0u64; slabs * counts[1] * words];
         for s in 0..slabs {
             for by in 0..counts[1] {
                 for bx in 0..counts[0] {
@@ -222,11 +227,16 @@ impl ViewOccupancy {
                     b[p[1]] = by;
                     b[p[2]] = s;
                     let i = (b[2] * occ.counts[1] + b[1]) * occ.counts[0] + b[0];
-                    bits[(s * counts[1] + by) * counts[0] + bx] = occ.bits[i];
+                    if occ.bits[i] {
+                        mask[(s * counts[1] + by) * words + bx / 64] |= 1 << (bx % 64);
+                    }
                 }
             }
         }
-        let row_any: Vec<bool> = bits.chunks(counts[0]).map(|r| r.contains(&true)).collect();
+        let row_any: Vec<bool> = mask
+            .chunks(words)
+            .map(|r| r.iter().any(|&w| w != 0))
+            .collect();
         let slab_any = row_any
             .chunks(counts[1])
             .map(|r| r.contains(&true))
@@ -238,7 +248,8 @@ impl ViewOccupancy {
             block: occ.block,
             counts,
             slab_of_slice,
-            bits,
+            mask,
+            words,
             row_any,
             slab_any,
         }
@@ -261,8 +272,20 @@ impl ViewOccupancy {
     /// True when block `bx` in block rows `rows` of slice `z` is occupied.
     #[inline]
     pub fn block(&self, z: usize, rows: std::ops::RangeInclusive<usize>, bx: usize) -> bool {
-        let s = self.slab_of_slice[z];
+        self.word(z, rows, bx / 64) >> (bx % 64) & 1 == 1
+    }
+
+    /// Words per block row: blocks `64 w ..` are word `w`.
+    pub fn words(&self) -> usize {
+        self.words
+    }
+
+    /// Word `w` of the occupied flags of slice `z`, ORed over block rows
+    /// `rows` (bit `b`: block `64 w + b` is occupied in one of them).
+    #[inline]
+    pub fn word(&self, z: usize, rows: std::ops::RangeInclusive<usize>, w: usize) -> u64 {
+        let row = self.slab_of_slice[z] * self.counts[1];
         rows.into_iter()
-            .any(|by| self.bits[(s * self.counts[1] + by) * self.counts[0] + bx])
+            .fold(0, |acc, by| acc | self.mask[(row + by) * self.words + w])
     }
 }

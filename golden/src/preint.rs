@@ -63,6 +63,8 @@ pub struct PreTable {
     /// The classification table with each opacity widened over the
     /// entries a bin reaches, when bins are coarser than entries.
     widened: Option<Lut>,
+    /// See [`PreTable::clear_below`].
+    clear_below: f32,
 }
 
 impl PreTable {
@@ -137,13 +139,25 @@ impl PreTable {
             }
             w
         });
+        let clear_below = clear_square(&data, bins);
         PreTable {
             bins,
             per_scalar: (f64::from(lut.per_scalar) / stride) as f32,
             data,
             stride,
             widened,
+            clear_below,
         }
+    }
+
+    /// A bin position below which every lookup has zero extinction: with
+    /// bins `0..m` the largest square of zero-extinction entries, a
+    /// lookup whose front and back positions both lie under `m - 1` reads
+    /// four of them (`0 + t (0 - 0) = 0` exactly), so its step composites
+    /// nothing. Minus infinity when bin 1 already reaches a visible entry
+    /// (no position is safe), infinity when no entry is visible.
+    pub fn clear_below(&self) -> f32 {
+        self.clear_below
     }
 
     /// The table the empty-space map must be built from so that skipping
@@ -200,6 +214,21 @@ impl PreTable {
             e[k] = top + ti * (bot - top);
         }
         e
+    }
+}
+
+/// The bound of [`PreTable::clear_below`] for `data` (`bins` by `bins`).
+fn clear_square(data: &[[f32; 4]], bins: usize) -> f32 {
+    let clear = |i: usize, j: usize| data[i * bins + j][3] == 0.0;
+    // Grow the square while its new row and column stay clear.
+    let mut m = 0;
+    while m < bins && (0..=m).all(|k| clear(m, k) && clear(k, m)) {
+        m += 1;
+    }
+    match m {
+        _ if m == bins => f32::INFINITY,
+        0 | 1 => f32::NEG_INFINITY,
+        _ => (m - 1) as f32,
     }
 }
 

@@ -273,7 +273,7 @@ impl SampleMask {
         if !o.rows_any(z, rows.clone()) {
             return;
         }
-        self.block_runs(o, |bx| o.block(z, rows.clone(), bx), &[px], (lo, hi), out);
+        self.block_runs(o, |w| o.word(z, rows.clone(), w), &[px], (lo, hi), out);
     }
 
     /// [`SampleMask::row_runs`] for `k > 1` substeps: the runs of rays
@@ -310,17 +310,22 @@ impl SampleMask {
         if !slices.clone().any(|s| o.rows_any(s, rows.clone())) {
             return;
         }
-        let occupied = |bx: usize| slices.clone().any(|s| o.block(s, rows.clone(), bx));
+        let occupied = |w: usize| {
+            slices
+                .clone()
+                .fold(0, |acc, s| acc | o.word(s, rows.clone(), w))
+        };
         self.block_runs(o, occupied, &px, x, out);
     }
 
     /// The runs of rays `lo..=hi` whose positions (between the affine
     /// positions `px` of each ray, widened by the margin) fall in the
-    /// blocks `occupied` accepts, appended to `out` in ascending order.
+    /// blocks `occupied` marks (its word `w`: blocks `64 w ..`, see
+    /// [`ViewOccupancy::word`]), appended to `out` in ascending order.
     fn block_runs(
         &self,
         o: &ViewOccupancy,
-        occupied: impl Fn(usize) -> bool,
+        occupied: impl Fn(usize) -> u64,
         px: &[Affine],
         (lo, hi): (i64, i64),
         out: &mut Vec<(i64, i64)>,
@@ -331,17 +336,8 @@ impl SampleMask {
         // the face, where positions fall with the ray index; the bounds
         // below assume they grow, so such a row keeps every ray of a run.
         let growing = px.iter().all(|p| p.t > 0.0 && p.t.is_finite());
-        let mut bx = 0;
-        while bx < nbx {
-            if !occupied(bx) {
-                bx += 1;
-                continue;
-            }
-            let b0 = bx;
-            while bx + 1 < nbx && occupied(bx + 1) {
-                bx += 1;
-            }
-            // Cells b0 B ..= (bx + 1) B - 1 are occupied; the first and last
+        set_runs(o.words(), nbx, occupied, |b0, b1| {
+            // Cells b0 B ..= (b1 + 1) B - 1 are occupied; the first and last
             // blocks also hold the positions clamped onto the edge voxels.
             // A ray is kept when any of its positions reaches the run, so
             // the first ray is the least and the last the greatest over the
@@ -354,11 +350,11 @@ impl SampleMask {
                     .min()
                     .unwrap_or(lo)
             };
-            let m_hi = if bx + 1 == nbx || !growing {
+            let m_hi = if b1 + 1 == nbx || !growing {
                 hi
             } else {
                 px.iter()
-                    .map(|p| ((((bx + 1) as f64 * b + self.margin) - p.a) / p.t).ceil() as i64)
+                    .map(|p| ((((b1 + 1) as f64 * b + self.margin) - p.a) / p.t).ceil() as i64)
                     .max()
                     .unwrap_or(hi)
             };
@@ -369,8 +365,41 @@ impl SampleMask {
                     _ => out.push(run),
                 }
             }
-            bx += 1;
+        });
+    }
+}
+
+/// Calls `emit(first, last)` for each run of set bits, in ascending order,
+/// of the `n` bits held in `words` words (`word(w)`: bits `64 w ..`, those
+/// at `n` and past it clear).
+fn set_runs(
+    words: usize,
+    n: usize,
+    word: impl Fn(usize) -> u64,
+    mut emit: impl FnMut(usize, usize),
+) {
+    let mut start = None;
+    for w in 0..words {
+        let x = word(w);
+        let mut from = 0u32;
+        while from < 64 {
+            // Inside a run look for its first clear bit, else for a set one.
+            let y = if start.is_some() { !x } else { x };
+            let ahead = y & (u64::MAX << from);
+            if ahead == 0 {
+                break;
+            }
+            let k = ahead.trailing_zeros();
+            let at = w * 64 + k as usize;
+            match start.take() {
+                Some(s) => emit(s, at - 1),
+                None => start = Some(at),
+            }
+            from = k;
         }
+    }
+    if let Some(s) = start {
+        emit(s, n - 1);
     }
 }
 
@@ -447,4 +476,48 @@ fn needed(
         }
     }
     Some(keep)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::set_runs;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The runs a word at a time are the runs a bit at a time, across
+        /// word edges and at the last bit.
+        #[test]
+        fn set_runs_are_the_bitwise_runs(
+            bits in prop::collection::vec(any::<bool>(), 0..300),
+            dense in any::<bool>(),
+        ) {
+            // Long runs as well as random ones.
+            let bits: Vec<bool> = if dense {
+                bits.iter().enumerate().map(|(i, &b)| b || i % 97 > 20).collect()
+            } else {
+                bits
+            };
+            let n = bits.len();
+            let words = n.div_ceil(64).max(1);
+            let mut packed = vec![0u64; words];
+            for (i, &b) in bits.iter().enumerate() {
+                packed[i / 64] |= u64::from(b) << (i % 64);
+            }
+            let mut got = Vec::new();
+            set_runs(words, n, |w| packed[w], |a, b| got.push((a, b)));
+            let mut want = Vec::new();
+            let mut i = 0;
+            while i < n {
+                if bits[i] {
+                    let s = i;
+                    while i + 1 < n && bits[i + 1] {
+                        i += 1;
+                    }
+                    want.push((s, i));
+                }
+                i += 1;
+            }
+            prop_assert_eq!(got, want);
+        }
+    }
 }

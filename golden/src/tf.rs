@@ -220,9 +220,12 @@ impl Lut {
     /// A table position below which every lookup has zero opacity: with
     /// `k` the first entry of non-zero opacity, a position under `k - 1`
     /// interpolates between two transparent entries (`0 + t (0 - 0) = 0`
-    /// exactly). Infinite for a table with no visible entry.
+    /// exactly). Infinite for a table with no visible entry; minus
+    /// infinity when the first entry is visible (a negative position
+    /// clamps to entry 0).
     pub fn clear_below(&self) -> f32 {
         match self.rgba.iter().position(|e| e[3] != 0.0) {
+            Some(0) => f32::NEG_INFINITY,
             Some(k) => k as f32 - 1.0,
             None => f32::INFINITY,
         }

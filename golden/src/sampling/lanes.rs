@@ -122,20 +122,31 @@ impl RayRow<'_> {
         let pt = self.pass.preint.expect("a pre-integrated pass");
         let (n, at) = spread(idx);
         let back = preint_span(self.z, view.dims[2])[1] as f32;
-        let mut e = [[0f32; 4]; LANES];
-        let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
-        for l in 0..LANES {
+        let mut s = [(0f32, 0f32); LANES];
+        for (l, s) in s.iter_mut().enumerate() {
             let mx = self.grid.lo[0] + at[l] as i64;
             let x = (self.px.a + mx as f64 * self.px.t) as f32;
             let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
             // Spare lanes repeat the last ray: they read its cache without
             // writing it (their results are not stored).
-            let (sf, sb) = if l < n {
+            *s = if l < n {
                 self.step_scalars(mx, (x, slope_x), Some(&mut taps[at[l]]))
             } else {
                 let mut spare = taps[at[l]];
                 self.step_scalars(mx, (x, slope_x), Some(&mut spare))
             };
+        }
+        // Every lane's step lies in the table's transparent corner: each
+        // has zero extinction and composites nothing (`a > 0` below), so
+        // the batch stops after its taps (which the next step reuses).
+        let (ps, clear) = (pt.per_scalar(), pt.clear_below());
+        if s.iter().all(|&(f, b)| f * ps < clear && b * ps < clear) {
+            return;
+        }
+        let mut e = [[0f32; 4]; LANES];
+        let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
+        for l in 0..LANES {
+            let (sf, sb) = s[l];
             e[l] = pt.lookup(sf, sb);
             // Without a volume of interest the extinction's factor is 1.
             tau[l] = e[l][3] * 1.0;

@@ -304,3 +304,39 @@ fn preint_refuses_substeps() {
     let e = o.validate().unwrap_err().to_string();
     assert!(e.contains("--substeps") && !e.contains('\n'), "{e}");
 }
+
+#[test]
+fn below_clear_below_every_step_is_transparent() {
+    // An 8-bit table (bins are entries) and a 16-bit one (coarser bins).
+    let wide = crate::scenes::tf(&[
+        (0.0, [0.0; 4]),
+        (60.0 * 256.0, [0.2, 0.4, 0.9, 0.0]),
+        (140.0 * 256.0, [1.0, 0.7, 0.2, 0.6]),
+        (65535.0, [1.0, 1.0, 1.0, 0.95]),
+    ]);
+    for lut in [ramp(), golden::render::lut_for(VoxelType::U16, &wide)] {
+        let pt = PreTable::new(&lut);
+        let clear = pt.clear_below();
+        assert!(clear.is_finite() && clear > 0.0, "{clear}");
+        let ps = pt.per_scalar();
+        let mut f = 0.0f32;
+        while f < clear {
+            let mut b = 0.0f32;
+            while b < clear {
+                assert_eq!(pt.lookup(f / ps, b / ps)[3], 0.0, "at ({f}, {b})");
+                b += 0.125;
+            }
+            f += 0.125;
+        }
+        // Half a bin past the bound, either end reaches a visible bin.
+        assert!(pt.lookup((clear + 0.5) / ps, 0.0)[3] > 0.0);
+        assert!(pt.lookup(0.0, (clear + 0.5) / ps)[3] > 0.0);
+    }
+    let visible_at_zero = table(&[(0.0, [1.0, 1.0, 1.0, 0.5]), (255.0, [1.0; 4])]);
+    assert_eq!(
+        PreTable::new(&visible_at_zero).clear_below(),
+        f32::NEG_INFINITY
+    );
+    let clear_table = table(&[(0.0, [1.0, 1.0, 1.0, 0.0]), (255.0, [1.0, 1.0, 1.0, 0.0])]);
+    assert_eq!(PreTable::new(&clear_table).clear_below(), f32::INFINITY);
+}
