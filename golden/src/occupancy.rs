@@ -269,12 +269,6 @@ impl ViewOccupancy {
             .any(|by| self.row_any[s * self.counts[1] + by])
     }
 
-    /// True when block `bx` in block rows `rows` of slice `z` is occupied.
-    #[inline]
-    pub fn block(&self, z: usize, rows: std::ops::RangeInclusive<usize>, bx: usize) -> bool {
-        self.word(z, rows, bx / 64) >> (bx % 64) & 1 == 1
-    }
-
     /// Words per block row: blocks `64 w ..` are word `w`.
     pub fn words(&self) -> usize {
         self.words

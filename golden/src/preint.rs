@@ -37,7 +37,7 @@
 //! steps tile the volume's box like the one-sample-per-slice scheme's.
 
 use crate::opacity::neg_expm1;
-use crate::tf::Lut;
+use crate::tf::{clear_bound, Lut};
 
 /// Largest table side.
 pub const MAX_BINS: usize = 256;
@@ -154,8 +154,7 @@ impl PreTable {
     /// bins `0..m` the largest square of zero-extinction entries, a
     /// lookup whose front and back positions both lie under `m - 1` reads
     /// four of them (`0 + t (0 - 0) = 0` exactly), so its step composites
-    /// nothing. Minus infinity when bin 1 already reaches a visible entry
-    /// (no position is safe), infinity when no entry is visible.
+    /// nothing (edge cases as [`Lut::clear_below`]'s).
     pub fn clear_below(&self) -> f32 {
         self.clear_below
     }
@@ -225,11 +224,7 @@ fn clear_square(data: &[[f32; 4]], bins: usize) -> f32 {
     while m < bins && (0..=m).all(|k| clear(m, k) && clear(k, m)) {
         m += 1;
     }
-    match m {
-        _ if m == bins => f32::INFINITY,
-        0 | 1 => f32::NEG_INFINITY,
-        _ => (m - 1) as f32,
-    }
+    clear_bound(m, bins)
 }
 
 /// Opacity of a step of length `ds` at mean extinction `tau`:

@@ -218,17 +218,13 @@ impl Lut {
     }
 
     /// A table position below which every lookup has zero opacity: with
-    /// `k` the first entry of non-zero opacity, a position under `k - 1`
-    /// interpolates between two transparent entries (`0 + t (0 - 0) = 0`
-    /// exactly). Infinite for a table with no visible entry; minus
-    /// infinity when the first entry is visible (a negative position
-    /// clamps to entry 0).
+    /// entries `0..k` transparent, a position under `k - 1` interpolates
+    /// between two of them (`0 + t (0 - 0) = 0` exactly). Infinity when
+    /// every entry is transparent; minus infinity when entry 0 or 1 is
+    /// visible (a position under 0 clamps to entry 0 and reads entry 1).
     pub fn clear_below(&self) -> f32 {
-        match self.rgba.iter().position(|e| e[3] != 0.0) {
-            Some(0) => f32::NEG_INFINITY,
-            Some(k) => k as f32 - 1.0,
-            None => f32::INFINITY,
-        }
+        let k = self.rgba.iter().take_while(|e| e[3] == 0.0).count();
+        clear_bound(k, self.rgba.len())
     }
 
     /// True when every entry has zero opacity (nothing can be seen).
@@ -238,6 +234,18 @@ impl Lut {
 }
 
 pub use crate::opacity::correct_opacity;
+
+/// The position bound of a table of `n` entries (or bins) whose first `k`
+/// are transparent: positions under `k - 1` read only those. Infinity when
+/// all are; minus infinity when fewer than two are, since a position under
+/// 0 clamps to entry 0 and interpolates towards entry 1.
+pub(crate) fn clear_bound(k: usize, n: usize) -> f32 {
+    match k {
+        _ if k == n => f32::INFINITY,
+        0 | 1 => f32::NEG_INFINITY,
+        _ => (k - 1) as f32,
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -289,6 +297,10 @@ mod tests {
         .unwrap()
         .table(16, 15.0);
         assert_eq!(clear_table.clear_below(), f32::INFINITY);
+        // A table visible from entry 1 has no safe position.
+        let mut early = lut.clone();
+        early.rgba[1][3] = 0.25;
+        assert_eq!(early.clear_below(), f32::NEG_INFINITY);
     }
 
     #[test]

@@ -122,8 +122,8 @@ impl RayRow<'_> {
         let pt = self.pass.preint.expect("a pre-integrated pass");
         let (n, at) = spread(idx);
         let back = preint_span(self.z, view.dims[2])[1] as f32;
-        let mut s = [(0f32, 0f32); LANES];
-        for (l, s) in s.iter_mut().enumerate() {
+        let mut steps = [(0f32, 0f32); LANES];
+        for (l, s) in steps.iter_mut().enumerate() {
             let mx = self.grid.lo[0] + at[l] as i64;
             let x = (self.px.a + mx as f64 * self.px.t) as f32;
             let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
@@ -140,13 +140,13 @@ impl RayRow<'_> {
         // has zero extinction and composites nothing (`a > 0` below), so
         // the batch stops after its taps (which the next step reuses).
         let (ps, clear) = (pt.per_scalar(), pt.clear_below());
-        if s.iter().all(|&(f, b)| f * ps < clear && b * ps < clear) {
+        if steps.iter().all(|&(f, b)| f * ps < clear && b * ps < clear) {
             return;
         }
         let mut e = [[0f32; 4]; LANES];
         let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
         for l in 0..LANES {
-            let (sf, sb) = s[l];
+            let (sf, sb) = steps[l];
             e[l] = pt.lookup(sf, sb);
             // Without a volume of interest the extinction's factor is 1.
             tau[l] = e[l][3] * 1.0;
