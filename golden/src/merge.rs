@@ -37,14 +37,14 @@ fn spare(n: usize) -> Vec<Rgba> {
         .unwrap_or_default()
 }
 
-/// States one task of [`zeroed`] or [`copied`] writes (128 KiB): a
+/// States one task of [`zeroed`] writes (128 KiB): a
 /// frame's ray buffers and image are megabytes, and one thread writing
 /// them while the other waited was 6 % of an `er-ftb` frame.
 const CHUNK: usize = 1 << 13;
 
 /// A recycled (or new) buffer of `n` states whose values are left over:
 /// a recycled buffer keeps its length, so only states past it are pushed.
-fn sized(n: usize) -> Vec<Rgba> {
+fn reused(n: usize) -> Vec<Rgba> {
     let mut v = spare(n);
     v.truncate(n);
     v.resize(n, [0.0; 4]);
@@ -54,18 +54,8 @@ fn sized(n: usize) -> Vec<Rgba> {
 /// `n` empty states (zeros), in a recycled buffer when one is spare,
 /// written in parallel.
 pub fn zeroed(n: usize) -> Vec<Rgba> {
-    let mut v = sized(n);
+    let mut v = reused(n);
     v.par_chunks_mut(CHUNK).for_each(|c| c.fill([0.0; 4]));
-    v
-}
-
-/// A copy of `src`, in a recycled buffer when one is spare, written in
-/// parallel.
-pub fn copied(src: &[Rgba]) -> Vec<Rgba> {
-    let mut v = sized(src.len());
-    v.par_chunks_mut(CHUNK)
-        .zip(src.par_chunks(CHUNK))
-        .for_each(|(d, s)| d.copy_from_slice(s));
     v
 }
 
@@ -114,45 +104,95 @@ fn taps(kind: Merge) -> &'static [(i64, f32)] {
 /// box: `(1/2, 1/2)` on `2m, 2m+1`). Front rays fed by nothing start empty,
 /// which is how empty rays are added at the edges.
 pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Vec<Rgba> {
+    let mut out = reused(fgrid.len());
+    merge_rows(kind, |j| back[j], (bgrid, fgrid), &mut out, |o, v| *o = v);
+    out
+}
+
+/// The front-to-back fold at one region boundary, in one merge: `finals`
+/// (the front region's rays after its last slice) each gain the merge of
+/// what the back region's rays added behind their inheritance, `result -
+/// inherited`. The same operations as subtracting, [`merge`] and adding
+/// buffer by buffer (IEEE addition commutes), without the three passes
+/// over whole buffers between them.
+pub fn fold_into(
+    kind: Merge,
+    (result, inherited): (&[Rgba], &[Rgba]),
+    (bgrid, fgrid): (&RayGrid, &RayGrid),
+    finals: &mut [Rgba],
+) {
+    let added = |j: usize| {
+        let (r, h) = (result[j], inherited[j]);
+        [r[0] - h[0], r[1] - h[1], r[2] - h[2], r[3] - h[3]]
+    };
+    merge_rows(kind, added, (bgrid, fgrid), finals, |o, v| {
+        for c in 0..4 {
+            o[c] += v[c];
+        }
+    });
+}
+
+/// [`merge`] of the back rays `back(j)` (row-major over `bgrid`), each
+/// front ray's merged state `v` given to `put(&mut out[i], v)`; rays fed
+/// by nothing get `+0` states.
+fn merge_rows(
+    kind: Merge,
+    back: impl Fn(usize) -> Rgba + Sync,
+    (bgrid, fgrid): (&RayGrid, &RayGrid),
+    out: &mut [Rgba],
+    put: impl Fn(&mut Rgba, Rgba) + Sync,
+) {
     let [fw, fh] = fgrid.counts();
     let [bw, bh] = bgrid.counts();
-    let taps = taps(kind);
-    let mut out = zeroed(fw * fh);
-    if fw == 0 || fh == 0 || bw == 0 || bh == 0 {
-        return out;
+    debug_assert_eq!(out.len(), fw * fh);
+    if fw == 0 || fh == 0 {
+        return;
     }
+    if bw == 0 || bh == 0 {
+        out.par_iter_mut().for_each(|o| put(o, [0.0; 4]));
+        return;
+    }
+    let taps = taps(kind);
     // Index of back ray `n` in a back row (or column), if inside the grid.
     let inside = |n: i64, lo: i64, len: usize| {
         let j = n - lo;
         (0..len as i64).contains(&j).then_some(j as usize)
     };
-    // Pass 1, along x: for every back row, the x-merged values at front columns.
-    let mut tmp = zeroed(fw * bh);
-    tmp.par_chunks_mut(fw)
-        .zip(back.par_chunks(bw))
-        .for_each(|(line, src)| {
-            for (c, acc) in line.iter_mut().enumerate() {
-                let m = fgrid.lo[0] + c as i64;
-                for &(o, w) in taps {
-                    if let Some(j) = inside(2 * m + o, bgrid.lo[0], bw) {
-                        madd(acc, w, src[j]);
+    // Pass 1, along x: for every back row, the x-merged values at front
+    // columns (each written whole, so the buffer need not start zeroed).
+    let mut tmp = reused(fw * bh);
+    tmp.par_chunks_mut(fw).enumerate().for_each(|(r, line)| {
+        for (c, out) in line.iter_mut().enumerate() {
+            let m = fgrid.lo[0] + c as i64;
+            let mut acc = [0.0; 4];
+            for &(o, w) in taps {
+                if let Some(j) = inside(2 * m + o, bgrid.lo[0], bw) {
+                    madd(&mut acc, w, back(r * bw + j));
+                }
+            }
+            *out = acc;
+        }
+    });
+    // Pass 2, along y, row by row of the x-merged values, summed in a
+    // row of scratch and then put.
+    out.par_chunks_mut(fw).enumerate().for_each_init(
+        || vec![[0f32; 4]; fw],
+        |acc, (r, line)| {
+            acc.fill([0.0; 4]);
+            let m = fgrid.lo[1] + r as i64;
+            for &(o, w) in taps {
+                if let Some(j) = inside(2 * m + o, bgrid.lo[1], bh) {
+                    for (a, v) in acc.iter_mut().zip(&tmp[j * fw..(j + 1) * fw]) {
+                        madd(a, w, *v);
                     }
                 }
             }
-        });
-    // Pass 2, along y, row by row of the x-merged values.
-    out.par_chunks_mut(fw).enumerate().for_each(|(r, line)| {
-        let m = fgrid.lo[1] + r as i64;
-        for &(o, w) in taps {
-            if let Some(j) = inside(2 * m + o, bgrid.lo[1], bh) {
-                for (acc, v) in line.iter_mut().zip(&tmp[j * fw..(j + 1) * fw]) {
-                    madd(acc, w, *v);
-                }
+            for (o, a) in line.iter_mut().zip(acc.iter()) {
+                put(o, *a);
             }
-        }
-    });
+        },
+    );
     recycle(tmp);
-    out
 }
 
 /// Splits the front region's rays (`front` over `fgrid`) into the back
@@ -160,6 +200,24 @@ pub fn merge(kind: Merge, back: &[Rgba], bgrid: &RayGrid, fgrid: &RayGrid) -> Ve
 /// ray `2m + 1` takes the mean of front rays `m` and `m + 1`, per axis
 /// (bilinear interpolation; twice the transpose of the Bartlett merge).
 pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
+    split_into(front, fgrid, bgrid, None)
+}
+
+/// [`split`] and a copy of its result, written in the same pass (the
+/// front-to-back fold keeps what each region inherited).
+pub fn split_kept(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> (Vec<Rgba>, Vec<Rgba>) {
+    let mut kept = reused(bgrid.len());
+    let out = split_into(front, fgrid, bgrid, Some(&mut kept));
+    (out, kept)
+}
+
+/// [`split`], copying every row it writes into `kept` too when given.
+fn split_into(
+    front: &[Rgba],
+    fgrid: &RayGrid,
+    bgrid: &RayGrid,
+    kept: Option<&mut [Rgba]>,
+) -> Vec<Rgba> {
     let [bw, bh] = bgrid.counts();
     let [fw, fh] = fgrid.counts();
     let parents = |n: i64| -> [(i64, f32); 2] {
@@ -169,10 +227,13 @@ pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
             [(n.div_euclid(2), 0.5), (n.div_euclid(2) + 1, 0.5)]
         }
     };
-    let mut out = zeroed(bw * bh);
     if bw == 0 || fw == 0 || fh == 0 {
-        return out;
+        if let Some(k) = kept {
+            k.fill([0.0; 4]);
+        }
+        return zeroed(bw * bh);
     }
+    let mut out = reused(bw * bh);
     // Each back column's parents as indices into a front row.
     let cols: Vec<[(usize, f32); 2]> = (0..bw)
         .map(|c| {
@@ -186,7 +247,8 @@ pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
             })
         })
         .collect();
-    out.par_chunks_mut(bw).enumerate().for_each(|(r, line)| {
+    let row = |(r, line): (usize, &mut [Rgba])| {
+        line.fill([0.0; 4]);
         for (my, wy) in parents(bgrid.lo[1] + r as i64) {
             let j = my - fgrid.lo[1];
             if wy == 0.0 || !(0..fh as i64).contains(&j) {
@@ -201,13 +263,25 @@ pub fn split(front: &[Rgba], fgrid: &RayGrid, bgrid: &RayGrid) -> Vec<Rgba> {
                 }
             }
         }
-    });
+    };
+    match kept {
+        None => out.par_chunks_mut(bw).enumerate().for_each(row),
+        Some(k) => out
+            .par_chunks_mut(bw)
+            .zip(k.par_chunks_mut(bw))
+            .enumerate()
+            .for_each(|(r, (line, copy))| {
+                row((r, &mut *line));
+                copy.copy_from_slice(line);
+            }),
+    }
     out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn grid(lo: i64, hi: i64) -> RayGrid {
         RayGrid {
@@ -230,7 +304,7 @@ mod tests {
         buf
     }
 
-    /// A recycled buffer keeps its old states; `zeroed` and `copied` must
+    /// A recycled buffer keeps its old states; `zeroed` must
     /// overwrite every one of them, in every chunk, whatever the lengths.
     #[test]
     fn recycled_buffers_are_overwritten() {
@@ -242,11 +316,6 @@ mod tests {
                 z.iter().all(|s| s.iter().all(|c| c.to_bits() == 0)),
                 "{old} {n}"
             );
-            drop(z);
-            recycle(vec![[2.5; 4]; old]);
-            let src: Vec<Rgba> = (0..n).map(|i| [i as f32, 1.0, 2.0, 3.0]).collect();
-            let c = copied(&src);
-            assert_eq!(c, src, "{old} {n}");
         }
     }
 
@@ -275,6 +344,99 @@ mod tests {
                 let mm = at(&merge(Merge::Bartlett, &bb, &gb, &gf), &gf, m, 0)[0];
                 assert_eq!(s, 2.0 * mm, "n {n} m {m}");
             }
+        }
+    }
+
+    /// A grid over `lo..=hi` per axis (empty where `hi < lo`).
+    fn rect(lo: [i64; 2], hi: [i64; 2]) -> RayGrid {
+        RayGrid {
+            z_ref: 1.0,
+            phi: [0.0; 2],
+            lo,
+            hi,
+            slices: 0..0,
+        }
+    }
+
+    /// The merge's definition ray by ray: the x taps summed within each
+    /// back row, then the rows' sums by their y taps, in tap order.
+    fn merge_oracle(kind: Merge, back: &[Rgba], bg: &RayGrid, fg: &RayGrid) -> Vec<Rgba> {
+        let mut out = Vec::new();
+        for my in fg.lo[1]..=fg.hi[1] {
+            for mx in fg.lo[0]..=fg.hi[0] {
+                let mut acc = [0f32; 4];
+                for &(oy, wy) in taps(kind) {
+                    let ny = 2 * my + oy;
+                    if ny < bg.lo[1] || ny > bg.hi[1] || bg.counts()[0] == 0 {
+                        continue;
+                    }
+                    let mut row = [0f32; 4];
+                    for &(ox, wx) in taps(kind) {
+                        let nx = 2 * mx + ox;
+                        if nx >= bg.lo[0] && nx <= bg.hi[0] {
+                            madd(&mut row, wx, at(back, bg, nx, ny));
+                        }
+                    }
+                    madd(&mut acc, wy, row);
+                }
+                out.push(acc);
+            }
+        }
+        out
+    }
+
+    fn bits(v: &[Rgba]) -> Vec<[u32; 4]> {
+        v.iter().map(|s| s.map(f32::to_bits)).collect()
+    }
+
+    fn state() -> impl Strategy<Value = Rgba> {
+        prop::array::uniform4(prop_oneof![Just(0.0f32), Just(-0.0f32), -1.0f32..1.0])
+    }
+
+    proptest! {
+        /// The fused operators give the bits of their definitions: the
+        /// merge its ray-by-ray sum, the fold the subtract, merge and add
+        /// it replaced, the kept split two copies of the split; whatever
+        /// a recycled buffer held before, and for empty grids too.
+        #[test]
+        fn fused_operators_are_their_definitions(
+            flo in prop::array::uniform2(-6i64..2),
+            fext in prop::array::uniform2(-1i64..8),
+            blo in prop::array::uniform2(-12i64..4),
+            bext in prop::array::uniform2(-1i64..16),
+            box_kind in any::<bool>(),
+            seed in prop::collection::vec(state(), 1..64),
+        ) {
+            let kind = if box_kind { Merge::Box } else { Merge::Bartlett };
+            let fg = rect(flo, [flo[0] + fext[0], flo[1] + fext[1]]);
+            let bg = rect(blo, [blo[0] + bext[0], blo[1] + bext[1]]);
+            let fill = |n: usize, k: usize| -> Vec<Rgba> {
+                (0..n).map(|i| seed[(i * 7 + k) % seed.len()]).collect()
+            };
+            let (back, inh, fin) = (fill(bg.len(), 0), fill(bg.len(), 3), fill(fg.len(), 5));
+            recycle(vec![[9.5; 4]; 4096]);
+            prop_assert_eq!(bits(&merge(kind, &back, &bg, &fg)), bits(&merge_oracle(kind, &back, &bg, &fg)));
+            let mut fused = fin.clone();
+            recycle(vec![[-3.0; 4]; 4096]);
+            fold_into(kind, (&back, &inh), (&bg, &fg), &mut fused);
+            let diff: Vec<Rgba> = back
+                .iter()
+                .zip(&inh)
+                .map(|(r, h)| [r[0] - h[0], r[1] - h[1], r[2] - h[2], r[3] - h[3]])
+                .collect();
+            let folded = merge_oracle(kind, &diff, &bg, &fg);
+            let want: Vec<Rgba> = fin
+                .iter()
+                .zip(&folded)
+                .map(|(r, f)| [r[0] + f[0], r[1] + f[1], r[2] + f[2], r[3] + f[3]])
+                .collect();
+            prop_assert_eq!(bits(&fused), bits(&want));
+            let front = fill(fg.len(), 1);
+            recycle(vec![[7.0; 4]; 4096]);
+            let (out, kept) = split_kept(&front, &fg, &bg);
+            let plain = split(&front, &fg, &bg);
+            prop_assert_eq!(bits(&out), bits(&plain));
+            prop_assert_eq!(bits(&kept), bits(&plain));
         }
     }
 }

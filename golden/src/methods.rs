@@ -6,11 +6,9 @@
 
 use std::str::FromStr;
 
-use rayon::prelude::*;
-
 use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
-use crate::merge::{copied, merge, recycle, split, zeroed, Rgba};
+use crate::merge::{fold_into, merge, recycle, split_kept, zeroed, Rgba};
 use crate::occupancy::Occupancy;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
@@ -341,35 +339,28 @@ fn front_to_back(layout: &Layout, runs: usize, pass: &Pass, stats: &mut Stats) -
     for i in 0..runs {
         let grid = &layout.grids[i];
         if i > 0 {
-            let next = split(&buf, &layout.grids[i - 1], grid);
+            let (next, kept) = split_kept(&buf, &layout.grids[i - 1], grid);
             finals.push(std::mem::replace(&mut buf, next));
             stats.merges += 1;
-            inherited.push(copied(&buf));
+            inherited.push(kept);
         }
         stats.add(grid.slices.clone(), sample_region(pass, i, grid, &mut buf));
     }
     let kind = layout.merge.expect("ER layouts merge");
     let mut result = buf;
     for i in (1..runs).rev() {
-        // What region i's rays added behind their inheritance.
+        // What region i's rays added behind their inheritance, merged
+        // onto region i - 1's final states.
         let inh = inherited.pop().expect("one inheritance per split");
-        result.par_iter_mut().zip(&inh).for_each(|(r, h)| {
-            for c in 0..4 {
-                r[c] -= h[c];
-            }
-        });
-        let folded = merge(kind, &result, &layout.grids[i], &layout.grids[i - 1]);
+        let mut front = finals.pop().expect("one final state per region");
+        fold_into(
+            kind,
+            (&result, &inh),
+            (&layout.grids[i], &layout.grids[i - 1]),
+            &mut front,
+        );
         recycle(inh);
-        recycle(std::mem::replace(
-            &mut result,
-            finals.pop().expect("one final state per region"),
-        ));
-        result.par_iter_mut().zip(&folded).for_each(|(r, f)| {
-            for c in 0..4 {
-                r[c] += f[c];
-            }
-        });
-        recycle(folded);
+        recycle(std::mem::replace(&mut result, front));
     }
     result
 }
