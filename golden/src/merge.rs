@@ -134,7 +134,7 @@ pub fn fold_into(
 
 /// [`merge`] of the back rays `back(j)` (row-major over `bgrid`), each
 /// front ray's merged state `v` given to `put(&mut out[i], v)`; rays fed
-/// by nothing get `+0` states.
+/// by nothing (every ray, for an empty back grid) get `+0` states.
 fn merge_rows(
     kind: Merge,
     back: impl Fn(usize) -> Rgba + Sync,
@@ -146,10 +146,6 @@ fn merge_rows(
     let [bw, bh] = bgrid.counts();
     debug_assert_eq!(out.len(), fw * fh);
     if fw == 0 || fh == 0 {
-        return;
-    }
-    if bw == 0 || bh == 0 {
-        out.par_iter_mut().for_each(|o| put(o, [0.0; 4]));
         return;
     }
     let taps = taps(kind);
