@@ -80,6 +80,24 @@ pub(crate) fn lerp2_values(a: f32, b: f32, c: f32, d: f32, tx: f32, ty: f32) -> 
     top + ty * (bot - top)
 }
 
+/// The bilinear sample at `(x[l], y)` of padded plane `p` (row length
+/// `row`) for every lane: [`SliceStack::bilinear`]'s arithmetic.
+#[inline(always)]
+pub(crate) fn bilinear_lanes<T: Copy + Into<f32>, const L: usize>(
+    p: &[T],
+    row: usize,
+    x: &[f32; L],
+    y: f32,
+) -> [f32; L] {
+    // A loop, not `array::from_fn`: its closure was left out of line.
+    let mut s = [0f32; L];
+    for l in 0..L {
+        let (i, tx, ty) = SliceStack::cell_of(row, x[l], y);
+        s[l] = lerp2(p, i, row, tx, ty);
+    }
+    s
+}
+
 /// [`lerp2`] on a plane of any type.
 #[inline(always)]
 fn lerp_plane(s: Plane, i: usize, row: usize, tx: f32, ty: f32) -> f32 {
@@ -305,6 +323,35 @@ impl SliceStack {
         let a = self.bilinear(self.padded(z0), x, y);
         let b = self.bilinear(self.padded(z0 + 1), x, y);
         a + t * (b - a)
+    }
+
+    /// [`SliceStack::trilinear_f32`] at `(x[l], y, z)` for every lane:
+    /// the rays of one row share `y` and `z` at a substep, so their clamp
+    /// and the two planes are found once for all lanes (same bits).
+    #[inline(always)]
+    pub(crate) fn trilinear_lanes<const L: usize>(&self, x: &[f32; L], y: f32, z: f32) -> [f32; L] {
+        let (z0, t, _, y) = SliceStack::clamp_f32_in(self.dims, 0.0, y, z);
+        let hi = self.dims[0] as f32 - 1e-3;
+        let mut x = *x;
+        for v in &mut x {
+            *v = v.clamp(-1.0, hi);
+        }
+        let (front, back) = (z0 * self.plane, (z0 + 1) * self.plane);
+        let (a, b) = match &self.data {
+            StackData::U8(d) => (
+                bilinear_lanes(&d[front..back], self.row, &x, y),
+                bilinear_lanes(&d[back..back + self.plane], self.row, &x, y),
+            ),
+            StackData::U16(d) => (
+                bilinear_lanes(&d[front..back], self.row, &x, y),
+                bilinear_lanes(&d[back..back + self.plane], self.row, &x, y),
+            ),
+        };
+        let mut s = a;
+        for l in 0..L {
+            s[l] += t * (b[l] - a[l]);
+        }
+        s
     }
 
     /// [`SliceStack::trilinear_f32`]'s clamped position in a stack of

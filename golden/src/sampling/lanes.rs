@@ -16,7 +16,7 @@
 use super::{composite_alpha, preint_span, Order, RayRow, TapCache};
 use crate::merge::Rgba;
 use crate::opacity::{correct_opacity_lanes, segment_opacity_lanes};
-use crate::slices::{lerp2_values, Plane, SliceStack};
+use crate::slices::{bilinear_lanes, Plane};
 
 /// Rays per batch.
 pub(super) const LANES: usize = 8;
@@ -77,6 +77,7 @@ impl RayRow<'_> {
     fn substep_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
         let (view, stack, lut) = (self.pass.view, self.pass.stack, self.pass.lut);
         let (substeps, order) = (self.pass.substeps, self.pass.order);
+        let clear = self.pass.clear_below;
         let (n, at) = spread(idx);
         let (mut x, mut slope_x, mut ds) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
         for l in 0..LANES {
@@ -98,10 +99,20 @@ impl RayRow<'_> {
             if pz + view.d as f32 <= 0.0 {
                 continue;
             }
+            let mut at_o = [0f32; LANES];
+            for l in 0..LANES {
+                at_o[l] = x[l] + o * slope_x[l];
+            }
+            let s = stack.trilinear_lanes(&at_o, py, pz);
+            // Every lane transparent: the batch skips this substep's table
+            // and compositing (see `sample_lanes`).
+            if s.iter().all(|&v| v * lut.per_scalar < clear) {
+                continue;
+            }
             let mut c = [[0f32; 4]; LANES];
             let mut alpha = [0f32; LANES];
             for l in 0..LANES {
-                c[l] = lut.lookup(stack.trilinear_f32(x[l] + o * slope_x[l], py, pz));
+                c[l] = lut.lookup(s[l]);
                 alpha[l] = c[l][3];
             }
             let a = correct_opacity_lanes(&alpha, &ds);
@@ -176,8 +187,8 @@ impl RayRow<'_> {
             ds[l] = self.ds[at[l]];
         }
         let s = match self.data {
-            Plane::U8(p) => taps(p, self.pass.stack.row, &x, self.y),
-            Plane::U16(p) => taps(p, self.pass.stack.row, &x, self.y),
+            Plane::U8(p) => bilinear_lanes(p, self.pass.stack.row, &x, self.y),
+            Plane::U16(p) => bilinear_lanes(p, self.pass.stack.row, &x, self.y),
         };
         let lut = self.pass.lut;
         // Every lane classifies to zero opacity (air, most of a head's
@@ -215,18 +226,4 @@ fn spread(idx: &[usize]) -> (usize, [usize; LANES]) {
     // `memmove` call per batch, 2 % of an `er-ftb` frame.
     let at = std::array::from_fn(|l| idx[l.min(n - 1)]);
     (n, at)
-}
-
-/// The bilinear sample at `(x[l], y)` of padded plane `p` (row length
-/// `row`) for every lane: [`SliceStack::bilinear`]'s arithmetic.
-#[inline(always)]
-fn taps<T: Copy + Into<f32>>(p: &[T], row: usize, x: &[f32; LANES], y: f32) -> [f32; LANES] {
-    let mut s = [0f32; LANES];
-    for l in 0..LANES {
-        let (i, tx, ty) = SliceStack::cell_of(row, x[l], y);
-        let (a, b) = (p[i].into(), p[i + 1].into());
-        let (c, d) = (p[i + row].into(), p[i + row + 1].into());
-        s[l] = lerp2_values(a, b, c, d, tx, ty);
-    }
-    s
 }
