@@ -319,22 +319,18 @@ impl SliceStack {
     /// nearest edge voxel.
     #[inline(always)]
     pub fn trilinear_f32(&self, x: f32, y: f32, z: f32) -> f32 {
-        let (z0, t, x, y) = SliceStack::clamp_f32_in(self.dims, x, y, z);
-        let a = self.bilinear(self.padded(z0), x, y);
-        let b = self.bilinear(self.padded(z0 + 1), x, y);
-        a + t * (b - a)
+        self.trilinear_lanes(&[x], y, z)[0]
     }
 
-    /// [`SliceStack::trilinear_f32`] at `(x[l], y, z)` for every lane:
-    /// the rays of one row share `y` and `z` at a substep, so their clamp
-    /// and the two planes are found once for all lanes (same bits).
+    /// [`SliceStack::trilinear_f32`] at `(x[l], y, z)` for every lane (its
+    /// one-lane case is that function): the rays of one row share `y` and
+    /// `z` at a substep, so their clamp and the two planes are found once.
     #[inline(always)]
     pub(crate) fn trilinear_lanes<const L: usize>(&self, x: &[f32; L], y: f32, z: f32) -> [f32; L] {
         let (z0, t, _, y) = SliceStack::clamp_f32_in(self.dims, 0.0, y, z);
-        let hi = self.dims[0] as f32 - 1e-3;
         let mut x = *x;
         for v in &mut x {
-            *v = v.clamp(-1.0, hi);
+            *v = SliceStack::clamp_f32_in(self.dims, *v, 0.0, 0.0).2;
         }
         let (front, back) = (z0 * self.plane, (z0 + 1) * self.plane);
         let (a, b) = match &self.data {
