@@ -10,6 +10,7 @@ use crate::error::{input, Result};
 use crate::geometry::{Layout, Merge, View};
 use crate::merge::{fold_into, merge, recycle, split_kept, zeroed, Rgba};
 use crate::occupancy::Occupancy;
+use crate::preint::Colouring;
 use crate::render::Prepared;
 use crate::sampling::{sample_region, Order, Pass, RegionCount, MAX_SUBSTEPS};
 use crate::shading::{GradientMode, Shade, Shader};
@@ -97,6 +98,9 @@ pub struct Options {
     /// Pre-integrated classification of each slice step from its front
     /// and back scalars (see [`crate::preint`]).
     pub preintegrate: bool,
+    /// How a pre-integrated step weighs the colours along it (see
+    /// [`crate::preint::Colouring`]).
+    pub pre_colouring: Colouring,
     /// Plain samples (one substep, no pre-integration, shading or volume
     /// of interest) taken eight rays at a time (see `sampling::lanes`),
     /// which gives the one-ray path's bits faster, and pre-integrated
@@ -115,6 +119,7 @@ impl Default for Options {
             shade: None,
             voi: None,
             preintegrate: false,
+            pre_colouring: Colouring::Fast,
             lanes: true,
         }
     }
@@ -145,6 +150,12 @@ impl Options {
         }
         if let Some(v) = &self.voi {
             v.validate()?;
+        }
+        if !self.preintegrate && self.pre_colouring != Colouring::Fast {
+            return Err(input(format!(
+                "--pre-colouring {} weighs pre-integrated steps; add --preintegrate",
+                self.pre_colouring.name()
+            )));
         }
         if self.preintegrate {
             if self.substeps != 1 {
@@ -226,7 +237,9 @@ pub fn render_within(
     opts.validate()?;
     let view = &prep.view;
     let layout = method.layout(view)?;
-    let preint = opts.preintegrate.then(|| prep.preint_for(lut));
+    let preint = opts
+        .preintegrate
+        .then(|| prep.preint_for(lut, opts.pre_colouring));
     // A pre-integrated step reads slices z and z + 1, and its table may
     // see a little beyond the entries its scalars look up.
     let occ = opts.skips.empty.then(|| match &preint {

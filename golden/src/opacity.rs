@@ -233,6 +233,37 @@ pub fn segment_opacity_lanes<const N: usize>(tau: &[f32; N], ds: &[f32; N]) -> [
     out
 }
 
+/// [`crate::preint::segment_attenuation`] over `N` lanes (`N` a multiple
+/// of 4): [`segment_opacity_lanes`]' opacities and the colour weights
+/// `h`, the scalar form's bits in every lane (a quad of empty steps skips
+/// the arithmetic).
+#[inline(always)]
+pub fn segment_attenuation_lanes<const N: usize>(
+    tau: &[f32; N],
+    ds: &[f32; N],
+) -> ([f32; N], [f32; N]) {
+    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
+    let (mut a, mut h) = ([0f32; N], [0f32; N]);
+    for q in 0..N / 4 {
+        let t = &tau[4 * q..4 * q + 4];
+        if t.iter().all(|&t| t <= 0.0) {
+            continue;
+        }
+        let mut y = [0f64; 4];
+        for l in 0..4 {
+            y[l] = -f64::from(ds[4 * q + l]) * f64::from(t[l]);
+        }
+        let v = neg_expm1_x4(f64x4::new(y)).to_array();
+        for l in 0..4 {
+            if t[l] > 0.0 {
+                a[4 * q + l] = v[l] as f32;
+                h[4 * q + l] = crate::preint::attenuation_weight(-y[l], v[l]) as f32;
+            }
+        }
+    }
+    (a, h)
+}
+
 /// [`atanh_series`] in four lanes.
 #[inline(always)]
 fn atanh_x4(s: f64x4) -> f64x4 {

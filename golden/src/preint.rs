@@ -31,6 +31,21 @@
 //! exactly zero extinction (empty-space skipping stays bit-identical, see
 //! [`PreTable::occupancy_lut`]).
 //!
+//! **Self-attenuation ([`Colouring::Attenuated`]).** The fast variant's
+//! colour weighs the segment's colours by extinction alone, so in a thick
+//! step (`ds tau` near or above 1) a bright back half shows as much as the
+//! front half that hides it. The attenuated variant corrects it to first
+//! order: with `x` the fraction of the segment's extinction in front of a
+//! point, the colour taken as linear in `x`, `c(x) = c + k (x - 1/2)`
+//! (`c` the fast colour, `k = 12 int c (x - 1/2) dx` its least-squares
+//! slope), integrates exactly against the attenuation `e^(-lambda x)`
+//! (`lambda = ds tau`): the step's colour is `c - k h(lambda)` with
+//! `h = 1/(1 - e^-lambda) - 1/lambda - 1/2`, which runs from 0 (a thin
+//! step: the fast colour) to `1/2` (an opaque one: the front colour). The
+//! table keeps `k tau` per bin pair beside the colour (interpolated alike,
+//! so a transparent neighbour bin does not shift it). The pipeline models
+//! the fast variant only.
+//!
 //! **Where the segments lie.** Slice `z`'s step is `[z, z + 1]`; the last
 //! slice's is `[nz - 1, nz - 1/2]` (the volume's face), and slice 0 adds
 //! the half step `[-1/2, 0]` at its own scalar in front, so that the
@@ -47,11 +62,50 @@ pub const MAX_BINS: usize = 256;
 /// more, so the step is opaque.
 const TAU_MAX: f64 = 80.0;
 
+/// How a pre-integrated step's colour weighs the colours along it (see
+/// the module notes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Colouring {
+    /// Engel's fast variant: the extinction-weighted mean colour,
+    /// ignoring attenuation within the step (the pipeline's twin).
+    #[default]
+    Fast,
+    /// The mean colour corrected to first order for attenuation within
+    /// the step (golden only).
+    Attenuated,
+}
+
+impl Colouring {
+    /// The name on the command line and in labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Colouring::Fast => "fast",
+            Colouring::Attenuated => "attenuated",
+        }
+    }
+}
+
+impl std::str::FromStr for Colouring {
+    type Err = crate::error::Error;
+
+    fn from_str(s: &str) -> crate::error::Result<Colouring> {
+        match s {
+            "fast" => Ok(Colouring::Fast),
+            "attenuated" => Ok(Colouring::Attenuated),
+            _ => Err(crate::error::input(format!(
+                "unknown pre-integrated colouring {s:?}: use fast or attenuated"
+            ))),
+        }
+    }
+}
+
 /// A pre-integrated classification table (see the module notes).
 #[derive(Debug, Clone)]
 pub struct PreTable {
     /// Bins per axis.
     pub bins: usize,
+    /// What the steps' colours weigh.
+    pub colouring: Colouring,
     /// Bin position per scalar unit.
     per_scalar: f32,
     /// `[front * bins + back]`: mean extinction-weighted colour and mean
@@ -65,11 +119,20 @@ pub struct PreTable {
     widened: Option<Lut>,
     /// See [`PreTable::clear_below`].
     clear_below: f32,
+    /// `[front * bins + back]`: the colour's slope times the mean
+    /// extinction, `k tau`, per channel (the fourth word 0); empty for
+    /// [`Colouring::Fast`].
+    slope: Vec<[f32; 4]>,
 }
 
 impl PreTable {
-    /// Pre-integrates `lut`.
+    /// Pre-integrates `lut` for Engel's fast variant.
     pub fn new(lut: &Lut) -> PreTable {
+        PreTable::with_colouring(lut, Colouring::Fast)
+    }
+
+    /// Pre-integrates `lut` with `colouring`.
+    pub fn with_colouring(lut: &Lut, colouring: Colouring) -> PreTable {
         let entries = lut.rgba.len();
         let bins = entries.min(MAX_BINS);
         let stride = (entries - 1) as f64 / (bins - 1) as f64;
@@ -140,13 +203,19 @@ impl PreTable {
             w
         });
         let clear_below = clear_square(&data, bins);
+        let slope = match colouring {
+            Colouring::Fast => Vec::new(),
+            Colouring::Attenuated => slopes(&at, &tau, bins, stride),
+        };
         PreTable {
             bins,
+            colouring,
             per_scalar: (f64::from(lut.per_scalar) / stride) as f32,
             data,
             stride,
             widened,
             clear_below,
+            slope,
         }
     }
 
@@ -192,6 +261,48 @@ impl PreTable {
     /// segment's colour is the first three over the fourth.
     #[inline(always)]
     pub fn lookup(&self, front: f32, back: f32) -> [f32; 4] {
+        let at = self.taps(front, back);
+        bilinear(&self.data, self.bins, at)
+    }
+
+    /// [`PreTable::lookup`] and, for [`Colouring::Attenuated`], the
+    /// colour's slope times the mean extinction (`k tau` per channel,
+    /// interpolated alike; zeros for [`Colouring::Fast`]).
+    #[inline(always)]
+    pub fn lookup_with_slope(&self, front: f32, back: f32) -> ([f32; 4], [f32; 4]) {
+        let at = self.taps(front, back);
+        let e = bilinear(&self.data, self.bins, at);
+        let k = if self.slope.is_empty() {
+            [0.0; 4]
+        } else {
+            bilinear(&self.slope, self.bins, at)
+        };
+        (e, k)
+    }
+
+    /// A step's colour from its table words `e` and slope words `k`
+    /// ([`PreTable::lookup_with_slope`]) and colour weight `h`
+    /// ([`segment_attenuation`]; unused by [`Colouring::Fast`]): `e / tau`
+    /// per channel, or `(e - h k) / tau`, clamped to `[0, 1]`.
+    #[inline(always)]
+    pub fn step_colour(&self, e: &[f32; 4], k: &[f32; 4], h: f32) -> [f32; 3] {
+        let inv = 1.0 / e[3];
+        match self.colouring {
+            Colouring::Fast => [e[0], e[1], e[2]].map(|v| (v * inv).min(1.0)),
+            Colouring::Attenuated => {
+                let mut c = [0f32; 3];
+                for ch in 0..3 {
+                    c[ch] = ((e[ch] - h * k[ch]) * inv).clamp(0.0, 1.0);
+                }
+                c
+            }
+        }
+    }
+
+    /// The first of the four entries a lookup reads, and its weights
+    /// along the front and the back scalar.
+    #[inline(always)]
+    fn taps(&self, front: f32, back: f32) -> (usize, f32, f32) {
         let last = (self.bins - 1) as f32;
         let pos = |s: f32| {
             let f = (s * self.per_scalar).clamp(0.0, last);
@@ -202,18 +313,82 @@ impl PreTable {
             (i as usize, f - i as f32)
         };
         let ((i, ti), (j, tj)) = (pos(front), pos(back));
-        let r = i * self.bins + j;
-        let (a, b) = (self.data[r], self.data[r + 1]);
-        let (c, d) = (self.data[r + self.bins], self.data[r + self.bins + 1]);
-        // A plain loop: `array::from_fn` kept this call out of line.
-        let mut e = [0f32; 4];
-        for k in 0..4 {
-            let top = a[k] + tj * (b[k] - a[k]);
-            let bot = c[k] + tj * (d[k] - c[k]);
-            e[k] = top + ti * (bot - top);
-        }
-        e
+        (i * self.bins + j, ti, tj)
     }
+}
+
+/// The bilinear interpolation of `data` (`bins` by `bins`) at `(r, ti, tj)`
+/// from [`PreTable::taps`]: along the back scalar first on both rows, then
+/// along the front.
+#[inline(always)]
+fn bilinear(data: &[[f32; 4]], bins: usize, (r, ti, tj): (usize, f32, f32)) -> [f32; 4] {
+    let (a, b) = (data[r], data[r + 1]);
+    let (c, d) = (data[r + bins], data[r + bins + 1]);
+    // A plain loop: `array::from_fn` kept this call out of line.
+    let mut e = [0f32; 4];
+    for k in 0..4 {
+        let top = a[k] + tj * (b[k] - a[k]);
+        let bot = c[k] + tj * (d[k] - c[k]);
+        e[k] = top + ti * (bot - top);
+    }
+    e
+}
+
+/// The attenuated variant's `k tau` per bin pair (see the module notes):
+/// `12 / len * int c (x - 1/2) tau df` over the segment, with `x(f)` the
+/// fraction of the segment's extinction between its front and `f`. From
+/// prefix integrals (trapezoids, 16 per bin, in `f64`) of `tau`, `c tau`
+/// and `c tau T` (`T` the prefix extinction): between nodes `a` (front)
+/// and `b` (back), either way round, the integral is
+/// `num / |E| - sign(E) (P1(b) - P1(a)) / 2` with `E = T(b) - T(a)` and
+/// `num = P2(b) - P2(a) - T(a) (P1(b) - P1(a))`. A segment without
+/// extinction has slope 0, so transparent spans stay exactly clear.
+fn slopes(
+    at: &impl Fn(f64) -> [f64; 4],
+    tau: &impl Fn(f64) -> f64,
+    bins: usize,
+    stride: f64,
+) -> Vec<[f32; 4]> {
+    const SUB: usize = 16;
+    let nodes = (bins - 1) * SUB + 1;
+    let h = stride / SUB as f64;
+    let (mut t, mut p1, mut p2) = (
+        vec![0f64; nodes],
+        vec![[0f64; 3]; nodes],
+        vec![[0f64; 3]; nodes],
+    );
+    let sample = |k: usize| {
+        let c = at(k as f64 * h);
+        (c, tau(c[3]))
+    };
+    let (mut c0, mut t0) = sample(0);
+    for k in 1..nodes {
+        let (c1, t1) = sample(k);
+        t[k] = t[k - 1] + h * (t0 + t1) / 2.0;
+        for ch in 0..3 {
+            p1[k][ch] = p1[k - 1][ch] + h * (c0[ch] * t0 + c1[ch] * t1) / 2.0;
+            p2[k][ch] = p2[k - 1][ch] + h * (c0[ch] * t0 * t[k - 1] + c1[ch] * t1 * t[k]) / 2.0;
+        }
+        (c0, t0) = (c1, t1);
+    }
+    let mut out = vec![[0f32; 4]; bins * bins];
+    for i in 0..bins {
+        for j in 0..bins {
+            let (a, b) = (i * SUB, j * SUB);
+            let e = t[b] - t[a];
+            if i == j || e == 0.0 {
+                continue;
+            }
+            let len = i.abs_diff(j) as f64 * stride;
+            for ch in 0..3 {
+                let d1 = p1[b][ch] - p1[a][ch];
+                let num = p2[b][ch] - p2[a][ch] - t[a] * d1;
+                let integral = num / e.abs() - e.signum() * d1 / 2.0;
+                out[i * bins + j][ch] = (12.0 * integral / len) as f32;
+            }
+        }
+    }
+    out
 }
 
 /// The bound of [`PreTable::clear_below`] for `data` (`bins` by `bins`).
@@ -225,6 +400,35 @@ fn clear_square(data: &[[f32; 4]], bins: usize) -> f32 {
         m += 1;
     }
     clear_bound(m, bins)
+}
+
+/// Opacity and colour weight of an attenuated step ([`Colouring::Attenuated`])
+/// of length `ds` at mean extinction `tau`: [`segment_opacity`]'s
+/// opacity (the same bits) and `h(lambda) = 1/(1 - e^-lambda) - 1/lambda
+/// - 1/2` at `lambda = ds tau`, in `f64` (its series
+/// `lambda/12 - lambda^3/720 + lambda^5/30240` below `lambda = 1/4`, where
+/// the difference would cancel; the next term is below `6e-11`). The
+/// step's colour is `(c tau - h k tau) / tau` per channel.
+#[inline]
+pub fn segment_attenuation(tau: f32, ds: f32) -> (f32, f32) {
+    if tau <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let y = -f64::from(ds) * f64::from(tau);
+    let a = neg_expm1(y);
+    (a as f32, attenuation_weight(-y, a) as f32)
+}
+
+/// `h(lambda)` of [`segment_attenuation`] from `lambda >= 0` and
+/// `a = 1 - e^-lambda` (both `f64`).
+#[inline(always)]
+pub(crate) fn attenuation_weight(lambda: f64, a: f64) -> f64 {
+    if lambda < 0.25 {
+        let l2 = lambda * lambda;
+        lambda * (1.0 / 12.0 - l2 * (1.0 / 720.0 - l2 * (1.0 / 30_240.0)))
+    } else {
+        1.0 / a - 1.0 / lambda - 0.5
+    }
 }
 
 /// Opacity of a step of length `ds` at mean extinction `tau`:

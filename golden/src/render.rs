@@ -19,7 +19,7 @@ use crate::methods::{self, Method, Options, Output};
 use crate::mipcast::{self, MipOptions, MipStats};
 use crate::mipmap::{classification_key, Classify, MipMap};
 use crate::occupancy::{table_key, MinMax, Occupancy, DEFAULT_BLOCK};
-use crate::preint::PreTable;
+use crate::preint::{Colouring, PreTable};
 use crate::reference::{self, RefOptions};
 use crate::shading::{GradientMode, Shade, Shader};
 use crate::shearwarp::{Classified, SwOptions, SwStats};
@@ -123,7 +123,7 @@ type KeyedOccupancy = (u64, Arc<Occupancy>);
 type KeyedMipMap = (u64, Arc<MipMap>);
 
 /// A pre-integrated table and the key of the table it integrates.
-type KeyedPreTable = (u64, Arc<PreTable>);
+type KeyedPreTable = ((u64, Colouring), Arc<PreTable>);
 /// A classified stack and the key of its table.
 type KeyedClassified = (u64, Arc<Classified>);
 
@@ -306,11 +306,12 @@ impl Prepared {
 }
 
 impl Prepared {
-    /// The pre-integrated table of `lut` ([`crate::preint`]): the one built
-    /// for the last table when `lut` has the same colours and opacities,
-    /// else a new one, kept for the next frame.
-    pub fn preint_for(&self, lut: &Lut) -> Arc<PreTable> {
-        let key = classification_key(lut);
+    /// The pre-integrated table of `lut` with `colouring`
+    /// ([`crate::preint`]): the one built for the last table when `lut` has
+    /// the same colours and opacities and the colouring is the same, else
+    /// a new one, kept for the next frame.
+    pub fn preint_for(&self, lut: &Lut, colouring: Colouring) -> Arc<PreTable> {
+        let key = (classification_key(lut), colouring);
         let mut cached = self
             .preint
             .lock()
@@ -318,7 +319,7 @@ impl Prepared {
         match &*cached {
             Some((k, t)) if *k == key => Arc::clone(t),
             _ => {
-                let t = Arc::new(PreTable::new(lut));
+                let t = Arc::new(PreTable::with_colouring(lut, colouring));
                 *cached = Some((key, Arc::clone(&t)));
                 t
             }

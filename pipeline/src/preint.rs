@@ -99,6 +99,12 @@ impl PreintUnit {
         entries: usize,
         st: &mut QuantStats,
     ) -> Result<PreintUnit, PreintError> {
+        if pt.colouring != golden::preint::Colouring::Fast {
+            return Err(PreintError::Unsupported(format!(
+                "the pre-integration unit models the fast colouring only, not {}",
+                pt.colouring.name()
+            )));
+        }
         let bins = pt.bins;
         if bins < 2 || entries < bins || entries != cfg.table_entries as usize {
             return Err(PreintError::Table(format!(

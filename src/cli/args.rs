@@ -421,6 +421,12 @@ pub struct SliceArgs {
     /// back scalars (Engel et al. 2001), for the slice-order methods.
     #[arg(long)]
     pub preintegrate: bool,
+    /// How a pre-integrated step weighs the colours along it: fast (the
+    /// extinction-weighted mean, Engel's fast variant; the pipeline's) or
+    /// attenuated (corrected for attenuation within the step; golden
+    /// only). Needs --preintegrate.
+    #[arg(long, value_parser = parse_colouring, default_value = "fast")]
+    pub pre_colouring: golden::preint::Colouring,
     /// Sample empty space too (skipping it never changes the image).
     #[arg(long)]
     pub no_skip_empty: bool,
@@ -503,6 +509,10 @@ pub(crate) fn parse_voi(s: &str) -> std::result::Result<golden::voi::Shape, Stri
     s.parse().map_err(|e: golden::Error| e.to_string())
 }
 
+fn parse_colouring(s: &str) -> std::result::Result<golden::preint::Colouring, String> {
+    s.parse().map_err(|e: golden::Error| e.to_string())
+}
+
 fn parse_gradient(s: &str) -> std::result::Result<golden::shading::GradientMode, String> {
     s.parse().map_err(|e: golden::Error| e.to_string())
 }
@@ -522,6 +532,7 @@ impl SliceArgs {
         o.slice.terminate = self.terminate;
         o.slice.substeps = self.substeps;
         o.slice.preintegrate = self.preintegrate;
+        o.slice.pre_colouring = self.pre_colouring;
         o.slice.skips = Skips {
             empty: !self.no_skip_empty,
             cull: !self.no_cull,
@@ -640,6 +651,7 @@ impl Default for SliceArgs {
             terminate: o.terminate,
             substeps: o.substeps,
             preintegrate: o.preintegrate,
+            pre_colouring: o.pre_colouring,
             no_skip_empty: !o.skips.empty,
             no_cull: !o.skips.cull,
             block: None,

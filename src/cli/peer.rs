@@ -23,6 +23,7 @@ use serde::Deserialize;
 use golden::camera::{Camera, ImagePlane};
 use golden::image::Image;
 use golden::metrics::{compare, ImageError};
+use golden::preint::Colouring;
 use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 use golden::volume::{Volume, Voxels};
 
@@ -49,9 +50,14 @@ pub struct PeerArgs {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Comma-separated golden methods, each NAME, NAME:SUBSTEPS
-    /// (e.g. er-ftb:2 is er-ftb with --substeps 2) or NAME:pre (with
-    /// --preintegrate); the reference is always rendered for the errors.
-    #[arg(long, default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,over")]
+    /// (e.g. er-ftb:2 is er-ftb with --substeps 2), NAME:pre (with
+    /// --preintegrate) or NAME:pre-att (with --preintegrate
+    /// --pre-colouring attenuated); the reference is always rendered for
+    /// the errors.
+    #[arg(
+        long,
+        default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,er-ftb:pre-att,over"
+    )]
     pub methods: String,
     /// Timed frames per method, after one warm-up frame (the reference:
     /// one frame).
@@ -82,15 +88,20 @@ pub struct MethodSpec {
     pub tech: Technique,
     /// Samples per slice crossing (slice-order methods).
     pub substeps: u32,
-    /// Pre-integrated classification (slice-order methods).
-    pub preintegrate: bool,
+    /// Pre-integrated classification (slice-order methods) and its
+    /// colouring.
+    pub preintegrate: Option<Colouring>,
 }
 
 impl MethodSpec {
     /// Name in tables and plots: the method, with `:S` for substeps S > 1.
     pub fn label(&self) -> String {
-        if self.preintegrate {
-            format!("{}:pre", self.tech.name())
+        if let Some(c) = self.preintegrate {
+            let tail = match c {
+                Colouring::Fast => "",
+                Colouring::Attenuated => "-att",
+            };
+            format!("{}:pre{tail}", self.tech.name())
         } else if self.substeps > 1 {
             format!("{}:{}", self.tech.name(), self.substeps)
         } else {
@@ -104,7 +115,8 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
     let mut out: Vec<MethodSpec> = Vec::new();
     for tok in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
         let (name, sub, pre) = match tok.split_once(':') {
-            Some((n, "pre")) => (n, 1, true),
+            Some((n, "pre")) => (n, 1, Some(Colouring::Fast)),
+            Some((n, "pre-att")) => (n, 1, Some(Colouring::Attenuated)),
             Some((n, k)) => {
                 let k: u32 = k
                     .parse()
@@ -113,13 +125,13 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
                     .with_context(|| {
                         format!("--methods '{tok}': substeps must be a whole number 1 to 64")
                     })?;
-                (n, k, false)
+                (n, k, None)
             }
-            None => (tok, golden::methods::DEFAULT_SUBSTEPS, false),
+            None => (tok, golden::methods::DEFAULT_SUBSTEPS, None),
         };
         let Some(tech) = MethodArg::parse(name).and_then(MethodArg::technique) else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS or :pre"
+                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS, :pre or :pre-att"
             );
         };
         if tech == Technique::Reference && tok.contains(':') {
@@ -421,7 +433,8 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
         let _s = Stage::start(format!("rendering with {}", m.label()));
         let mut opts = RenderOptions::default();
         opts.slice.substeps = m.substeps;
-        opts.slice.preintegrate = m.preintegrate;
+        opts.slice.preintegrate = m.preintegrate.is_some();
+        opts.slice.pre_colouring = m.preintegrate.unwrap_or_default();
         opts.slice.validate()?;
         render(&prep, &lut, m.tech, &opts)?.recycle(); // warm-up
         let mut times = Vec::with_capacity(a.frames);
@@ -608,9 +621,13 @@ mod tests {
         assert!(parse_peer_methods("pipeline").is_err());
         assert!(parse_peer_methods("reference:2").is_err());
         assert!(parse_peer_methods("reference:pre").is_err());
-        let p = parse_peer_methods("er-ftb:pre,er-ftb").unwrap();
-        assert!(p[0].preintegrate && !p[1].preintegrate);
+        let p = parse_peer_methods("er-ftb:pre,er-ftb,er:pre-att").unwrap();
+        assert_eq!(p[0].preintegrate, Some(Colouring::Fast));
+        assert_eq!(p[1].preintegrate, None);
+        assert_eq!(p[2].preintegrate, Some(Colouring::Attenuated));
         assert_eq!(p[0].label(), "er-ftb:pre");
+        assert_eq!(p[2].label(), "er:pre-att");
+        assert!(parse_peer_methods("er:pre-x").is_err());
         assert!(parse_peer_methods("").is_err());
     }
 

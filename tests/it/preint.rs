@@ -1,8 +1,10 @@
 //! `--preintegrate` through the program: the slice-order methods and the
 //! pipeline model take it (and it changes their image; the pipeline's
 //! stays within a grey level of golden's pre-integrated frame), and
-//! `ercube cost` prices it; the reference and the mip-map refuse it in
-//! one line, as do the options it does not combine with.
+//! `ercube cost` prices it; `--pre-colouring attenuated` changes golden's
+//! image; the reference and the mip-map refuse it in one line, as do the
+//! options it does not combine with (the pipeline refuses the attenuated
+//! colouring).
 
 use crate::bin::{assert_refused, describe, ercube};
 
@@ -35,6 +37,24 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
             p.unwrap(),
             q.unwrap(),
             "{m}: --preintegrate changed nothing"
+        );
+    }
+    // The attenuated colouring changes a golden pre-integrated image (the
+    // sphere's colours vary along its thick steps).
+    for m in ["er", "er-ftb"] {
+        let mut images = Vec::new();
+        for c in ["fast", "attenuated"] {
+            let line = format!(
+                "{s} --method {m} --preintegrate --pre-colouring {c} --out q.png --npy q.npy"
+            );
+            let args: Vec<&str> = line.split_whitespace().collect();
+            let out = ercube(d, &args);
+            assert!(out.status.success(), "{}", describe(&args, &out));
+            images.push(std::fs::read(d.join("q.npy")).unwrap());
+        }
+        assert_ne!(
+            images[0], images[1],
+            "{m}: the attenuated colouring changed nothing"
         );
     }
     for m in ["pipeline", "pipeline-ftb"] {
@@ -90,6 +110,18 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
         (
             format!("{s} --method er --preintegrate --voi sphere:10,10,10,5 --voi-ramp -1"),
             "ramp",
+        ),
+        (
+            format!("{s} --method er --pre-colouring attenuated"),
+            "--preintegrate",
+        ),
+        (
+            format!("{s} --method er --preintegrate --pre-colouring thick"),
+            "fast or attenuated",
+        ),
+        (
+            format!("{s} --method pipeline --preintegrate --pre-colouring attenuated"),
+            "fast colouring",
         ),
     ];
     for (line, needle) in &cases {

@@ -15,7 +15,8 @@
 
 use super::{composite_alpha, preint_span, Order, RayRow, TapCache};
 use crate::merge::Rgba;
-use crate::opacity::{correct_opacity_lanes, segment_opacity_lanes};
+use crate::opacity::{correct_opacity_lanes, segment_attenuation_lanes, segment_opacity_lanes};
+use crate::preint::Colouring;
 use crate::slices::{bilinear_lanes, Plane};
 
 /// Rays per batch.
@@ -154,21 +155,23 @@ impl RayRow<'_> {
         if steps.iter().all(|&(f, b)| f * ps < clear && b * ps < clear) {
             return;
         }
-        let mut e = [[0f32; 4]; LANES];
+        let (mut e, mut k) = ([[0f32; 4]; LANES], [[0f32; 4]; LANES]);
         let (mut tau, mut len) = ([0f32; LANES], [0f32; LANES]);
         for l in 0..LANES {
             let (sf, sb) = steps[l];
-            e[l] = pt.lookup(sf, sb);
+            (e[l], k[l]) = pt.lookup_with_slope(sf, sb);
             // Without a volume of interest the extinction's factor is 1.
             tau[l] = e[l][3] * 1.0;
             len[l] = self.ds[at[l]] * back;
         }
-        let a = segment_opacity_lanes(&tau, &len);
+        let (a, h) = match pt.colouring {
+            Colouring::Fast => (segment_opacity_lanes(&tau, &len), [0.0; LANES]),
+            Colouring::Attenuated => segment_attenuation_lanes(&tau, &len),
+        };
         let order: Order = self.pass.order;
         for l in 0..n {
             if a[l] > 0.0 {
-                let inv = 1.0 / e[l][3];
-                let c = [e[l][0], e[l][1], e[l][2]].map(|v| (v * inv).min(1.0));
+                let c = pt.step_colour(&e[l], &k[l], h[l]);
                 composite_alpha(&mut row[at[l]], [c[0], c[1], c[2], 0.0], a[l], order);
             }
         }

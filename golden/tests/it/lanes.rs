@@ -13,6 +13,7 @@ use glam::DVec3;
 use golden::camera::Camera;
 use golden::clip::ClipPlane;
 use golden::methods::{Method, Options};
+use golden::preint::Colouring;
 use golden::render::{render, PrepareOptions, Prepared, RenderOptions, Technique};
 use golden::skip::Skips;
 use golden::tf::Lut;
@@ -93,11 +94,18 @@ fn check(
         Prepared::with(vol, &cam, &opts).map_err(|e| TestCaseError::reject(e.to_string()))?;
     let mut samples = 0;
     for m in Method::ALL {
-        for (preintegrate, substeps) in [(false, 1), (true, 1), (false, 2), (false, 3)] {
+        for (preintegrate, pre_colouring, substeps) in [
+            (false, Colouring::Fast, 1),
+            (true, Colouring::Fast, 1),
+            (true, Colouring::Attenuated, 1),
+            (false, Colouring::Fast, 2),
+            (false, Colouring::Fast, 3),
+        ] {
             let slice = Options {
                 terminate,
                 skips,
                 preintegrate,
+                pre_colouring,
                 substeps,
                 ..Options::default()
             };

@@ -44,6 +44,7 @@ fn slice(m: Method, p: &Prepared, l: &Lut, terminate: f32, substeps: u32, skips:
         shade: None,
         voi: None,
         preintegrate: false,
+        pre_colouring: Default::default(),
         lanes: true,
     };
     methods::render(m, p, l, &o).expect("render")
@@ -170,6 +171,7 @@ fn check_identity(c: &Case) -> Result<(), TestCaseError> {
             shade: None,
             voi: None,
             preintegrate: false,
+            pre_colouring: Default::default(),
             lanes: true,
         };
         prop_assert_eq!(
@@ -290,6 +292,7 @@ fn termination_error_stays_within_the_threshold() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                pre_colouring: Default::default(),
                 lanes: true,
             },
         );
@@ -301,6 +304,7 @@ fn termination_error_stays_within_the_threshold() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                pre_colouring: Default::default(),
                 lanes: true,
             };
             let got = image(&prep, &lut, Method::ErFtb, o);
@@ -371,6 +375,7 @@ fn a_slice_aligned_clip_plane_equals_emptying_the_slices_in_front() {
                 shade: None,
                 voi: None,
                 preintegrate: false,
+                pre_colouring: Default::default(),
                 lanes: true,
             };
             let a = image(&clipped, &lut, m, o);

@@ -71,6 +71,7 @@ fn opts(terminate: f32, substeps: u32) -> Options {
         shade: None,
         voi: None,
         preintegrate: false,
+        pre_colouring: Default::default(),
         lanes: true,
     }
 }
