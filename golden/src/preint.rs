@@ -105,7 +105,7 @@ pub struct PreTable {
     /// Bins per axis.
     pub bins: usize,
     /// What the steps' colours weigh.
-    pub colouring: Colouring,
+    colouring: Colouring,
     /// Bin position per scalar unit.
     per_scalar: f32,
     /// `[front * bins + back]`: mean extinction-weighted colour and mean
@@ -235,6 +235,11 @@ impl PreTable {
     /// the scalars it was asked for).
     pub fn occupancy_lut<'a>(&'a self, lut: &'a Lut) -> &'a Lut {
         self.widened.as_ref().unwrap_or(lut)
+    }
+
+    /// How the table's steps weigh their colours.
+    pub fn colouring(&self) -> Colouring {
+        self.colouring
     }
 
     /// Table entries per bin.

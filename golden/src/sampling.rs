@@ -468,7 +468,7 @@ impl<'a> RayRow<'a> {
             };
             let step = |ray: &mut Rgba, s0: f32, s1: f32, len: f32, f: f32| {
                 let (e, k) = pt.lookup_with_slope(s0, s1);
-                let (a, h) = match pt.colouring {
+                let (a, h) = match pt.colouring() {
                     Colouring::Fast => (segment_opacity(e[3] * f, len), 0.0),
                     Colouring::Attenuated => segment_attenuation(e[3] * f, len),
                 };

@@ -99,10 +99,10 @@ impl PreintUnit {
         entries: usize,
         st: &mut QuantStats,
     ) -> Result<PreintUnit, PreintError> {
-        if pt.colouring != golden::preint::Colouring::Fast {
+        if pt.colouring() != golden::preint::Colouring::Fast {
             return Err(PreintError::Unsupported(format!(
                 "the pre-integration unit models the fast colouring only, not {}",
-                pt.colouring.name()
+                pt.colouring().name()
             )));
         }
         let bins = pt.bins;

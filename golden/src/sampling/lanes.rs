@@ -164,7 +164,7 @@ impl RayRow<'_> {
             tau[l] = e[l][3] * 1.0;
             len[l] = self.ds[at[l]] * back;
         }
-        let (a, h) = match pt.colouring {
+        let (a, h) = match pt.colouring() {
             Colouring::Fast => (segment_opacity_lanes(&tau, &len), [0.0; LANES]),
             Colouring::Attenuated => segment_attenuation_lanes(&tau, &len),
         };
