@@ -285,7 +285,8 @@ impl Array {
                 inside(rows, prows)
             })
             .collect();
-        let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+        let lows: Vec<_> = tent_needs(fg, bg).iter().map(|n| n.map(|n| n.0)).collect();
+        let slots = plan_slots_where(prows, &needs, &lows, |q| live[q], false)?;
         self.run_sparse_pass(
             Stage::Merge,
             &slots,

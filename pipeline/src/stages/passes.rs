@@ -197,15 +197,22 @@ pub struct Slot {
 /// would otherwise wait for the x pass, the rest at the end. Parent rows no
 /// child row reads are not filtered at all.
 pub fn plan_slots(prows: usize, needs: &[Option<(usize, usize)>]) -> Result<Vec<Slot>, RunError> {
-    plan_slots_where(prows, needs, |_| true, true)
+    let lows: Vec<Option<usize>> = needs.iter().map(|n| n.map(|n| n.0)).collect();
+    plan_slots_where(prows, needs, &lows, |_| true, true)
 }
 
 /// [`plan_slots`] filtering only the parent rows `filtered` accepts, and
 /// without the child rows that read nothing when `keep_empty` is false
 /// (the sparse merge: such rows stay invalid, which reads as zero).
+/// `lows[i]` is the lowest parent row child row `i` reads at all, filtered
+/// or not: its y pass reads an unfiltered row's entry too (and takes zero
+/// from the older row it finds there), so the x pass may not overwrite
+/// that entry with a newer row before the child row is written, even
+/// though the child row waits only for the filtered rows `needs[i]`.
 pub fn plan_slots_where(
     prows: usize,
     needs: &[Option<(usize, usize)>],
+    lows: &[Option<usize>],
     filtered: impl Fn(usize) -> bool,
     keep_empty: bool,
 ) -> Result<Vec<Slot>, RunError> {
@@ -243,9 +250,9 @@ pub fn plan_slots_where(
         // x pass may not overwrite a row it needs.
         let room = |q: usize| {
             q < LINE_ROWS
-                || reading
-                    .get(yd)
-                    .is_none_or(|(_, (lo, _))| q - LINE_ROWS < *lo)
+                || reading.get(yd).is_none_or(|&(i, (lo, _))| {
+                    q - LINE_ROWS < lows.get(i).copied().flatten().map_or(lo, |l| l.min(lo))
+                })
         };
         let x = xrows.get(xd).copied().filter(|&q| room(q));
         if x.is_none() && y.is_none() {
@@ -503,7 +510,8 @@ mod tests {
             needs,
             vec![None, Some((2, 3)), Some((3, 3)), Some((7, 7)), Some((7, 7))]
         );
-        let slots = plan_slots_where(prows, &needs, |q| live[q], false).unwrap();
+        let lows: Vec<Option<usize>> = needs.iter().map(|n| n.map(|n| n.0)).collect();
+        let slots = plan_slots_where(prows, &needs, &lows, |q| live[q], false).unwrap();
         let xs: Vec<_> = slots.iter().filter_map(|s| s.x).collect();
         let ys: Vec<_> = slots.iter().filter_map(|s| s.y).collect();
         assert_eq!(xs, vec![2, 3, 7]);

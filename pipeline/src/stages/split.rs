@@ -311,7 +311,14 @@ impl Array {
         let written =
             |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.split_outputs).sum() };
         let before = written(self);
-        let slots = plan_slots_where(prows, &needs, |q| live[q], false)?;
+        // The lowest parent row each child row reads, live or not.
+        let lows: Vec<_> = (bg.lo[1]..=bg.hi[1])
+            .map(|my| {
+                let py = my.div_euclid(2) - fg.lo[1];
+                inside([py, py + my.rem_euclid(2)].into_iter(), prows).map(|n| n.0)
+            })
+            .collect();
+        let slots = plan_slots_where(prows, &needs, &lows, |q| live[q], false)?;
         self.run_sparse_pass(
             Stage::Split,
             &slots,
