@@ -214,22 +214,8 @@ fn neg_expm1_x4(y: f64x4) -> f64x4 {
 /// empty steps skips the arithmetic).
 #[inline(always)]
 pub fn segment_opacity_lanes<const N: usize>(tau: &[f32; N], ds: &[f32; N]) -> [f32; N] {
-    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
     let mut out = [0f32; N];
-    for q in 0..N / 4 {
-        let t = &tau[4 * q..4 * q + 4];
-        if t.iter().all(|&t| t <= 0.0) {
-            continue;
-        }
-        let mut y = [0f64; 4];
-        for l in 0..4 {
-            y[l] = -f64::from(ds[4 * q + l]) * f64::from(t[l]);
-        }
-        let v = neg_expm1_x4(f64x4::new(y)).to_array();
-        for l in 0..4 {
-            out[4 * q + l] = if t[l] <= 0.0 { 0.0 } else { v[l] as f32 };
-        }
-    }
+    segment_quads(tau, ds, |i, _, a| out[i] = a as f32);
     out
 }
 
@@ -242,8 +228,25 @@ pub fn segment_attenuation_lanes<const N: usize>(
     tau: &[f32; N],
     ds: &[f32; N],
 ) -> ([f32; N], [f32; N]) {
-    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
     let (mut a, mut h) = ([0f32; N], [0f32; N]);
+    segment_quads(tau, ds, |i, lambda, v| {
+        a[i] = v as f32;
+        h[i] = crate::preint::attenuation_weight(lambda, v) as f32;
+    });
+    (a, h)
+}
+
+/// The shared core of the segment lanes: `1 - e^(-lambda)` in `f64`,
+/// `lambda = ds tau`, four lanes at a time, handed to `each(lane, lambda,
+/// opacity)` for every lane with `tau > 0` (the others are left to the
+/// caller's zeros; a quad of them skips the arithmetic).
+#[inline(always)]
+fn segment_quads<const N: usize>(
+    tau: &[f32; N],
+    ds: &[f32; N],
+    mut each: impl FnMut(usize, f64, f64),
+) {
+    const { assert!(N.is_multiple_of(4), "lanes come in fours") };
     for q in 0..N / 4 {
         let t = &tau[4 * q..4 * q + 4];
         if t.iter().all(|&t| t <= 0.0) {
@@ -256,12 +259,10 @@ pub fn segment_attenuation_lanes<const N: usize>(
         let v = neg_expm1_x4(f64x4::new(y)).to_array();
         for l in 0..4 {
             if t[l] > 0.0 {
-                a[4 * q + l] = v[l] as f32;
-                h[4 * q + l] = crate::preint::attenuation_weight(-y[l], v[l]) as f32;
+                each(4 * q + l, -y[l], v[l]);
             }
         }
     }
-    (a, h)
 }
 
 /// [`atanh_series`] in four lanes.
