@@ -535,6 +535,19 @@ impl Array {
         self.clocked = on;
     }
 
+    /// The datapath the frame runs (its configuration, tables and units).
+    pub fn datapath(&self) -> &Datapath {
+        &self.dp
+    }
+
+    /// Makes every sample of the whole-slice path run the general
+    /// datapath instead of evaluating plain samples with the datapath's
+    /// [`Kernel`](crate::datapath::Kernel), as it does by default. The same
+    /// bits, counts and cycles either way: tests compare them.
+    pub fn disable_kernel(&mut self) {
+        self.dp = Arc::new((*self.dp).clone().without_kernel());
+    }
+
     /// Steps PEs in this order within a cycle (any order gives the same
     /// result; tests use it to prove that).
     pub fn set_step_order(&mut self, order: Vec<usize>) {

@@ -20,6 +20,7 @@ mod clock;
 mod cost;
 mod equivalence;
 mod ftb;
+mod kernel;
 mod load;
 mod mapping;
 mod model;

@@ -26,6 +26,8 @@ impl Array {
         let p = self.clock.pes().len();
         let glo = region.grid.lo[1];
         let lens = &times.lens;
+        let kernel = self.dp.kernel();
+        let slope_x = (region.slope_b[0], region.slope_k[0]);
         let buses: Vec<RowBus> = rows
             .iter()
             .map(|&(my, y, sy, yp)| RowBus {
@@ -35,7 +37,10 @@ impl Array {
                 y,
                 yp,
                 slope_yz: (sy, region.slope_z),
-                slope_x: (region.slope_b[0], region.slope_k[0]),
+                slope_x,
+                plain: kernel.and_then(|k| {
+                    k.row((slice.a[0], slice.t[0]), slope_x, y.2, (sy, region.slope_z))
+                }),
             })
             .collect();
         // The rows the bus announces as next, in the clocked path's order:

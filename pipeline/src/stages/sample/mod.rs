@@ -14,6 +14,7 @@
 
 mod fast;
 mod pe;
+mod plain;
 mod preint;
 
 pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};

@@ -5,7 +5,7 @@
 
 use crate::array::Links;
 use crate::config::Order;
-use crate::datapath::{Datapath, SampleTrace};
+use crate::datapath::{Datapath, KernelRow, SampleTrace, Tally};
 use crate::fixed::{Fx, QuantStats};
 use crate::host::SlicePlan;
 use crate::pe::{Pe, Ports, StepError};
@@ -32,7 +32,7 @@ pub struct EdgeWords {
 /// right neighbour's edge voxels and halo, the left one's last column.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct EdgeIn {
-    right: [u16; 2],
+    pub(super) right: [u16; 2],
     halo: Halo,
     left: [u16; 2],
 }
@@ -176,6 +176,10 @@ pub struct RowBus<'a> {
     pub slope_yz: (Fx, Fx),
     /// Region slope constants on x.
     pub slope_x: (Fx, Fx),
+    /// The row's constants for the datapath's
+    /// [`Kernel`](crate::datapath::Kernel) (the
+    /// whole-slice path only, computed once for every PE).
+    pub plain: Option<KernelRow>,
 }
 
 impl<'a> RowBus<'a> {
@@ -189,6 +193,7 @@ impl<'a> RowBus<'a> {
             yp: b.yp,
             slope_yz: b.slope_yz,
             slope_x: b.slope_x,
+            plain: None,
         }
     }
 }
@@ -707,11 +712,13 @@ impl Pe {
         nx: usize,
     ) -> Result<(), StepError> {
         self.counters.stalls += stalls;
+        let mut tally = Tally::default();
         for (r, bus) in rows.iter().enumerate() {
             self.begin_row(r);
             if lens[r] == 0 {
                 continue;
             }
+
             let (rw, lw) = (
                 right_edges.map_or_else(EdgeWords::default, |e| e[r]),
                 left_edges.map_or_else(EdgeWords::default, |e| e[r]),
@@ -723,12 +730,23 @@ impl Pe {
             };
             let span = self.row_plan.span(r);
             self.counters.idle += (lens[r] - span.len()) as u64;
+            if span.is_empty() {
+                continue;
+            }
+            let plain = dp.kernel().zip(bus.plain.as_ref());
             for (c, i) in span.enumerate() {
                 let j = self.row_plan.live[i];
+                let now = starts[r] + c as u64;
+                if let Some(kr) = plain {
+                    if self.sample_plain(kr, bus, j, &edge, (nx, now, dp.latency), &mut tally) {
+                        continue;
+                    }
+                }
                 let flags = self.row_plan.flags.get(i).copied().unwrap_or(0);
-                self.sample_ray::<false>(dp, bus, (j, flags), &edge, nx, starts[r] + c as u64)?;
+                self.sample_ray::<false>(dp, bus, (j, flags), &edge, nx, now)?;
             }
         }
+        tally.add_to(&mut self.stats);
         Ok(())
     }
 }

@@ -9,6 +9,11 @@ use crate::config::PipelineConfig;
 use crate::fixed::{Format, Fx, FxError, QuantStats, Wide, Word64};
 use crate::tables::Tables;
 
+mod kernel;
+
+pub(crate) use kernel::Tally;
+pub use kernel::{Kernel, KernelRow};
+
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
 /// as raw words of `accum_color` / `accum_alpha`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
@@ -56,6 +61,9 @@ pub struct Datapath {
     /// The classification unit's output for every sample word, when the
     /// sample format is narrow enough to list ([`Classes`]).
     classes: Option<Classes>,
+    /// The plain sample's per-frame constants, when the configuration
+    /// allows them ([`Kernel`]).
+    kernel: Option<Kernel>,
     /// The early-termination comparator's constant, a raw `accum_alpha`
     /// word ([`PipelineConfig::termination_raw`]), fixed per frame.
     threshold: Option<i64>,
@@ -173,12 +181,30 @@ impl Datapath {
             cfg,
             tables,
             classes: None,
+            kernel: None,
             shade: None,
             voi: None,
             preint: None,
         };
         dp.classes = Classes::list(&dp);
+        dp.kernel = dp.classes.as_ref().and_then(|c| Kernel::new(&dp, c));
         dp
+    }
+
+    /// The plain sample's kernel, when the frame neither shades nor has a
+    /// volume of interest nor pre-integrates and the configuration allows
+    /// one ([`Kernel`]).
+    #[inline]
+    pub fn kernel(&self) -> Option<&Kernel> {
+        let plain = self.shade.is_none() && self.voi.is_none() && self.preint.is_none();
+        self.kernel.as_ref().filter(|_| plain)
+    }
+
+    /// This datapath without its kernel: every sample then runs the
+    /// general path (how tests compare the two).
+    pub fn without_kernel(mut self) -> Datapath {
+        self.kernel = None;
+        self
     }
 
     /// Classification and opacity tables.

@@ -1,0 +1,714 @@
+//! The plain sample's datapath (no shading, volume of interest or
+//! pre-integration) as the model evaluates it quickly: the same
+//! assignments as [`Datapath::position`], [`Datapath::address`],
+//! [`Datapath::bilinear`], [`Datapath::classify`], [`Datapath::path`],
+//! [`Datapath::correct`] and [`Datapath::composite_btf`] /
+//! [`Datapath::composite_ftb`], in the same order, each into the same
+//! format, with every assignment's shift, rounding bias and range worked
+//! out once per frame ([`Step`]) instead of from the operands' formats at
+//! every operation.
+//!
+//! This is how the model computes, not a different unit: every value is
+//! the exact operator result assigned into its register's format, and an
+//! assignment's word depends only on the exact value, not on how it is
+//! written, so the words and the quantisation counts equal the general
+//! path's (tests compare both over many configurations and scenes). A
+//! [`Kernel`] exists only for configurations whose every assignment here
+//! rounds with `TRN` or `RND` and saturates (`SAT`), and whose widths prove
+//! every intermediate fits a 64-bit word; a row's constants
+//! ([`Kernel::row`]) only when the broadcast's formats allow the same proof.
+//! Anything else runs the general path, as does a sample whose position
+//! would not fit (checked per sample) or that breaks the ownership rules
+//! (the general path reports it).
+
+use super::{Acc, Classes, Datapath};
+use crate::config::Order;
+use crate::fixed::{Format, Fx, Overflow, Quant, QuantStats};
+
+/// Quantisation events counted while a PE samples a slice on the fast
+/// path, added to its [`QuantStats`] afterwards: sums commute, and no
+/// slice's counts come near `u64::MAX`, so the saturating totals are the
+/// general path's.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Tally {
+    assignments: u64,
+    overflows: u64,
+    inexact: u64,
+}
+
+impl Tally {
+    /// Adds these counts to `st`.
+    pub(crate) fn add_to(&self, st: &mut QuantStats) {
+        st.merge(&QuantStats {
+            assignments: self.assignments,
+            overflows: self.overflows,
+            inexact: self.inexact,
+        });
+    }
+
+    /// Adds another tally.
+    #[inline(always)]
+    pub(crate) fn add(&mut self, o: &Tally) {
+        self.assignments += o.assignments;
+        self.overflows += o.overflows;
+        self.inexact += o.inexact;
+    }
+}
+
+/// One assignment of exact words with a fixed number of fraction bits
+/// into a format rounding with `TRN` or `RND` and saturating:
+/// [`Format::quantize`]'s result for such words, computed as
+/// `(((raw << left) >> sh1) + add) >> sh2` and clamped to the range.
+/// `RND` dropping `k` bits is `floor((floor(raw / 2^(k-1)) + 1) / 2)`, as
+/// the quantiser's fast path writes it; `TRN` is `floor(raw / 2^k)`.
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    left: u32,
+    sh1: u32,
+    add: i64,
+    sh2: u32,
+    /// The dropped bits (an inexact assignment has one set).
+    mask: i64,
+    min: i64,
+    max: i64,
+}
+
+/// The rounding of a format the kernel models: whether it is `RND` (else
+/// `TRN`), `None` for any other rounding or overflow mode.
+fn rnd(dst: Format) -> Option<bool> {
+    let sat = match dst.overflow() {
+        Overflow::Sat => true,
+        // Symmetric saturation differs from SAT only in a signed format.
+        Overflow::SatSym => !dst.is_signed(),
+        Overflow::Wrap | Overflow::SatZero => false,
+    };
+    match dst.quant() {
+        Quant::Trn if sat => Some(false),
+        Quant::Rnd if sat => Some(true),
+        _ => None,
+    }
+}
+
+impl Step {
+    /// The assignment into `dst` of words with `src` fraction bits and
+    /// magnitude below `2^src_bits`; `None` unless `dst` is modelled
+    /// ([`rnd`]) and every shifted word stays below `2^62`.
+    fn new(src: i32, src_bits: u32, dst: Format) -> Option<Step> {
+        let r = rnd(dst)?;
+        let k = src - i32::from(dst.frac());
+        let (left, sh1, add, sh2, mask) = match k {
+            ..0 => ((-k) as u32, 0, 0, 0, 0),
+            0 => (0, 0, 0, 0, 0),
+            _ => {
+                let (k, r) = (k as u32, u32::from(r));
+                (0, k - r, i64::from(r), r, (1i64 << k.min(62)) - 1)
+            }
+        };
+        (src_bits + left <= 62 && k <= 62).then_some(Step {
+            left,
+            sh1,
+            add,
+            sh2,
+            mask,
+            min: dst.min_raw(),
+            max: dst.max_raw(),
+        })
+    }
+
+    #[inline(always)]
+    fn apply(&self, raw: i64, t: &mut Tally) -> i64 {
+        let q = (((raw << self.left) >> self.sh1) + self.add) >> self.sh2;
+        let c = q.clamp(self.min, self.max);
+        t.assignments += 1;
+        t.overflows += u64::from(c != q);
+        t.inexact += u64::from(raw & self.mask != 0);
+        c
+    }
+}
+
+/// `a + w (b - a)` of words `a`, `b` with fraction `fa` and weight `w`
+/// with fraction `fw`, exactly, with fraction `fa + fw` (in range by the
+/// caller's proof).
+#[inline(always)]
+fn lerp(a: i64, b: i64, w: i64, fw: u32) -> i64 {
+    (a << fw) + w * (b - a)
+}
+
+/// Magnitude bits of a format's words.
+fn mag(f: Format) -> u32 {
+    u32::from(f.bits())
+}
+
+/// `floor(sqrt(v))` of a non-negative word, as [`super::isqrt`].
+#[inline(always)]
+fn isqrt(v: i64) -> i64 {
+    super::isqrt(v.max(0) as u128) as i64
+}
+
+/// Ray `m`'s exact `a + m t` (aligned words), or `None` when it would
+/// not stay below 2^62.
+#[inline(always)]
+fn exact(m: i64, a: i64, t: i64) -> Option<i64> {
+    let v = m.checked_mul(t)?.checked_add(a)?;
+    (v.unsigned_abs() < 1 << 62).then_some(v)
+}
+
+/// The classification unit's output for one sample word ([`Classes`]):
+/// raw R, G, B (`color`) and A (`alpha`), and the quantisation events
+/// (assignments, overflows, inexact) classifying it records.
+#[derive(Debug, Clone, Copy)]
+struct Class {
+    rgba: [u16; 4],
+    ev: [u8; 4],
+}
+
+/// What [`Kernel::address`] finds for one ray.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Ray {
+    /// Base column, unclamped.
+    pub x0: i64,
+    /// x weight (raw `weight`).
+    pub wx: i64,
+    /// The x slope's exact word.
+    slope: i64,
+}
+
+/// The per-frame constants of the plain sample (no shading, volume of
+/// interest or pre-integration): every assignment of
+/// [`Datapath::position`], [`Datapath::address`], [`Datapath::bilinear`],
+/// [`Datapath::classify`], [`Datapath::path`], [`Datapath::correct`] and
+/// the compositing with its shift, rounding bias and range worked out
+/// once, so the whole-slice path evaluates a sample on 64-bit words
+/// instead of from the operands' formats at every operation. The same
+/// words and quantisation counts: an assignment's word depends only on
+/// the exact value. Built only for configurations whose every such
+/// assignment rounds with `TRN` or `RND` and saturates, and whose widths
+/// prove every intermediate fits.
+#[derive(Debug, Clone)]
+pub struct Kernel {
+    ftb: bool,
+    threshold: Option<i64>,
+    /// The `position` format (the address's fraction bits).
+    position: Format,
+    /// The `step` format (ray spacings and slope increments).
+    step: Format,
+    weight: Format,
+    /// `a + m t` (positions, `a` in `position` and `t` in `step`, and
+    /// slopes alike) at the larger fraction: the shifts aligning `a` and
+    /// `t`, and the assignment into `position`.
+    line_shift: [u32; 2],
+    line: Step,
+    /// The y interpolation (sample words times a `weight` word).
+    lerp_y: Step,
+    /// `sx^2 + sy^2 + sz^2` of `position` words, aligned to the path
+    /// format's `2 frac` fraction bits: left (`>= 0`) or right.
+    rad_shift: i32,
+    /// The root into `path`.
+    root: Step,
+    /// The position's fraction into `weight`.
+    address_w: Step,
+    /// The x interpolations: voxel words times an address weight.
+    lerp_x: Step,
+    /// Classification per sample word.
+    classes: Vec<Class>,
+    /// `log_t` raw words.
+    log_t: Vec<i64>,
+    /// `log_t * ds` into `log_transmittance`.
+    log_p: Step,
+    p_frac: u32,
+    exp_bits: u32,
+    /// The exp table's index remainder into `weight`.
+    exp_w: Step,
+    exp: Vec<i64>,
+    /// The exp interpolation into `opacity_corr`.
+    exp_lerp: Step,
+    /// `opacity_corr` (the transmittance's shift and `1 - T`).
+    oc: Format,
+    oc_rnd: bool,
+    one_minus: Step,
+    /// The compositing's colour and opacity assignments.
+    comp_c: Step,
+    comp_a: Step,
+    /// Shifts aligning the compositing's terms to their common fraction.
+    comp_shift: [u32; 2],
+    /// `accum_alpha`'s fraction bits.
+    alpha_frac: u32,
+}
+
+/// A row's constants for [`Kernel`]: the broadcast's words aligned to the
+/// fractions the kernel computes in.
+#[derive(Debug, Clone, Copy)]
+pub struct KernelRow {
+    /// `a`, `t` of the slice's x position, aligned.
+    a: i64,
+    t: i64,
+    /// `b`, `k` of the ray's x slope, aligned.
+    b: i64,
+    k: i64,
+    /// The y weight's word.
+    wy: i64,
+    /// `sy^2 + sz^2` (both `position` words, so at twice its fraction).
+    yz: i64,
+}
+
+impl Kernel {
+    /// The kernel of `dp`'s configuration, or `None` when some assignment
+    /// is not modelled or a width does not prove its intermediate fits.
+    pub(super) fn new(dp: &Datapath, classes: &Classes) -> Option<Kernel> {
+        let c = &dp.cfg;
+        let t = &dp.tables;
+        let fw = u32::from(c.weight.frac());
+        let fpos = u32::from(c.position.frac());
+        let address_w = Step::new(fpos as i32, fpos, c.weight)?;
+        let fstep = u32::from(c.step.frac());
+        let fline = fpos.max(fstep);
+        // The exact `a + m t` is checked below 2^62 per sample.
+        let line = Step::new(fline as i32, 62, c.position)?;
+        let line_shift = [fline - fpos, fline - fstep];
+        let fs = u32::from(c.sample.frac());
+        let lerp_y = Step::new(
+            (fs + fw) as i32,
+            mag(c.sample) + mag(c.weight) + 2,
+            c.sample,
+        )?;
+        // Three squares of `position` words: below 2^(2 bits + 2).
+        let rad_bits = 2 * mag(c.position) + 2;
+        let pf = i32::from(c.path.frac());
+        let rad_shift = 2 * pf - 2 * fpos as i32;
+        if rad_bits as i32 + rad_shift.max(0) > 62 || c.path.is_signed() {
+            return None;
+        }
+        let root = Step::new(pf, 62, c.path)?;
+        let voxel_frac = u32::from(c.voxel.frac());
+        // A lerp's words stay below 2^(B + bw + 2) (see `super::lerp64`).
+        let lerp_bits = |ab: Format| mag(ab) + mag(c.weight) + 2;
+        let lerp_x = Step::new((voxel_frac + fw) as i32, lerp_bits(c.voxel), c.sample)?;
+        if c.voxel.is_signed() || c.sample.is_signed() || c.weight.is_signed() {
+            return None;
+        }
+        // 12 bytes a word instead of the listing's 56: the table is read
+        // at every sample, at scattered words.
+        let classes = classes
+            .words
+            .iter()
+            .map(|(w, q)| {
+                let rgba = w.map(|r| u16::try_from(r).ok());
+                let ev = [q.assignments, q.overflows, q.inexact].map(|n| u8::try_from(n).ok());
+                Some(Class {
+                    rgba: [rgba[0]?, rgba[1]?, rgba[2]?, rgba[3]?],
+                    ev: [ev[0]?, ev[1]?, ev[2]?, 0],
+                })
+            })
+            .collect::<Option<Vec<Class>>>()?;
+        let raw_of = |v: &[Fx]| -> Option<(Vec<i64>, Format)> {
+            let f = v.first()?.format();
+            v.iter()
+                .all(|x| x.format() == f)
+                .then(|| (v.iter().map(|x| x.raw()).collect(), f))
+        };
+        let (log_t, lf_t) = raw_of(&t.log_t)?;
+        let (exp, ef) = raw_of(&t.exp)?;
+        let lf = c.log_transmittance;
+        let (log_frac, log_bits) = (u32::from(lf_t.frac()), mag(lf_t));
+        let path = c.path;
+        if lf.is_signed() || path.is_signed() || lf_t.is_signed() || ef.is_signed() {
+            return None;
+        }
+        let log_p = Step::new(
+            (log_frac + u32::from(path.frac())) as i32,
+            log_bits + mag(path),
+            lf,
+        )?;
+        let p_frac = u32::from(lf.frac());
+        let exp_bits = u32::from(c.exp_table_bits);
+        let rem = p_frac.checked_sub(exp_bits)?;
+        let exp_w = Step::new(rem as i32, rem, c.weight)?;
+        let exp_frac = u32::from(ef.frac());
+        let oc = c.opacity_corr;
+        let exp_lerp = Step::new((exp_frac + fw) as i32, lerp_bits(ef), oc)?;
+        let oc_rnd = rnd(oc)?;
+        // The transmittance's shift is taken up to 62 bits: an `oc` word
+        // below 2^61 shifted 62 or more is 0 either way.
+        if mag(oc) > 60 || oc.is_signed() {
+            return None;
+        }
+        let foc = u32::from(oc.frac());
+        let one_minus = Step::new(foc as i32, mag(oc).max(foc + 1) + 1, oc)?;
+        let (fc, fac, faa) = (
+            u32::from(c.color.frac()),
+            u32::from(c.accum_color.frac()),
+            u32::from(c.accum_alpha.frac()),
+        );
+        // `k = 1 - a` (back to front) or `(1 - A) a` (front to back) stays
+        // below 2^kb.
+        let kb = mag(oc).max(foc + 1) + 1;
+        let ftb = c.order == Order::FrontToBack;
+        let (comp_c, comp_a, comp_shift) = if ftb {
+            let kb = mag(c.accum_alpha).max(faa + 1) + 1 + mag(oc);
+            let f = fac.max(faa + foc + fc);
+            let sh = [f - fac, f - (faa + foc + fc)];
+            let bits = (mag(c.accum_color) + sh[0]).max(kb + mag(c.color) + sh[1]) + 1;
+            let fa = faa + foc;
+            let abits = (mag(c.accum_alpha) + foc).max(kb) + 1;
+            (
+                Step::new(f as i32, bits, c.accum_color)?,
+                Step::new(fa as i32, abits, c.accum_alpha)?,
+                sh,
+            )
+        } else {
+            let f = foc + fc.max(fac);
+            let sh = [f - foc - fc, f - foc - fac];
+            let bits = (mag(oc) + mag(c.color) + sh[0]).max(kb + mag(c.accum_color) + sh[1]) + 1;
+            let fa = foc + faa;
+            let abits = (mag(oc) + faa).max(kb + mag(c.accum_alpha)) + 1;
+            (
+                Step::new(f as i32, bits, c.accum_color)?,
+                Step::new(fa as i32, abits, c.accum_alpha)?,
+                sh,
+            )
+        };
+        let signed = [c.color, c.alpha, c.accum_color, c.accum_alpha];
+        if signed.iter().any(|f| f.is_signed()) {
+            return None;
+        }
+        Some(Kernel {
+            ftb,
+            threshold: dp.threshold,
+            position: c.position,
+            step: c.step,
+            weight: c.weight,
+            line_shift,
+            line,
+            lerp_y,
+            rad_shift,
+            root,
+            address_w,
+            lerp_x,
+            classes,
+            log_t,
+            log_p,
+            p_frac,
+            exp_bits,
+            exp_w,
+            exp,
+            exp_lerp,
+            oc,
+            oc_rnd,
+            one_minus,
+            comp_c,
+            comp_a,
+            comp_shift,
+            alpha_frac: faa,
+        })
+    }
+
+    /// Whether the frame composites front to back (the termination flag
+    /// follows each composited sample).
+    #[inline(always)]
+    pub fn front_to_back(&self) -> bool {
+        self.ftb
+    }
+
+    /// A row's constants, from the slice's x position `(a, t)`, the
+    /// region's x slope `(b, k)`, the row's y weight and its y and z slope
+    /// terms; `None` when their formats are not the configuration's
+    /// (`position`, `step`, `weight`), for which the kernel's width
+    /// proofs were made (the row then runs the general path).
+    pub fn row(
+        &self,
+        (a, t): (Fx, Fx),
+        (b, k): (Fx, Fx),
+        wy: Fx,
+        (sy, sz): (Fx, Fx),
+    ) -> Option<KernelRow> {
+        let (p, st) = (self.position, self.step);
+        let formats = [a, t, b, k, wy, sy, sz].map(Fx::format);
+        if formats != [p, st, p, st, self.weight, p, p] {
+            return None;
+        }
+        let [sa, st] = self.line_shift;
+        // Exact left shifts of words: a word that would not come back
+        // leaves the row to the general path.
+        let up = |v: i64, s: u32| v.checked_shl(s).filter(|w| w >> s == v);
+        let (y, z) = (sy.raw(), sz.raw());
+        Some(KernelRow {
+            a: up(a.raw(), sa)?,
+            t: up(t.raw(), st)?,
+            b: up(b.raw(), sa)?,
+            k: up(k.raw(), st)?,
+            wy: wy.raw(),
+            yz: y * y + z * z,
+        })
+    }
+
+    /// The base column (unclamped) and x weight of ray `m`'s sample, with
+    /// the counts of their assignments in `tally`, and the exact word of
+    /// the ray's x slope `b + m k` (assigned only if the sample is
+    /// visible). `None`: a word would not stay below 2^62, and the general
+    /// path takes the sample.
+    #[inline(always)]
+    pub(crate) fn address(&self, row: &KernelRow, m: i64, tally: &mut Tally) -> Option<Ray> {
+        let slope = exact(m, row.b, row.k)?;
+        let x = self.line.apply(exact(m, row.a, row.t)?, tally);
+        let f = u32::from(self.position.frac());
+        let w = self.address_w.apply(x & ((1i64 << f) - 1), tally);
+        Some(Ray {
+            x0: x >> f,
+            wx: w,
+            slope,
+        })
+    }
+
+    /// The sample of voxel words `v[row][col]` of `ray` composited into
+    /// `acc`: the bilinear interpolation, the classification, and for a
+    /// visible sample the path length, the opacity correction and the
+    /// compositing. Returns `None` for a transparent sample, else the
+    /// termination comparator's answer (front to back; `false` back to
+    /// front).
+    #[inline(always)]
+    pub(crate) fn sample(
+        &self,
+        row: &KernelRow,
+        v: [[u16; 2]; 2],
+        ray: &Ray,
+        acc: &mut Acc,
+        t: &mut Tally,
+    ) -> Option<bool> {
+        let fw = u32::from(self.weight.frac());
+        let wx = ray.wx;
+        let x = |a: u16, b: u16, t: &mut Tally| {
+            self.lerp_x
+                .apply(lerp(i64::from(a), i64::from(b), wx, fw), t)
+        };
+        let top = x(v[0][0], v[0][1], t);
+        let bot = x(v[1][0], v[1][1], t);
+        let s = self.lerp_y.apply(lerp(top, bot, row.wy, fw), t);
+        let class = &self.classes[s as usize];
+        t.assignments += u64::from(class.ev[0]);
+        t.overflows += u64::from(class.ev[1]);
+        t.inexact += u64::from(class.ev[2]);
+        let rgba = class.rgba.map(i64::from);
+        if rgba[3] == 0 {
+            return None;
+        }
+        let sx = self.line.apply(ray.slope, t);
+        let sum = sx * sx + row.yz;
+        let rad = if self.rad_shift >= 0 {
+            sum << self.rad_shift
+        } else {
+            sum >> -self.rad_shift
+        };
+        let ds = self.root.apply(isqrt(rad), t);
+        let a = self.correct(rgba[3], ds, t);
+        let c = [rgba[0], rgba[1], rgba[2]];
+        if self.ftb {
+            self.composite_ftb(acc, c, a, t);
+            Some(self.threshold.is_some_and(|th| acc.raw[3] >= th))
+        } else {
+            self.composite_btf(acc, c, a, t);
+            Some(false)
+        }
+    }
+
+    /// [`Datapath::correct`] and [`Datapath::transmit`]: the corrected
+    /// opacity word of opacity `alpha` over path length `ds`.
+    #[inline(always)]
+    fn correct(&self, alpha: i64, ds: i64, t: &mut Tally) -> i64 {
+        let code = (alpha.max(0) as usize).min(self.log_t.len() - 1);
+        let p = self.log_p.apply(self.log_t[code] * ds, t);
+        let fb = self.p_frac;
+        let (int, frac) = (p >> fb, p & ((1i64 << fb) - 1));
+        let rb = fb - self.exp_bits;
+        let (idx, rem) = ((frac >> rb) as usize, frac & ((1i64 << rb) - 1));
+        let w = self.exp_w.apply(rem, t);
+        let fw = u32::from(self.weight.frac());
+        let tf = self
+            .exp_lerp
+            .apply(lerp(self.exp[idx], self.exp[idx + 1], w, fw), t);
+        let trans = if int >= 64 {
+            0
+        } else {
+            // `tf >> int` into `opacity_corr`: `int` bits dropped.
+            let k = int.min(62) as u32;
+            let r = u32::from(self.oc_rnd && k > 0);
+            let q = ((tf >> (k - r)) + i64::from(r)) >> r;
+            let c = q.clamp(self.oc.min_raw(), self.oc.max_raw());
+            t.assignments += 1;
+            t.overflows += u64::from(c != q);
+            t.inexact += u64::from(tf & ((1i64 << k) - 1) != 0);
+            c
+        };
+        let foc = u32::from(self.oc.frac());
+        self.one_minus.apply((1i64 << foc) - trans, t)
+    }
+
+    /// [`Datapath::composite_btf`] on raw words.
+    #[inline(always)]
+    fn composite_btf(&self, acc: &mut Acc, c: [i64; 3], a: i64, t: &mut Tally) {
+        let foc = u32::from(self.oc.frac());
+        let k = (1i64 << foc) - a;
+        let [sc, so] = self.comp_shift;
+        for (word, &colour) in acc.raw.iter_mut().zip(&c) {
+            *word = self
+                .comp_c
+                .apply(((a * colour) << sc) + ((k * *word) << so), t);
+        }
+        acc.raw[3] = self
+            .comp_a
+            .apply((a << self.alpha_frac) + k * acc.raw[3], t);
+    }
+
+    /// [`Datapath::composite_ftb`] on raw words.
+    #[inline(always)]
+    fn composite_ftb(&self, acc: &mut Acc, c: [i64; 3], a: i64, t: &mut Tally) {
+        let old = acc.raw[3];
+        let k = ((1i64 << self.alpha_frac) - old) * a;
+        let [so, sc] = self.comp_shift;
+        for (word, &colour) in acc.raw.iter_mut().take(3).zip(&c) {
+            *word = self.comp_c.apply((*word << so) + ((k * colour) << sc), t);
+        }
+        let foc = u32::from(self.oc.frac());
+        acc.raw[3] = self.comp_a.apply((old << foc) + k, t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tables::Tables;
+    use proptest::prelude::*;
+
+    fn fmt(bits: u8, frac: u8, q: Quant) -> Format {
+        Format::new(bits, frac, false, q, Overflow::Sat).unwrap()
+    }
+
+    /// The default widths, and narrow ones that round with `TRN` in
+    /// places and saturate often, in both orders.
+    fn configs() -> Vec<crate::config::PipelineConfig> {
+        let base = crate::config::PipelineConfig::default();
+        let narrow = crate::config::PipelineConfig {
+            weight: fmt(6, 6, Quant::Rnd),
+            sample: fmt(14, 2, Quant::Trn),
+            alpha: fmt(8, 8, Quant::Rnd),
+            opacity_corr: fmt(9, 8, Quant::Rnd),
+            log_transmittance: fmt(10, 6, Quant::Trn),
+            exp_table_bits: 4,
+            accum_color: fmt(9, 8, Quant::Trn),
+            accum_alpha: fmt(8, 8, Quant::Rnd),
+            ..base
+        };
+        let mut out = Vec::new();
+        for c in [base, narrow] {
+            for order in [Order::BackToFront, Order::FrontToBack] {
+                out.push(crate::config::PipelineConfig { order, ..c });
+            }
+        }
+        out
+    }
+
+    fn datapath(cfg: crate::config::PipelineConfig) -> Datapath {
+        let tf = golden::scenes::tf_preset("ml").unwrap();
+        let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, 8);
+        Datapath::new(cfg, Tables::new(&cfg, &lut).unwrap())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        /// One sample through the kernel gives the general datapath's
+        /// words and quantisation counts: the ray's address and weight,
+        /// and the accumulators after compositing, from random broadcast
+        /// words, ray index, voxel taps and accumulator state.
+        #[test]
+        fn a_kernel_sample_is_the_general_sample(
+            c in 0usize..4,
+            a in -(1i64 << 26)..(1i64 << 26),
+            t in 1i64..(1i64 << 24),
+            b in -(1i64 << 24)..(1i64 << 24),
+            k in 0i64..(1i64 << 20),
+            wy in any::<u16>(),
+            sy in -(1i64 << 20)..(1i64 << 20),
+            sz in 1i64..(1i64 << 17),
+            m in -300i64..300,
+            v in any::<[u16; 4]>(),
+            acc in any::<[u16; 4]>(),
+        ) {
+            let cfg = configs()[c];
+            let dp = datapath(cfg);
+            let kernel = dp.kernel().expect("the configuration has a kernel");
+            let fx = |raw: i64, f: Format| Fx::from_raw(raw.clamp(f.min_raw(), f.max_raw()), f).unwrap();
+            let (a, t) = (fx(a, cfg.position), fx(t, cfg.step));
+            let (b, k) = (fx(b, cfg.position), fx(k, cfg.step));
+            let wy = fx(i64::from(wy), cfg.weight);
+            let (sy, sz) = (fx(sy, cfg.position), fx(sz, cfg.position));
+            let v = v.map(|x| x & 0xfff);
+            let taps = [[v[0], v[1]], [v[2], v[3]]];
+            let start = Acc {
+                raw: [
+                    i64::from(acc[0]).min(cfg.accum_color.max_raw()),
+                    i64::from(acc[1]).min(cfg.accum_color.max_raw()),
+                    i64::from(acc[2]).min(cfg.accum_color.max_raw()),
+                    i64::from(acc[3]).min(cfg.accum_alpha.max_raw()),
+                ],
+            };
+
+            // The general path, as `Pe::sample_datapath` runs it.
+            let mut st = QuantStats::default();
+            let x = dp.position(a, t, m, &mut st).unwrap();
+            let (x0, wx) = dp.address(x, &mut st);
+            let s = dp.bilinear(taps, wx, wy, &mut st).unwrap();
+            let (rgb, alpha) = dp.classify(s, &mut st).unwrap();
+            let mut want = start;
+            let mut flag = None;
+            if alpha.raw() > 0 {
+                let sx = dp.position(b, k, m, &mut st).unwrap();
+                let ds = dp.path(sx, sy, sz, &mut st).unwrap();
+                let oc = dp.correct(alpha, ds, &mut st).unwrap();
+                if cfg.order == Order::FrontToBack {
+                    dp.composite_ftb(&mut want, rgb, oc, &mut st).unwrap();
+                    flag = Some(dp.terminated(&want));
+                } else {
+                    dp.composite_btf(&mut want, rgb, oc, &mut st).unwrap();
+                    flag = Some(false);
+                }
+            }
+
+            let row = kernel.row((a, t), (b, k), wy, (sy, sz)).expect("row constants");
+            let mut tally = Tally::default();
+            let ray = kernel.address(&row, m, &mut tally).expect("address");
+            prop_assert_eq!((ray.x0, ray.wx), (x0, wx.raw()));
+            let mut got = start;
+            let done = kernel.sample(&row, taps, &ray, &mut got, &mut tally);
+            prop_assert_eq!(got, want);
+            prop_assert_eq!(done, flag);
+            let mut counted = QuantStats::default();
+            tally.add_to(&mut counted);
+            prop_assert_eq!(counted, st);
+        }
+    }
+
+    /// Every configuration above has a kernel, and the rows' broadcast
+    /// formats are the ones its proofs assume.
+    #[test]
+    fn the_test_configurations_have_kernels() {
+        for cfg in configs() {
+            let dp = datapath(cfg);
+            let k = dp.kernel().expect("kernel");
+            let z = |f: Format| f.zero();
+            let row = k.row(
+                (z(cfg.position), z(cfg.step)),
+                (z(cfg.position), z(cfg.step)),
+                z(cfg.weight),
+                (z(cfg.position), z(cfg.position)),
+            );
+            assert!(row.is_some());
+            // A word in another format leaves the row to the general path.
+            let other = k.row(
+                (z(cfg.step), z(cfg.step)),
+                (z(cfg.position), z(cfg.step)),
+                z(cfg.weight),
+                (z(cfg.position), z(cfg.position)),
+            );
+            assert!(other.is_none());
+        }
+    }
+}
