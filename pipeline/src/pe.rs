@@ -6,7 +6,8 @@
 //! What a PE does in a cycle lives with its stage, in [`crate::stages`]:
 //! each step receives only this state, the [`Links`](crate::array::Links)
 //! (its neighbours' port outputs of the previous cycle) and the
-//! controller's broadcast, and returns what it drives on its own ports.
+//! controller's broadcast, and writes what it drives into its own port
+//! registers (which the clock hands it idle).
 
 use std::collections::VecDeque;
 
@@ -245,6 +246,9 @@ pub struct Pe {
     local: Vec<u32>,
     /// Columns held.
     width: usize,
+    /// Whether this PE owns each column (`map.owner(c) == k`), the
+    /// ownership comparator as a table.
+    owned: Vec<bool>,
     /// Whether migrating columns leave their transparent rows behind
     /// (`link_skip_empty`).
     pub(crate) sparse_links: bool,
@@ -313,12 +317,14 @@ impl Pe {
         }
         let w = held.len();
         debug_assert_eq!(mem.len(), w * ny * nz);
+        let owned = (0..map.nx).map(|c| map.owner(c) == k).collect();
         Pe {
             k,
             cols,
             map,
             local,
             width: w,
+            owned,
             sparse_links: false,
             sparse_passes: false,
             mem,
@@ -361,7 +367,7 @@ impl Pe {
     /// Whether this PE owns column `c` (samples the rays based there).
     #[inline]
     pub fn owns(&self, c: usize) -> bool {
-        c < self.map.nx && self.map.owner(c) == self.k
+        self.owned.get(c).copied().unwrap_or(false)
     }
 
     /// Columns this PE's memory holds.

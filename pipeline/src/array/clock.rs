@@ -2,8 +2,10 @@
 //!
 //! In a tick each PE steps from its own state, the [`Links`] (what its
 //! neighbours drove on their ports in the previous cycle, read only) and the
-//! controller's broadcast, which the step closure captures; its return
-//! value is what it drives this cycle. Only after every PE has stepped do
+//! controller's broadcast, which the step closure captures, and writes
+//! what it drives this cycle into its next port registers, handed to it
+//! idle (in place: a PE's `Ports` is a few hundred bytes, and copying them
+//! out of every step was a tenth of a frame). Only after every PE has stepped do
 //! the new port outputs commit, so the order in which PEs step cannot
 //! matter (tests step them in other orders and compare every bit).
 //!
@@ -21,9 +23,9 @@
 //! # use pipeline::probes::{Ctrl, Stage};
 //! # fn f(clock: &mut Clock) {
 //! // A step that peeks at PE 0's rays does not compile.
-//! clock.tick(Ctrl::at(Stage::Sample, 0, 0), |pe, _links: Links| {
+//! clock.tick(Ctrl::at(Stage::Sample, 0, 0), |pe, _links: Links, _out| {
 //!     let _ = clock.pes()[0].rays.len();
-//!     Ok(Default::default())
+//!     Ok(())
 //! });
 //! # }
 //! ```
@@ -54,7 +56,7 @@ fn step_all(
     (ports, next): (&[Ports], &mut [Ports]),
     order: &[usize],
     ring: bool,
-    mut step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+    mut step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
 ) -> Result<(), StepError> {
     let p = pes.len();
     let (wrap_in_first, wrap_in_last) = if ring {
@@ -84,10 +86,21 @@ fn step_all(
                 &wrap_in_last
             },
         };
-        next[k] = step(&mut pes[k], links)?;
+        // The step drives its outputs into the register it starts from
+        // idle, in place (a `Ports` is a few hundred bytes).
+        let out = &mut next[k];
+        *out = IDLE_PORTS;
+        step(&mut pes[k], links, out)?;
     }
     Ok(())
 }
+
+/// Both ports driving nothing.
+const IDLE_PORTS: Ports = Ports {
+    left: IDLE,
+    right: IDLE,
+    host: None,
+};
 
 /// The port of a missing neighbour.
 const IDLE: Port = Port {
@@ -190,7 +203,7 @@ impl Clock {
     pub fn tick(
         &mut self,
         ctrl: Ctrl,
-        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+        step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), StepError> {
         step_all(
             &mut self.pes,
@@ -215,7 +228,7 @@ impl Clock {
     pub(crate) fn tick_links(
         &mut self,
         ports: &mut (Vec<Ports>, Vec<Ports>),
-        step: impl FnMut(&mut Pe, Links<'_>) -> Result<Ports, StepError>,
+        step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), StepError> {
         let (now, next) = ports;
         step_all(&mut self.pes, (now, next), &self.order, self.ring, step)?;

@@ -45,7 +45,7 @@ use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
 use crate::host::{plan, FramePlan, PlanError, PreStep, RegionPlan, SlicePlan, VoxelSource, NONE};
 use crate::mapping::ColumnMap;
-use crate::pe::{Pe, PeCounters, Ports, RayColumn, StepError, VoxelMem};
+use crate::pe::{Pe, PeCounters, RayColumn, StepError, VoxelMem};
 use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
 use crate::stages::raybuf::{Channel, RayBufferStats};
@@ -653,7 +653,7 @@ impl Array {
     /// A slice the controller skips: one cycle reading its summary bit.
     pub(crate) fn skip_slice(&mut self, z: usize) -> Result<(), RunError> {
         self.clock
-            .tick(Ctrl::at(Stage::Skip, z, 0), |_, _| Ok(Ports::default()))?;
+            .tick(Ctrl::at(Stage::Skip, z, 0), |_, _, _| Ok(()))?;
         Ok(())
     }
 

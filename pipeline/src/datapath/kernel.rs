@@ -139,10 +139,20 @@ fn mag(f: Format) -> u32 {
     u32::from(f.bits())
 }
 
-/// `floor(sqrt(v))` of a non-negative word, as [`super::isqrt`].
+/// `floor(sqrt(v))` of a word below 2^62 (negative: 0), as
+/// [`super::isqrt`]: the float estimate is within one of the root, and
+/// squares of roots below 2^31 + 1 fit i64.
 #[inline(always)]
 fn isqrt(v: i64) -> i64 {
-    super::isqrt(v.max(0) as u128) as i64
+    let v = v.max(0);
+    let mut r = (v as f64).sqrt() as i64;
+    while r * r > v {
+        r -= 1;
+    }
+    while (r + 1) * (r + 1) <= v {
+        r += 1;
+    }
+    r
 }
 
 /// Ray `m`'s exact `a + m t` (aligned words), or `None` when it would

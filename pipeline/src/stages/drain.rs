@@ -6,7 +6,6 @@
 //! sample as it is taken).
 
 use crate::array::{Array, RunError};
-use crate::pe::Ports;
 use crate::probes::{Ctrl, Stage};
 
 impl Array {
@@ -19,7 +18,7 @@ impl Array {
                 return self.wait_for_ray_buffer();
             }
             self.clock
-                .tick(Ctrl::at(Stage::Drain, 0, 0), |_, _| Ok(Ports::default()))?;
+                .tick(Ctrl::at(Stage::Drain, 0, 0), |_, _, _| Ok(()))?;
         }
     }
 }

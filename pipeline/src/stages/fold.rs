@@ -84,7 +84,7 @@ impl Pe {
     /// Drives this PE's last held column's difference of back row `row`,
     /// with its index, to the right neighbour, forming the row's
     /// differences if they are not formed yet.
-    fn fold_drive(&mut self, dp: &Datapath, row: usize, rf: [Format; 2]) -> Ports {
+    fn fold_drive(&mut self, dp: &Datapath, row: usize, rf: [Format; 2], out: &mut Ports) {
         let formed = |d: &Option<(usize, Vec<[i64; 4]>)>| d.as_ref().is_some_and(|d| d.0 == row);
         if !formed(&self.pass.dline) && !formed(&self.pass.dnext) {
             let line = self.fold_differences(dp, row, rf);
@@ -95,12 +95,10 @@ impl Pe {
             .flatten()
             .find(|d| d.0 == row)
             .map(|d| &d.1);
-        let mut out = Ports::default();
         if let (Some(c), Some(d)) = (self.rays.back(), line.and_then(|l| l.last())) {
             out.right.edge_acc = Acc { raw: *d };
             out.right.edge_mx = Some(c.mx);
         }
-        out
     }
 
     /// A tap of the x pass, back ray `n`'s difference in the current row:
@@ -152,7 +150,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         g: FoldGrids,
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         let c = bus.col;
         let n = self.pass.children.len();
         if let Some(i) = bus.y.filter(|_| c < n) {
@@ -165,7 +164,8 @@ impl Pe {
                 self.fold_x(dp, c, q, g, left)?;
             }
         }
-        Ok(self.fold_ports(dp, bus, g))
+        self.fold_ports(dp, bus, g, out);
+        Ok(())
     }
 
     /// One clock of the sparse fold (`pass_skip_empty`), as
@@ -181,7 +181,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         g: FoldGrids,
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         if bus.col == 0 {
             if let Some(q) = bus.x {
                 self.fold_line(dp, q, g.rf);
@@ -199,15 +200,15 @@ impl Pe {
                 self.fold_x(dp, c, q, g, left)?;
             }
         }
-        Ok(self.fold_ports(dp, bus, g))
+        self.fold_ports(dp, bus, g, out);
+        Ok(())
     }
 
     /// What the PE drives in a fold cycle (forming the driven row's
     /// differences if they are not formed yet).
-    fn fold_ports(&mut self, dp: &Datapath, bus: &PassBus, g: FoldGrids) -> Ports {
-        match bus.drive {
-            Some(r) => self.fold_drive(dp, r, g.rf),
-            None => Ports::default(),
+    fn fold_ports(&mut self, dp: &Datapath, bus: &PassBus, g: FoldGrids, out: &mut Ports) {
+        if let Some(r) = bus.drive {
+            self.fold_drive(dp, r, g.rf, out);
         }
     }
 
@@ -322,7 +323,7 @@ impl Array {
                 Stage::Fold,
                 (g.back.counts()[1], &needs),
                 |pe| pe.begin_fold(g.front),
-                |pe, bus, links| pe.fold_step(&dp, bus, links, g),
+                |pe, bus, links, out| pe.fold_step(&dp, bus, links, g, out),
                 Pe::end_fold,
             );
         }
@@ -331,7 +332,7 @@ impl Array {
             Stage::Fold,
             &slots,
             |pe| pe.begin_fold(g.front),
-            |pe, bus, links| pe.fold_step_sparse(&dp, bus, links, g),
+            |pe, bus, links, out| pe.fold_step_sparse(&dp, bus, links, g, out),
             Pe::end_fold,
         )
     }

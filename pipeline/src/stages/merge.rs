@@ -55,22 +55,21 @@ impl Pe {
 
     /// What the PE drives in a merge cycle: the edge rays of the row the
     /// bus names, or nothing.
-    fn merge_ports(&self, bus: &PassBus) -> Ports {
-        bus.drive
-            .map_or_else(Ports::default, |r| self.merge_drive(r))
+    fn merge_ports(&self, bus: &PassBus, out: &mut Ports) {
+        if let Some(r) = bus.drive {
+            self.merge_drive(r, out);
+        }
     }
 
     /// Drives this PE's edge rays of parent row `row`: its first held
     /// column to the left, its last to the right.
-    pub fn merge_drive(&self, row: usize) -> Ports {
-        let mut out = Ports::default();
+    pub fn merge_drive(&self, row: usize, out: &mut Ports) {
         if let (Some(f), Some(l)) = (self.rays.front(), self.rays.back()) {
             out.left.edge_acc = f.acc[row];
             out.left.edge_mx = Some(f.mx);
             out.right.edge_acc = l.acc[row];
             out.right.edge_mx = Some(l.mx);
         }
-        out
     }
 
     /// One merge clock: the y pass writes child `col` of child row `bus.y`
@@ -83,7 +82,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         (bg, fg): (&RayGrid, &RayGrid),
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         let c = bus.col;
         let edges = (links.from_left.edge_acc, links.from_right.edge_acc);
         if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
@@ -92,7 +92,8 @@ impl Pe {
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
             self.merge_x(dp, c, q, edges);
         }
-        Ok(self.merge_ports(bus))
+        self.merge_ports(bus, out);
+        Ok(())
     }
 
     /// One clock of the sparse merge (`pass_skip_empty`): in the slot's
@@ -106,7 +107,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         (bg, fg): (&RayGrid, &RayGrid),
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         if bus.col == 0 {
             self.pass.edge_in = (links.from_left.edge_acc, links.from_right.edge_acc);
             self.plan_slot(bus, (bg, fg))?;
@@ -119,7 +121,8 @@ impl Pe {
                 self.merge_x(dp, c, q, self.pass.edge_in);
             }
         }
-        Ok(self.merge_ports(bus))
+        self.merge_ports(bus, out);
+        Ok(())
     }
 
     /// The sparse slot's work list: the children whose x-filtered value
@@ -236,7 +239,7 @@ impl Array {
             Stage::Merge,
             (bg.counts()[1], &tent_needs(fg, bg)),
             |pe| pe.begin_merge(bg, fg),
-            |pe, bus, links| pe.merge_step(&dp, bus, links, (bg, fg)),
+            |pe, bus, links, out| pe.merge_step(&dp, bus, links, (bg, fg), out),
             Pe::end_merge,
         )?;
         Ok((rays(bg), rays(fg)))
@@ -291,7 +294,7 @@ impl Array {
             Stage::Merge,
             &slots,
             |pe| pe.begin_merge(bg, fg),
-            |pe, bus, links| pe.merge_step_sparse(dp, bus, links, (bg, fg)),
+            |pe, bus, links, out| pe.merge_step_sparse(dp, bus, links, (bg, fg), out),
             Pe::end_merge,
         )?;
         Ok((reads, written(self) - before))

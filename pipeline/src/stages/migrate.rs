@@ -73,8 +73,8 @@ impl Pe {
         now: u64,
         owner: impl Fn(i64) -> usize,
         (route, last): (Route, bool),
-    ) -> Ports {
-        let mut out = Ports::default();
+        out: &mut Ports,
+    ) {
         for (incoming, from_left_side) in
             [(links.from_left.ray, true), (links.from_right.ray, false)]
         {
@@ -152,7 +152,6 @@ impl Pe {
             self.counters.waits += u64::from(waited);
             self.counters.link_queue += queued as u64;
         }
-        out
     }
 
     /// True when nothing is waiting to move or being received.
@@ -259,8 +258,9 @@ impl Array {
         while !(self.clock.pes().iter().all(Pe::settled) && ports.iter().all(idle)) {
             for (i, lane) in ports.iter_mut().enumerate() {
                 let last = i + 1 == lanes;
-                self.clock.tick_links(lane, |pe, links| {
-                    Ok(pe.migrate_step(links, now, &owner, (route, last)))
+                self.clock.tick_links(lane, |pe, links, out| {
+                    pe.migrate_step(links, now, &owner, (route, last), out);
+                    Ok(())
                 })?;
             }
             now += 1;
@@ -301,7 +301,7 @@ impl Array {
         self.migrate_overlapped(owner)?;
         while self.clock.now() < self.links_free {
             self.clock
-                .tick(Ctrl::at(Stage::Migrate, z, 0), |_, _| Ok(Ports::default()))?;
+                .tick(Ctrl::at(Stage::Migrate, z, 0), |_, _, _| Ok(()))?;
         }
         self.settle_links();
         Ok(())
@@ -334,8 +334,9 @@ impl Array {
         {
             let now = self.clock.now();
             self.clock
-                .tick(Ctrl::at(Stage::Migrate, z, 0), |pe, links| {
-                    Ok(pe.migrate_step(links, now, &owner, (route, true)))
+                .tick(Ctrl::at(Stage::Migrate, z, 0), |pe, links, out| {
+                    pe.migrate_step(links, now, &owner, (route, true), out);
+                    Ok(())
                 })?;
         }
         self.settle_links();

@@ -300,7 +300,7 @@ impl Array {
         stage: Stage,
         (prows, needs): (usize, &[Option<(usize, usize)>]),
         begin: impl FnMut(&mut Pe) -> usize,
-        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
         end: impl FnMut(&mut Pe),
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
@@ -328,7 +328,7 @@ impl Array {
         stage: Stage,
         slots: &[Slot],
         begin: impl FnMut(&mut Pe) -> usize,
-        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
         end: impl FnMut(&mut Pe),
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
@@ -345,7 +345,7 @@ impl Array {
         &mut self,
         stage: Stage,
         slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), RunError> {
         let first = slots.first().and_then(|s| s.x);
         if self.clock.pes().len() > 1 && first.is_some() {
@@ -357,7 +357,8 @@ impl Array {
                 pass: Some(bus),
                 ..Ctrl::at(stage, 0, 0)
             };
-            self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+            self.clock
+                .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
         }
         Ok(())
     }
@@ -372,7 +373,7 @@ impl Array {
         &mut self,
         stage: Stage,
         slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), RunError> {
         self.prologue(stage, slots, step)?;
         for (s, slot) in slots.iter().enumerate() {
@@ -389,7 +390,8 @@ impl Array {
                     pass: Some(bus),
                     ..Ctrl::at(stage, 0, shown)
                 };
-                self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+                self.clock
+                    .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
                 if self
                     .clock
                     .pes()
@@ -409,7 +411,7 @@ impl Array {
         stage: Stage,
         width: usize,
         slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>) -> Result<Ports, StepError>,
+        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), RunError> {
         if width == 0 {
             return Ok(());
@@ -429,7 +431,8 @@ impl Array {
                     pass: Some(bus),
                     ..Ctrl::at(stage, 0, shown)
                 };
-                self.clock.tick(ctrl, |pe, links| step(pe, &bus, links))?;
+                self.clock
+                    .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
             }
         }
         Ok(())

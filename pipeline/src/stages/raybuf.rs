@@ -26,7 +26,6 @@ use serde::Serialize;
 
 use crate::array::{Array, RunError};
 use crate::config::{Order, PipelineConfig, RayBuffer};
-use crate::pe::Ports;
 use crate::probes::{Ctrl, Stage};
 
 /// What a frame moved through the external ray buffer.
@@ -160,7 +159,7 @@ impl Array {
         let until = ch.idle_at();
         while self.clock.now() < until {
             self.clock
-                .tick(Ctrl::at(Stage::Memory, 0, 0), |_, _| Ok(Ports::default()))?;
+                .tick(Ctrl::at(Stage::Memory, 0, 0), |_, _, _| Ok(()))?;
         }
         Ok(())
     }

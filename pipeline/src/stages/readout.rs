@@ -51,8 +51,7 @@ impl Pe {
     }
 
     /// One readout clock: the next held ray on the host port.
-    pub fn readout_step(&mut self) -> Ports {
-        let mut out = Ports::default();
+    pub fn readout_step(&mut self, out: &mut Ports) {
         let (c, r) = self.readout_at;
         if let Some(col) = self.rays.get(c) {
             out.host = Some(Readout {
@@ -63,7 +62,6 @@ impl Pe {
             self.readout_at = self.after((c, r));
         }
         self.skip_unread();
-        out
     }
 }
 
@@ -76,10 +74,11 @@ impl Array {
             pe.begin_readout();
         }
         while !self.clock.pes().iter().all(Pe::readout_done) {
-            self.clock.tick(
-                Ctrl::at(Stage::Readout, 0, 0),
-                |pe, _| Ok(pe.readout_step()),
-            )?;
+            self.clock
+                .tick(Ctrl::at(Stage::Readout, 0, 0), |pe, _, out| {
+                    pe.readout_step(out);
+                    Ok(())
+                })?;
             for port in self.clock.ports() {
                 if let Some(o) = port.host {
                     let x = (o.mx - g.lo[0]) as usize;

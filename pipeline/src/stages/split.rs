@@ -42,13 +42,11 @@ impl Pe {
     /// Drives this PE's first held column of parent row `row`, with its
     /// index, to the left neighbour (whose last odd child averages it with
     /// its own last column).
-    pub fn split_drive(&self, row: usize) -> Ports {
-        let mut out = Ports::default();
+    pub fn split_drive(&self, row: usize, out: &mut Ports) {
         if let Some(f) = self.rays.front() {
             out.left.edge_acc = f.acc[row];
             out.left.edge_mx = Some(f.mx);
         }
-        out
     }
 
     /// A parent of the split, front ray `mx` at `row`: held here, or the
@@ -106,7 +104,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         (fg, bg): (&RayGrid, &RayGrid),
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         let c = bus.col;
         let right = (links.from_right.edge_acc, links.from_right.edge_mx);
         if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
@@ -115,7 +114,8 @@ impl Pe {
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
             self.split_x(dp, c, q, fg, right)?;
         }
-        Ok(self.split_ports(bus))
+        self.split_ports(bus, out);
+        Ok(())
     }
 
     /// One clock of the sparse split (`pass_skip_empty`), as
@@ -130,7 +130,8 @@ impl Pe {
         bus: &PassBus,
         links: Links<'_>,
         (fg, bg): (&RayGrid, &RayGrid),
-    ) -> Result<Ports, StepError> {
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         if bus.col == 0 {
             self.pass.edge_in.1 = links.from_right.edge_acc;
             self.pass.edge_mx.1 = links.from_right.edge_mx;
@@ -145,13 +146,15 @@ impl Pe {
                 self.split_x(dp, c, q, fg, right)?;
             }
         }
-        Ok(self.split_ports(bus))
+        self.split_ports(bus, out);
+        Ok(())
     }
 
     /// What the PE drives in a split cycle.
-    fn split_ports(&self, bus: &PassBus) -> Ports {
-        bus.drive
-            .map_or_else(Ports::default, |r| self.split_drive(r))
+    fn split_ports(&self, bus: &PassBus, out: &mut Ports) {
+        if let Some(r) = bus.drive {
+            self.split_drive(r, out);
+        }
     }
 
     /// The sparse split's work list for the slot on `bus`.
@@ -282,7 +285,7 @@ impl Array {
             Stage::Split,
             (prows, &needs),
             |pe| pe.begin_split(fg, bg),
-            |pe, bus, links| pe.split_step(&dp, bus, links, (fg, bg)),
+            |pe, bus, links, out| pe.split_step(&dp, bus, links, (fg, bg), out),
             Pe::end_split,
         )?;
         Ok((rays(fg), rays(bg)))
@@ -323,7 +326,7 @@ impl Array {
             Stage::Split,
             &slots,
             |pe| pe.begin_split(fg, bg),
-            |pe, bus, links| pe.split_step_sparse(dp, bus, links, (fg, bg)),
+            |pe, bus, links, out| pe.split_step_sparse(dp, bus, links, (fg, bg), out),
             Pe::end_split,
         )?;
         Ok((reads, written(self) - before))

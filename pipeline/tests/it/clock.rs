@@ -143,27 +143,36 @@ fn default_latency_is_the_cost_models_depth() {
 
 /// Every stage's step has the shape of a clocked process: the PE's own
 /// state, the controller's broadcast and the links (its neighbours' port
-/// outputs of the last cycle, by value) in; its own port outputs out. The
+/// outputs of the last cycle, by value) in; its own port registers out
+/// (written in place). The
 /// types are the check: these coercions compile only while no step takes
 /// anything that could reach another PE (the clock's rustdoc holds a
 /// `compile_fail` example of a step that tries).
 #[test]
 fn steps_see_only_their_own_state_and_links() {
-    type PassStep<G> =
-        for<'l> fn(&mut Pe, &Datapath, &PassBus, Links<'l>, G) -> Result<Ports, StepError>;
+    type PassStep<G> = for<'l, 'o> fn(
+        &mut Pe,
+        &Datapath,
+        &PassBus,
+        Links<'l>,
+        G,
+        &'o mut Ports,
+    ) -> Result<(), StepError>;
     type Grids<'a> = (&'a golden::geometry::RayGrid, &'a golden::geometry::RayGrid);
     let merge: PassStep<Grids> = Pe::merge_step;
     let split: PassStep<Grids> = Pe::split_step;
     let fold: PassStep<pipeline::stages::fold::FoldGrids> = Pe::fold_step;
-    let sample: for<'l> fn(
+    type SampleStep = for<'l, 'o> fn(
         &mut Pe,
         &Datapath,
         &pipeline::stages::sample::SampleBus,
         Links<'l>,
         usize,
-    ) -> Result<Ports, StepError> = Pe::sample_step;
-    let stall: fn(&mut Pe, &Datapath) -> Ports = Pe::stall_step;
-    let readout: fn(&mut Pe) -> Ports = Pe::readout_step;
+        &'o mut Ports,
+    ) -> Result<(), StepError>;
+    let sample: SampleStep = Pe::sample_step;
+    let stall: fn(&mut Pe, &Datapath, &mut Ports) = Pe::stall_step;
+    let readout: fn(&mut Pe, &mut Ports) = Pe::readout_step;
     // `Links` is two shared views of port registers: copyable, so it
     // cannot hold anything mutable.
     fn shared<T: Copy + Send + Sync>() {}

@@ -282,14 +282,16 @@ impl Array {
             }
             for _ in 0..times.memory[r] {
                 self.clock
-                    .tick(Ctrl::at(Stage::Memory, slice.z, row), |pe, _| {
-                        Ok(pe.hold_step(&dp))
+                    .tick(Ctrl::at(Stage::Memory, slice.z, row), |pe, _, out| {
+                        pe.hold_step(&dp, out);
+                        Ok(())
                     })?;
             }
             for _ in 0..times.stalls[r] {
                 self.clock
-                    .tick(Ctrl::at(Stage::Stall, slice.z, row), |pe, _| {
-                        Ok(pe.stall_step(&dp))
+                    .tick(Ctrl::at(Stage::Stall, slice.z, row), |pe, _, out| {
+                        pe.stall_step(&dp, out);
+                        Ok(())
                     })?;
             }
             if r == sampled[0] && p > 1 {
@@ -309,8 +311,8 @@ impl Array {
                     now: self.clock.now(),
                 };
                 self.clock
-                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links| {
-                        pe.sample_step(&dp, &bus, links, nx)
+                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
+                        pe.sample_step(&dp, &bus, links, nx, out)
                     })?;
             }
             debug_assert_eq!(self.clock.now(), times.starts[r]);
@@ -336,8 +338,8 @@ impl Array {
                     now: self.clock.now(),
                 };
                 self.clock
-                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links| {
-                        pe.sample_step(&dp, &bus, links, nx)
+                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
+                        pe.sample_step(&dp, &bus, links, nx, out)
                     })?;
             }
         }

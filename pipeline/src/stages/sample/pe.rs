@@ -267,16 +267,16 @@ impl Pe {
         bus: &SampleBus,
         links: Links<'_>,
         nx: usize,
-    ) -> Result<Ports, StepError> {
-        let mut out = Ports::default();
+        out: &mut Ports,
+    ) -> Result<(), StepError> {
         let shade = dp.shade.is_some();
         self.drive_edge(bus.next, shade);
-        self.drive_ports(&mut out, shade);
+        self.drive_ports(out, shade);
         out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
         let Some(&j) = self.row_plan.live(self.row_now).get(bus.cycle) else {
             self.counters.idle += 1;
             self.last.busy = false;
-            return Ok(out);
+            return Ok(());
         };
         let flags = self.row_plan.flag(self.row_now, bus.cycle);
         let edge = EdgeIn {
@@ -284,24 +284,21 @@ impl Pe {
             halo: links.from_right.halo,
             left: links.from_left.edge,
         };
-        self.sample_ray::<true>(dp, &RowBus::of(bus), (j, flags), &edge, nx, bus.now)?;
-        Ok(out)
+        self.sample_ray::<true>(dp, &RowBus::of(bus), (j, flags), &edge, nx, bus.now)
     }
 
     /// A stall cycle: the array holds a row back for a ray still in the
     /// datapath. The edge register holds its value; nothing is sampled.
-    pub fn stall_step(&mut self, dp: &Datapath) -> Ports {
+    pub fn stall_step(&mut self, dp: &Datapath, out: &mut Ports) {
         self.counters.stalls += 1;
-        self.hold_step(dp)
+        self.hold_step(dp, out)
     }
 
     /// A cycle the array waits for the external ray buffer: the edge
     /// registers hold their values; nothing is sampled or counted.
-    pub fn hold_step(&mut self, dp: &Datapath) -> Ports {
+    pub fn hold_step(&mut self, dp: &Datapath, out: &mut Ports) {
         self.last.busy = false;
-        let mut out = Ports::default();
-        self.drive_ports(&mut out, dp.shade.is_some());
-        out
+        self.drive_ports(out, dp.shade.is_some());
     }
 
     /// Visits the held columns this PE samples in `row`: the active
