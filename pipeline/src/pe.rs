@@ -284,6 +284,10 @@ pub struct Pe {
     pub(crate) row_now: usize,
     /// The slice's row schedules and reports, as this PE planned them.
     pub(crate) row_plan: crate::stages::sample::RowPlan,
+    /// The whole-slice path's column buckets and column addresses
+    /// (scratch of the model, reused from slice to slice; no chip state).
+    pub(crate) plain_order: crate::stages::sample::ColumnOrder,
+    pub(crate) plain_cols: Vec<crate::stages::sample::ColumnTaps>,
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).
     pub drained_at: u64,
@@ -342,6 +346,8 @@ impl Pe {
             edge_value: Default::default(),
             row_now: 0,
             row_plan: Default::default(),
+            plain_order: Default::default(),
+            plain_cols: Vec::new(),
             drained_at: 0,
             readout_at: (0, 0),
             finals: Vec::new(),
@@ -354,8 +360,20 @@ impl Pe {
     #[inline]
     pub(crate) fn voxel(&mut self, z: usize, y: usize, x: usize) -> u16 {
         self.counters.mem_reads += 1;
-        self.mem
-            .get((z * self.ny + y) * self.width + self.local[x] as usize)
+        self.mem.get(self.row_base(z, y) + self.local[x] as usize)
+    }
+
+    /// Where voxel row `y` of slice `z` starts in this PE's memory.
+    #[inline]
+    pub(crate) fn row_base(&self, z: usize, y: usize) -> usize {
+        (z * self.ny + y) * self.width
+    }
+
+    /// Held column `x` of the voxel row at `base` ([`Pe::row_base`]),
+    /// not counted (the caller counts its reads).
+    #[inline]
+    pub(crate) fn voxel_at(&self, base: usize, x: usize) -> u16 {
+        self.mem.get(base + self.local[x] as usize)
     }
 
     /// Whether this PE's memory holds column `c`.

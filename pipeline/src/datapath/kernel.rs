@@ -21,6 +21,10 @@
 //! would not fit (checked per sample) or that breaks the ownership rules
 //! (the general path reports it).
 
+mod lanes;
+
+pub(crate) use lanes::{Batch, LaneTally, LANES};
+
 use super::{Acc, Classes, Datapath};
 use crate::config::Order;
 use crate::fixed::{Format, Fx, Overflow, Quant, QuantStats};
@@ -44,6 +48,15 @@ impl Tally {
             overflows: self.overflows,
             inexact: self.inexact,
         });
+    }
+
+    /// Adds `k` times another tally (the events of `k` samples that
+    /// assign the same words).
+    #[inline(always)]
+    pub(crate) fn add_times(&mut self, o: &Tally, k: u64) {
+        self.assignments += k * o.assignments;
+        self.overflows += k * o.overflows;
+        self.inexact += k * o.inexact;
     }
 
     /// Adds another tally.
@@ -118,7 +131,9 @@ impl Step {
     #[inline(always)]
     fn apply(&self, raw: i64, t: &mut Tally) -> i64 {
         let q = (((raw << self.left) >> self.sh1) + self.add) >> self.sh2;
-        let c = q.clamp(self.min, self.max);
+        // `max` then `min`, not `clamp`: the range is valid by
+        // construction, and `clamp` would check it at every assignment.
+        let c = q.max(self.min).min(self.max);
         t.assignments += 1;
         t.overflows += u64::from(c != q);
         t.inexact += u64::from(raw & self.mask != 0);
@@ -180,7 +195,7 @@ pub(crate) struct Ray {
     /// x weight (raw `weight`).
     pub wx: i64,
     /// The x slope's exact word.
-    slope: i64,
+    pub slope: i64,
 }
 
 /// The per-frame constants of the plain sample (no shading, volume of
@@ -259,6 +274,15 @@ pub struct KernelRow {
     wy: i64,
     /// `sy^2 + sz^2` (both `position` words, so at twice its fraction).
     yz: i64,
+}
+
+impl KernelRow {
+    /// The row's y weight word and `sy^2 + sz^2`, a column batch's
+    /// per-lane constants ([`Batch`]).
+    #[inline(always)]
+    pub(crate) fn lane_constants(&self) -> (i64, i64) {
+        (self.wy, self.yz)
+    }
 }
 
 impl Kernel {
@@ -542,7 +566,7 @@ impl Kernel {
             let k = int.min(62) as u32;
             let r = u32::from(self.oc_rnd && k > 0);
             let q = ((tf >> (k - r)) + i64::from(r)) >> r;
-            let c = q.clamp(self.oc.min_raw(), self.oc.max_raw());
+            let c = q.max(self.oc.min_raw()).min(self.oc.max_raw());
             t.assignments += 1;
             t.overflows += u64::from(c != q);
             t.inexact += u64::from(tf & ((1i64 << k) - 1) != 0);

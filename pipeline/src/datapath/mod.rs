@@ -11,7 +11,7 @@ use crate::tables::Tables;
 
 mod kernel;
 
-pub(crate) use kernel::Tally;
+pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,

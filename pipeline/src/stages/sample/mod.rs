@@ -18,6 +18,8 @@ mod plain;
 mod preint;
 
 pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
+pub use plain::ColumnOrder;
+pub(crate) use plain::ColumnTaps;
 pub use preint::{PrePlan, PreRuns};
 
 use rayon::prelude::*;

@@ -56,7 +56,7 @@ enum Col {
 #[derive(Debug, Clone, Default)]
 pub struct RowPlan {
     /// Every row's columns (indices into the rays), row after row.
-    live: Vec<usize>,
+    pub(super) live: Vec<usize>,
     /// Where each row's columns end in `live`.
     ends: Vec<usize>,
     /// Each row's terminated in-run columns.
@@ -70,7 +70,7 @@ pub struct RowPlan {
 
 impl RowPlan {
     /// Where row `r`'s columns lie in `live`.
-    fn span(&self, r: usize) -> std::ops::Range<usize> {
+    pub(super) fn span(&self, r: usize) -> std::ops::Range<usize> {
         r.checked_sub(1).map_or(0, |q| self.ends[q])..self.ends[r]
     }
 
@@ -423,7 +423,7 @@ impl Pe {
     /// [`Pe::last`] for the waveforms; the whole-slice path, which never
     /// traces, skips that copy (and the accumulator read it needs).
     #[inline]
-    fn sample_ray<const TRACE: bool>(
+    pub(super) fn sample_ray<const TRACE: bool>(
         &mut self,
         dp: &Datapath,
         bus: &RowBus,
@@ -710,6 +710,19 @@ impl Pe {
     ) -> Result<(), StepError> {
         self.counters.stalls += stalls;
         let mut tally = Tally::default();
+        let mut counts = super::plain::PlainCounts::default();
+        if let Some(k) = dp
+            .kernel()
+            .filter(|_| rows.iter().all(|b| b.plain.is_some()))
+        {
+            let at = (nx, dp.latency);
+            let out = (&mut tally, &mut counts);
+            if self.sample_columns(k, rows, (lens, starts), right_edges, at, out) {
+                tally.add_to(&mut self.stats);
+                self.add_plain_counts(&counts);
+                return Ok(());
+            }
+        }
         for (r, bus) in rows.iter().enumerate() {
             self.begin_row(r);
             if lens[r] == 0 {
@@ -731,11 +744,14 @@ impl Pe {
                 continue;
             }
             let plain = dp.kernel().zip(bus.plain.as_ref());
+            let bases = [bus.y.0, bus.y.1].map(|y| self.row_base(bus.slice.z, y));
             for (c, i) in span.enumerate() {
                 let j = self.row_plan.live[i];
                 let now = starts[r] + c as u64;
                 if let Some(kr) = plain {
-                    if self.sample_plain(kr, bus, j, &edge, (nx, now, dp.latency), &mut tally) {
+                    let at = (bus.row, bases);
+                    let times = (nx, now, dp.latency);
+                    if self.sample_plain(kr, at, j, &edge, times, &mut tally, &mut counts) {
                         continue;
                     }
                 }
@@ -744,6 +760,7 @@ impl Pe {
             }
         }
         tally.add_to(&mut self.stats);
+        self.add_plain_counts(&counts);
         Ok(())
     }
 }

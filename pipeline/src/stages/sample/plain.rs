@@ -6,26 +6,50 @@
 //! [`golden::sampling::sample_at`]; this is how the model evaluates it
 //! quickly, not a second datapath.
 
-use super::pe::{EdgeIn, RowBus};
-use crate::datapath::{Kernel, KernelRow, Tally};
+use super::pe::{EdgeIn, EdgeWords, RowBus};
+use crate::datapath::{Batch, Kernel, KernelRow, LaneTally, Ray, Tally, LANES};
 use crate::pe::Pe;
 
+/// What the plain samples of a slice add to a PE's counters, kept in
+/// registers while the slice samples and added once at its end (sums and
+/// a maximum, which commute with the general path's own updates).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct PlainCounts {
+    samples: u64,
+    mem_reads: u64,
+    edge_voxels: u64,
+    drained_at: u64,
+}
+
 impl Pe {
+    /// Adds a slice's plain samples' counts to the PE's counters.
+    pub(super) fn add_plain_counts(&mut self, n: &PlainCounts) {
+        self.counters.busy += n.samples;
+        self.counters.samples += n.samples;
+        self.counters.mem_reads += n.mem_reads;
+        self.counters.edge_voxels += n.edge_voxels;
+        self.drained_at = self.drained_at.max(n.drained_at);
+    }
+
     /// Samples held column `j` in `bus`'s row through `kernel` (`row`: the
-    /// row's constants), issued in cycle `now` and written back `latency`
-    /// cycles later, counting its quantisation events into `total`.
-    /// Returns `false`, having changed nothing, when the sample must run
-    /// the general path: a word the kernel cannot hold, or a column this
-    /// PE neither owns nor reaches (the general path reports the error).
+    /// row's constants; `bases`: where its two voxel rows start in memory),
+    /// issued in cycle `now` and written back `latency` cycles later,
+    /// counting its quantisation events into `total` and the rest into
+    /// `n`. Returns `false`, having changed nothing, when the sample must
+    /// run the general path: a word the kernel cannot hold, or a column
+    /// this PE neither owns nor reaches (the general path reports the
+    /// error).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn sample_plain(
         &mut self,
         (kernel, row): (&Kernel, &KernelRow),
-        bus: &RowBus,
+        (r, bases): (usize, [usize; 2]),
         j: usize,
         edge: &EdgeIn,
         (nx, now, latency): (usize, u64, u64),
         total: &mut Tally,
+        n: &mut PlainCounts,
     ) -> bool {
         let mx = self.rays[j].mx;
         let mut t = Tally::default();
@@ -34,30 +58,28 @@ impl Pe {
         };
         let last = nx as i64 - 1;
         let (c0, c1) = (
-            ray.x0.clamp(0, last) as usize,
-            (ray.x0 + 1).clamp(0, last) as usize,
+            ray.x0.max(0).min(last) as usize,
+            (ray.x0 + 1).max(0).min(last) as usize,
         );
         let held = self.holds(c1);
         if !self.owns(c0) || !(held || c1 == self.cols.end) {
             return false;
         }
-        self.counters.busy += 1;
-        self.counters.samples += 1;
+        n.samples += 1;
         let land = now + latency;
-        let r = bus.row;
-        self.rays[j].land[r] = land;
-        self.drained_at = self.drained_at.max(land);
-        let z = bus.slice.z;
-        let (y0, y1, _) = bus.y;
-        let left = [self.voxel(z, y0, c0), self.voxel(z, y1, c0)];
+        n.drained_at = n.drained_at.max(land);
+        let left = [self.voxel_at(bases[0], c0), self.voxel_at(bases[1], c0)];
         let right = if held {
-            [self.voxel(z, y0, c1), self.voxel(z, y1, c1)]
+            n.mem_reads += 4;
+            [self.voxel_at(bases[0], c1), self.voxel_at(bases[1], c1)]
         } else {
-            self.counters.edge_voxels += 2;
+            n.mem_reads += 2;
+            n.edge_voxels += 2;
             edge.right
         };
         let v = [[left[0], right[0]], [left[1], right[1]]];
         let col = &mut self.rays[j];
+        col.land[r] = land;
         if let Some(done) = kernel.sample(row, v, &ray, &mut col.acc[r], &mut t) {
             if kernel.front_to_back() {
                 // The comparator behind the accumulator sets the flag the
@@ -66,6 +88,174 @@ impl Pe {
             }
         }
         total.add(&t);
+        true
+    }
+}
+
+/// The whole-slice path's buckets for sampling a slice column by column:
+/// each held column's samples (slice row and issue cycle), reused from
+/// slice to slice.
+#[derive(Debug, Clone, Default)]
+pub struct ColumnOrder {
+    /// Where each active column's samples start in `items` (one more
+    /// entry than columns).
+    starts: Vec<u32>,
+    /// `(slice row, issue cycle)` of every sample, column after column,
+    /// each column's in row order.
+    items: Vec<(u32, u64)>,
+    /// The next free entry of each column while bucketing.
+    at: Vec<u32>,
+}
+
+/// An active column's address and taps' columns for
+/// [`Pe::sample_columns`]: the ray's address, its assignments' events,
+/// the clamped columns `c0`, `c1` and whether this PE holds `c1`.
+pub(crate) type ColumnTaps = (Ray, Tally, usize, usize, bool);
+
+impl Pe {
+    /// Samples a whole slice through `kernel`'s lanes, column by column:
+    /// a column's rays in consecutive rows lie side by side in its
+    /// accumulator memory, where row by row each sample reads another
+    /// column's. The schedule is the row plan's (each sample keeps its
+    /// issue cycle); the order the model evaluates them in cannot matter,
+    /// since every sample reads and writes its own ray only. Returns
+    /// `false`, having changed nothing, when a column's address does not
+    /// fit the kernel or breaks the ownership rules: the caller then
+    /// samples the slice row by row (which reports an error in issue
+    /// order).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sample_columns(
+        &mut self,
+        kernel: &Kernel,
+        rows: &[RowBus],
+        (lens, starts): (&[usize], &[u64]),
+        right_edges: Option<&[EdgeWords]>,
+        (nx, latency): (usize, u64),
+        (total, n): (&mut Tally, &mut PlainCounts),
+    ) -> bool {
+        let Some(row0) = rows.iter().find_map(|b| b.plain) else {
+            return true;
+        };
+        let (first, count) = self.active;
+        // Each active column's address and taps' columns, once: they do
+        // not depend on the row.
+        let mut cols = std::mem::take(&mut self.plain_cols);
+        cols.clear();
+        let last = nx as i64 - 1;
+        for j in first..first + count {
+            let mut t = Tally::default();
+            let Some(ray) = kernel.address(&row0, self.rays[j].mx, &mut t) else {
+                self.plain_cols = cols;
+                return false;
+            };
+            let (c0, c1) = (
+                ray.x0.max(0).min(last) as usize,
+                (ray.x0 + 1).max(0).min(last) as usize,
+            );
+            let held = self.holds(c1);
+            if !self.owns(c0) || !(held || c1 == self.cols.end) {
+                self.plain_cols = cols;
+                return false;
+            }
+            cols.push((ray, t, c0, c1, held));
+        }
+        // Bucket the row plan's samples by column (a counting sort).
+        let mut order = std::mem::take(&mut self.plain_order);
+        order.starts.clear();
+        order.starts.resize(count + 1, 0);
+        for (r, &len) in lens.iter().enumerate() {
+            self.begin_row(r);
+            if len == 0 {
+                continue;
+            }
+            let span = self.row_plan.span(r);
+            self.counters.idle += (len - span.len()) as u64;
+            for &j in &self.row_plan.live[span] {
+                order.starts[j - first + 1] += 1;
+            }
+        }
+        for c in 0..count {
+            order.starts[c + 1] += order.starts[c];
+        }
+        order.items.resize(order.starts[count] as usize, (0, 0));
+        order.at.clear();
+        order.at.extend_from_slice(&order.starts[..count]);
+        for (r, &len) in lens.iter().enumerate() {
+            if len == 0 {
+                continue;
+            }
+            let span = self.row_plan.span(r);
+            for (c, &j) in self.row_plan.live[span].iter().enumerate() {
+                let slot = &mut order.at[j - first];
+                order.items[*slot as usize] = (r as u32, starts[r] + c as u64);
+                *slot += 1;
+            }
+        }
+        let z = rows[0].slice.z;
+        let mut b = Batch::default();
+        for (c, &(ray, t, c0, c1, held)) in cols.iter().enumerate() {
+            let items = &order.items[order.starts[c] as usize..order.starts[c + 1] as usize];
+            if items.is_empty() {
+                continue;
+            }
+            let j = first + c;
+            // The address's events, once per sample.
+            let k = items.len() as u64;
+            total.add_times(&t, k);
+            n.samples += k;
+            n.mem_reads += k * if held { 4 } else { 2 };
+            n.edge_voxels += if held { 0 } else { 2 * k };
+            b.wx = ray.wx;
+            b.slope = ray.slope;
+            for chunk in items.chunks(LANES) {
+                b.n = chunk.len();
+                for (l, &(r, now)) in chunk.iter().enumerate() {
+                    let bus = &rows[r as usize];
+                    let (y0, y1, _) = bus.y;
+                    let (base0, base1) = (self.row_base(z, y0), self.row_base(z, y1));
+                    b.v[0][l] = i64::from(self.voxel_at(base0, c0));
+                    b.v[2][l] = i64::from(self.voxel_at(base1, c0));
+                    let right = if held {
+                        [self.voxel_at(base0, c1), self.voxel_at(base1, c1)]
+                    } else {
+                        right_edges.map_or([0; 2], |e| e[r as usize].left)
+                    };
+                    b.v[1][l] = i64::from(right[0]);
+                    b.v[3][l] = i64::from(right[1]);
+                    let (wy, yz) = bus.plain.map_or((0, 0), |p| p.lane_constants());
+                    b.wy[l] = wy;
+                    b.yz[l] = yz;
+                    let land = now + latency;
+                    n.drained_at = n.drained_at.max(land);
+                    let col = &mut self.rays[j];
+                    col.land[bus.row] = land;
+                    for (w, &a) in b.acc.iter_mut().zip(&col.acc[bus.row].raw) {
+                        w[l] = a;
+                    }
+                }
+                b.pad();
+                let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
+                kernel.sample_lanes(&mut b, &mut base, &mut shown);
+                let col = &mut self.rays[j];
+                for (l, &(r, _)) in chunk.iter().enumerate() {
+                    base.add_lane(l, total);
+                    if b.visible[l] {
+                        shown.add_lane(l, total);
+                        let row = rows[r as usize].row;
+                        for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
+                            *a = w[l];
+                        }
+                        if kernel.front_to_back() {
+                            // The comparator behind the accumulator sets
+                            // the flag the next slice's schedule reads.
+                            col.ftb[row].done = b.done[l];
+                        }
+                    }
+                }
+            }
+        }
+        self.plain_cols = cols;
+        self.plain_order = order;
         true
     }
 }

@@ -1,0 +1,290 @@
+//! The kernel in lanes: up to [`LANES`] plain samples of one ray column
+//! at once (the column's rays in consecutive rows of a slice, whose
+//! accumulators lie side by side in memory), each operation a loop over
+//! the lanes, which the compiler turns into vector instructions (one
+//! 512-bit register holds the eight 64-bit words). Lane by lane the same
+//! words and the same quantisation events as [`Kernel::sample`] (a
+//! proptest compares them); the rays are independent (each has its own
+//! accumulators), so evaluating eight together changes nothing but speed.
+//!
+//! Every lane computes every step: a transparent sample's lane runs the
+//! opacity correction and compositing too, and its results and their
+//! events are dropped (what the scalar path never computes, it never
+//! counts). Lanes at and above [`Batch::n`] are padding copied from lane
+//! 0, computed and dropped likewise.
+
+use super::{lerp, Kernel, Step, Tally};
+
+/// Lanes of a batch: eight 64-bit words.
+pub(crate) const LANES: usize = 8;
+
+type Lanes = [i64; LANES];
+
+/// Quantisation events per lane.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct LaneTally {
+    assignments: [u64; LANES],
+    overflows: [u64; LANES],
+    inexact: [u64; LANES],
+}
+
+impl LaneTally {
+    /// Adds lane `l`'s events to `t`.
+    #[inline(always)]
+    pub(crate) fn add_lane(&self, l: usize, t: &mut Tally) {
+        t.assignments += self.assignments[l];
+        t.overflows += self.overflows[l];
+        t.inexact += self.inexact[l];
+    }
+}
+
+/// Up to [`LANES`] plain samples of one ray column (one `mx`, so one x
+/// address and slope), each lane a row of the slice.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Batch {
+    /// Lanes in use; the rest are padding.
+    pub n: usize,
+    /// The column's x weight and the exact word of its x slope (the same
+    /// in every lane).
+    pub wx: i64,
+    pub slope: i64,
+    /// Each lane's y weight and `sy^2 + sz^2` ([`super::KernelRow`]).
+    pub wy: Lanes,
+    pub yz: Lanes,
+    /// Voxel taps: row `y0` at columns `c0`, `c1`, then row `y0 + 1`.
+    pub v: [Lanes; 4],
+    /// The rays' accumulators (R, G, B, A words), replaced by
+    /// [`Kernel::sample_lanes`] in the lanes whose sample is visible.
+    pub acc: [Lanes; 4],
+    /// Whether each lane's sample was visible (composited).
+    pub visible: [bool; LANES],
+    /// Front to back, each visible lane's termination comparator.
+    pub done: [bool; LANES],
+}
+
+impl Batch {
+    /// Copies lane 0's inputs into the padding lanes.
+    #[inline(always)]
+    pub(crate) fn pad(&mut self) {
+        for l in self.n..LANES {
+            self.wy[l] = self.wy[0];
+            self.yz[l] = self.yz[0];
+            for w in self.v.iter_mut().chain(self.acc.iter_mut()) {
+                w[l] = w[0];
+            }
+        }
+    }
+}
+
+impl Step {
+    /// [`Step::apply`] in every lane.
+    #[inline(always)]
+    fn lanes(&self, raw: &Lanes, t: &mut LaneTally) -> Lanes {
+        let mut out = [0; LANES];
+        for l in 0..LANES {
+            let q = (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2;
+            let c = q.max(self.min).min(self.max);
+            t.assignments[l] += 1;
+            t.overflows[l] += u64::from(c != q);
+            t.inexact[l] += u64::from(raw[l] & self.mask != 0);
+            out[l] = c;
+        }
+        out
+    }
+}
+
+/// `f` of every lane (a plain loop, which vectorises; `array::from_fn`'s
+/// guarded writes did not).
+#[inline(always)]
+fn each(f: impl Fn(usize) -> i64) -> Lanes {
+    let mut out = [0; LANES];
+    for (l, o) in out.iter_mut().enumerate() {
+        *o = f(l);
+    }
+    out
+}
+
+/// [`lerp`] in every lane.
+#[inline(always)]
+fn lerps(a: &Lanes, b: &Lanes, w: &Lanes, fw: u32) -> Lanes {
+    each(|l| lerp(a[l], b[l], w[l], fw))
+}
+
+/// [`super::isqrt`] in every lane: the float estimate of a root below
+/// 2^31 is within one of it (its error is below 2^-20), so one correction
+/// each way makes it exact.
+#[inline(always)]
+fn isqrts(v: &Lanes) -> Lanes {
+    let mut out = [0; LANES];
+    for l in 0..LANES {
+        let v = v[l].max(0);
+        let mut r = (v as f64).sqrt() as i64;
+        r -= i64::from(r * r > v);
+        r += i64::from((r + 1) * (r + 1) <= v);
+        out[l] = r;
+    }
+    out
+}
+
+impl Kernel {
+    /// [`Kernel::sample`] in every lane of `b` (padded, taps and
+    /// accumulators loaded): `base` counts what every sample assigns (the
+    /// interpolation and classification), `shown` what only a visible one
+    /// does. Sets [`Batch::visible`] and [`Batch::done`] and replaces the
+    /// visible lanes' accumulators.
+    #[inline(always)]
+    pub(crate) fn sample_lanes(&self, b: &mut Batch, base: &mut LaneTally, shown: &mut LaneTally) {
+        let fw = u32::from(self.weight.frac());
+        let wx = [b.wx; LANES];
+        let top = self.lerp_x.lanes(&lerps(&b.v[0], &b.v[1], &wx, fw), base);
+        let bot = self.lerp_x.lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), base);
+        let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), base);
+        let mut rgba = [[0; LANES]; 4];
+        for l in 0..LANES {
+            let class = &self.classes[s[l] as usize];
+            base.assignments[l] += u64::from(class.ev[0]);
+            base.overflows[l] += u64::from(class.ev[1]);
+            base.inexact[l] += u64::from(class.ev[2]);
+            for (w, &c) in rgba.iter_mut().zip(&class.rgba) {
+                w[l] = i64::from(c);
+            }
+            b.visible[l] = class.rgba[3] != 0;
+        }
+        if !b.visible[..b.n].iter().any(|&v| v) {
+            return;
+        }
+        let sx = self.line.lanes(&[b.slope; LANES], shown);
+        let rs = self.rad_shift;
+        let rad: Lanes = each(|l| {
+            let sum = sx[l] * sx[l] + b.yz[l];
+            if rs >= 0 {
+                sum << rs
+            } else {
+                sum >> -rs
+            }
+        });
+        let ds = self.root.lanes(&isqrts(&rad), shown);
+        let a = self.correct_lanes(&rgba[3], &ds, shown);
+        let new = if self.ftb {
+            self.composite_ftb_lanes(&b.acc, &rgba, &a, shown)
+        } else {
+            self.composite_btf_lanes(&b.acc, &rgba, &a, shown)
+        };
+        for l in 0..LANES {
+            if b.visible[l] {
+                for (w, n) in b.acc.iter_mut().zip(&new) {
+                    w[l] = n[l];
+                }
+            }
+            b.done[l] = self.ftb && self.threshold.is_some_and(|th| new[3][l] >= th);
+        }
+    }
+
+    /// [`Kernel::correct`] in every lane.
+    #[inline(always)]
+    fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut LaneTally) -> Lanes {
+        let last = self.log_t.len() - 1;
+        let prod: Lanes = each(|l| self.log_t[(alpha[l].max(0) as usize).min(last)] * ds[l]);
+        let p = self.log_p.lanes(&prod, t);
+        let fb = self.p_frac;
+        let rb = fb - self.exp_bits;
+        let mut int = [0; LANES];
+        let mut idx = [0; LANES];
+        let mut rem = [0; LANES];
+        for l in 0..LANES {
+            int[l] = p[l] >> fb;
+            let frac = p[l] & ((1i64 << fb) - 1);
+            idx[l] = frac >> rb;
+            rem[l] = frac & ((1i64 << rb) - 1);
+        }
+        let w = self.exp_w.lanes(&rem, t);
+        let lo: Lanes = each(|l| self.exp[idx[l] as usize]);
+        let hi: Lanes = each(|l| self.exp[idx[l] as usize + 1]);
+        let fw = u32::from(self.weight.frac());
+        let tf = self.exp_lerp.lanes(&lerps(&lo, &hi, &w, fw), t);
+        let (min, max) = (self.oc.min_raw(), self.oc.max_raw());
+        let foc = u32::from(self.oc.frac());
+        let mut diff = [0; LANES];
+        for l in 0..LANES {
+            // `tf >> int` into `opacity_corr` (no assignment at all when
+            // `int >= 64`: the transmittance is zero).
+            let shifted = int[l] < 64;
+            let k = int[l].clamp(0, 62) as u32;
+            let r = u32::from(self.oc_rnd && k > 0);
+            let q = ((tf[l] >> (k - r)) + i64::from(r)) >> r;
+            let c = q.max(min).min(max);
+            t.assignments[l] += u64::from(shifted);
+            t.overflows[l] += u64::from(shifted && c != q);
+            t.inexact[l] += u64::from(shifted && tf[l] & ((1i64 << k) - 1) != 0);
+            diff[l] = (1i64 << foc) - if shifted { c } else { 0 };
+        }
+        self.one_minus.lanes(&diff, t)
+    }
+
+    /// [`Kernel::composite_btf`] in every lane: the new accumulators.
+    #[inline(always)]
+    fn composite_btf_lanes(
+        &self,
+        acc: &[Lanes; 4],
+        c: &[Lanes; 4],
+        a: &Lanes,
+        t: &mut LaneTally,
+    ) -> [Lanes; 4] {
+        let foc = u32::from(self.oc.frac());
+        let k: Lanes = each(|l| (1i64 << foc) - a[l]);
+        let [sc, so] = self.comp_shift;
+        let mut new = [[0; LANES]; 4];
+        for ch in 0..3 {
+            let v: Lanes = each(|l| ((a[l] * c[ch][l]) << sc) + ((k[l] * acc[ch][l]) << so));
+            new[ch] = self.comp_c.lanes(&v, t);
+        }
+        let v: Lanes = each(|l| (a[l] << self.alpha_frac) + k[l] * acc[3][l]);
+        new[3] = self.comp_a.lanes(&v, t);
+        new
+    }
+
+    /// [`Kernel::composite_ftb`] in every lane: the new accumulators.
+    #[inline(always)]
+    fn composite_ftb_lanes(
+        &self,
+        acc: &[Lanes; 4],
+        c: &[Lanes; 4],
+        a: &Lanes,
+        t: &mut LaneTally,
+    ) -> [Lanes; 4] {
+        let k: Lanes = each(|l| ((1i64 << self.alpha_frac) - acc[3][l]) * a[l]);
+        let [so, sc] = self.comp_shift;
+        let mut new = [[0; LANES]; 4];
+        for ch in 0..3 {
+            let v: Lanes = each(|l| (acc[ch][l] << so) + ((k[l] * c[ch][l]) << sc));
+            new[ch] = self.comp_c.lanes(&v, t);
+        }
+        let foc = u32::from(self.oc.frac());
+        let v: Lanes = each(|l| (acc[3][l] << foc) + k[l]);
+        new[3] = self.comp_a.lanes(&v, t);
+        new
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The lanes' one-step corrected root is the exact integer root
+        /// for every radicand the kernel forms (below 2^62), near squares
+        /// included.
+        #[test]
+        fn lane_roots_are_exact(v in prop_oneof![
+            0i64..(1i64 << 62),
+            (0i64..(1i64 << 31)).prop_map(|r| r * r),
+            (1i64..(1i64 << 31)).prop_map(|r| r * r - 1),
+        ]) {
+            let got = isqrts(&[v; LANES]);
+            let want = crate::datapath::isqrt(v as u128) as i64;
+            prop_assert!(got.iter().all(|&g| g == want), "{v}: {got:?} vs {want}");
+        }
+    }
+}
