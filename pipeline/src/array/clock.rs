@@ -11,8 +11,9 @@
 //!
 //! The tick counts the cycle under its [`Stage`] and records the probes.
 //! No stage counts cycles of its own: [`StageCycles`] is what the ticks
-//! counted (the untraced whole-slice sampling path adds the cycles the
-//! clocked path would have ticked, and a test compares the two).
+//! counted (the untraced whole-slice sampling path and the untraced dense
+//! merge add the cycles the clocked path would have ticked, and tests
+//! compare the two).
 //!
 //! A step cannot reach another PE's state: it receives `&mut Pe` for its
 //! own and [`Links`] (shared references to port registers), and while [`Clock::tick`] holds the array

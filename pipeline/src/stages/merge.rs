@@ -9,7 +9,9 @@
 
 use golden::geometry::RayGrid;
 
-use super::passes::{inside, plan_slots_where, tent_needs, PassBus};
+use rayon::prelude::*;
+
+use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
@@ -84,15 +86,57 @@ impl Pe {
         (bg, fg): (&RayGrid, &RayGrid),
         out: &mut Ports,
     ) -> Result<(), StepError> {
-        let c = bus.col;
         let edges = (links.from_left.edge_acc, links.from_right.edge_acc);
+        self.merge_work(dp, bus, edges, (bg, fg))?;
+        self.merge_ports(bus, out);
+        Ok(())
+    }
+
+    /// What a merge clock computes ([`Pe::merge_step`] without its
+    /// ports), with the neighbours' edge rays `edges` of row `bus.x`.
+    fn merge_work(
+        &mut self,
+        dp: &Datapath,
+        bus: &PassBus,
+        edges: (Acc, Acc),
+        (bg, fg): (&RayGrid, &RayGrid),
+    ) -> Result<(), StepError> {
+        let c = bus.col;
         if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
             self.merge_y(dp, c, i, (bg, fg), false)?;
         }
         if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
             self.merge_x(dp, c, q, edges);
         }
-        self.merge_ports(bus, out);
+        Ok(())
+    }
+
+    /// Runs a whole dense merge's clocks, `slots` of `width` cycles each,
+    /// without ticking: what [`Pe::merge_step`] computes in each, with the
+    /// neighbours' edge rays of each parent row from `edges` (what they
+    /// drive on their ports: their parents stay put during the pass, so
+    /// the rays are known before it starts). Returns the index of the
+    /// cycle a step failed in, with its error.
+    pub(crate) fn merge_whole(
+        &mut self,
+        dp: &Datapath,
+        (slots, width): (&[Slot], usize),
+        edges: &[(Acc, Acc)],
+        grids: (&RayGrid, &RayGrid),
+    ) -> Result<(), (usize, StepError)> {
+        for (s, slot) in slots.iter().enumerate() {
+            let e = slot.x.map_or_else(Default::default, |q| edges[q]);
+            for col in 0..width {
+                let bus = PassBus {
+                    x: slot.x,
+                    y: slot.y,
+                    col,
+                    drive: None,
+                };
+                self.merge_work(dp, &bus, e, grids)
+                    .map_err(|err| (s * width + col, err))?;
+            }
+        }
         Ok(())
     }
 
@@ -235,14 +279,92 @@ impl Array {
         if dp.cfg.pass_skip_empty {
             return self.merge_sparse(&dp, bg, fg);
         }
+        let prows = bg.counts()[1];
+        let needs = tent_needs(fg, bg);
+        if !self.clock.tracing() && !self.clocked {
+            self.merge_untraced(&dp, (prows, &needs), (bg, fg))?;
+            return Ok((rays(bg), rays(fg)));
+        }
         self.run_pass(
             Stage::Merge,
-            (bg.counts()[1], &tent_needs(fg, bg)),
+            (prows, &needs),
             |pe| pe.begin_merge(bg, fg),
             |pe, bus, links, out| pe.merge_step(&dp, bus, links, (bg, fg), out),
             Pe::end_merge,
         )?;
         Ok((rays(bg), rays(fg)))
+    }
+
+    /// The dense merge without ticking (untraced, as the whole-slice
+    /// sampling): each PE runs its whole merge ([`Pe::merge_whole`]), the
+    /// PEs in parallel, with the edge rays its neighbours drive for each
+    /// parent row; then the cycles [`Array::run_pass`] ticks for the same
+    /// work are counted: the prologue and every slot (a test compares both
+    /// paths). A failing step reports the error of the earliest cycle,
+    /// the lowest PE within it, as the clocked pass's step order does.
+    fn merge_untraced(
+        &mut self,
+        dp: &Datapath,
+        (prows, needs): (usize, &[Option<(usize, usize)>]),
+        grids: (&RayGrid, &RayGrid),
+    ) -> Result<(), RunError> {
+        let (bg, fg) = grids;
+        let width = self
+            .clock
+            .pes_mut()
+            .iter_mut()
+            .map(|pe| pe.begin_merge(bg, fg))
+            .max()
+            .unwrap_or(0);
+        let slots = plan_slots(prows, needs)?;
+        let pes = self.clock.pes();
+        let p = pes.len();
+        // What PE k - 1 drives right (its last held ray) and PE k + 1
+        // left (its first), for each parent row ([`Pe::merge_drive`]).
+        let drive = |pe: &Pe, last: bool| -> Vec<Acc> {
+            let col = if last {
+                pe.rays.back()
+            } else {
+                pe.rays.front()
+            };
+            let edge = pe.rays.front().and(pe.rays.back()).and(col);
+            (0..prows)
+                .map(|q| edge.map_or(Acc::default(), |c| c.acc[q]))
+                .collect()
+        };
+        let rights: Vec<Vec<Acc>> = pes.iter().map(|pe| drive(pe, true)).collect();
+        let lefts: Vec<Vec<Acc>> = pes.iter().map(|pe| drive(pe, false)).collect();
+        let edges: Vec<Vec<(Acc, Acc)>> = (0..p)
+            .map(|k| {
+                (0..prows)
+                    .map(|q| {
+                        let l = k.checked_sub(1).map_or(Acc::default(), |n| rights[n][q]);
+                        let r = lefts.get(k + 1).map_or(Acc::default(), |e| e[q]);
+                        (l, r)
+                    })
+                    .collect()
+            })
+            .collect();
+        if width > 0 {
+            let failed = self
+                .clock
+                .pes_mut()
+                .par_iter_mut()
+                .zip(&edges)
+                .map(|(pe, e)| pe.merge_whole(dp, (&slots, width), e, grids).err())
+                .collect::<Vec<_>>();
+            let first = failed.into_iter().flatten().min_by_key(|&(cycle, _)| cycle);
+            if let Some((_, e)) = first {
+                return Err(e.into());
+            }
+            let prologue = p > 1 && slots.first().and_then(|s| s.x).is_some();
+            let cycles = u64::from(prologue) + (slots.len() * width) as u64;
+            if cycles > 0 {
+                self.clock.ran_untraced(Stage::Merge, cycles);
+            }
+        }
+        self.clock.pes_mut().iter_mut().for_each(Pe::end_merge);
+        Ok(())
     }
 
     /// The parent rows some PE holds a non-zero ray in (each PE's row

@@ -75,8 +75,17 @@ impl Pe {
         (route, last): (Route, bool),
         out: &mut Ports,
     ) {
+        if links.from_left.ray.is_none()
+            && links.from_right.ray.is_none()
+            && self.out_left.is_empty()
+            && self.out_right.is_empty()
+        {
+            // Nothing arrives and nothing waits to leave: the PE drives
+            // nothing and counts nothing (what the steps below would do).
+            return;
+        }
         for (incoming, from_left_side) in
-            [(links.from_left.ray, true), (links.from_right.ray, false)]
+            [(&links.from_left.ray, true), (&links.from_right.ray, false)]
         {
             let Some(m) = incoming else { continue };
             self.counters.rays_received += 1;

@@ -187,3 +187,33 @@ fn steps_see_only_their_own_state_and_links() {
     ];
     assert!(steps.iter().all(|&f| f != 0));
 }
+
+/// The untraced dense merge (each PE's whole merge at once, in parallel,
+/// with its neighbours' edge rays known before the pass) gives the
+/// clocked merge's bits, cycles and counters, for PE counts from one to
+/// sixteen and the mappings whose passes migrate rays home first.
+#[test]
+fn untraced_merges_equal_clocked_merges() {
+    use pipeline::config::Mapping;
+    let mut merges = 0;
+    for (s, eye, fov) in cases() {
+        let prep = view(&s, eye, fov);
+        for p in [1u16, 3, 8, 16] {
+            for mapping in [Mapping::Blocks, Mapping::Interleave] {
+                let cfg = PipelineConfig {
+                    pes: p,
+                    mapping,
+                    ..PipelineConfig::default()
+                };
+                let whole = run(&cfg, &s, &prep, None);
+                let clocked = run(&cfg, &s, &prep, Some(1));
+                assert!(
+                    signature(&whole) == signature(&clocked),
+                    "eye {eye}, P = {p}, {mapping:?}: the untraced merge differs"
+                );
+                merges += whole.merges;
+            }
+        }
+    }
+    assert!(merges > 0, "no view merged");
+}
