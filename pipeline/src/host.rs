@@ -336,6 +336,22 @@ impl VoxelSource<'_> {
         }
     }
 
+    /// The first `n` data bytes of view-space row `(y, z)` in place, when
+    /// the source holds them as bytes (an 8-bit slice stack); `None`
+    /// otherwise ([`VoxelSource::row`] reads any source).
+    pub fn row_bytes(&self, y: usize, z: usize, n: usize) -> Option<&[u8]> {
+        match self {
+            VoxelSource::Stack(s) => {
+                let start = (y + 1) * s.row + 1;
+                match s.slice(z) {
+                    Plane::U8(p) => Some(&p[start..start + n]),
+                    Plane::U16(_) => None,
+                }
+            }
+            VoxelSource::Volume(..) => None,
+        }
+    }
+
     /// The scalars of view-space row `(y, z)`, `x` from 0, into `out`
     /// (one per element): [`VoxelSource::get`] along the row, with the
     /// stack's plane and voxel type resolved once per row instead of per

@@ -261,6 +261,9 @@ pub struct Pe {
     pub rays: VecDeque<RayColumn>,
     /// First held column sampled in the current slice, and how many.
     pub active: (usize, usize),
+    /// The active columns' `mx`, side by side (what the row schedule
+    /// bisects; a copy of the model's, not chip state).
+    pub(crate) active_mx: Vec<i64>,
     /// Rays waiting to go left / right, each with the cycle from which it
     /// may leave (its last sample written back).
     pub out_left: VecDeque<(RayMove, u64)>,
@@ -336,6 +339,7 @@ impl Pe {
             nz,
             rays: VecDeque::new(),
             active: (0, 0),
+            active_mx: Vec::new(),
             out_left: VecDeque::new(),
             out_right: VecDeque::new(),
             incoming: Vec::new(),
@@ -402,6 +406,9 @@ impl Pe {
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);
         self.active = (first, end.saturating_sub(first));
+        self.active_mx.clear();
+        let active = self.rays.range(first..first + self.active.1);
+        self.active_mx.extend(active.map(|c| c.mx));
         self.active.1
     }
 

@@ -209,8 +209,29 @@ pub(super) fn load_memories(
         // Each voxel's word is the table's; its quantisation events are
         // its code's, counted once per code times the code's voxels.
         let mut count = [0u64; 256];
+        // A PE holding consecutive columns (a block) copies its part of a
+        // row at once.
+        let blocks: Vec<Option<std::ops::Range<usize>>> = held
+            .iter()
+            .map(|h| {
+                let (&a, &b) = (h.first()?, h.last()?);
+                (b - a + 1 == h.len()).then_some(a..b + 1)
+            })
+            .collect();
         for z in 0..nz {
             for y in 0..ny {
+                if let Some(bytes) = source.row_bytes(y, z, nx) {
+                    for &v in bytes {
+                        count[usize::from(v)] += 1;
+                    }
+                    for ((mem, cols), block) in codes.iter_mut().zip(held).zip(&blocks) {
+                        match block {
+                            Some(r) => mem.extend_from_slice(&bytes[r.clone()]),
+                            None => mem.extend(cols.iter().map(|&c| bytes[c])),
+                        }
+                    }
+                    continue;
+                }
                 source.row(y, z, &mut row);
                 for &v in &row {
                     count[usize::from(v)] += 1;

@@ -73,6 +73,29 @@ impl Array {
         for pe in self.clock.pes_mut() {
             pe.begin_readout();
         }
+        if !self.clock.tracing() && !self.clocked {
+            // Untraced, each PE streams its words without ticking (it
+            // shares nothing with the others), and the readout lasts as
+            // many cycles as the longest stream, as the clocked loop ticks.
+            let mut longest = 0;
+            for pe in self.clock.pes_mut() {
+                let mut n = 0;
+                let mut out = crate::pe::Ports::default();
+                while !pe.readout_done() {
+                    pe.readout_step(&mut out);
+                    if let Some(o) = out.host.take() {
+                        let x = (o.mx - g.lo[0]) as usize;
+                        raw[o.row as usize * w + x] = o.acc.raw;
+                    }
+                    n += 1;
+                }
+                longest = longest.max(n);
+            }
+            if longest > 0 {
+                self.clock.ran_untraced(Stage::Readout, longest);
+            }
+            return Ok(raw);
+        }
         while !self.clock.pes().iter().all(Pe::readout_done) {
             self.clock
                 .tick(Ctrl::at(Stage::Readout, 0, 0), |pe, _, out| {

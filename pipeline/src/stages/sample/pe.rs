@@ -320,14 +320,9 @@ impl Pe {
         // disjoint: each run's first column is found by bisection (the
         // comparator pair's answer), so a row costs its runs and its
         // rays, not every held column.
-        let (front, back) = self.rays.as_slices();
-        let mx_at = |j: usize| {
-            if j < front.len() {
-                front[j].mx
-            } else {
-                back[j - front.len()].mx
-            }
-        };
+        let mxs = &self.active_mx;
+        debug_assert_eq!(mxs.len(), n);
+        let mx_at = |j: usize| mxs[j - first];
         let end = first + n;
         let mut j = first;
         for &(lo, hi) in runs {
