@@ -367,6 +367,12 @@ impl Pe {
         self.mem.get(self.row_base(z, y) + self.local[x] as usize)
     }
 
+    /// The local index of held column `x` in this PE's memory.
+    #[inline]
+    pub(crate) fn local_of(&self, x: usize) -> usize {
+        self.local[x] as usize
+    }
+
     /// Where voxel row `y` of slice `z` starts in this PE's memory.
     #[inline]
     pub(crate) fn row_base(&self, z: usize, y: usize) -> usize {

@@ -8,7 +8,7 @@
 
 use super::pe::{EdgeIn, EdgeWords, RowBus};
 use crate::datapath::{Batch, Kernel, KernelRow, LaneTally, Ray, Tally, LANES};
-use crate::pe::Pe;
+use crate::pe::{Pe, VoxelMem};
 
 /// What the plain samples of a slice add to a PE's counters, kept in
 /// registers while the slice samples and added once at its end (sums and
@@ -105,6 +105,51 @@ pub struct ColumnOrder {
     items: Vec<(u32, u64)>,
     /// The next free entry of each column while bucketing.
     at: Vec<u32>,
+}
+
+/// Where a column's voxel taps lie in a PE's memory `[z][y][l]`: the
+/// local columns of `c0` and (when held) `c1`, in slice `z`.
+struct Taps {
+    cols: [usize; 2],
+    held: bool,
+    z: usize,
+    ny: usize,
+    width: usize,
+}
+
+impl Taps {
+    /// Loads the taps of each of `chunk`'s rows into `b`'s lanes
+    /// (`read`: the word at a memory index), with the right neighbour's
+    /// edge voxels where the PE does not hold `c1`, and the rows' y
+    /// weights and slope terms.
+    #[inline(always)]
+    fn load(
+        &self,
+        read: impl Fn(usize) -> u16,
+        chunk: &[(u32, u64)],
+        rows: &[RowBus],
+        right_edges: Option<&[EdgeWords]>,
+        b: &mut Batch,
+    ) {
+        for (l, &(r, _)) in chunk.iter().enumerate() {
+            let bus = &rows[r as usize];
+            let (y0, y1, _) = bus.y;
+            let base = |y: usize| (self.z * self.ny + y) * self.width;
+            let (base0, base1) = (base(y0), base(y1));
+            b.v[0][l] = i64::from(read(base0 + self.cols[0]));
+            b.v[2][l] = i64::from(read(base1 + self.cols[0]));
+            let right = if self.held {
+                [read(base0 + self.cols[1]), read(base1 + self.cols[1])]
+            } else {
+                right_edges.map_or([0; 2], |e| e[r as usize].left)
+            };
+            b.v[1][l] = i64::from(right[0]);
+            b.v[3][l] = i64::from(right[1]);
+            let (wy, yz) = bus.plain.map_or((0, 0), |p| p.lane_constants());
+            b.wy[l] = wy;
+            b.yz[l] = yz;
+        }
+    }
 }
 
 /// An active column's address and taps' columns for
@@ -207,36 +252,37 @@ impl Pe {
             n.edge_voxels += if held { 0 } else { 2 * k };
             b.wx = ray.wx;
             b.slope = ray.slope;
+            // The taps' local columns, and the memory read once per
+            // column (the voxel words, or the bytes and their words).
+            let taps = Taps {
+                cols: [self.local_of(c0), if held { self.local_of(c1) } else { 0 }],
+                held,
+                z,
+                ny: self.ny,
+                width: self.held_columns(),
+            };
+            let col = &mut self.rays[j];
             for chunk in items.chunks(LANES) {
                 b.n = chunk.len();
+                match &self.mem {
+                    VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, right_edges, &mut b),
+                    VoxelMem::Codes { codes, words } => {
+                        let read = |i: usize| words[usize::from(codes[i])];
+                        taps.load(read, chunk, rows, right_edges, &mut b);
+                    }
+                }
                 for (l, &(r, now)) in chunk.iter().enumerate() {
-                    let bus = &rows[r as usize];
-                    let (y0, y1, _) = bus.y;
-                    let (base0, base1) = (self.row_base(z, y0), self.row_base(z, y1));
-                    b.v[0][l] = i64::from(self.voxel_at(base0, c0));
-                    b.v[2][l] = i64::from(self.voxel_at(base1, c0));
-                    let right = if held {
-                        [self.voxel_at(base0, c1), self.voxel_at(base1, c1)]
-                    } else {
-                        right_edges.map_or([0; 2], |e| e[r as usize].left)
-                    };
-                    b.v[1][l] = i64::from(right[0]);
-                    b.v[3][l] = i64::from(right[1]);
-                    let (wy, yz) = bus.plain.map_or((0, 0), |p| p.lane_constants());
-                    b.wy[l] = wy;
-                    b.yz[l] = yz;
+                    let row = rows[r as usize].row;
                     let land = now + latency;
                     n.drained_at = n.drained_at.max(land);
-                    let col = &mut self.rays[j];
-                    col.land[bus.row] = land;
-                    for (w, &a) in b.acc.iter_mut().zip(&col.acc[bus.row].raw) {
+                    col.land[row] = land;
+                    for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
                         w[l] = a;
                     }
                 }
                 b.pad();
                 let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
                 kernel.sample_lanes(&mut b, &mut base, &mut shown);
-                let col = &mut self.rays[j];
                 for (l, &(r, _)) in chunk.iter().enumerate() {
                     base.add_lane(l, total);
                     if b.visible[l] {
