@@ -243,7 +243,7 @@ pub struct Pe {
     pub(crate) mem: VoxelMem,
     /// The local index of every column this PE's memory holds (its own
     /// and its aprons), [`ABSENT`] for the rest: the address decoder.
-    local: Vec<u32>,
+    pub(crate) local: Vec<u32>,
     /// Columns held.
     width: usize,
     /// Whether this PE owns each column (`map.owner(c) == k`), the
@@ -365,12 +365,6 @@ impl Pe {
     pub(crate) fn voxel(&mut self, z: usize, y: usize, x: usize) -> u16 {
         self.counters.mem_reads += 1;
         self.mem.get(self.row_base(z, y) + self.local[x] as usize)
-    }
-
-    /// The local index of held column `x` in this PE's memory.
-    #[inline]
-    pub(crate) fn local_of(&self, x: usize) -> usize {
-        self.local[x] as usize
     }
 
     /// Where voxel row `y` of slice `z` starts in this PE's memory.

@@ -8,7 +8,9 @@
 
 use super::pe::{EdgeIn, EdgeWords, RowBus};
 use crate::datapath::{Batch, Kernel, KernelRow, LaneTally, Ray, Tally, LANES};
-use crate::pe::{Pe, VoxelMem};
+use rayon::prelude::*;
+
+use crate::pe::{Pe, RayColumn, VoxelMem};
 
 /// What the plain samples of a slice add to a PE's counters, kept in
 /// registers while the slice samples and added once at its end (sums and
@@ -19,6 +21,15 @@ pub(super) struct PlainCounts {
     mem_reads: u64,
     edge_voxels: u64,
     drained_at: u64,
+}
+
+impl PlainCounts {
+    fn add(&mut self, o: &PlainCounts) {
+        self.samples += o.samples;
+        self.mem_reads += o.mem_reads;
+        self.edge_voxels += o.edge_voxels;
+        self.drained_at = self.drained_at.max(o.drained_at);
+    }
 }
 
 impl Pe {
@@ -152,6 +163,106 @@ impl Taps {
     }
 }
 
+impl ColumnOrder {
+    /// Active column `c`'s samples.
+    fn column(&self, c: usize) -> &[(u32, u64)] {
+        &self.items[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
+}
+
+/// The samples a PE's slice needs before its columns are sampled in
+/// parallel (below, the column loop's overhead outweighs the gain).
+const PARALLEL_SAMPLES: usize = 4096;
+
+/// What every column of a slice's column-major sampling shares.
+struct ColumnJob<'a> {
+    kernel: &'a Kernel,
+    rows: &'a [RowBus<'a>],
+    right_edges: Option<&'a [EdgeWords]>,
+    latency: u64,
+    z: usize,
+    ny: usize,
+    width: usize,
+    /// Each column's local index in the PE's memory.
+    locals: &'a [u32],
+}
+
+impl ColumnJob<'_> {
+    /// Samples column `col` (its address and taps `taps`) at its rows
+    /// `items`, counting into `out`.
+    fn column(
+        &self,
+        mem: &VoxelMem,
+        col: &mut RayColumn,
+        &(ray, t, c0, c1, held): &ColumnTaps,
+        items: &[(u32, u64)],
+        (total, n): &mut (Tally, PlainCounts),
+    ) {
+        if items.is_empty() {
+            return;
+        }
+        let k = items.len() as u64;
+        // The address's events, once per sample.
+        total.add_times(&t, k);
+        n.samples += k;
+        n.mem_reads += k * if held { 4 } else { 2 };
+        n.edge_voxels += if held { 0 } else { 2 * k };
+        let mut b = Batch {
+            wx: ray.wx,
+            slope: ray.slope,
+            ..Batch::default()
+        };
+        let local = |c: usize| self.locals[c] as usize;
+        // The taps' local columns, and the memory read once per column
+        // (the voxel words, or the bytes and their words).
+        let taps = Taps {
+            cols: [local(c0), if held { local(c1) } else { 0 }],
+            held,
+            z: self.z,
+            ny: self.ny,
+            width: self.width,
+        };
+        let rows = self.rows;
+        for chunk in items.chunks(LANES) {
+            b.n = chunk.len();
+            match mem {
+                VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, self.right_edges, &mut b),
+                VoxelMem::Codes { codes, words } => {
+                    let read = |i: usize| words[usize::from(codes[i])];
+                    taps.load(read, chunk, rows, self.right_edges, &mut b);
+                }
+            }
+            for (l, &(r, now)) in chunk.iter().enumerate() {
+                let row = rows[r as usize].row;
+                let land = now + self.latency;
+                n.drained_at = n.drained_at.max(land);
+                col.land[row] = land;
+                for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
+                    w[l] = a;
+                }
+            }
+            b.pad();
+            let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
+            self.kernel.sample_lanes(&mut b, &mut base, &mut shown);
+            for (l, &(r, _)) in chunk.iter().enumerate() {
+                base.add_lane(l, total);
+                if b.visible[l] {
+                    shown.add_lane(l, total);
+                    let row = rows[r as usize].row;
+                    for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
+                        *a = w[l];
+                    }
+                    if self.kernel.front_to_back() {
+                        // The comparator behind the accumulator sets the
+                        // flag the next slice's schedule reads.
+                        col.ftb[row].done = b.done[l];
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// An active column's address and taps' columns for
 /// [`Pe::sample_columns`]: the ray's address, its assignments' events,
 /// the clamped columns `c0`, `c1` and whether this PE holds `c1`.
@@ -236,70 +347,41 @@ impl Pe {
                 *slot += 1;
             }
         }
-        let z = rows[0].slice.z;
-        let mut b = Batch::default();
-        for (c, &(ray, t, c0, c1, held)) in cols.iter().enumerate() {
-            let items = &order.items[order.starts[c] as usize..order.starts[c + 1] as usize];
-            if items.is_empty() {
-                continue;
-            }
-            let j = first + c;
-            // The address's events, once per sample.
-            let k = items.len() as u64;
-            total.add_times(&t, k);
-            n.samples += k;
-            n.mem_reads += k * if held { 4 } else { 2 };
-            n.edge_voxels += if held { 0 } else { 2 * k };
-            b.wx = ray.wx;
-            b.slope = ray.slope;
-            // The taps' local columns, and the memory read once per
-            // column (the voxel words, or the bytes and their words).
-            let taps = Taps {
-                cols: [self.local_of(c0), if held { self.local_of(c1) } else { 0 }],
-                held,
-                z,
-                ny: self.ny,
-                width: self.held_columns(),
-            };
-            let col = &mut self.rays[j];
-            for chunk in items.chunks(LANES) {
-                b.n = chunk.len();
-                match &self.mem {
-                    VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, right_edges, &mut b),
-                    VoxelMem::Codes { codes, words } => {
-                        let read = |i: usize| words[usize::from(codes[i])];
-                        taps.load(read, chunk, rows, right_edges, &mut b);
-                    }
-                }
-                for (l, &(r, now)) in chunk.iter().enumerate() {
-                    let row = rows[r as usize].row;
-                    let land = now + latency;
-                    n.drained_at = n.drained_at.max(land);
-                    col.land[row] = land;
-                    for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
-                        w[l] = a;
-                    }
-                }
-                b.pad();
-                let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
-                kernel.sample_lanes(&mut b, &mut base, &mut shown);
-                for (l, &(r, _)) in chunk.iter().enumerate() {
-                    base.add_lane(l, total);
-                    if b.visible[l] {
-                        shown.add_lane(l, total);
-                        let row = rows[r as usize].row;
-                        for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
-                            *a = w[l];
-                        }
-                        if kernel.front_to_back() {
-                            // The comparator behind the accumulator sets
-                            // the flag the next slice's schedule reads.
-                            col.ftb[row].done = b.done[l];
-                        }
-                    }
-                }
-            }
-        }
+        let job = ColumnJob {
+            kernel,
+            rows,
+            right_edges,
+            latency,
+            z: rows[0].slice.z,
+            ny: self.ny,
+            width: self.held_columns(),
+            locals: &self.local,
+        };
+        let mem = &self.mem;
+        let active = &mut self.rays.make_contiguous()[first..first + count];
+        let work = |(c, col): (usize, &mut RayColumn)| {
+            let mut out = (Tally::default(), PlainCounts::default());
+            job.column(mem, col, &cols[c], order.column(c), &mut out);
+            out
+        };
+        let join = |mut a: (Tally, PlainCounts), b: (Tally, PlainCounts)| {
+            a.0.add(&b.0);
+            a.1.add(&b.1);
+            a
+        };
+        let zero = || (Tally::default(), PlainCounts::default());
+        // Columns share nothing: a big slice's spread over the threads.
+        let (t, c) = if order.items.len() >= PARALLEL_SAMPLES {
+            active
+                .par_iter_mut()
+                .enumerate()
+                .map(work)
+                .reduce(zero, join)
+        } else {
+            active.iter_mut().enumerate().map(work).fold(zero(), join)
+        };
+        total.add(&t);
+        n.add(&c);
         self.plain_cols = cols;
         self.plain_order = order;
         true
