@@ -675,9 +675,23 @@ impl Pe {
 
     /// Steps the edge registers through `seq`, the rows the bus announces
     /// as "next" in order, counting the memory reads the clocked path makes.
+    /// Only the last row's words are read: the registers' earlier values
+    /// are overwritten unseen (the neighbours' come from
+    /// [`Pe::edges_for`]).
     pub fn latch_edges(&mut self, seq: impl Iterator<Item = (usize, usize, usize)>, shade: bool) {
+        if self.cols.is_empty() {
+            return;
+        }
+        let mut latched = None;
         for n in seq {
-            self.drive_edge(Some(n), shade);
+            if self.edge_latch != Some(n) {
+                self.counters.mem_reads += if shade { 12 } else { 2 };
+                self.edge_latch = Some(n);
+                latched = Some(n);
+            }
+        }
+        if let Some(n) = latched {
+            self.edge_value = self.edge_words(n, shade);
         }
     }
 
