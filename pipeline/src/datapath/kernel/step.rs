@@ -1,0 +1,117 @@
+//! One assignment of the plain sample's kernel, worked out once per
+//! frame ([`Step`]), and the quantisation events the kernel counts
+//! ([`Tally`]).
+
+use crate::fixed::{Format, Overflow, Quant, QuantStats};
+
+/// Quantisation events counted while a PE samples a slice on the fast
+/// path, added to its [`QuantStats`] afterwards: sums commute, and no
+/// slice's counts come near `u64::MAX`, so the saturating totals are the
+/// general path's.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Tally {
+    pub(super) assignments: u64,
+    pub(super) overflows: u64,
+    pub(super) inexact: u64,
+}
+
+impl Tally {
+    /// Adds these counts to `st`.
+    pub(crate) fn add_to(&self, st: &mut QuantStats) {
+        st.merge(&QuantStats {
+            assignments: self.assignments,
+            overflows: self.overflows,
+            inexact: self.inexact,
+        });
+    }
+
+    /// Adds `k` times another tally (the events of `k` samples that
+    /// assign the same words).
+    #[inline(always)]
+    pub(crate) fn add_times(&mut self, o: &Tally, k: u64) {
+        self.assignments += k * o.assignments;
+        self.overflows += k * o.overflows;
+        self.inexact += k * o.inexact;
+    }
+
+    /// Adds another tally.
+    #[inline(always)]
+    pub(crate) fn add(&mut self, o: &Tally) {
+        self.assignments += o.assignments;
+        self.overflows += o.overflows;
+        self.inexact += o.inexact;
+    }
+}
+
+/// One assignment of exact words with a fixed number of fraction bits
+/// into a format rounding with `TRN` or `RND` and saturating:
+/// [`Format::quantize`]'s result for such words, computed as
+/// `(((raw << left) >> sh1) + add) >> sh2` and clamped to the range.
+/// `RND` dropping `k` bits is `floor((floor(raw / 2^(k-1)) + 1) / 2)`, as
+/// the quantiser's fast path writes it; `TRN` is `floor(raw / 2^k)`.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Step {
+    pub(super) left: u32,
+    pub(super) sh1: u32,
+    pub(super) add: i64,
+    pub(super) sh2: u32,
+    /// The dropped bits (an inexact assignment has one set).
+    pub(super) mask: i64,
+    pub(super) min: i64,
+    pub(super) max: i64,
+}
+
+/// The rounding of a format the kernel models: whether it is `RND` (else
+/// `TRN`), `None` for any other rounding or overflow mode.
+pub(super) fn rnd(dst: Format) -> Option<bool> {
+    let sat = match dst.overflow() {
+        Overflow::Sat => true,
+        // Symmetric saturation differs from SAT only in a signed format.
+        Overflow::SatSym => !dst.is_signed(),
+        Overflow::Wrap | Overflow::SatZero => false,
+    };
+    match dst.quant() {
+        Quant::Trn if sat => Some(false),
+        Quant::Rnd if sat => Some(true),
+        _ => None,
+    }
+}
+
+impl Step {
+    /// The assignment into `dst` of words with `src` fraction bits and
+    /// magnitude below `2^src_bits`; `None` unless `dst` is modelled
+    /// ([`rnd`]) and every shifted word stays below `2^62`.
+    pub(super) fn new(src: i32, src_bits: u32, dst: Format) -> Option<Step> {
+        let r = rnd(dst)?;
+        let k = src - i32::from(dst.frac());
+        let (left, sh1, add, sh2, mask) = match k {
+            ..0 => ((-k) as u32, 0, 0, 0, 0),
+            0 => (0, 0, 0, 0, 0),
+            _ => {
+                let (k, r) = (k as u32, u32::from(r));
+                (0, k - r, i64::from(r), r, (1i64 << k.min(62)) - 1)
+            }
+        };
+        (src_bits + left <= 62 && k <= 62).then_some(Step {
+            left,
+            sh1,
+            add,
+            sh2,
+            mask,
+            min: dst.min_raw(),
+            max: dst.max_raw(),
+        })
+    }
+
+    #[inline(always)]
+    pub(super) fn apply(&self, raw: i64, t: &mut Tally) -> i64 {
+        let q = (((raw << self.left) >> self.sh1) + self.add) >> self.sh2;
+        // `max` then `min`, not `clamp`: the range is valid by
+        // construction, and `clamp` would check it at every assignment.
+        let c = q.max(self.min).min(self.max);
+        t.assignments += 1;
+        t.overflows += u64::from(c != q);
+        t.inexact += u64::from(raw & self.mask != 0);
+        c
+    }
+}
