@@ -322,6 +322,14 @@ impl Pe {
         // rays, not every held column.
         let mxs = &self.active_mx;
         debug_assert_eq!(mxs.len(), n);
+        // No run reaches the active columns (the comparators' answer for
+        // the row's outermost run ends): nothing to visit.
+        let (Some(&(lo, _)), Some(&(_, hi))) = (runs.first(), runs.last()) else {
+            return 0;
+        };
+        if mxs.first().is_none_or(|&m| m > hi) || mxs.last().is_none_or(|&m| m < lo) {
+            return 0;
+        }
         let mx_at = |j: usize| mxs[j - first];
         let end = first + n;
         let mut j = first;
