@@ -246,9 +246,6 @@ pub struct Pe {
     pub(crate) local: Vec<u32>,
     /// Columns held.
     width: usize,
-    /// Whether this PE owns each column (`map.owner(c) == k`), the
-    /// ownership comparator as a table.
-    owned: Vec<bool>,
     /// Whether migrating columns leave their transparent rows behind
     /// (`link_skip_empty`).
     pub(crate) sparse_links: bool,
@@ -261,9 +258,6 @@ pub struct Pe {
     pub rays: VecDeque<RayColumn>,
     /// First held column sampled in the current slice, and how many.
     pub active: (usize, usize),
-    /// The active columns' `mx`, side by side (what the row schedule
-    /// bisects; a copy of the model's, not chip state).
-    pub(crate) active_mx: Vec<i64>,
     /// Rays waiting to go left / right, each with the cycle from which it
     /// may leave (its last sample written back).
     pub out_left: VecDeque<(RayMove, u64)>,
@@ -324,14 +318,12 @@ impl Pe {
         }
         let w = held.len();
         debug_assert_eq!(mem.len(), w * ny * nz);
-        let owned = (0..map.nx).map(|c| map.owner(c) == k).collect();
         Pe {
             k,
             cols,
             map,
             local,
             width: w,
-            owned,
             sparse_links: false,
             sparse_passes: false,
             mem,
@@ -339,7 +331,6 @@ impl Pe {
             nz,
             rays: VecDeque::new(),
             active: (0, 0),
-            active_mx: Vec::new(),
             out_left: VecDeque::new(),
             out_right: VecDeque::new(),
             incoming: Vec::new(),
@@ -364,20 +355,8 @@ impl Pe {
     #[inline]
     pub(crate) fn voxel(&mut self, z: usize, y: usize, x: usize) -> u16 {
         self.counters.mem_reads += 1;
-        self.mem.get(self.row_base(z, y) + self.local[x] as usize)
-    }
-
-    /// Where voxel row `y` of slice `z` starts in this PE's memory.
-    #[inline]
-    pub(crate) fn row_base(&self, z: usize, y: usize) -> usize {
-        (z * self.ny + y) * self.width
-    }
-
-    /// Held column `x` of the voxel row at `base` ([`Pe::row_base`]),
-    /// not counted (the caller counts its reads).
-    #[inline]
-    pub(crate) fn voxel_at(&self, base: usize, x: usize) -> u16 {
-        self.mem.get(base + self.local[x] as usize)
+        self.mem
+            .get((z * self.ny + y) * self.width + self.local[x] as usize)
     }
 
     /// Whether this PE's memory holds column `c`.
@@ -389,7 +368,7 @@ impl Pe {
     /// Whether this PE owns column `c` (samples the rays based there).
     #[inline]
     pub fn owns(&self, c: usize) -> bool {
-        self.owned.get(c).copied().unwrap_or(false)
+        c < self.map.nx && self.map.owner(c) == self.k
     }
 
     /// Columns this PE's memory holds.
@@ -406,9 +385,6 @@ impl Pe {
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);
         self.active = (first, end.saturating_sub(first));
-        self.active_mx.clear();
-        let active = self.rays.range(first..first + self.active.1);
-        self.active_mx.extend(active.map(|c| c.mx));
         self.active.1
     }
 

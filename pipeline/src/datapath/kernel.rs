@@ -27,7 +27,7 @@ mod step;
 pub(crate) use lanes::{Batch, LaneTally, LANES};
 pub(crate) use step::Tally;
 
-use super::{Acc, Classes, Datapath};
+use super::{Classes, Datapath};
 use crate::config::Order;
 use crate::fixed::{Format, Fx};
 use step::{rnd, Step};
@@ -43,22 +43,6 @@ fn lerp(a: i64, b: i64, w: i64, fw: u32) -> i64 {
 /// Magnitude bits of a format's words.
 fn mag(f: Format) -> u32 {
     u32::from(f.bits())
-}
-
-/// `floor(sqrt(v))` of a word below 2^62 (negative: 0), as
-/// [`super::isqrt`]: the float estimate is within one of the root, and
-/// squares of roots below 2^31 + 1 fit i64.
-#[inline(always)]
-fn isqrt(v: i64) -> i64 {
-    let v = v.max(0);
-    let mut r = (v as f64).sqrt() as i64;
-    while r * r > v {
-        r -= 1;
-    }
-    while (r + 1) * (r + 1) <= v {
-        r += 1;
-    }
-    r
 }
 
 /// Ray `m`'s exact `a + m t` (aligned words), or `None` when it would
@@ -383,123 +367,12 @@ impl Kernel {
             slope,
         })
     }
-
-    /// The sample of voxel words `v[row][col]` of `ray` composited into
-    /// `acc`: the bilinear interpolation, the classification, and for a
-    /// visible sample the path length, the opacity correction and the
-    /// compositing. Returns `None` for a transparent sample, else the
-    /// termination comparator's answer (front to back; `false` back to
-    /// front).
-    #[inline(always)]
-    pub(crate) fn sample(
-        &self,
-        row: &KernelRow,
-        v: [[u16; 2]; 2],
-        ray: &Ray,
-        acc: &mut Acc,
-        t: &mut Tally,
-    ) -> Option<bool> {
-        let fw = u32::from(self.weight.frac());
-        let wx = ray.wx;
-        let x = |a: u16, b: u16, t: &mut Tally| {
-            self.lerp_x
-                .apply(lerp(i64::from(a), i64::from(b), wx, fw), t)
-        };
-        let top = x(v[0][0], v[0][1], t);
-        let bot = x(v[1][0], v[1][1], t);
-        let s = self.lerp_y.apply(lerp(top, bot, row.wy, fw), t);
-        let class = &self.classes[s as usize];
-        t.assignments += u64::from(class.ev[0]);
-        t.overflows += u64::from(class.ev[1]);
-        t.inexact += u64::from(class.ev[2]);
-        let rgba = class.rgba.map(i64::from);
-        if rgba[3] == 0 {
-            return None;
-        }
-        let sx = self.line.apply(ray.slope, t);
-        let sum = sx * sx + row.yz;
-        let rad = if self.rad_shift >= 0 {
-            sum << self.rad_shift
-        } else {
-            sum >> -self.rad_shift
-        };
-        let ds = self.root.apply(isqrt(rad), t);
-        let a = self.correct(rgba[3], ds, t);
-        let c = [rgba[0], rgba[1], rgba[2]];
-        if self.ftb {
-            self.composite_ftb(acc, c, a, t);
-            Some(self.threshold.is_some_and(|th| acc.raw[3] >= th))
-        } else {
-            self.composite_btf(acc, c, a, t);
-            Some(false)
-        }
-    }
-
-    /// [`Datapath::correct`] and [`Datapath::transmit`]: the corrected
-    /// opacity word of opacity `alpha` over path length `ds`.
-    #[inline(always)]
-    fn correct(&self, alpha: i64, ds: i64, t: &mut Tally) -> i64 {
-        let code = (alpha.max(0) as usize).min(self.log_t.len() - 1);
-        let p = self.log_p.apply(self.log_t[code] * ds, t);
-        let fb = self.p_frac;
-        let (int, frac) = (p >> fb, p & ((1i64 << fb) - 1));
-        let rb = fb - self.exp_bits;
-        let (idx, rem) = ((frac >> rb) as usize, frac & ((1i64 << rb) - 1));
-        let w = self.exp_w.apply(rem, t);
-        let fw = u32::from(self.weight.frac());
-        let tf = self
-            .exp_lerp
-            .apply(lerp(self.exp[idx], self.exp[idx + 1], w, fw), t);
-        let trans = if int >= 64 {
-            0
-        } else {
-            // `tf >> int` into `opacity_corr`: `int` bits dropped.
-            let k = int.min(62) as u32;
-            let r = u32::from(self.oc_rnd && k > 0);
-            let q = ((tf >> (k - r)) + i64::from(r)) >> r;
-            let c = q.max(self.oc.min_raw()).min(self.oc.max_raw());
-            t.assignments += 1;
-            t.overflows += u64::from(c != q);
-            t.inexact += u64::from(tf & ((1i64 << k) - 1) != 0);
-            c
-        };
-        let foc = u32::from(self.oc.frac());
-        self.one_minus.apply((1i64 << foc) - trans, t)
-    }
-
-    /// [`Datapath::composite_btf`] on raw words.
-    #[inline(always)]
-    fn composite_btf(&self, acc: &mut Acc, c: [i64; 3], a: i64, t: &mut Tally) {
-        let foc = u32::from(self.oc.frac());
-        let k = (1i64 << foc) - a;
-        let [sc, so] = self.comp_shift;
-        for (word, &colour) in acc.raw.iter_mut().zip(&c) {
-            *word = self
-                .comp_c
-                .apply(((a * colour) << sc) + ((k * *word) << so), t);
-        }
-        acc.raw[3] = self
-            .comp_a
-            .apply((a << self.alpha_frac) + k * acc.raw[3], t);
-    }
-
-    /// [`Datapath::composite_ftb`] on raw words.
-    #[inline(always)]
-    fn composite_ftb(&self, acc: &mut Acc, c: [i64; 3], a: i64, t: &mut Tally) {
-        let old = acc.raw[3];
-        let k = ((1i64 << self.alpha_frac) - old) * a;
-        let [so, sc] = self.comp_shift;
-        for (word, &colour) in acc.raw.iter_mut().take(3).zip(&c) {
-            *word = self.comp_c.apply((*word << so) + ((k * colour) << sc), t);
-        }
-        let foc = u32::from(self.oc.frac());
-        acc.raw[3] = self.comp_a.apply((old << foc) + k, t);
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::datapath::Acc;
     use crate::fixed::{Overflow, Quant, QuantStats};
     use crate::tables::Tables;
     use proptest::prelude::*;
@@ -539,24 +412,28 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(3000))]
-        /// One sample through the kernel gives the general datapath's
-        /// words and quantisation counts: the ray's address and weight,
-        /// and the accumulators after compositing, from random broadcast
-        /// words, ray index, voxel taps and accumulator state.
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// A batch through the kernel's lanes gives, lane by lane, the
+        /// general datapath's words and quantisation counts: one column's
+        /// address and weight (random broadcast words and ray index), and
+        /// in each of up to eight lanes a row with its own y weight, y
+        /// slope, voxel taps and accumulators, the accumulators after
+        /// compositing, whether the sample was visible and the termination
+        /// comparator.
         #[test]
-        fn a_kernel_sample_is_the_general_sample(
+        fn a_kernel_batch_is_the_general_sample(
             c in 0usize..4,
             a in -(1i64 << 26)..(1i64 << 26),
             t in 1i64..(1i64 << 24),
             b in -(1i64 << 24)..(1i64 << 24),
             k in 0i64..(1i64 << 20),
-            wy in any::<u16>(),
-            sy in -(1i64 << 20)..(1i64 << 20),
             sz in 1i64..(1i64 << 17),
             m in -300i64..300,
-            v in any::<[u16; 4]>(),
-            acc in any::<[u16; 4]>(),
+            n in 1usize..=LANES,
+            wy in any::<[u16; LANES]>(),
+            sy in proptest::array::uniform8(-(1i64 << 20)..(1i64 << 20)),
+            v in any::<[[u16; 4]; LANES]>(),
+            acc in any::<[[u16; 4]; LANES]>(),
         ) {
             let cfg = configs()[c];
             let dp = datapath(cfg);
@@ -564,51 +441,78 @@ mod tests {
             let fx = |raw: i64, f: Format| Fx::from_raw(raw.clamp(f.min_raw(), f.max_raw()), f).unwrap();
             let (a, t) = (fx(a, cfg.position), fx(t, cfg.step));
             let (b, k) = (fx(b, cfg.position), fx(k, cfg.step));
-            let wy = fx(i64::from(wy), cfg.weight);
-            let (sy, sz) = (fx(sy, cfg.position), fx(sz, cfg.position));
-            let v = v.map(|x| x & 0xfff);
-            let taps = [[v[0], v[1]], [v[2], v[3]]];
-            let start = Acc {
-                raw: [
-                    i64::from(acc[0]).min(cfg.accum_color.max_raw()),
-                    i64::from(acc[1]).min(cfg.accum_color.max_raw()),
-                    i64::from(acc[2]).min(cfg.accum_color.max_raw()),
-                    i64::from(acc[3]).min(cfg.accum_alpha.max_raw()),
-                ],
+            let sz = fx(sz, cfg.position);
+            let row = |l: usize| {
+                let (wy, sy) = (fx(i64::from(wy[l]), cfg.weight), fx(sy[l], cfg.position));
+                (wy, sy, kernel.row((a, t), (b, k), wy, (sy, sz)).expect("row constants"))
+            };
+            let taps = |l: usize| {
+                let v = v[l].map(|x| x & 0xfff);
+                [[v[0], v[1]], [v[2], v[3]]]
+            };
+            let start = |l: usize| {
+                let w = |i: usize, f: Format| i64::from(acc[l][i]).min(f.max_raw());
+                let (fc, fa) = (cfg.accum_color, cfg.accum_alpha);
+                Acc { raw: [w(0, fc), w(1, fc), w(2, fc), w(3, fa)] }
             };
 
-            // The general path, as `Pe::sample_datapath` runs it.
-            let mut st = QuantStats::default();
-            let x = dp.position(a, t, m, &mut st).unwrap();
-            let (x0, wx) = dp.address(x, &mut st);
-            let s = dp.bilinear(taps, wx, wy, &mut st).unwrap();
-            let (rgb, alpha) = dp.classify(s, &mut st).unwrap();
-            let mut want = start;
-            let mut flag = None;
-            if alpha.raw() > 0 {
-                let sx = dp.position(b, k, m, &mut st).unwrap();
-                let ds = dp.path(sx, sy, sz, &mut st).unwrap();
-                let oc = dp.correct(alpha, ds, &mut st).unwrap();
-                if cfg.order == Order::FrontToBack {
-                    dp.composite_ftb(&mut want, rgb, oc, &mut st).unwrap();
-                    flag = Some(dp.terminated(&want));
-                } else {
-                    dp.composite_btf(&mut want, rgb, oc, &mut st).unwrap();
-                    flag = Some(false);
+            // The column's address, once, as `Pe::sample_columns` takes it.
+            let mut addressing = Tally::default();
+            let ray = kernel.address(&row(0).2, m, &mut addressing).expect("address");
+            let mut batch = Batch { n, wx: ray.wx, slope: ray.slope, ..Batch::default() };
+            for l in 0..n {
+                (batch.wy[l], batch.yz[l]) = row(l).2.lane_constants();
+                let tp = taps(l);
+                let words = [tp[0][0], tp[0][1], tp[1][0], tp[1][1]];
+                for (w, &x) in batch.v.iter_mut().zip(&words) {
+                    w[l] = i64::from(x);
+                }
+                for (w, &x) in batch.acc.iter_mut().zip(&start(l).raw) {
+                    w[l] = x;
                 }
             }
+            batch.pad();
+            let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
+            kernel.sample_lanes(&mut batch, &mut base, &mut shown);
 
-            let row = kernel.row((a, t), (b, k), wy, (sy, sz)).expect("row constants");
-            let mut tally = Tally::default();
-            let ray = kernel.address(&row, m, &mut tally).expect("address");
-            prop_assert_eq!((ray.x0, ray.wx), (x0, wx.raw()));
-            let mut got = start;
-            let done = kernel.sample(&row, taps, &ray, &mut got, &mut tally);
-            prop_assert_eq!(got, want);
-            prop_assert_eq!(done, flag);
-            let mut counted = QuantStats::default();
-            tally.add_to(&mut counted);
-            prop_assert_eq!(counted, st);
+            for l in 0..n {
+                // The general path, as `Pe::sample_datapath` runs it.
+                let (wy, sy, _) = row(l);
+                let mut st = QuantStats::default();
+                let x = dp.position(a, t, m, &mut st).unwrap();
+                let (x0, wx) = dp.address(x, &mut st);
+                prop_assert_eq!((ray.x0, ray.wx), (x0, wx.raw()));
+                let s = dp.bilinear(taps(l), wx, wy, &mut st).unwrap();
+                let (rgb, alpha) = dp.classify(s, &mut st).unwrap();
+                let mut want = start(l);
+                let visible = alpha.raw() > 0;
+                let mut flag = false;
+                if visible {
+                    let sx = dp.position(b, k, m, &mut st).unwrap();
+                    let ds = dp.path(sx, sy, sz, &mut st).unwrap();
+                    let oc = dp.correct(alpha, ds, &mut st).unwrap();
+                    if cfg.order == Order::FrontToBack {
+                        dp.composite_ftb(&mut want, rgb, oc, &mut st).unwrap();
+                        flag = dp.terminated(&want);
+                    } else {
+                        dp.composite_btf(&mut want, rgb, oc, &mut st).unwrap();
+                    }
+                }
+                let got = Acc { raw: [0, 1, 2, 3].map(|i| batch.acc[i][l]) };
+                prop_assert_eq!(got, want, "lane {}", l);
+                prop_assert_eq!(batch.visible[l], visible, "lane {}", l);
+                if visible {
+                    prop_assert_eq!(batch.done[l], flag, "lane {}", l);
+                }
+                let mut tally = addressing;
+                base.add_lane(l, &mut tally);
+                if visible {
+                    shown.add_lane(l, &mut tally);
+                }
+                let mut counted = QuantStats::default();
+                tally.add_to(&mut counted);
+                prop_assert_eq!(counted, st, "lane {}", l);
+            }
         }
     }
 

@@ -309,37 +309,30 @@ impl Array {
         grids: (&RayGrid, &RayGrid),
     ) -> Result<(), RunError> {
         let (bg, fg) = grids;
-        let width = self
-            .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.begin_merge(bg, fg))
-            .max()
-            .unwrap_or(0);
+        let width = self.begin_pass(|pe| pe.begin_merge(bg, fg));
         let slots = plan_slots(prows, needs)?;
+        // What each PE drives for each parent row ([`Pe::merge_drive`],
+        // the clocked pass's own drive), and so what its neighbours see.
         let pes = self.clock.pes();
-        let p = pes.len();
-        // What PE k - 1 drives right (its last held ray) and PE k + 1
-        // left (its first), for each parent row ([`Pe::merge_drive`]).
-        let drive = |pe: &Pe, last: bool| -> Vec<Acc> {
-            let col = if last {
-                pe.rays.back()
-            } else {
-                pe.rays.front()
-            };
-            let edge = pe.rays.front().and(pe.rays.back()).and(col);
-            (0..prows)
-                .map(|q| edge.map_or(Acc::default(), |c| c.acc[q]))
-                .collect()
-        };
-        let rights: Vec<Vec<Acc>> = pes.iter().map(|pe| drive(pe, true)).collect();
-        let lefts: Vec<Vec<Acc>> = pes.iter().map(|pe| drive(pe, false)).collect();
-        let edges: Vec<Vec<(Acc, Acc)>> = (0..p)
+        let drives: Vec<Vec<(Acc, Acc)>> = pes
+            .iter()
+            .map(|pe| {
+                (0..prows)
+                    .map(|q| {
+                        // From idle, as the clock hands a step its ports.
+                        let mut port = Ports::default();
+                        pe.merge_drive(q, &mut port);
+                        (port.left.edge_acc, port.right.edge_acc)
+                    })
+                    .collect()
+            })
+            .collect();
+        let edges: Vec<Vec<(Acc, Acc)>> = (0..pes.len())
             .map(|k| {
                 (0..prows)
                     .map(|q| {
-                        let l = k.checked_sub(1).map_or(Acc::default(), |n| rights[n][q]);
-                        let r = lefts.get(k + 1).map_or(Acc::default(), |e| e[q]);
+                        let l = k.checked_sub(1).map_or(Acc::default(), |n| drives[n][q].1);
+                        let r = drives.get(k + 1).map_or(Acc::default(), |d| d[q].0);
                         (l, r)
                     })
                     .collect()
@@ -357,7 +350,7 @@ impl Array {
             if let Some((_, e)) = first {
                 return Err(e.into());
             }
-            let prologue = p > 1 && slots.first().and_then(|s| s.x).is_some();
+            let prologue = self.has_prologue(&slots);
             let cycles = u64::from(prologue) + (slots.len() * width) as u64;
             if cycles > 0 {
                 self.clock.ran_untraced(Stage::Merge, cycles);

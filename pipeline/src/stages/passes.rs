@@ -311,7 +311,7 @@ impl Array {
     }
 
     /// Begins a pass in every PE; the widest PE's row length.
-    fn begin_pass(&mut self, begin: impl FnMut(&mut Pe) -> usize) -> usize {
+    pub(super) fn begin_pass(&mut self, begin: impl FnMut(&mut Pe) -> usize) -> usize {
         self.clock
             .pes_mut()
             .iter_mut()
@@ -339,6 +339,12 @@ impl Array {
         Ok(())
     }
 
+    /// Whether a pass over `slots` has a prologue: several PEs, and a first
+    /// slot that filters a parent row.
+    pub(super) fn has_prologue(&self, slots: &[Slot]) -> bool {
+        self.clock.pes().len() > 1 && slots.first().and_then(|s| s.x).is_some()
+    }
+
     /// The cycle ahead of a pass's first slot (with more than one PE) in
     /// which the PEs drive the first row's edge rays.
     fn prologue(
@@ -348,7 +354,7 @@ impl Array {
         step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), RunError> {
         let first = slots.first().and_then(|s| s.x);
-        if self.clock.pes().len() > 1 && first.is_some() {
+        if self.has_prologue(slots) {
             let bus = PassBus {
                 drive: first,
                 ..PassBus::default()

@@ -70,6 +70,9 @@ impl Array {
     pub(crate) fn readout(&mut self, g: &RayGrid) -> Result<Vec<[i64; 4]>, RunError> {
         let [w, h] = g.counts();
         let mut raw = vec![[0i64; 4]; w * h];
+        // The host writes each word where its ray index puts it.
+        let mut store =
+            |o: &Readout| raw[o.row as usize * w + (o.mx - g.lo[0]) as usize] = o.acc.raw;
         for pe in self.clock.pes_mut() {
             pe.begin_readout();
         }
@@ -84,8 +87,7 @@ impl Array {
                 while !pe.readout_done() {
                     pe.readout_step(&mut out);
                     if let Some(o) = out.host.take() {
-                        let x = (o.mx - g.lo[0]) as usize;
-                        raw[o.row as usize * w + x] = o.acc.raw;
+                        store(&o);
                     }
                     n += 1;
                 }
@@ -103,9 +105,8 @@ impl Array {
                     Ok(())
                 })?;
             for port in self.clock.ports() {
-                if let Some(o) = port.host {
-                    let x = (o.mx - g.lo[0]) as usize;
-                    raw[o.row as usize * w + x] = o.acc.raw;
+                if let Some(o) = &port.host {
+                    store(o);
                 }
             }
         }

@@ -3,17 +3,21 @@
 //! accumulators lie side by side in memory), each operation a loop over
 //! the lanes, which the compiler turns into vector instructions (one
 //! 512-bit register holds the eight 64-bit words). Lane by lane the same
-//! words and the same quantisation events as [`Kernel::sample`] (a
-//! proptest compares them); the rays are independent (each has its own
-//! accumulators), so evaluating eight together changes nothing but speed.
+//! words and the same quantisation events as the general datapath's
+//! [`Datapath::bilinear`], [`Datapath::classify`], [`Datapath::path`],
+//! [`Datapath::correct`] and compositing (a proptest compares them); the
+//! rays are independent (each has its own accumulators), so evaluating
+//! eight together changes nothing but speed.
 //!
 //! Every lane computes every step: a transparent sample's lane runs the
 //! opacity correction and compositing too, and its results and their
-//! events are dropped (what the scalar path never computes, it never
+//! events are dropped (what the general path never computes, it never
 //! counts). Lanes at and above [`Batch::n`] are padding copied from lane
 //! 0, computed and dropped likewise.
 
 use super::{lerp, Kernel, Step, Tally};
+#[cfg(doc)]
+use crate::datapath::Datapath;
 
 /// Lanes of a batch: eight 64-bit words.
 pub(crate) const LANES: usize = 8;
@@ -127,8 +131,10 @@ fn isqrts(v: &Lanes) -> Lanes {
 }
 
 impl Kernel {
-    /// [`Kernel::sample`] in every lane of `b` (padded, taps and
-    /// accumulators loaded): `base` counts what every sample assigns (the
+    /// The sample after its address ([`Kernel::address`]) in every lane
+    /// of `b` (padded, taps and accumulators loaded): the bilinear
+    /// interpolation, the classification, and for a visible sample the
+    /// path length, the opacity correction and the compositing. `base` counts what every sample assigns (the
     /// interpolation and classification), `shown` what only a visible one
     /// does. Sets [`Batch::visible`] and [`Batch::done`] and replaces the
     /// visible lanes' accumulators.
@@ -180,7 +186,8 @@ impl Kernel {
         }
     }
 
-    /// [`Kernel::correct`] in every lane.
+    /// [`Datapath::correct`] and [`Datapath::transmit`] in every lane: the
+    /// corrected opacity words.
     #[inline(always)]
     fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut LaneTally) -> Lanes {
         let last = self.log_t.len() - 1;
@@ -221,7 +228,7 @@ impl Kernel {
         self.one_minus.lanes(&diff, t)
     }
 
-    /// [`Kernel::composite_btf`] in every lane: the new accumulators.
+    /// [`Datapath::composite_btf`] in every lane: the new accumulators.
     #[inline(always)]
     fn composite_btf_lanes(
         &self,
@@ -243,7 +250,7 @@ impl Kernel {
         new
     }
 
-    /// [`Kernel::composite_ftb`] in every lane: the new accumulators.
+    /// [`Datapath::composite_ftb`] in every lane: the new accumulators.
     #[inline(always)]
     fn composite_ftb_lanes(
         &self,

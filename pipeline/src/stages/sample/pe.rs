@@ -32,7 +32,7 @@ pub struct EdgeWords {
 /// right neighbour's edge voxels and halo, the left one's last column.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct EdgeIn {
-    pub(super) right: [u16; 2],
+    right: [u16; 2],
     halo: Halo,
     left: [u16; 2],
 }
@@ -320,18 +320,23 @@ impl Pe {
         // disjoint: each run's first column is found by bisection (the
         // comparator pair's answer), so a row costs its runs and its
         // rays, not every held column.
-        let mxs = &self.active_mx;
-        debug_assert_eq!(mxs.len(), n);
+        let (front, back) = self.rays.as_slices();
+        let mx_at = |j: usize| {
+            if j < front.len() {
+                front[j].mx
+            } else {
+                back[j - front.len()].mx
+            }
+        };
+        let end = first + n;
         // No run reaches the active columns (the comparators' answer for
         // the row's outermost run ends): nothing to visit.
         let (Some(&(lo, _)), Some(&(_, hi))) = (runs.first(), runs.last()) else {
             return 0;
         };
-        if mxs.first().is_none_or(|&m| m > hi) || mxs.last().is_none_or(|&m| m < lo) {
+        if n == 0 || mx_at(first) > hi || mx_at(end - 1) < lo {
             return 0;
         }
-        let mx_at = |j: usize| mxs[j - first];
-        let end = first + n;
         let mut j = first;
         for &(lo, hi) in runs {
             let (mut a, mut b) = (j, end);
@@ -426,7 +431,7 @@ impl Pe {
     /// [`Pe::last`] for the waveforms; the whole-slice path, which never
     /// traces, skips that copy (and the accumulator read it needs).
     #[inline]
-    pub(super) fn sample_ray<const TRACE: bool>(
+    fn sample_ray<const TRACE: bool>(
         &mut self,
         dp: &Datapath,
         bus: &RowBus,
@@ -726,12 +731,12 @@ impl Pe {
         nx: usize,
     ) -> Result<(), StepError> {
         self.counters.stalls += stalls;
-        let mut tally = Tally::default();
-        let mut counts = super::plain::PlainCounts::default();
         if let Some(k) = dp
             .kernel()
             .filter(|_| rows.iter().all(|b| b.plain.is_some()))
         {
+            let mut tally = Tally::default();
+            let mut counts = super::plain::PlainCounts::default();
             let at = (nx, dp.latency);
             let out = (&mut tally, &mut counts);
             if self.sample_columns(k, rows, (lens, starts), right_edges, at, out) {
@@ -760,24 +765,13 @@ impl Pe {
             if span.is_empty() {
                 continue;
             }
-            let plain = dp.kernel().zip(bus.plain.as_ref());
-            let bases = [bus.y.0, bus.y.1].map(|y| self.row_base(bus.slice.z, y));
             for (c, i) in span.enumerate() {
                 let j = self.row_plan.live[i];
-                let now = starts[r] + c as u64;
-                if let Some(kr) = plain {
-                    let at = (bus.row, bases);
-                    let times = (nx, now, dp.latency);
-                    if self.sample_plain(kr, at, j, &edge, times, &mut tally, &mut counts) {
-                        continue;
-                    }
-                }
                 let flags = self.row_plan.flags.get(i).copied().unwrap_or(0);
+                let now = starts[r] + c as u64;
                 self.sample_ray::<false>(dp, bus, (j, flags), &edge, nx, now)?;
             }
         }
-        tally.add_to(&mut self.stats);
-        self.add_plain_counts(&counts);
         Ok(())
     }
 }

@@ -1,13 +1,13 @@
-//! A plain sample on the whole-slice path through the datapath's
-//! [`Kernel`]: the PE's half (the ray's address, the ownership rules, the
-//! voxel and edge reads, the scoreboard and counters) around the kernel's
-//! arithmetic, with the general path's effects in the same order. The
-//! general path, [`Pe::sample_ray`]'s, is the twin of
-//! [`golden::sampling::sample_at`]; this is how the model evaluates it
-//! quickly, not a second datapath.
+//! Plain samples on the whole-slice path through the datapath's
+//! [`Kernel`], a slice column by column ([`Pe::sample_columns`]): the PE's
+//! half (the rays' addresses, the ownership rules, the voxel and edge
+//! reads, the scoreboard and counters) around the kernel's lanes, with
+//! the general path's effects. The general path, [`Pe::sample_ray`]'s, is
+//! the twin of [`golden::sampling::sample_at`]; this is how the model
+//! evaluates it quickly, not a second datapath.
 
-use super::pe::{EdgeIn, EdgeWords, RowBus};
-use crate::datapath::{Batch, Kernel, KernelRow, LaneTally, Ray, Tally, LANES};
+use super::pe::{EdgeWords, RowBus};
+use crate::datapath::{Batch, Kernel, LaneTally, Ray, Tally, LANES};
 use rayon::prelude::*;
 
 use crate::pe::{Pe, RayColumn, VoxelMem};
@@ -40,66 +40,6 @@ impl Pe {
         self.counters.mem_reads += n.mem_reads;
         self.counters.edge_voxels += n.edge_voxels;
         self.drained_at = self.drained_at.max(n.drained_at);
-    }
-
-    /// Samples held column `j` in `bus`'s row through `kernel` (`row`: the
-    /// row's constants; `bases`: where its two voxel rows start in memory),
-    /// issued in cycle `now` and written back `latency` cycles later,
-    /// counting its quantisation events into `total` and the rest into
-    /// `n`. Returns `false`, having changed nothing, when the sample must
-    /// run the general path: a word the kernel cannot hold, or a column
-    /// this PE neither owns nor reaches (the general path reports the
-    /// error).
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    pub(super) fn sample_plain(
-        &mut self,
-        (kernel, row): (&Kernel, &KernelRow),
-        (r, bases): (usize, [usize; 2]),
-        j: usize,
-        edge: &EdgeIn,
-        (nx, now, latency): (usize, u64, u64),
-        total: &mut Tally,
-        n: &mut PlainCounts,
-    ) -> bool {
-        let mx = self.rays[j].mx;
-        let mut t = Tally::default();
-        let Some(ray) = kernel.address(row, mx, &mut t) else {
-            return false;
-        };
-        let last = nx as i64 - 1;
-        let (c0, c1) = (
-            ray.x0.max(0).min(last) as usize,
-            (ray.x0 + 1).max(0).min(last) as usize,
-        );
-        let held = self.holds(c1);
-        if !self.owns(c0) || !(held || c1 == self.cols.end) {
-            return false;
-        }
-        n.samples += 1;
-        let land = now + latency;
-        n.drained_at = n.drained_at.max(land);
-        let left = [self.voxel_at(bases[0], c0), self.voxel_at(bases[1], c0)];
-        let right = if held {
-            n.mem_reads += 4;
-            [self.voxel_at(bases[0], c1), self.voxel_at(bases[1], c1)]
-        } else {
-            n.mem_reads += 2;
-            n.edge_voxels += 2;
-            edge.right
-        };
-        let v = [[left[0], right[0]], [left[1], right[1]]];
-        let col = &mut self.rays[j];
-        col.land[r] = land;
-        if let Some(done) = kernel.sample(row, v, &ray, &mut col.acc[r], &mut t) {
-            if kernel.front_to_back() {
-                // The comparator behind the accumulator sets the flag the
-                // next slice's schedule reads.
-                col.ftb[r].done = done;
-            }
-        }
-        total.add(&t);
-        true
     }
 }
 
