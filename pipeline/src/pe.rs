@@ -288,6 +288,10 @@ pub struct Pe {
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).
     pub drained_at: u64,
+    /// The latest scoreboard stamp a migration wrote into a ray this PE
+    /// received (with every PE's `drained_at`, a bound on every held
+    /// ray's `land`; the model's bookkeeping, not a register).
+    pub(crate) arrived_by: u64,
     /// The readout cursor: the next held column and row to stream out.
     pub(crate) readout_at: (usize, usize),
     /// Front to back: the final states of the rays this PE held at each
@@ -344,6 +348,7 @@ impl Pe {
             plain_order: Default::default(),
             plain_cols: Vec::new(),
             drained_at: 0,
+            arrived_by: 0,
             readout_at: (0, 0),
             finals: Vec::new(),
             pass: PassState::default(),

@@ -217,3 +217,45 @@ fn untraced_merges_equal_clocked_merges() {
     }
     assert!(merges > 0, "no view merged");
 }
+
+/// The untraced migration (each link queue's departures worked out, not
+/// ticked) gives the clocked migration's bits, cycles and counters, waits
+/// and link queues included: along a line and around a ring, with the
+/// links sending every row or only the non-empty ones, in both orders,
+/// with write-backs that make rays wait to leave.
+#[test]
+fn untraced_migrations_equal_clocked_migrations() {
+    use pipeline::config::Mapping;
+    let (mut moved, mut waited, mut queued) = (0, 0, 0);
+    for (s, eye, fov) in cases() {
+        let prep = view(&s, eye, fov);
+        for order in [Order::BackToFront, Order::FrontToBack] {
+            for mapping in [Mapping::Blocks, Mapping::Interleave, Mapping::Cyclic] {
+                for (p, latency, sparse) in [(3u16, 1u16, false), (16, 26, true), (8, 64, false)] {
+                    let cfg = PipelineConfig {
+                        pes: p,
+                        order,
+                        mapping,
+                        datapath_latency: latency,
+                        link_skip_empty: sparse,
+                        ..PipelineConfig::default()
+                    };
+                    let whole = run(&cfg, &s, &prep, None);
+                    let clocked = run(&cfg, &s, &prep, Some(2));
+                    assert!(
+                        signature(&whole) == signature(&clocked),
+                        "eye {eye}, {order:?}, {mapping:?}, P = {p}, latency {latency}, \
+                         sparse {sparse}: the untraced migration differs ({:?} vs {:?})",
+                        whole.stages,
+                        clocked.stages
+                    );
+                    moved += whole.stages.migrate;
+                    waited += whole.pes.iter().map(|c| c.waits).sum::<u64>();
+                    queued += whole.pes.iter().map(|c| c.link_queue).sum::<u64>();
+                }
+            }
+        }
+    }
+    assert!(moved > 0 && queued > 0, "no ray migrated or queued");
+    assert!(waited > 0, "no ray waited to leave: the waits are untested");
+}

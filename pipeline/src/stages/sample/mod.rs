@@ -108,10 +108,20 @@ impl Array {
             my0: ylo,
             runs: pre_skip.then_some(&pre_runs),
         });
+        // Every held ray's scoreboard stamp was written by a sample or a
+        // migration: when none is later than now, no row can wait.
+        let lands_by = self
+            .clock
+            .pes()
+            .iter()
+            .map(|pe| pe.drained_at.max(pe.arrived_by))
+            .max()
+            .unwrap_or(0);
+        let waits = lands_by > self.clock.now();
         self.clock
             .pes_mut()
             .par_iter_mut()
-            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, ftb, pre.as_ref()));
+            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref()));
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.

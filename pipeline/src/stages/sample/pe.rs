@@ -379,12 +379,17 @@ impl Pe {
     /// is kept for [`Pe::begin_row`]. Nothing a schedule reads changes in
     /// between: the held columns stay, and a row's termination flags
     /// change only when that row samples, after it began.
+    ///
+    /// `waits` is false when no held ray's accumulators are written back
+    /// after the slice's first cycle: then no row can wait for one, and
+    /// the reports' starts are 0 instead of reading every ray's
+    /// scoreboard (the same schedule).
     pub fn plan_rows(
         &mut self,
         first_row: usize,
         n: usize,
         runs: &RowRuns,
-        ftb: bool,
+        (ftb, waits): (bool, bool),
         pre: Option<&PrePlan>,
     ) {
         let mut plan = std::mem::take(&mut self.row_plan);
@@ -393,7 +398,9 @@ impl Pe {
             let row = first_row + r;
             let (mut k, mut ready) = (0, 0);
             let terminated = self.schedule(row, runs.row(r), ftb, |j| {
-                ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
+                if waits {
+                    ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
+                }
                 k += 1;
                 plan.live.push(j);
                 if let Some(p) = pre {

@@ -3,11 +3,15 @@
 //! travels one link per cycle, one ray per link and direction per cycle,
 //! until every PE holds exactly its rays. A ray leaves only once its last
 //! sample has been written back (the datapath's scoreboard); the cycles it
-//! waits are the PE's `waits`.
+//! waits are the PE's `waits`. Untraced, a migration between slices is
+//! worked out from the link queues' departures instead (`events.rs`),
+//! with the same moves, cycles and counters.
 //!
 //! Golden has no twin of this stage: it is where the array's distribution
 //! of [`golden::sampling::slice_rays`]' rays over the PEs is kept up to
 //! date as the rays' positions move from slice to slice.
+
+mod events;
 
 use std::collections::VecDeque;
 
@@ -105,6 +109,7 @@ impl Pe {
             // Received this cycle, readable from the next (what an
             // overlapped migration's rows wait for).
             col.land[row] = now + 1;
+            self.arrived_by = now + 1;
             if let Some(f) = m.ftb {
                 col.ftb[row] = f;
             }
@@ -333,6 +338,13 @@ impl Array {
         let route = self.map.route();
         for pe in self.clock.pes_mut() {
             pe.plan_moves(&owner, route);
+        }
+        if !self.clock.tracing() && !self.clocked {
+            let start = self.clock.now();
+            let cycles = events::migrate_events(self.clock.pes_mut(), start, &owner, route);
+            self.clock.ran_untraced(Stage::Migrate, cycles);
+            self.settle_links();
+            return Ok(());
         }
         while !(self.clock.pes().iter().all(Pe::settled)
             && self

@@ -1,0 +1,183 @@
+//! The untraced migration between slices, from its link queues'
+//! departures instead of cycle by cycle: the moves, the cycles and the
+//! counters [`Pe::migrate_step`]'s clock gives (the clocked-against-untraced
+//! frame tests compare every field), at a cost per ray row moved instead
+//! of per PE and cycle.
+//!
+//! Each PE's two link queues are FIFOs that send one ray row per cycle:
+//! a row enqueued in cycle `e` whose last sample lands in `land` leaves
+//! in `d = max(free, e, land)`, `free` being the cycle after the queue's
+//! previous departure, and the cycles from `max(free, e)` to `d` are the
+//! front's waits. It arrives at the neighbour in `d + 1` (readable from
+//! `d + 2`); a column is whole with its last row, and is held there or
+//! enqueued onwards in that cycle, behind what that queue holds. A queue's
+//! enqueues come in time order, so handling every column's arrival in
+//! time order (a heap) reproduces the clock. The link queue counter sums,
+//! over the cycles, the rows queued and not sent: each row's `d - e`, less
+//! one per waiting cycle.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, VecDeque};
+
+use super::queue;
+use crate::mapping::Route;
+use crate::pe::{Pe, RayColumn, RayMove};
+
+/// A link queue of PE `k`: 0 sends left, 1 right.
+type Side = usize;
+
+/// Where a column in flight arrives: the cycle, the receiving PE, whether
+/// it came from that PE's right (the clock's step takes the left link's
+/// arrival first), then its index in the columns in flight.
+type Arrival = Reverse<(u64, usize, bool, usize)>;
+
+/// The migration's running state: each queue's next free cycle, each
+/// PE's waiting intervals, the columns in flight and the last departure.
+struct Links {
+    route: Route,
+    free: Vec<[u64; 2]>,
+    waits: Vec<Vec<(u64, u64)>>,
+    flying: Vec<Option<RayColumn>>,
+    heap: BinaryHeap<Arrival>,
+    last: Option<u64>,
+}
+
+impl Links {
+    /// The PE on `side` of `k`.
+    fn neighbour(&self, k: usize, side: Side) -> usize {
+        let p = self.free.len();
+        match (self.route, side) {
+            (Route::Line, 0) => k - 1,
+            (Route::Line, _) => k + 1,
+            (Route::Ring(_), 0) => (k + p - 1) % p,
+            (Route::Ring(_), _) => (k + 1) % p,
+        }
+    }
+
+    /// Sends `rows` (whole columns in row order, each row with the cycle
+    /// from which it may leave) from PE `k`'s queue `side`, enqueued in
+    /// cycle `e`: each row's departure, the sender's and the receiver's
+    /// counters, and each column's arrival at the neighbour.
+    fn send(
+        &mut self,
+        pes: &mut [Pe],
+        (k, side): (usize, Side),
+        rows: &mut VecDeque<(RayMove, u64)>,
+        e: u64,
+    ) {
+        if rows.is_empty() {
+            return;
+        }
+        let nb = self.neighbour(k, side);
+        let n = rows.len() as u64;
+        let mut free = self.free[k][side];
+        let mut queued = 0;
+        let mut cur: Option<RayColumn> = None;
+        for (m, land) in rows.drain(..) {
+            // The row is the queue's front from `from` on, and leaves once
+            // its last sample has been written back.
+            let from = free.max(e);
+            let d = from.max(land);
+            if d > from {
+                self.waits[k].push((from, d));
+            }
+            // Queued and not sent: every cycle from `e` to `d` but the
+            // waiting ones, in which the front is not counted.
+            queued += from - e;
+            free = d + 1;
+            // What the receiver's step does with the row in cycle `d + 1`.
+            let col =
+                cur.get_or_insert_with(|| RayColumn::empty(m.mx, m.rows as usize, m.ftb.is_some()));
+            let row = m.row as usize;
+            col.acc[row] = m.acc;
+            col.land[row] = d + 2;
+            if let Some(f) = m.ftb {
+                col.ftb[row] = f;
+            }
+            if m.prev != 0 {
+                if col.prev.is_empty() {
+                    col.prev = vec![0; col.acc.len()];
+                }
+                col.prev[row] = m.prev;
+            }
+            if m.row + 1 == m.rows {
+                let col = cur.take().expect("a column is being received");
+                let at = self.flying.len();
+                self.heap.push(Reverse((d + 1, nb, side == 0, at)));
+                self.flying.push(Some(col));
+            }
+        }
+        debug_assert!(cur.is_none(), "a queue ends with a column's last row");
+        self.free[k][side] = free;
+        self.last = Some(self.last.map_or(free - 1, |l| l.max(free - 1)));
+        pes[k].counters.rays_sent += n;
+        pes[k].counters.link_queue += queued;
+        pes[nb].counters.rays_received += n;
+        pes[nb].arrived_by = pes[nb].arrived_by.max(free + 1);
+    }
+}
+
+/// Runs the migration whose moves [`Pe::plan_moves`] queued at cycle
+/// `start` (every PE's `incoming` empty) on `pes`, to the owners `owner`
+/// gives along `route`: every ray ends in its owner, each PE's counters
+/// grow by what the clock counts. Returns the cycles the clock ticks.
+pub(super) fn migrate_events(
+    pes: &mut [Pe],
+    start: u64,
+    owner: impl Fn(i64) -> usize,
+    route: Route,
+) -> u64 {
+    debug_assert!(pes.iter().all(|pe| pe.incoming.is_empty()));
+    let p = pes.len();
+    let mut links = Links {
+        route,
+        free: vec![[start; 2]; p],
+        waits: vec![Vec::new(); p],
+        flying: Vec::new(),
+        heap: BinaryHeap::new(),
+        last: None,
+    };
+    let mut rows = VecDeque::new();
+    for k in 0..p {
+        for side in [0, 1] {
+            let q = if side == 0 {
+                &mut pes[k].out_left
+            } else {
+                &mut pes[k].out_right
+            };
+            std::mem::swap(q, &mut rows);
+            links.send(pes, (k, side), &mut rows, start);
+        }
+    }
+    while let Some(Reverse((t, k, from_right, at))) = links.heap.pop() {
+        let col = links.flying[at].take().expect("each column arrives once");
+        let dest = owner(col.mx);
+        let pe = &mut pes[k];
+        if dest == k {
+            let at = pe.rays.partition_point(|c| c.mx < col.mx);
+            pe.rays.insert(at, col);
+            continue;
+        }
+        // Passing through: on along a line, the way it came around a ring
+        // (as [`Pe::migrate_step`] forwards it).
+        let side = match route {
+            Route::Line => usize::from(dest > k),
+            Route::Ring(_) => usize::from(!from_right),
+        };
+        queue(&mut rows, col, pe.sparse_links);
+        links.send(pes, (k, side), &mut rows, t);
+    }
+    for (pe, waits) in pes.iter_mut().zip(&mut links.waits) {
+        // A cycle in which either queue's front waits counts once.
+        waits.sort_unstable();
+        let (mut n, mut upto) = (0, 0);
+        for &(a, b) in waits.iter() {
+            n += b.saturating_sub(a.max(upto));
+            upto = upto.max(b);
+        }
+        pe.counters.waits += n;
+    }
+    // The last row is received the cycle after it leaves; the clock stops
+    // after that cycle.
+    links.last.map_or(0, |d| d + 2 - start)
+}
