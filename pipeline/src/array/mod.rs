@@ -25,6 +25,7 @@ mod clock;
 mod memory;
 mod owners;
 mod run;
+mod warm;
 
 pub use clock::{Clock, Links};
 pub use memory::{run_frame_resident, Resident, VoxelLoad};
@@ -237,6 +238,9 @@ pub struct Array {
     /// A pre-integrated pass's runs of compositing and keeping rays.
     pub(crate) pre_runs: crate::stages::sample::PreRuns,
     pub(crate) run_tmp: Vec<(i64, i64)>,
+    /// The whole-slice path's buffers of each PE's edge words per row
+    /// (scratch of the model, reused from slice to slice).
+    pub(crate) edge_rows: Vec<Vec<crate::stages::sample::EdgeWords>>,
     pub(crate) skipped: SkipCounts,
     /// The external ray buffer's channel (`None` on chip).
     pub(crate) channel: Option<Channel>,
@@ -366,6 +370,7 @@ impl Array {
             runs: RowRuns::default(),
             pre_runs: Default::default(),
             run_tmp: Vec::new(),
+            edge_rows: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),
             links_from: 0,
@@ -586,9 +591,16 @@ impl Array {
             plan.stats.merge(&st);
         }
         self.host_stats.merge(&plan.stats);
-        let (raw, fmt, merges) = match self.dp.cfg.order {
-            Order::BackToFront => crate::schedule::back_to_front(&mut self, &plan)?,
-            Order::FrontToBack => crate::schedule::front_to_back(&mut self, &plan)?,
+        let order = self.dp.cfg.order;
+        let run = |a: &mut Array| match order {
+            Order::BackToFront => crate::schedule::back_to_front(a, &plan),
+            Order::FrontToBack => crate::schedule::front_to_back(a, &plan),
+        };
+        // Traced or clocked, the frame ticks on one thread.
+        let (raw, fmt, merges) = if self.clock.tracing() || self.clocked {
+            run(&mut self)?
+        } else {
+            warm::with_warm_pool(|| run(&mut self))?
         };
         let base = self.baseplane(&raw, view, fmt);
         let kept = Resident {

@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use super::{EdgeWords, Row, RowBus, RowTimes};
+use super::{Row, RowBus, RowTimes};
 use crate::array::{Array, RunError};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::StepError;
@@ -56,12 +56,9 @@ impl Array {
             .map(|(b, _)| (slice.z, b.y.0, b.y.1))
             .collect();
         let shade = self.dp.shade.is_some();
-        let edges: Vec<Vec<EdgeWords>> = self
-            .clock
-            .pes()
-            .iter()
-            .map(|pe| pe.edges_for(slice.z, &buses, shade))
-            .collect();
+        // Each PE's edge words for the slice's rows (read while the PEs
+        // planned their rows).
+        let edges = std::mem::take(&mut self.edge_rows);
         let stalls: u64 = times.stalls.iter().sum();
         let dp = &self.dp;
         let nx = self.nx;
@@ -88,6 +85,7 @@ impl Array {
                 )
             })
             .collect();
+        self.edge_rows = edges;
         for r in results {
             r?;
         }

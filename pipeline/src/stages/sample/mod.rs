@@ -34,7 +34,7 @@ use crate::probes::{Ctrl, Stage};
 /// `my`, the clamped voxel rows `y0, y0 + 1` with the y weight, the
 /// spacing-scaled y slope and the row's y position (the volume of
 /// interest's comparator reads it).
-pub(crate) type Row = (i64, (usize, usize, Fx), Fx, Fx);
+pub type Row = (i64, (usize, usize, Fx), Fx, Fx);
 
 /// The controller's plan of a slice's rows: each row's cycles (the
 /// busiest PE's count), the cycle its first sample issues, and the stall
@@ -118,10 +118,25 @@ impl Array {
             .max()
             .unwrap_or(0);
         let waits = lands_by > self.clock.now();
+        // The rows' broadcast, and for the whole-slice path each PE's edge
+        // words in them, read while it plans (one pass over the PEs).
+        let (rows, host) = self.rows(region, slice);
+        let whole = !(self.clock.tracing() || self.clocked);
+        let mut edges = std::mem::take(&mut self.edge_rows);
+        edges.resize_with(p, Vec::new);
+        let (shade, z) = (self.dp.shade.is_some(), slice.z);
+        let bus_rows = rows.as_ref().ok().filter(|_| whole);
         self.clock
             .pes_mut()
             .par_iter_mut()
-            .for_each(|pe| pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref()));
+            .zip(edges.par_iter_mut())
+            .for_each(|(pe, out)| {
+                pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref());
+                if let Some(rows) = bus_rows {
+                    pe.edges_for(z, (rows, &runs), shade, out);
+                }
+            });
+        self.edge_rows = edges;
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.
@@ -168,8 +183,9 @@ impl Array {
         let times = self.row_times(&reports);
         // The next slice's rays may start moving from here.
         self.links_from = self.clock.now();
-        let rows = self.rows(region, slice)?;
-        let r = if self.clock.tracing() || self.clocked {
+        let rows = rows?;
+        self.host_stats.merge(&host);
+        let r = if !whole {
             self.sample_clocked(region, slice, &rows, &times)
         } else {
             self.sample_whole(region, slice, &rows, &times)
@@ -231,22 +247,39 @@ impl Array {
         times
     }
 
-    /// The rows' broadcast values: voxel rows, y weight, y slope.
-    fn rows(&mut self, region: &RegionPlan, slice: &SlicePlan) -> Result<Vec<Row>, RunError> {
+    /// The rows' broadcast values: voxel rows, y weight, y slope; and the
+    /// host's quantisation events computing them (counted once the slice
+    /// samples).
+    fn rows(
+        &self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+    ) -> (Result<Vec<Row>, RunError>, QuantStats) {
+        let mut st = QuantStats::default();
+        let rows = self.rows_into(region, slice, &mut st);
+        (rows, st)
+    }
+
+    /// [`Array::rows`], counting into `st`.
+    fn rows_into(
+        &self,
+        region: &RegionPlan,
+        slice: &SlicePlan,
+        st: &mut QuantStats,
+    ) -> Result<Vec<Row>, RunError> {
         let (ylo, yhi) = slice.range[1];
         let ny = self.ny;
         let dp = &self.dp;
-        let mut st = QuantStats::default();
         let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
         for my in ylo..=yhi {
-            let y = dp.position(slice.a[1], slice.t[1], my, &mut st)?;
-            let (y0, wy) = dp.address(y, &mut st);
+            let y = dp.position(slice.a[1], slice.t[1], my, st)?;
+            let (y0, wy) = dp.address(y, st);
             let last = ny as i64 - 1;
             let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
             let sy = dp
                 .cfg
                 .position
-                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, &mut st);
+                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, st);
             rows.push((
                 my,
                 (
@@ -258,7 +291,6 @@ impl Array {
                 y,
             ));
         }
-        self.host_stats.merge(&st);
         Ok(rows)
     }
 

@@ -8,7 +8,7 @@ use crate::config::Order;
 use crate::datapath::{Datapath, KernelRow, SampleTrace, Tally};
 use crate::fixed::{Fx, QuantStats};
 use crate::host::SlicePlan;
-use crate::pe::{Pe, Ports, StepError};
+use crate::pe::{Pe, Ports, StepError, VoxelMem};
 use crate::shading::{outer_rows, Halo, Taps};
 
 use super::preint::PrePlan;
@@ -683,14 +683,63 @@ impl Pe {
         Ok(t)
     }
 
-    /// The edge words this PE presents during each of `rows`: what its
-    /// neighbours receive over the ports in that row. Reads nothing it
-    /// would not drive anyway; the reads are counted by
+    /// The edge words this PE presents during each of a slice's rows
+    /// (`z` and each row's voxel rows `y0`, `y0 + 1`) that has runs (the
+    /// others take no cycle, so nothing reads theirs, left default) into
+    /// `out`: what its neighbours receive over the ports in that row. Reads nothing
+    /// it would not drive anyway; the reads are counted by
     /// [`Pe::latch_edges`].
-    pub fn edges_for(&self, z: usize, rows: &[RowBus], shade: bool) -> Vec<EdgeWords> {
-        rows.iter()
-            .map(|r| self.edge_words((z, r.y.0, r.y.1), shade))
-            .collect()
+    pub fn edges_for(
+        &self,
+        z: usize,
+        (rows, runs): (&[super::Row], &RowRuns),
+        shade: bool,
+        out: &mut Vec<EdgeWords>,
+    ) {
+        out.clear();
+        if shade || self.cols.is_empty() {
+            out.extend(rows.iter().enumerate().map(|(r, &(_, (y0, y1, _), _, _))| {
+                if runs.row(r).is_empty() {
+                    EdgeWords::default()
+                } else {
+                    self.edge_words((z, y0, y1), shade)
+                }
+            }));
+            return;
+        }
+        // Without shading only the first column's two words go left (what
+        // `edge_words` reads), here straight from the memory.
+        let w = self.cols.len();
+        let base = z * self.ny;
+        fn words(
+            (rows, runs): (&[super::Row], &RowRuns),
+            (base, w): (usize, usize),
+            read: impl Fn(usize) -> u16,
+            out: &mut Vec<EdgeWords>,
+        ) {
+            out.extend(rows.iter().enumerate().map(|(r, &(_, (y0, y1, _), _, _))| {
+                if runs.row(r).is_empty() {
+                    EdgeWords::default()
+                } else {
+                    EdgeWords {
+                        left: [read((base + y0) * w), read((base + y1) * w)],
+                        ..EdgeWords::default()
+                    }
+                }
+            }));
+        }
+        match &self.mem {
+            VoxelMem::Words(m) => words((rows, runs), (base, w), |i| m[i], out),
+            VoxelMem::Codes {
+                codes,
+                words: table,
+            } => words(
+                (rows, runs),
+                (base, w),
+                |i| table[usize::from(codes[i])],
+                out,
+            ),
+        }
     }
 
     /// Steps the edge registers through `seq`, the rows the bus announces
