@@ -198,15 +198,35 @@ pub fn run(
         Option<&golden::voi::Voi>,
         Option<&golden::preint::PreTable>,
     ),
+    spare: &mut Option<pipeline::Resident>,
 ) -> Result<PipelineRun> {
     let tr = tracer(a)?;
     let t = Instant::now();
+    // The previous frame's memories only lend their buffers: this frame
+    // loads the volume again, as a fresh one does.
+    let mut resident = spare.take().map(pipeline::Resident::stale);
     let frame = match preint {
-        Some(pt) => pipeline::run_frame_preint(cfg, data_bits, lut, prep, (pt, skips), tr)?,
-        None => {
-            pipeline::run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, voi), tr)?
-        }
+        Some(pt) => pipeline::run_frame_preint_resident(
+            cfg,
+            data_bits,
+            lut,
+            prep,
+            (pt, skips),
+            tr,
+            &mut resident,
+        )?,
+        None => pipeline::run_frame_resident(
+            cfg,
+            data_bits,
+            lut,
+            prep,
+            skips,
+            (shade, voi),
+            tr,
+            &mut resident,
+        )?,
     };
+    *spare = resident;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
     if let Some(p) = &a.raw_npy {

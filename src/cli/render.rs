@@ -382,6 +382,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         .then(|| golden::preint::PreTable::new(&lut));
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
+        let mut spare = None;
         timed(a.repeat, || {
             chip::run(
                 &a.pipeline,
@@ -395,6 +396,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
                     voi.as_ref(),
                     preint.as_ref(),
                 ),
+                &mut spare,
             )
         })?
     };

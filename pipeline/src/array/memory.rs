@@ -21,6 +21,7 @@
 //! busiest PE's words at one word a cycle through its memory's write port.
 
 use golden::geometry::{AxisMap, View};
+use rayon::prelude::*;
 use waves::Tracer;
 
 use crate::config::PipelineConfig;
@@ -34,7 +35,9 @@ use super::{Array, Frame, RunError};
 /// The PE memories a frame ran with, kept for the next frame
 /// ([`run_frame_resident`]).
 pub struct Resident {
-    pub(crate) key: Key,
+    /// What the memories hold (`None`: to be loaded again, into these
+    /// buffers).
+    pub(crate) key: Option<Key>,
     pub(crate) mems: Vec<VoxelMem>,
     /// The host's quantisation events when it loaded them: a frame that
     /// reuses them reports them again, so its stats equal a fresh frame's
@@ -43,6 +46,14 @@ pub struct Resident {
 }
 
 impl Resident {
+    /// The same memories as spare buffers: the next frame loads its
+    /// volume again (a fresh frame's load, stats and cycles), into these
+    /// allocations instead of new ones, as golden's repeated frames
+    /// recycle their buffers.
+    pub fn stale(self) -> Resident {
+        Resident { key: None, ..self }
+    }
+
     /// Voxel words held over all PEs (aprons included).
     pub fn words(&self) -> u64 {
         self.mems.iter().map(|m| m.len() as u64).sum()
@@ -184,31 +195,43 @@ pub(super) fn run_resident(
 }
 
 /// Every PE's voxel memory (PE `k` holding columns `held[k]`, ascending),
-/// read from `source` in one pass, a row at a time: each voxel is
-/// quantised once (its events counted in `st`, as the host's) and written
-/// to every PE holding its column (its owner and, under a round-robin
-/// mapping, the neighbours whose aprons include it).
+/// read from `source` a row at a time: each voxel is quantised once (its
+/// events counted in `st`, as the host's) and written to every PE holding
+/// its column (its owner and, under a round-robin mapping, the neighbours
+/// whose aprons include it). The memories are built in `spare`'s buffers
+/// where it has them (a previous frame's, [`Resident::stale`]); 8-bit
+/// data loads slice by slice in parallel.
 pub(super) fn load_memories(
     cfg: &PipelineConfig,
     source: VoxelSource,
     data_bits: u32,
     held: &[Vec<usize>],
     [nx, ny, nz]: [usize; 3],
-    st: &mut QuantStats,
+    (st, spare): (&mut QuantStats, Vec<VoxelMem>),
 ) -> Vec<VoxelMem> {
+    // The spare memories' allocations, by PE: filling pages already
+    // mapped costs no page faults.
+    let mut spare = spare.into_iter();
+    let mut buffers = |n: usize| -> (Vec<u8>, Vec<u16>) {
+        let (mut b, mut w) = match spare.next() {
+            Some(VoxelMem::Codes { codes, .. }) => (codes, Vec::new()),
+            Some(VoxelMem::Words(w)) => (Vec::new(), w),
+            None => (Vec::new(), Vec::new()),
+        };
+        b.clear();
+        w.clear();
+        if data_bits <= 8 {
+            b.reserve(n);
+        } else {
+            w.reserve(n);
+        }
+        (b, w)
+    };
     let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
-    let mut row = vec![0u16; nx];
     if data_bits <= 8 {
         let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
             word(v as u16, &mut QuantStats::default())
         }));
-        let mut codes: Vec<Vec<u8>> = held
-            .iter()
-            .map(|h| Vec::with_capacity(h.len() * ny * nz))
-            .collect();
-        // Each voxel's word is the table's; its quantisation events are
-        // its code's, counted once per code times the code's voxels.
-        let mut count = [0u64; 256];
         // A PE holding consecutive columns (a block) copies its part of a
         // row at once.
         let blocks: Vec<Option<std::ops::Range<usize>>> = held
@@ -218,33 +241,107 @@ pub(super) fn load_memories(
                 (b - a + 1 == h.len()).then_some(a..b + 1)
             })
             .collect();
-        for z in 0..nz {
-            for y in 0..ny {
-                if let Some(bytes) = source.row_bytes(y, z, nx) {
-                    for &v in bytes {
-                        count[usize::from(v)] += 1;
-                    }
-                    for ((mem, cols), block) in codes.iter_mut().zip(held).zip(&blocks) {
-                        match block {
-                            Some(r) => mem.extend_from_slice(&bytes[r.clone()]),
-                            None => mem.extend(cols.iter().map(|&c| bytes[c])),
-                        }
-                    }
-                    continue;
-                }
-                source.row(y, z, &mut row);
-                for &v in &row {
-                    count[usize::from(v)] += 1;
-                }
-                for (mem, cols) in codes.iter_mut().zip(held) {
-                    // 8-bit data: every scalar is below 256.
-                    mem.extend(cols.iter().map(|&c| row[c] as u8));
-                }
+        // Slice by slice in parallel: slice `z` fills part `z` of every
+        // PE's memory (`[z][y][l]`), each row read once, and counts its
+        // voxels' codes.
+        let mut codes: Vec<Vec<u8>> = held
+            .iter()
+            .map(|h| {
+                let mut b = buffers(h.len() * ny * nz).0;
+                b.resize(h.len() * ny * nz, 0);
+                b
+            })
+            .collect();
+        let mut parts: Vec<Vec<&mut [u8]>> =
+            (0..nz).map(|_| Vec::with_capacity(held.len())).collect();
+        for (mem, h) in codes.iter_mut().zip(held) {
+            // A PE holding no column has an empty memory.
+            if h.is_empty() {
+                parts.iter_mut().for_each(|p| p.push(&mut []));
+                continue;
+            }
+            for (part, z) in mem.chunks_mut(h.len() * ny).zip(parts.iter_mut()) {
+                z.push(part);
             }
         }
-        for (v, &n) in count.iter().enumerate() {
-            let mut one = QuantStats::default();
-            word(v as u16, &mut one);
+        // When every code quantises alike (its word is exact and in range,
+        // say), the events are the voxels' count times one code's, and the
+        // codes need no counting.
+        let events: Vec<QuantStats> = (0..256u16)
+            .map(|v| {
+                let mut one = QuantStats::default();
+                word(v, &mut one);
+                one
+            })
+            .collect();
+        let uniform = events.iter().all(|e| *e == events[0]);
+        let count = parts
+            .into_par_iter()
+            .enumerate()
+            .map(|(z, mut part)| {
+                let mut row = vec![0u16; nx];
+                // Four interleaved counts: a run of equal voxels would
+                // otherwise chain every increment through one counter.
+                let mut c = [[0u64; 256]; 4];
+                for y in 0..ny {
+                    let bytes = match source.row_bytes(y, z, nx) {
+                        Some(bytes) => bytes,
+                        None => {
+                            source.row(y, z, &mut row);
+                            // 8-bit data: every scalar is below 256.
+                            if !uniform {
+                                for (i, &v) in row.iter().enumerate() {
+                                    c[i & 3][usize::from(v)] += 1;
+                                }
+                            }
+                            for ((mem, cols), _) in part.iter_mut().zip(held).zip(&blocks) {
+                                let w = cols.len();
+                                for (o, &x) in mem[y * w..(y + 1) * w].iter_mut().zip(cols) {
+                                    *o = row[x] as u8;
+                                }
+                            }
+                            continue;
+                        }
+                    };
+                    if !uniform {
+                        for (i, &v) in bytes.iter().enumerate() {
+                            c[i & 3][usize::from(v)] += 1;
+                        }
+                    }
+                    for ((mem, cols), block) in part.iter_mut().zip(held).zip(&blocks) {
+                        let w = cols.len();
+                        let out = &mut mem[y * w..(y + 1) * w];
+                        match block {
+                            Some(r) => out.copy_from_slice(&bytes[r.clone()]),
+                            None => {
+                                for (o, &x) in out.iter_mut().zip(cols) {
+                                    *o = bytes[x];
+                                }
+                            }
+                        }
+                    }
+                }
+                let mut out = [0u64; 256];
+                for (v, o) in out.iter_mut().enumerate() {
+                    *o = c.iter().map(|c| c[v]).sum();
+                }
+                out
+            })
+            .reduce(
+                || [0u64; 256],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(&b) {
+                        *x += y;
+                    }
+                    a
+                },
+            );
+        let mut count = count;
+        if uniform {
+            count = [0; 256];
+            count[0] = (nx * ny * nz) as u64;
+        }
+        for (one, &n) in events.iter().zip(&count) {
             st.merge(&QuantStats {
                 assignments: one.assignments * n,
                 overflows: one.overflows * n,
@@ -259,10 +356,8 @@ pub(super) fn load_memories(
             })
             .collect();
     }
-    let mut words: Vec<Vec<u16>> = held
-        .iter()
-        .map(|h| Vec::with_capacity(h.len() * ny * nz))
-        .collect();
+    let mut row = vec![0u16; nx];
+    let mut words: Vec<Vec<u16>> = held.iter().map(|h| buffers(h.len() * ny * nz).1).collect();
     for z in 0..nz {
         for y in 0..ny {
             source.row(y, z, &mut row);
@@ -327,7 +422,17 @@ mod tests {
     /// quantising voxel by voxel gives.
     #[test]
     fn memories_hold_their_columns_words() {
-        for kind in [VoxelType::U8, VoxelType::U16] {
+        use crate::fixed::{Format, Overflow, Quant};
+        // The default voxel word holds every scalar exactly; a 6-bit one
+        // rounds some codes and not others (their events differ).
+        let narrow = Format::new(6, 0, false, Quant::Rnd, Overflow::Sat).unwrap();
+        let mut spare = Vec::new();
+        for (kind, voxel) in [
+            (VoxelType::U8, None),
+            (VoxelType::U8, Some(narrow)),
+            (VoxelType::U16, None),
+            (VoxelType::U16, Some(narrow)),
+        ] {
             let s = stack(kind);
             let src = VoxelSource::Stack(&s);
             let [nx, ny, nz] = s.dims;
@@ -336,13 +441,18 @@ mod tests {
                 (Mapping::Blocks, 3),
                 (Mapping::Cyclic, 2),
                 (Mapping::Interleave, 4),
+                (Mapping::Blocks, 9),
             ] {
                 let mut cfg = PipelineConfig::default();
                 (cfg.mapping, cfg.pes, cfg.cyclic_width) = (mapping, pes, 2);
+                if let Some(v) = voxel {
+                    cfg.voxel = v;
+                }
                 let map = ColumnMap::of(&cfg, nx);
                 let held: Vec<Vec<usize>> = (0..usize::from(pes)).map(|k| map.held(k)).collect();
                 let mut st = QuantStats::default();
-                let mems = load_memories(&cfg, src, bits, &held, s.dims, &mut st);
+                // Loaded into the previous case's buffers (any sizes).
+                let mems = load_memories(&cfg, src, bits, &held, s.dims, (&mut st, spare));
                 let mut want_st = QuantStats::default();
                 for z in 0..nz {
                     for y in 0..ny {
@@ -351,7 +461,8 @@ mod tests {
                         }
                     }
                 }
-                assert_eq!(st, want_st, "{kind:?} {mapping:?}");
+                assert_eq!(st, want_st, "{kind:?} {voxel:?} {mapping:?}");
+                assert!(voxel.is_none() || want_st.inexact > 0, "the narrow word rounds");
                 for (k, (mem, cols)) in mems.iter().zip(&held).enumerate() {
                     assert_eq!(mem.len(), cols.len() * ny * nz);
                     for z in 0..nz {
@@ -366,12 +477,13 @@ mod tests {
                                 let got = mem.get((z * ny + y) * cols.len() + l);
                                 assert_eq!(
                                     got, want,
-                                    "{kind:?} {mapping:?} PE {k} ({c}, {y}, {z})"
+                                    "{kind:?} {voxel:?} {mapping:?} PE {k} ({c}, {y}, {z})"
                                 );
                             }
                         }
                     }
                 }
+                spare = mems;
             }
         }
     }

@@ -325,11 +325,19 @@ impl Array {
         let map = ColumnMap::of(cfg, nx);
         let held: Vec<Vec<usize>> = (0..p).map(|k| map.held(k)).collect();
         let key = memory::Key::of(cfg, data_bits, view);
-        let (mems, load_stats, reused) = match resident.filter(|r| r.key == key) {
-            Some(r) => (r.mems, r.stats, true),
-            None => {
+        let (mems, load_stats, reused) = match resident {
+            Some(r) if r.key.as_ref() == Some(&key) => (r.mems, r.stats, true),
+            other => {
                 let mut st = QuantStats::default();
-                let mems = memory::load_memories(cfg, source, data_bits, &held, view.dims, &mut st);
+                let spare = other.map(|r| r.mems).unwrap_or_default();
+                let mems = memory::load_memories(
+                    cfg,
+                    source,
+                    data_bits,
+                    &held,
+                    view.dims,
+                    (&mut st, spare),
+                );
                 (mems, st, false)
             }
         };
@@ -604,7 +612,7 @@ impl Array {
         };
         let base = self.baseplane(&raw, view, fmt);
         let kept = Resident {
-            key: self.resident_key.clone(),
+            key: Some(self.resident_key.clone()),
             mems: self
                 .clock
                 .pes_mut()
