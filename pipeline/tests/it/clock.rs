@@ -23,7 +23,23 @@ fn view(s: &Subject, eye: DVec3, fov: f64) -> Prepared {
 }
 
 fn run(cfg: &PipelineConfig, s: &Subject, prep: &Prepared, clocked: Option<u64>) -> Frame {
+    run_with(cfg, s, prep, clocked, false)
+}
+
+/// [`run`], pre-integrated when `preint` (its rays carry their previous
+/// samples over the links).
+fn run_with(
+    cfg: &PipelineConfig,
+    s: &Subject,
+    prep: &Prepared,
+    clocked: Option<u64>,
+    preint: bool,
+) -> Frame {
     let mut a = Array::new(cfg, &s.vol, &s.lut, &prep.view, Tracer::disabled()).expect("array");
+    if preint {
+        a.set_preint(&golden::preint::PreTable::new(&s.lut))
+            .expect("pre-integration");
+    }
     if let Some(seed) = clocked {
         let n = usize::from(cfg.pes);
         // A rotation of the natural order: any order must give the same.
@@ -222,14 +238,20 @@ fn untraced_merges_equal_clocked_merges() {
 /// ticked) gives the clocked migration's bits, cycles and counters, waits
 /// and link queues included: along a line and around a ring, with the
 /// links sending every row or only the non-empty ones, in both orders,
-/// with write-backs that make rays wait to leave.
+/// with write-backs that make rays wait to leave, and pre-integrated
+/// (the rays carry their previous samples).
 #[test]
 fn untraced_migrations_equal_clocked_migrations() {
     use pipeline::config::Mapping;
     let (mut moved, mut waited, mut queued) = (0, 0, 0);
     for (s, eye, fov) in cases() {
         let prep = view(&s, eye, fov);
-        for order in [Order::BackToFront, Order::FrontToBack] {
+        for (order, preint) in [
+            (Order::BackToFront, false),
+            (Order::FrontToBack, false),
+            (Order::BackToFront, true),
+            (Order::FrontToBack, true),
+        ] {
             for mapping in [Mapping::Blocks, Mapping::Interleave, Mapping::Cyclic] {
                 for (p, latency, sparse) in [(3u16, 1u16, false), (16, 26, true), (8, 64, false)] {
                     let cfg = PipelineConfig {
@@ -240,12 +262,13 @@ fn untraced_migrations_equal_clocked_migrations() {
                         link_skip_empty: sparse,
                         ..PipelineConfig::default()
                     };
-                    let whole = run(&cfg, &s, &prep, None);
-                    let clocked = run(&cfg, &s, &prep, Some(2));
+                    let whole = run_with(&cfg, &s, &prep, None, preint);
+                    let clocked = run_with(&cfg, &s, &prep, Some(2), preint);
                     assert!(
                         signature(&whole) == signature(&clocked),
                         "eye {eye}, {order:?}, {mapping:?}, P = {p}, latency {latency}, \
-                         sparse {sparse}: the untraced migration differs ({:?} vs {:?})",
+                         sparse {sparse}, preint {preint}: the untraced migration differs \
+                         ({:?} vs {:?})",
                         whole.stages,
                         clocked.stages
                     );

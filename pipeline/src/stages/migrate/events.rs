@@ -2,7 +2,8 @@
 //! departures instead of cycle by cycle: the moves, the cycles and the
 //! counters [`Pe::migrate_step`]'s clock gives (the clocked-against-untraced
 //! frame tests compare every field), at a cost per ray row moved instead
-//! of per PE and cycle.
+//! of per PE and cycle, and with each column moved whole (what the
+//! receiver rebuilds from its rows).
 //!
 //! Each PE's two link queues are FIFOs that send one ray row per cycle:
 //! a row enqueued in cycle `e` whose last sample lands in `land` leaves
@@ -17,11 +18,11 @@
 //! one per waiting cycle.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, VecDeque};
+use std::collections::BinaryHeap;
 
-use super::queue;
+use super::stays;
 use crate::mapping::Route;
-use crate::pe::{Pe, RayColumn, RayMove};
+use crate::pe::{Pe, RayColumn};
 
 /// A link queue of PE `k`: 0 sends left, 1 right.
 type Side = usize;
@@ -54,30 +55,28 @@ impl Links {
         }
     }
 
-    /// Sends `rows` (whole columns in row order, each row with the cycle
-    /// from which it may leave) from PE `k`'s queue `side`, enqueued in
-    /// cycle `e`: each row's departure, the sender's and the receiver's
-    /// counters, and each column's arrival at the neighbour.
-    fn send(
-        &mut self,
-        pes: &mut [Pe],
-        (k, side): (usize, Side),
-        rows: &mut VecDeque<(RayMove, u64)>,
-        e: u64,
-    ) {
-        if rows.is_empty() {
-            return;
-        }
+    /// Sends column `c` from PE `k`'s queue `side`, enqueued in cycle `e`,
+    /// row by row as [`super::queue`] splits it: each row's departure, the
+    /// sender's and the receiver's counters, and the column's arrival at
+    /// the neighbour (the column as the receiver rebuilds it from the
+    /// moves: each sent row readable from the cycle after it arrives, the
+    /// rows left behind never written, the previous samples kept only when
+    /// one is not zero).
+    fn send(&mut self, pes: &mut [Pe], (k, side): (usize, Side), mut c: RayColumn, e: u64) {
         let nb = self.neighbour(k, side);
-        let n = rows.len() as u64;
+        let sparse = pes[k].sparse_links;
+        let rows = c.acc.len();
         let mut free = self.free[k][side];
-        let mut queued = 0;
-        let mut cur: Option<RayColumn> = None;
-        for (m, land) in rows.drain(..) {
+        let (mut queued, mut n) = (0, 0);
+        for row in 0..rows {
+            if sparse && stays(&c, row) {
+                c.land[row] = 0;
+                continue;
+            }
             // The row is the queue's front from `from` on, and leaves once
             // its last sample has been written back.
             let from = free.max(e);
-            let d = from.max(land);
+            let d = from.max(c.land[row]);
             if d > from {
                 self.waits[k].push((from, d));
             }
@@ -85,29 +84,20 @@ impl Links {
             // waiting ones, in which the front is not counted.
             queued += from - e;
             free = d + 1;
-            // What the receiver's step does with the row in cycle `d + 1`.
-            let col =
-                cur.get_or_insert_with(|| RayColumn::empty(m.mx, m.rows as usize, m.ftb.is_some()));
-            let row = m.row as usize;
-            col.acc[row] = m.acc;
-            col.land[row] = d + 2;
-            if let Some(f) = m.ftb {
-                col.ftb[row] = f;
-            }
-            if m.prev != 0 {
-                if col.prev.is_empty() {
-                    col.prev = vec![0; col.acc.len()];
-                }
-                col.prev[row] = m.prev;
-            }
-            if m.row + 1 == m.rows {
-                let col = cur.take().expect("a column is being received");
-                let at = self.flying.len();
-                self.heap.push(Reverse((d + 1, nb, side == 0, at)));
-                self.flying.push(Some(col));
-            }
+            // Received in `d + 1`, readable from the next cycle.
+            c.land[row] = d + 2;
+            n += 1;
         }
-        debug_assert!(cur.is_none(), "a queue ends with a column's last row");
+        if n == 0 {
+            // A column without rows sends nothing (nor does the clock).
+            return;
+        }
+        if c.prev.iter().all(|&p| p == 0) {
+            c.prev = Vec::new();
+        }
+        let at = self.flying.len();
+        self.heap.push(Reverse((free, nb, side == 0, at)));
+        self.flying.push(Some(c));
         self.free[k][side] = free;
         self.last = Some(self.last.map_or(free - 1, |l| l.max(free - 1)));
         pes[k].counters.rays_sent += n;
@@ -117,17 +107,17 @@ impl Links {
     }
 }
 
-/// Runs the migration whose moves [`Pe::plan_moves`] queued at cycle
-/// `start` (every PE's `incoming` empty) on `pes`, to the owners `owner`
-/// gives along `route`: every ray ends in its owner, each PE's counters
-/// grow by what the clock counts. Returns the cycles the clock ticks.
+/// Runs the migration to the owners `owner` gives along `route` on
+/// `pes` from cycle `start` (every PE's link queues and `incoming` empty):
+/// every ray ends in its owner, each PE's counters grow by what the clock
+/// counts. Returns the cycles the clock ticks.
 pub(super) fn migrate_events(
     pes: &mut [Pe],
     start: u64,
     owner: impl Fn(i64) -> usize,
     route: Route,
 ) -> u64 {
-    debug_assert!(pes.iter().all(|pe| pe.incoming.is_empty()));
+    debug_assert!(pes.iter().all(Pe::settled));
     let p = pes.len();
     let mut links = Links {
         route,
@@ -137,16 +127,12 @@ pub(super) fn migrate_events(
         heap: BinaryHeap::new(),
         last: None,
     };
-    let mut rows = VecDeque::new();
     for k in 0..p {
-        for side in [0, 1] {
-            let q = if side == 0 {
-                &mut pes[k].out_left
-            } else {
-                &mut pes[k].out_right
-            };
-            std::mem::swap(q, &mut rows);
-            links.send(pes, (k, side), &mut rows, start);
+        let leaving = pes[k].take_leaving(&owner, route);
+        for (side, cols) in leaving.into_iter().enumerate() {
+            for c in cols {
+                links.send(pes, (k, side), c, start);
+            }
         }
     }
     while let Some(Reverse((t, k, from_right, at))) = links.heap.pop() {
@@ -164,8 +150,7 @@ pub(super) fn migrate_events(
             Route::Line => usize::from(dest > k),
             Route::Ring(_) => usize::from(!from_right),
         };
-        queue(&mut rows, col, pe.sparse_links);
-        links.send(pes, (k, side), &mut rows, t);
+        links.send(pes, (k, side), col, t);
     }
     for (pe, waits) in pes.iter_mut().zip(&mut links.waits) {
         // A cycle in which either queue's front waits counts once.

@@ -21,18 +21,38 @@ use crate::datapath::Acc;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
 use crate::pe::{FtbState, Pe, Ports, RayColumn, RayMove};
+use events::migrate_events;
 use crate::probes::{Ctrl, Stage};
 
 impl Pe {
     /// Queues every held column whose owner for the next slice is another
     /// PE, given the owner function and the `route`: the PE's
     /// combinational look at its rays when the controller starts a
-    /// migration. Along a line the owners grow with the ray index, so only
-    /// the ends can leave; around a ring any block's ends can. Leftward
-    /// columns queue in ascending `mx`, rightward ones in descending.
+    /// migration ([`Pe::take_leaving`]), each column split into its ray
+    /// moves.
     pub fn plan_moves(&mut self, owner: impl Fn(i64) -> usize, route: Route) {
+        let [left, right] = self.take_leaving(owner, route);
+        for c in left {
+            queue(&mut self.out_left, c, self.sparse_links);
+        }
+        for c in right {
+            queue(&mut self.out_right, c, self.sparse_links);
+        }
+    }
+
+    /// Takes every held column whose owner for the next slice is another
+    /// PE out of the held ones: those going left, then right, each in the
+    /// order they queue. Along a line the owners grow with the ray index,
+    /// so only the ends can leave; around a ring any block's ends can.
+    /// Leftward columns queue in ascending `mx`, rightward ones in
+    /// descending.
+    pub fn take_leaving(
+        &mut self,
+        owner: impl Fn(i64) -> usize,
+        route: Route,
+    ) -> [Vec<RayColumn>; 2] {
+        let (mut left, mut right) = (Vec::new(), Vec::new());
         if route != Route::Line {
-            let mut right = Vec::new();
             let held = std::mem::take(&mut self.rays);
             for c in held {
                 let dest = owner(c.mx);
@@ -41,28 +61,25 @@ impl Pe {
                 } else if route.rightwards(self.k, dest) {
                     right.push(c);
                 } else {
-                    queue(&mut self.out_left, c, self.sparse_links);
+                    left.push(c);
                 }
             }
-            for c in right.into_iter().rev() {
-                queue(&mut self.out_right, c, self.sparse_links);
-            }
-            return;
+            right.reverse();
+            return [left, right];
         }
         while let Some(c) = self.rays.front() {
             if owner(c.mx) >= self.k {
                 break;
             }
-            let c = self.rays.pop_front().expect("front exists");
-            queue(&mut self.out_left, c, self.sparse_links);
+            left.push(self.rays.pop_front().expect("front exists"));
         }
         while let Some(c) = self.rays.back() {
             if owner(c.mx) <= self.k {
                 break;
             }
-            let c = self.rays.pop_back().expect("back exists");
-            queue(&mut self.out_right, c, self.sparse_links);
+            right.push(self.rays.pop_back().expect("back exists"));
         }
+        [left, right]
     }
 
     /// One migration clock of one lane at cycle `now`: receives what the
@@ -174,25 +191,29 @@ impl Pe {
     }
 }
 
+/// Whether row `row` of column `c` stays behind on sparse links: it holds
+/// nothing (transparent accumulators and, front to back, nothing inherited
+/// and no termination; pre-integrated, a zero previous sample) and is not
+/// the column's last row, which always goes (it closes the column at the
+/// receiver).
+fn stays(c: &RayColumn, row: usize) -> bool {
+    row + 1 < c.acc.len()
+        && c.acc[row] == Acc::default()
+        && c.ftb.get(row).is_none_or(|f| *f == FtbState::default())
+        && c.prev.get(row).is_none_or(|&p| p == 0)
+}
+
 /// Splits a column into ray moves, row by row, each with the cycle from
-/// which it may leave.
-/// With `sparse`, rows that hold nothing (transparent accumulators and,
-/// front to back, nothing inherited and no termination; pre-integrated,
-/// a zero previous sample) stay behind, but
-/// the last row always goes: it closes the column at the receiver.
+/// which it may leave; with `sparse`, without the rows that stay behind
+/// ([`stays`]).
 fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
     let rows = c.acc.len() as u32;
-    for (row, acc) in c.acc.into_iter().enumerate() {
-        let ftb = c.ftb.get(row).copied();
-        let prev = c.prev.get(row).copied().unwrap_or(0);
-        if sparse
-            && row + 1 < rows as usize
-            && acc == Acc::default()
-            && ftb.is_none_or(|f| f == FtbState::default())
-            && prev == 0
-        {
+    for row in 0..rows as usize {
+        if sparse && stays(&c, row) {
             continue;
         }
+        let (acc, ftb) = (c.acc[row], c.ftb.get(row).copied());
+        let prev = c.prev.get(row).copied().unwrap_or(0);
         let mv = RayMove {
             mx: c.mx,
             row: row as u32,
@@ -336,15 +357,15 @@ impl Array {
             return Ok(());
         }
         let route = self.map.route();
-        for pe in self.clock.pes_mut() {
-            pe.plan_moves(&owner, route);
-        }
         if !self.clock.tracing() && !self.clocked {
             let start = self.clock.now();
-            let cycles = events::migrate_events(self.clock.pes_mut(), start, &owner, route);
+            let cycles = migrate_events(self.clock.pes_mut(), start, &owner, route);
             self.clock.ran_untraced(Stage::Migrate, cycles);
             self.settle_links();
             return Ok(());
+        }
+        for pe in self.clock.pes_mut() {
+            pe.plan_moves(&owner, route);
         }
         while !(self.clock.pes().iter().all(Pe::settled)
             && self
