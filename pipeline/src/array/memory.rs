@@ -462,7 +462,10 @@ mod tests {
                     }
                 }
                 assert_eq!(st, want_st, "{kind:?} {voxel:?} {mapping:?}");
-                assert!(voxel.is_none() || want_st.inexact > 0, "the narrow word rounds");
+                assert!(
+                    voxel.is_none() || want_st.inexact > 0,
+                    "the narrow word rounds"
+                );
                 for (k, (mem, cols)) in mems.iter().zip(&held).enumerate() {
                     assert_eq!(mem.len(), cols.len() * ny * nz);
                     for z in 0..nz {

@@ -21,8 +21,8 @@ use crate::datapath::Acc;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
 use crate::pe::{FtbState, Pe, Ports, RayColumn, RayMove};
-use events::migrate_events;
 use crate::probes::{Ctrl, Stage};
+use events::migrate_events;
 
 impl Pe {
     /// Queues every held column whose owner for the next slice is another

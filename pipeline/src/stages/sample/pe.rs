@@ -394,6 +394,28 @@ impl Pe {
     ) {
         let mut plan = std::mem::take(&mut self.row_plan);
         plan.clear();
+        if !ftb && !waits && pre.is_none() {
+            // Nothing to look at per ray (no termination flag, no
+            // scoreboard, no step flags): a row's columns are the held
+            // ones inside its runs, found by their ends.
+            let (first, count) = self.active;
+            let active = &self.rays.make_contiguous()[first..first + count];
+            for r in 0..n {
+                let start = plan.live.len();
+                let mut from = 0;
+                for &(lo, hi) in runs.row(r) {
+                    let a = from + active[from..].partition_point(|c| c.mx < lo);
+                    let b = a + active[a..].partition_point(|c| c.mx <= hi);
+                    plan.live.extend(first + a..first + b);
+                    from = b;
+                }
+                plan.ends.push(plan.live.len());
+                plan.terminated.push(0);
+                plan.reports.push((plan.live.len() - start, 0));
+            }
+            self.row_plan = plan;
+            return;
+        }
         for r in 0..n {
             let row = first_row + r;
             let (mut k, mut ready) = (0, 0);
@@ -829,5 +851,52 @@ impl Pe {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::ColumnMap;
+    use crate::pe::RayColumn;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+        /// Without termination flags, scoreboards or step flags, the row
+        /// plan found from the runs' ends is the plan visiting ray by ray
+        /// (which the scoreboard-reading plan does, every ray written back).
+        #[test]
+        fn a_plan_by_run_ends_is_the_plan_by_rays(
+            mxs in proptest::collection::btree_set(-40i64..40, 0..30),
+            rows in proptest::collection::vec(
+                proptest::collection::vec((-50i64..50, 0i64..12), 0..5), 1..6),
+            skip in 0usize..4,
+        ) {
+            let dims = [8, 6, 2];
+            let mut pe = Pe::new(0, ColumnMap::blocks(1, 8), &(0..8).collect::<Vec<_>>(),
+                VoxelMem::Words(vec![0; 8 * 6 * 2]), dims);
+            pe.set_rays(mxs.iter().map(|&mx| RayColumn::empty(mx, 6, false)).collect());
+            let held = pe.rays.len();
+            pe.active = (skip.min(held), held - skip.min(held));
+            let mut runs = RowRuns::default();
+            for row in &rows {
+                // Ascending, disjoint runs from starts and lengths.
+                let mut at = i64::MIN;
+                let mut row_runs = Vec::new();
+                for &(lo, len) in row {
+                    let lo = lo.max(at);
+                    row_runs.push((lo, lo + len));
+                    at = lo + len + 1;
+                }
+                runs.push_row(&row_runs);
+            }
+            let n = rows.len();
+            pe.plan_rows(0, n, &runs, (false, false), None);
+            let fast = (pe.row_plan.live.clone(), pe.row_plan.ends.clone(), pe.row_plan.reports.clone());
+            pe.plan_rows(0, n, &runs, (false, true), None);
+            let slow = (pe.row_plan.live.clone(), pe.row_plan.ends.clone(), pe.row_plan.reports.clone());
+            prop_assert_eq!(fast, slow);
+        }
     }
 }
