@@ -212,7 +212,7 @@ pub(super) fn load_memories(
     // The spare memories' allocations, by PE: filling pages already
     // mapped costs no page faults.
     let mut spare = spare.into_iter();
-    let mut buffers = |n: usize| -> (Vec<u8>, Vec<u16>) {
+    let mut buffers = || -> (Vec<u8>, Vec<u16>) {
         let (mut b, mut w) = match spare.next() {
             Some(VoxelMem::Codes { codes, .. }) => (codes, Vec::new()),
             Some(VoxelMem::Words(w)) => (Vec::new(), w),
@@ -220,18 +220,18 @@ pub(super) fn load_memories(
         };
         b.clear();
         w.clear();
-        if data_bits <= 8 {
-            b.reserve(n);
-        } else {
-            w.reserve(n);
-        }
         (b, w)
     };
     let word = |v: u16, st: &mut QuantStats| crate::skip::voxel_word(cfg, v, data_bits, st);
     if data_bits <= 8 {
-        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| {
-            word(v as u16, &mut QuantStats::default())
-        }));
+        // Each code's word and the quantisation events assigning it.
+        let coded: Vec<(u16, QuantStats)> = (0..256u16)
+            .map(|v| {
+                let mut one = QuantStats::default();
+                (word(v, &mut one), one)
+            })
+            .collect();
+        let table: Box<[u16; 256]> = Box::new(std::array::from_fn(|v| coded[v].0));
         // A PE holding consecutive columns (a block) copies its part of a
         // row at once.
         let blocks: Vec<Option<std::ops::Range<usize>>> = held
@@ -247,7 +247,7 @@ pub(super) fn load_memories(
         let mut codes: Vec<Vec<u8>> = held
             .iter()
             .map(|h| {
-                let mut b = buffers(h.len() * ny * nz).0;
+                let mut b = buffers().0;
                 b.resize(h.len() * ny * nz, 0);
                 b
             })
@@ -267,19 +267,12 @@ pub(super) fn load_memories(
         // When every code quantises alike (its word is exact and in range,
         // say), the events are the voxels' count times one code's, and the
         // codes need no counting.
-        let events: Vec<QuantStats> = (0..256u16)
-            .map(|v| {
-                let mut one = QuantStats::default();
-                word(v, &mut one);
-                one
-            })
-            .collect();
-        let uniform = events.iter().all(|e| *e == events[0]);
-        let count = parts
+        let uniform = coded.iter().all(|(_, e)| *e == coded[0].1);
+        let mut count = parts
             .into_par_iter()
             .enumerate()
             .map(|(z, mut part)| {
-                let mut row = vec![0u16; nx];
+                let (mut row, mut buf) = (vec![0u16; nx], vec![0u8; nx]);
                 // Four interleaved counts: a run of equal voxels would
                 // otherwise chain every increment through one counter.
                 let mut c = [[0u64; 256]; 4];
@@ -289,18 +282,10 @@ pub(super) fn load_memories(
                         None => {
                             source.row(y, z, &mut row);
                             // 8-bit data: every scalar is below 256.
-                            if !uniform {
-                                for (i, &v) in row.iter().enumerate() {
-                                    c[i & 3][usize::from(v)] += 1;
-                                }
+                            for (b, &v) in buf.iter_mut().zip(&row) {
+                                *b = v as u8;
                             }
-                            for ((mem, cols), _) in part.iter_mut().zip(held).zip(&blocks) {
-                                let w = cols.len();
-                                for (o, &x) in mem[y * w..(y + 1) * w].iter_mut().zip(cols) {
-                                    *o = row[x] as u8;
-                                }
-                            }
-                            continue;
+                            &buf
                         }
                     };
                     if !uniform {
@@ -336,12 +321,11 @@ pub(super) fn load_memories(
                     a
                 },
             );
-        let mut count = count;
         if uniform {
             count = [0; 256];
             count[0] = (nx * ny * nz) as u64;
         }
-        for (one, &n) in events.iter().zip(&count) {
+        for ((_, one), &n) in coded.iter().zip(&count) {
             st.merge(&QuantStats {
                 assignments: one.assignments * n,
                 overflows: one.overflows * n,
@@ -357,7 +341,14 @@ pub(super) fn load_memories(
             .collect();
     }
     let mut row = vec![0u16; nx];
-    let mut words: Vec<Vec<u16>> = held.iter().map(|h| buffers(h.len() * ny * nz).1).collect();
+    let mut words: Vec<Vec<u16>> = held
+        .iter()
+        .map(|h| {
+            let mut w = buffers().1;
+            w.reserve(h.len() * ny * nz);
+            w
+        })
+        .collect();
     for z in 0..nz {
         for y in 0..ny {
             source.row(y, z, &mut row);

@@ -15,11 +15,13 @@
 mod fast;
 mod pe;
 mod plain;
+mod plan;
 mod preint;
 
-pub use pe::{EdgeWords, RowBus, RowPlan, RowRuns, SampleBus};
+pub use pe::{EdgeWords, RowBus, SampleBus};
 pub use plain::ColumnOrder;
 pub(crate) use plain::ColumnTaps;
+pub use plan::{RowPlan, RowRuns};
 pub use preint::{PrePlan, PreRuns};
 
 use rayon::prelude::*;
@@ -120,7 +122,8 @@ impl Array {
         let waits = lands_by > self.clock.now();
         // The rows' broadcast, and for the whole-slice path each PE's edge
         // words in them, read while it plans (one pass over the PEs).
-        let (rows, host) = self.rows(region, slice);
+        let mut host = QuantStats::default();
+        let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
         let mut edges = std::mem::take(&mut self.edge_rows);
         edges.resize_with(p, Vec::new);
@@ -247,21 +250,10 @@ impl Array {
         times
     }
 
-    /// The rows' broadcast values: voxel rows, y weight, y slope; and the
-    /// host's quantisation events computing them (counted once the slice
-    /// samples).
+    /// The rows' broadcast values: voxel rows, y weight, y slope, with the
+    /// host's quantisation events computing them counted into `st` (which
+    /// the caller adds once the slice samples).
     fn rows(
-        &self,
-        region: &RegionPlan,
-        slice: &SlicePlan,
-    ) -> (Result<Vec<Row>, RunError>, QuantStats) {
-        let mut st = QuantStats::default();
-        let rows = self.rows_into(region, slice, &mut st);
-        (rows, st)
-    }
-
-    /// [`Array::rows`], counting into `st`.
-    fn rows_into(
         &self,
         region: &RegionPlan,
         slice: &SlicePlan,

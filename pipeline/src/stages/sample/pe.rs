@@ -1,5 +1,6 @@
-//! The PE's half of sampling: the broadcast of a sampling cycle, the
-//! row's schedule, the edge register and the datapath of one sample (the
+//! The PE's half of sampling: the broadcast of a sampling cycle, the edge
+//! register, each row's samples as planned (`plan.rs`) and the datapath of
+//! one sample (the
 //! bit-exact twin of [`golden::sampling::sample_at`]), clocked
 //! ([`Pe::sample_step`]) or a whole slice at once ([`Pe::sample_slice`]).
 
@@ -11,7 +12,7 @@ use crate::host::SlicePlan;
 use crate::pe::{Pe, Ports, StepError, VoxelMem};
 use crate::shading::{outer_rows, Halo, Taps};
 
-use super::preint::PrePlan;
+use super::plan::RowRuns;
 
 /// The words a PE drives on its ports while sampling a row (its edge
 /// registers): its first column at the row's two voxel rows to the left
@@ -49,55 +50,6 @@ enum Col {
     Left,
 }
 
-/// One slice's schedules as the PE planned them ([`Pe::plan_rows`]), row
-/// by row: the held columns each row samples, in issue order, how many
-/// in-run columns were terminated, and the row's report. Reused from
-/// slice to slice.
-#[derive(Debug, Clone, Default)]
-pub struct RowPlan {
-    /// Every row's columns (indices into the rays), row after row.
-    pub(super) live: Vec<usize>,
-    /// Where each row's columns end in `live`.
-    ends: Vec<usize>,
-    /// Each row's terminated in-run columns.
-    terminated: Vec<u64>,
-    /// Each row's report: columns sampled, earliest start.
-    reports: Vec<(usize, u64)>,
-    /// In a pre-integrated pass, what each of `live` does
-    /// ([`PrePlan::flags`]); empty otherwise.
-    flags: Vec<u8>,
-}
-
-impl RowPlan {
-    /// Where row `r`'s columns lie in `live`.
-    pub(super) fn span(&self, r: usize) -> std::ops::Range<usize> {
-        r.checked_sub(1).map_or(0, |q| self.ends[q])..self.ends[r]
-    }
-
-    /// Row `r`'s columns, in issue order (none before a slice is planned).
-    fn live(&self, r: usize) -> &[usize] {
-        if r < self.ends.len() {
-            &self.live[self.span(r)]
-        } else {
-            &[]
-        }
-    }
-
-    /// What row `r`'s `c`-th column does in a pre-integrated pass (0
-    /// otherwise).
-    fn flag(&self, r: usize, c: usize) -> u8 {
-        self.flags.get(self.span(r).start + c).copied().unwrap_or(0)
-    }
-
-    fn clear(&mut self) {
-        self.live.clear();
-        self.ends.clear();
-        self.terminated.clear();
-        self.reports.clear();
-        self.flags.clear();
-    }
-}
-
 /// What the controller broadcasts in a sampling cycle.
 #[derive(Debug, Clone, Copy)]
 pub struct SampleBus<'a> {
@@ -123,40 +75,6 @@ pub struct SampleBus<'a> {
     /// This cycle's number (a sample issued now is written back
     /// `latency` cycles later).
     pub now: u64,
-}
-
-/// The runs of ray indices each row of a slice samples, as the controller
-/// broadcasts them (mirroring `golden::skip::SampleMask::row_runs`): one
-/// flat list with per-row offsets, reused from slice to slice.
-#[derive(Debug, Clone, Default)]
-pub struct RowRuns {
-    runs: Vec<(i64, i64)>,
-    starts: Vec<usize>,
-}
-
-impl RowRuns {
-    /// Rows held.
-    pub fn rows(&self) -> usize {
-        self.starts.len()
-    }
-
-    /// Forgets every row.
-    pub fn clear(&mut self) {
-        self.runs.clear();
-        self.starts.clear();
-    }
-
-    /// Appends the next row's runs (ascending, disjoint).
-    pub fn push_row(&mut self, runs: &[(i64, i64)]) {
-        self.starts.push(self.runs.len());
-        self.runs.extend_from_slice(runs);
-    }
-
-    /// Row `r`'s runs.
-    pub fn row(&self, r: usize) -> &[(i64, i64)] {
-        let end = self.starts.get(r + 1).copied().unwrap_or(self.runs.len());
-        &self.runs[self.starts[r]..end]
-    }
 }
 
 /// The part of the bus that is constant over a row.
@@ -299,156 +217,6 @@ impl Pe {
     pub fn hold_step(&mut self, dp: &Datapath, out: &mut Ports) {
         self.last.busy = false;
         self.drive_ports(out, dp.shade.is_some());
-    }
-
-    /// Visits the held columns this PE samples in `row`: the active
-    /// columns whose index lies in one of the row's `runs` (ascending: what
-    /// the controller broadcasts from the occupancy memory and the clip
-    /// planes, a comparator pair per PE), front to back only those whose
-    /// termination flag is clear. Calls `take(j)` for each, in order, and
-    /// returns how many in-run columns were terminated.
-    fn schedule(
-        &self,
-        row: usize,
-        runs: &[(i64, i64)],
-        ftb: bool,
-        mut take: impl FnMut(usize),
-    ) -> u64 {
-        let (first, n) = self.active;
-        let mut terminated = 0;
-        // The held columns ascend in `mx` and the runs are ascending and
-        // disjoint: each run's first column is found by bisection (the
-        // comparator pair's answer), so a row costs its runs and its
-        // rays, not every held column.
-        let (front, back) = self.rays.as_slices();
-        let mx_at = |j: usize| {
-            if j < front.len() {
-                front[j].mx
-            } else {
-                back[j - front.len()].mx
-            }
-        };
-        let end = first + n;
-        // No run reaches the active columns (the comparators' answer for
-        // the row's outermost run ends): nothing to visit.
-        let (Some(&(lo, _)), Some(&(_, hi))) = (runs.first(), runs.last()) else {
-            return 0;
-        };
-        if n == 0 || mx_at(first) > hi || mx_at(end - 1) < lo {
-            return 0;
-        }
-        let mut j = first;
-        for &(lo, hi) in runs {
-            let (mut a, mut b) = (j, end);
-            while a < b {
-                let mid = a + (b - a) / 2;
-                if mx_at(mid) < lo {
-                    a = mid + 1;
-                } else {
-                    b = mid;
-                }
-            }
-            j = a;
-            while j < end && mx_at(j) <= hi {
-                if ftb && self.rays[j].ftb[row].done {
-                    terminated += 1;
-                } else {
-                    take(j);
-                }
-                j += 1;
-            }
-            if j >= end {
-                break;
-            }
-        }
-        terminated
-    }
-
-    /// Schedules the slice's rows `first_row..first_row + n` (the `r`-th
-    /// in `runs.row(r)`; in a pre-integrated pass each column with what it
-    /// does there, from `pre`) and reports, for each, how many columns this PE
-    /// samples in it (see [`Pe::begin_row`]) and the earliest cycle the
-    /// row may start so that each of them issues after its accumulators
-    /// were written back (its `c`-th column issues `c` cycles after the
-    /// start): [`Pe::row_report`]. The controller runs each row for as
-    /// many cycles as the largest count, from the latest start (a max tree
-    /// over the PEs' report lines, the one signal besides the broadcast
-    /// that is not nearest-neighbour).
-    ///
-    /// The rows are scheduled before the slice samples, and each schedule
-    /// is kept for [`Pe::begin_row`]. Nothing a schedule reads changes in
-    /// between: the held columns stay, and a row's termination flags
-    /// change only when that row samples, after it began.
-    ///
-    /// `waits` is false when no held ray's accumulators are written back
-    /// after the slice's first cycle: then no row can wait for one, and
-    /// the reports' starts are 0 instead of reading every ray's
-    /// scoreboard (the same schedule).
-    pub fn plan_rows(
-        &mut self,
-        first_row: usize,
-        n: usize,
-        runs: &RowRuns,
-        (ftb, waits): (bool, bool),
-        pre: Option<&PrePlan>,
-    ) {
-        let mut plan = std::mem::take(&mut self.row_plan);
-        plan.clear();
-        if !ftb && !waits && pre.is_none() {
-            // Nothing to look at per ray (no termination flag, no
-            // scoreboard, no step flags): a row's columns are the held
-            // ones inside its runs, found by their ends.
-            let (first, count) = self.active;
-            let active = &self.rays.make_contiguous()[first..first + count];
-            for r in 0..n {
-                let start = plan.live.len();
-                let mut from = 0;
-                for &(lo, hi) in runs.row(r) {
-                    let a = from + active[from..].partition_point(|c| c.mx < lo);
-                    let b = a + active[a..].partition_point(|c| c.mx <= hi);
-                    plan.live.extend(first + a..first + b);
-                    from = b;
-                }
-                plan.ends.push(plan.live.len());
-                plan.terminated.push(0);
-                plan.reports.push((plan.live.len() - start, 0));
-            }
-            self.row_plan = plan;
-            return;
-        }
-        for r in 0..n {
-            let row = first_row + r;
-            let (mut k, mut ready) = (0, 0);
-            let terminated = self.schedule(row, runs.row(r), ftb, |j| {
-                if waits {
-                    ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
-                }
-                k += 1;
-                plan.live.push(j);
-                if let Some(p) = pre {
-                    plan.flags.push(p.flags(r, self.rays[j].mx));
-                }
-            });
-            plan.ends.push(plan.live.len());
-            plan.terminated.push(terminated);
-            plan.reports.push((k, ready));
-        }
-        self.row_plan = plan;
-    }
-
-    /// What this PE reported for the slice's `r`-th row ([`Pe::plan_rows`]):
-    /// the columns it samples there and the earliest start.
-    pub fn row_report(&self, r: usize) -> (usize, u64) {
-        self.row_plan.reports[r]
-    }
-
-    /// Schedules the slice's `r`-th row as its report planned it: its
-    /// columns inside the row's runs (front to back only the live ones),
-    /// one per cycle; rays left out cost no cycle. Counts the terminated
-    /// ones.
-    pub fn begin_row(&mut self, r: usize) {
-        self.row_now = r;
-        self.counters.terminated += self.row_plan.terminated[r];
     }
 
     /// The sample of held column `j` in the bus's row, issued in cycle
@@ -851,52 +619,5 @@ impl Pe {
             }
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::mapping::ColumnMap;
-    use crate::pe::RayColumn;
-    use proptest::prelude::*;
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(500))]
-        /// Without termination flags, scoreboards or step flags, the row
-        /// plan found from the runs' ends is the plan visiting ray by ray
-        /// (which the scoreboard-reading plan does, every ray written back).
-        #[test]
-        fn a_plan_by_run_ends_is_the_plan_by_rays(
-            mxs in proptest::collection::btree_set(-40i64..40, 0..30),
-            rows in proptest::collection::vec(
-                proptest::collection::vec((-50i64..50, 0i64..12), 0..5), 1..6),
-            skip in 0usize..4,
-        ) {
-            let dims = [8, 6, 2];
-            let mut pe = Pe::new(0, ColumnMap::blocks(1, 8), &(0..8).collect::<Vec<_>>(),
-                VoxelMem::Words(vec![0; 8 * 6 * 2]), dims);
-            pe.set_rays(mxs.iter().map(|&mx| RayColumn::empty(mx, 6, false)).collect());
-            let held = pe.rays.len();
-            pe.active = (skip.min(held), held - skip.min(held));
-            let mut runs = RowRuns::default();
-            for row in &rows {
-                // Ascending, disjoint runs from starts and lengths.
-                let mut at = i64::MIN;
-                let mut row_runs = Vec::new();
-                for &(lo, len) in row {
-                    let lo = lo.max(at);
-                    row_runs.push((lo, lo + len));
-                    at = lo + len + 1;
-                }
-                runs.push_row(&row_runs);
-            }
-            let n = rows.len();
-            pe.plan_rows(0, n, &runs, (false, false), None);
-            let fast = (pe.row_plan.live.clone(), pe.row_plan.ends.clone(), pe.row_plan.reports.clone());
-            pe.plan_rows(0, n, &runs, (false, true), None);
-            let slow = (pe.row_plan.live.clone(), pe.row_plan.ends.clone(), pe.row_plan.reports.clone());
-            prop_assert_eq!(fast, slow);
-        }
     }
 }
