@@ -20,11 +20,14 @@
 //! [`PipelineConfig::host_bandwidth`] bytes a cycle, or, if longer, the
 //! busiest PE's words at one word a cycle through its memory's write port.
 
+use std::sync::Arc;
+
 use golden::geometry::{AxisMap, View};
 use rayon::prelude::*;
 use waves::Tracer;
 
 use crate::config::PipelineConfig;
+use crate::datapath::Datapath;
 use crate::fixed::QuantStats;
 use crate::host::VoxelSource;
 use crate::pe::VoxelMem;
@@ -43,13 +46,22 @@ pub struct Resident {
     /// reuses them reports them again, so its stats equal a fresh frame's
     /// (they describe the words in memory, not the act of writing them).
     pub(crate) stats: QuantStats,
+    /// The datapath the frame loaded its tables into, before any unit
+    /// beside it (shading, volume of interest, pre-integration), with what
+    /// it was built from: a frame of the same configuration and table
+    /// loads the same words, so it takes this one instead of quantising
+    /// and listing them again (as golden builds its table once for its
+    /// frames).
+    pub(crate) unit: Option<(UnitKey, Arc<Datapath>)>,
 }
 
 impl Resident {
     /// The same memories as spare buffers: the next frame loads its
     /// volume again (a fresh frame's load, stats and cycles), into these
     /// allocations instead of new ones, as golden's repeated frames
-    /// recycle their buffers.
+    /// recycle their buffers. The datapath's tables stay: they depend
+    /// only on the configuration and the classification table, which the
+    /// next frame compares.
     pub fn stale(self) -> Resident {
         Resident { key: None, ..self }
     }
@@ -57,6 +69,26 @@ impl Resident {
     /// Voxel words held over all PEs (aprons included).
     pub fn words(&self) -> u64 {
         self.mems.iter().map(|m| m.len() as u64).sum()
+    }
+}
+
+/// What a datapath's tables and listed classification depend on: the
+/// configuration and the classification table, entry by entry, bit for
+/// bit.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct UnitKey {
+    cfg: PipelineConfig,
+    rgba: Vec<[u32; 4]>,
+    per_scalar: u32,
+}
+
+impl UnitKey {
+    pub(crate) fn of(cfg: &PipelineConfig, lut: &golden::tf::Lut) -> UnitKey {
+        UnitKey {
+            cfg: *cfg,
+            rgba: lut.rgba.iter().map(|e| e.map(f32::to_bits)).collect(),
+            per_scalar: lut.per_scalar.to_bits(),
+        }
     }
 }
 

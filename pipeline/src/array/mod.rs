@@ -37,6 +37,7 @@ pub use run::{
 use golden::geometry::View;
 use golden::volume::Volume;
 use golden::warp::Baseplane;
+use rayon::prelude::*;
 use waves::Tracer;
 
 use std::sync::Arc;
@@ -256,6 +257,9 @@ pub struct Array {
     /// quantisation events in loading them (kept with them, see
     /// [`Resident`]).
     resident_key: memory::Key,
+    /// The datapath as loaded, before the frame's units (kept with the
+    /// memories, see [`Resident`]).
+    unit: (memory::UnitKey, Arc<Datapath>),
     load_stats: QuantStats,
     voxel_load: VoxelLoad,
 }
@@ -311,14 +315,18 @@ impl Array {
         lut: &golden::tf::Lut,
         view: &View,
         tracer: Tracer,
-        resident: Option<Resident>,
+        mut resident: Option<Resident>,
     ) -> Result<Array, RunError> {
         cfg.validate()?;
         for &n in &view.dims {
             cfg.check_extent(n as u32)?;
         }
-        let tables = Tables::new(cfg, lut)?;
-        let dp = Arc::new(Datapath::new(*cfg, tables));
+        let unit_key = memory::UnitKey::of(cfg, lut);
+        let dp = match resident.as_mut().and_then(|r| r.unit.take()) {
+            Some((k, dp)) if k == unit_key => dp,
+            _ => Arc::new(Datapath::new(*cfg, Tables::new(cfg, lut)?)),
+        };
+        let unit = (unit_key, Arc::clone(&dp));
         let mut host_stats = QuantStats::default();
         let p = usize::from(cfg.pes);
         let nx = view.dims[0];
@@ -384,6 +392,7 @@ impl Array {
             links_from: 0,
             links_free: 0,
             resident_key: key,
+            unit,
             load_stats,
             voxel_load,
         })
@@ -620,6 +629,7 @@ impl Array {
                 .map(|pe| std::mem::replace(&mut pe.mem, VoxelMem::Words(Vec::new())))
                 .collect(),
             stats: self.load_stats,
+            unit: Some(self.unit.clone()),
         };
         Ok((self.finish(base, raw, fmt, merges)?, kept))
     }
@@ -653,7 +663,7 @@ impl Array {
     fn baseplane(&self, raw: &[[i64; 4]], view: &View, fmt: [Format; 2]) -> Baseplane {
         let (fc, fa) = (fmt[0].lsb(), fmt[1].lsb());
         let data = raw
-            .iter()
+            .par_iter()
             .map(|p| {
                 [
                     (p[0] as f64 * fc) as f32,

@@ -6,6 +6,7 @@
 //! in float, the raw words beside it).
 
 use golden::geometry::RayGrid;
+use rayon::prelude::*;
 
 use crate::array::{Array, RunError};
 use crate::pe::{Pe, Ports, Readout};
@@ -65,6 +66,9 @@ impl Pe {
     }
 }
 
+/// Baseplane rows the untraced readout writes per task.
+const BAND: usize = 8;
+
 impl Array {
     /// Streams the rays of region 0 (grid `g`) out: raw words, row-major.
     pub(crate) fn readout(&mut self, g: &RayGrid) -> Result<Vec<[i64; 4]>, RunError> {
@@ -80,19 +84,38 @@ impl Array {
             // Untraced, each PE streams its words without ticking (it
             // shares nothing with the others), and the readout lasts as
             // many cycles as the longest stream, as the clocked loop ticks.
-            let mut longest = 0;
-            for pe in self.clock.pes_mut() {
-                let mut n = 0;
-                let mut out = crate::pe::Ports::default();
-                while !pe.readout_done() {
-                    pe.readout_step(&mut out);
-                    if let Some(o) = out.host.take() {
-                        store(&o);
+            let longest = self
+                .clock
+                .pes_mut()
+                .par_iter_mut()
+                .map(|pe| {
+                    let mut n = 0;
+                    let mut out = crate::pe::Ports::default();
+                    while !pe.readout_done() {
+                        pe.readout_step(&mut out);
+                        n += 1;
                     }
-                    n += 1;
-                }
-                longest = longest.max(n);
-            }
+                    n
+                })
+                .max()
+                .unwrap_or(0);
+            // The host's writes, a band of rows at a time: each ray's word
+            // lands where its index puts it, the words a sparse stream
+            // leaves out being the cleared zeros, a later PE's over an
+            // earlier's as the streams' order has it.
+            let pes = self.clock.pes();
+            raw.par_chunks_mut((w * BAND).max(1))
+                .enumerate()
+                .for_each(|(b, band)| {
+                    let rows = b * BAND..b * BAND + band.len() / w.max(1);
+                    for col in pes.iter().flat_map(|pe| pe.rays.iter()) {
+                        let x = (col.mx - g.lo[0]) as usize;
+                        let end = rows.end.min(col.acc.len());
+                        for r in rows.start..end {
+                            band[(r - rows.start) * w + x] = col.acc[r].raw;
+                        }
+                    }
+                });
             if longest > 0 {
                 self.clock.ran_untraced(Stage::Readout, longest);
             }

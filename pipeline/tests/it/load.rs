@@ -81,3 +81,75 @@ fn the_stack_loads_what_the_volume_loads() {
         }
     }
 }
+
+/// Frames that keep their memories (resident, or as spare buffers the
+/// next frame loads into) keep the datapath's tables only while the
+/// configuration and the classification table are the same: a frame
+/// with another table, or another opacity word, after one with the
+/// first, is the frame a fresh load gives, as is a return to the first.
+#[test]
+fn kept_memories_keep_their_tables_only_for_the_same_table() {
+    use pipeline::array::run_frame_resident;
+    use pipeline::fixed::{Format, Overflow, Quant};
+    let first = tf(&[(20.0, [0.9, 0.5, 0.2, 0.0]), (200.0, [1.0, 1.0, 1.0, 0.7])]);
+    let second = tf(&[(60.0, [0.2, 0.5, 0.9, 0.0]), (120.0, [1.0, 0.8, 0.6, 0.4])]);
+    let vol = volume([20, 17, 23], VoxelType::U8, |x, y, z| {
+        ((x * 13 + y * 7 + z * 5) % 256) as u16
+    });
+    let eye = DVec3::new(9.5, 8.0, -25.0);
+    let cam = Camera::new(eye, DVec3::new(9.5, 8.0, 11.0), DVec3::Y, 60.0, 24, 20).expect("camera");
+    let base = PipelineConfig {
+        pes: 4,
+        occupancy_block: 4,
+        ..PipelineConfig::default()
+    };
+    let narrow = PipelineConfig {
+        alpha: Format::new(10, 10, false, Quant::Rnd, Overflow::Sat).unwrap(),
+        ..base
+    };
+    let opts = PrepareOptions {
+        block: 4,
+        ..PrepareOptions::default()
+    };
+    let prep = Prepared::with(&vol, &cam, &opts).expect("view");
+    let lut = |t| Lut::for_bits(t, base.table_entries as usize, 8);
+    let (a, b) = (lut(&first), lut(&second));
+    let skips = Skips::default();
+    let fresh = |cfg: &PipelineConfig, l: &Lut| {
+        signature(
+            &run_frame_from_stack(cfg, 8, l, &prep, skips, None, Tracer::disabled())
+                .expect("frame"),
+        )
+    };
+    assert_ne!(fresh(&base, &a), fresh(&base, &b), "the tables differ");
+    assert_ne!(fresh(&base, &a), fresh(&narrow, &a), "the words differ");
+    for stale in [false, true] {
+        let mut kept = None;
+        for (n, (cfg, l)) in [
+            (&base, &a),
+            (&base, &b),
+            (&base, &a),
+            (&narrow, &a),
+            (&base, &a),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if stale {
+                kept = kept.map(pipeline::Resident::stale);
+            }
+            let f = run_frame_resident(
+                cfg,
+                8,
+                l,
+                &prep,
+                skips,
+                (None, None),
+                Tracer::disabled(),
+                &mut kept,
+            )
+            .expect("frame");
+            assert_eq!(signature(&f), fresh(cfg, l), "frame {n}, stale {stale}");
+        }
+    }
+}
