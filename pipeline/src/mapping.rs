@@ -128,4 +128,16 @@ impl Route {
             Route::Ring(p) => (dest + p - k) % p <= p / 2,
         }
     }
+
+    /// The PE one link from PE `k`, rightwards or leftwards (around a ring
+    /// the ends are neighbours).
+    #[inline]
+    pub fn next(self, k: usize, right: bool) -> usize {
+        match (self, right) {
+            (Route::Line, false) => k - 1,
+            (Route::Line, true) => k + 1,
+            (Route::Ring(p), false) => (k + p - 1) % p,
+            (Route::Ring(p), true) => (k + 1) % p,
+        }
+    }
 }

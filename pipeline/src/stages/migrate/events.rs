@@ -44,17 +44,6 @@ struct Links {
 }
 
 impl Links {
-    /// The PE on `side` of `k`.
-    fn neighbour(&self, k: usize, side: Side) -> usize {
-        let p = self.free.len();
-        match (self.route, side) {
-            (Route::Line, 0) => k - 1,
-            (Route::Line, _) => k + 1,
-            (Route::Ring(_), 0) => (k + p - 1) % p,
-            (Route::Ring(_), _) => (k + 1) % p,
-        }
-    }
-
     /// Sends column `c` from PE `k`'s queue `side`, enqueued in cycle `e`,
     /// row by row as [`super::queue`] splits it: each row's departure, the
     /// sender's and the receiver's counters, and the column's arrival at
@@ -63,7 +52,7 @@ impl Links {
     /// rows left behind never written, the previous samples kept only when
     /// one is not zero).
     fn send(&mut self, pes: &mut [Pe], (k, side): (usize, Side), mut c: RayColumn, e: u64) {
-        let nb = self.neighbour(k, side);
+        let nb = self.route.next(k, side == 1);
         let sparse = pes[k].sparse_links;
         let rows = c.acc.len();
         let mut free = self.free[k][side];
