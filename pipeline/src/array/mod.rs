@@ -25,7 +25,7 @@ mod clock;
 mod memory;
 mod owners;
 mod run;
-mod warm;
+pub(crate) mod warm;
 
 pub use clock::{Clock, Links};
 pub use memory::{run_frame_resident, Resident, VoxelLoad};
@@ -238,7 +238,9 @@ pub struct Array {
     pub(crate) runs: RowRuns,
     /// A pre-integrated pass's runs of compositing and keeping rays.
     pub(crate) pre_runs: crate::stages::sample::PreRuns,
-    pub(crate) run_tmp: Vec<(i64, i64)>,
+    /// The rows' runs worked out in parts, several a thread, each part's
+    /// rows with a row's scratch (reused; joined into `runs` in order).
+    pub(crate) run_parts: Vec<(RowRuns, Vec<(i64, i64)>)>,
     /// The whole-slice path's buffers of each PE's edge words per row
     /// (scratch of the model, reused from slice to slice).
     pub(crate) edge_rows: Vec<Vec<crate::stages::sample::EdgeWords>>,
@@ -385,7 +387,7 @@ impl Array {
             skip: None,
             runs: RowRuns::default(),
             pre_runs: Default::default(),
-            run_tmp: Vec::new(),
+            run_parts: Vec::new(),
             edge_rows: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),

@@ -2,14 +2,17 @@
 //!
 //! An untraced frame alternates short serial steps (the controller's
 //! plans, the migration) with parallel ones (the PEs' rows and samples),
-//! a few hundred microseconds each. A rayon worker that finds no work soon
-//! sleeps, and waking it costs tens of microseconds on this kind of
-//! machine, so each parallel step would start on one thread. While a frame
+//! a few tens of microseconds each. A rayon worker that finds no work
+//! soon sleeps, and waking it costs tens of microseconds on this kind of
+//! machine (more when its virtual core has halted), so each parallel step
+//! would start on one thread and end waiting for a wake-up. While a frame
 //! runs, the pool's other workers instead poll for its work
-//! ([`rayon::yield_now`], yielding to the OS when there is none). Where
-//! work runs never changes what it computes.
+//! ([`rayon::yield_now`], yielding to the OS when there is none), and a
+//! parallel step ([`each_mut`]) waits for its last item by polling too,
+//! never in rayon's sleeping join. Where work runs never changes what it
+//! computes: every result comes back in item order.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Runs `f` on this thread while every other worker of the current pool
 /// polls for rayon work instead of going to sleep between the frame's
@@ -20,9 +23,16 @@ pub(crate) fn with_warm_pool<T: Send>(f: impl FnOnce() -> T + Send) -> T {
         return f();
     }
     let done = AtomicBool::new(false);
+    let frame = rayon::current_thread_index();
     rayon::scope(|s| {
         for _ in 1..n {
             s.spawn(|_| {
+                // A poller taken up by the frame's own thread (waiting in
+                // a step while no other worker had started it) would poll
+                // until the frame ends, which it never would: it leaves.
+                if rayon::current_thread_index() == frame {
+                    return;
+                }
                 while !done.load(Ordering::Acquire) {
                     if rayon::yield_now() != Some(rayon::Yield::Executed) {
                         std::thread::yield_now();
@@ -34,4 +44,73 @@ pub(crate) fn with_warm_pool<T: Send>(f: impl FnOnce() -> T + Send) -> T {
         done.store(true, Ordering::Release);
         out
     })
+}
+
+/// `f(k, &mut items[k])` for every item, on the pool's threads when it
+/// has several, the results in item order. The calling thread takes the
+/// items from the last (the pool's other workers steal from the first),
+/// and waits for the others' last item by polling, not asleep. Items
+/// share nothing, so the order they run in cannot change a result.
+pub(crate) fn each_mut<T: Send, R: Send>(
+    items: &mut [T],
+    f: impl Fn(usize, &mut T) -> R + Sync,
+) -> Vec<R> {
+    if rayon::current_num_threads() < 2 || items.len() < 2 {
+        return items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect();
+    }
+    let mut out: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
+    let left = AtomicUsize::new(items.len());
+    rayon::in_place_scope(|s| {
+        for (k, (item, slot)) in items.iter_mut().zip(out.iter_mut()).enumerate() {
+            let (f, left) = (&f, &left);
+            s.spawn(move |_| {
+                *slot = Some(f(k, item));
+                left.fetch_sub(1, Ordering::Release);
+            });
+        }
+        while left.load(Ordering::Acquire) > 0 {
+            if rayon::yield_now() != Some(rayon::Yield::Executed) {
+                std::hint::spin_loop();
+            }
+        }
+    });
+    out.into_iter()
+        .map(|r| r.expect("every item ran before the scope ended"))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every item runs once, at its own index, and the results come back
+    /// in item order, on one thread and on several (inside a warm frame
+    /// and nested in another step, as the sampling's column jobs are).
+    #[test]
+    fn each_mut_runs_every_item_once_in_order() {
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let got = pool.install(|| {
+                with_warm_pool(|| {
+                    let mut outer: Vec<Vec<u64>> = (0..7)
+                        .map(|i| (0..i * 5).map(|v| v as u64).collect())
+                        .collect();
+                    each_mut(&mut outer, |k, v| {
+                        let inner = each_mut(v, |j, x| {
+                            *x += 1;
+                            (k * 100 + j) as u64 + *x
+                        });
+                        inner.iter().sum::<u64>()
+                    })
+                })
+            });
+            let want: Vec<u64> = (0..7u64)
+                .map(|k| (0..k * 5).map(|j| k * 100 + j + j + 1).sum())
+                .collect();
+            assert_eq!(got, want, "{threads} threads");
+        }
+    }
 }

@@ -9,7 +9,7 @@
 
 use golden::geometry::RayGrid;
 
-use rayon::prelude::*;
+use crate::array::warm::each_mut;
 
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, Links, RunError};
@@ -339,13 +339,9 @@ impl Array {
             })
             .collect();
         if width > 0 {
-            let failed = self
-                .clock
-                .pes_mut()
-                .par_iter_mut()
-                .zip(&edges)
-                .map(|(pe, e)| pe.merge_whole(dp, (&slots, width), e, grids).err())
-                .collect::<Vec<_>>();
+            let failed = each_mut(self.clock.pes_mut(), |k, pe| {
+                pe.merge_whole(dp, (&slots, width), &edges[k], grids).err()
+            });
             let first = failed.into_iter().flatten().min_by_key(|&(cycle, _)| cycle);
             if let Some((_, e)) = first {
                 return Err(e.into());

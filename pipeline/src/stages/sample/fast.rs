@@ -5,9 +5,8 @@
 //! it would drive in each row; each PE then samples its rays with its
 //! right neighbour's, at the issue cycles the controller's row plan gives.
 
-use rayon::prelude::*;
-
 use super::{Row, RowBus, RowTimes};
+use crate::array::warm::each_mut;
 use crate::array::{Array, RunError};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::StepError;
@@ -62,29 +61,23 @@ impl Array {
         let stalls: u64 = times.stalls.iter().sum();
         let dp = &self.dp;
         let nx = self.nx;
-        let results: Vec<Result<(), StepError>> = self
-            .clock
-            .pes_mut()
-            .par_iter_mut()
-            .enumerate()
-            .map(|(k, pe)| {
-                pe.latch_edges(seq.iter().copied(), shade);
-                if p > 1 {
-                    pe.counters.idle += 1;
-                }
-                pe.sample_slice(
-                    dp,
-                    &buses,
-                    (lens, &times.starts),
-                    stalls,
-                    (
-                        edges.get(k + 1).map(Vec::as_slice),
-                        k.checked_sub(1).map(|l| edges[l].as_slice()),
-                    ),
-                    nx,
-                )
-            })
-            .collect();
+        let results: Vec<Result<(), StepError>> = each_mut(self.clock.pes_mut(), |k, pe| {
+            pe.latch_edges(seq.iter().copied(), shade);
+            if p > 1 {
+                pe.counters.idle += 1;
+            }
+            pe.sample_slice(
+                dp,
+                &buses,
+                (lens, &times.starts),
+                stalls,
+                (
+                    edges.get(k + 1).map(Vec::as_slice),
+                    k.checked_sub(1).map(|l| edges[l].as_slice()),
+                ),
+                nx,
+            )
+        });
         self.edge_rows = edges;
         for r in results {
             r?;

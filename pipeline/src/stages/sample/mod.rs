@@ -24,8 +24,7 @@ pub(crate) use plain::ColumnTaps;
 pub use plan::{RowPlan, RowRuns};
 pub use preint::{PrePlan, PreRuns};
 
-use rayon::prelude::*;
-
+use crate::array::warm::each_mut;
 use crate::array::{Array, RunError};
 use crate::config::Order;
 use crate::fixed::{Fx, QuantStats, Wide};
@@ -94,13 +93,24 @@ impl Array {
             None => (0..nrows).for_each(|_| runs.push_row(&[(xlo, xhi)])),
             Some(sk) => {
                 let ([px, py], _) = golden::sampling::slice_rays(&sk.view, &region.grid, slice.z);
-                let mut tmp = std::mem::take(&mut self.run_tmp);
-                for my in ylo..=yhi {
-                    let y = py.a + my as f64 * py.t;
-                    sk.mask.row_runs(slice.z, px, y, (xlo, xhi), &mut tmp);
-                    runs.push_row(&tmp);
+                // Rows' runs are independent: worked out in parts, joined
+                // in row order.
+                let part = nrows.div_ceil(4 * rayon::current_num_threads()).max(64);
+                let mut parts = std::mem::take(&mut self.run_parts);
+                parts.resize_with(nrows.div_ceil(part), Default::default);
+                each_mut(&mut parts, |i, (rr, tmp)| {
+                    rr.clear();
+                    let from = ylo + (i * part) as i64;
+                    for my in from..=yhi.min(from + part as i64 - 1) {
+                        let y = py.a + my as f64 * py.t;
+                        sk.mask.row_runs(slice.z, px, y, (xlo, xhi), tmp);
+                        rr.push_row(tmp);
+                    }
+                });
+                for (rr, _) in &parts {
+                    runs.append(rr);
                 }
-                self.run_tmp = tmp;
+                self.run_parts = parts;
             }
         }
         // The PEs plan their rows independently, so in parallel.
@@ -129,16 +139,14 @@ impl Array {
         edges.resize_with(p, Vec::new);
         let (shade, z) = (self.dp.shade.is_some(), slice.z);
         let bus_rows = rows.as_ref().ok().filter(|_| whole);
-        self.clock
-            .pes_mut()
-            .par_iter_mut()
-            .zip(edges.par_iter_mut())
-            .for_each(|(pe, out)| {
-                pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref());
-                if let Some(rows) = bus_rows {
-                    pe.edges_for(z, (rows, &runs), shade, out);
-                }
-            });
+        let mut pairs: Vec<_> = self.clock.pes_mut().iter_mut().zip(&mut edges).collect();
+        each_mut(&mut pairs, |_, (pe, out)| {
+            pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref());
+            if let Some(rows) = bus_rows {
+                pe.edges_for(z, (rows, &runs), shade, out);
+            }
+        });
+        drop(pairs);
         self.edge_rows = edges;
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
