@@ -64,8 +64,10 @@ pub(crate) fn each_mut<T: Send, R: Send>(
         for (k, (item, slot)) in items.iter_mut().zip(out.iter_mut()).enumerate() {
             let (f, left) = (&f, &left);
             s.spawn(move |_| {
+                // Counted done even if `f` panics (the scope then passes
+                // the panic on), so the wait below always ends.
+                let _done = Done(left);
                 *slot = Some(f(k, item));
-                left.fetch_sub(1, Ordering::Release);
             });
         }
         while left.load(Ordering::Acquire) > 0 {
@@ -77,6 +79,15 @@ pub(crate) fn each_mut<T: Send, R: Send>(
     out.into_iter()
         .map(|r| r.expect("every item ran before the scope ended"))
         .collect()
+}
+
+/// Counts an item done when dropped.
+struct Done<'a>(&'a AtomicUsize);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Release);
+    }
 }
 
 #[cfg(test)]
@@ -112,5 +123,27 @@ mod tests {
                 .collect();
             assert_eq!(got, want, "{threads} threads");
         }
+    }
+
+    /// An item that panics makes the step panic once every item is done,
+    /// rather than leaving the caller waiting for it.
+    #[test]
+    fn a_panicking_item_ends_the_step() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let ran = AtomicUsize::new(0);
+        let out = pool.install(|| {
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let mut items = vec![0u32; 16];
+                each_mut(&mut items, |k, _| {
+                    ran.fetch_add(1, Ordering::Relaxed);
+                    assert_ne!(k, 5, "item 5 fails");
+                })
+            }))
+        });
+        assert!(out.is_err());
+        assert_eq!(ran.load(Ordering::Relaxed), 16);
     }
 }
