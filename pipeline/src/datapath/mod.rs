@@ -11,7 +11,7 @@ use crate::tables::Tables;
 
 mod kernel;
 
-pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
+pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, Tents, LANES};
 pub use kernel::{Kernel, KernelRow};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
@@ -198,6 +198,13 @@ impl Datapath {
     pub fn kernel(&self) -> Option<&Kernel> {
         let plain = self.shade.is_none() && self.voi.is_none() && self.preint.is_none();
         self.kernel.as_ref().filter(|_| plain)
+    }
+
+    /// The Bartlett merge's assignments worked out once ([`Kernel`]'s,
+    /// shaded frames too: the merge is the same), `None` without a
+    /// kernel or when a merge format is not modelled.
+    pub(crate) fn tents(&self) -> Option<&Tents> {
+        self.kernel.as_ref().and_then(Kernel::tents)
     }
 
     /// This datapath without its kernel: every sample then runs the

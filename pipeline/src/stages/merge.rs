@@ -13,7 +13,7 @@ use crate::array::warm::each_mut;
 
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, Links, RunError};
-use crate::datapath::{Acc, Datapath};
+use crate::datapath::{Acc, Datapath, Tally};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 use crate::schedule::btf::rays;
@@ -116,7 +116,15 @@ impl Pe {
     /// neighbours' edge rays of each parent row from `edges` (what they
     /// drive on their ports: their parents stay put during the pass, so
     /// the rays are known before it starts). Returns the index of the
-    /// cycle a step failed in, with its error.
+    /// earliest cycle a step failed in, with its error.
+    ///
+    /// The cycle of slot `s` and column `col` is `s * width + col`, but
+    /// the model evaluates them column by column: a column's steps read
+    /// and write only its own line-buffer entries and child (and the
+    /// parents, which stay put), so each column sees the same words in
+    /// either order, and reading a parent column down its rows follows
+    /// its accumulator memory where slot by slot each read is another
+    /// column's.
     pub(crate) fn merge_whole(
         &mut self,
         dp: &Datapath,
@@ -124,20 +132,28 @@ impl Pe {
         edges: &[(Acc, Acc)],
         grids: (&RayGrid, &RayGrid),
     ) -> Result<(), (usize, StepError)> {
-        for (s, slot) in slots.iter().enumerate() {
-            let e = slot.x.map_or_else(Default::default, |q| edges[q]);
-            for col in 0..width {
+        let mut first: Option<(usize, StepError)> = None;
+        for col in 0..width {
+            for (s, slot) in slots.iter().enumerate() {
+                let cycle = s * width + col;
+                // A later cycle's failure cannot be the earliest.
+                if first.as_ref().is_some_and(|&(at, _)| at < cycle) {
+                    break;
+                }
+                let e = slot.x.map_or_else(Default::default, |q| edges[q]);
                 let bus = PassBus {
                     x: slot.x,
                     y: slot.y,
                     col,
                     drive: None,
                 };
-                self.merge_work(dp, &bus, e, grids)
-                    .map_err(|err| (s * width + col, err))?;
+                if let Err(err) = self.merge_work(dp, &bus, e, grids) {
+                    first = Some((cycle, err));
+                    break;
+                }
             }
         }
-        Ok(())
+        first.map_or(Ok(()), Err)
     }
 
     /// One clock of the sparse merge (`pass_skip_empty`): in the slot's
@@ -221,15 +237,18 @@ impl Pe {
             }
         }
         let out = &mut self.pass.next[c].acc[i].raw;
-        for (ch, o) in out.iter_mut().enumerate() {
-            let to = if ch < 3 { fc } else { fa };
-            let v = dp.tent(
-                [taps[0][ch], taps[1][ch], taps[2][ch]],
-                fm,
-                to,
-                &mut self.stats,
-            );
-            *o = v.raw();
+        let tap = |ch: usize| [taps[0][ch], taps[1][ch], taps[2][ch]];
+        if let Some(tents) = dp.tents() {
+            let mut t = Tally::default();
+            for (ch, o) in out.iter_mut().enumerate() {
+                *o = tents.apply(true, ch, tap(ch), &mut t);
+            }
+            t.add_to(&mut self.stats);
+        } else {
+            for (ch, o) in out.iter_mut().enumerate() {
+                let to = if ch < 3 { fc } else { fa };
+                *o = dp.tent(tap(ch), fm, to, &mut self.stats).raw();
+            }
         }
         self.counters.merge_outputs += 1;
         Ok(())
@@ -247,16 +266,18 @@ impl Pe {
             self.parent(2 * m + 1, q, edges),
         ];
         let mut out = [0i64; 4];
-        for (ch, o) in out.iter_mut().enumerate() {
-            let f = if ch < 3 { fc } else { fa };
-            *o = dp
-                .tent(
-                    [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]],
-                    f,
-                    fm,
-                    &mut self.stats,
-                )
-                .raw();
+        let tap = |ch: usize| [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]];
+        if let Some(tents) = dp.tents() {
+            let mut t = Tally::default();
+            for (ch, o) in out.iter_mut().enumerate() {
+                *o = tents.apply(false, ch, tap(ch), &mut t);
+            }
+            t.add_to(&mut self.stats);
+        } else {
+            for (ch, o) in out.iter_mut().enumerate() {
+                let f = if ch < 3 { fc } else { fa };
+                *o = dp.tent(tap(ch), f, fm, &mut self.stats).raw();
+            }
         }
         self.pass.line.write(q, c, out);
     }
