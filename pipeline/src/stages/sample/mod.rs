@@ -151,20 +151,13 @@ impl Array {
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.
-        let mut taken = 0u64;
-        let mut reports = Vec::with_capacity(nrows);
-        for r in 0..nrows {
-            let (most, ready, all) =
-                self.clock
-                    .pes()
-                    .iter()
-                    .fold((0, 0, 0), |(most, ready, all), pe| {
-                        let (n, at) = pe.row_report(r);
-                        (most.max(n), ready.max(at), all + n as u64)
-                    });
-            taken += all;
-            reports.push((most, ready, all));
+        let mut reports: Vec<RowReport> = vec![(0, 0, 0); nrows];
+        for pe in self.clock.pes() {
+            for (out, &(n, at)) in reports.iter_mut().zip(pe.row_reports()) {
+                *out = (out.0.max(n), out.1.max(at), out.2 + n as u64);
+            }
         }
+        let taken: u64 = reports.iter().map(|r| r.2).sum();
         self.samples_per_slice[slice.z] += taken;
         self.skipped.beams += reports.iter().filter(|r| r.0 == 0).count() as u64;
         let full = if row_len == 0 {

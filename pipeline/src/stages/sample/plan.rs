@@ -161,7 +161,7 @@ impl Pe {
     /// samples in it (see [`Pe::begin_row`]) and the earliest cycle the
     /// row may start so that each of them issues after its accumulators
     /// were written back (its `c`-th column issues `c` cycles after the
-    /// start): [`Pe::row_report`]. The controller runs each row for as
+    /// start): [`Pe::row_reports`]. The controller runs each row for as
     /// many cycles as the largest count, from the latest start (a max tree
     /// over the PEs' report lines, the one signal besides the broadcast
     /// that is not nearest-neighbour).
@@ -220,10 +220,11 @@ impl Pe {
         self.row_plan = plan;
     }
 
-    /// What this PE reported for the slice's `r`-th row ([`Pe::plan_rows`]):
-    /// the columns it samples there and the earliest start.
-    pub fn row_report(&self, r: usize) -> (usize, u64) {
-        self.row_plan.reports[r]
+    /// What this PE reported for each of the slice's rows
+    /// ([`Pe::plan_rows`]), in row order: the columns it samples there
+    /// and the earliest start.
+    pub fn row_reports(&self) -> &[(usize, u64)] {
+        &self.row_plan.reports
     }
 
     /// Schedules the slice's `r`-th row as its report planned it: its
