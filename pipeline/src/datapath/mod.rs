@@ -203,7 +203,7 @@ impl Datapath {
     /// The Bartlett merge's assignments worked out once ([`Kernel`]'s,
     /// shaded frames too: the merge is the same), `None` without a
     /// kernel or when a merge format is not modelled.
-    pub(crate) fn tents(&self) -> Option<&Tents> {
+    fn tents(&self) -> Option<&Tents> {
         self.kernel.as_ref().and_then(Kernel::tents)
     }
 
@@ -531,6 +531,31 @@ impl Datapath {
         // Three words of at most 63 bits: the sum fits i128 trivially.
         let sum = i128::from(p[0]) + 2 * i128::from(p[1]) + i128::from(p[2]);
         to.assign(Wide::new(sum, i32::from(from.frac()) + 2), st)
+    }
+
+    /// A whole ray's [`Datapath::tent`], R, G, B and A, of parents `p`:
+    /// the x pass's (`y` false) of accumulator words into `merge`, or the
+    /// y pass's of `merge` words back into the accumulators; through the
+    /// assignments worked out once ([`Datapath::tents`]) when the formats
+    /// are modelled.
+    pub(crate) fn tent_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
+        let tap = |ch: usize| [p[0][ch], p[1][ch], p[2][ch]];
+        let mut out = [0; 4];
+        if let Some(tents) = self.tents() {
+            let mut t = Tally::default();
+            for (ch, o) in out.iter_mut().enumerate() {
+                *o = tents.apply(y, ch, tap(ch), &mut t);
+            }
+            t.add_to(st);
+        } else {
+            let c = &self.cfg;
+            for (ch, o) in out.iter_mut().enumerate() {
+                let acc = if ch < 3 { c.accum_color } else { c.accum_alpha };
+                let (from, to) = if y { (c.merge, acc) } else { (acc, c.merge) };
+                *o = self.tent(tap(ch), from, to, st).raw();
+            }
+        }
+        out
     }
 }
 

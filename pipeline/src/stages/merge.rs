@@ -13,7 +13,7 @@ use crate::array::warm::each_mut;
 
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, Links, RunError};
-use crate::datapath::{Acc, Datapath, Tally};
+use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 use crate::schedule::btf::rays;
@@ -222,7 +222,6 @@ impl Pe {
         (bg, fg): (&RayGrid, &RayGrid),
         sparse: bool,
     ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         let prows = bg.counts()[1] as i64;
         let my = fg.lo[1] + i as i64;
         let mut taps = [[0i64; 4]; 3];
@@ -236,20 +235,7 @@ impl Pe {
                 };
             }
         }
-        let out = &mut self.pass.next[c].acc[i].raw;
-        let tap = |ch: usize| [taps[0][ch], taps[1][ch], taps[2][ch]];
-        if let Some(tents) = dp.tents() {
-            let mut t = Tally::default();
-            for (ch, o) in out.iter_mut().enumerate() {
-                *o = tents.apply(true, ch, tap(ch), &mut t);
-            }
-            t.add_to(&mut self.stats);
-        } else {
-            for (ch, o) in out.iter_mut().enumerate() {
-                let to = if ch < 3 { fc } else { fa };
-                *o = dp.tent(tap(ch), fm, to, &mut self.stats).raw();
-            }
-        }
+        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.stats);
         self.counters.merge_outputs += 1;
         Ok(())
     }
@@ -258,27 +244,13 @@ impl Pe {
     /// `2m - 1 ..= 2m + 1` (the neighbours' edge rays `edges` beyond the
     /// held span) into the line buffer.
     fn merge_x(&mut self, dp: &Datapath, c: usize, q: usize, edges: (Acc, Acc)) {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
         let m = self.pass.children[c];
         let p = [
             self.parent(2 * m - 1, q, edges),
             self.parent(2 * m, q, edges),
             self.parent(2 * m + 1, q, edges),
         ];
-        let mut out = [0i64; 4];
-        let tap = |ch: usize| [p[0].raw[ch], p[1].raw[ch], p[2].raw[ch]];
-        if let Some(tents) = dp.tents() {
-            let mut t = Tally::default();
-            for (ch, o) in out.iter_mut().enumerate() {
-                *o = tents.apply(false, ch, tap(ch), &mut t);
-            }
-            t.add_to(&mut self.stats);
-        } else {
-            for (ch, o) in out.iter_mut().enumerate() {
-                let f = if ch < 3 { fc } else { fa };
-                *o = dp.tent(tap(ch), f, fm, &mut self.stats).raw();
-            }
-        }
+        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.stats);
         self.pass.line.write(q, c, out);
     }
 
