@@ -238,9 +238,7 @@ pub struct Array {
     pub(crate) runs: RowRuns,
     /// A pre-integrated pass's runs of compositing and keeping rays.
     pub(crate) pre_runs: crate::stages::sample::PreRuns,
-    /// The rows' runs worked out in parts, several a thread, each part's
-    /// rows with a row's scratch (reused; joined into `runs` in order).
-    pub(crate) run_parts: Vec<(RowRuns, Vec<(i64, i64)>)>,
+    pub(crate) run_tmp: Vec<(i64, i64)>,
     /// The whole-slice path's buffers of each PE's edge words per row
     /// (scratch of the model, reused from slice to slice).
     pub(crate) edge_rows: Vec<Vec<crate::stages::sample::EdgeWords>>,
@@ -387,7 +385,7 @@ impl Array {
             skip: None,
             runs: RowRuns::default(),
             pre_runs: Default::default(),
-            run_parts: Vec::new(),
+            run_tmp: Vec::new(),
             edge_rows: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),

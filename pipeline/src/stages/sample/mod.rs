@@ -93,24 +93,13 @@ impl Array {
             None => (0..nrows).for_each(|_| runs.push_row(&[(xlo, xhi)])),
             Some(sk) => {
                 let ([px, py], _) = golden::sampling::slice_rays(&sk.view, &region.grid, slice.z);
-                // Rows' runs are independent: worked out in parts, joined
-                // in row order.
-                let part = nrows.div_ceil(4 * rayon::current_num_threads()).max(64);
-                let mut parts = std::mem::take(&mut self.run_parts);
-                parts.resize_with(nrows.div_ceil(part), Default::default);
-                each_mut(&mut parts, |i, (rr, tmp)| {
-                    rr.clear();
-                    let from = ylo + (i * part) as i64;
-                    for my in from..=yhi.min(from + part as i64 - 1) {
-                        let y = py.a + my as f64 * py.t;
-                        sk.mask.row_runs(slice.z, px, y, (xlo, xhi), tmp);
-                        rr.push_row(tmp);
-                    }
-                });
-                for (rr, _) in &parts {
-                    runs.append(rr);
+                let mut tmp = std::mem::take(&mut self.run_tmp);
+                for my in ylo..=yhi {
+                    let y = py.a + my as f64 * py.t;
+                    sk.mask.row_runs(slice.z, px, y, (xlo, xhi), &mut tmp);
+                    runs.push_row(&tmp);
                 }
-                self.run_parts = parts;
+                self.run_tmp = tmp;
             }
         }
         // The PEs plan their rows independently, so in parallel.

@@ -83,13 +83,6 @@ impl RowRuns {
         self.runs.extend_from_slice(runs);
     }
 
-    /// Appends every row of `other`, in order.
-    pub fn append(&mut self, other: &RowRuns) {
-        let at = self.runs.len();
-        self.starts.extend(other.starts.iter().map(|&s| s + at));
-        self.runs.extend_from_slice(&other.runs);
-    }
-
     /// Row `r`'s runs.
     pub fn row(&self, r: usize) -> &[(i64, i64)] {
         let end = self.starts.get(r + 1).copied().unwrap_or(self.runs.len());
@@ -294,40 +287,6 @@ mod tests {
             }
             prop_assert_eq!(&fast, &(live, ends, reports));
             prop_assert_eq!(fast, slow);
-        }
-
-        /// Rows worked out in parts and appended in order are the rows
-        /// pushed one by one, wherever the parts are cut.
-        #[test]
-        fn appended_parts_are_the_rows_pushed_in_order(
-            rows in proptest::collection::vec(
-                proptest::collection::vec((-50i64..50, -50i64..50), 0..4), 0..12),
-            cuts in proptest::collection::vec(0usize..12, 0..4),
-        ) {
-            let mut whole = RowRuns::default();
-            for row in &rows {
-                whole.push_row(row);
-            }
-            let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c.min(rows.len())).collect();
-            cuts.push(0);
-            cuts.push(rows.len());
-            cuts.sort_unstable();
-            let mut joined = RowRuns::default();
-            // A part left over from an earlier slice, cleared and reused.
-            let mut part = RowRuns::default();
-            part.push_row(&[(7, 9)]);
-            for w in cuts.windows(2) {
-                part.clear();
-                for row in &rows[w[0]..w[1]] {
-                    part.push_row(row);
-                }
-                joined.append(&part);
-            }
-            prop_assert_eq!(joined.rows(), rows.len());
-            for (r, row) in rows.iter().enumerate() {
-                prop_assert_eq!(joined.row(r), whole.row(r));
-                prop_assert_eq!(joined.row(r), row.as_slice());
-            }
         }
     }
 }
