@@ -1,0 +1,107 @@
+//! The Bartlett merge's assignments worked out once per frame
+//! ([`Tents`]), beside the sample's: the same words and quantisation
+//! events as [`Datapath::tent`] (a proptest compares them over many
+//! formats).
+
+use super::{mag, Step, Tally};
+#[cfg(doc)]
+use crate::datapath::Datapath;
+use crate::fixed::Format;
+
+/// The Bartlett merge's four assignments ([`Datapath::tent`]): the x
+/// pass's tent of accumulator words (colour, opacity) into `merge`, and
+/// the y pass's of `merge` words back into each accumulator, worked out
+/// once per frame like the sample's. The tent of three words below
+/// `2^B` stays below `2^(B + 2)`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tents {
+    x: [Step; 2],
+    y: [Step; 2],
+}
+
+impl Tents {
+    /// The configuration's tents, or `None` when one is not modelled.
+    pub(super) fn new(c: &crate::config::PipelineConfig) -> Option<Tents> {
+        let tent =
+            |from: Format, to: Format| Step::new(i32::from(from.frac()) + 2, mag(from) + 2, to);
+        let (fc, fa, fm) = (c.accum_color, c.accum_alpha, c.merge);
+        Some(Tents {
+            x: [tent(fc, fm)?, tent(fa, fm)?],
+            y: [tent(fm, fc)?, tent(fm, fa)?],
+        })
+    }
+
+    /// [`Datapath::tent`] of channel `ch` (R, G, B, A) of parents `p`:
+    /// the x pass's (`y` false) or the y pass's, its events counted in
+    /// `t`.
+    #[inline(always)]
+    pub(crate) fn apply(&self, y: bool, ch: usize, p: [i64; 3], t: &mut Tally) -> i64 {
+        let steps = if y { &self.y } else { &self.x };
+        steps[usize::from(ch == 3)].apply(p[0] + 2 * p[1] + p[2], t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::datapath::Datapath;
+    use crate::fixed::{Overflow, Quant, QuantStats};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        /// A tent worked out once is the general path's [`Datapath::tent`],
+        /// word and quantisation events, for either pass and channel, over
+        /// accumulator and merge formats of many widths and fractions,
+        /// `TRN` or `RND`, a signed or unsigned merge word.
+        #[test]
+        fn a_tent_is_the_general_tent(
+            widths in proptest::array::uniform3((2u8..=40, 0u8..=40)),
+            rounds in any::<[bool; 3]>(),
+            signed in any::<bool>(),
+            y in any::<bool>(),
+            ch in 0usize..4,
+            words in any::<[u64; 3]>(),
+        ) {
+            let q = |r: bool| if r { Quant::Rnd } else { Quant::Trn };
+            let f = |i: usize, s: bool| {
+                let (b, fr) = widths[i];
+                Format::new(b, fr.min(b), s, q(rounds[i]), Overflow::Sat)
+            };
+            let (Ok(accum_color), Ok(accum_alpha), Ok(merge)) = (f(0, false), f(1, false), f(2, signed))
+            else {
+                return Err(TestCaseError::reject("no such format"));
+            };
+            let cfg = crate::config::PipelineConfig {
+                accum_color,
+                accum_alpha,
+                merge,
+                ..crate::config::PipelineConfig::default()
+            };
+            let Some(tents) = Tents::new(&cfg) else {
+                return Err(TestCaseError::reject("a width the tents do not model"));
+            };
+            let acc = if ch == 3 { accum_alpha } else { accum_color };
+            let (from, to) = if y { (merge, acc) } else { (acc, merge) };
+            // Any three words of the source format.
+            let span = (from.max_raw() - from.min_raw()) as u64 + 1;
+            let p = words.map(|w| from.min_raw() + (w % span) as i64);
+            let mut want_st = QuantStats::default();
+            // The general tent reads only its formats, not the datapath's.
+            static DP: std::sync::OnceLock<Datapath> = std::sync::OnceLock::new();
+            let dp = DP.get_or_init(|| {
+                let cfg = crate::config::PipelineConfig::default();
+                let tf = golden::scenes::tf_preset("ml").unwrap();
+                let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, 8);
+                Datapath::new(cfg, crate::tables::Tables::new(&cfg, &lut).unwrap())
+            });
+            let want = dp.tent(p, from, to, &mut want_st).raw();
+            let mut t = Tally::default();
+            let got = tents.apply(y, ch, p, &mut t);
+            let mut got_st = QuantStats::default();
+            t.add_to(&mut got_st);
+            prop_assert_eq!(got, want);
+            prop_assert_eq!(got_st, want_st);
+        }
+    }
+}
