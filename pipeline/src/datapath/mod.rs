@@ -11,7 +11,8 @@ use crate::tables::Tables;
 
 mod kernel;
 
-pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, Tents, LANES};
+use kernel::Tents;
+pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,

@@ -404,3 +404,57 @@ impl Array {
         Ok((reads, written(self) - before))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::ColumnMap;
+    use crate::pe::VoxelMem;
+
+    fn grid(n: i64) -> RayGrid {
+        RayGrid {
+            z_ref: 1.0,
+            phi: [0.0; 2],
+            lo: [0, 0],
+            hi: [n - 1, n - 1],
+            slices: 0..1,
+        }
+    }
+
+    /// Evaluated column by column, a merge whose slots read a parent row
+    /// the x pass never filtered still reports the clock's earliest
+    /// failing cycle, slot after slot (`s * width + col`): the y pass of
+    /// slot 1 in column 0.
+    #[test]
+    fn a_failing_merge_reports_the_earliest_cycle() {
+        let cfg = crate::config::PipelineConfig::default();
+        let tf = golden::scenes::tf_preset("ml").unwrap();
+        let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, 8);
+        let dp = Datapath::new(cfg, crate::tables::Tables::new(&cfg, &lut).unwrap());
+        let dims = [8, 6, 2];
+        let cols: Vec<usize> = (0..8).collect();
+        let mem = VoxelMem::Words(vec![0; 8 * 6 * 2]);
+        let mut pe = Pe::new(0, ColumnMap::blocks(1, 8), &cols, mem, dims);
+        pe.set_rays((0..8).map(|mx| RayColumn::empty(mx, 8, false)).collect());
+        let (bg, fg) = (grid(8), grid(4));
+        let width = pe.begin_merge(&bg, &fg);
+        assert_eq!(width, 4);
+        // Child row 1 reads parent rows 1 to 3; only row 0 was filtered.
+        let slots = [
+            Slot {
+                x: Some(0),
+                y: None,
+            },
+            Slot {
+                x: None,
+                y: Some(1),
+            },
+        ];
+        let edges = vec![(Acc::default(), Acc::default()); 8];
+        let got = pe.merge_whole(&dp, (&slots, width), &edges, (&bg, &fg));
+        match got {
+            Err((cycle, StepError::LineBuffer { pe: 0, row: 1 })) => assert_eq!(cycle, width),
+            other => panic!("expected a line-buffer failure at cycle {width}, got {other:?}"),
+        }
+    }
+}
