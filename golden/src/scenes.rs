@@ -559,7 +559,7 @@ mod tests {
     fn build_respects_the_memory_limit() {
         let s = Scene::Sphere { n: 1024 };
         let e = s.build(1 << 20).unwrap_err().to_string();
-        assert!(e.contains("over the limit"), "{e}");
+        assert!(e.contains("over the memory limit"), "{e}");
         let bad = Scene::Checker { n: 8, cube: 0 };
         assert!(bad.build(DEFAULT_MEMORY_LIMIT).is_err());
     }

@@ -16,7 +16,18 @@ pub struct ControlPoint {
     /// Scalar value (voxel units, e.g. 0..=255 for u8 volumes).
     pub value: f64,
     /// Red, green, blue (not premultiplied) and opacity per unit length, each in [0, 1].
+    #[serde(deserialize_with = "four_values")]
     pub rgba: [f64; 4],
+}
+
+/// Exactly four numbers (a fixed-size array alone would take the first
+/// four of a longer list).
+fn four_values<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<[f64; 4], D::Error> {
+    use serde::de::Error as _;
+    let v = <Vec<f64> as serde::Deserialize>::deserialize(d)?;
+    let n = v.len();
+    v.try_into()
+        .map_err(|_| D::Error::invalid_length(n, &"four values r, g, b, a"))
 }
 
 /// A piecewise-linear transfer function; constant beyond its end points.
@@ -77,8 +88,20 @@ impl TransferFunction {
 
     /// Parses the TOML form: `[[point]] value = 30  rgba = [1, 1, 1, 0]`, ...
     pub fn from_toml_str(text: &str) -> Result<TransferFunction> {
-        let tf: TransferFunction = toml::from_str(text)
-            .map_err(|e| input(format!("transfer function: {}", one_line(&e.to_string()))))?;
+        let tf: TransferFunction = toml::from_str(text).map_err(|e| {
+            // The library's own text draws the line under a caret over
+            // several lines: give its message and the line number instead.
+            let at = e
+                .span()
+                .map(|s| {
+                    format!(
+                        "line {}: ",
+                        text[..s.start.min(text.len())].lines().count().max(1)
+                    )
+                })
+                .unwrap_or_default();
+            input(format!("transfer function: {at}{}", one_line(e.message())))
+        })?;
         tf.validate()?;
         Ok(tf)
     }
@@ -318,6 +341,30 @@ mod tests {
         assert!(TransferFunction::from_toml_str(order).is_err());
         assert!(TransferFunction::from_toml_str("[[point]]\nvalu = 3\n").is_err());
         assert!(TransferFunction::from_toml_str("").is_err());
+    }
+
+    #[test]
+    fn toml_errors_are_one_plain_line_and_rgba_takes_exactly_four() {
+        let five = "[[point]]\nvalue = 3\nrgba = [0, 0, 0, 0, 1]\n";
+        let e = TransferFunction::from_toml_str(five)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("invalid length 5") && e.contains("four values"),
+            "{e}"
+        );
+        assert!(e.starts_with("transfer function: line 3: "), "{e}");
+        let three = "[[point]]\nvalue = 3\nrgba = [0, 0, 0]\n";
+        assert!(TransferFunction::from_toml_str(three).is_err());
+        // An empty file: the message, not the library's caret drawing.
+        let e = TransferFunction::from_toml_str("").unwrap_err().to_string();
+        assert!(
+            e.ends_with("missing field `point`") && !e.contains('\n'),
+            "{e}"
+        );
+        let e = TransferFunction::from_toml_str("[[point]]\nvalue = 3\n").unwrap_err();
+        let e = e.to_string();
+        assert!(!e.contains('|') && !e.contains('^'), "{e}");
     }
 
     #[test]

@@ -13,6 +13,13 @@ use crate::error::{input, Error, Result};
 /// checked before anything is allocated.
 pub const DEFAULT_MEMORY_LIMIT: u64 = 4 << 30;
 
+/// The voxel spacings accepted, in world units per voxel (both ends
+/// included), from a file's header or `--spacing`: wide enough for
+/// nanometre microscopy and kilometre-scale grids in millimetres, narrow
+/// enough that eye distances and ray steps stay ordinary floats (a spacing
+/// of 1e-150 would render a flat sheet, 1e150 an eye past any range).
+pub const SPACING_RANGE: (f64, f64) = (1e-6, 1e6);
+
 /// Largest edge length accepted for any axis; larger files are refused as
 /// absurd rather than attempted.
 pub const MAX_EDGE: usize = 8192;
@@ -254,11 +261,13 @@ impl Volume {
         Volume::from_voxels(dims, data)
     }
 
-    /// Sets the voxel spacing (world units per voxel step on each axis).
+    /// Sets the voxel spacing (world units per voxel step on each axis),
+    /// each within [`SPACING_RANGE`].
     pub fn with_spacing(mut self, spacing: [f64; 3]) -> Result<Volume> {
-        if spacing.iter().any(|s| !s.is_finite() || *s <= 0.0) {
+        let (lo, hi) = SPACING_RANGE;
+        if !spacing.iter().all(|s| (lo..=hi).contains(s)) {
             return Err(input(format!(
-                "voxel spacing {spacing:?} must be finite and positive"
+                "voxel spacing {spacing:?} must be numbers from {lo:e} to {hi:e}"
             )));
         }
         self.spacing = spacing;
@@ -387,7 +396,7 @@ mod tests {
         assert!(check_dims([0, 4, 4], 1, DEFAULT_MEMORY_LIMIT).is_err());
         assert!(check_dims([4, MAX_EDGE + 1, 4], 1, DEFAULT_MEMORY_LIMIT).is_err());
         let err = check_dims([4096, 4096, 4096], 2, DEFAULT_MEMORY_LIMIT).unwrap_err();
-        assert!(err.to_string().contains("over the limit"), "{err}");
+        assert!(err.to_string().contains("over the memory limit"), "{err}");
         assert_eq!(check_dims([2, 3, 4], 1, 100).unwrap(), 24);
     }
 

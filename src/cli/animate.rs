@@ -156,7 +156,7 @@ pub fn run(a: &AnimateArgs) -> Result<()> {
     if !(1..=10_000).contains(&a.frame_ms) {
         bail!("--frame-ms {} must be 1 to 10000", a.frame_ms);
     }
-    with_threads(a.threads, || animate(a))
+    super::outputs::all_or_nothing(&[&a.out_dir], || with_threads(a.threads, || animate(a)))
 }
 
 /// How the frames are drawn: a golden technique, or the PE array with the
@@ -411,7 +411,7 @@ impl GifWriter {
                 .set_permissions(std::fs::Permissions::from_mode(0o644))
                 .map_err(err)?;
         }
-        tmp.persist(&path).map_err(|e| err(e.error))?;
+        golden::image::place(tmp, &path).map_err(err)?;
         Ok(())
     }
 }

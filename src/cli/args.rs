@@ -61,17 +61,17 @@ pub fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("'{s}' is not a size WxH such as 256x256"))?;
     let p = |t: &str| -> std::result::Result<u32, String> {
-        let n: u32 = t
+        let n: u64 = t
             .trim()
             .parse()
             .map_err(|_| format!("'{t}' in size '{s}' is not a whole number"))?;
-        if n == 0 || n > golden::camera::MAX_IMAGE_EDGE {
+        if n == 0 || n > u64::from(golden::camera::MAX_IMAGE_EDGE) {
             return Err(format!(
                 "image size '{s}': each side must be 1 to {}",
                 golden::camera::MAX_IMAGE_EDGE
             ));
         }
-        Ok(n)
+        Ok(n as u32)
     };
     Ok([p(w)?, p(h)?])
 }
@@ -128,10 +128,16 @@ pub struct SourceArgs {
     pub window: Option<Window>,
     /// Memory a frame may take: bytes, or a number with K, M, G or T
     /// (binary units). A volume or frame estimated to need more is refused
-    /// before it is allocated. Default: the machine's available memory
-    /// (MemAvailable in /proc/meminfo).
+    /// before it is allocated. Default: the tightest of the machine's
+    /// available memory, the process's ulimit -v/-d and its cgroup's
+    /// memory.max (the flag may not exceed the last three).
     #[arg(long, value_parser = super::memory::parse_bytes)]
     pub max_memory: Option<u64>,
+    /// Let a detached header (.nhdr, .mhd) name a data file outside its own
+    /// folder (an absolute path, '..', or a link leading out); refused by
+    /// default.
+    #[arg(long)]
+    pub allow_outside_data: bool,
 }
 
 impl SourceArgs {
@@ -192,6 +198,7 @@ impl SourceArgs {
                 (placed, scene.preset())
             }
             (None, Some(path)) => {
+                golden::load::allow_outside_data(self.allow_outside_data);
                 let raw = self.raw_dims.map(|dims| RawSpec {
                     dims,
                     kind: self.raw_type,
@@ -400,11 +407,22 @@ pub fn with_threads<T: Send>(
     match threads {
         None => f(),
         Some(0) => bail!("--threads must be at least 1"),
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .context("cannot start the thread pool")?
-            .install(f),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .context("cannot start the thread pool")?;
+            // The run's staged outputs (see outputs::all_or_nothing) follow
+            // the work onto the pool's thread and back.
+            let carried = golden::image::carry();
+            let (out, back) = pool.install(move || {
+                golden::image::adopt(carried);
+                let out = f();
+                (out, golden::image::carry())
+            });
+            golden::image::adopt(back);
+            out
+        }
     }
 }
 

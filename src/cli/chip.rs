@@ -200,6 +200,17 @@ pub fn run(
     ),
     spare: &mut Option<pipeline::Resident>,
 ) -> Result<PipelineRun> {
+    if a.vcd.is_some() || a.fst.is_some() {
+        if let PeFilter::Only(set) = PeFilter::parse(&a.trace_pes)? {
+            if let Some(&k) = set.iter().find(|&&k| k >= u32::from(cfg.pes)) {
+                bail!(
+                    "--trace-pes names PE {k}, but the array has {} PEs (0 to {})",
+                    cfg.pes,
+                    cfg.pes - 1
+                );
+            }
+        }
+    }
     let tr = tracer(a)?;
     let t = Instant::now();
     // The previous frame's memories only lend their buffers: this frame

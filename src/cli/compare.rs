@@ -88,7 +88,9 @@ pub fn run(a: &CompareArgs) -> Result<()> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    with_threads(a.threads, || compare_views(a, &techs))
+    super::outputs::all_or_nothing(&[&a.out_dir], || {
+        with_threads(a.threads, || compare_views(a, &techs))
+    })
 }
 
 fn compare_views(a: &CompareArgs, techs: &[Technique]) -> Result<()> {
@@ -271,6 +273,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
                 spacing: None,
                 window: None,
                 max_memory: None,
+                allow_outside_data: false,
             },
             camera: CameraArgs {
                 eye: Some(DVec3::new(64.0, 64.0, -32.0)),

@@ -1,6 +1,7 @@
 //! The memory check: a frame's peak memory, estimated from the volume's
 //! dimensions, voxel type, the method and its options, against the memory
-//! the machine has free (`MemAvailable` in /proc/meminfo, or
+//! the process may still take (the tightest of `MemAvailable`, its
+//! `RLIMIT_AS`/`RLIMIT_DATA` and its cgroup's limit, see [`Limits`]; or
 //! `--max-memory`), before the volume or the frame's arrays are allocated.
 //! A scene too big for the machine is refused with one line rather than
 //! killed by the kernel halfway through.
@@ -57,9 +58,106 @@ pub fn parse_bytes(s: &str) -> std::result::Result<u64, String> {
 /// `MemAvailable` from /proc/meminfo, in bytes.
 fn mem_available() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    kib_field(&text, "MemAvailable:")
+}
+
+/// A `Name:   123 kB` field of /proc/meminfo or /proc/self/status, in bytes.
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kb.checked_mul(1024)
+}
+
+/// What limits this process's memory, each as the bytes still free under
+/// it: the machine (`MemAvailable`), the address-space and data-segment
+/// limits (`RLIMIT_AS`, `RLIMIT_DATA`, as `ulimit -v`/`-d` or `prlimit`
+/// set them) minus what the process already maps (`VmSize`, `VmData`),
+/// and its cgroup's limit (v2 `memory.max`, v1 `memory.limit_in_bytes`,
+/// as a container or a batch job gets) minus the cgroup's usage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// The machine's available memory.
+    pub available: Option<u64>,
+    /// Bytes left under `RLIMIT_AS`.
+    pub address_space: Option<u64>,
+    /// Bytes left under `RLIMIT_DATA`.
+    pub data: Option<u64>,
+    /// Bytes left under the cgroup's memory limit.
+    pub cgroup: Option<u64>,
+}
+
+impl Limits {
+    /// Reads the limits now in force.
+    pub fn read() -> Limits {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+        let left = |limit: Option<u64>, used: &str| {
+            limit.map(|l| l.saturating_sub(kib_field(&status, used).unwrap_or(0)))
+        };
+        Limits {
+            available: mem_available(),
+            address_space: left(rlimit(libc::RLIMIT_AS), "VmSize:"),
+            data: left(rlimit(libc::RLIMIT_DATA), "VmData:"),
+            cgroup: cgroup_left(),
+        }
+    }
+
+    /// The tightest limit and its name, if any is known.
+    pub fn tightest(&self) -> Option<(u64, &'static str)> {
+        [
+            (self.available, "available memory (MemAvailable)"),
+            (
+                self.address_space,
+                "address-space limit (RLIMIT_AS, ulimit -v)",
+            ),
+            (self.data, "data-segment limit (RLIMIT_DATA, ulimit -d)"),
+            (self.cgroup, "cgroup memory limit (memory.max)"),
+        ]
+        .into_iter()
+        .filter_map(|(v, name)| v.map(|v| (v, name)))
+        .min_by_key(|&(v, _)| v)
+    }
+}
+
+/// The soft limit `resource`, if one is set.
+fn rlimit(resource: libc::__rlimit_resource_t) -> Option<u64> {
+    let mut r = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes the struct it is given and nothing else.
+    let ok = unsafe { libc::getrlimit(resource, &mut r) } == 0;
+    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+}
+
+/// Bytes left under this process's cgroup memory limit (v2, else v1).
+fn cgroup_left() -> Option<u64> {
+    let own = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let read_u64 =
+        |p: String| -> Option<u64> { std::fs::read_to_string(p).ok()?.trim().parse().ok() };
+    for line in own.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        let (limit, usage) = if controllers.is_empty() {
+            let dir = format!("/sys/fs/cgroup{path}");
+            (
+                read_u64(format!("{dir}/memory.max")),
+                read_u64(format!("{dir}/memory.current")),
+            )
+        } else if controllers.split(',').any(|c| c == "memory") {
+            let dir = format!("/sys/fs/cgroup/memory{path}");
+            (
+                read_u64(format!("{dir}/memory.limit_in_bytes")),
+                read_u64(format!("{dir}/memory.usage_in_bytes")),
+            )
+        } else {
+            continue;
+        };
+        // v1 writes "no limit" as a huge number; v2 writes "max" (unparsed).
+        if let Some(l) = limit.filter(|&l| l < 1 << 60) {
+            return Some(l.saturating_sub(usage.unwrap_or(0)));
+        }
+    }
+    None
 }
 
 /// How much memory a frame may take, and where that figure came from.
@@ -67,22 +165,49 @@ fn mem_available() -> Option<u64> {
 pub struct Budget {
     /// Bytes the frame may take.
     pub bytes: u64,
-    /// Whether `--max-memory` set it (else the machine's free memory).
+    /// Whether `--max-memory` set it (else the process's limits).
     from_flag: bool,
+    /// Which limit set it, for messages.
+    source: &'static str,
 }
 
 impl Budget {
-    /// `--max-memory` when given, else the machine's available memory.
+    /// `--max-memory` when given (but never past an address-space, data or
+    /// cgroup limit), else the tightest of the process's [`Limits`].
     pub fn new(max_memory: Option<u64>) -> Budget {
         match max_memory {
-            Some(bytes) => Budget {
-                bytes,
-                from_flag: true,
-            },
-            None => Budget {
-                bytes: mem_available().unwrap_or(UNKNOWN_AVAILABLE),
-                from_flag: false,
-            },
+            // The flag may go past the machine's free memory (swap, other
+            // jobs ending) but not past a limit the kernel enforces.
+            Some(bytes) => {
+                let hard = Limits {
+                    available: None,
+                    ..Limits::read()
+                }
+                .tightest()
+                .filter(|&(h, _)| h < bytes);
+                match hard {
+                    Some((bytes, source)) => Budget {
+                        bytes,
+                        from_flag: false,
+                        source,
+                    },
+                    None => Budget {
+                        bytes,
+                        from_flag: true,
+                        source: "--max-memory",
+                    },
+                }
+            }
+            None => {
+                let (bytes, source) = Limits::read()
+                    .tightest()
+                    .unwrap_or((UNKNOWN_AVAILABLE, "assumed memory (no limit could be read)"));
+                Budget {
+                    bytes,
+                    from_flag: false,
+                    source,
+                }
+            }
         }
     }
 
@@ -96,8 +221,9 @@ impl Budget {
             format!("the {} --max-memory allows", human(self.bytes as u128))
         } else {
             format!(
-                "the {} this machine has available (MemAvailable); --max-memory overrides",
-                human(self.bytes as u128)
+                "the {} left under this process's {}; --max-memory lowers it",
+                human(self.bytes as u128),
+                self.source
             )
         };
         bail!(
@@ -107,16 +233,9 @@ impl Budget {
     }
 }
 
-/// `b` bytes for people: GiB, MiB or KiB with one decimal.
+/// `b` bytes for people (three significant digits, binary units).
 fn human(b: u128) -> String {
-    let b = b as f64;
-    for (unit, shift) in [("GiB", 30), ("MiB", 20), ("KiB", 10)] {
-        let u = (1u64 << shift) as f64;
-        if b >= u {
-            return format!("{:.1} {unit}", b / u);
-        }
-    }
-    format!("{b} bytes")
+    golden::error::human_bytes(b)
 }
 
 /// What a frame computes, as far as its memory goes.
@@ -221,7 +340,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(!e.contains('\n'), "{e}");
-        assert!(e.contains("1.0 MiB --max-memory allows"), "{e}");
+        assert!(e.contains("1.00 MiB --max-memory allows"), "{e}");
         // The machine's own figure is positive wherever it is read.
         assert!(Budget::new(None).bytes > 0);
     }

@@ -12,6 +12,7 @@ mod explore;
 mod memory;
 mod method;
 mod montage;
+mod outputs;
 mod peer;
 mod plot;
 mod progress;

@@ -111,8 +111,23 @@ fn timed_with<T>(
     Ok((last.expect("at least one run"), times))
 }
 
-/// Runs `ercube render`.
+/// Runs `ercube render`: every output path is checked first, and the
+/// outputs appear together only if the whole run succeeds.
 pub fn run(a: &RenderArgs) -> Result<()> {
+    let p = &a.pipeline;
+    super::outputs::check_files(&[
+        Some(&a.out),
+        a.stats.as_deref(),
+        a.npy.as_deref(),
+        a.baseplane_npy.as_deref(),
+        p.vcd.as_deref(),
+        p.fst.as_deref(),
+        p.raw_npy.as_deref(),
+    ])?;
+    super::outputs::all_or_nothing(&[], || render(a))
+}
+
+fn render(a: &RenderArgs) -> Result<()> {
     let Some(tech) = a.method.technique() else {
         return with_threads(a.threads, || run_pipeline(a));
     };

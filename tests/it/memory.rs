@@ -26,7 +26,7 @@ fn a_frame_over_max_memory_is_refused_in_one_line() {
     }
     refused(
         "compare --scene checker:16 --size 16x16 --max-memory 1M --out-dir out",
-        "more than the 1.0 MiB --max-memory allows",
+        "more than the 1.00 MiB --max-memory allows",
     );
 }
 
@@ -57,7 +57,7 @@ fn a_file_over_max_memory_is_refused_by_its_loader() {
         &format!(
             "render --volume {v} --raw-dims 32,32,32 --size 16x16 --max-memory 16K --out o.png"
         ),
-        "over the limit",
+        "over the memory limit of 16.0 KiB",
     );
     // The volume fits but the frame does not.
     refused(
@@ -89,6 +89,53 @@ fn a_frame_within_max_memory_renders() {
         "o.png",
     ];
     let out = ercube(dir.path(), &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("o.png").exists());
+}
+
+/// Runs `ercube args` under `ulimit -v` of `kib` KiB (an address-space
+/// limit, as a batch system sets), in a fresh folder.
+fn under_ulimit(kib: u64, args: &str) -> (std::process::Output, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let script = format!("ulimit -v {kib} && exec \"$0\" {args}");
+    let out = std::process::Command::new("sh")
+        .args(["-c", &script, crate::bin::BIN])
+        .current_dir(dir.path())
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("sh runs");
+    (out, dir)
+}
+
+#[test]
+fn the_process_address_space_limit_bounds_every_frame() {
+    // 3 GiB of address space: a 2048 or 1536 checker, a 16384x16384 image
+    // and --max-memory past the limit are refused naming the limit, not
+    // aborted when the allocation fails.
+    for args in [
+        "render --scene checker:2048 --size 16x16 --out o.png",
+        "render --scene checker:1536 --size 16x16 --out o.png",
+        "render --scene checker:16 --size 16384x16384 --out o.png",
+        "render --scene checker:1536 --size 16x16 --max-memory 100G --out o.png",
+        "compare --scene checker:1536 --size 16x16 --out-dir out",
+    ] {
+        let (out, dir) = under_ulimit(3 << 20, args);
+        let argv: Vec<&str> = args.split_whitespace().collect();
+        assert_refused(&argv, &out, "address-space limit (RLIMIT_AS");
+        assert!(
+            std::fs::read_dir(dir.path()).unwrap().next().is_none(),
+            "{args}: left files"
+        );
+    }
+    // A small frame still renders under the same limit.
+    let (out, dir) = under_ulimit(
+        3 << 20,
+        "render --scene checker:16 --size 16x16 --out o.png",
+    );
     assert!(
         out.status.success(),
         "{}",

@@ -16,6 +16,31 @@ use crate::volume::{Units, VoxelType};
 /// be irrelevant next to the volume.
 const CHUNK: usize = 1 << 16;
 
+/// Makes room in `out` for `extra` more values, never past `count` in all:
+/// the buffer grows (doubling) only as data arrives, so a header that
+/// promises more voxels than its stream holds costs what the stream holds,
+/// not what the header claims.
+fn grow<T>(out: &mut Vec<T>, extra: usize, count: usize) -> &mut Vec<T> {
+    let need = out.len() + extra;
+    if need > out.capacity() {
+        let target = (out.capacity() * 2)
+            .max(need)
+            .max(CHUNK)
+            .min(count.max(need));
+        out.reserve_exact(target - out.len());
+    }
+    out
+}
+
+/// Reads a compressed stream to its end, so its trailer (the gzip CRC and
+/// length, the zlib Adler-32) is checked: a stream whose data was read but
+/// whose checksum is wrong or missing is refused.
+pub(super) fn drain(path: &Path, r: &mut impl Read) -> Result<()> {
+    std::io::copy(r, &mut std::io::sink())
+        .map(|_| ())
+        .map_err(|e| data_err(path, e))
+}
+
 /// Reads exactly `count` voxels of an integer encoding into `u16`s,
 /// chunk by chunk. `offset` is where the data starts, for messages.
 pub(super) fn decode(
@@ -25,7 +50,7 @@ pub(super) fn decode(
     enc: RawType,
     offset: u64,
 ) -> Result<Vec<u16>> {
-    let mut out = Vec::with_capacity(count);
+    let mut out = Vec::new();
     read_chunks(
         path,
         r,
@@ -33,13 +58,16 @@ pub(super) fn decode(
         enc.bytes() as usize,
         offset,
         |chunk| match enc {
-            RawType::U8 => out.extend(chunk.iter().map(|&b| b as u16)),
-            RawType::U16Le => out.extend(
+            RawType::U8 => {
+                grow(&mut out, chunk.len(), count);
+                out.extend(chunk.iter().map(|&b| b as u16))
+            }
+            RawType::U16Le => grow(&mut out, chunk.len() / 2, count).extend(
                 chunk
                     .chunks_exact(2)
                     .map(|b| u16::from_le_bytes([b[0], b[1]])),
             ),
-            RawType::U16Be => out.extend(
+            RawType::U16Be => grow(&mut out, chunk.len() / 2, count).extend(
                 chunk
                     .chunks_exact(2)
                     .map(|b| u16::from_be_bytes([b[0], b[1]])),
@@ -52,9 +80,9 @@ pub(super) fn decode(
 /// `count` 8-bit voxels as bytes, not widened: an 8-bit file's volume
 /// costs its voxel bytes.
 pub(super) fn decode_u8(path: &Path, r: impl Read, count: usize, offset: u64) -> Result<Vec<u8>> {
-    let mut out = Vec::with_capacity(count);
+    let mut out = Vec::new();
     read_chunks(path, r, count, 1, offset, |chunk| {
-        out.extend_from_slice(chunk)
+        grow(&mut out, chunk.len(), count).extend_from_slice(chunk)
     })?;
     Ok(out)
 }
@@ -209,9 +237,9 @@ fn decode_wide<T>(
     offset: u64,
     parse: impl Fn(&[u8]) -> T,
 ) -> Result<Vec<T>> {
-    let mut out = Vec::with_capacity(count);
+    let mut out = Vec::new();
     read_chunks(path, r, count, elem, offset, |chunk| {
-        out.extend(chunk.chunks_exact(elem).map(&parse))
+        grow(&mut out, chunk.len() / elem, count).extend(chunk.chunks_exact(elem).map(&parse))
     })?;
     Ok(out)
 }

@@ -204,7 +204,7 @@ pub(super) mod tests {
         let big = den_bytes([8000, 8000, 8], 8000 * 8000 * 8, &[], false);
         assert_err(
             load_den(&write(&dir, "i.den", &big), 1 << 20),
-            "over the limit",
+            "over the memory limit",
         );
     }
 

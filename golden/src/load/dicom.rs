@@ -4,6 +4,7 @@
 //! `dicom-pixeldata`, stacked along the slice normal in patient space.
 
 mod frames;
+mod lengths;
 mod pixels;
 
 use pixels::{dicom_err, quiet_unwind, read_pixels};
@@ -90,18 +91,26 @@ pub(super) fn is_dicom(path: &Path) -> bool {
 /// True if `dir` holds at least one DICOM Part 10 file (so a folder is read
 /// as a DICOM series rather than a TIFF stack).
 pub(super) fn dir_has_dicom(dir: &Path) -> bool {
-    dicom_files(dir).is_ok_and(|f| !f.is_empty())
+    dicom_files(dir, false).is_ok_and(|f| !f.is_empty())
 }
 
 /// The DICOM Part 10 files of `dir` (by their magic, any name; names
-/// starting with `.` and `DICOMDIR` skipped), sorted by name.
-fn dicom_files(dir: &Path) -> Result<Vec<PathBuf>> {
+/// starting with `.`, `DICOMDIR` and sub-folders skipped), sorted by name.
+/// If `strict`, a member that cannot be read (a dangling link, a link
+/// loop, no permission) is refused naming it, since it may be a slice.
+fn dicom_files(dir: &Path, strict: bool) -> Result<Vec<PathBuf>> {
     let io = |e| io_err(dir, e);
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let p = entry.map_err(io)?.path();
         let name = p.file_name().unwrap_or_default().to_string_lossy();
-        if !name.starts_with('.') && !name.eq_ignore_ascii_case("DICOMDIR") && p.is_file() {
+        if name.starts_with('.') || name.eq_ignore_ascii_case("DICOMDIR") || p.is_dir() {
+            continue;
+        }
+        if strict {
+            super::check_member(&p)?;
+        }
+        if p.is_file() {
             if is_dicom(&p) {
                 files.push(p);
             }
@@ -179,7 +188,7 @@ pub fn read_dicom_file(path: &Path, limit: u64) -> Result<Loaded> {
 /// and kept when they fit 16 bits (8 bits for 8-bit data), anything else
 /// is mapped linearly onto 0..=65535 (see [`load_nifti`](super::load_nifti)).
 pub fn read_dicom_dir(dir: &Path, limit: u64) -> Result<Loaded> {
-    let files = dicom_files(dir)?;
+    let files = dicom_files(dir, true)?;
     if files.is_empty() {
         return Err(format_err(
             dir,
@@ -238,6 +247,7 @@ fn read_series(dir: &Path, files: Vec<PathBuf>, limit: u64) -> Result<Loaded> {
     let (kind, data, units) = map_values(&vals, first.bits);
     drop(vals);
     let spacing = [first.pixel_spacing[0], first.pixel_spacing[1], dz];
+    let spacing = super::check_spacing(dir, "PixelSpacing and the slice gap", spacing)?;
     let volume = Volume::new(dims, kind, data)?
         .with_spacing(spacing)?
         .with_units(units);
@@ -276,9 +286,16 @@ fn read_header(path: &Path, limit: u64) -> Result<Vec<Slice>> {
     if len > limit {
         return Err(format_err(
             path,
-            format!("the file is {len} bytes, over the limit of {limit} bytes"),
+            format!(
+                "the file is {}, over the memory limit of {}",
+                crate::error::human_bytes(len as u128),
+                crate::error::human_bytes(limit as u128)
+            ),
         ));
     }
+    let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
+    lengths::check_lengths(&bytes).map_err(|m| format_err(path, m))?;
+    drop(bytes);
     let obj = open_dicom(path, true)?;
     let ts = obj.meta().transfer_syntax().trim_end_matches('\0').trim();
     if !SUPPORTED.iter().any(|(uid, _)| *uid == ts) {
@@ -328,6 +345,22 @@ fn read_header(path: &Path, limit: u64) -> Result<Vec<Slice>> {
         return Err(bad(format!(
             "BitsAllocated {bits}: only 8- and 16-bit slices are supported"
         )));
+    }
+    let int = |tag: Tag| elem(&obj, tag).and_then(|e| e.to_int::<u32>().ok());
+    let stored = int(tags::BITS_STORED).unwrap_or(bits);
+    let high = int(tags::HIGH_BIT).unwrap_or(stored.saturating_sub(1));
+    if stored == 0 || stored > bits || high >= bits || high + 1 < stored {
+        return Err(bad(format!(
+            "BitsStored {stored} and HighBit {high} do not fit BitsAllocated {bits}"
+        )));
+    }
+    if let Some(pi) = elem(&obj, tags::PHOTOMETRIC_INTERPRETATION).and_then(|e| e.to_str().ok()) {
+        let pi = pi.trim_end_matches('\0').trim();
+        if pi != "MONOCHROME1" && pi != "MONOCHROME2" {
+            return Err(bad(format!(
+                "PhotometricInterpretation {pi}: only greyscale (MONOCHROME1/2) slices are supported"
+            )));
+        }
     }
     let signed = need_int(tags::PIXEL_REPRESENTATION, "PixelRepresentation")? == 1;
     let geometry = frames::frame_geometry(&obj, frames).map_err(bad)?;

@@ -5,9 +5,9 @@ use std::collections::HashMap;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::decode::{clip, inflate, numbers, read_scalars, Decoded, HeaderReader, Scalar};
+use super::decode::{clip, drain, inflate, numbers, read_scalars, Decoded, HeaderReader, Scalar};
 use super::{
-    beside, file_len, format_err, from_file, io_err, open, spacing_or_one, unit_axes, Loaded,
+    beside, file_len, format_err, from_file, io_err, open, spacing_rule, unit_axes, Loaded,
 };
 use crate::error::Result;
 use crate::volume::{check_dims, Volume};
@@ -54,15 +54,16 @@ pub fn load_meta(path: &Path, limit: u64) -> Result<Volume> {
 ///
 /// The header is `Key = Value` lines (keys in any case; unknown keys are
 /// ignored, a key given twice is refused) ending with `ElementDataFile`:
-/// `LOCAL` for data right after that line, or one file name relative to
-/// the header (`LIST` and numbered-file patterns are refused). Required:
+/// `LOCAL` for data right after that line, or one file in the header's
+/// folder (see [`allow_outside_data`](super::allow_outside_data); `LIST` and numbered-file patterns are refused). Required:
 /// `NDims` (3, or more with every extra size 1), `DimSize`, `ElementType`
 /// (`MET_UCHAR`, `MET_CHAR`, `MET_USHORT`, `MET_SHORT`, `MET_UINT`,
 /// `MET_INT`, `MET_FLOAT`, `MET_DOUBLE`). Optional: `ObjectType` (must be
 /// `Image`), `ElementNumberOfChannels` (must be 1), `BinaryData` (must be
 /// true), `BinaryDataByteOrderMSB`/`ElementByteOrderMSB` (true =
 /// big-endian; they must agree), `ElementSpacing` (else `ElementSize`,
-/// else 1), `CompressedData` (zlib, or gzip by its magic) with
+/// else 1; each within [`SPACING_RANGE`](crate::volume::SPACING_RANGE)),
+/// `CompressedData` (zlib, or gzip by its magic) with
 /// `CompressedDataSize`, `HeaderSize` (bytes before the data in a separate
 /// data file, -1 = the data ends the file; ignored for `LOCAL`, as MetaIO
 /// does), `TransformMatrix` (row `i` is the direction of index axis `i`,
@@ -72,7 +73,8 @@ pub fn load_meta(path: &Path, limit: u64) -> Result<Volume> {
 /// Voxel types become voxels by the NIfTI loader's rule (see
 /// [`load_nifti`](super::load_nifti)). Uncompressed data is checked
 /// against the file's length before the buffer is allocated; trailing
-/// bytes are accepted.
+/// bytes are accepted. Compressed data is decoded as it arrives and read to
+/// its end, so its checksum is checked.
 pub fn read_meta(path: &Path, limit: u64) -> Result<Loaded> {
     let mut hr = HeaderReader::new(path, BufReader::new(open(path)?), "MetaImage");
     let mut lines = Vec::new();
@@ -95,7 +97,7 @@ pub fn read_meta(path: &Path, limit: u64) -> Result<Loaded> {
     let count = check_dims(h.dims, h.scalar.peak(), limit).map_err(|e| from_file(path, e))?;
     let (data_path, start) = match &h.data_file {
         DataFile::Local => (path.to_owned(), hr.used),
-        DataFile::File(name) => (beside(path, name), h.header_size.max(0) as u64),
+        DataFile::File(name) => (beside(path, name)?, h.header_size.max(0) as u64),
     };
     let (kind, data, units) = read_data(&data_path, &h, count, start)?;
     let volume = Volume::new(h.dims, kind, data)?
@@ -122,8 +124,10 @@ fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<Decode
     r.seek(SeekFrom::Start(at)).map_err(|e| io_err(path, e))?;
     if h.compressed {
         let limit = h.compressed_size.unwrap_or(u64::MAX);
-        let z = inflate(path, BufReader::new(r.take(limit)))?;
-        return read_scalars(path, z, count, h.scalar, h.big, 0);
+        let mut z = inflate(path, BufReader::new(r.take(limit)))?;
+        let decoded = read_scalars(path, &mut z, count, h.scalar, h.big, 0)?;
+        drain(path, &mut z)?;
+        return Ok(decoded);
     }
     let have = len.saturating_sub(at);
     if have < total {
@@ -229,7 +233,7 @@ fn parse_header(lines: &[String]) -> std::result::Result<Header, String> {
     let spacing = match first(&["ElementSpacing", "ElementSize"]) {
         Some((k, v)) => {
             let s = numbers::<f64>(k, v, nd)?;
-            std::array::from_fn(|i| spacing_or_one(s[i]))
+            spacing_rule(k, [s[0], s[1], s[2]])?
         }
         None => [1.0; 3],
     };

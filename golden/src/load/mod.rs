@@ -23,10 +23,11 @@
 
 use std::fs::File;
 use std::io::{ErrorKind, Read};
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::error::{input, Error, Result};
-use crate::volume::Volume;
+use crate::volume::{Volume, SPACING_RANGE};
 
 mod decode;
 mod den;
@@ -188,25 +189,88 @@ fn sniff(path: &Path) -> Option<Sniffed> {
     }
 }
 
-/// A header's spacing entry as the volume takes it: its magnitude, or 1
-/// when it is zero or not finite (unknown).
-fn spacing_or_one(s: f64) -> f64 {
-    let s = s.abs();
-    if s.is_finite() && s > 0.0 {
-        s
-    } else {
-        1.0
+/// A header's spacing, by the rule every loader and `--spacing` share
+/// ([`SPACING_RANGE`]): each entry finite and within the range, or the
+/// header's `field` is refused naming it.
+fn spacing_rule(field: &str, s: [f64; 3]) -> std::result::Result<[f64; 3], String> {
+    let (lo, hi) = SPACING_RANGE;
+    if s.iter().all(|v| v.is_finite() && (lo..=hi).contains(v)) {
+        return Ok(s);
     }
+    Err(format!(
+        "{field} {s:?} is not a voxel spacing: each must be a number from {lo:e} to {hi:e}"
+    ))
 }
 
-/// A data file named by a header: relative names are beside the header.
-fn beside(header: &Path, name: &str) -> PathBuf {
+/// [`spacing_rule`] as a format error of the file `path`.
+fn check_spacing(path: &Path, field: &str, s: [f64; 3]) -> Result<[f64; 3]> {
+    spacing_rule(field, s).map_err(|m| format_err(path, m))
+}
+
+/// Whether a detached header may name a data file outside its own folder.
+static OUTSIDE_DATA: AtomicBool = AtomicBool::new(false);
+
+/// Lets (or stops) detached headers (`.nhdr`, `.mhd`) name data files
+/// outside their own folder: an absolute path, a `..` step, or a link that
+/// leads out. Off by default, so a header cannot make the program read an
+/// arbitrary file (`data file: ../../etc/passwd`); the CLI's
+/// `--allow-outside-data` turns it on for the run.
+pub fn allow_outside_data(allow: bool) {
+    OUTSIDE_DATA.store(allow, Ordering::Relaxed);
+}
+
+/// A data file named by a header, resolved against the header's folder and
+/// refused if it leaves it (unless [`allow_outside_data`] said otherwise).
+fn beside(header: &Path, name: &str) -> Result<PathBuf> {
+    let folder = header.parent().unwrap_or(Path::new(""));
     let p = Path::new(name);
-    if p.is_absolute() {
-        p.to_owned()
-    } else {
-        header.parent().unwrap_or(Path::new("")).join(p)
+    let joined = folder.join(p);
+    if OUTSIDE_DATA.load(Ordering::Relaxed) {
+        return Ok(joined);
     }
+    let refuse = |why: &str| {
+        format_err(
+            header,
+            format!(
+                "data file '{}' {why}: it must lie in the header's folder \
+                 (--allow-outside-data permits it)",
+                decode::clip(name)
+            ),
+        )
+    };
+    if p.is_absolute() || p.has_root() {
+        return Err(refuse("is an absolute path"));
+    }
+    if p.components().any(|c| matches!(c, Component::ParentDir)) {
+        return Err(refuse("steps out with '..'"));
+    }
+    // A link inside the folder may still lead out of it.
+    let base = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    if let (Ok(real), Ok(root)) = (joined.canonicalize(), base.canonicalize()) {
+        if !real.starts_with(&root) {
+            return Err(refuse("is a link that leads out of the folder"));
+        }
+    }
+    Ok(joined)
+}
+
+/// A folder member that must be a readable file: a folder, a dangling link
+/// or a link loop is refused naming it.
+fn check_member(p: &Path) -> Result<()> {
+    let what = match std::fs::metadata(p) {
+        Ok(m) if m.is_file() => return open(p).map(drop),
+        Ok(m) if m.is_dir() => "is a folder, not a slice",
+        Ok(_) => "is not a regular file",
+        Err(_) if std::fs::symlink_metadata(p).is_ok() => {
+            "is a link that leads nowhere (dangling, or a loop)"
+        }
+        Err(e) => return Err(io_err(p, e)),
+    };
+    Err(format_err(p, format!("{what}: remove it from the folder")))
 }
 
 /// Unit vectors of `dirs`, if every one has a finite, positive length.

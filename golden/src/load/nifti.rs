@@ -3,8 +3,8 @@
 use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 
-use super::decode::{read_scalars, Scalar};
-use super::{data_err, format_err, from_file, io_err, open, spacing_or_one, unit_axes, Loaded};
+use super::decode::{drain, read_scalars, Scalar};
+use super::{check_spacing, data_err, format_err, from_file, io_err, open, unit_axes, Loaded};
 use crate::error::{Error, Result};
 use crate::volume::{check_dims, Volume};
 
@@ -62,6 +62,7 @@ pub fn load_nifti(path: &Path, limit: u64) -> Result<Volume> {
 /// world space is RAS, so x and y change sign.
 pub fn read_nifti(path: &Path, limit: u64) -> Result<Loaded> {
     let file = open(path)?;
+    let file_bytes = super::file_len(&file, path)?;
     let mut buffered = BufReader::new(file);
     let gz = buffered
         .fill_buf()
@@ -141,6 +142,16 @@ pub fn read_nifti(path: &Path, limit: u64) -> Result<Loaded> {
     }
     let offset = offset as u64;
     let count = check_dims(dims, scalar.peak(), limit).map_err(|e| from_file(path, e))?;
+    // A plain file must hold the voxels its header promises before any is
+    // allocated (a gzip stream is decoded into a buffer that grows only as
+    // the data arrives).
+    let total = count as u64 * elem as u64;
+    let have = file_bytes.saturating_sub(offset);
+    if !gz && have < total {
+        return Err(fmt(format!(
+            "truncated: expected {total} bytes of voxel data at offset {offset}, found {have}"
+        )));
+    }
 
     // Skip the extension flag and any extensions.
     let skip = offset - NIFTI_HEADER;
@@ -154,8 +165,12 @@ pub fn read_nifti(path: &Path, limit: u64) -> Result<Loaded> {
     }
 
     let big = header.endianness == nifti::Endianness::Big;
-    let (kind, data, units) = read_scalars(path, reader, count, scalar, big, offset)?;
-    let spacing = [1, 2, 3].map(|k| spacing_or_one(header.pixdim[k] as f64));
+    let (kind, data, units) = read_scalars(path, &mut reader, count, scalar, big, offset)?;
+    if gz {
+        drain(path, &mut reader)?;
+    }
+    let pixdim = [1, 2, 3].map(|k| header.pixdim[k] as f64);
+    let spacing = check_spacing(path, "pixdim[1..4]", pixdim)?;
     let volume = Volume::new(dims, kind, data)?
         .with_spacing(spacing)?
         .with_units(units);
@@ -405,7 +420,7 @@ pub(super) mod tests {
         let vals = [-2.0f32, -1.0, 0.0, 2.0, f32::NAN, 1.0, f32::INFINITY, 0.5];
         let data: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
         let mut nii = Nii::new([2, 2, 2], 16, 32);
-        nii.pixdim = [1.0, -0.5, 0.0, f32::NAN, 1.0, 1.0, 1.0, 1.0];
+        nii.pixdim = [1.0, 0.5, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
         let path = write(&dir, "f.nii", &nii.bytes(&data));
         let v = load_nifti(&path, DEFAULT_MEMORY_LIMIT).unwrap();
         assert_eq!(v.kind(), VoxelType::U16);
@@ -555,7 +570,7 @@ pub(super) mod tests {
             ([30000, 30000, 30000], "absurd"),
             ([-5, 4, 4], "absurd"),
             ([0, 4, 4], "zero"),
-            ([8000, 8000, 8000], "over the limit"),
+            ([8000, 8000, 8000], "over the memory limit"),
         ];
         for (dims, needle) in cases {
             let path = write(&dir, "huge.nii", &Nii::new(dims, 16, 32).bytes(&[0; 64]));
@@ -566,7 +581,7 @@ pub(super) mod tests {
             "small.nii",
             &Nii::new([8, 8, 8], 2, 8).bytes(&[1; 512]),
         );
-        assert_err(load_nifti(&path, 1000), "over the limit");
+        assert_err(load_nifti(&path, 1000), "over the memory limit");
         assert!(load_nifti(&path, 1024).is_ok());
     }
 }

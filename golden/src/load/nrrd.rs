@@ -7,10 +7,12 @@ use std::io::{BufRead, BufReader, Seek, SeekFrom};
 use std::path::Path;
 
 use super::decode::clip;
-use super::decode::{inflate, numbers, read_scalars, skip_bytes, Decoded, HeaderReader, Scalar};
+use super::decode::{
+    drain, inflate, numbers, read_scalars, skip_bytes, Decoded, HeaderReader, Scalar,
+};
 use super::{
-    beside, data_err, file_len, format_err, from_file, io_err, norm, open, spacing_or_one,
-    unit_axes, Loaded,
+    beside, data_err, file_len, format_err, from_file, io_err, norm, open, spacing_rule, unit_axes,
+    Loaded,
 };
 use crate::error::Result;
 use crate::volume::{check_dims, Volume};
@@ -66,13 +68,17 @@ pub fn load_nrrd(path: &Path, limit: u64) -> Result<Volume> {
 /// [`Loaded::axes`]), `space`/`space dimension`, `space origin`,
 /// `line skip`, `byte skip` (-1 = the data ends the file, raw only; for
 /// gzip the bytes are skipped in the decompressed stream, as teem does)
-/// and `data file` (one file, relative to the header; `LIST` and
+/// and `data file` (one file in the header's folder, see
+/// [`allow_outside_data`](super::allow_outside_data); `LIST` and
 /// numbered-file patterns are refused).
 ///
 /// Voxel types become voxels by the NIfTI loader's rule (see
-/// [`load_nifti`](super::load_nifti)); a zero, unknown (`nan`) or absent
-/// spacing is 1. Raw data is checked against the file's length before the
-/// buffer is allocated; trailing bytes are accepted.
+/// [`load_nifti`](super::load_nifti)). An absent spacing is 1; a given one
+/// must lie in [`SPACING_RANGE`](crate::volume::SPACING_RANGE) (zero,
+/// `nan` and negative are refused). Raw data is checked against the file's
+/// length before the buffer is allocated; trailing bytes are accepted; a
+/// gzip stream is decoded as it arrives and read to its end, so its CRC
+/// and length are checked.
 pub fn read_nrrd(path: &Path, limit: u64) -> Result<Loaded> {
     let mut hr = HeaderReader::new(path, BufReader::new(open(path)?), "NRRD");
     let mut lines = Vec::new();
@@ -91,7 +97,7 @@ pub fn read_nrrd(path: &Path, limit: u64) -> Result<Loaded> {
     let h = parse_header(&lines).map_err(|m| format_err(path, m))?;
     let count = check_dims(h.dims, h.scalar.peak(), limit).map_err(|e| from_file(path, e))?;
     let (data_path, start) = match &h.data_file {
-        Some(name) => (beside(path, name), 0),
+        Some(name) => (beside(path, name)?, 0),
         None if ended => (path.to_owned(), hr.used),
         None => {
             let msg = "the header neither ends in a blank line nor names a 'data file'";
@@ -159,7 +165,9 @@ fn read_data(path: &Path, h: &Header, count: usize, start: u64) -> Result<Decode
                     format!("truncated: byte skip {skip} passes the end of the data"),
                 ));
             }
-            read_scalars(path, gz, count, h.scalar, h.big, skip)
+            let decoded = read_scalars(path, &mut gz, count, h.scalar, h.big, skip)?;
+            drain(path, &mut gz)?;
+            Ok(decoded)
         }
     }
 }
@@ -329,16 +337,17 @@ fn parse_header(lines: &[String]) -> std::result::Result<Header, String> {
         (Some(_), Some(_)) => return Err("both 'spacings' and 'space directions' are given".into()),
         (Some(s), None) => {
             let vals = numbers::<f64>("spacings", s, dim)?;
-            spacing = std::array::from_fn(|k| spacing_or_one(vals[k]));
+            spacing = spacing_rule("spacings", [vals[0], vals[1], vals[2]])?;
         }
         (None, Some(s)) => {
             let sd = space.ok_or("'space directions' needs 'space' or 'space dimension'")?;
             let dirs = vectors("space directions", s, dim, sd)?;
             for k in 0..3 {
                 if let Some(v) = &dirs[k] {
-                    spacing[k] = spacing_or_one(norm(v));
+                    spacing[k] = norm(v);
                 }
             }
+            spacing = spacing_rule("space directions (their lengths)", spacing)?;
             if sd == 3 {
                 if let [Some(a), Some(b), Some(c)] = &dirs[..3] {
                     let dir = |v: &[f64]| to_lps([v[0], v[1], v[2]]);

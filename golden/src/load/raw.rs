@@ -199,11 +199,11 @@ mod tests {
         );
         assert_err(
             load_raw(&path, &spec([8000, 8000, 8000], RawType::U16Be, 0), lim),
-            "over the limit",
+            "over the memory limit",
         );
         assert_err(
             load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 99),
-            "over the limit",
+            "over the memory limit",
         );
         // An 8-bit volume is kept in bytes: 100 voxels take 100 bytes.
         assert!(load_raw(&path, &spec([10, 10, 1], RawType::U8, 0), 100).is_ok());

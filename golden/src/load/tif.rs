@@ -108,10 +108,10 @@ fn tiff_files(dir: &Path) -> Result<Vec<PathBuf>> {
             .unwrap_or_default()
             .to_string_lossy()
             .to_ascii_lowercase();
-        if !name.starts_with('.')
-            && (name.ends_with(".tif") || name.ends_with(".tiff"))
-            && p.is_file()
-        {
+        if !name.starts_with('.') && (name.ends_with(".tif") || name.ends_with(".tiff")) {
+            // A member that is no readable file is refused, not skipped: a
+            // skipped slice would silently shorten the stack.
+            super::check_member(&p)?;
             files.push(p);
         }
     }
@@ -187,11 +187,85 @@ fn page(path: &Path, dec: &mut Decoder<BufReader<File>>, n: usize) -> Result<Pag
             ),
         ));
     }
-    Ok(Page {
+    let page = Page {
         width,
         height,
         bits,
-    })
+    };
+    check_strips(path, dec, n, page)?;
+    Ok(page)
+}
+
+/// Largest expansion each compression can give (decoded bytes per stored
+/// byte): none 1, PackBits 64 (2 bytes for a run of 128), deflate 1032
+/// (rounded up), LZW 4096 (also used for any other code, which the decoder
+/// refuses anyway).
+fn max_ratio(compression: u16) -> u64 {
+    match compression {
+        1 => 1,
+        32773 => 64,
+        8 | 32946 => 1100,
+        _ => 4096,
+    }
+}
+
+/// The page's strips (or tiles) lie inside the file, and their stored
+/// bytes can hold the page at the compression's largest ratio: a header
+/// promising an 8192x8192 page in a few bytes is refused before the page's
+/// buffer is allocated.
+fn check_strips(path: &Path, dec: &mut Decoder<BufReader<File>>, n: usize, p: Page) -> Result<()> {
+    let tiff = |e| tiff_err(path, e);
+    let (offsets, counts) = match dec
+        .find_tag_unsigned_vec::<u64>(Tag::StripOffsets)
+        .map_err(tiff)?
+    {
+        Some(o) => (
+            o,
+            dec.find_tag_unsigned_vec::<u64>(Tag::StripByteCounts)
+                .map_err(tiff)?,
+        ),
+        None => (
+            dec.find_tag_unsigned_vec::<u64>(Tag::TileOffsets)
+                .map_err(tiff)?
+                .unwrap_or_default(),
+            dec.find_tag_unsigned_vec::<u64>(Tag::TileByteCounts)
+                .map_err(tiff)?,
+        ),
+    };
+    let bad = |msg: String| format_err(path, format!("page {n}: {msg}"));
+    let counts = counts.ok_or_else(|| bad("no StripByteCounts (or TileByteCounts)".into()))?;
+    if offsets.is_empty() || offsets.len() != counts.len() {
+        return Err(bad(format!(
+            "{} strip offsets but {} byte counts",
+            offsets.len(),
+            counts.len()
+        )));
+    }
+    let len = std::fs::metadata(path)
+        .map_err(|e| super::io_err(path, e))?
+        .len();
+    for (k, (&at, &c)) in offsets.iter().zip(&counts).enumerate() {
+        if at < 8 || c == 0 || at.saturating_add(c) > len {
+            return Err(bad(format!(
+                "strip {} at byte {at} of {c} bytes does not lie in the file's {len} bytes",
+                k + 1
+            )));
+        }
+    }
+    let compression = dec
+        .find_tag_unsigned::<u16>(Tag::Compression)
+        .map_err(tiff)?
+        .unwrap_or(1);
+    let stored: u64 = counts.iter().sum();
+    let need = p.width as u64 * p.height as u64 * (p.bits as u64 / 8);
+    if stored.saturating_mul(max_ratio(compression)) < need {
+        return Err(bad(format!(
+            "its strips hold {stored} bytes, too few for a {} page ({need} bytes) \
+             under compression {compression}",
+            p.describe()
+        )));
+    }
+    Ok(())
 }
 
 /// Decodes the current page onto the end of `data`.
@@ -302,7 +376,7 @@ mod tests {
             (v.dims(), v.kind(), &*v.data()),
             ([6, 2, 2], VoxelType::U16, &vals[..])
         );
-        assert_err(load_tiff(&path, 40), "over the limit");
+        assert_err(load_tiff(&path, 40), "over the memory limit");
     }
 
     #[test]

@@ -184,23 +184,24 @@ impl Frame {
     }
 }
 
-/// Why a frame failed.
+/// Why a frame failed. The wrapped errors are transparent: their text
+/// and cause are the frame's, so a chain printer states each once.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// Planning failed.
-    #[error("{0}")]
+    #[error(transparent)]
     Plan(#[from] PlanError),
     /// A PE's clock step failed.
-    #[error("{0}")]
+    #[error(transparent)]
     Step(#[from] StepError),
     /// The tables could not be built.
-    #[error("{0}")]
+    #[error(transparent)]
     Fixed(#[from] crate::fixed::FxError),
     /// The configuration does not fit the volume.
-    #[error("{0}")]
+    #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
     /// Writing the waveform failed.
-    #[error("{0}")]
+    #[error(transparent)]
     Waves(#[from] waves::WavesError),
     /// The controller could not schedule a stage (a model bug).
     #[error("{0}")]
@@ -744,4 +745,26 @@ impl Array {
 /// grid), where `i64::clamp` would panic.
 pub(crate) fn clamp(v: i64, lo: i64, hi: i64) -> i64 {
     v.min(hi).max(lo)
+}
+
+#[cfg(test)]
+mod run_error_tests {
+    use super::RunError;
+    use std::error::Error as _;
+
+    #[test]
+    fn a_wrapped_error_is_stated_once_in_the_chain() {
+        let e = RunError::from(waves::WavesError::Io {
+            op: "write trace",
+            path: "t.vcd".into(),
+            source: std::io::Error::other("No space left on device"),
+        });
+        let mut chain = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            chain = format!("{chain}: {c}");
+            cause = c.source();
+        }
+        assert_eq!(chain, "cannot write trace t.vcd: No space left on device");
+    }
 }

@@ -68,6 +68,34 @@ impl Groups<'_> {
             .and_then(|e| e.to_float64().ok())
             .filter(|v| v.is_finite())
     }
+
+    /// An optional number that, when present, must be finite (and positive
+    /// if `positive`): a `nan` slope or spacing is refused, not ignored.
+    fn checked_float(
+        &self,
+        seq: Tag,
+        tag: Tag,
+        name: &str,
+        positive: bool,
+    ) -> Result<Option<f64>, String> {
+        let Some(e) = self.get(seq, tag) else {
+            return Ok(None);
+        };
+        if e.value()
+            .primitive()
+            .is_some_and(|p| p.to_str().trim_matches(['\0', ' ']).is_empty())
+        {
+            return Ok(None);
+        }
+        match e.to_float64() {
+            Ok(v) if v.is_finite() && (!positive || v > 0.0) => Ok(Some(v)),
+            Ok(v) => Err(format!(
+                "{name} {v} must be a finite{} number",
+                if positive { ", positive" } else { "" }
+            )),
+            Err(_) => Err(format!("{name} is not a number")),
+        }
+    }
 }
 
 /// The geometry of each of the object's `frames` frames, or why it has
@@ -133,7 +161,12 @@ fn step_along_normal(
         top,
     };
     let step = g
-        .opt_float(tags::PIXEL_MEASURES_SEQUENCE, tags::SPACING_BETWEEN_SLICES)
+        .checked_float(
+            tags::PIXEL_MEASURES_SEQUENCE,
+            tags::SPACING_BETWEEN_SLICES,
+            "SpacingBetweenSlices",
+            true,
+        )?
         .or(out[0].thickness)
         .filter(|&s| s > 0.0)
         .ok_or(
@@ -175,8 +208,12 @@ fn geometry(g: &Groups) -> Result<Geometry, String> {
         format!("ImageOrientationPatient {iop:?} is not two orthogonal directions")
     })?;
     let pvt = tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE;
-    let slope = g.opt_float(pvt, tags::RESCALE_SLOPE).unwrap_or(1.0);
-    let intercept = g.opt_float(pvt, tags::RESCALE_INTERCEPT).unwrap_or(0.0);
+    let slope = g
+        .checked_float(pvt, tags::RESCALE_SLOPE, "RescaleSlope", false)?
+        .unwrap_or(1.0);
+    let intercept = g
+        .checked_float(pvt, tags::RESCALE_INTERCEPT, "RescaleIntercept", false)?
+        .unwrap_or(0.0);
     if slope == 0.0 {
         return Err("RescaleSlope is 0".into());
     }

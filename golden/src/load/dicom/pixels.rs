@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use dicom_dictionary_std::tags;
+use dicom_object::DefaultDicomObject;
 use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder};
 
 use super::{open_dicom, Slice};
@@ -15,6 +17,10 @@ pub(super) fn read_pixels(path: &Path, order: &[&Slice], out: &mut Vec<f64>) -> 
     let s = order[0];
     let obj = open_dicom(path, false)?;
     let frame_bytes = s.rows * s.cols * usize::from(s.bits / 8);
+    let ts = obj.meta().transfer_syntax().trim_end_matches('\0').trim();
+    if ts == RLE_LOSSLESS {
+        check_rle(&obj, s).map_err(|e| format_err(path, format!("undecodable pixel data: {e}")))?;
+    }
     // dicom-rs 0.10's RLE decoder indexes past a cut segment: a panic in
     // the decoder is the file's fault, reported like its errors.
     let decoded = quiet_unwind(|| -> std::result::Result<Vec<Vec<f64>>, String> {
@@ -72,6 +78,92 @@ pub(super) fn read_pixels(path: &Path, order: &[&Slice], out: &mut Vec<f64>) -> 
         out.extend(vals.iter().map(|&v| v * f.slope + f.intercept));
     }
     Ok(())
+}
+
+/// The RLE lossless transfer syntax.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// Checks RLE pixel data before it is decoded: one fragment per frame,
+/// each with a header naming one segment per byte of a sample (1 or 2)
+/// at increasing offsets inside the fragment, each segment decoding to at
+/// least a frame's pixels and not much more (counted without decoding).
+/// The decoder trusts the segment count and the fragment count, so a
+/// forged header would make it allocate by them.
+fn check_rle(obj: &DefaultDicomObject, s: &Slice) -> std::result::Result<(), String> {
+    let Some(e) = obj.element_opt(tags::PIXEL_DATA).ok().flatten() else {
+        return Err("no PixelData".into());
+    };
+    let frags = e
+        .value()
+        .fragments()
+        .ok_or("RLE pixel data is not encapsulated")?;
+    if frags.len() != s.frames {
+        return Err(format!(
+            "{} RLE fragments for {} frames (one per frame expected)",
+            frags.len(),
+            s.frames
+        ));
+    }
+    let segments = u32::from(s.bits / 8);
+    let pixels = (s.rows * s.cols) as u64;
+    for (k, f) in frags.iter().enumerate() {
+        let at = |m: String| format!("RLE fragment {}: {m}", k + 1);
+        if f.len() < 64 {
+            return Err(at(format!(
+                "{} bytes, shorter than its 64-byte header",
+                f.len()
+            )));
+        }
+        let word =
+            |i: usize| u32::from_le_bytes([f[4 * i], f[4 * i + 1], f[4 * i + 2], f[4 * i + 3]]);
+        if word(0) != segments {
+            return Err(at(format!(
+                "{} segments, {segments} expected for {}-bit greyscale",
+                word(0),
+                s.bits
+            )));
+        }
+        let mut ends: Vec<u64> = (1..=segments as usize).map(|i| word(i) as u64).collect();
+        ends.push(f.len() as u64);
+        for i in 0..segments as usize {
+            let (a, b) = (ends[i], ends[i + 1]);
+            if a < 64 || b <= a {
+                return Err(at(format!(
+                    "segment {} offsets {a}..{b} are not in order",
+                    i + 1
+                )));
+            }
+            let n = packbits_len(&f[a as usize..b as usize]);
+            if n < pixels || n > 2 * pixels + 256 {
+                return Err(at(format!(
+                    "segment {} decodes to {n} bytes, {pixels} expected",
+                    i + 1
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The bytes a PackBits segment decodes to, counted without decoding.
+fn packbits_len(seg: &[u8]) -> u64 {
+    let (mut i, mut n) = (0usize, 0u64);
+    while i < seg.len() {
+        let h = seg[i] as i8;
+        i += 1;
+        match h {
+            0..=127 => {
+                n += h as u64 + 1;
+                i += h as usize + 1;
+            }
+            -127..=-1 => {
+                n += (1 - h as i64) as u64;
+                i += 1;
+            }
+            -128 => {}
+        }
+    }
+    n
 }
 
 thread_local! {

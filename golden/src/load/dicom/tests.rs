@@ -15,7 +15,7 @@ fn fixture_dir(name: &str) -> PathBuf {
 fn copy_series(name: &str) -> (tempfile::TempDir, Vec<PathBuf>) {
     let dir = tempfile::tempdir().unwrap();
     let mut out = Vec::new();
-    for f in dicom_files(&fixture_dir(name)).unwrap() {
+    for f in dicom_files(&fixture_dir(name), true).unwrap() {
         let to = dir.path().join(f.file_name().unwrap());
         std::fs::copy(&f, &to).unwrap();
         out.push(to);
@@ -80,7 +80,7 @@ fn duplicate_positions_mixed_series_and_refused_syntaxes_are_one_line() {
     assert_err(load_dicom_dir(dir.path(), LIM), "at the same position");
 
     let (dir, _) = copy_series("dicom_u16");
-    let other = dicom_files(&fixture_dir("dicom_f32")).unwrap();
+    let other = dicom_files(&fixture_dir("dicom_f32"), true).unwrap();
     std::fs::copy(&other[0], dir.path().join("zz")).unwrap();
     assert_err(load_dicom_dir(dir.path(), LIM), "holds 2 series");
 
@@ -106,7 +106,7 @@ fn truncated_slices_and_small_limits_are_refused() {
     // 12x10x7 voxels at 10 bytes each do not fit 5000 bytes.
     assert_err(
         load_dicom_dir(&fixture_dir("dicom_u16"), 5000),
-        "over the limit",
+        "over the memory limit",
     );
 }
 
@@ -195,7 +195,7 @@ fn a_multi_frame_object_loads_as_a_file_or_alone_in_its_folder() {
         .collect();
     assert!(z.windows(2).any(|w| w[0] > w[1]), "{z:?}");
     // Beside other slices it is refused; a single-frame file alone is too.
-    let series = dicom_files(&fixture_dir("dicom_i16")).unwrap();
+    let series = dicom_files(&fixture_dir("dicom_i16"), true).unwrap();
     std::fs::copy(&series[0], dir.path().join("slice")).unwrap();
     assert_err(load_dicom_dir(dir.path(), LIM), "give it alone");
     assert_err(file_volume(&series[0], LIM), "give the folder");
@@ -225,7 +225,7 @@ fn cut_multi_frame_objects_and_wrong_frame_counts_are_one_line() {
     // The sizes are checked before the pixel data is decoded.
     assert_err(
         file_volume(&fixture_dir("dicom_mf_i16.dcm"), 2000),
-        "over the limit",
+        "over the memory limit",
     );
 }
 

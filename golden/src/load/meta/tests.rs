@@ -30,7 +30,7 @@ fn zlib(bytes: &[u8]) -> Vec<u8> {
 #[test]
 fn meta_header_keys_and_placement() {
     let text = "objecttype = image\nNDims = 4\nDimSize = 4 3 2 1\nElementType = met_short\n\
-                ElementByteOrderMSB = True\nElementSize = 2 -3 0 1\n\
+                ElementByteOrderMSB = True\nElementSize = 2 3 1 1\n\
                 TransformMatrix = 0 2 0 0  1 0 0 0  0 0 1 0  0 0 0 1\n\
                 Origin = 1 2 3 4\nCenterOfRotation = 0 0 0 0\nCompressedData = 1\n\
                 CompressedDataSize = 99\nElementDataFile = x.zraw";
@@ -206,7 +206,7 @@ fn truncated_or_absurd_meta_data_is_refused() {
         (
             "g.mha",
             header("MET_DOUBLE", "", "LOCAL").replace("4 3 2", "8000 8000 8000"),
-            "over the limit",
+            "over the memory limit",
         ),
     ];
     for (name, h, needle) in refused {

@@ -45,12 +45,19 @@ fn nrrd_header_fields_spellings_and_placement() {
     );
     assert_eq!(h.origin, Some([-1.0, -2.0, 3.0]));
     assert_eq!((h.byte_skip, h.line_skip, h.data_file), (5, 2, None));
-    // Per-axis spacings: unknown (nan) or zero means 1, the sign is dropped.
-    let h = parse(&header("int8", "raw", "spacings: nan -2 0\n")).unwrap();
+    // Per-axis spacings, each within the one spacing rule.
+    let h = parse(&header("int8", "raw", "spacings: 0.5 2 1\n")).unwrap();
     assert_eq!(
         (h.scalar, h.spacing, h.axes),
-        (Scalar::I8, [1.0, 2.0, 1.0], None)
+        (Scalar::I8, [0.5, 2.0, 1.0], None)
     );
+    for bad in ["nan 2 1", "1 -2 1", "1 2 0", "1e-150 1 1"] {
+        let e = parse(&header("int8", "raw", &format!("spacings: {bad}\n"))).unwrap_err();
+        assert!(
+            e.contains("spacings") && e.contains("is not a voxel spacing"),
+            "{e}"
+        );
+    }
     // Type, encoding and endian names in any case.
     let h = parse(&header("Unsigned Char", "RAW", "endian: Big\n")).unwrap();
     assert_eq!(
@@ -265,7 +272,7 @@ fn truncated_or_absurd_nrrd_data_is_refused() {
     let h = header("double", "raw", "endian: little\n").replace("4 3 2", "8000 8000 8000");
     assert_err(
         load_nrrd(&write(&dir, "e.nrrd", format!("{h}\n").as_bytes()), LIM),
-        "over the limit",
+        "over the memory limit",
     );
     let h = header("uint8", "raw", "").replace("4 3 2", "4 0 2");
     assert_err(

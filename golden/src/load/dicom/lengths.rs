@@ -1,0 +1,182 @@
+//! A walk over a DICOM file's element headers, before `dicom-rs` parses
+//! it: every defined length must fit in the bytes left in the file. The
+//! parser reserves an element's declared length before reading it, so a
+//! forged length (a 1 KB slice whose PixelData claims 4 GB) would cost that
+//! much memory; here it costs a one-line error.
+
+/// The tag of encapsulated pixel data, whose items are raw fragments.
+const PIXEL_DATA: (u16, u16) = (0x7FE0, 0x0010);
+
+/// Undefined length: a sequence, an item or encapsulated pixel data that
+/// ends with a delimiter.
+const UNDEFINED: u32 = 0xFFFF_FFFF;
+
+/// Explicit VRs whose length is 4 bytes after 2 reserved ones.
+const LONG_VRS: [&[u8; 2]; 13] = [
+    b"OB", b"OD", b"OF", b"OL", b"OV", b"OW", b"SQ", b"SV", b"UC", b"UN", b"UR", b"UT", b"UV",
+];
+
+/// Checks the element lengths of a Part 10 file's bytes (preamble, `DICM`,
+/// the file meta group, the data set). Files without the magic, and a
+/// deflated data set (whose lengths are inside the compressed stream), are
+/// left to the parser. The error names the element and its length.
+pub(super) fn check_lengths(bytes: &[u8]) -> Result<(), String> {
+    if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
+        return Ok(());
+    }
+    let mut w = Walk {
+        bytes,
+        pos: 132,
+        explicit: true,
+        big: false,
+    };
+    // The file meta group is explicit VR little endian; it names the
+    // transfer syntax of the rest.
+    let mut ts = String::new();
+    while w.peek_group() == Some(0x0002) {
+        let (tag, len, _) = w.header()?;
+        let len = w.fit(tag, len)?;
+        if tag == (0x0002, 0x0010) {
+            let v = &bytes[w.pos..w.pos + len];
+            ts = String::from_utf8_lossy(v)
+                .trim_end_matches(['\0', ' '])
+                .to_owned();
+        }
+        w.pos += len;
+    }
+    match ts.as_str() {
+        "1.2.840.10008.1.2.1.99" => return Ok(()),
+        "1.2.840.10008.1.2" => w.explicit = false,
+        "1.2.840.10008.1.2.2" => w.big = true,
+        _ => {}
+    }
+    w.data_set()
+}
+
+/// A cursor over the bytes.
+struct Walk<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    explicit: bool,
+    big: bool,
+}
+
+impl Walk<'_> {
+    fn u16_at(&self, at: usize) -> u16 {
+        let b = [self.bytes[at], self.bytes[at + 1]];
+        if self.big {
+            u16::from_be_bytes(b)
+        } else {
+            u16::from_le_bytes(b)
+        }
+    }
+
+    fn u32_at(&self, at: usize) -> u32 {
+        let b = [
+            self.bytes[at],
+            self.bytes[at + 1],
+            self.bytes[at + 2],
+            self.bytes[at + 3],
+        ];
+        if self.big {
+            u32::from_be_bytes(b)
+        } else {
+            u32::from_le_bytes(b)
+        }
+    }
+
+    fn left(&self) -> usize {
+        self.bytes.len() - self.pos
+    }
+
+    fn peek_group(&self) -> Option<u16> {
+        (self.left() >= 8)
+            .then(|| u16::from_le_bytes([self.bytes[self.pos], self.bytes[self.pos + 1]]))
+    }
+
+    /// Reads an element (or item) header: its tag and declared length.
+    /// Item and delimiter tags have no VR in either encoding.
+    fn header(&mut self) -> Result<((u16, u16), u32, bool), String> {
+        let tag = (self.u16_at(self.pos), self.u16_at(self.pos + 2));
+        let item = tag.0 == 0xFFFE;
+        if item || !self.explicit {
+            self.need(8, tag)?;
+            let len = self.u32_at(self.pos + 4);
+            self.pos += 8;
+            return Ok((tag, len, false));
+        }
+        let vr = [self.bytes[self.pos + 4], self.bytes[self.pos + 5]];
+        if LONG_VRS.contains(&&vr) {
+            self.need(12, tag)?;
+            let len = self.u32_at(self.pos + 8);
+            self.pos += 12;
+            Ok((tag, len, &vr == b"SQ"))
+        } else {
+            let len = self.u16_at(self.pos + 6) as u32;
+            self.pos += 8;
+            Ok((tag, len, false))
+        }
+    }
+
+    fn need(&self, n: usize, tag: (u16, u16)) -> Result<(), String> {
+        if self.left() < n {
+            return Err(format!(
+                "element ({:04X},{:04X}) is cut off by the end of the file",
+                tag.0, tag.1
+            ));
+        }
+        Ok(())
+    }
+
+    /// A defined length that fits in the rest of the file.
+    fn fit(&self, tag: (u16, u16), len: u32) -> Result<usize, String> {
+        if len as u64 > self.left() as u64 {
+            return Err(format!(
+                "element ({:04X},{:04X}) claims {len} bytes, but only {} remain in the file",
+                tag.0,
+                tag.1,
+                self.left()
+            ));
+        }
+        Ok(len as usize)
+    }
+
+    /// Walks the data set to its end. Sequences and items are entered (their
+    /// elements are walked in line); encapsulated pixel data's fragments
+    /// are skipped; any other value is skipped by its length.
+    fn data_set(&mut self) -> Result<(), String> {
+        let mut fragments = false;
+        while self.left() >= 8 {
+            let (tag, len, sq) = self.header()?;
+            if tag.0 == 0xFFFE {
+                match tag.1 {
+                    0xE000 if len != UNDEFINED => {
+                        let n = self.fit(tag, len)?;
+                        if fragments {
+                            self.pos += n;
+                        }
+                    }
+                    0xE0DD => fragments = false,
+                    _ => {}
+                }
+                continue;
+            }
+            if len == UNDEFINED {
+                fragments = tag == PIXEL_DATA;
+                continue;
+            }
+            let n = self.fit(tag, len)?;
+            let sequence = if self.explicit {
+                sq
+            } else {
+                // Implicit VR: a value that starts with an item tag is a
+                // sequence (no other value begins with FFFE,E000).
+                n >= 8 && self.u16_at(self.pos) == 0xFFFE && self.u16_at(self.pos + 2) == 0xE000
+            };
+            if !sequence {
+                self.pos += n;
+            }
+        }
+        Ok(())
+    }
+}
