@@ -10,7 +10,8 @@
 //! would abort this binary. The allocator also records the peak bytes held
 //! while a case loads ([`measure`]), and every case must stay under
 //! [`PEAK_GOAL`] (64 MiB). `ERCUBE_FUZZ_PEAK=1` prints the largest peak
-//! seen (the figure in docs/golden.md).
+//! seen (the figure in docs/golden.md); `ERCUBE_FUZZ_CASES=N` runs N cases
+//! per fuzz test instead of 160.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Write;
@@ -315,6 +316,24 @@ fn tiff_pages_and_strips_that_cannot_hold_the_page_are_refused() {
             needle,
         );
     }
+    // A directory entry whose value count is forged to two million: the
+    // decoder would size a table by it.
+    let mut forged = ok.clone();
+    let entry = forged
+        .windows(4)
+        .position(|w| w == [23, 1, 4, 0])
+        .expect("the StripByteCounts entry (tag 279, LONG)");
+    forged[entry + 4..entry + 8].copy_from_slice(&0x0020_0001u32.to_le_bytes());
+    refused(
+        &write(d, "forged.tif", &forged),
+        "tag 279 claims 2097153 values",
+    );
+    // A chain of pages that loops back to the first.
+    let mut looped = tiff(4, 4, 2, 1, &px, None, None);
+    let first = u32::from_le_bytes([looped[4], looped[5], looped[6], looped[7]]);
+    let n = looped.len();
+    looped[n - 4..].copy_from_slice(&first.to_le_bytes());
+    refused(&write(d, "loop.tif", &looped), "the chain of pages loops");
 }
 
 #[test]
@@ -420,7 +439,7 @@ ElementDataFile = LOCAL\n"
         refused(&write(d, &format!("{k}.nii"), &nii), "pixdim");
     }
     // The ends of the range load.
-    let mut nii = nifti_header([2, 2, 2], [1e-6, 1e6, 1.0]);
+    let mut nii = nifti_header([2, 2, 2], [2e-6, 1e6, 1.0]);
     nii.extend_from_slice(&[1; 16]);
     assert_eq!(load_small(&write(d, "ends.nii", &nii)), None);
 }
@@ -628,8 +647,16 @@ fn length_fields(b: &[u8]) -> Vec<(usize, usize)> {
     out
 }
 
+/// Cases per fuzz test: 160 in CI, `ERCUBE_FUZZ_CASES` for a longer run.
+fn cases() -> u32 {
+    std::env::var("ERCUBE_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(160)
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(160))]
+    #![proptest_config(ProptestConfig::with_cases(cases()))]
 
     /// Header bytes of every fixture (NIfTI, NRRD, MetaImage, TIFF, DICOM,
     /// gzip, zlib) overwritten: a volume or one line, within the peak goal.

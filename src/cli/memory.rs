@@ -332,6 +332,34 @@ mod tests {
     }
 
     #[test]
+    fn the_tightest_process_limit_sets_the_budget_and_names_itself() {
+        let l = Limits {
+            available: Some(8 << 30),
+            address_space: Some(3 << 30),
+            data: None,
+            cgroup: Some(4 << 30),
+        };
+        assert_eq!(
+            l.tightest(),
+            Some((3 << 30, "address-space limit (RLIMIT_AS, ulimit -v)"))
+        );
+        let none = Limits {
+            available: None,
+            address_space: None,
+            data: None,
+            cgroup: None,
+        };
+        assert_eq!(none.tightest(), None);
+        assert_eq!(
+            kib_field("Name: x\nVmSize:\t  1024 kB\n", "VmSize:"),
+            Some(1 << 20)
+        );
+        // This process's own limits read as positive figures.
+        let own = Limits::read();
+        assert!(own.available.is_none_or(|b| b > 0));
+    }
+
+    #[test]
     fn the_budget_refuses_what_does_not_fit_in_one_line() {
         let b = Budget::new(Some(1 << 20));
         assert!(b.check("x", 1 << 20).is_ok());

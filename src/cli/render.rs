@@ -124,10 +124,10 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         p.fst.as_deref(),
         p.raw_npy.as_deref(),
     ])?;
-    super::outputs::all_or_nothing(&[], || render(a))
+    super::outputs::all_or_nothing(&[], || render_run(a))
 }
 
-fn render(a: &RenderArgs) -> Result<()> {
+fn render_run(a: &RenderArgs) -> Result<()> {
     let Some(tech) = a.method.technique() else {
         return with_threads(a.threads, || run_pipeline(a));
     };

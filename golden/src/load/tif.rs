@@ -159,7 +159,129 @@ fn finish(depth: usize, page: Page, data: Vec<u16>) -> Result<Volume> {
 }
 
 fn decoder(path: &Path) -> Result<Decoder<BufReader<File>>> {
+    check_ifds(path)?;
     Decoder::new(BufReader::new(open(path)?)).map_err(|e| tiff_err(path, e))
+}
+
+/// Walks the chain of image file directories before the decoder does:
+/// every entry's values (count times the type's size) must fit in the
+/// file, and the chain must not loop. The decoder sizes its tables by
+/// those counts, so a forged count of millions would cost that much memory
+/// before any check of ours ran.
+fn check_ifds(path: &Path) -> Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = BufReader::new(open(path)?);
+    let len = super::file_len(f.get_ref(), path)?;
+    let bad = |msg: String| format_err(path, msg);
+    let mut head = [0u8; 16];
+    let n = f.read(&mut head).map_err(|e| super::io_err(path, e))?;
+    let big_endian = match &head[..2] {
+        b"II" => false,
+        b"MM" => true,
+        _ => return Ok(()), // not a TIFF: the decoder says so
+    };
+    let u16_of = |b: &[u8]| {
+        let b = [b[0], b[1]];
+        if big_endian {
+            u16::from_be_bytes(b)
+        } else {
+            u16::from_le_bytes(b)
+        }
+    };
+    let u32_of = |b: &[u8]| {
+        let b = [b[0], b[1], b[2], b[3]];
+        if big_endian {
+            u32::from_be_bytes(b)
+        } else {
+            u32::from_le_bytes(b)
+        }
+    };
+    let u64_of = |b: &[u8]| {
+        let b: [u8; 8] = b[..8].try_into().expect("8 bytes");
+        if big_endian {
+            u64::from_be_bytes(b)
+        } else {
+            u64::from_le_bytes(b)
+        }
+    };
+    if n < 8 {
+        return Ok(());
+    }
+    let bigtiff = u16_of(&head[2..4]) == 43;
+    if bigtiff && n < 16 {
+        return Ok(());
+    }
+    let (mut at, count_bytes, entry_bytes) = if bigtiff {
+        (u64_of(&head[8..16]), 8u64, 20u64)
+    } else {
+        (u64::from(u32_of(&head[4..8])), 2, 12)
+    };
+    let mut seen = std::collections::HashSet::new();
+    let mut page = 0usize;
+    while at != 0 {
+        page += 1;
+        if page > MAX_EDGE + 1 {
+            break; // the loader names the absurd depth
+        }
+        if !seen.insert(at) {
+            return Err(bad(format!("page {page}: the chain of pages loops")));
+        }
+        let mut buf = vec![0u8; count_bytes as usize];
+        f.seek(SeekFrom::Start(at))
+            .map_err(|e| super::io_err(path, e))?;
+        if f.read_exact(&mut buf).is_err() {
+            return Ok(()); // a cut file: the decoder says where
+        }
+        let entries = if bigtiff {
+            u64_of(&buf)
+        } else {
+            u64::from(u16_of(&buf))
+        };
+        if entries.saturating_mul(entry_bytes) > len {
+            return Err(bad(format!(
+                "page {page}: {entries} directory entries, more than the file's {len} bytes hold"
+            )));
+        }
+        let mut dir = Vec::new();
+        (&mut f)
+            .take(entries * entry_bytes + 8)
+            .read_to_end(&mut dir)
+            .map_err(|e| super::io_err(path, e))?;
+        let got = dir.len();
+        if (got as u64) < entries * entry_bytes {
+            return Ok(());
+        }
+        for e in dir[..(entries * entry_bytes) as usize].chunks_exact(entry_bytes as usize) {
+            let (tag, ty) = (u16_of(&e[0..2]), u16_of(&e[2..4]));
+            let count = if bigtiff {
+                u64_of(&e[4..12])
+            } else {
+                u64::from(u32_of(&e[4..8]))
+            };
+            let size: u64 = match ty {
+                1 | 2 | 6 | 7 => 1,
+                3 | 8 => 2,
+                4 | 9 | 11 | 13 => 4,
+                _ => 8,
+            };
+            if count.saturating_mul(size) > len {
+                return Err(bad(format!(
+                    "page {page}: tag {tag} claims {count} values, more than the file's {len} bytes hold"
+                )));
+            }
+        }
+        let next = &dir[(entries * entry_bytes) as usize..];
+        let next_len = if bigtiff { 8 } else { 4 };
+        if got < (entries * entry_bytes) as usize + next_len {
+            return Ok(());
+        }
+        at = if bigtiff {
+            u64_of(next)
+        } else {
+            u64::from(u32_of(next))
+        };
+    }
+    Ok(())
 }
 
 /// The current page's size and depth; refuses anything but unsigned 8- or

@@ -11,9 +11,12 @@ const PIXEL_DATA: (u16, u16) = (0x7FE0, 0x0010);
 /// ends with a delimiter.
 const UNDEFINED: u32 = 0xFFFF_FFFF;
 
-/// Explicit VRs whose length is 4 bytes after 2 reserved ones.
-const LONG_VRS: [&[u8; 2]; 13] = [
-    b"OB", b"OD", b"OF", b"OL", b"OV", b"OW", b"SQ", b"SV", b"UC", b"UN", b"UR", b"UT", b"UV",
+/// Explicit VRs whose length is 2 bytes; every other (the long ones, and
+/// any unknown VR, which the parser reads as UN) has 2 reserved bytes and a
+/// 4-byte length.
+const SHORT_VRS: [&[u8; 2]; 21] = [
+    b"AE", b"AS", b"AT", b"CS", b"DA", b"DS", b"DT", b"FL", b"FD", b"IS", b"LO", b"LT", b"PN",
+    b"SH", b"SL", b"SS", b"ST", b"TM", b"UI", b"UL", b"US",
 ];
 
 /// Checks the element lengths of a Part 10 file's bytes (preamble, `DICM`,
@@ -106,7 +109,7 @@ impl Walk<'_> {
             return Ok((tag, len, false));
         }
         let vr = [self.bytes[self.pos + 4], self.bytes[self.pos + 5]];
-        if LONG_VRS.contains(&&vr) {
+        if !SHORT_VRS.contains(&&vr) {
             self.need(12, tag)?;
             let len = self.u32_at(self.pos + 8);
             self.pos += 12;
