@@ -227,8 +227,8 @@ fn eye_extremes(dims: [usize; 3], size: u32) -> Tally {
         }
     }
     eprintln!(
-        "eye extremes {dims:?}: {} views, {} golden renders; pipeline checked against the bound in {} runs (both orders) \
-         views (worst diff / bound {:.3}); {} views steeper than the default path format's \
+        "eye extremes {dims:?}: {} views, {} golden renders; pipeline checked against the bound in {} runs \
+         (both orders; worst diff / bound {:.3}); {} views steeper than the default path format's \
          ds < {} ran at the defaults ({} quantisation overflows) and {} of them were bounded \
          with path ufixed<22,7>; skipped for the bound: {}",
         tally.views,
