@@ -303,7 +303,9 @@ pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Val
 
 /// Compares the pipeline's image with the golden method it mirrors
 /// ([`golden_method`]: `er`, or `er-ftb` at the same threshold) using the
-/// same table.
+/// same table: the error's JSON and the largest per-channel difference of
+/// the two float images (RGBA, before rounding to 8 bits), which the
+/// derived bound ([`super::bound`]) is on.
 pub fn versus_golden(
     prep: &Prepared,
     lut: &Lut,
@@ -314,7 +316,7 @@ pub fn versus_golden(
         Option<golden::voi::Voi>,
         bool,
     ),
-) -> Result<Value> {
+) -> Result<(Value, f64)> {
     let mut opts = RenderOptions::default();
     opts.slice.shade = shade;
     opts.slice.voi = voi;
@@ -323,7 +325,13 @@ pub fn versus_golden(
     // golden compares in.
     opts.slice.terminate = cfg.terminate as f32;
     let g = render(prep, lut, Technique::Slice(golden_method(cfg)), &opts)?;
-    Ok(error_json(&compare(image, &g.image)?))
+    let max_abs = image
+        .data
+        .iter()
+        .zip(&g.image.data)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(a, b)| f64::from((a - b).abs())))
+        .fold(0.0, f64::max);
+    Ok((error_json(&compare(image, &g.image)?), max_abs))
 }
 
 /// Refuses pipeline options on other methods.

@@ -5,6 +5,7 @@
 mod animate;
 mod args;
 mod bench;
+mod bound;
 mod chip;
 mod compare;
 mod cost;

@@ -156,11 +156,22 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
 /// What the peer's script prints on stdout (one JSON object).
 #[derive(Debug, Clone, Deserialize)]
 pub struct PeerReport {
-    /// Median seconds per frame.
+    /// Median seconds per frame on the peer's own timer (VTK: the mapper's
+    /// `GetTimeToDraw`, ray casting without the window's blit).
     pub time_s: f64,
-    /// Every timed frame.
+    /// Every timed frame, on that timer.
     #[serde(default)]
     pub times_s: Vec<f64>,
+    /// Which timer `time_s` is.
+    #[serde(default)]
+    pub timer: String,
+    /// Median wall-clock seconds around a whole `Render()` (with the blit),
+    /// when the script reports it.
+    #[serde(default)]
+    pub wall_time_s: Option<f64>,
+    /// Every timed frame's wall clock.
+    #[serde(default)]
+    pub wall_times_s: Vec<f64>,
     /// The peer's version.
     #[serde(default)]
     pub vtk_version: String,
@@ -187,6 +198,11 @@ pub fn parse_peer_report(stdout: &str) -> Result<PeerReport> {
         serde_json::from_str(line).context("the peer's JSON report is malformed")?;
     if !(r.time_s.is_finite() && r.time_s >= 0.0) {
         bail!("the peer's time_s {} is not a time", r.time_s);
+    }
+    if let Some(w) = r.wall_time_s {
+        if !(w.is_finite() && w >= 0.0) {
+            bail!("the peer's wall_time_s {w} is not a time");
+        }
     }
     Ok(r)
 }
@@ -265,18 +281,42 @@ pub fn read_npy_image(bytes: &[u8]) -> Result<Image> {
 pub struct PeerRow {
     /// Method label (`vtk` for the peer).
     pub method: String,
-    /// Median seconds per frame.
+    /// Median seconds per frame (the peer's: on its own timer).
     pub time_s: f64,
+    /// How many times the peer's rate this row runs at, by the peer's own
+    /// timer (`peer time / time`) and by its wall clock (when reported).
+    pub speedup: [Option<f64>; 2],
     /// Frames timed.
     pub frames: usize,
     /// Error against the reference.
     pub err: ImageError,
 }
 
+/// `peer / ours`, the factor by which a row is faster than the peer.
+fn ratio(peer: f64, ours: f64) -> Option<f64> {
+    (peer > 0.0 && ours > 0.0).then(|| peer / ours)
+}
+
+/// Each row's speed against the peer's two timings (`mapper` and `wall`
+/// seconds per frame).
+pub fn set_speedups(rows: &mut [PeerRow], mapper: f64, wall: Option<f64>) {
+    for r in rows {
+        r.speedup = [
+            ratio(mapper, r.time_s),
+            wall.and_then(|w| ratio(w, r.time_s)),
+        ];
+    }
+}
+
+fn speedup_cell(x: Option<f64>) -> String {
+    x.map_or_else(|| "-".into(), |x| format!("{x:.2}x"))
+}
+
 /// The markdown table of the rows.
 pub fn markdown_table(rows: &[PeerRow]) -> String {
     let mut s = String::from(
-        "| method | median s/frame | frames | RMSE vs reference | max of 255 | PSNR dB |\n| --- | --- | --- | --- | --- | --- |\n",
+        "| method | median s/frame | x VTK (mapper) | x VTK (wall) | frames | RMSE vs reference | max of 255 | PSNR dB |\n\
+         | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     for r in rows {
         let psnr = if r.err.psnr.is_finite() {
@@ -286,8 +326,14 @@ pub fn markdown_table(rows: &[PeerRow]) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {} | {:.4} | {} | {psnr} |",
-            r.method, r.time_s, r.frames, r.err.rmse, r.err.max_abs_255
+            "| {} | {:.4} | {} | {} | {} | {:.4} | {} | {psnr} |",
+            r.method,
+            r.time_s,
+            speedup_cell(r.speedup[0]),
+            speedup_cell(r.speedup[1]),
+            r.frames,
+            r.err.rmse,
+            r.err.max_abs_255
         );
     }
     s
@@ -451,6 +497,7 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
         rows.push(PeerRow {
             method: m.label(),
             time_s: median(&mut times),
+            speedup: [None; 2],
             frames: a.frames,
             err: compare(&img, &reference)?,
         });
@@ -467,6 +514,7 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
     rows.push(PeerRow {
         method: "vtk".into(),
         time_s: report.time_s,
+        speedup: [None; 2],
         frames: a.frames,
         err: compare(&vtk_img, &reference)?,
     });
@@ -474,10 +522,12 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
         rows.push(PeerRow {
             method: "reference".into(),
             time_s: ref_time,
+            speedup: [None; 2],
             frames: 1,
             err: compare(&reference, &reference)?,
         });
     }
+    set_speedups(&mut rows, report.time_s, report.wall_time_s);
     images.push(("vtk".into(), vtk_img));
     images.push(("reference".into(), reference));
     write_outputs(a, &vol, &cam, &rows, &report, threads, &images)
@@ -517,17 +567,35 @@ fn write_outputs(
         cam.width,
         cam.height
     );
+    let wall = report.wall_time_s.map_or_else(String::new, |w| {
+        format!(", {w:.4} s wall clock with the window's blit")
+    });
     let peer = format!(
         "VTK {} `{}` ({}, offscreen), {} threads, sample distance {} world units, image sample distance 1, \
-         opacity unit distance 1",
-        report.vtk_version, report.mapper, report.backend, report.threads, a.sample_distance
+         opacity unit distance 1; timed by {} ({:.4} s a frame{wall})",
+        report.vtk_version,
+        report.mapper,
+        report.backend,
+        report.threads,
+        a.sample_distance,
+        if report.timer.is_empty() { "the wall clock" } else { &report.timer },
+        report.time_s,
     );
-    let mut csv = String::from("method,time_s,frames,rmse,max_abs_255,psnr\n");
+    let mut csv =
+        String::from("method,time_s,x_vtk_mapper,x_vtk_wall,frames,rmse,max_abs_255,psnr\n");
+    let num = |x: Option<f64>| x.map_or_else(String::new, |x| format!("{x:.4}"));
     for r in rows {
         writeln!(
             csv,
-            "{},{:.6},{},{:.6},{},{:.3}",
-            r.method, r.time_s, r.frames, r.err.rmse, r.err.max_abs_255, r.err.psnr
+            "{},{:.6},{},{},{},{:.6},{},{:.3}",
+            r.method,
+            r.time_s,
+            num(r.speedup[0]),
+            num(r.speedup[1]),
+            r.frames,
+            r.err.rmse,
+            r.err.max_abs_255,
+            r.err.psnr
         )?;
     }
     golden::image::write_atomic(&a.out_dir.join("peer.csv"), |w| w.write_all(csv.as_bytes()))?;
@@ -535,10 +603,13 @@ fn write_outputs(
         "view": view,
         "peer": {"name": "vtk", "version": report.vtk_version, "backend": report.backend,
                  "mapper": report.mapper, "threads": report.threads,
-                 "sample_distance": a.sample_distance, "times_s": report.times_s},
+                 "sample_distance": a.sample_distance, "timer": report.timer,
+                 "time_s": report.time_s, "times_s": report.times_s,
+                 "wall_time_s": report.wall_time_s, "wall_times_s": report.wall_times_s},
         "ercube_threads": threads,
         "rows": rows.iter().map(|r| serde_json::json!({
             "method": r.method, "time_s": r.time_s, "frames": r.frames,
+            "x_vtk_mapper": r.speedup[0], "x_vtk_wall": r.speedup[1],
             "error_vs_reference": super::stats::error_json(&r.err),
         })).collect::<Vec<_>>(),
     });
@@ -677,13 +748,47 @@ mod tests {
         let t = markdown_table(&[PeerRow {
             method: "vtk".into(),
             time_s: 0.0153,
+            speedup: [Some(1.0), None],
             frames: 5,
             err,
         }]);
         assert!(
-            t.contains("| vtk | 0.0153 | 5 | 0.0027 | 12 | 51.4 |"),
+            t.contains("| vtk | 0.0153 | 1.00x | - | 5 | 0.0027 | 12 | 51.4 |"),
             "{t}"
         );
+        // Both clocks, and a bad wall time refused.
+        let both =
+            "{\"time_s\": 0.012, \"timer\": \"mapper GetTimeToDraw\", \"wall_time_s\": 0.015}";
+        let r = parse_peer_report(both).unwrap();
+        assert_eq!((r.time_s, r.wall_time_s), (0.012, Some(0.015)));
+        assert_eq!(r.timer, "mapper GetTimeToDraw");
+        assert!(parse_peer_report("{\"time_s\": 0.01, \"wall_time_s\": -2}").is_err());
+    }
+
+    #[test]
+    fn speedups_are_the_peer_time_over_ours_on_each_clock() {
+        let err = ImageError {
+            max_abs_255: 0.0,
+            rmse: 0.0,
+            psnr: f64::INFINITY,
+        };
+        let row = |method: &str, time_s| PeerRow {
+            method: method.into(),
+            time_s,
+            speedup: [None; 2],
+            frames: 3,
+            err,
+        };
+        let mut rows = vec![row("er", 0.004), row("vtk", 0.012), row("broken", 0.0)];
+        set_speedups(&mut rows, 0.012, Some(0.016));
+        assert_eq!(rows[0].speedup, [Some(3.0), Some(4.0)]);
+        assert_eq!(rows[1].speedup, [Some(1.0), Some(0.016 / 0.012)]);
+        // A zero time has no ratio rather than an infinite one.
+        assert_eq!(rows[2].speedup, [None, None]);
+        set_speedups(&mut rows, 0.012, None);
+        assert_eq!(rows[0].speedup, [Some(3.0), None]);
+        let t = markdown_table(&rows);
+        assert!(t.contains("| er | 0.0040 | 3.00x | - |"), "{t}");
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
     }

@@ -419,13 +419,28 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         time_s: median(&times),
         ..run
     };
-    let vs_golden = chip::versus_golden(
+    let (vs_golden, max_abs) = chip::versus_golden(
         &prep,
         &lut,
         &run.image,
         &cfg,
         (shade, voi, opts.slice.preintegrate),
     )?;
+    let bound = super::bound::frame_bound(
+        &cfg,
+        &prep,
+        &lut,
+        bits,
+        super::bound::FrameOptions {
+            shade: shade.as_ref(),
+            voi: voi.as_ref(),
+            preint: preint.as_ref(),
+        },
+        max_abs,
+    )?;
+    if let Some(w) = bound.warning() {
+        eprintln!("{w}");
+    }
     let err = write_outputs(
         a,
         &prep,
@@ -460,11 +475,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         }
         v["regions"] = serde_json::json!(prep.view.regions().bounds);
         v["times_s"] = serde_json::json!(times);
+        v["bound"] = bound.json();
         write_json(p, &v)?;
     }
     let f = &run.frame;
     super::say(&format!(
-        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 -> {}",
+        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 ({}) -> {}",
         a.method.name(),
         cfg.pes,
         f.cycles,
@@ -474,6 +490,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         run.time_s,
         chip::golden_method(&cfg).name(),
         vs_golden["max_abs_255"],
+        bound.summary(),
         a.out.display()
     ));
     Ok(())

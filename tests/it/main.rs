@@ -18,6 +18,7 @@ mod scenes;
 mod animate;
 mod array;
 mod bench;
+mod bound;
 mod cli;
 mod docs;
 mod explore;

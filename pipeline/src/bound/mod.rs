@@ -111,6 +111,7 @@
 use glam::DVec3;
 use golden::geometry::View;
 use golden::methods::Method;
+use golden::slices::SliceStack;
 use golden::tf::Lut;
 use golden::volume::Volume;
 
@@ -156,25 +157,43 @@ impl BoundInputs {
     /// table steps, and from ER's ray layout the largest ray index, the
     /// largest path length per slice step (spacing-scaled) and the merges.
     pub fn measure(volume: &Volume, lut: &Lut, view: &View) -> golden::Result<BoundInputs> {
-        let [nx, ny, nz] = view.dims;
         let at = |x: usize, y: usize, z: usize| {
             let i = view.axes.to_index(DVec3::new(x as f64, y as f64, z as f64));
             f64::from(volume.get(i.x as usize, i.y as usize, i.z as usize))
         };
-        let mut gradient = [0f64; 2];
-        for z in 0..nz {
-            for y in 0..ny {
-                for x in 0..nx {
-                    let v = at(x, y, z);
-                    if x + 1 < nx {
-                        gradient[0] = gradient[0].max((at(x + 1, y, z) - v).abs());
-                    }
-                    if y + 1 < ny {
-                        gradient[1] = gradient[1].max((at(x, y + 1, z) - v).abs());
-                    }
-                }
-            }
-        }
+        Self::from_gradient(
+            neighbour_differences(view.dims, at),
+            lut,
+            view,
+            volume.kind().bits(),
+        )
+    }
+
+    /// [`BoundInputs::measure`] on the permuted stack a frame renders from
+    /// (the volume is no longer at hand once a frame owns it): the same
+    /// voxels, read in view space.
+    pub fn measure_stack(
+        stack: &SliceStack,
+        lut: &Lut,
+        view: &View,
+        data_bits: u32,
+    ) -> golden::Result<BoundInputs> {
+        // Padded index of view (x, y) in a slice: one voxel of padding on
+        // every side.
+        let at = |x: usize, y: usize, z: usize| {
+            f64::from(stack.slice(z).get((y + 1) * stack.row + x + 1))
+        };
+        Self::from_gradient(neighbour_differences(stack.dims, at), lut, view, data_bits)
+    }
+
+    /// The facts other than the voxels' neighbour differences.
+    fn from_gradient(
+        gradient: [f64; 2],
+        lut: &Lut,
+        view: &View,
+        data_bits: u32,
+    ) -> golden::Result<BoundInputs> {
+        let [nx, ny, nz] = view.dims;
         let mut table_step = [0f64; 2];
         for w in lut.rgba.windows(2) {
             for (a, b) in w[0][..3].iter().zip(&w[1][..3]) {
@@ -204,9 +223,30 @@ impl BoundInputs {
             ds_max,
             slices: nz,
             merges: layout.grids.len() - 1,
-            data_bits: volume.kind().bits(),
+            data_bits,
         })
     }
+}
+
+/// Largest difference between voxels adjacent along view x, and along view
+/// y, of a volume of view dimensions `dims` read through `at(x, y, z)`.
+fn neighbour_differences(dims: [usize; 3], at: impl Fn(usize, usize, usize) -> f64) -> [f64; 2] {
+    let [nx, ny, nz] = dims;
+    let mut gradient = [0f64; 2];
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let v = at(x, y, z);
+                if x + 1 < nx {
+                    gradient[0] = gradient[0].max((at(x + 1, y, z) - v).abs());
+                }
+                if y + 1 < ny {
+                    gradient[1] = gradient[1].max((at(x, y + 1, z) - v).abs());
+                }
+            }
+        }
+    }
+    gradient
 }
 
 /// Slices each region of `view` can sample, front (region 0) to back: the

@@ -68,7 +68,12 @@ impl ShadeInputs {
     /// Measures golden's voxel gradients of `volume` seen through `view`.
     pub fn measure(volume: &Volume, view: &View, shade: &Shade) -> golden::Result<ShadeInputs> {
         let stack = SliceStack::new(volume, &view.axes)?;
-        let g = Gradients::new(view, &stack);
+        Ok(Self::measure_stack(&stack, view, shade))
+    }
+
+    /// [`ShadeInputs::measure`] on the permuted stack a frame renders from.
+    pub fn measure_stack(stack: &SliceStack, view: &View, shade: &Shade) -> ShadeInputs {
+        let g = Gradients::new(view, stack);
         let [nx, ny, nz] = view.dims;
         let (mut lip, mut max) = (0f64, 0f64);
         for comp in 0..3 {
@@ -90,14 +95,14 @@ impl ShadeInputs {
                 }
             }
         }
-        Ok(ShadeInputs {
+        ShadeInputs {
             shade: *shade,
             lights: Lighting::new(view, shade).lights.len(),
             lipschitz: lip,
             max,
             s_min: view.spacing.iter().copied().fold(f64::INFINITY, f64::min),
             anisotropic: view.spacing.iter().any(|&s| s != view.spacing[0]),
-        })
+        }
     }
 
     /// Steps 1 to 6: the shaded colour and opacity differences from the

@@ -26,8 +26,8 @@ use golden::methods::Method;
 use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, VoxelType};
-use pipeline::bound::{error_bound, BoundInputs};
-use pipeline::config::PipelineConfig;
+use pipeline::bound::{error_bound, ftb_error_bound, region_slices, BoundInputs};
+use pipeline::config::{Order, PipelineConfig};
 use waves::Tracer;
 
 use crate::scenes::{max_diff, tf, volume, voxel_hash};
@@ -100,13 +100,15 @@ fn pipeline_vs_golden(
     lut: &Lut,
     prep: &Prepared,
 ) -> (f64, f64, f64, pipeline::Frame) {
-    let g = render(
-        prep,
-        lut,
-        Technique::Slice(Method::Er),
-        &RenderOptions::unskipped(),
-    )
-    .unwrap();
+    // Front to back is compared with golden er-ftb at the configuration's
+    // threshold (the sweeps run it off: the bound is derived without
+    // termination).
+    let (method, mut opts) = match cfg.order {
+        Order::BackToFront => (Method::Er, RenderOptions::unskipped()),
+        Order::FrontToBack => (Method::ErFtb, RenderOptions::unskipped()),
+    };
+    opts.slice.terminate = cfg.terminate as f32;
+    let g = render(prep, lut, Technique::Slice(method), &opts).unwrap();
     let gout = g.slice.as_ref().unwrap();
     let frame = pipeline::run_frame(cfg, vol, lut, &prep.view, Tracer::disabled())
         .unwrap_or_else(|e| panic!("pipeline failed on eye {}: {e}", prep.view.eye));
@@ -115,7 +117,11 @@ fn pipeline_vs_golden(
         "pipeline and golden sample differently"
     );
     let image = golden::warp::warp(&prep.view, &frame.baseplane);
-    let b = error_bound(cfg, &bound_inputs(vol, lut, &prep.view));
+    let inputs = bound_inputs(vol, lut, &prep.view);
+    let b = match cfg.order {
+        Order::BackToFront => error_bound(cfg, &inputs),
+        Order::FrontToBack => ftb_error_bound(cfg, &inputs, &region_slices(&prep.view).unwrap()),
+    };
     (
         max_diff(&frame.baseplane.data, &gout.baseplane.data),
         max_diff(&image.data, &g.image.data),
@@ -124,15 +130,12 @@ fn pipeline_vs_golden(
     )
 }
 
-/// Every raw accumulator word lies in its format's range.
-fn assert_words_in_format(cfg: &PipelineConfig, raw: &[[i64; 4]], what: &str) {
-    let max = [
-        cfg.accum_color.max_raw(),
-        cfg.accum_color.max_raw(),
-        cfg.accum_color.max_raw(),
-        cfg.accum_alpha.max_raw(),
-    ];
-    for w in raw {
+/// Every raw baseplane word lies in its format's range (the accumulators
+/// back to front, the fold's words front to back: `Frame::raw_format`).
+fn assert_words_in_format(frame: &pipeline::Frame, what: &str) {
+    let [colour, alpha] = frame.raw_format.map(|f| f.max_raw());
+    let max = [colour, colour, colour, alpha];
+    for w in &frame.raw {
         for c in 0..4 {
             assert!(
                 (0..=max[c]).contains(&w[c]),

@@ -184,7 +184,7 @@ fn long_accumulation_pipeline_saturates_within_the_bound() {
                  bound {b:.2e}"
             );
             assert!(db <= b && di <= b, "a {a} D {d}: {db} / {di} > {b}");
-            assert_words_in_format(&cfg, &frame.raw, &format!("a {a} D {d}"));
+            assert_words_in_format(&frame, &format!("a {a} D {d}"));
             let max = [
                 cfg.accum_color.max_raw(),
                 cfg.accum_color.max_raw(),

@@ -1,0 +1,128 @@
+//! A pipeline frame's derived error bound through the program: the stats'
+//! `bound` says whether the measured difference from golden stayed within
+//! it, and a view whose path lengths saturate the `path` format gets no
+//! bound, a warning and the format that holds it, with which the frame
+//! comes back within 1/255 of golden in both orders.
+
+use serde_json::Value;
+
+use crate::bin::{describe, ercube};
+
+/// Renders `args` with `--stats`, returning the stats and stderr.
+fn stats(dir: &std::path::Path, args: &[&str]) -> (Value, String) {
+    let mut all: Vec<&str> = args.to_vec();
+    all.extend(["--out", "b.png", "--stats", "b.json"]);
+    let out = ercube(dir, &all);
+    assert!(out.status.success(), "{}", describe(&all, &out));
+    let text = std::fs::read_to_string(dir.join("b.json")).expect("stats written");
+    let v: Value = serde_json::from_str(&text).expect("stats are JSON");
+    (v, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// An ordinary view: a finite bound, the measured float difference under
+/// it, and `held` agreeing with the two numbers.
+#[test]
+fn an_ordinary_frame_reports_its_bound_as_held() {
+    let dir = tempfile::tempdir().unwrap();
+    for method in ["pipeline", "pipeline-ftb"] {
+        let args = [
+            "render",
+            "--scene",
+            "ml:24",
+            "--size",
+            "32x32",
+            "--method",
+            method,
+            "--terminate",
+            "1",
+        ];
+        let (v, err) = stats(dir.path(), &args);
+        let b = &v["bound"];
+        let value = b["value"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{method}: no bound: {b}"));
+        let measured = b["measured"].as_f64().unwrap();
+        assert!(value > 0.0 && value.is_finite(), "{method}: {b}");
+        assert_eq!(b["held"], Value::Bool(measured <= value), "{method}: {b}");
+        assert_eq!(b["held"], Value::Bool(true), "{method}: {b}");
+        assert_eq!(b["path_saturates"], Value::Bool(false), "{method}: {b}");
+        // The 8-bit difference the stats report is the float one rounded.
+        let vs = v["error_vs_golden"]["max_abs_255"].as_f64().unwrap();
+        assert!(
+            vs <= (measured * 255.0).ceil() + 1.0,
+            "{method}: {vs} vs {measured}"
+        );
+        assert!(!err.contains("warning"), "{method}: {err}");
+    }
+}
+
+/// Front to back with early ray termination is not what the bound is
+/// derived for: no bound, and the stats say why.
+#[test]
+fn a_terminating_frame_says_why_it_has_no_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "render",
+        "--scene",
+        "ml:24",
+        "--size",
+        "32x32",
+        "--method",
+        "pipeline-ftb",
+    ];
+    let (v, _) = stats(dir.path(), &args);
+    assert_eq!(v["bound"]["value"], Value::Null, "{}", v["bound"]);
+    assert_eq!(v["bound"]["held"], Value::Null);
+    let why = v["bound"]["why_none"].as_str().unwrap();
+    assert!(why.contains("termination"), "{why}");
+}
+
+/// 170 degrees with the eye 2 voxels before checker:64's face: path
+/// lengths reach 23 voxels, beyond the default `path` (ds < 8). The frame
+/// runs, reports no bound and warns with the format that holds it; with
+/// that format both orders are within 1/255 of golden and within the
+/// bound.
+#[test]
+fn a_saturating_path_is_reported_and_the_named_format_fixes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let view = [
+        "render",
+        "--scene",
+        "checker:64",
+        "--eye",
+        "32,32,-2",
+        "--fov",
+        "170",
+        "--size",
+        "64x64",
+    ];
+    for method in ["pipeline", "pipeline-ftb"] {
+        let mut args = view.to_vec();
+        args.extend(["--method", method, "--terminate", "1"]);
+        let (v, err) = stats(dir.path(), &args);
+        let b = &v["bound"];
+        assert_eq!(b["path_saturates"], Value::Bool(true), "{method}: {b}");
+        assert_eq!(b["value"], Value::Null, "{method}: {b}");
+        assert!(b["ds_max"].as_f64().unwrap() > 16.0, "{method}: {b}");
+        let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning")).collect();
+        assert_eq!(warn.len(), 1, "{method}: {err}");
+        // The warning's TOML line, written as a configuration, is accepted
+        // and holds the view.
+        let toml = warn[0]
+            .split('`')
+            .find(|s| s.starts_with("path = "))
+            .unwrap_or_else(|| panic!("{method}: no TOML in {}", warn[0]));
+        std::fs::write(dir.path().join("path.toml"), format!("{toml}\n")).unwrap();
+        args.extend(["--config", "path.toml"]);
+        let (v, err) = stats(dir.path(), &args);
+        let b = &v["bound"];
+        assert_eq!(b["path_saturates"], Value::Bool(false), "{method}: {b}");
+        assert_eq!(b["held"], Value::Bool(true), "{method}: {b}");
+        assert!(!err.contains("warning"), "{method}: {err}");
+        let vs = v["error_vs_golden"]["max_abs_255"].as_f64().unwrap();
+        assert!(
+            vs <= 1.0,
+            "{method}: {vs}/255 from golden with the wider path"
+        );
+    }
+}
