@@ -40,7 +40,11 @@ pub struct RefineArgs {
     pub method: MethodArg,
     /// The first step's adaptive refinement: `complexity` or
     /// `complexity:THRESHOLD` (default 0.02).
-    #[arg(long, default_value = "complexity", value_name = "complexity[:THRESHOLD]")]
+    #[arg(
+        long,
+        default_value = "complexity",
+        value_name = "complexity[:THRESHOLD]"
+    )]
     pub refine: String,
     /// The coarsest level L (one ray per 2^L x 2^L pixels), 1 to 6.
     #[arg(long, default_value_t = Refine::DEFAULT_LEVELS)]
@@ -89,8 +93,8 @@ pub fn run(a: &RefineArgs) -> Result<()> {
         ),
     };
     with_threads(a.threads, || {
-        let refine = refine_of(Some(&a.refine), a.refine_levels, tech)?
-            .expect("a refinement was given");
+        let refine =
+            refine_of(Some(&a.refine), a.refine_levels, tech)?.expect("a refinement was given");
         if !(2..=frame::MAX_STEPS).contains(&a.steps) {
             anyhow::bail!("--steps {} must be 2 to {}", a.steps, frame::MAX_STEPS);
         }

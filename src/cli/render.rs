@@ -195,7 +195,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         let time_s = median(&times);
         let vs_refine = match (&leaf_level, &opts.reference.refine) {
             (Some((leaf, st)), Some(r)) if a.compare_full => Some(super::refine::versus_full(
-                a.repeat, &prep, &lut, tech, &opts, r, leaf, st, &frame.image,
+                a.repeat,
+                &prep,
+                &lut,
+                tech,
+                &opts,
+                r,
+                leaf,
+                st,
+                &frame.image,
             )?),
             _ => None,
         };

@@ -24,6 +24,7 @@ mod explore;
 mod memory;
 mod peers;
 mod preint;
+mod refine;
 mod shade;
 mod shards;
 mod shearwarp;

@@ -87,9 +87,14 @@ fn with_caster<R>(
     let mip = opts.mip();
     mip.validate()?;
     let pyramid = prep.mipmap_of(lut, &mip)?;
-    mipcast::with_pixel_caster(&prep.view, &pyramid, &prep.clip, lut, &mip, |empty, cast| {
-        job.run(empty, MipStats::add, cast)
-    })?
+    mipcast::with_pixel_caster(
+        &prep.view,
+        &pyramid,
+        &prep.clip,
+        lut,
+        &mip,
+        |empty, cast| job.run(empty, MipStats::add, cast),
+    )?
     .map(|(r, st)| (r, Some(st)))
 }
 
@@ -241,7 +246,10 @@ pub fn full(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -
     let mut o = *opts;
     o.reference.refine = None;
     o.reference.gaze = match tech {
-        Technique::Reference => Some(crate::gaze::Gaze::full(prep.view.size[0], prep.view.size[1])),
+        Technique::Reference => Some(crate::gaze::Gaze::full(
+            prep.view.size[0],
+            prep.view.size[1],
+        )),
         _ => None,
     };
     Ok(crate::render::render(prep, lut, tech, &o)?.image)

@@ -331,9 +331,11 @@ impl Refiner {
         let k = c.corners(self.w).map(|p| self.rays[p]);
         (0..4)
             .map(|ch| {
-                let (lo, hi) = k.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                    (lo.min(r[ch]), hi.max(r[ch]))
-                });
+                let (lo, hi) = k
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                        (lo.min(r[ch]), hi.max(r[ch]))
+                    });
                 hi - lo
             })
             .fold(0.0, f64::max)
@@ -496,12 +498,7 @@ impl Refiner {
         let mut level = vec![0u8; w * h];
         for c in &self.leaves {
             let k = c.corners(w).map(|p| self.rays[p]);
-            let (x0, y0, x1, y1) = (
-                c.x0 as usize,
-                c.y0 as usize,
-                c.x1 as usize,
-                c.y1 as usize,
-            );
+            let (x0, y0, x1, y1) = (c.x0 as usize, c.y0 as usize, c.x1 as usize, c.y1 as usize);
             let xe = if x1 == w - 1 { x1 + 1 } else { x1.max(x0 + 1) };
             let ye = if y1 == h - 1 { y1 + 1 } else { y1.max(y0 + 1) };
             let span = |a: usize, b: usize, v: usize| {
@@ -556,8 +553,16 @@ mod tests {
             let (w, h) = (size[0] as usize, size[1] as usize);
             let mut owner = vec![0u32; w * h];
             for c in &rf.leaves {
-                let xe = if c.x1 as usize == w - 1 { c.x1 + 1 } else { c.x1.max(c.x0 + 1) };
-                let ye = if c.y1 as usize == h - 1 { c.y1 + 1 } else { c.y1.max(c.y0 + 1) };
+                let xe = if c.x1 as usize == w - 1 {
+                    c.x1 + 1
+                } else {
+                    c.x1.max(c.x0 + 1)
+                };
+                let ye = if c.y1 as usize == h - 1 {
+                    c.y1 + 1
+                } else {
+                    c.y1.max(c.y0 + 1)
+                };
                 for y in c.y0..ye {
                     for x in c.x0..xe {
                         owner[y as usize * w + x as usize] += 1;
