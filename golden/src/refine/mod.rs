@@ -358,8 +358,10 @@ impl Refiner {
     }
 
     /// The adaptive frame: the level-`L` grid, then, level by level, the
-    /// splits the complexity (and gaze) criterion asks for. Counts as
-    /// [`Refiner::cast_corners`].
+    /// splits the complexity (and gaze) criterion asks for.
+    /// `cast(x, y, counts)` casts the ray through pixel position `(x, y)`;
+    /// per-task counts start from `init()` and are added to `counts` with
+    /// `add` in task order, the same for any thread count.
     pub fn refine<S: Send>(
         &mut self,
         init: impl Fn() -> S + Sync,
