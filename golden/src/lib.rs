@@ -13,7 +13,8 @@
 //! ([`mipmap`]) whose level follows each ray's footprint, [`shearwarp`]
 //! composites sheared slices on an intermediate image and warps it,
 //! [`gaze`] varies the casters' resolution around a gaze point and
-//! [`ergaze`] ER's, by one frame per level,
+//! [`ergaze`] ER's, by one frame per level, [`refine`] refines the
+//! casters' rays where the image is complex (and progressively),
 //! [`metrics`] compares images.
 
 #![deny(rustdoc::broken_intra_doc_links)]
@@ -37,6 +38,7 @@ pub mod opacity;
 pub mod orient;
 pub mod preint;
 pub mod reference;
+pub mod refine;
 pub mod render;
 pub mod sampling;
 pub mod scenes;

@@ -141,7 +141,7 @@ pub struct MipStats {
 }
 
 impl MipStats {
-    fn add(&mut self, o: &MipStats) {
+    pub(crate) fn add(&mut self, o: &MipStats) {
         self.samples_total += o.samples_total;
         self.samples_skipped += o.samples_skipped;
         self.samples_clipped += o.samples_clipped;
@@ -552,6 +552,27 @@ pub fn render_gaze(
         },
     )?;
     Ok((img, stats, g))
+}
+
+/// Runs `f` with this scene's caster of full-resolution pixel rays
+/// (what [`render`] casts through each pixel centre), for
+/// [`crate::refine`]: `f(empty, cast)` gets zero counts and
+/// `cast(x, y, counts)`, the ray through pixel position `(x, y)`.
+pub(crate) fn with_pixel_caster<R>(
+    view: &View,
+    mip: &MipMap,
+    clip: &ViewClip,
+    lut: &Lut,
+    opts: &MipOptions,
+    f: impl FnOnce(MipStats, &(dyn Fn(f64, f64, &mut MipStats) -> [f64; 4] + Sync)) -> R,
+) -> Result<R> {
+    let scene = Scene::new(view, mip, clip, lut, opts)?;
+    let empty = scene.empty_stats();
+    let cast = |x: f64, y: f64, st: &mut MipStats| match Ray::new(view, x, y) {
+        Some(ray) => cast(&scene, &ray, 0, st).map(f64::from),
+        None => [0.0; 4],
+    };
+    Ok(f(empty, &cast))
 }
 
 /// Sample `n` at `p` reads an empty cell at level `hi`: finds the coarsest

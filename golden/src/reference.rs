@@ -35,6 +35,9 @@ pub struct RefOptions {
     /// Gaze-directed variable resolution instead of the supersampled grid
     /// (see [`crate::gaze`]).
     pub gaze: Option<Gaze>,
+    /// Adaptive refinement by image complexity, one full-resolution ray
+    /// per cast (see [`crate::refine`]); with `gaze`, both criteria.
+    pub refine: Option<crate::refine::Refine>,
 }
 
 impl Default for RefOptions {
@@ -46,6 +49,7 @@ impl Default for RefOptions {
             shade: None,
             voi: None,
             gaze: None,
+            refine: None,
         }
     }
 }

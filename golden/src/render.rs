@@ -501,7 +501,8 @@ pub struct Frame {
     pub slice: Option<Output>,
     /// Counts of the mip-map caster.
     pub mip: Option<MipStats>,
-    /// Rays of a gaze-directed reference frame.
+    /// Rays of a gaze-directed or refined ([`crate::refine`]) caster
+    /// frame.
     pub gaze: Option<GazeStats>,
     /// Counts of the shear-warp renderer.
     pub sw: Option<SwStats>,
@@ -537,6 +538,17 @@ impl Frame {
 
 /// Renders one frame of `prep` with `tech`.
 pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
+    if let Some(r) = &opts.reference.refine {
+        let out = crate::refine::frame::render(prep, lut, tech, opts, r)?;
+        return Ok(Frame {
+            image: out.image,
+            slice: None,
+            mip: out.mip,
+            gaze: Some(out.stats.as_gaze()),
+            sw: None,
+            er_gaze: None,
+        });
+    }
     match tech {
         Technique::Reference => match &opts.reference.gaze {
             Some(g) => {

@@ -17,6 +17,7 @@ mod outputs;
 mod peer;
 mod plot;
 mod progress;
+mod refine;
 mod render;
 mod skipbench;
 mod stats;
@@ -70,6 +71,10 @@ enum Command {
     /// Measure what each kind of skipping saves (golden time, pipeline
     /// cycles) on four scenes; write the "Skipping" section of the report.
     SkipBench(Box<skipbench::SkipBenchArgs>),
+    /// Progressive refinement of a resting view (reference or mipmap):
+    /// steps each adding rays, none cast twice, ending on one ray per
+    /// pixel; each step's PNG and its error over cumulative time.
+    Refine(Box<refine::RefineArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -125,6 +130,7 @@ pub fn run() -> ExitCode {
         Command::SweepWidths(a) => bench::sweep_widths(&a),
         Command::SkipBench(a) => skipbench::run(&a),
         Command::Peer(a) => peer::run(&a),
+        Command::Refine(a) => refine::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -70,6 +70,19 @@ pub struct RenderArgs {
     /// outside it, separately.
     #[arg(long)]
     pub compare_full: bool,
+    /// Reference and mipmap: adaptive refinement, `complexity` or
+    /// `complexity:THRESHOLD` (default 0.02): one ray per 2^L x 2^L
+    /// pixels, cells split while a channel differs across their corners
+    /// by more than the threshold, the rest interpolated bilinearly; with
+    /// --gaze, only where the profile allows too. With --compare-full,
+    /// the error inside refined cells and inside unsplit ones
+    /// (docs/golden.md#adaptive-and-progressive-refinement).
+    #[arg(long, value_name = "complexity[:THRESHOLD]")]
+    pub refine: Option<String>,
+    /// With --refine: the coarsest level L (one ray per 2^L x 2^L pixels),
+    /// 1 to 6.
+    #[arg(long, default_value_t = golden::refine::Refine::DEFAULT_LEVELS)]
+    pub refine_levels: u32,
 }
 
 /// Runs `f` `n` times (at least once), returning the last result and each
@@ -156,6 +169,7 @@ fn render_run(a: &RenderArgs) -> Result<()> {
         // The comparison's reference is always the full one.
         let full = opts;
         opts.reference.gaze = gaze_of(a, &cam, tech)?;
+        opts.reference.refine = refine_of(a.refine.as_deref(), a.refine_levels, tech)?;
         let lut = lut_for(vol.kind(), &tf);
         if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {
             anyhow::bail!("--baseplane-npy: a gaze-directed frame has one baseplane per level; drop one of them");
@@ -171,14 +185,47 @@ fn render_run(a: &RenderArgs) -> Result<()> {
             }
             _ => a.slice.prepared_owning(vol, &cam)?,
         };
-        let (frame, times) = {
-            let _s = Stage::start(format!("rendering with {}", tech.name()));
-            timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?
+        let (frame, times, leaf_level) = match &opts.reference.refine {
+            Some(r) => {
+                let _s = Stage::start(format!("rendering with {} refined", tech.name()));
+                let (out, times) = timed(a.repeat, || {
+                    Ok(golden::refine::frame::render(&prep, &lut, tech, &opts, r)?)
+                })?;
+                let frame = golden::render::Frame {
+                    image: out.image,
+                    slice: None,
+                    mip: out.mip,
+                    gaze: Some(out.stats.as_gaze()),
+                    sw: None,
+                    er_gaze: None,
+                };
+                (frame, times, Some((out.leaf_level, out.stats)))
+            }
+            None => {
+                let _s = Stage::start(format!("rendering with {}", tech.name()));
+                let (f, t) = timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?;
+                (f, t, None)
+            }
         };
         let time_s = median(&times);
+        let vs_refine = match (&leaf_level, &opts.reference.refine) {
+            (Some((leaf, st)), Some(r)) if a.compare_full => Some(super::refine::versus_full(
+                a.repeat,
+                &prep,
+                &lut,
+                tech,
+                &opts,
+                r,
+                leaf,
+                st,
+                &frame.image,
+            )?),
+            _ => None,
+        };
         let vs_full = match &opts.reference.gaze {
+            _ if vs_refine.is_some() => None,
             Some(g) if a.compare_full => Some(versus_full(a, &prep, &lut, tech, &opts, g, &frame)?),
-            _ if a.compare_full => anyhow::bail!("--compare-full needs --gaze"),
+            _ if a.compare_full => anyhow::bail!("--compare-full needs --gaze or --refine"),
             _ => None,
         };
         let base = frame.slice.as_ref().map(|o| &o.baseplane);
@@ -196,6 +243,12 @@ fn render_run(a: &RenderArgs) -> Result<()> {
             v["times_s"] = serde_json::json!(times);
             if let Some(f) = &vs_full {
                 v["gaze_vs_full"] = f.json();
+            }
+            if let Some((_, st)) = &leaf_level {
+                v["refine"] = serde_json::json!(st);
+            }
+            if let Some(f) = &vs_refine {
+                v["refine_vs_full"] = f.json();
             }
             write_json(p, &v)?;
         }
@@ -216,6 +269,9 @@ fn render_run(a: &RenderArgs) -> Result<()> {
         }
         if let Some(f) = &vs_full {
             line += &f.summary(time_s, frame.samples());
+        }
+        if let Some(f) = &vs_refine {
+            line += &f.summary(time_s);
         }
         super::say(&format!("{line} -> {}", a.out.display()));
         Ok(())
@@ -309,6 +365,27 @@ fn versus_full(
         inside: golden::metrics::compare_where(&frame.image, &f.image, inside)?,
         outside: golden::metrics::compare_where(&frame.image, &f.image, |x, y| !inside(x, y))?,
     })
+}
+
+/// The refinement `--refine` asks for; the reference and the mip-map
+/// take one.
+pub fn refine_of(
+    spec: Option<&str>,
+    levels: u32,
+    tech: Technique,
+) -> Result<Option<golden::refine::Refine>> {
+    let Some(spec) = spec else {
+        if levels != golden::refine::Refine::DEFAULT_LEVELS {
+            anyhow::bail!("--refine-levels needs --refine");
+        }
+        return Ok(None);
+    };
+    if !matches!(tech, Technique::Reference | Technique::MipMap) {
+        anyhow::bail!(
+            "--refine applies to --method reference or mipmap only (ER's rays live in object space)"
+        );
+    }
+    Ok(Some(golden::refine::Refine::parse(spec, levels)?))
 }
 
 /// The gaze profile `--gaze` asks for; the reference and the mip-map take one.

@@ -25,6 +25,7 @@ mod explore;
 mod memory;
 mod peers;
 mod preint;
+mod refine;
 mod runs;
 mod shade;
 mod shards;

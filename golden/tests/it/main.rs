@@ -17,6 +17,7 @@ mod mipmap;
 mod opacity;
 mod orientation;
 mod preint;
+mod refine;
 mod shading;
 mod shearwarp;
 mod skipping;

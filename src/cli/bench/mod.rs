@@ -63,7 +63,10 @@ pub struct BenchArgs {
     pub tf: TfArgs,
     /// Comma-separated methods: reference, under, over, box, er, er-ftb,
     /// mipmap, shear-warp, reference+gaze, mipmap+gaze, er+gaze and
-    /// er-ftb+gaze (the paper's gaze profile around the image centre), pipeline (default widths), pipeline-ftb (front to back, default
+    /// er-ftb+gaze (the paper's gaze profile around the image centre),
+    /// reference+refine, mipmap+refine (adaptive refinement at the default
+    /// threshold and levels), reference+gaze+refine,
+    /// mipmap+gaze+refine (both criteria), pipeline (default widths), pipeline-ftb (front to back, default
     /// widths) or pipeline:FILE.toml (widths from FILE).
     #[arg(long, default_value = "reference,under,over,box,er,er-ftb,pipeline")]
     pub methods: String,
@@ -128,6 +131,15 @@ pub enum BenchMethod {
     /// A method with the paper's gaze profile around the image centre
     /// (`reference+gaze`, `mipmap+gaze`, `er+gaze`, `er-ftb+gaze`).
     Gaze(Technique),
+    /// The reference or the mip-map adaptively refined at the default
+    /// threshold and levels ([`golden::refine`]), with the gaze profile
+    /// too when `gaze` (`reference+refine`, `mipmap+gaze+refine`).
+    Refine {
+        /// Reference or mip-map.
+        tech: Technique,
+        /// Also the paper's gaze profile around the image centre.
+        gaze: bool,
+    },
     /// The pipeline model with a configuration, under a label.
     Pipeline {
         /// `pipeline` or `pipeline:STEM`.
@@ -139,11 +151,22 @@ pub enum BenchMethod {
 }
 
 impl BenchMethod {
+    /// Whether it takes the gaze profile.
+    pub fn gazes(&self) -> bool {
+        matches!(
+            self,
+            BenchMethod::Gaze(_) | BenchMethod::Refine { gaze: true, .. }
+        )
+    }
+
     /// Name in tables, plots and the CSV.
     pub fn label(&self) -> String {
         match self {
             BenchMethod::Golden(t) => t.name().to_string(),
             BenchMethod::Gaze(t) => format!("{}+gaze", t.name()),
+            BenchMethod::Refine { tech, gaze } => {
+                format!("{}{}+refine", tech.name(), if *gaze { "+gaze" } else { "" })
+            }
             BenchMethod::Pipeline { label, .. } => label.clone(),
         }
     }
@@ -164,6 +187,25 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
             Some((name, file)) => (name, Some(file)),
             None => (tok, None),
         };
+        if let Some(base) = name.strip_suffix("+refine") {
+            let (base, gaze) = match base.strip_suffix("+gaze") {
+                Some(b) => (b, true),
+                None => (base, false),
+            };
+            let m = match MethodArg::parse(base).and_then(MethodArg::technique) {
+                Some(tech @ (Technique::Reference | Technique::MipMap)) if file.is_none() => {
+                    BenchMethod::Refine { tech, gaze }
+                }
+                _ => bail!(
+                    "'{tok}' in --methods: only reference and mipmap take +refine (or +gaze+refine)"
+                ),
+            };
+            if out.iter().any(|o| o.label() == m.label()) {
+                bail!("method '{}' is listed twice in --methods", m.label());
+            }
+            out.push(m);
+            continue;
+        }
         if let Some(base) = name.strip_suffix("+gaze") {
             let m = match MethodArg::parse(base).and_then(MethodArg::technique) {
                 Some(
@@ -184,7 +226,7 @@ pub fn parse_methods(s: &str, pes: Option<u16>) -> Result<Vec<BenchMethod>> {
         let method = MethodArg::parse(name).filter(|m| file.is_none() || *m == MethodArg::Pipeline);
         let Some(method) = method else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, shear-warp, reference+gaze, mipmap+gaze, er+gaze, er-ftb+gaze, pipeline, pipeline-ftb or pipeline:FILE.toml"
+                "unknown method '{tok}' in --methods: use reference, under, over, box, er, er-ftb, mipmap, shear-warp, reference+gaze, mipmap+gaze, er+gaze, er-ftb+gaze, reference+refine, mipmap+refine, reference+gaze+refine, mipmap+gaze+refine, pipeline, pipeline-ftb or pipeline:FILE.toml"
             );
         };
         let m = match (method.technique(), method.pipeline_order()) {

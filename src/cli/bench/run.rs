@@ -161,7 +161,12 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
         if case.methods.iter().any(|m| {
             matches!(
                 m,
-                BenchMethod::Golden(Technique::MipMap) | BenchMethod::Gaze(Technique::MipMap)
+                BenchMethod::Golden(Technique::MipMap)
+                    | BenchMethod::Gaze(Technique::MipMap)
+                    | BenchMethod::Refine {
+                        tech: Technique::MipMap,
+                        ..
+                    }
             )
         }) {
             // The pyramid is cached per volume and table, as a renderer
@@ -242,9 +247,17 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                 }
                 let mut r = row(&label, run);
                 match m {
-                    BenchMethod::Golden(t) | BenchMethod::Gaze(t) => {
+                    BenchMethod::Golden(t)
+                    | BenchMethod::Gaze(t)
+                    | BenchMethod::Refine { tech: t, .. } => {
                         let mut o = opts;
-                        if matches!(m, BenchMethod::Gaze(_)) {
+                        if matches!(m, BenchMethod::Refine { .. }) {
+                            o.reference.refine = Some(golden::refine::Refine {
+                                threshold: golden::refine::Refine::DEFAULT_THRESHOLD,
+                                levels: golden::refine::Refine::DEFAULT_LEVELS,
+                            });
+                        }
+                        if m.gazes() {
                             let [w, h] = case.size;
                             let at = [f64::from(w) * 0.5, f64::from(h) * 0.5];
                             o.reference.gaze = Some(golden::gaze::Gaze::around(at, w, h));
@@ -256,6 +269,7 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                                 if case.shade.is_some() {
                                     let mut p = plain;
                                     p.reference.gaze = o.reference.gaze;
+                                    p.reference.refine = o.reference.refine;
                                     let t1 = Instant::now();
                                     render(&prep, &lut, *t, &p)
                                         .context(format!("{label} unshaded at D = {d}"))?;
