@@ -113,7 +113,7 @@ struct View {
     look_at: Option<[f64; 3]>,
     up: [f64; 3],
     fov: f64,
-    size: (u32, u32),
+    size: [u32; 2],
     method: String,
     tf: Option<String>,
 }
@@ -125,7 +125,7 @@ impl View {
             format!("--method={}", self.method),
             format!("--up={}", v3(self.up)),
             format!("--fov={}", self.fov),
-            format!("--size={}x{}", self.size.0, self.size.1),
+            format!("--size={}x{}", self.size[0], self.size[1]),
         ];
         if let Some(e) = self.eye {
             a.push(format!("--eye={}", v3(e)));
@@ -213,29 +213,29 @@ fn scene<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
 /// configuration as TOML text. Further options are `ercube render` flags
 /// with underscores: `shade=True`, `terminate=0.95`, `pes=8`, ...
 #[pyfunction]
-#[pyo3(signature = (voxels, *, spacing=(1.0, 1.0, 1.0), eye=None, look_at=None,
-    up=(0.0, 1.0, 0.0), fov=60.0, size=(256, 256), method="er", tf=Some("grey-ramp"),
+#[pyo3(signature = (voxels, *, spacing=[1.0, 1.0, 1.0], eye=None, look_at=None,
+    up=[0.0, 1.0, 0.0], fov=60.0, size=[256, 256], method="er", tf=Some("grey-ramp"),
     config=None, **options))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
     voxels: &Bound<'py, PyAny>,
-    spacing: (f64, f64, f64),
-    eye: Option<(f64, f64, f64)>,
-    look_at: Option<(f64, f64, f64)>,
-    up: (f64, f64, f64),
+    spacing: [f64; 3],
+    eye: Option<[f64; 3]>,
+    look_at: Option<[f64; 3]>,
+    up: [f64; 3],
     fov: f64,
-    size: (u32, u32),
+    size: [u32; 2],
     method: &str,
     tf: Option<&str>,
     config: Option<String>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    let volume = volume_of(voxels, spacing.into())?;
+    let volume = volume_of(voxels, spacing)?;
     let view = View {
-        eye: eye.map(Into::into),
-        look_at: look_at.map(Into::into),
-        up: up.into(),
+        eye,
+        look_at,
+        up,
         fov,
         size,
         method: method.to_string(),
@@ -273,9 +273,9 @@ impl Chip {
 
     /// Loads `voxels` (numpy `(z, y, x)`, uint8 or uint16) with `spacing`
     /// (x, y, z) for the next frames.
-    #[pyo3(signature = (voxels, spacing=(1.0, 1.0, 1.0)))]
-    fn load(&mut self, voxels: &Bound<'_, PyAny>, spacing: (f64, f64, f64)) -> PyResult<()> {
-        self.volume = Some(volume_of(voxels, spacing.into())?);
+    #[pyo3(signature = (voxels, spacing=[1.0, 1.0, 1.0]))]
+    fn load(&mut self, voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<()> {
+        self.volume = Some(volume_of(voxels, spacing)?);
         Ok(())
     }
 
@@ -284,17 +284,17 @@ impl Chip {
     /// 4` accumulator words `--raw-npy` writes (formats in
     /// `stats["raw_format"]`), and the stats dict. `method` is `pipeline`
     /// (back to front) or `pipeline-ftb`; the rest as `render`.
-    #[pyo3(signature = (*, eye=None, look_at=None, up=(0.0, 1.0, 0.0), fov=60.0,
-        size=(256, 256), method="pipeline", tf=Some("grey-ramp"), **options))]
+    #[pyo3(signature = (*, eye=None, look_at=None, up=[0.0, 1.0, 0.0], fov=60.0,
+        size=[256, 256], method="pipeline", tf=Some("grey-ramp"), **options))]
     #[allow(clippy::too_many_arguments)]
     fn run_frame<'py>(
         &self,
         py: Python<'py>,
-        eye: Option<(f64, f64, f64)>,
-        look_at: Option<(f64, f64, f64)>,
-        up: (f64, f64, f64),
+        eye: Option<[f64; 3]>,
+        look_at: Option<[f64; 3]>,
+        up: [f64; 3],
         fov: f64,
-        size: (u32, u32),
+        size: [u32; 2],
         method: &str,
         tf: Option<&str>,
         options: Option<&Bound<'py, PyDict>>,
@@ -308,9 +308,9 @@ impl Chip {
             return Err(Error::new_err("no volume: call Chip.load(voxels) first"));
         };
         let view = View {
-            eye: eye.map(Into::into),
-            look_at: look_at.map(Into::into),
-            up: up.into(),
+            eye,
+            look_at,
+            up,
             fov,
             size,
             method: method.to_string(),
