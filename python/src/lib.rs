@@ -4,11 +4,10 @@
 //! and statistics are the command line's bit for bit. The GIL is released
 //! while a volume loads or a frame renders. Type hints: `ercube.pyi`.
 
-use pyo3::buffer::PyBuffer;
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList, PyTuple};
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
 
 use golden::volume::{Volume, Voxels};
 
@@ -56,17 +55,18 @@ fn flags(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     Ok(out)
 }
 
-/// A numpy array of `shape` and `dtype` holding `values` (one copy).
-fn array<'py, T: pyo3::buffer::Element>(
+/// A numpy array of `shape` and `dtype` (numpy's name for `T`, native
+/// byte order) holding `values`, backed by a bytearray (one copy).
+fn array<'py, T: bytemuck::Pod>(
     py: Python<'py>,
     values: &[T],
     shape: &[usize],
     dtype: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let np = py.import("numpy")?;
-    let a = np.call_method1("empty", (PyTuple::new(py, shape)?, dtype))?;
-    PyBuffer::<T>::get(&a)?.copy_from_slice(py, values)?;
-    Ok(a)
+    let bytes = PyByteArray::new(py, bytemuck::cast_slice(values));
+    py.import("numpy")?
+        .call_method1("frombuffer", (bytes, dtype))?
+        .call_method1("reshape", (PyTuple::new(py, shape)?,))
 }
 
 /// A volume's voxels as a numpy array `(z, y, x)` in their own type.
@@ -81,9 +81,8 @@ fn voxels_array<'py>(py: Python<'py>, v: &Volume) -> PyResult<Bound<'py, PyAny>>
 /// A volume from a numpy array `(z, y, x)` of uint8 or uint16 (copied).
 fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
     let py = voxels.py();
-    let a = py
-        .import("numpy")?
-        .call_method1("ascontiguousarray", (voxels,))?;
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (voxels,))?;
     let shape: Vec<usize> = a.getattr("shape")?.extract()?;
     let dtype: String = a.getattr("dtype")?.str()?.to_string();
     if shape.len() != 3 {
@@ -93,9 +92,12 @@ fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
         )));
     }
     let dims = [shape[2], shape[1], shape[0]];
+    // C order, native byte order.
+    let bytes = a.call_method0("tobytes")?;
+    let bytes = bytes.cast::<PyBytes>()?.as_bytes();
     let data = match dtype.as_str() {
-        "uint8" => Voxels::U8(PyBuffer::<u8>::get(&a)?.to_vec(py)?),
-        "uint16" => Voxels::U16(PyBuffer::<u16>::get(&a)?.to_vec(py)?),
+        "uint8" => Voxels::U8(bytes.to_vec()),
+        "uint16" => Voxels::U16(bytemuck::pod_collect_to_vec(bytes)),
         other => {
             return Err(Error::new_err(format!(
                 "voxels must be uint8 or uint16; got {other}"
