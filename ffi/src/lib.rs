@@ -233,12 +233,12 @@ unsafe fn volume_from<T: Copy>(
             return Err(argument("the voxels or the dimensions are null"));
         }
         let d = [*dims, *dims.add(1), *dims.add(2)];
-        let n = d
-            .iter()
-            .try_fold(1usize, |n, &k| n.checked_mul(k))
-            .ok_or_else(|| argument(format!("dimensions {d:?} overflow")))?;
-        let data = std::slice::from_raw_parts(voxels, n).to_vec();
         let e = |e: golden::error::Error| Failure(ErcubeStatus::Failed, e.to_string());
+        // Sane dimensions (none zero or absurd, the byte count addressable)
+        // before the caller's buffer is read.
+        let bytes = std::mem::size_of::<T>() as u64;
+        let n = golden::volume::check_dims(d, bytes, isize::MAX as u64).map_err(e)?;
+        let data = std::slice::from_raw_parts(voxels, n).to_vec();
         let mut volume = Volume::from_voxels(d, wrap(data)).map_err(e)?;
         if !spacing.is_null() {
             let s = [*spacing, *spacing.add(1), *spacing.add(2)];

@@ -96,6 +96,7 @@ fn a_c_program_renders_the_command_lines_raw_words_and_reports_errors() {
         ("bad size:", "size"),
         ("bad flag:", "--no-such-flag"),
         ("missing file:", "nonexistent"),
+        ("zero dims:", "dimension x is zero"),
         ("bad config:", "pes"),
         ("golden raw:", "golden"),
         ("null volume:", "null"),

@@ -111,6 +111,12 @@ int main(int argc, char **argv) {
     s = ercube_volume_load("/nonexistent/volume.den", &missing);
     printf("missing file: status %d: %s\n", s, ercube_last_error());
     if (s != ERCUBE_FAILED || missing != NULL) return 1;
+    const uint8_t one = 7;
+    size_t zero_dims[3] = {0, 1, 1};
+    ErcubeVolume *empty = NULL;
+    s = ercube_volume_from_u8(&one, zero_dims, NULL, &empty);
+    printf("zero dims: status %d: %s\n", s, ercube_last_error());
+    if (s != ERCUBE_FAILED || empty != NULL) return 1;
     ErcubeConfig *bad_cfg = NULL;
     s = ercube_config_from_toml("pes = 0", &bad_cfg);
     printf("bad config: status %d: %s\n", s, ercube_last_error());
