@@ -98,6 +98,15 @@ int main(int argc, char **argv) {
     if (dump_raw(frame, argv[4])) return 1;
     ercube_frame_free(frame);
 
+    /* A scene. */
+    ErcubeVolume *sc = NULL;
+    if ((s = ercube_volume_scene("ml:16", &sc)) != ERCUBE_OK) return fail("scene", s);
+    double sp[3];
+    if ((s = ercube_volume_shape(sc, dims, sp, &bits)) != ERCUBE_OK) return fail("scene shape", s);
+    printf("scene %zux%zux%zu, spacing %g,%g,%g, %u bits\n", dims[0], dims[1], dims[2], sp[0], sp[1], sp[2], bits);
+    if (dims[0] != 16 || dims[1] != 16 || dims[2] != 16) return 1;
+    ercube_volume_free(sc);
+
     /* Error paths: each a status and a one-line message. */
     const char *bad_size[] = {"--size", "0x0"};
     s = ercube_render(buf, NULL, bad_size, 2, &frame);
