@@ -186,7 +186,7 @@ impl SourceArgs {
                 "--raw-dims, --raw-type and --raw-offset describe a --volume file, not a --scene"
             );
         }
-        let (mut loaded, tf) = match (&self.scene, &self.volume) {
+        let (loaded, tf) = match (&self.scene, &self.volume) {
             (Some(spec), None) => {
                 let scene: Scene = spec.parse()?;
                 let volume = scene.build(self.budget().bytes)?;
@@ -212,13 +212,34 @@ impl SourceArgs {
             (None, None) => bail!("no volume: give --scene SPEC or --volume FILE"),
             (Some(_), Some(_)) => bail!("give either --scene or --volume, not both"),
         };
+        Ok((self.override_placed(loaded)?, tf))
+    }
+
+    /// A volume given in memory (the library's route: its caller holds the
+    /// voxels) as [`SourceArgs::load_placed`] returns a file's: no
+    /// placement, the file default transfer function `grey-ramp`,
+    /// `--spacing` and `--window` applied.
+    pub fn given_placed(&self, volume: Volume) -> Result<(Loaded, TransferFunction)> {
+        if self.scene.is_some() || self.volume.is_some() {
+            bail!("the voxels are given; drop --scene and --volume");
+        }
+        let loaded = Loaded {
+            volume,
+            origin: None,
+            axes: None,
+        };
+        Ok((self.override_placed(loaded)?, tf_preset("grey-ramp")?))
+    }
+
+    /// `--spacing` (along the volume's own index axes), then `--window`.
+    fn override_placed(&self, mut loaded: Loaded) -> Result<Loaded> {
         if let Some(s) = self.spacing {
             loaded.volume = loaded.volume.with_spacing(s.to_array())?;
         }
         if let Some(w) = self.window {
             loaded.volume = loaded.volume.windowed(w);
         }
-        Ok((loaded, tf))
+        Ok(loaded)
     }
 }
 
@@ -261,6 +282,17 @@ impl ViewArgs {
         method: &str,
         spec: &FrameSpec,
     ) -> Result<(Volume, TransferFunction, Camera)> {
+        self.load_given(method, spec, None)
+    }
+
+    /// [`ViewArgs::load_for`], with the volume `given` in memory instead of
+    /// `--scene` or `--volume` when it is `Some`.
+    pub fn load_given(
+        &self,
+        method: &str,
+        spec: &FrameSpec,
+        given: Option<Volume>,
+    ) -> Result<(Volume, TransferFunction, Camera)> {
         let budget = self.source.budget();
         let check = |dims: [usize; 3], kind: VoxelType| {
             let what = format!(
@@ -269,10 +301,19 @@ impl ViewArgs {
             );
             budget.check(&what, frame_bytes(dims, kind, spec))
         };
-        if let Some((dims, kind)) = self.source.scene_shape()? {
-            check(dims, kind)?;
-        }
-        let (vol, tf, cam) = self.load()?;
+        let (vol, tf, cam) = match given {
+            Some(v) => {
+                let (loaded, default_tf) = self.source.given_placed(v)?;
+                let (vol, tf, cam, _) = self.place(loaded, default_tf)?;
+                (vol, tf, cam)
+            }
+            None => {
+                if let Some((dims, kind)) = self.source.scene_shape()? {
+                    check(dims, kind)?;
+                }
+                self.load()?
+            }
+        };
         check(vol.dims(), vol.kind())?;
         Ok((vol, tf, cam))
     }
@@ -286,6 +327,16 @@ impl ViewArgs {
             let _s = super::progress::Stage::start("loading volume");
             self.source.load_placed()?
         };
+        self.place(loaded, default_tf)
+    }
+
+    /// The volume on the axes `--space` names, its transfer function and
+    /// the camera placed against it.
+    fn place(
+        &self,
+        loaded: Loaded,
+        default_tf: TransferFunction,
+    ) -> Result<(Volume, TransferFunction, Camera, Option<WorldFrame>)> {
         let (vol, frame) = match self.camera.space {
             SpaceArg::Voxel => (loaded.volume, None),
             SpaceArg::World => {

@@ -31,14 +31,20 @@ pub struct ConfigArgs {
     /// Number of PEs (overrides the configuration).
     #[arg(long)]
     pub pes: Option<u16>,
+    /// The configuration as TOML text, given by a library caller instead
+    /// of `--config` (not a flag).
+    #[arg(skip)]
+    pub toml: Option<String>,
 }
 
 impl ConfigArgs {
     /// Loads the configuration with the command line's overrides.
     pub fn load(&self) -> Result<PipelineConfig> {
-        let mut cfg = match &self.config {
-            Some(p) => PipelineConfig::from_toml_file(p)?,
-            None => PipelineConfig::default(),
+        let mut cfg = match (&self.config, &self.toml) {
+            (Some(_), Some(_)) => bail!("the configuration is given as text; drop --config"),
+            (Some(p), None) => PipelineConfig::from_toml_file(p)?,
+            (None, Some(text)) => PipelineConfig::from_toml_str(text)?,
+            (None, None) => PipelineConfig::default(),
         };
         if let Some(p) = self.pes {
             cfg.pes = p;
@@ -240,9 +246,6 @@ pub fn run(
     *spare = resident;
     let time_s = t.elapsed().as_secs_f64();
     let image = warp(&prep.view, &frame.baseplane);
-    if let Some(p) = &a.raw_npy {
-        write_raw_npy(p, &frame)?;
-    }
     Ok(PipelineRun {
         image,
         frame,
@@ -251,7 +254,7 @@ pub fn run(
 }
 
 /// Raw accumulator words as int64 `H x W x 4`.
-fn write_raw_npy(path: &Path, f: &pipeline::Frame) -> Result<()> {
+pub fn write_raw_npy(path: &Path, f: &pipeline::Frame) -> Result<()> {
     let [w, h] = f.baseplane.grid.counts;
     golden::image::write_atomic(path, |out| {
         out.write_all(&golden::image::npy_header("<i8", &[h, w, 4]))?;
@@ -336,7 +339,12 @@ pub fn versus_golden(
 
 /// Refuses pipeline options on other methods.
 pub fn check_unused(a: &PipelineArgs) -> Result<()> {
-    if a.cfg.config.is_some() || a.cfg.pes.is_some() || a.vcd.is_some() || a.raw_npy.is_some() {
+    if a.cfg.config.is_some()
+        || a.cfg.toml.is_some()
+        || a.cfg.pes.is_some()
+        || a.vcd.is_some()
+        || a.raw_npy.is_some()
+    {
         bail!(
             "--config, --pes, --vcd and --raw-npy apply only to --method pipeline or pipeline-ftb"
         );

@@ -3,7 +3,7 @@
 //! with status 2; nothing panics on bad input).
 
 mod animate;
-mod args;
+pub(crate) mod args;
 mod bench;
 mod bound;
 mod chip;
@@ -18,7 +18,7 @@ mod peer;
 mod plot;
 mod progress;
 mod refine;
-mod render;
+pub(crate) mod render;
 mod skipbench;
 mod stats;
 
@@ -84,9 +84,34 @@ pub fn say(line: &str) {
     let _ = writeln!(std::io::stdout().lock(), "{line}");
 }
 
+/// A clap error on one line: clap spreads one error over several lines
+/// (the message, the arguments it names, a usage line); this keeps all but
+/// the usage.
+pub(crate) fn one_line(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let msg: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .take_while(|l| !l.starts_with("Usage:"))
+        .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
+        .collect();
+    msg.join(" ").trim_start_matches("error: ").to_string()
+}
+
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    run_with(std::env::args_os())
+}
+
+/// Runs the command line `args` (the program's name first), as `main`
+/// runs the process's: prints what the command prints, writes its files
+/// and returns its exit status.
+pub fn run_with<I, T>(args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e) => {
             use clap::error::ErrorKind;
@@ -103,18 +128,7 @@ pub fn run() -> ExitCode {
                     ExitCode::SUCCESS
                 };
             }
-            // clap spreads one error over several lines (the message, the
-            // arguments it names, a usage line): keep all but the usage.
-            let text = e.to_string();
-            let msg: Vec<&str> = text
-                .lines()
-                .map(str::trim)
-                .take_while(|l| !l.starts_with("Usage:"))
-                .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
-                .collect();
-            let msg = msg.join(" ");
-            let msg = msg.trim_start_matches("error: ");
-            eprintln!("ercube: error: {msg} (see ercube --help)");
+            eprintln!("ercube: error: {} (see ercube --help)", one_line(&e));
             return ExitCode::from(2);
         }
     };

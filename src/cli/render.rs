@@ -124,6 +124,45 @@ fn timed_with<T>(
     Ok((last.expect("at least one run"), times))
 }
 
+/// One `ercube render` frame in memory: everything [`run`] writes, before
+/// it is written (the library's route, `ercube::frame`, returns it).
+pub struct Rendered {
+    /// The final image (`--out`, `--npy`).
+    pub image: golden::image::Image,
+    /// The baseplane before the warp of a slice-order golden method
+    /// (`--baseplane-npy`; the pipeline's is in [`Rendered::chip`]).
+    pub baseplane: Option<golden::warp::Baseplane>,
+    /// The pipeline's frame: raw accumulator words (`--raw-npy`), cycles
+    /// and counters; `None` for golden methods.
+    pub chip: Option<pipeline::Frame>,
+    /// What `--stats` writes.
+    pub stats: serde_json::Value,
+    /// The one-line summary the command prints (before ` -> OUT`).
+    pub summary: String,
+}
+
+impl Rendered {
+    /// Writes the files `a` asks for: the PNG, `--npy`,
+    /// `--baseplane-npy`, `--raw-npy` and `--stats`, each atomically.
+    fn write(&self, a: &RenderArgs) -> Result<()> {
+        self.image.write_png(&a.out)?;
+        if let Some(p) = &a.npy {
+            self.image.write_npy(p)?;
+        }
+        let base = (self.baseplane.as_ref()).or(self.chip.as_ref().map(|f| &f.baseplane));
+        if let (Some(p), Some(b)) = (&a.baseplane_npy, base) {
+            b.to_image().write_npy(p)?;
+        }
+        if let (Some(p), Some(f)) = (&a.pipeline.raw_npy, &self.chip) {
+            chip::write_raw_npy(p, f)?;
+        }
+        if let Some(p) = &a.stats {
+            write_json(p, &self.stats)?;
+        }
+        Ok(())
+    }
+}
+
 /// Runs `ercube render`: every output path is checked first, and the
 /// outputs appear together only if the whole run succeeds.
 pub fn run(a: &RenderArgs) -> Result<()> {
@@ -137,144 +176,164 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         p.fst.as_deref(),
         p.raw_npy.as_deref(),
     ])?;
-    super::outputs::all_or_nothing(&[], || render_run(a))
+    let summary = super::outputs::all_or_nothing(&[], || {
+        let r = frame(a, None)?;
+        r.write(a)?;
+        Ok(r.summary)
+    })?;
+    super::say(&format!("{summary} -> {}", a.out.display()));
+    Ok(())
 }
 
-fn render_run(a: &RenderArgs) -> Result<()> {
+/// Renders the frame `a` describes, of the volume `given` in memory
+/// (instead of `--scene` or `--volume`) when it is `Some`, and writes
+/// nothing.
+pub fn frame(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Result<Rendered> {
     let Some(tech) = a.method.technique() else {
-        return with_threads(a.threads, || run_pipeline(a));
+        return with_threads(a.threads, || frame_pipeline(a, given));
     };
     chip::check_unused(&a.pipeline)?;
-    with_threads(a.threads, || {
-        if !matches!(tech, Technique::Slice(_)) && a.slice.preintegrate {
-            anyhow::bail!(
-                "--preintegrate applies to the slice-order methods; {} does not take it",
-                tech.name()
-            );
-        }
-        if !matches!(tech, Technique::Slice(_)) && a.baseplane_npy.is_some() {
-            anyhow::bail!(
-                "--baseplane-npy needs a slice-order method; {} has no baseplane",
-                tech.name()
-            );
-        }
-        let mut opts = a.slice.options()?;
-        let spec = FrameSpec {
-            technique: Some(tech),
-            shade: opts.slice.shade.is_some(),
-            size: a.view.camera.size,
-        };
-        let (vol, tf, cam) = a.view.load_for(tech.name(), &spec)?;
-        a.slice.apply_tf(&mut opts, &tf)?;
-        // The comparison's reference is always the full one.
-        let full = opts;
-        opts.reference.gaze = gaze_of(a, &cam, tech)?;
-        opts.reference.refine = refine_of(a.refine.as_deref(), a.refine_levels, tech)?;
-        let lut = lut_for(vol.kind(), &tf);
-        if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {
-            anyhow::bail!("--baseplane-npy: a gaze-directed frame has one baseplane per level; drop one of them");
-        }
-        let shape = (vol.dims(), vol.spacing());
-        let prep = match (&opts.reference.gaze, tech) {
-            // The gaze levels filter the volume itself, so a gaze-directed
-            // slice-order frame keeps it beside the stack.
-            (Some(g), Technique::Slice(_)) => {
-                let prep = a.slice.prepared(&vol, &cam)?;
-                let _s = Stage::start("preparing the gaze levels");
-                prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?
-            }
-            _ => a.slice.prepared_owning(vol, &cam)?,
-        };
-        let (frame, times, leaf_level) = match &opts.reference.refine {
-            Some(r) => {
-                let _s = Stage::start(format!("rendering with {} refined", tech.name()));
-                let (out, times) = timed(a.repeat, || {
-                    Ok(golden::refine::frame::render(&prep, &lut, tech, &opts, r)?)
-                })?;
-                let frame = golden::render::Frame {
-                    image: out.image,
-                    slice: None,
-                    mip: out.mip,
-                    gaze: Some(out.stats.as_gaze()),
-                    sw: None,
-                    er_gaze: None,
-                };
-                (frame, times, Some((out.leaf_level, out.stats)))
-            }
-            None => {
-                let _s = Stage::start(format!("rendering with {}", tech.name()));
-                let (f, t) = timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?;
-                (f, t, None)
-            }
-        };
-        let time_s = median(&times);
-        let vs_refine = match (&leaf_level, &opts.reference.refine) {
-            (Some((leaf, st)), Some(r)) if a.compare_full => Some(super::refine::versus_full(
-                a.repeat,
-                &prep,
-                &lut,
-                tech,
-                &opts,
-                r,
-                leaf,
-                st,
-                &frame.image,
-            )?),
-            _ => None,
-        };
-        let vs_full = match &opts.reference.gaze {
-            _ if vs_refine.is_some() => None,
-            Some(g) if a.compare_full => Some(versus_full(a, &prep, &lut, tech, &opts, g, &frame)?),
-            _ if a.compare_full => anyhow::bail!("--compare-full needs --gaze or --refine"),
-            _ => None,
-        };
-        let base = frame.slice.as_ref().map(|o| &o.baseplane);
-        let err = write_outputs(a, &prep, &lut, &full, &frame.image, base)?;
-        if let Some(p) = &a.stats {
-            let mut v = frame_json(
-                tech.name(),
-                shape,
-                &prep.view,
-                cam.eye,
-                time_s,
-                &frame,
-                err.as_ref(),
-            );
-            v["times_s"] = serde_json::json!(times);
-            if let Some(f) = &vs_full {
-                v["gaze_vs_full"] = f.json();
-            }
-            if let Some((_, st)) = &leaf_level {
-                v["refine"] = serde_json::json!(st);
-            }
-            if let Some(f) = &vs_refine {
-                v["refine_vs_full"] = f.json();
-            }
-            write_json(p, &v)?;
-        }
-        let mut line = format!(
-            "{}: {}x{} in {:.3} s, principal axis {}, D = {:.3}",
-            tech.name(),
-            cam.width,
-            cam.height,
-            time_s,
-            prep.view.axes.label(),
-            prep.view.d
+    with_threads(a.threads, || frame_golden(a, tech, given))
+}
+
+/// [`frame`] with a golden method.
+fn frame_golden(
+    a: &RenderArgs,
+    tech: Technique,
+    given: Option<golden::volume::Volume>,
+) -> Result<Rendered> {
+    if !matches!(tech, Technique::Slice(_)) && a.slice.preintegrate {
+        anyhow::bail!(
+            "--preintegrate applies to the slice-order methods; {} does not take it",
+            tech.name()
         );
-        if let Some(e) = err {
-            line += &format!(
-                ", vs reference: max {} /255, rmse {:.5}, psnr {:.2} dB",
-                e.max_abs_255, e.rmse, e.psnr
-            );
+    }
+    if !matches!(tech, Technique::Slice(_)) && a.baseplane_npy.is_some() {
+        anyhow::bail!(
+            "--baseplane-npy needs a slice-order method; {} has no baseplane",
+            tech.name()
+        );
+    }
+    let mut opts = a.slice.options()?;
+    let spec = FrameSpec {
+        technique: Some(tech),
+        shade: opts.slice.shade.is_some(),
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_given(tech.name(), &spec, given)?;
+    a.slice.apply_tf(&mut opts, &tf)?;
+    // The comparison's reference is always the full one.
+    let full = opts;
+    opts.reference.gaze = gaze_of(a, &cam, tech)?;
+    opts.reference.refine = refine_of(a.refine.as_deref(), a.refine_levels, tech)?;
+    let lut = lut_for(vol.kind(), &tf);
+    if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {
+        anyhow::bail!(
+            "--baseplane-npy: a gaze-directed frame has one baseplane per level; drop one of them"
+        );
+    }
+    let shape = (vol.dims(), vol.spacing());
+    let prep = match (&opts.reference.gaze, tech) {
+        // The gaze levels filter the volume itself, so a gaze-directed
+        // slice-order frame keeps it beside the stack.
+        (Some(g), Technique::Slice(_)) => {
+            let prep = a.slice.prepared(&vol, &cam)?;
+            let _s = Stage::start("preparing the gaze levels");
+            prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?
         }
-        if let Some(f) = &vs_full {
-            line += &f.summary(time_s, frame.samples());
+        _ => a.slice.prepared_owning(vol, &cam)?,
+    };
+    let (frame, times, leaf_level) = match &opts.reference.refine {
+        Some(r) => {
+            let _s = Stage::start(format!("rendering with {} refined", tech.name()));
+            let (out, times) = timed(a.repeat, || {
+                Ok(golden::refine::frame::render(&prep, &lut, tech, &opts, r)?)
+            })?;
+            let frame = golden::render::Frame {
+                image: out.image,
+                slice: None,
+                mip: out.mip,
+                gaze: Some(out.stats.as_gaze()),
+                sw: None,
+                er_gaze: None,
+            };
+            (frame, times, Some((out.leaf_level, out.stats)))
         }
-        if let Some(f) = &vs_refine {
-            line += &f.summary(time_s);
+        None => {
+            let _s = Stage::start(format!("rendering with {}", tech.name()));
+            let (f, t) = timed_frames(a.repeat, || Ok(render(&prep, &lut, tech, &opts)?))?;
+            (f, t, None)
         }
-        super::say(&format!("{line} -> {}", a.out.display()));
-        Ok(())
+    };
+    let time_s = median(&times);
+    let vs_refine = match (&leaf_level, &opts.reference.refine) {
+        (Some((leaf, st)), Some(r)) if a.compare_full => Some(super::refine::versus_full(
+            a.repeat,
+            &prep,
+            &lut,
+            tech,
+            &opts,
+            r,
+            leaf,
+            st,
+            &frame.image,
+        )?),
+        _ => None,
+    };
+    let vs_full = match &opts.reference.gaze {
+        _ if vs_refine.is_some() => None,
+        Some(g) if a.compare_full => Some(versus_full(a, &prep, &lut, tech, &opts, g, &frame)?),
+        _ if a.compare_full => anyhow::bail!("--compare-full needs --gaze or --refine"),
+        _ => None,
+    };
+    let err = versus_reference(a, &prep, &lut, &full, &frame.image)?;
+    let mut v = frame_json(
+        tech.name(),
+        shape,
+        &prep.view,
+        cam.eye,
+        time_s,
+        &frame,
+        err.as_ref(),
+    );
+    v["times_s"] = serde_json::json!(times);
+    if let Some(f) = &vs_full {
+        v["gaze_vs_full"] = f.json();
+    }
+    if let Some((_, st)) = &leaf_level {
+        v["refine"] = serde_json::json!(st);
+    }
+    if let Some(f) = &vs_refine {
+        v["refine_vs_full"] = f.json();
+    }
+    let mut line = format!(
+        "{}: {}x{} in {:.3} s, principal axis {}, D = {:.3}",
+        tech.name(),
+        cam.width,
+        cam.height,
+        time_s,
+        prep.view.axes.label(),
+        prep.view.d
+    );
+    if let Some(e) = err {
+        line += &format!(
+            ", vs reference: max {} /255, rmse {:.5}, psnr {:.2} dB",
+            e.max_abs_255, e.rmse, e.psnr
+        );
+    }
+    if let Some(f) = &vs_full {
+        line += &f.summary(time_s, frame.samples());
+    }
+    if let Some(f) = &vs_refine {
+        line += &f.summary(time_s);
+    }
+    let golden::render::Frame { image, slice, .. } = frame;
+    Ok(Rendered {
+        image,
+        baseplane: slice.map(|o| o.baseplane),
+        chip: None,
+        stats: v,
+        summary: line,
     })
 }
 
@@ -418,36 +477,24 @@ fn gaze_of(
     Ok(Some(g))
 }
 
-/// The outputs every render writes: the PNG, `--npy`, `--baseplane-npy`,
-/// and (with `--compare-reference`) the error against the reference,
-/// which it returns.
-fn write_outputs(
+/// With `--compare-reference`, `image`'s error against the reference.
+fn versus_reference(
     a: &RenderArgs,
     prep: &Prepared,
     lut: &golden::tf::Lut,
     opts: &RenderOptions,
     image: &golden::image::Image,
-    baseplane: Option<&golden::warp::Baseplane>,
 ) -> Result<Option<golden::metrics::ImageError>> {
-    let err = if a.compare_reference {
-        let _s = Stage::start("rendering the reference");
-        let r = render(prep, lut, Technique::Reference, opts)?;
-        Some(compare(image, &r.image)?)
-    } else {
-        None
-    };
-    image.write_png(&a.out)?;
-    if let Some(p) = &a.npy {
-        image.write_npy(p)?;
+    if !a.compare_reference {
+        return Ok(None);
     }
-    if let (Some(p), Some(b)) = (&a.baseplane_npy, baseplane) {
-        b.to_image().write_npy(p)?;
-    }
-    Ok(err)
+    let _s = Stage::start("rendering the reference");
+    let r = render(prep, lut, Technique::Reference, opts)?;
+    Ok(Some(compare(image, &r.image)?))
 }
 
 /// `ercube render --method pipeline` or `pipeline-ftb`.
-fn run_pipeline(a: &RenderArgs) -> Result<()> {
+fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Result<Rendered> {
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
     chip::check_options(&opts)?;
@@ -456,7 +503,7 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         shade: opts.slice.shade.is_some(),
         size: a.view.camera.size,
     };
-    let (vol, tf, cam) = a.view.load_for(a.method.name(), &spec)?;
+    let (vol, tf, cam) = a.view.load_given(a.method.name(), &spec, given)?;
     let mut opts = opts;
     slice.apply_tf(&mut opts, &tf)?;
     let (shade, voi) = (opts.slice.shade, opts.slice.voi);
@@ -518,46 +565,36 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
     if let Some(w) = bound.warning() {
         eprintln!("{w}");
     }
-    let err = write_outputs(
-        a,
-        &prep,
-        &lut,
-        &opts,
-        &run.image,
-        Some(&run.frame.baseplane),
-    )?;
-    if let Some(p) = &a.stats {
-        let frame = golden::render::Frame {
-            image: run.image.clone(),
-            slice: None,
-            mip: None,
-            gaze: None,
-            sw: None,
-            er_gaze: None,
-        };
-        let mut v = frame_json(
-            a.method.name(),
-            shape,
-            &prep.view,
-            cam.eye,
-            run.time_s,
-            &frame,
-            err.as_ref(),
-        );
-        let extra = chip::stats_json(&cfg, &run, Some(vs_golden.clone()));
-        if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
-            for (k, val) in e {
-                o.insert(k.clone(), val.clone());
-            }
+    let err = versus_reference(a, &prep, &lut, &opts, &run.image)?;
+    let extra = chip::stats_json(&cfg, &run, Some(vs_golden.clone()));
+    let frame = golden::render::Frame {
+        image: run.image,
+        slice: None,
+        mip: None,
+        gaze: None,
+        sw: None,
+        er_gaze: None,
+    };
+    let mut v = frame_json(
+        a.method.name(),
+        shape,
+        &prep.view,
+        cam.eye,
+        run.time_s,
+        &frame,
+        err.as_ref(),
+    );
+    if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
+        for (k, val) in e {
+            o.insert(k.clone(), val.clone());
         }
-        v["regions"] = serde_json::json!(prep.view.regions().bounds);
-        v["times_s"] = serde_json::json!(times);
-        v["bound"] = bound.json();
-        write_json(p, &v)?;
     }
+    v["regions"] = serde_json::json!(prep.view.regions().bounds);
+    v["times_s"] = serde_json::json!(times);
+    v["bound"] = bound.json();
     let f = &run.frame;
-    super::say(&format!(
-        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 ({}) -> {}",
+    let summary = format!(
+        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 ({})",
         a.method.name(),
         cfg.pes,
         f.cycles,
@@ -568,7 +605,12 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         chip::golden_method(&cfg).name(),
         vs_golden["max_abs_255"],
         bound.summary(),
-        a.out.display()
-    ));
-    Ok(())
+    );
+    Ok(Rendered {
+        image: frame.image,
+        baseplane: None,
+        chip: Some(run.frame),
+        stats: v,
+        summary,
+    })
 }

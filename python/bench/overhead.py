@@ -1,0 +1,57 @@
+"""The Python module's overhead on one frame, measured against the command line.
+
+usage: python overhead.py ERCUBE_BINARY VOLUME [ROUNDS] [-- RENDER FLAGS...]
+
+Interleaves, ROUNDS times (default 15): `ercube render --volume VOLUME
+--stats` (its frame time, stats time_s, and the process's wall-clock
+time), and ercube.render of the same
+voxels (the wall-clock time of the call, converting the arrays in and out,
+and the frame time it reports). Prints the medians and the ratio of the
+Python call to the command line's frame time.
+"""
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import ercube
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    flags = []
+    if "--" in args:
+        i = args.index("--")
+        args, flags = args[:i], args[i + 1:]
+    binary, volume = args[0], args[1]
+    rounds = int(args[2]) if len(args) > 2 else 15
+    voxels, spacing = ercube.load(volume)
+    kw = {}
+    for k in range(0, len(flags), 2):
+        kw[flags[k].lstrip("-").replace("-", "_")] = flags[k + 1]
+    ercube.render(voxels, spacing=spacing, **kw)  # warm up
+    cli, wall, call, inner = [], [], [], []
+    with tempfile.TemporaryDirectory() as d:
+        stats, png = os.path.join(d, "s.json"), os.path.join(d, "r.png")
+        for _ in range(rounds):
+            t = time.perf_counter()
+            subprocess.run([binary, "render", "--volume", volume, "--stats", stats,
+                            "--out", png, *flags], check=True, stdout=subprocess.DEVNULL)
+            wall.append(time.perf_counter() - t)
+            cli.append(json.load(open(stats))["time_s"])
+            t = time.perf_counter()
+            _, st = ercube.render(voxels, spacing=spacing, **kw)
+            call.append(time.perf_counter() - t)
+            inner.append(st["time_s"])
+    m = statistics.median
+    print(f"rounds {rounds}: cli frame {m(cli) * 1e3:.1f} ms (process {m(wall) * 1e3:.1f} ms), python call {m(call) * 1e3:.1f} ms "
+          f"(its frame {m(inner) * 1e3:.1f} ms); python call / cli frame = {m(call) / m(cli):.3f}, "
+          f"python frame / cli frame = {m(inner) / m(cli):.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,339 @@
+//! `import ercube`: the ercube renderer and chip model as a Python module.
+//! Volumes and images are numpy arrays; every frame is rendered through
+//! [`ercube::frame`], the code `ercube render` runs, so images, raw words
+//! and statistics are the command line's bit for bit. The GIL is released
+//! while a volume loads or a frame renders. Type hints: `ercube.pyi`.
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
+
+use golden::volume::{Volume, Voxels};
+
+create_exception!(
+    ercube,
+    Error,
+    PyValueError,
+    "An ercube failure, carrying the command line's one-line message."
+);
+
+fn error(e: ercube::frame::Error) -> PyErr {
+    Error::new_err(e.message)
+}
+
+/// `options` as command-line flags: `name=value` is `--name=value` with
+/// underscores as hyphens; `True` is the bare flag; `False` and `None` are
+/// left out; a tuple or list is its items joined by commas.
+fn flags(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+    let mut out = Vec::new();
+    let Some(options) = options else {
+        return Ok(out);
+    };
+    for (k, v) in options.iter() {
+        let name = format!("--{}", k.extract::<String>()?.replace('_', "-"));
+        if v.is_none() {
+            continue;
+        }
+        if let Ok(b) = v.cast::<pyo3::types::PyBool>() {
+            if b.is_true() {
+                out.push(name);
+            }
+            continue;
+        }
+        let value = if v.is_instance_of::<PyTuple>() || v.is_instance_of::<PyList>() {
+            let items: Vec<String> = v
+                .try_iter()?
+                .map(|x| x.and_then(|x| Ok(x.str()?.to_string())))
+                .collect::<PyResult<_>>()?;
+            items.join(",")
+        } else {
+            v.str()?.to_string()
+        };
+        out.push(format!("{name}={value}"));
+    }
+    Ok(out)
+}
+
+/// A numpy array of `shape` and `dtype` (numpy's name for `T`, native
+/// byte order) holding `values`, backed by a bytearray (one copy).
+fn array<'py, T: bytemuck::Pod>(
+    py: Python<'py>,
+    values: &[T],
+    shape: &[usize],
+    dtype: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let bytes = PyByteArray::new(py, bytemuck::cast_slice(values));
+    py.import("numpy")?
+        .call_method1("frombuffer", (bytes, dtype))?
+        .call_method1("reshape", (PyTuple::new(py, shape)?,))
+}
+
+/// A volume's voxels as a numpy array `(z, y, x)` in their own type.
+fn voxels_array<'py>(py: Python<'py>, v: &Volume) -> PyResult<Bound<'py, PyAny>> {
+    let [x, y, z] = v.dims();
+    match v.voxels() {
+        Voxels::U8(d) => array(py, d, &[z, y, x], "uint8"),
+        Voxels::U16(d) => array(py, d, &[z, y, x], "uint16"),
+    }
+}
+
+/// A volume from a numpy array `(z, y, x)` of uint8 or uint16 (copied).
+fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
+    let py = voxels.py();
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (voxels,))?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    let dtype: String = a.getattr("dtype")?.str()?.to_string();
+    if shape.len() != 3 {
+        return Err(Error::new_err(format!(
+            "voxels must be a 3-D array (z, y, x); got {} dimensions",
+            shape.len()
+        )));
+    }
+    let dims = [shape[2], shape[1], shape[0]];
+    // C order, native byte order.
+    let bytes = a.call_method0("tobytes")?;
+    let bytes = bytes.cast::<PyBytes>()?.as_bytes();
+    let data = match dtype.as_str() {
+        "uint8" => Voxels::U8(bytes.to_vec()),
+        "uint16" => Voxels::U16(bytemuck::pod_collect_to_vec(bytes)),
+        other => {
+            return Err(Error::new_err(format!(
+                "voxels must be uint8 or uint16; got {other}"
+            )))
+        }
+    };
+    let v = Volume::from_voxels(dims, data).map_err(|e| Error::new_err(e.to_string()))?;
+    v.with_spacing(spacing)
+        .map_err(|e| Error::new_err(e.to_string()))
+}
+
+/// The camera and method flags of [`render`] and [`Chip::run_frame`].
+struct View {
+    eye: Option<[f64; 3]>,
+    look_at: Option<[f64; 3]>,
+    up: [f64; 3],
+    fov: f64,
+    size: [u32; 2],
+    method: String,
+    tf: Option<String>,
+}
+
+impl View {
+    fn args(&self, options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+        let v3 = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+        let mut a = vec![
+            format!("--method={}", self.method),
+            format!("--up={}", v3(self.up)),
+            format!("--fov={}", self.fov),
+            format!("--size={}x{}", self.size[0], self.size[1]),
+        ];
+        if let Some(e) = self.eye {
+            a.push(format!("--eye={}", v3(e)));
+        }
+        if let Some(l) = self.look_at {
+            a.push(format!("--look-at={}", v3(l)));
+        }
+        if let Some(t) = &self.tf {
+            a.push(format!("--tf={t}"));
+        }
+        a.extend(flags(options)?);
+        Ok(a)
+    }
+}
+
+/// What a frame returns to Python: the image, the raw words (pipeline
+/// only) and the statistics dict.
+struct Out<'py> {
+    image: Bound<'py, PyAny>,
+    raw: Option<Bound<'py, PyAny>>,
+    stats: Bound<'py, PyAny>,
+}
+
+/// Renders with the GIL released and converts the results.
+fn run<'py>(
+    py: Python<'py>,
+    args: Vec<String>,
+    volume: Volume,
+    config: Option<String>,
+) -> PyResult<Out<'py>> {
+    let r = py
+        .detach(|| ercube::frame::render(&args, Some(volume), config.as_deref()))
+        .map_err(error)?;
+    let im = &r.image;
+    let image = array(
+        py,
+        im.data.as_flattened(),
+        &[im.height, im.width, 4],
+        "float32",
+    )?;
+    let raw = match ercube::frame::raw_words(&r) {
+        Some((w, h, words)) => Some(array(py, words.as_flattened(), &[h, w, 4], "int64")?),
+        None => None,
+    };
+    let stats = py
+        .import("json")?
+        .call_method1("loads", (r.stats.to_string(),))?;
+    Ok(Out { image, raw, stats })
+}
+
+/// Loads a volume file, in any format `ercube render --volume` reads:
+/// returns `(voxels, spacing)`, voxels a numpy array `(z, y, x)` in the
+/// file's type (uint8 or uint16) and spacing `(x, y, z)`. Options are the
+/// command line's source flags: `raw_dims=(x, y, z)`, `raw_type="u16le"`,
+/// `raw_offset`, `spacing`, `window`, `max_memory`.
+#[pyfunction]
+#[pyo3(signature = (path, **options))]
+fn load<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyAny>, (f64, f64, f64))> {
+    let mut args = vec![format!("--volume={}", path.display())];
+    args.extend(flags(options)?);
+    let v = py.detach(|| ercube::frame::volume(&args)).map_err(error)?;
+    let s = v.spacing();
+    Ok((voxels_array(py, &v)?, (s[0], s[1], s[2])))
+}
+
+/// Builds a synthetic scene as `--scene SPEC` does (`"ml:40"`,
+/// `"checker:32"`, `"sphere:64"`, `"impulse:16"`): voxels `(z, y, x)`.
+#[pyfunction]
+fn scene<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
+    let args = vec![format!("--scene={spec}")];
+    let v = py.detach(|| ercube::frame::volume(&args)).map_err(error)?;
+    voxels_array(py, &v)
+}
+
+/// Renders `voxels` (numpy `(z, y, x)`, uint8 or uint16) as `ercube
+/// render` does and returns `(image, stats)`: image the float32 `H x W x
+/// 4` premultiplied RGBA array `--npy` writes, stats the dict `--stats`
+/// writes. Every default is the command line's: the eye 1.5 volume depths
+/// in front of the z = 0 face, looking at the centre. `size` is (width,
+/// height); points and spacing are (x, y, z). `config` is a pipeline
+/// configuration as TOML text. Further options are `ercube render` flags
+/// with underscores: `shade=True`, `terminate=0.95`, `pes=8`, ...
+#[pyfunction]
+#[pyo3(signature = (voxels, *, spacing=[1.0, 1.0, 1.0], eye=None, look_at=None,
+    up=[0.0, 1.0, 0.0], fov=60.0, size=[256, 256], method="er", tf=Some("grey-ramp"),
+    config=None, **options))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    voxels: &Bound<'py, PyAny>,
+    spacing: [f64; 3],
+    eye: Option<[f64; 3]>,
+    look_at: Option<[f64; 3]>,
+    up: [f64; 3],
+    fov: f64,
+    size: [u32; 2],
+    method: &str,
+    tf: Option<&str>,
+    config: Option<String>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let volume = volume_of(voxels, spacing)?;
+    let view = View {
+        eye,
+        look_at,
+        up,
+        fov,
+        size,
+        method: method.to_string(),
+        tf: tf.map(str::to_string),
+    };
+    let out = run(py, view.args(options)?, volume, config)?;
+    Ok((out.image, out.stats))
+}
+
+/// The bit-accurate PE array with one configuration: load a volume, then
+/// run frames of it. Each frame is a whole frame (the model has no
+/// per-cycle stepping API to expose).
+#[pyclass(module = "ercube")]
+struct Chip {
+    config: Option<String>,
+    volume: Option<Volume>,
+}
+
+#[pymethods]
+impl Chip {
+    /// A chip with the pipeline configuration `config` (TOML text, as a
+    /// `--config` file holds; missing keys keep their defaults), or the
+    /// default configuration.
+    #[new]
+    #[pyo3(signature = (config=None))]
+    fn new(config: Option<String>) -> PyResult<Chip> {
+        if let Some(c) = &config {
+            ercube::frame::check_config(c).map_err(error)?;
+        }
+        Ok(Chip {
+            config,
+            volume: None,
+        })
+    }
+
+    /// Loads `voxels` (numpy `(z, y, x)`, uint8 or uint16) with `spacing`
+    /// (x, y, z) for the next frames.
+    #[pyo3(signature = (voxels, spacing=[1.0, 1.0, 1.0]))]
+    fn load(&mut self, voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<()> {
+        self.volume = Some(volume_of(voxels, spacing)?);
+        Ok(())
+    }
+
+    /// Runs one frame of the loaded volume and returns `(image, raw,
+    /// stats)`: the image as `render` returns it, raw the int64 `H x W x
+    /// 4` accumulator words `--raw-npy` writes (formats in
+    /// `stats["raw_format"]`), and the stats dict. `method` is `pipeline`
+    /// (back to front) or `pipeline-ftb`; the rest as `render`.
+    #[pyo3(signature = (*, eye=None, look_at=None, up=[0.0, 1.0, 0.0], fov=60.0,
+        size=[256, 256], method="pipeline", tf=Some("grey-ramp"), **options))]
+    #[allow(clippy::too_many_arguments)]
+    fn run_frame<'py>(
+        &self,
+        py: Python<'py>,
+        eye: Option<[f64; 3]>,
+        look_at: Option<[f64; 3]>,
+        up: [f64; 3],
+        fov: f64,
+        size: [u32; 2],
+        method: &str,
+        tf: Option<&str>,
+        options: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        if !method.starts_with("pipeline") {
+            return Err(Error::new_err(format!(
+                "a Chip runs --method pipeline or pipeline-ftb; {method} is a golden method (use ercube.render)"
+            )));
+        }
+        let Some(volume) = self.volume.clone() else {
+            return Err(Error::new_err("no volume: call Chip.load(voxels) first"));
+        };
+        let view = View {
+            eye,
+            look_at,
+            up,
+            fov,
+            size,
+            method: method.to_string(),
+            tf: tf.map(str::to_string),
+        };
+        let out = run(py, view.args(options)?, volume, self.config.clone())?;
+        let raw = out
+            .raw
+            .ok_or_else(|| Error::new_err("the frame has no raw words"))?;
+        Ok((out.image, raw, out.stats))
+    }
+}
+
+/// The module.
+#[pymodule]
+#[pyo3(name = "ercube")]
+fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(scene, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_class::<Chip>()?;
+    Ok(())
+}

@@ -1,0 +1,65 @@
+"""Checks ercube.render against the command line's outputs.
+
+usage: python check_render.py CASES.json
+
+CASES.json is a list of {"source": "brain" | "scene", "kwargs": {...},
+"npy": PATH, "stats": PATH}: each case renders the source through
+ercube.render(**kwargs) and requires the image to equal the command line's
+--npy bit for bit, and the stats dict to equal its --stats (apart from the
+wall-clock fields). Prints one line per case; exits 1 on any mismatch.
+"""
+
+import json
+import sys
+
+import numpy as np
+
+import ercube
+
+TIMES = ("time_s", "times_s", "pe_cycles_per_second")
+
+
+def main() -> int:
+    cases = json.load(open(sys.argv[1]))
+    brain, spacing = ercube.load(cases[0]["brain"])
+    assert brain.dtype == np.uint8 and brain.ndim == 3, (brain.dtype, brain.shape)
+    scene = ercube.scene(cases[0]["scene"])
+    bad = 0
+    for c in cases:
+        voxels = brain if c["source"] == "brain" else scene
+        kw = dict(c["kwargs"])
+        if c["source"] == "brain":
+            kw["spacing"] = spacing
+        image, stats = ercube.render(voxels, **kw)
+        want = np.load(c["npy"])
+        same = (
+            image.dtype == np.float32
+            and image.shape == want.shape
+            and np.array_equal(image.view(np.uint32), want.view(np.uint32))
+        )
+        cli = json.load(open(c["stats"]))
+        for d in (stats, cli):
+            for k in TIMES:
+                d.pop(k, None)
+            d.get("gaze_vs_full", {}).pop("full_time_s", None)
+        same_stats = stats == cli
+        print(f"{c['source']} {kw.get('method', 'er')}: image {'same' if same else 'DIFFERENT'}, "
+              f"stats {'same' if same_stats else 'DIFFERENT'}")
+        if not same_stats:
+            for k in sorted(set(stats) | set(cli)):
+                if stats.get(k) != cli.get(k):
+                    print(f"  {k}: python {stats.get(k)!r} cli {cli.get(k)!r}")
+        bad += (not same) + (not same_stats)
+    # An error is an ercube.Error carrying the command line's message.
+    try:
+        ercube.render(scene, size=(0, 0))
+        print("size (0, 0) was accepted")
+        bad += 1
+    except ercube.Error as e:
+        print(f"error: {e}")
+        bad += "each side must be 1 to 16384" not in str(e)
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

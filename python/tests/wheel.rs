@@ -1,0 +1,183 @@
+//! `pip install ./python` into a virtual environment under `target/`, then
+//! `tests/check_render.py`: `ercube.render` gives the command line's
+//! `--npy` image bit for bit and its `--stats` (apart from wall-clock
+//! fields), on brainsmall (er and pipeline) and on a scene with every
+//! method. Needs Python with `venv`, and maturin and numpy in the
+//! environment (`.ci/run` installs them into `target/pyvenv`; so does this
+//! test when PyPI is reachable); skips with one line without them unless
+//! `ERCUBE_REQUIRE_TOOLS=1`.
+
+#[path = "../../tests/support/tools.rs"]
+mod tools;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use serde_json::json;
+
+const BRAIN: &str = "../shared/data/brainsmall.den";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Skips (one line) or, under `ERCUBE_REQUIRE_TOOLS=1`, fails.
+fn skip(why: &str) {
+    if std::env::var("ERCUBE_REQUIRE_TOOLS").as_deref() == Ok("1") {
+        panic!("{why} and ERCUBE_REQUIRE_TOOLS=1 (.ci/run makes target/pyvenv)");
+    }
+    let line = format!("skipped the Python module test: {why} (.ci/run makes target/pyvenv)\n");
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
+}
+
+fn ok(cmd: &mut Command) -> bool {
+    cmd.output().map(|o| o.status.success()).unwrap_or(false)
+}
+
+/// The environment's Python with maturin and numpy, made if it can be.
+fn venv(root: &Path) -> Option<PathBuf> {
+    let dir = root.join("target/pyvenv");
+    let py = dir.join("bin/python");
+    let ready = |py: &Path| ok(Command::new(py).args(["-c", "import maturin, numpy"]));
+    if !py.is_file() {
+        if tools::on_path("python3").is_none() {
+            skip("python3 is not on PATH");
+            return None;
+        }
+        if !ok(Command::new("python3").args(["-m", "venv"]).arg(&dir)) {
+            skip("python3 -m venv failed");
+            return None;
+        }
+    }
+    if !ready(&py) {
+        let pip = dir.join("bin/pip");
+        if !ok(Command::new(pip).args(["install", "-q", "maturin>=1.16,<2", "numpy"])) {
+            skip("maturin and numpy cannot be installed into target/pyvenv");
+            return None;
+        }
+    }
+    Some(py)
+}
+
+/// Runs `ercube render ARGS` through the command line's own entry,
+/// writing `--npy` and `--stats` into `dir` under `name`.
+fn cli(dir: &Path, name: &str, args: &[&str]) -> serde_json::Value {
+    let (npy, stats, png) = (
+        dir.join(format!("{name}.npy")),
+        dir.join(format!("{name}.json")),
+        dir.join(format!("{name}.png")),
+    );
+    let mut argv = vec!["ercube", "render"];
+    argv.extend(args);
+    for (flag, p) in [("--npy", &npy), ("--stats", &stats), ("--out", &png)] {
+        argv.extend([flag, p.to_str().unwrap()]);
+    }
+    assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS, "{args:?}");
+    json!({"npy": npy, "stats": stats})
+}
+
+#[test]
+fn the_python_module_renders_the_command_lines_images() {
+    let root = root();
+    let Some(py) = venv(&root) else {
+        return;
+    };
+    let bin = py.parent().unwrap();
+    // The environment's maturin builds the wheel: its bin/ leads PATH, as
+    // when it is activated.
+    let path = std::env::join_paths(std::iter::once(bin.to_path_buf()).chain(
+        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
+    ))
+    .unwrap();
+    let install = Command::new(bin.join("pip"))
+        .env("PATH", path)
+        .args([
+            "install",
+            "-q",
+            "--no-build-isolation",
+            "--force-reinstall",
+            "--no-deps",
+        ])
+        .arg(root.join("python"))
+        .output()
+        .unwrap();
+    assert!(
+        install.status.success(),
+        "pip install ./python failed:\n{}",
+        String::from_utf8_lossy(&install.stderr)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let brain = root.join(BRAIN);
+    let brain = brain.to_str().unwrap();
+    let mut cases = Vec::new();
+    // brainsmall with the command line's defaults, golden and pipeline.
+    for method in ["er", "pipeline"] {
+        let mut c = cli(
+            d,
+            &format!("brain-{method}"),
+            &["--volume", brain, "--method", method],
+        );
+        c["source"] = json!("brain");
+        c["kwargs"] = json!({"method": method});
+        cases.push(c);
+    }
+    // A scene with every method, a camera and options given.
+    for method in [
+        "reference",
+        "er",
+        "er-ftb",
+        "under",
+        "over",
+        "box",
+        "mipmap",
+        "shear-warp",
+        "pipeline",
+        "pipeline-ftb",
+    ] {
+        let mut c = cli(
+            d,
+            &format!("scene-{method}"),
+            &[
+                "--scene",
+                "ml:40",
+                "--tf",
+                "ml",
+                "--method",
+                method,
+                "--size",
+                "48x40",
+                "--eye",
+                "-30,25,-70",
+                "--fov",
+                "45",
+            ],
+        );
+        c["source"] = json!("scene");
+        c["kwargs"] = json!({
+            "method": method, "tf": "ml", "size": [48, 40], "eye": [-30.0, 25.0, -70.0], "fov": 45.0,
+        });
+        cases.push(c);
+    }
+    cases[0]["brain"] = json!(brain);
+    cases[0]["scene"] = json!("ml:40");
+    let file = d.join("cases.json");
+    std::fs::write(&file, serde_json::to_string(&cases).unwrap()).unwrap();
+    let out = Command::new(&py)
+        .arg(root.join("python/tests/check_render.py"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "check_render.py failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        text.matches("image same, stats same").count(),
+        cases.len(),
+        "{text}"
+    );
+}

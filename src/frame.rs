@@ -1,0 +1,151 @@
+//! One frame as `ercube render` renders it, in memory: the same argument
+//! parsing (every default is the command line's), the same loading,
+//! camera placement, rendering and statistics, with the files left
+//! unwritten. The C ABI (`ercube-ffi`) and the Python module (`python/`)
+//! render through here, so their images and raw words are the command
+//! line's bit for bit.
+//!
+//! Arguments are `ercube render`'s flags as strings (`["--method",
+//! "pipeline", "--size", "64x64"]`); the flags that name output files
+//! (`--out`, `--npy`, `--stats`, `--raw-npy`, `--baseplane-npy`) are refused,
+//! since the caller gets the values. Waveform flags (`--vcd`, `--fst`)
+//! still write their files.
+
+use std::fmt;
+
+use clap::parser::ValueSource;
+use clap::{CommandFactory, FromArgMatches, Parser};
+
+use golden::volume::Volume;
+
+use crate::cli::args::SourceArgs;
+use crate::cli::render::{self, RenderArgs};
+
+pub use crate::cli::render::Rendered;
+
+/// A failure, in the one-line form the command line prints after
+/// `ercube: error: `.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Error {
+    /// Whether the arguments themselves were malformed (the command line's
+    /// usage errors) rather than the run failing on them.
+    pub usage: bool,
+    /// The one-line message.
+    pub message: String,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl Error {
+    fn usage(e: &clap::Error) -> Error {
+        Error {
+            usage: true,
+            message: crate::cli::one_line(e),
+        }
+    }
+
+    fn run(e: &anyhow::Error) -> Error {
+        Error {
+            usage: false,
+            message: format!("{e:#}").replace('\n', " "),
+        }
+    }
+}
+
+/// `ercube render`'s arguments.
+#[derive(Debug, Parser)]
+#[command(name = "ercube render", no_binary_name = true)]
+struct RenderCommand {
+    #[command(flatten)]
+    args: RenderArgs,
+}
+
+/// Where a volume comes from: `--scene` or `--volume` and their options.
+#[derive(Debug, Parser)]
+#[command(name = "ercube", no_binary_name = true)]
+struct SourceCommand {
+    #[command(flatten)]
+    source: SourceArgs,
+}
+
+/// The flags that name files the caller receives as values instead.
+const FILE_FLAGS: [(&str, &str); 5] = [
+    ("out", "--out"),
+    ("npy", "--npy"),
+    ("stats", "--stats"),
+    ("raw_npy", "--raw-npy"),
+    ("baseplane_npy", "--baseplane-npy"),
+];
+
+/// Parses `ercube render`'s flags `args`.
+pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RenderArgs, Error> {
+    let words = args.iter().map(|s| s.as_ref().to_string());
+    let m = RenderCommand::command()
+        .try_get_matches_from(words)
+        .map_err(|e| Error::usage(&e))?;
+    for (id, flag) in FILE_FLAGS {
+        if m.value_source(id) == Some(ValueSource::CommandLine) {
+            return Err(Error {
+                usage: true,
+                message: format!("{flag} names a file; the frame's values are returned instead"),
+            });
+        }
+    }
+    let c = RenderCommand::from_arg_matches(&m).map_err(|e| Error::usage(&e))?;
+    Ok(c.args)
+}
+
+/// Renders the frame `ercube render ARGS` renders, of `volume` when it is
+/// given (then `args` name no `--scene` or `--volume`; its default
+/// transfer function is a file's, `grey-ramp`), with the pipeline
+/// configuration `config` (TOML text, as a `--config` file holds) when it
+/// is given, writing no files.
+pub fn render<S: AsRef<str>>(
+    args: &[S],
+    volume: Option<Volume>,
+    config: Option<&str>,
+) -> Result<Rendered, Error> {
+    let mut a = parse(args)?;
+    a.pipeline.cfg.toml = config.map(str::to_string);
+    render::frame(&a, volume).map_err(|e| Error::run(&e))
+}
+
+/// Checks the pipeline configuration `text` (TOML, as a `--config` file
+/// holds; missing keys keep their defaults), with the command line's
+/// message when it is wrong.
+pub fn check_config(text: &str) -> Result<(), Error> {
+    let parsed = pipeline::config::PipelineConfig::from_toml_str(text).map_err(|e| Error {
+        usage: false,
+        message: e.to_string(),
+    })?;
+    parsed.validate().map_err(|e| Error {
+        usage: false,
+        message: e.to_string(),
+    })
+}
+
+/// Loads or builds the volume the source flags `args` name (`--scene
+/// SPEC`, or `--volume FILE` with `--raw-dims` and the rest), as every
+/// command does: every format the command line reads, `--spacing` and
+/// `--window` applied.
+pub fn volume<S: AsRef<str>>(args: &[S]) -> Result<Volume, Error> {
+    let words = args.iter().map(|s| s.as_ref().to_string());
+    let c = SourceCommand::try_parse_from(words).map_err(|e| Error::usage(&e))?;
+    let (vol, _) = c.source.load().map_err(|e| Error::run(&e))?;
+    Ok(vol)
+}
+
+/// The raw accumulator words of a pipeline frame, row-major `H x W x 4`
+/// (R, G, B, A), as `--raw-npy` writes them, with the baseplane's width and
+/// height; `None` for a golden method.
+pub fn raw_words(r: &Rendered) -> Option<(usize, usize, &[[i64; 4]])> {
+    let f = r.chip.as_ref()?;
+    let [w, h] = f.baseplane.grid.counts;
+    Some((w, h, &f.raw))
+}
