@@ -118,7 +118,7 @@ fn arch_configs(cfg: &PipelineConfig, spec: &str) -> Result<Vec<PipelineConfig>>
 
 /// The default clock of a family: a comfortable rate for a DSP-heavy,
 /// fully pipelined datapath on a mid speed grade (not a timing result).
-fn default_clock(t: Target) -> f64 {
+pub fn default_clock(t: Target) -> f64 {
     match t {
         Target::Xc7 => 200.0,
         Target::Ecp5 => 150.0,

@@ -18,6 +18,7 @@ mod progress;
 mod render;
 mod skipbench;
 mod stats;
+mod synth;
 
 use std::process::ExitCode;
 
@@ -68,6 +69,10 @@ enum Command {
     /// Measure what each kind of skipping saves (golden time, pipeline
     /// cycles) on four scenes; write the "Skipping" section of the report.
     SkipBench(Box<skipbench::SkipBenchArgs>),
+    /// Synthesize a unit of the PE and place and route it on an FPGA part
+    /// (yosys, nextpnr): measured resources, clock and critical path beside
+    /// the estimate.
+    Synth(Box<synth::SynthArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -123,6 +128,7 @@ pub fn run() -> ExitCode {
         Command::SweepWidths(a) => bench::sweep_widths(&a),
         Command::SkipBench(a) => skipbench::run(&a),
         Command::Peer(a) => peer::run(&a),
+        Command::Synth(a) => synth::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
