@@ -11,6 +11,7 @@ use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
 use super::args::{with_threads, SliceArgs, ViewArgs};
 use super::chip::{self, PipelineArgs};
+use pipeline::cost::clock::ClockSource;
 use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::progress::Stage;
@@ -356,6 +357,7 @@ fn write_outputs(
 
 /// `ercube render --method pipeline` or `pipeline-ftb`.
 fn run_pipeline(a: &RenderArgs) -> Result<()> {
+    let clock = a.pipeline.clock()?;
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
     chip::check_options(&opts)?;
@@ -444,6 +446,9 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
             }
         }
         v["regions"] = serde_json::json!(prep.view.regions().bounds);
+        v["clock_mhz"] = serde_json::json!(clock);
+        v["clock_source"] = serde_json::json!(ClockSource::Assumed);
+        v["frames_per_s"] = serde_json::json!(pipeline::cost::clock::fps(run.frame.cycles, clock));
         v["times_s"] = serde_json::json!(times);
         write_json(p, &v)?;
     }
@@ -460,6 +465,10 @@ fn run_pipeline(a: &RenderArgs) -> Result<()> {
         chip::golden_method(&cfg).name(),
         vs_golden["max_abs_255"],
         a.out.display()
+    ));
+    super::say(&format!(
+        "  frame: {}",
+        pipeline::cost::clock::rate_line(f.cycles, clock, ClockSource::Assumed)
     ));
     Ok(())
 }

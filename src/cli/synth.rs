@@ -179,12 +179,19 @@ fn run_quiet(cmd: &mut Command, what: &str) -> Result<String> {
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
-        let last = err
+        // The tool's first ERROR line names the problem; else its last.
+        let lines: Vec<&str> = err
             .lines()
             .chain(text.lines())
-            .rfind(|l| !l.trim().is_empty())
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .collect();
+        let last = lines
+            .iter()
+            .find(|l| l.starts_with("ERROR"))
+            .or(lines.last())
+            .copied()
             .unwrap_or("no output")
-            .trim()
             .to_owned();
         bail!("{what} failed: {last}");
     }
@@ -249,7 +256,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
 
     // The wrapped unit, placed and routed.
     let family = part.estimator();
-    let requested = family.map(|f| a.clock_mhz.unwrap_or_else(|| super::cost::default_clock(f)));
+    let requested = family.map(|f| a.clock_mhz.unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(f)));
     let (placed, timing) = match (&tools.nextpnr, part.nextpnr_device()) {
         (Some(pnr), Some(device)) => {
             let top_synth = part.synth_command(wrap::TOP);

@@ -177,9 +177,9 @@ mod tests {
         let m = crate::rtl::composite(&cfg).unwrap();
         let ps = ports(&m.verilog, &m.name).unwrap();
         let acc = ps.iter().find(|p| p.name == "acc_r").unwrap();
-        assert_eq!(acc.bits, cfg.accum_color.bits());
+        assert_eq!(acc.bits, u32::from(cfg.accum_color.bits()));
         assert_eq!(acc.dir, Dir::In);
         let y = ps.iter().find(|p| p.name == "y_a").unwrap();
-        assert_eq!((y.bits, y.dir), (cfg.accum_alpha.bits(), Dir::Out));
+        assert_eq!((y.bits, y.dir), (u32::from(cfg.accum_alpha.bits()), Dir::Out));
     }
 }
