@@ -18,9 +18,7 @@ const REL_TOL: f64 = 0.10;
 /// Runs `ercube synth` on `unit` for `target` and returns its JSON report.
 fn synth(dir: &std::path::Path, target: &str, unit: &str) -> serde_json::Value {
     let json = format!("{target}-{unit}.json");
-    let args = [
-        "synth", "--target", target, "--unit", unit, "--json", &json,
-    ];
+    let args = ["synth", "--target", target, "--unit", unit, "--json", &json];
     let out = ercube(dir, &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     serde_json::from_slice(&std::fs::read(dir.join(&json)).expect("report written"))
@@ -52,7 +50,11 @@ fn check_estimate(r: &serde_json::Value) {
 #[test]
 fn synth_places_units_on_ice40_and_checks_the_estimator() {
     if !have("yosys", "yosys", "the iCE40 synthesis")
-        || !have("nextpnr-ice40", "nextpnr-ice40", "the iCE40 place and route")
+        || !have(
+            "nextpnr-ice40",
+            "nextpnr-ice40",
+            "the iCE40 place and route",
+        )
     {
         return;
     }
@@ -111,7 +113,14 @@ fn synth_refuses_bad_input() {
         (&["--target", "ecp5-85k", "--array"], "not emitted"),
         (&["--target", "xc7"], "--unit"),
         (
-            &["--target", "ice40-up5k", "--unit", "composite", "--clock-mhz", "0"],
+            &[
+                "--target",
+                "ice40-up5k",
+                "--unit",
+                "composite",
+                "--clock-mhz",
+                "0",
+            ],
             "clock",
         ),
     ];
