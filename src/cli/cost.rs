@@ -16,11 +16,11 @@ use clap::Args;
 use glam::DVec3;
 
 use golden::render::Prepared;
+use golden::skip::Skips;
 use pipeline::config::{Mapping, PipelineConfig, RayBuffer, MAX_PES};
 use pipeline::cost::inventory::Geometry;
 use pipeline::cost::report::build;
 use pipeline::cost::throughput::RunSummary;
-use golden::skip::Skips;
 use pipeline::cost::{clock, Target};
 
 use super::args::ViewArgs;
@@ -176,7 +176,15 @@ fn run_at(
         pipeline::run_frame_preint(&cfg, bits, lut, prep, (&pt, skips), tracer())?
     } else {
         let sh = shade.then(golden::shading::Shade::default);
-        pipeline::run_frame_from_stack_voi(&cfg, bits, lut, prep, skips, (sh.as_ref(), voi), tracer())?
+        pipeline::run_frame_from_stack_voi(
+            &cfg,
+            bits,
+            lut,
+            prep,
+            skips,
+            (sh.as_ref(), voi),
+            tracer(),
+        )?
     };
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(

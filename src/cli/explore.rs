@@ -291,12 +291,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     };
     write("explore.csv", &csv)?;
     write("explore.md", &md)?;
-    plot(
-        &a.out_dir.join("explore.png"),
-        &heading,
-        &designs,
-        clock,
-    )?;
+    plot(&a.out_dir.join("explore.png"), &heading, &designs, clock)?;
     super::say(md.trim_end());
     Ok(())
 }

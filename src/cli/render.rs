@@ -11,11 +11,11 @@ use golden::render::{lut_for, render, Prepared, RenderOptions, Technique};
 
 use super::args::{with_threads, SliceArgs, ViewArgs};
 use super::chip::{self, PipelineArgs};
-use pipeline::cost::clock::ClockSource;
 use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::progress::Stage;
 use super::stats::{frame_json, median, write_json};
+use pipeline::cost::clock::ClockSource;
 
 /// Arguments of `ercube render`.
 #[derive(Debug, Args)]

@@ -155,7 +155,9 @@ fn ecp5_tools() -> Result<Tools> {
 fn tools(part: Part) -> Result<Tools> {
     let debian = |tool: &str| {
         on_path(tool).with_context(|| {
-            format!("{tool} is not on PATH (Debian: apt-get install yosys nextpnr-ice40 fpga-icestorm)")
+            format!(
+                "{tool} is not on PATH (Debian: apt-get install yosys nextpnr-ice40 fpga-icestorm)"
+            )
         })
     };
     match part.toolchain() {
@@ -173,9 +175,7 @@ fn tools(part: Part) -> Result<Tools> {
 
 /// Runs `cmd`, failing with the last line of its output when it fails.
 fn run_quiet(cmd: &mut Command, what: &str) -> Result<String> {
-    let out = cmd
-        .output()
-        .with_context(|| format!("cannot run {what}"))?;
+    let out = cmd.output().with_context(|| format!("cannot run {what}"))?;
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
@@ -251,12 +251,16 @@ pub fn run(a: &SynthArgs) -> Result<()> {
             .args(["-q", "-p", &script]),
         &format!("yosys ({synth})"),
     )?;
-    let cells = yosys_cells(&read_json(&dir.join("unit_stat.json"))?).map_err(anyhow::Error::msg)?;
+    let cells =
+        yosys_cells(&read_json(&dir.join("unit_stat.json"))?).map_err(anyhow::Error::msg)?;
     let synthesized = classify(part, &cells).map_err(anyhow::Error::msg)?;
 
     // The wrapped unit, placed and routed.
     let family = part.estimator();
-    let requested = family.map(|f| a.clock_mhz.unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(f)));
+    let requested = family.map(|f| {
+        a.clock_mhz
+            .unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(f))
+    });
     let (placed, timing) = match (&tools.nextpnr, part.nextpnr_device()) {
         (Some(pnr), Some(device)) => {
             let top_synth = part.synth_command(wrap::TOP);
@@ -305,7 +309,10 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     };
     super::say(text(&report, part).trim_end());
     if let Some(p) = &a.json {
-        write_json(p, &serde_json::to_value(&report).context("serialising the report")?)?;
+        write_json(
+            p,
+            &serde_json::to_value(&report).context("serialising the report")?,
+        )?;
     }
     Ok(())
 }

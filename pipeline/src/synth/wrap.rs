@@ -180,6 +180,9 @@ mod tests {
         assert_eq!(acc.bits, u32::from(cfg.accum_color.bits()));
         assert_eq!(acc.dir, Dir::In);
         let y = ps.iter().find(|p| p.name == "y_a").unwrap();
-        assert_eq!((y.bits, y.dir), (u32::from(cfg.accum_alpha.bits()), Dir::Out));
+        assert_eq!(
+            (y.bits, y.dir),
+            (u32::from(cfg.accum_alpha.bits()), Dir::Out)
+        );
     }
 }
