@@ -257,9 +257,9 @@ pub fn run(a: &SynthArgs) -> Result<()> {
 
     // The wrapped unit, placed and routed.
     let family = part.estimator();
-    let requested = family.map(|f| {
-        a.clock_mhz
-            .unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(f))
+    // The family's assumed clock (the HX8K's is the iCE40's).
+    let requested = a.clock_mhz.unwrap_or_else(|| {
+        pipeline::cost::clock::assumed_mhz(family.unwrap_or(pipeline::cost::Target::Ice40))
     });
     let (placed, timing) = match (&tools.nextpnr, part.nextpnr_device()) {
         (Some(pnr), Some(device)) => {
@@ -271,7 +271,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
                     .args(["-q", "-p", &script]),
                 &format!("yosys ({top_synth})"),
             )?;
-            let freq = a.clock_mhz.or(requested).unwrap_or(48.0);
+            let freq = requested;
             let tool = pnr
                 .file_name()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -303,7 +303,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         estimated: family.map(|f| m.estimate(f)),
         wrapper_bits: wrap::shifted_bits(&ports),
         placed,
-        requested_mhz: requested.filter(|_| part.nextpnr_device().is_some()),
+        requested_mhz: part.nextpnr_device().map(|_| requested),
         timing,
         seconds: t0.elapsed().as_secs_f64(),
     };
