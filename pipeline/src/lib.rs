@@ -40,6 +40,7 @@ pub mod schedule;
 pub mod shading;
 pub mod skip;
 pub mod stages;
+pub mod synth;
 pub mod tables;
 pub mod voi;
 

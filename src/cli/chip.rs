@@ -143,6 +143,20 @@ pub struct PipelineArgs {
     /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
     #[arg(long)]
     pub raw_npy: Option<PathBuf>,
+    /// Clock of the printed frame rate, MHz (an assumption). Default:
+    /// xc7's assumed 200 MHz, as cost and explore.
+    #[arg(long, allow_hyphen_values = true)]
+    pub clock_mhz: Option<f64>,
+}
+
+impl PipelineArgs {
+    /// The clock of the frame rate: `--clock-mhz`, else xc7's assumed one.
+    pub fn clock(&self) -> Result<f64> {
+        let c = self
+            .clock_mhz
+            .unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(pipeline::cost::Target::Xc7));
+        pipeline::cost::clock::check_mhz(c).map_err(anyhow::Error::msg)
+    }
 }
 
 /// The classification table the pipeline and its golden comparison share.

@@ -16,11 +16,12 @@ use clap::Args;
 use glam::DVec3;
 
 use golden::render::Prepared;
+use golden::skip::Skips;
 use pipeline::config::{Mapping, PipelineConfig, RayBuffer, MAX_PES};
 use pipeline::cost::inventory::Geometry;
 use pipeline::cost::report::build;
 use pipeline::cost::throughput::RunSummary;
-use pipeline::cost::Target;
+use pipeline::cost::{clock, Target};
 
 use super::args::ViewArgs;
 use super::chip::{self, ConfigArgs};
@@ -48,9 +49,15 @@ pub struct CostArgs {
     #[arg(long, value_parser = parse_target, default_value = "xc7")]
     pub target: Target,
     /// Clock in MHz (an assumption, not a timing result). Default: 200 on
-    /// xc7, 150 on ecp5, 48 on ice40.
+    /// xc7, 150 on ecp5, 48 on ice40 (as explore and render).
     #[arg(long, allow_hyphen_values = true)]
     pub clock_mhz: Option<f64>,
+    /// Sample empty space too (as render's --no-skip-empty).
+    #[arg(long)]
+    pub no_skip_empty: bool,
+    /// Sample rays that cannot reach the image too (as render's --no-cull).
+    #[arg(long)]
+    pub no_cull: bool,
     /// PE counts to run and cost as a sweep, e.g. 8,16,32,64; "none" skips it.
     #[arg(long, default_value = "8,16,32,64")]
     pub sweep_pes: String,
@@ -116,16 +123,6 @@ fn arch_configs(cfg: &PipelineConfig, spec: &str) -> Result<Vec<PipelineConfig>>
     }
 }
 
-/// The default clock of a family: a comfortable rate for a DSP-heavy,
-/// fully pipelined datapath on a mid speed grade (not a timing result).
-fn default_clock(t: Target) -> f64 {
-    match t {
-        Target::Xc7 => 200.0,
-        Target::Ecp5 => 150.0,
-        Target::Ice40 => 48.0,
-    }
-}
-
 fn parse_sweep(s: &str) -> Result<Vec<u16>> {
     let s = s.trim();
     if s.eq_ignore_ascii_case("none") || s.is_empty() {
@@ -152,39 +149,43 @@ fn parse_sweep(s: &str) -> Result<Vec<u16>> {
 }
 
 /// The units a run's PEs carry: the label of the run, the shading unit,
-/// the volume-of-interest stage and the pre-integration unit.
-type Units<'a> = (&'a str, bool, Option<&'a golden::voi::Voi>, bool);
+/// the volume-of-interest stage, the pre-integration unit, and what the
+/// controller skips.
+type Units<'a> = (&'a str, bool, Option<&'a golden::voi::Voi>, bool, Skips);
 
-/// Runs one frame at `pes` PEs and summarises it.
+/// Runs one frame at `pes` PEs and summarises it: the frame `ercube render
+/// --method pipeline` runs for the same view and skipping (the PEs loading
+/// from `prep`'s slice stack, the occupancy memory from its blocks).
 fn run_at(
     cfg: &PipelineConfig,
     pes: u16,
     vol: &golden::volume::Volume,
     lut: &golden::tf::Lut,
     prep: &Prepared,
-    (label, shade, voi, preint): Units,
+    (label, shade, voi, preint, skips): Units,
 ) -> Result<RunSummary> {
     let cfg = PipelineConfig { pes, ..*cfg };
     cfg.validate()?;
     let _s = Stage::start(format!("clocking {pes} PEs"));
-    let mut array =
-        pipeline::array::Array::new(&cfg, vol, lut, &prep.view, waves::Tracer::disabled())?;
-    if shade {
-        array.set_shading(
-            &golden::shading::Shade::default(),
-            &prep.view,
-            vol.kind().bits(),
-        )?;
-    }
-    if let Some(v) = voi {
-        array.set_voi(v, &prep.view)?;
-    }
-    if preint {
+    let bits = vol.kind().bits();
+    let tracer = waves::Tracer::disabled;
+    let frame = if preint {
         // The unit's table is golden's, from the same classification
         // table; the frame's cycles include the prime and finish passes.
-        array.set_preint(&golden::preint::PreTable::new(lut))?;
-    }
-    let frame = array.run(&prep.view)?;
+        let pt = golden::preint::PreTable::new(lut);
+        pipeline::run_frame_preint(&cfg, bits, lut, prep, (&pt, skips), tracer())?
+    } else {
+        let sh = shade.then(golden::shading::Shade::default);
+        pipeline::run_frame_from_stack_voi(
+            &cfg,
+            bits,
+            lut,
+            prep,
+            skips,
+            (sh.as_ref(), voi),
+            tracer(),
+        )?
+    };
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
         &cfg,
@@ -203,10 +204,12 @@ fn run_at(
 
 /// Runs `ercube cost`.
 pub fn run(a: &CostArgs) -> Result<()> {
-    let clock = a.clock_mhz.unwrap_or_else(|| default_clock(a.target));
-    if !clock.is_finite() || clock <= 0.0 || clock > 2000.0 {
-        bail!("--clock-mhz {clock} must be a clock above 0 and at most 2000 MHz");
-    }
+    let clock = clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
+        .map_err(anyhow::Error::msg)?;
+    let skips = Skips {
+        empty: !a.no_skip_empty,
+        cull: !a.no_cull,
+    };
     let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
     let archs = arch_configs(&cfg, &a.archs)?;
@@ -223,7 +226,13 @@ pub fn run(a: &CostArgs) -> Result<()> {
     }
     let (vol, tf, cam) = view.load()?;
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
-    let prep = Prepared::new(&vol, &cam)?;
+    // Prepared as render prepares it: min-max blocks of the
+    // configuration's occupancy block, no clip planes.
+    let opts = golden::render::PrepareOptions {
+        block: usize::from(cfg.occupancy_block),
+        ..Default::default()
+    };
+    let prep = Prepared::with(&vol, &cam, &opts)?;
     // The field of view only shapes the warp's output image: the slice
     // order rays, and so the cycles, depend on the eye and the volume.
     let label = format!(
@@ -247,7 +256,7 @@ pub fn run(a: &CostArgs) -> Result<()> {
         // VOI factor for their extinction.
         bail!("--preintegrate is costed without the shading unit and the VOI stage; drop --shade and --voi");
     }
-    let units = (label.as_str(), a.shade, voi.as_ref(), a.preintegrate);
+    let units = (label.as_str(), a.shade, voi.as_ref(), a.preintegrate, skips);
     let main = run_at(&cfg, cfg.pes, &vol, &lut, &prep, units)?;
     let mut runs = Vec::new();
     for &p in &sweep {

@@ -57,10 +57,11 @@ pub struct ExploreArgs {
     /// on chip only: between slices, or with the rays external, one lane).
     #[arg(long, default_value = "1")]
     pub lanes: String,
-    /// Clock of the table's and plot's frame rates, MHz (each part's own
-    /// clock is used for its column of fits).
-    #[arg(long, default_value_t = 300.0, allow_hyphen_values = true)]
-    pub clock_mhz: f64,
+    /// Clock of the table's and plot's frame rates, MHz (an assumption;
+    /// each part's own clock is used for its column of fits). Default:
+    /// xc7's assumed 200 MHz, as cost and render.
+    #[arg(long, allow_hyphen_values = true)]
+    pub clock_mhz: Option<f64>,
     /// Sample empty space too.
     #[arg(long)]
     pub no_skip_empty: bool,
@@ -200,12 +201,11 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
 
 /// Runs `ercube explore`.
 pub fn run(a: &ExploreArgs) -> Result<()> {
-    if !a.clock_mhz.is_finite() || a.clock_mhz <= 0.0 || a.clock_mhz > 2000.0 {
-        bail!(
-            "--clock-mhz {} must be a clock above 0 and at most 2000 MHz",
-            a.clock_mhz
-        );
-    }
+    let clock = pipeline::cost::clock::check_mhz(
+        a.clock_mhz
+            .unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(Target::Xc7)),
+    )
+    .map_err(anyhow::Error::msg)?;
     let base = match &a.config {
         Some(p) => PipelineConfig::from_toml_file(p)?,
         None => PipelineConfig::default(),
@@ -259,7 +259,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
     let heading = format!(
-        "{label}, eye ({}, {}, {}), skipping {}{}{}, {} configurations; frames/s at {} MHz",
+        "{label}, eye ({}, {}, {}), skipping {}{}{}, {} configurations; frames/s at {} MHz (assumed clock)",
         cam.eye.x,
         cam.eye.y,
         cam.eye.z,
@@ -280,10 +280,10 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
             ""
         },
         designs.len(),
-        a.clock_mhz
+        clock
     );
-    let md = markdown(&heading, &designs, a.clock_mhz);
-    let csv = csv(&designs, a.clock_mhz);
+    let md = markdown(&heading, &designs, clock);
+    let csv = csv(&designs, clock);
     let write = |name: &str, text: &str| {
         let p = a.out_dir.join(name);
         golden::image::write_atomic(&p, |w| w.write_all(text.as_bytes()))
@@ -291,12 +291,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     };
     write("explore.csv", &csv)?;
     write("explore.md", &md)?;
-    plot(
-        &a.out_dir.join("explore.png"),
-        &heading,
-        &designs,
-        a.clock_mhz,
-    )?;
+    plot(&a.out_dir.join("explore.png"), &heading, &designs, clock)?;
     super::say(md.trim_end());
     Ok(())
 }

@@ -21,6 +21,7 @@ mod refine;
 pub(crate) mod render;
 mod skipbench;
 mod stats;
+mod synth;
 
 use std::process::ExitCode;
 
@@ -75,6 +76,10 @@ enum Command {
     /// steps each adding rays, none cast twice, ending on one ray per
     /// pixel; each step's PNG and its error over cumulative time.
     Refine(Box<refine::RefineArgs>),
+    /// Synthesize a unit of the PE and place and route it on an FPGA part
+    /// (yosys, nextpnr): measured resources, clock and critical path beside
+    /// the estimate.
+    Synth(Box<synth::SynthArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -145,6 +150,7 @@ where
         Command::SkipBench(a) => skipbench::run(&a),
         Command::Peer(a) => peer::run(&a),
         Command::Refine(a) => refine::run(&a),
+        Command::Synth(a) => synth::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,6 +15,7 @@ use super::memory::FrameSpec;
 use super::method::MethodArg;
 use super::progress::Stage;
 use super::stats::{frame_json, median, write_json};
+use pipeline::cost::clock::ClockSource;
 
 /// Arguments of `ercube render`.
 #[derive(Debug, Args)]
@@ -139,6 +140,9 @@ pub struct Rendered {
     pub stats: serde_json::Value,
     /// The one-line summary the command prints (before ` -> OUT`).
     pub summary: String,
+    /// Further lines the command prints after the summary (the pipeline's
+    /// frame rate).
+    pub notes: Vec<String>,
 }
 
 impl Rendered {
@@ -176,12 +180,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         p.fst.as_deref(),
         p.raw_npy.as_deref(),
     ])?;
-    let summary = super::outputs::all_or_nothing(&[], || {
+    let (summary, notes) = super::outputs::all_or_nothing(&[], || {
         let r = frame(a, None)?;
         r.write(a)?;
-        Ok(r.summary)
+        Ok((r.summary, r.notes))
     })?;
     super::say(&format!("{summary} -> {}", a.out.display()));
+    for n in notes {
+        super::say(&n);
+    }
     Ok(())
 }
 
@@ -334,6 +341,7 @@ fn frame_golden(
         chip: None,
         stats: v,
         summary: line,
+        notes: Vec::new(),
     })
 }
 
@@ -495,6 +503,7 @@ fn versus_reference(
 
 /// `ercube render --method pipeline` or `pipeline-ftb`.
 fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Result<Rendered> {
+    let clock = a.pipeline.clock()?;
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
     chip::check_options(&opts)?;
@@ -590,6 +599,9 @@ fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Resu
         }
     }
     v["regions"] = serde_json::json!(prep.view.regions().bounds);
+    v["clock_mhz"] = serde_json::json!(clock);
+    v["clock_source"] = serde_json::json!(ClockSource::Assumed);
+    v["frames_per_s"] = serde_json::json!(pipeline::cost::clock::fps(run.frame.cycles, clock));
     v["times_s"] = serde_json::json!(times);
     v["bound"] = bound.json();
     let f = &run.frame;
@@ -606,11 +618,16 @@ fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Resu
         vs_golden["max_abs_255"],
         bound.summary(),
     );
+    let notes = vec![format!(
+        "  frame: {}",
+        pipeline::cost::clock::rate_line(f.cycles, clock, ClockSource::Assumed)
+    )];
     Ok(Rendered {
         image: frame.image,
         baseplane: None,
         chip: Some(run.frame),
         stats: v,
         summary,
+        notes,
     })
 }

@@ -279,7 +279,9 @@ fn direct_cycles(pes: u16) -> u64 {
     )
     .expect("camera");
     let prep = Prepared::new(&vol, &cam).expect("view");
-    pipeline::run_frame(&cfg, &vol, &lut, &prep.view, waves::Tracer::disabled())
+    // The command skips as render does by default.
+    let skips = golden::methods::Options::default().skips;
+    pipeline::run_frame_with(&cfg, &vol, &lut, &prep, skips, waves::Tracer::disabled())
         .expect("frame")
         .cycles
 }

@@ -14,6 +14,8 @@ mod bin;
 mod chip;
 #[path = "../support/scenes.rs"]
 mod scenes;
+#[path = "../support/tools.rs"]
+mod tools;
 
 mod animate;
 mod array;
@@ -22,6 +24,7 @@ mod bound;
 mod cli;
 mod docs;
 mod explore;
+mod frame_rate;
 mod memory;
 mod peers;
 mod preint;
@@ -31,5 +34,6 @@ mod shade;
 mod shards;
 mod shearwarp;
 mod skipbench;
+mod synth;
 mod voi;
 mod volumes;

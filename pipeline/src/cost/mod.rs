@@ -20,6 +20,7 @@
 //! block-RAM counts exactly, LUTs and flip-flops within 25%.
 
 pub mod arch;
+pub mod clock;
 pub mod design;
 pub mod dsp;
 pub mod inventory;

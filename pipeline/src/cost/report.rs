@@ -98,8 +98,11 @@ pub struct CostReport {
     pub target: Target,
     /// Its primitives.
     pub target_description: &'static str,
-    /// Clock assumed (MHz); no timing analysis is done.
+    /// The clock the rates are quoted at (MHz).
     pub clock_mhz: f64,
+    /// Where it comes from: assumed, until the PE's Verilog is placed and
+    /// routed.
+    pub clock_source: super::clock::ClockSource,
     /// The configuration.
     pub config: PipelineConfig,
     /// Volume and PEs of the main run.
@@ -277,6 +280,7 @@ pub fn build(
         target,
         target_description: target.describe(),
         clock_mhz,
+        clock_source: super::clock::ClockSource::Assumed,
         config: *cfg,
         geometry: geo,
         pe_items: rows(&pe.items, target),
@@ -377,9 +381,10 @@ impl CostReport {
         let g = &self.geometry;
         let _ = writeln!(
             o,
-            "ercube cost: {} at {} MHz\n  {}",
+            "ercube cost: {} at {} MHz ({} clock)\n  {}",
             t.name(),
             self.clock_mhz,
+            self.clock_source.name(),
             t.describe()
         );
         let c = &self.config;
@@ -508,7 +513,17 @@ impl CostReport {
         table(&mut o, &["part", "use", "fits", "max P", "limited by"], &fr);
 
         let r = &self.run;
-        let _ = writeln!(o, "\nThroughput at {} MHz", self.clock_mhz);
+        let _ = writeln!(
+            o,
+            "\nThroughput at {} MHz ({} clock)",
+            self.clock_mhz,
+            self.clock_source.name()
+        );
+        let _ = writeln!(
+            o,
+            "  frame: {}",
+            super::clock::rate_line(r.cycles, self.clock_mhz, self.clock_source)
+        );
         let _ = writeln!(
             o,
             "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}, drain {}, stall {}), utilization {:.3}, {:.1} frames/s",

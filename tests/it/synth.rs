@@ -1,0 +1,132 @@
+//! `ercube synth`: a unit synthesized and placed and routed on an iCE40
+//! UltraPlus with Debian's yosys and nextpnr-ice40, its measured counts
+//! checked against the estimator; and its one-line refusals.
+//!
+//! Without the tools the placement test prints one line and skips, unless
+//! `ERCUBE_REQUIRE_TOOLS=1` (`.ci/run` installs them and sets it). The ECP5
+//! runs need the PyPI tools (a venv of about 400 MB the command makes on
+//! first use) and are `#[ignore]`d; docs/cost.md has their commands and
+//! times.
+
+use crate::bin::{assert_refused, describe, ercube};
+use crate::tools::have;
+
+/// The estimator's tolerance against place and route's synthesis: LUTs
+/// and flip-flops within 10%, DSP blocks and block RAM exact.
+const REL_TOL: f64 = 0.10;
+
+/// Runs `ercube synth` on `unit` for `target` and returns its JSON report.
+fn synth(dir: &std::path::Path, target: &str, unit: &str) -> serde_json::Value {
+    let json = format!("{target}-{unit}.json");
+    let args = ["synth", "--target", target, "--unit", unit, "--json", &json];
+    let out = ercube(dir, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    serde_json::from_slice(&std::fs::read(dir.join(&json)).expect("report written"))
+        .expect("valid JSON")
+}
+
+/// Checks the estimate against the synthesized counts of one report.
+fn check_estimate(r: &serde_json::Value) {
+    let n = |v: &serde_json::Value, k: &str| v[k].as_u64().expect("count");
+    let (got, est) = (&r["synthesized"], &r["estimated"]);
+    for k in ["dsp", "bram"] {
+        assert_eq!(n(est, k), n(got, k), "{k} of {}", r["unit"]);
+    }
+    for k in ["lut", "ff"] {
+        let (e, g) = (n(est, k) as f64, n(got, k) as f64);
+        assert!(
+            (e - g).abs() <= REL_TOL * g,
+            "{}: estimated {k} {e} against {g} synthesized",
+            r["unit"]
+        );
+    }
+}
+
+/// The position adder (a carry chain) and the slope square (four
+/// SB_MAC16s and their partial-sum adders), placed and routed on an
+/// iCE40UP5K: the estimate within the tolerances, a measured clock with its
+/// critical path, and the placed logic cells covering the unit's LUTs.
+/// About 10 s.
+#[test]
+fn synth_places_units_on_ice40_and_checks_the_estimator() {
+    if !have("yosys", "yosys", "the iCE40 synthesis")
+        || !have(
+            "nextpnr-ice40",
+            "nextpnr-ice40",
+            "the iCE40 place and route",
+        )
+    {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    for unit in ["add_position", "mul_square"] {
+        let r = synth(dir.path(), "ice40-up5k", unit);
+        check_estimate(&r);
+        let placed = &r["placed"];
+        let fmax = placed["fmax_mhz"].as_f64().expect("a measured clock");
+        // An iCE40UP5K's fabric runs below 300 MHz; a figure outside
+        // means the report was misread.
+        assert!(fmax > 5.0 && fmax < 300.0, "{unit}: {fmax} MHz");
+        let path = &placed["critical_path"];
+        assert!(path["cells"].as_u64().expect("path cells") >= 2, "{path}");
+        let lc = placed["utilization"]
+            .as_array()
+            .expect("utilization")
+            .iter()
+            .find(|u| u["name"] == "ICESTORM_LC")
+            .and_then(|u| u["used"].as_u64())
+            .expect("logic cells used");
+        let luts = r["synthesized"]["lut"].as_u64().unwrap();
+        let (bits_in, bits_out) = (
+            r["wrapper_bits"][0].as_u64().unwrap(),
+            r["wrapper_bits"][1].as_u64().unwrap(),
+        );
+        // The wrapper's shift registers are placed too: nothing removed.
+        assert!(lc >= luts.max(bits_in + bits_out), "{unit}: {lc} cells");
+    }
+}
+
+/// The ECP5 flow on every unit at the default widths (about 8 minutes on
+/// two cores, the first call installing the tools): counts against the
+/// estimate as on iCE40.
+#[test]
+#[ignore = "ECP5 tools from PyPI (about 400 MB); cargo test --release --test it -- --ignored synth_ecp5"]
+fn synth_ecp5_units_against_the_estimator() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for unit in ["add_position", "mul_ray", "mul_square", "bilinear"] {
+        let r = synth(dir.path(), "ecp5-25k", unit);
+        check_estimate(&r);
+        assert!(r["placed"]["fmax_mhz"].as_f64().expect("clock") > 5.0);
+    }
+}
+
+/// Bad targets, units and the whole-PE forms are one line and status 2,
+/// before any tool runs.
+#[test]
+fn synth_refuses_bad_input() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let cases: [(&[&str], &str); 6] = [
+        (&["--target", "zynq", "--unit", "composite"], "zynq"),
+        (&["--target", "ice40-up5k", "--unit", "nope"], "nope"),
+        (&["--target", "ice40-up5k", "--pe"], "not emitted"),
+        (&["--target", "ecp5-85k", "--array"], "not emitted"),
+        (&["--target", "xc7"], "--unit"),
+        (
+            &[
+                "--target",
+                "ice40-up5k",
+                "--unit",
+                "composite",
+                "--clock-mhz",
+                "0",
+            ],
+            "clock",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let mut args = vec!["synth"];
+        args.extend_from_slice(extra);
+        assert_refused(&args, &ercube(d, &args), needle);
+    }
+}
