@@ -336,11 +336,14 @@ fn tiff_pages_and_strips_that_cannot_hold_the_page_are_refused() {
     refused(&write(d, "loop.tif", &looped), "the chain of pages loops");
 }
 
+/// Makes a folder member that is no file at the given path.
+type MakeMember = fn(&Path);
+
 #[test]
 fn tiff_folder_members_that_are_no_files_are_refused_by_name() {
     let _g = serial();
     let page = tiff(4, 4, 1, 1, &[1u8; 32], None, None);
-    let cases: [(&str, fn(&Path)); 3] = [
+    let cases: [(&str, MakeMember); 3] = [
         ("b.tif", |p| std::fs::create_dir(p).unwrap()),
         ("b.tif", |p| {
             std::os::unix::fs::symlink(p.with_file_name("gone.tif"), p).unwrap()
