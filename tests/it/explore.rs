@@ -59,11 +59,11 @@ fn explore_runs_a_tiny_sweep() {
             "checker:32",
             "--eye",
             "16,16,-16",
-            "--pes",
+            "--sweep-pes",
             "2,4",
             "--mappings",
             "blocks,cyclic",
-            "--widths",
+            "--cyclic-widths",
             "4",
             "--migrations",
             "between-slices",
@@ -139,14 +139,15 @@ fn explore_refuses_bad_options() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let cases: [(&[&str], &str); 12] = [
-        (&["--pes", "0"], "--pes"),
-        (&["--pes", "300"], "--pes"),
-        (&["--pes", "4,,8"], "--pes"),
-        (&["--pes", "64"], "64"),
+        (&["--sweep-pes", "0"], "--sweep-pes"),
+        (&["--sweep-pes", "300"], "--sweep-pes"),
+        // The older spelling is still accepted.
+        (&["--pes", "4,,8"], "--sweep-pes"),
+        (&["--sweep-pes", "64"], "64"),
         (&["--mappings", "stripes"], "stripes"),
         (&["--placements", "dram"], "dram"),
         (&["--migrations", "later"], "later"),
-        (&["--widths", "0"], "--widths"),
+        (&["--widths", "0"], "--cyclic-widths"),
         (&["--lanes", "5"], "--lanes"),
         (&["--lanes", "1,,2"], "--lanes"),
         (&["--clock-mhz", "0"], "clock"),
@@ -155,7 +156,7 @@ fn explore_refuses_bad_options() {
     for (extra, needle) in cases {
         let mut args = vec!["explore", "--scene", "checker:32", "--out-dir", "x"];
         args.extend_from_slice(extra);
-        if !extra.contains(&"--pes") {
+        if !extra.contains(&"--pes") && !extra.contains(&"--sweep-pes") {
             // The default sweep's 64 PEs are more than checker:32 has columns.
             args.extend_from_slice(&["--pes", "4"]);
         }

@@ -15,7 +15,7 @@ use vcd::{IdCode, ReferenceIndex, ScopeType, TimescaleUnit, VarType};
 
 use crate::atomic::temp_beside;
 use crate::error::WavesError;
-use crate::tracer::{SignalInfo, TIME_UNITS_PER_CYCLE};
+use crate::tracer::{SignalInfo, TIME_UNITS_PER_CYCLE, TIME_UNIT_PS};
 
 /// FST keeps value changes in memory until a block is flushed; a block
 /// every 32 MiB bounds the memory of long frames (fst-writer's own
@@ -100,8 +100,13 @@ fn scope_tree(info: &[SignalInfo]) -> Node {
 }
 
 impl Sinks {
-    /// Opens the temporary files of `vcd` and `fst`.
-    pub(crate) fn open(vcd: Option<&Path>, fst: Option<&Path>) -> Result<Sinks, WavesError> {
+    /// Opens the temporary files of `vcd` and `fst`, the FST's header
+    /// starting at time `start` (the first traced cycle's).
+    pub(crate) fn open(
+        vcd: Option<&Path>,
+        fst: Option<&Path>,
+        start: u64,
+    ) -> Result<Sinks, WavesError> {
         let vcd = match vcd {
             None => None,
             Some(path) => {
@@ -121,8 +126,9 @@ impl Sinks {
                 let tmp = temp_beside(path)?;
                 let file = clone_file(&tmp)?;
                 let info = FstInfo {
-                    start_time: 0,
-                    timescale_exponent: -9,
+                    start_time: start,
+                    // TIME_UNIT_PS = 100 ps = 10^-10 s.
+                    timescale_exponent: -10,
                     version: concat!("ercube waves ", env!("CARGO_PKG_VERSION")).to_string(),
                     date: String::new(),
                     file_type: FstFileType::Verilog,
@@ -172,10 +178,11 @@ impl Sinks {
             let out = &mut v.out;
             out.version(concat!("ercube waves ", env!("CARGO_PKG_VERSION")))?;
             out.comment(&format!(
-                "one clock cycle = {TIME_UNITS_PER_CYCLE} time units: \
-                 values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
+                "one clock cycle = {TIME_UNITS_PER_CYCLE} time units ({} MHz): \
+                 values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c",
+                crate::tracer::CLOCK_MHZ
             ))?;
-            out.timescale(1, TimescaleUnit::NS)?;
+            out.timescale(TIME_UNIT_PS as u32, TimescaleUnit::PS)?;
             let tables = enum_tables(info);
             for (handle, (i, _)) in tables.iter().enumerate() {
                 write_enum_table(out.writer(), &info[*i], handle + 1)?;
