@@ -3,7 +3,7 @@
 //! temporary file beside its target and renamed over it at the end.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 
 use fst_writer::{
@@ -100,13 +100,8 @@ fn scope_tree(info: &[SignalInfo]) -> Node {
 }
 
 impl Sinks {
-    /// Opens the temporary files of `vcd` and `fst`, the FST's header
-    /// starting at time `start` (the first traced cycle's).
-    pub(crate) fn open(
-        vcd: Option<&Path>,
-        fst: Option<&Path>,
-        start: u64,
-    ) -> Result<Sinks, WavesError> {
+    /// Opens the temporary files of `vcd` and `fst`.
+    pub(crate) fn open(vcd: Option<&Path>, fst: Option<&Path>) -> Result<Sinks, WavesError> {
         let vcd = match vcd {
             None => None,
             Some(path) => {
@@ -126,7 +121,9 @@ impl Sinks {
                 let tmp = temp_beside(path)?;
                 let file = clone_file(&tmp)?;
                 let info = FstInfo {
-                    start_time: start,
+                    // The header's last field, time zero: an offset added
+                    // to every time, not the start (set in `finish`).
+                    start_time: 0,
                     // TIME_UNIT_PS = 100 ps = 10^-10 s.
                     timescale_exponent: -10,
                     version: concat!("ercube waves ", env!("CARGO_PKG_VERSION")).to_string(),
@@ -306,9 +303,14 @@ impl Sinks {
         Ok(())
     }
 
-    /// Ends the files at `end` (a final timestamp, if any) and renames
-    /// them to their targets.
-    pub(crate) fn finish(mut self, end: Option<u64>) -> Result<Written, WavesError> {
+    /// Ends the files at `end` (a final timestamp, if any), names `start`
+    /// (the first traced cycle's time, if any) as the FST's start time,
+    /// and renames them to their targets.
+    pub(crate) fn finish(
+        mut self,
+        start: Option<u64>,
+        end: Option<u64>,
+    ) -> Result<Written, WavesError> {
         let mut written = Written {
             vcd: None,
             fst: None,
@@ -336,6 +338,12 @@ impl Sinks {
                 body.time_change(t).map_err(fst_io).map_err(io)?;
             }
             let mut out = body.finish().map_err(fst_io).map_err(io)?;
+            if let Some(t) = start {
+                // The header block: its type byte, its length, then the
+                // start time (big-endian), which the writer leaves at 0.
+                out.seek(io::SeekFrom::Start(1 + 8)).map_err(io)?;
+                out.write_all(&t.to_be_bytes()).map_err(io)?;
+            }
             out.flush().map_err(io)?;
             drop(out);
             f.tmp

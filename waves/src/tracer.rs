@@ -210,12 +210,7 @@ impl Tracer {
             *config.cycles.start(),
             (*config.cycles.end()).min(MAX_CYCLE),
         );
-        // The FST header names its start time: the first traced cycle's.
-        let sinks = Sinks::open(
-            config.path.as_deref(),
-            config.fst.as_deref(),
-            start.min(MAX_CYCLE) * TIME_UNITS_PER_CYCLE,
-        )?;
+        let sinks = Sinks::open(config.path.as_deref(), config.fst.as_deref())?;
 
         let len = if start > end { 0 } else { end - start + 1 };
         let mut active = Box::new(Active {
@@ -417,7 +412,9 @@ impl Tracer {
             markers,
             ..
         } = *a;
-        let written = sinks.finish(end)?;
+        // The FST header names its start time: the first traced cycle's.
+        let start = first_cycle.map(|c| c * TIME_UNITS_PER_CYCLE);
+        let written = sinks.finish(start, end)?;
         Ok(Some(TraceInfo {
             vcd_path: written.vcd,
             fst_path: written.fst,
