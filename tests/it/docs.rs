@@ -45,3 +45,78 @@ fn intra_doc_links_resolve() {
         "the merge stage's page links golden's merge"
     );
 }
+
+/// The docs and comments describe the product as it is: no development
+/// narrative ("stop 22", "this round", "other sessions built", ...);
+/// the history is in git.
+#[test]
+fn docs_and_comments_tell_no_development_story() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let patterns = [
+        "stop 1",
+        "stop 2",
+        "stop 3",
+        "stop 4",
+        "stop 5",
+        "stop 6",
+        "stop 7",
+        "stop 8",
+        "stop 9",
+        "stops 2",
+        "stops 3",
+        "this round",
+        "other sessions",
+        "earlier session",
+        "helpers were",
+        "two helpers",
+        "sessions built",
+    ];
+    let mut found = Vec::new();
+    let mut stack: Vec<std::path::PathBuf> = [
+        "README.md",
+        "docs",
+        "src",
+        "golden/src",
+        "pipeline/src",
+        "waves/src",
+    ]
+    .iter()
+    .map(|p| root.join(p))
+    .collect();
+    while let Some(p) = stack.pop() {
+        if p.is_dir() {
+            stack.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            continue;
+        }
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !matches!(ext, "md" | "rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&p).unwrap().to_lowercase();
+        for (n, line) in text.lines().enumerate() {
+            for pat in patterns {
+                if let Some(i) = line.find(pat) {
+                    // "stop 1" but not "stop 16 PEs": a digit run then a non-word.
+                    let rest = &line[i + pat.len()..];
+                    if pat.starts_with("stop")
+                        && rest
+                            .starts_with(|c: char| c.is_ascii_alphanumeric() && !c.is_ascii_digit())
+                    {
+                        continue;
+                    }
+                    found.push(format!(
+                        "{}:{}: {}",
+                        p.strip_prefix(root).unwrap().display(),
+                        n + 1,
+                        line.trim()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "development narrative:\n{}",
+        found.join("\n")
+    );
+}
