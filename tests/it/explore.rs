@@ -124,6 +124,17 @@ fn explore_runs_a_tiny_sweep() {
         md.lines().filter(|l| l.starts_with("| cyclic:4")).count(),
         4
     );
+    // A summary line per part: the design of most frames/s among those
+    // that fit it (the largest parts hold every design of this sweep).
+    let summary = md.split("Best design per part").nth(1).expect("a summary");
+    let lines: Vec<&str> = summary.lines().filter(|l| l.starts_with("- ")).collect();
+    assert!(lines.len() >= 2, "{summary}");
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains(" at P = ") && l.contains("frames/s")),
+        "{summary}"
+    );
     let png = std::fs::read(d.join("one/explore.png")).expect("plot");
     assert_eq!(&png[1..4], b"PNG");
     let b = args("1", "two");

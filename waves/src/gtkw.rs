@@ -246,6 +246,12 @@ const NAMED_MARKERS: usize = 26;
 /// such names against the save file's folder through `[savefile]`), else
 /// absolute.
 fn relative_to(dir: &Path, path: &Path) -> PathBuf {
+    // A bare file name's folder is the working directory.
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
     let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
     let (dir, path) = (abs(dir), abs(path));
     match path.strip_prefix(&dir) {

@@ -247,9 +247,9 @@ fn groups_select_and_stage_names_reach_gtkwave() {
         assert!(text.lines().any(|l| l == line), "{line:?} missing:\n{text}");
     }
     let gtkw = std::fs::read_to_string(dir.path().join("d.gtkw")).expect("gtkw");
-    let abs = std::path::absolute(&filter).expect("absolute");
-    let want = format!("^1 {}\ntop.ctrl.stage[3:0]\n", abs.display());
-    assert!(gtkw.contains(&want), "{want:?} not in\n{gtkw}");
+    // The filter named relative to the save file beside it.
+    let want = "^1 d.stage.txt\n+{stage} top.ctrl.stage[3:0]\n";
+    assert!(gtkw.contains(want), "{want:?} not in\n{gtkw}");
     check_gtkw(&dir.path().join("d.vcd"));
     // Surfer's way: the VCD carries the names as an enum table on the
     // stage, which wellen (Surfer's reader) attaches to the variable.

@@ -59,7 +59,7 @@ fn the_default_trace_shows_the_busiest_pes_and_their_links() {
     );
     assert!(vcd.contains("$scope module right $end"));
     assert!(
-        vcd.contains("$timescale 100ps $end"),
+        vcd.contains("$timescale 100 ps $end"),
         "one 5 ns cycle = 50 units"
     );
     let gtkw = std::fs::read_to_string(d.join("t.gtkw")).unwrap();

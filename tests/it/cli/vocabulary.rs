@@ -96,7 +96,7 @@ fn defaults_agree_across_commands() {
             .split("--image-plane")
             .nth(1)
             .unwrap_or_else(|| panic!("{cmd} has --image-plane"));
-        let plane = &plane[..plane.find("\n  -").unwrap_or(plane.len())];
+        let plane = &plane[..plane.find("\n      --").unwrap_or(plane.len())];
         assert!(plane.contains("[default: camera]"), "{cmd}: {plane}");
     }
     for cmd in ["bench", "skip-bench"] {
