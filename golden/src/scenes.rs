@@ -269,8 +269,10 @@ pub const PRESETS: &[&str] = &[
     "brain-shaded",
 ];
 
-/// A named transfer-function preset, for 8-bit scalars (0..=255). Opacity is
-/// per unit length (per voxel at unit spacing), as everywhere in [`crate::tf`].
+/// A named transfer-function preset, written for 8-bit scalars (0..=255)
+/// with `fit = [0, 255]`, so that on wider data it spans the data's range
+/// ([`TransferFunction::fitted`]). Opacity is per unit length (per voxel at
+/// unit spacing), as everywhere in [`crate::tf`].
 ///
 /// - `checker`: air and everything below 40 transparent (so interpolation
 ///   near air stays clear), white with opacity 0.9 at the wall value
@@ -359,6 +361,8 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
             })
             .collect(),
     )?;
+    // Written over 8-bit values: on wider data they span its range.
+    tf.fit = Some([0.0, 255.0]);
     if name == "brain-shaded" {
         // Matte skin, a little shine on the brain.
         tf.material = Some(crate::shading::Material {

@@ -8,6 +8,7 @@
 use std::path::Path;
 
 use crate::error::{input, Error, Result};
+use crate::volume::{Volume, VoxelType};
 
 /// One control point: a scalar value and the colour and opacity there.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -42,6 +43,12 @@ pub struct TransferFunction {
     /// is rendered shaded unless the user says `--no-shade`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<crate::shading::Material>,
+    /// `fit = [lo, hi]`: the points' values are written against the scalar
+    /// range `lo..=hi`, which is stretched onto the data's own range
+    /// ([`data_range`], [`TransferFunction::fitted`]); the presets say
+    /// `[0, 255]`. Without it the values are raw voxel units.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<[f64; 2]>,
 }
 
 impl TransferFunction {
@@ -51,6 +58,7 @@ impl TransferFunction {
         let tf = TransferFunction {
             points,
             material: None,
+            fit: None,
         };
         tf.validate()?;
         Ok(tf)
@@ -62,6 +70,13 @@ impl TransferFunction {
         }
         if self.points.is_empty() {
             return Err(input("transfer function has no control points"));
+        }
+        if let Some([lo, hi]) = self.fit {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(input(format!(
+                    "transfer function fit = [{lo}, {hi}] needs finite lo < hi"
+                )));
+            }
         }
         for (i, p) in self.points.iter().enumerate() {
             if !p.value.is_finite() {
@@ -143,6 +158,50 @@ impl TransferFunction {
         pts[pts.len() - 1].rgba
     }
 
+    /// The table in raw voxel units for data whose values span `range`
+    /// (see [`data_range`]): a `fit = [lo, hi]` table has each point's
+    /// value moved linearly from `lo..=hi` onto `range`; a table without
+    /// `fit`, or whose `fit` already is `range`, is returned unchanged
+    /// (bit for bit, so 8-bit data renders as before).
+    pub fn fitted(&self, range: [f64; 2]) -> TransferFunction {
+        let mut tf = self.clone();
+        let Some(from) = tf.fit.take() else {
+            return tf;
+        };
+        if from == range {
+            return tf;
+        }
+        let scale = (range[1] - range[0]) / (from[1] - from[0]);
+        for p in &mut tf.points {
+            p.value = range[0] + (p.value - from[0]) * scale;
+        }
+        tf
+    }
+
+    /// Whether this table shows none, some or all of `vol`: the opacity
+    /// of each voxel value present, evaluated on the function itself.
+    pub fn coverage(&self, vol: &Volume) -> Coverage {
+        let mut present = vec![false; usize::from(vol.kind().max_value()) + 1];
+        crate::with_voxels!(vol.voxels(), d => {
+            for &v in d {
+                present[usize::from(crate::volume::Voxel::value(v))] = true;
+            }
+        });
+        let (mut seen, mut clear) = (false, false);
+        for (v, _) in present.iter().enumerate().filter(|(_, &p)| p) {
+            if self.eval(v as f64)[3] > 0.0 {
+                seen = true;
+            } else {
+                clear = true;
+            }
+        }
+        match (seen, clear) {
+            (false, _) => Coverage::None,
+            (true, true) => Coverage::Some,
+            (true, false) => Coverage::All,
+        }
+    }
+
     /// Tabulates the function into `entries` entries spanning scalars
     /// `0..=max_value`, the form both the golden model and the chip use.
     pub fn table(&self, entries: usize, max_value: f64) -> Lut {
@@ -163,6 +222,37 @@ impl TransferFunction {
         Lut {
             rgba,
             per_scalar: ((entries - 1) as f64 / max_value) as f32,
+        }
+    }
+}
+
+/// How much of a volume a transfer function shows
+/// ([`TransferFunction::coverage`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coverage {
+    /// Every voxel has opacity 0: the image is empty.
+    None,
+    /// Some voxels are visible and some are clear.
+    Some,
+    /// No voxel is clear: the image shows the volume's bounding box.
+    All,
+}
+
+/// The scalar range a `fit` table ([`TransferFunction::fitted`]) is
+/// stretched onto for `vol`: 8-bit data's whole range `0..=255` (so a
+/// table written for 8-bit data keeps its meaning there); wider data's
+/// smallest..largest voxel value, as ParaView and 3D Slicer fit a table
+/// to the data; with a `--window` (`windowed`), the window, which the
+/// volume holds as `0..=65535`. A constant volume gets a range one unit
+/// wide above its value.
+pub fn data_range(vol: &Volume, windowed: bool) -> [f64; 2] {
+    match (vol.kind(), windowed) {
+        (VoxelType::U8, false) => [0.0, 255.0],
+        (VoxelType::U16, true) | (VoxelType::U8, true) => [0.0, 65535.0],
+        (VoxelType::U16, false) => {
+            let (lo, hi) = vol.value_range();
+            let (lo, hi) = (f64::from(lo), f64::from(hi));
+            [lo, if hi > lo { hi } else { lo + 1.0 }]
         }
     }
 }
@@ -365,6 +455,48 @@ mod tests {
         let e = TransferFunction::from_toml_str("[[point]]\nvalue = 3\n").unwrap_err();
         let e = e.to_string();
         assert!(!e.contains('|') && !e.contains('^'), "{e}");
+    }
+
+    #[test]
+    fn a_fit_table_keeps_8_bit_data_and_spans_wider_data() {
+        let preset = crate::scenes::tf_preset("grey-ramp").unwrap();
+        assert_eq!(preset.fit, Some([0.0, 255.0]));
+        let u8_vol = Volume::new([2, 1, 1], VoxelType::U8, vec![3, 200]).unwrap();
+        let same = preset.fitted(data_range(&u8_vol, false));
+        assert_eq!(same.points, preset.points, "8-bit data keeps the table");
+        assert_eq!(same.fit, None);
+        // brainsmall's values times 200 plus 1000: 0..=255 onto 1000..=52000.
+        let wide = Volume::new([2, 1, 1], VoxelType::U16, vec![1000, 52000]).unwrap();
+        assert_eq!(data_range(&wide, false), [1000.0, 52000.0]);
+        let t = preset.fitted(data_range(&wide, false));
+        let values: Vec<f64> = t.points.iter().map(|p| p.value).collect();
+        assert_eq!(values, [1000.0, 7000.0, 31000.0, 52000.0]);
+        assert_eq!(t.points[2].rgba, preset.points[2].rgba);
+        // A window is held as 0..=65535, so the table spans that.
+        assert_eq!(data_range(&wide, true), [0.0, 65535.0]);
+        // A raw table (no fit) is never moved.
+        assert_eq!(ramp().fitted([1000.0, 52000.0]), ramp());
+        // A file may declare its own scale.
+        let unit = "fit = [0, 1]\n[[point]]\nvalue = 0.5\nrgba = [1, 1, 1, 1]\n";
+        let f = TransferFunction::from_toml_str(unit).unwrap();
+        assert_eq!(f.fitted([0.0, 255.0]).points[0].value, 127.5);
+        for bad in ["fit = [1, 1]", "fit = [2, 1]", "fit = [0, nan]"] {
+            let text = format!("{bad}\n[[point]]\nvalue = 0\nrgba = [0, 0, 0, 0]\n");
+            let e = TransferFunction::from_toml_str(&text)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("lo < hi"), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn coverage_tells_none_some_and_all() {
+        let vol = Volume::new([3, 1, 1], VoxelType::U16, vec![10, 100, 200]).unwrap();
+        assert_eq!(ramp().coverage(&vol), Coverage::Some);
+        let high = Volume::new([2, 1, 1], VoxelType::U16, vec![160, 5000]).unwrap();
+        assert_eq!(ramp().coverage(&high), Coverage::All);
+        let low = Volume::new([2, 1, 1], VoxelType::U8, vec![0, 30]).unwrap();
+        assert_eq!(ramp().coverage(&low), Coverage::None);
     }
 
     #[test]

@@ -15,7 +15,7 @@ use golden::orient::{to_world_grid, WorldFrame};
 use golden::render::{PrepareOptions, Prepared};
 use golden::scenes::{tf_preset, Scene};
 use golden::skip::Skips;
-use golden::tf::TransferFunction;
+use golden::tf::{Coverage, TransferFunction};
 use golden::volume::{Volume, VoxelType, Window};
 
 use super::memory::{frame_bytes, Budget, FrameSpec};
@@ -100,6 +100,7 @@ fn parse_raw_type(s: &str) -> std::result::Result<RawType, String> {
 
 /// Where the volume comes from.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Volume")]
 pub struct SourceArgs {
     /// Synthetic scene: checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N].
     #[arg(long, conflicts_with = "volume")]
@@ -344,7 +345,9 @@ impl ViewArgs {
                 (vol, Some(frame))
             }
         };
-        let tf = self.tf.resolve(default_tf)?;
+        let tf = self
+            .tf
+            .resolve(default_tf, &vol, self.source.window.is_some())?;
         let cam = self.camera.camera_in(&vol, frame.as_ref())?;
         Ok((vol, tf, cam, frame))
     }
@@ -352,6 +355,7 @@ impl ViewArgs {
 
 /// The camera.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Camera")]
 pub struct CameraArgs {
     /// Eye position x,y,z in world units (voxels at unit spacing).
     /// Default: in front of the volume's z = 0 face, 1.5 volume depths away.
@@ -430,23 +434,51 @@ impl CameraArgs {
 
 /// The transfer function.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Transfer function")]
 pub struct TfArgs {
-    /// Named preset (checker, ml, sphere, impulse, grey-ramp, ...).
+    /// Named preset (checker, ml, sphere, impulse, grey-ramp, brain, ...),
+    /// written for 8-bit values 0..255; on 16-bit data it spans the data's
+    /// range (or the --window).
     #[arg(long, conflicts_with = "tf_file")]
     pub tf: Option<String>,
-    /// TOML file of control points ([[point]] value = .. rgba = [r, g, b, a]).
+    /// TOML file of control points ([[point]] value = .. rgba = [r, g, b, a]),
+    /// in raw voxel units; with `fit = [lo, hi]` the values are written
+    /// against lo..hi and stretched onto the data's range like a preset's.
     #[arg(long)]
     pub tf_file: Option<PathBuf>,
 }
 
 impl TfArgs {
-    /// The chosen transfer function, or `default`.
-    pub fn resolve(&self, default: TransferFunction) -> Result<TransferFunction> {
-        Ok(match (&self.tf, &self.tf_file) {
+    /// The chosen transfer function, or `default`, in `vol`'s voxel units:
+    /// a preset (or a file with `fit`) spans the data's range
+    /// ([`golden::tf::data_range`]; the window's with `windowed`). Warns on
+    /// stderr, in one line, when it makes none or all of `vol` visible.
+    pub fn resolve(
+        &self,
+        default: TransferFunction,
+        vol: &Volume,
+        windowed: bool,
+    ) -> Result<TransferFunction> {
+        let tf = match (&self.tf, &self.tf_file) {
             (Some(name), _) => tf_preset(name)?,
             (None, Some(path)) => TransferFunction::from_file(path)?,
             (None, None) => default,
-        })
+        };
+        let tf = tf.fitted(golden::tf::data_range(vol, windowed));
+        let (lo, hi) = vol.value_range();
+        match tf.coverage(vol) {
+            Coverage::None => eprintln!(
+                "ercube: warning: the transfer function makes none of the volume visible (opacity 0 \
+                 at every voxel value {lo}..{hi}); check --tf, --tf-file or --window"
+            ),
+            Coverage::All => eprintln!(
+                "ercube: warning: the transfer function makes all of the volume visible (no voxel \
+                 value {lo}..{hi} is clear), so the image shows its bounding box; check --tf, \
+                 --tf-file or --window"
+            ),
+            Coverage::Some => {}
+        }
+        Ok(tf)
     }
 }
 
@@ -479,6 +511,7 @@ pub fn with_threads<T: Send>(
 
 /// Options of the renderers, shared by `render` and `compare`.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Rendering")]
 pub struct SliceArgs {
     /// Early ray termination opacity for er-ftb (1 disables it).
     #[arg(long, default_value_t = 0.99)]

@@ -24,6 +24,7 @@ use super::stats::error_json;
 /// The pipeline configuration on the command line, shared by every
 /// command that runs the PE array.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Pipeline")]
 pub struct ConfigArgs {
     /// Pipeline configuration (TOML; missing keys keep their defaults).
     #[arg(long)]
@@ -118,27 +119,35 @@ pub fn golden_method(cfg: &PipelineConfig) -> Method {
 
 /// Pipeline options of `ercube render`.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Pipeline")]
 #[command(group(clap::ArgGroup::new("trace_out").args(["vcd", "fst"]).multiple(true)))]
 pub struct PipelineArgs {
     #[command(flatten)]
     pub cfg: ConfigArgs,
-    /// Write a VCD waveform here (and a GTKWave save file beside it).
-    #[arg(long)]
+    /// Write a VCD waveform here (and a GTKWave save file, X.gtkw, beside
+    /// it). Time: one cycle of the 200 MHz clock `cost` assumes for
+    /// Artix-7 is 5 ns.
+    #[arg(long, help_heading = "Waveforms")]
     pub vcd: Option<PathBuf>,
     /// Write an FST waveform here (GTKWave's compressed format, an order
-    /// of magnitude smaller than VCD; and a save file beside it).
-    #[arg(long)]
+    /// of magnitude smaller than VCD; and its own save file beside it,
+    /// X.gtkw, or X.fst.gtkw when --vcd X.vcd takes that name).
+    #[arg(long, help_heading = "Waveforms")]
     pub fst: Option<PathBuf>,
-    /// PEs to trace: "all", or a list such as 0-3,8.
-    #[arg(long, default_value = "0-3", requires = "trace_out")]
-    pub trace_pes: String,
+    /// PEs to trace: "all", or a list such as 0-3,8 (each below --pes).
+    /// Default: every PE of an array of up to 4, else the 4 busiest of
+    /// the frame (found by a first, untraced run of it).
+    #[arg(long, requires = "trace_out", help_heading = "Waveforms")]
+    pub trace_pes: Option<String>,
     /// Cycle window to trace: A-B (inclusive), A.., or ..=B.
-    #[arg(long, requires = "trace_out")]
+    #[arg(long, requires = "trace_out", help_heading = "Waveforms")]
     pub trace_cycles: Option<String>,
-    /// Signal groups to trace, comma-separated: ctrl, ports (the link
-    /// ports: rays, edge voxels, merge parents), datapath, acc; or all.
-    /// Default: ctrl,datapath,acc.
-    #[arg(long, requires = "trace_out")]
+    /// Signal groups to trace, comma-separated: ctrl (the controller's
+    /// stage, slice, row), ports (each PE's left and right link ports:
+    /// rays, edge voxels, merge parents; and its host port), datapath, acc,
+    /// regs (registers and FIFO levels); or all. Default:
+    /// ctrl,ports,datapath,acc.
+    #[arg(long, requires = "trace_out", help_heading = "Waveforms")]
     pub trace_signals: Option<String>,
     /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
     #[arg(long)]
@@ -164,7 +173,49 @@ pub fn pipeline_lut(cfg: &PipelineConfig, vol: &Volume, tf: &golden::tf::Transfe
     Lut::for_bits(tf, cfg.table_entries as usize, vol.kind().bits())
 }
 
-fn tracer(a: &PipelineArgs) -> Result<Tracer> {
+/// PEs a default trace shows: all of an array this small, else this many
+/// of the busiest.
+pub const DEFAULT_TRACED_PES: usize = 4;
+
+/// The PEs `--trace-pes` names, refused in one line when one lies outside
+/// an array of `pes`; `None` when it is not given.
+fn traced_pes(a: &PipelineArgs, pes: u16) -> Result<Option<PeFilter>> {
+    let Some(text) = &a.trace_pes else {
+        return Ok(None);
+    };
+    let filter = PeFilter::parse(text)?;
+    if let PeFilter::Only(set) = &filter {
+        let outside: Vec<String> = set
+            .iter()
+            .filter(|&&k| k >= u32::from(pes))
+            .map(u32::to_string)
+            .collect();
+        if !outside.is_empty() {
+            bail!(
+                "--trace-pes {text}: PE {} outside the array of {pes} PEs (0-{})",
+                outside.join(","),
+                pes - 1
+            );
+        }
+    }
+    Ok(Some(filter))
+}
+
+/// The [`DEFAULT_TRACED_PES`] PEs with the most busy sampling cycles
+/// (the lower index first among equals).
+fn busiest(counters: &[pipeline::pe::PeCounters]) -> PeFilter {
+    let mut order: Vec<usize> = (0..counters.len()).collect();
+    order.sort_by_key(|&k| (std::cmp::Reverse(counters[k].busy), k));
+    PeFilter::Only(
+        order
+            .into_iter()
+            .take(DEFAULT_TRACED_PES)
+            .map(|k| k as u32)
+            .collect(),
+    )
+}
+
+fn tracer(a: &PipelineArgs, pes: PeFilter) -> Result<Tracer> {
     let groups = match &a.trace_signals {
         Some(text) => Some(pipeline::probes::parse_groups(text).map_err(anyhow::Error::msg)?),
         None => None,
@@ -175,7 +226,10 @@ fn tracer(a: &PipelineArgs) -> Result<Tracer> {
         (None, Some(f)) => TraceConfig::new_fst(f),
         (Some(v), Some(f)) => TraceConfig::new(v).with_fst(f),
     };
-    let mut tc = tc.with_pes(PeFilter::parse(&a.trace_pes)?);
+    let mut tc = tc.with_pes(pes).with_markers(
+        pipeline::probes::STAGE_SIGNAL,
+        pipeline::probes::MARKED_STAGES.map(|s| s.code()),
+    );
     if let Some(g) = groups {
         tc = tc.with_groups(g);
     }
@@ -220,23 +274,62 @@ pub fn run(
     ),
     spare: &mut Option<pipeline::Resident>,
 ) -> Result<PipelineRun> {
-    if a.vcd.is_some() || a.fst.is_some() {
-        if let PeFilter::Only(set) = PeFilter::parse(&a.trace_pes)? {
-            if let Some(&k) = set.iter().find(|&&k| k >= u32::from(cfg.pes)) {
-                bail!(
-                    "--trace-pes names PE {k}, but the array has {} PEs (0 to {})",
-                    cfg.pes,
-                    cfg.pes - 1
-                );
-            }
+    let tracing = a.vcd.is_some() || a.fst.is_some();
+    let pes = match traced_pes(a, cfg.pes)? {
+        Some(f) => f,
+        None if !tracing || usize::from(cfg.pes) <= DEFAULT_TRACED_PES => PeFilter::All,
+        None => {
+            // The busiest PEs are known once the frame has run.
+            let mut scratch = None;
+            let untraced = (Tracer::disabled(), &mut scratch);
+            let opts = (skips, shade, voi, preint);
+            let f = frame_with(cfg, data_bits, lut, prep, opts, untraced)?;
+            busiest(&f.pes)
         }
-    }
-    let tr = tracer(a)?;
+    };
+    let tr = tracer(a, pes)?;
     let t = Instant::now();
     // The previous frame's memories only lend their buffers: this frame
     // loads the volume again, as a fresh one does.
     let mut resident = spare.take().map(pipeline::Resident::stale);
-    let frame = match preint {
+    let frame = frame_with(
+        cfg,
+        data_bits,
+        lut,
+        prep,
+        (skips, shade, voi, preint),
+        (tr, &mut resident),
+    )?;
+    *spare = resident;
+    let time_s = t.elapsed().as_secs_f64();
+    let image = warp(&prep.view, &frame.baseplane);
+    Ok(PipelineRun {
+        image,
+        frame,
+        time_s,
+    })
+}
+
+/// The options of one frame: skips, shading, volume of interest and the
+/// pre-integration table.
+type FrameOptions<'a> = (
+    golden::skip::Skips,
+    Option<&'a golden::shading::Shade>,
+    Option<&'a golden::voi::Voi>,
+    Option<&'a golden::preint::PreTable>,
+);
+
+/// One frame through the array with tracer `tr`, reusing `resident`'s
+/// memories.
+fn frame_with(
+    cfg: &PipelineConfig,
+    data_bits: u32,
+    lut: &Lut,
+    prep: &Prepared,
+    (skips, shade, voi, preint): FrameOptions<'_>,
+    (tr, resident): (Tracer, &mut Option<pipeline::Resident>),
+) -> Result<pipeline::Frame> {
+    Ok(match preint {
         Some(pt) => pipeline::run_frame_preint_resident(
             cfg,
             data_bits,
@@ -244,7 +337,7 @@ pub fn run(
             prep,
             (pt, skips),
             tr,
-            &mut resident,
+            resident,
         )?,
         None => pipeline::run_frame_resident(
             cfg,
@@ -254,16 +347,8 @@ pub fn run(
             skips,
             (shade, voi),
             tr,
-            &mut resident,
+            resident,
         )?,
-    };
-    *spare = resident;
-    let time_s = t.elapsed().as_secs_f64();
-    let image = warp(&prep.view, &frame.baseplane);
-    Ok(PipelineRun {
-        image,
-        frame,
-        time_s,
     })
 }
 
@@ -357,10 +442,11 @@ pub fn check_unused(a: &PipelineArgs) -> Result<()> {
         || a.cfg.toml.is_some()
         || a.cfg.pes.is_some()
         || a.vcd.is_some()
+        || a.fst.is_some()
         || a.raw_npy.is_some()
     {
         bail!(
-            "--config, --pes, --vcd and --raw-npy apply only to --method pipeline or pipeline-ftb"
+            "--config, --pes, --vcd, --fst and --raw-npy apply only to --method pipeline or pipeline-ftb"
         );
     }
     Ok(())

@@ -3,17 +3,15 @@
 //! The resources come from `pipeline::cost` (per-unit models calibrated
 //! against yosys); the cycles per frame from an actual pipeline run of the
 //! scene and view, at the configured `P` and at each `P` of a sweep.
-//! Without `--scene` or `--volume` the run uses the built-in checkerboard
-//! `checker:128` seen from `(64, 64, -64)` (unless `--eye` is given), the
-//! pipeline's measured speed (docs/pipeline.md): about a second of simulation per `P` on two
-//! cores. The field of view does not change the cycles (the rays are laid
+//! Like `render`, it needs `--scene` or `--volume`; the figures in
+//! docs/cost.md are of the reference view `--scene checker:128 --eye
+//! 64,64,-64`, about a second of simulation per `P` on two cores. The field of view does not change the cycles (the rays are laid
 //! out by the eye and the volume; the fov only shapes the warped image).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use glam::DVec3;
 
 use golden::render::Prepared;
 use golden::skip::Skips;
@@ -28,11 +26,11 @@ use super::chip::{self, ConfigArgs};
 use super::progress::Stage;
 use super::stats::write_json;
 
-/// The scene when neither `--scene` nor `--volume` is given.
-const DEFAULT_SCENE: &str = "checker:128";
-/// Its eye, unless `--eye` is given: 64 voxels in front of the middle of
-/// the front face, so the view has two regions and a merge.
-const DEFAULT_EYE: [f64; 3] = [64.0, 64.0, -64.0];
+/// The reference view's scene, which the refusal without a source names.
+const REFERENCE_SCENE: &str = "checker:128";
+/// Its eye: 64 voxels in front of the middle of the front face, so the
+/// view has two regions and a merge.
+const REFERENCE_EYE: [f64; 3] = [64.0, 64.0, -64.0];
 
 fn parse_target(s: &str) -> std::result::Result<Target, String> {
     s.parse()
@@ -61,9 +59,10 @@ pub struct CostArgs {
     /// PE counts to run and cost as a sweep, e.g. 8,16,32,64; "none" skips it.
     #[arg(long, default_value = "8,16,32,64")]
     pub sweep_pes: String,
-    /// Write the report as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// Write the report as JSON here (as every command's --stats; --json
+    /// is accepted as an older spelling).
+    #[arg(long, alias = "json")]
+    pub stats: Option<PathBuf>,
     /// Write the calibration Verilog modules (one .v per unit) into this directory.
     #[arg(long)]
     pub verilog_dir: Option<PathBuf>,
@@ -213,13 +212,15 @@ pub fn run(a: &CostArgs) -> Result<()> {
     let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
     let archs = arch_configs(&cfg, &a.archs)?;
-    let mut view = a.view.clone();
-    let defaulted = view.source.scene.is_none() && view.source.volume.is_none();
-    if defaulted {
-        view.source.scene = Some(DEFAULT_SCENE.to_owned());
-        if view.camera.eye.is_none() {
-            view.camera.eye = Some(DVec3::from_array(DEFAULT_EYE));
-        }
+    let view = &a.view;
+    if view.source.scene.is_none() && view.source.volume.is_none() {
+        bail!(
+            "no volume: give --scene SPEC or --volume FILE (the cost model's reference view is \
+             --scene {REFERENCE_SCENE} --eye {},{},{})",
+            REFERENCE_EYE[0],
+            REFERENCE_EYE[1],
+            REFERENCE_EYE[2]
+        );
     }
     if let Some(dir) = &a.verilog_dir {
         write_verilog(dir, &cfg)?;
@@ -277,7 +278,7 @@ pub fn run(a: &CostArgs) -> Result<()> {
     }
     let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());
-    if let Some(p) = &a.json {
+    if let Some(p) = &a.stats {
         let v = serde_json::to_value(&report).context("serialising the report")?;
         write_json(p, &v)?;
     }

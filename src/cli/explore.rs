@@ -47,12 +47,14 @@ pub struct ExploreArgs {
     /// Migrations to sweep: between-slices, overlapped.
     #[arg(long, default_value = "between-slices,overlapped")]
     pub migrations: String,
-    /// PE counts to sweep (1..=256).
-    #[arg(long, default_value = "4,8,16,32,64")]
-    pub pes: String,
-    /// Cyclic block widths to sweep (1..=256; the cyclic mapping only).
-    #[arg(long, default_value = "1,2,4,8")]
-    pub widths: String,
+    /// PE counts to sweep (1..=256), as `cost --sweep-pes` (--pes is
+    /// accepted as an older spelling).
+    #[arg(long, alias = "pes", default_value = "4,8,16,32,64")]
+    pub sweep_pes: String,
+    /// Cyclic block widths to sweep (1..=256; the cyclic mapping only;
+    /// --widths is accepted as an older spelling).
+    #[arg(long, alias = "widths", default_value = "1,2,4,8")]
+    pub cyclic_widths: String,
     /// Link lanes to sweep (1..=4; the overlapped migration with the rays
     /// on chip only: between slices, or with the rays external, one lane).
     #[arg(long, default_value = "1")]
@@ -152,8 +154,8 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
     let maps = mappings(&a.mappings)?;
     let places = placements(&a.placements)?;
     let migs = migrations(&a.migrations)?;
-    let pes = numbers("--pes", &a.pes, 1, MAX_PES)?;
-    let widths = numbers("--widths", &a.widths, 1, 256)?;
+    let pes = numbers("--sweep-pes", &a.sweep_pes, 1, MAX_PES)?;
+    let widths = numbers("--cyclic-widths", &a.cyclic_widths, 1, 256)?;
     let lanes = numbers("--lanes", &a.lanes, 1, 4)?;
     let mut out = Vec::new();
     for &mapping in &maps {
@@ -218,7 +220,7 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     let nx = prep.view.dims[0];
     if let Some(c) = cfgs.iter().find(|c| usize::from(c.pes) > nx) {
         bail!(
-            "--pes {}: more PEs than this view's {nx} voxel columns",
+            "--sweep-pes {}: more PEs than this view's {nx} voxel columns",
             c.pes
         );
     }
@@ -229,9 +231,10 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
     let shade = a.shade.then(golden::shading::Shade::default);
     let label = a.view.source.label();
     let designs: Vec<Design> = with_threads(a.threads, || {
-        let _s = Stage::start(format!("clocking {} configurations", cfgs.len()));
+        let stage = Stage::counted("clocking configurations", cfgs.len() as u64);
         cfgs.par_iter()
             .map(|c| {
+                let _done = Done(&stage);
                 let frame = pipeline::run_frame_shaded(
                     c,
                     &vol,
@@ -282,7 +285,8 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
         designs.len(),
         clock
     );
-    let md = markdown(&heading, &designs, clock);
+    let mut md = markdown(&heading, &designs, clock);
+    md.push_str(&best_per_part(&designs));
     let csv = csv(&designs, clock);
     let write = |name: &str, text: &str| {
         let p = a.out_dir.join(name);
@@ -378,9 +382,50 @@ fn csv(designs: &[Design], clock: f64) -> String {
     o
 }
 
-/// The `k`-th of twelve distinguishable colours.
-fn colour(k: usize) -> plotters::style::RGBColor {
+/// Counts a configuration done when dropped (also when it fails).
+struct Done<'a>(&'a Stage);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        self.0.inc();
+    }
+}
+
+/// The best design each listed part holds: the most frames/s among the
+/// designs that fit it (at the part's own clock), one line per part.
+fn best_per_part(designs: &[Design]) -> String {
+    let mut o = String::from(
+        "\nBest design per part (most frames/s at the part's clock among those that fit):\n\n",
+    );
+    for p in parts(Target::Xc7) {
+        let best = designs
+            .iter()
+            .filter_map(|d| {
+                d.parts
+                    .iter()
+                    .find(|f| f.fits && f.part == p.name)
+                    .map(|f| (d, f.fps))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let _ = match best {
+            Some((d, fps)) => writeln!(
+                o,
+                "- {}: {} / {} / {} at P = {}, {fps:.1} frames/s",
+                p.name, d.mapping, d.migration, d.ray_buffer, d.pes
+            ),
+            None => writeln!(o, "- {}: no design of the sweep fits", p.name),
+        };
+    }
+    o
+}
+
+/// Colour `k` of `n` series, each distinct: twelve distinguishable
+/// colours, or for more series hues spaced evenly around the wheel.
+fn colour(k: usize, n: usize) -> plotters::style::RGBColor {
     use plotters::style::RGBColor as C;
+    if n > 12 {
+        return hue(k as f64 / n as f64);
+    }
     const P: [C; 12] = [
         C(31, 119, 180),
         C(255, 127, 14),
@@ -396,6 +441,17 @@ fn colour(k: usize) -> plotters::style::RGBColor {
         C(128, 0, 0),
     ];
     P[k % P.len()]
+}
+
+/// A saturated, mid-dark colour of hue `h` in turns (0..1).
+fn hue(h: f64) -> plotters::style::RGBColor {
+    let f = |n: f64| {
+        let k = (n + h * 12.0) % 12.0;
+        let (l, a) = (0.45, 0.7 * 0.45);
+        let v = l - a * (k - 3.0).min(9.0 - k).clamp(-1.0, 1.0);
+        (v * 255.0).round() as u8
+    };
+    plotters::style::RGBColor(f(0.0), f(8.0), f(4.0))
 }
 
 /// Frames per second against LUTs, one line per architecture over P; and
@@ -419,7 +475,7 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
             Series::new(*a, pts, Kind::LinePoints)
         })
         .enumerate()
-        .map(|(k, s)| s.with_color(colour(k)))
+        .map(|(k, s)| s.with_color(colour(k, archs.len())))
         .collect();
     let mut by_part: Vec<Series> = parts(Target::Xc7)
         .iter()
@@ -432,7 +488,7 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
             Series::new(format!("fits {} first", p.name), pts, Kind::Points)
         })
         .enumerate()
-        .map(|(k, s)| s.with_color(colour(k)))
+        .map(|(k, s)| s.with_color(colour(k, parts(Target::Xc7).len())))
         .collect();
     by_part.push(
         Series::new(
@@ -469,4 +525,22 @@ fn plot(path: &std::path::Path, heading: &str, designs: &[Design], clock: f64) -
         },
     ];
     write_charts(path, &charts, (900, 620))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_series_of_a_large_plot_gets_its_own_colour() {
+        for n in [3, 12, 20, 40] {
+            let set: std::collections::HashSet<(u8, u8, u8)> = (0..n)
+                .map(|k| {
+                    let c = colour(k, n);
+                    (c.0, c.1, c.2)
+                })
+                .collect();
+            assert_eq!(set.len(), n, "{n} series");
+        }
+    }
 }

@@ -29,8 +29,11 @@ use clap::{Parser, Subcommand};
 
 /// ercube: a cycle- and bit-accurate model of a Cube-style perspective
 /// volume-rendering chip (ER-Perspective), beside its float golden model.
+/// Render and compare methods (render, compare, demo, animate), benchmark
+/// them (bench, merge-results, skip-bench, peer), and size the chip
+/// (cost, explore, sweep-widths).
 #[derive(Debug, Parser)]
-#[command(name = "ercube", version, about, long_about = None)]
+#[command(name = "ercube", version, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

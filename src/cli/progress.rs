@@ -28,6 +28,25 @@ impl Stage {
     }
 }
 
+impl Stage {
+    /// Starts showing `msg` with a count of `total` steps done so far
+    /// ([`Stage::inc`]) and the elapsed time.
+    pub fn counted(msg: impl Into<String>, total: u64) -> Stage {
+        let s = Stage::start(msg);
+        s.0.set_length(total);
+        s.0.set_style(
+            ProgressStyle::with_template("{spinner} {msg} {pos}/{len} [{elapsed}]")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        s
+    }
+
+    /// One more step of a [`Stage::counted`] stage done.
+    pub fn inc(&self) {
+        self.0.inc(1);
+    }
+}
+
 impl Drop for Stage {
     fn drop(&mut self) {
         self.0.finish_and_clear();

@@ -38,14 +38,16 @@ pub struct SkipBenchArgs {
     #[arg(long, default_value_t = 7)]
     pub frames: usize,
     /// Report folder: writes DIR/bench/skip/skip.csv and the "Skipping"
-    /// section of DIR/benchmarks.md.
-    #[arg(long, default_value = "docs")]
+    /// section of DIR/benchmarks.md (created if missing). The default,
+    /// ./skip-bench, keeps a run apart from the repository's own report;
+    /// `--report docs` updates that.
+    #[arg(long, default_value = "skip-bench")]
     pub report: PathBuf,
     /// Edge of the synthetic scenes' volumes.
     #[arg(long, default_value_t = 256)]
     pub n: usize,
     /// The brainsmall volume (skipped with a note when missing).
-    #[arg(long, default_value = "../shared/data/brainsmall.den")]
+    #[arg(long, default_value = "data/brainsmall.den")]
     pub brainsmall: PathBuf,
     /// Leave out the pipeline's cycle counts (the slowest part).
     #[arg(long)]

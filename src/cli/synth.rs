@@ -49,9 +49,10 @@ pub struct SynthArgs {
     /// assumed clock of the family (48 on iCE40, 150 on ECP5).
     #[arg(long, allow_hyphen_values = true)]
     pub clock_mhz: Option<f64>,
-    /// Write the report as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// Write the report as JSON here (as every command's --stats; --json
+    /// is kept as an alias).
+    #[arg(long, alias = "json")]
+    pub stats: Option<PathBuf>,
     /// Keep the Verilog, netlists and tool reports in this directory.
     #[arg(long)]
     pub keep: Option<PathBuf>,
@@ -308,7 +309,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         seconds: t0.elapsed().as_secs_f64(),
     };
     super::say(text(&report, part).trim_end());
-    if let Some(p) = &a.json {
+    if let Some(p) = &a.stats {
         write_json(
             p,
             &serde_json::to_value(&report).context("serialising the report")?,

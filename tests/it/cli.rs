@@ -9,7 +9,10 @@
 mod compare;
 mod errors;
 mod loaders;
+mod range;
 mod render;
+mod traces;
+mod vocabulary;
 mod writes;
 
 use std::path::Path;

@@ -45,3 +45,60 @@ fn intra_doc_links_resolve() {
         "the merge stage's page links golden's merge"
     );
 }
+
+/// The docs and comments describe the product as it is: no development
+/// narrative ("stop 22", "this round", "other sessions built", ...);
+/// the history is in git.
+#[test]
+fn docs_and_comments_tell_no_development_story() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let phrases = [
+        "this round",
+        "other sessions",
+        "earlier session",
+        "helpers were",
+        "two helpers",
+        "sessions built",
+    ];
+    // "stop 22", "stops 31 and 32": a development step's number.
+    let numbered_stop = |line: &str| {
+        ["stop ", "stops "].iter().any(|w| {
+            line.match_indices(w)
+                .any(|(i, _)| line[i + w.len()..].starts_with(|c: char| c.is_ascii_digit()))
+        })
+    };
+    let mut found = Vec::new();
+    let mut stack: Vec<std::path::PathBuf> = [
+        "README.md",
+        "docs",
+        "src",
+        "golden/src",
+        "pipeline/src",
+        "waves/src",
+    ]
+    .iter()
+    .map(|p| root.join(p))
+    .collect();
+    while let Some(p) = stack.pop() {
+        if p.is_dir() {
+            stack.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            continue;
+        }
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !matches!(ext, "md" | "rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&p).unwrap().to_lowercase();
+        for (n, line) in text.lines().enumerate() {
+            if numbered_stop(line) || phrases.iter().any(|ph| line.contains(ph)) {
+                let name = p.strip_prefix(root).unwrap().display();
+                found.push(format!("{name}:{}: {}", n + 1, line.trim()));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "development narrative:\n{}",
+        found.join("\n")
+    );
+}

@@ -59,11 +59,11 @@ fn explore_runs_a_tiny_sweep() {
             "checker:32",
             "--eye",
             "16,16,-16",
-            "--pes",
+            "--sweep-pes",
             "2,4",
             "--mappings",
             "blocks,cyclic",
-            "--widths",
+            "--cyclic-widths",
             "4",
             "--migrations",
             "between-slices",
@@ -124,6 +124,17 @@ fn explore_runs_a_tiny_sweep() {
         md.lines().filter(|l| l.starts_with("| cyclic:4")).count(),
         4
     );
+    // A summary line per part: the design of most frames/s among those
+    // that fit it (the largest parts hold every design of this sweep).
+    let summary = md.split("Best design per part").nth(1).expect("a summary");
+    let lines: Vec<&str> = summary.lines().filter(|l| l.starts_with("- ")).collect();
+    assert!(lines.len() >= 2, "{summary}");
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains(" at P = ") && l.contains("frames/s")),
+        "{summary}"
+    );
     let png = std::fs::read(d.join("one/explore.png")).expect("plot");
     assert_eq!(&png[1..4], b"PNG");
     let b = args("1", "two");
@@ -139,14 +150,15 @@ fn explore_refuses_bad_options() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let cases: [(&[&str], &str); 12] = [
-        (&["--pes", "0"], "--pes"),
-        (&["--pes", "300"], "--pes"),
-        (&["--pes", "4,,8"], "--pes"),
-        (&["--pes", "64"], "64"),
+        (&["--sweep-pes", "0"], "--sweep-pes"),
+        (&["--sweep-pes", "300"], "--sweep-pes"),
+        // The older spelling is still accepted.
+        (&["--pes", "4,,8"], "--sweep-pes"),
+        (&["--sweep-pes", "64"], "64"),
         (&["--mappings", "stripes"], "stripes"),
         (&["--placements", "dram"], "dram"),
         (&["--migrations", "later"], "later"),
-        (&["--widths", "0"], "--widths"),
+        (&["--widths", "0"], "--cyclic-widths"),
         (&["--lanes", "5"], "--lanes"),
         (&["--lanes", "1,,2"], "--lanes"),
         (&["--clock-mhz", "0"], "clock"),
@@ -155,7 +167,7 @@ fn explore_refuses_bad_options() {
     for (extra, needle) in cases {
         let mut args = vec!["explore", "--scene", "checker:32", "--out-dir", "x"];
         args.extend_from_slice(extra);
-        if !extra.contains(&"--pes") {
+        if !extra.contains(&"--pes") && !extra.contains(&"--sweep-pes") {
             // The default sweep's 64 PEs are more than checker:32 has columns.
             args.extend_from_slice(&["--pes", "4"]);
         }

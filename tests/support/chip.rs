@@ -158,6 +158,11 @@ pub fn check_gtkw(vcd: &Path) -> usize {
         if line.is_empty() || line.starts_with(['[', '*', '@', '-', '^']) {
             continue;
         }
+        // `+{alias} name`: the name shown, then the signal.
+        let line = match line.strip_prefix('+') {
+            Some(rest) => rest.split_once("} ").map_or(rest, |(_, n)| n),
+            None => line,
+        };
         // Vectors carry GTKWave's `[msb:0]`; the reader's names do not.
         let name = match line.rfind('[') {
             Some(i) if line.ends_with(']') => &line[..i],
@@ -172,7 +177,11 @@ pub fn check_gtkw(vcd: &Path) -> usize {
     }
     assert_eq!(named, names, "the .gtkw leaves VCD signals out");
     assert!(
-        text.contains(&format!("[dumpfile] \"{}\"", vcd.display())),
+        // Named relative to the save file beside it.
+        text.contains(&format!(
+            "[dumpfile] \"{}\"",
+            vcd.file_name().unwrap_or_default().to_string_lossy()
+        )),
         "the .gtkw does not open {}:\n{text}",
         vcd.display()
     );

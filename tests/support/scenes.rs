@@ -66,12 +66,12 @@ pub fn up_for(f: DVec3) -> DVec3 {
         .expect("three candidates")
 }
 
-/// The real MRI head `shared/data/brainsmall.den` beside the repository,
-/// found upwards from the including crate (some checkouts lack it).
+/// The real MRI head the repository ships, `data/brainsmall.den` (see
+/// data/README.md), found upwards from the including crate.
 pub fn brainsmall() -> Option<std::path::PathBuf> {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .ancestors()
-        .map(|d| d.join("shared/data/brainsmall.den"))
+        .map(|d| d.join("data/brainsmall.den"))
         .find(|p| p.is_file())
 }
 
@@ -80,7 +80,7 @@ pub fn brainsmall() -> Option<std::path::PathBuf> {
 /// when the file is absent.
 pub fn brainsmall_view() -> Option<(Volume, golden::camera::Camera)> {
     let Some(path) = brainsmall() else {
-        eprintln!("skipped: shared/data/brainsmall.den is absent");
+        eprintln!("skipped: data/brainsmall.den is absent");
         return None;
     };
     let vol = golden::load::load_den(&path, DEFAULT_MEMORY_LIMIT).expect("brainsmall loads");

@@ -124,6 +124,7 @@ pub struct TraceConfig {
     pub(crate) signals: Vec<String>,
     pub(crate) groups: Option<BTreeSet<String>>,
     pub(crate) clock: bool,
+    pub(crate) markers: Option<(String, Vec<u64>)>,
 }
 
 impl TraceConfig {
@@ -137,6 +138,7 @@ impl TraceConfig {
             signals: Vec::new(),
             groups: None,
             clock: true,
+            markers: None,
         }
     }
 
@@ -175,6 +177,19 @@ impl TraceConfig {
             None => group.default,
             Some(set) => set.contains(group.name),
         }
+    }
+
+    /// Mark changes of signal `full_name` (e.g. `top.ctrl.stage`) in the
+    /// save file, named by the value's name ([`crate::TraceInfo::markers`]):
+    /// the first change into each value, and every change into one of
+    /// `always` (e.g. the rare stages worth finding), in time order.
+    pub fn with_markers(
+        mut self,
+        full_name: impl Into<String>,
+        always: impl IntoIterator<Item = u64>,
+    ) -> Self {
+        self.markers = Some((full_name.into(), always.into_iter().collect()));
+        self
     }
 
     /// Trace only the PEs selected by `pes`.

@@ -7,11 +7,14 @@
 //!
 //! * Scopes: `top`, `top.pe_<k>` for PE `k` (see [`ScopePath`]), any
 //!   sub-scopes below them (`top.ctrl`, `top.pe_3.mac`).
-//! * Time: `$timescale 1ns`, one clock cycle is
-//!   [`TIME_UNITS_PER_CYCLE`] = 10 ns, and the values shown from time
-//!   `10*c` are those the model set for cycle `c`. An optional `top.clk`
-//!   rises at `10*c` and falls at `10*c + 5`. The file ends with a
-//!   timestamp at `10*(last + 1)` so the last cycle has its full width.
+//! * Time: `$timescale 100ps`, one clock cycle is
+//!   [`TIME_UNITS_PER_CYCLE`] = 50 units = 5 ns, a cycle of the 200 MHz
+//!   clock [`CLOCK_MHZ`] (the one `ercube cost` quotes Artix-7 frame rates
+//!   at), and the values shown from time `50*c` are those the model set
+//!   for cycle `c`. An optional `top.clk` rises at `50*c` and falls at
+//!   `50*c + 25`. The file ends with a timestamp at `50*(last + 1)` so the
+//!   last cycle has its full width; an FST's header starts at the first
+//!   traced cycle.
 //! * Only changes are written: the first sampled cycle writes every value
 //!   set in it, later cycles only those that differ from the last written.
 //! * A value that does not fit its declared width is an error
@@ -70,5 +73,6 @@ pub use error::WavesError;
 pub use read::{Change, SignalTrace, Trace, WaveValue};
 pub use scope::{pe_scope_name, ScopePath, TOP};
 pub use tracer::{
-    Sampler, SignalId, SignalInfo, TraceInfo, Tracer, CLOCK_NAME, MAX_WIDTH, TIME_UNITS_PER_CYCLE,
+    Sampler, SignalId, SignalInfo, TraceInfo, Tracer, CLOCK_MHZ, CLOCK_NAME, MAX_MARKERS,
+    MAX_WIDTH, TIME_UNITS_PER_CYCLE, TIME_UNIT_PS,
 };

@@ -3,7 +3,7 @@
 //! temporary file beside its target and renamed over it at the end.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 
 use fst_writer::{
@@ -15,7 +15,7 @@ use vcd::{IdCode, ReferenceIndex, ScopeType, TimescaleUnit, VarType};
 
 use crate::atomic::temp_beside;
 use crate::error::WavesError;
-use crate::tracer::{SignalInfo, TIME_UNITS_PER_CYCLE};
+use crate::tracer::{SignalInfo, TIME_UNITS_PER_CYCLE, TIME_UNIT_PS};
 
 /// FST keeps value changes in memory until a block is flushed; a block
 /// every 32 MiB bounds the memory of long frames (fst-writer's own
@@ -121,8 +121,11 @@ impl Sinks {
                 let tmp = temp_beside(path)?;
                 let file = clone_file(&tmp)?;
                 let info = FstInfo {
+                    // The header's last field, time zero: an offset added
+                    // to every time, not the start (set in `finish`).
                     start_time: 0,
-                    timescale_exponent: -9,
+                    // TIME_UNIT_PS = 100 ps = 10^-10 s.
+                    timescale_exponent: -10,
                     version: concat!("ercube waves ", env!("CARGO_PKG_VERSION")).to_string(),
                     date: String::new(),
                     file_type: FstFileType::Verilog,
@@ -172,10 +175,11 @@ impl Sinks {
             let out = &mut v.out;
             out.version(concat!("ercube waves ", env!("CARGO_PKG_VERSION")))?;
             out.comment(&format!(
-                "one clock cycle = {TIME_UNITS_PER_CYCLE} time units: \
-                 values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c"
+                "one clock cycle = {TIME_UNITS_PER_CYCLE} time units ({} MHz): \
+                 values at time {TIME_UNITS_PER_CYCLE}*c are those of cycle c",
+                crate::tracer::CLOCK_MHZ
             ))?;
-            out.timescale(1, TimescaleUnit::NS)?;
+            out.timescale(TIME_UNIT_PS as u32, TimescaleUnit::PS)?;
             let tables = enum_tables(info);
             for (handle, (i, _)) in tables.iter().enumerate() {
                 write_enum_table(out.writer(), &info[*i], handle + 1)?;
@@ -299,9 +303,14 @@ impl Sinks {
         Ok(())
     }
 
-    /// Ends the files at `end` (a final timestamp, if any) and renames
-    /// them to their targets.
-    pub(crate) fn finish(mut self, end: Option<u64>) -> Result<Written, WavesError> {
+    /// Ends the files at `end` (a final timestamp, if any), names `start`
+    /// (the first traced cycle's time, if any) as the FST's start time,
+    /// and renames them to their targets.
+    pub(crate) fn finish(
+        mut self,
+        start: Option<u64>,
+        end: Option<u64>,
+    ) -> Result<Written, WavesError> {
         let mut written = Written {
             vcd: None,
             fst: None,
@@ -329,6 +338,12 @@ impl Sinks {
                 body.time_change(t).map_err(fst_io).map_err(io)?;
             }
             let mut out = body.finish().map_err(fst_io).map_err(io)?;
+            if let Some(t) = start {
+                // The header block: its type byte, its length, then the
+                // start time (big-endian), which the writer leaves at 0.
+                out.seek(io::SeekFrom::Start(1 + 8)).map_err(io)?;
+                out.write_all(&t.to_be_bytes()).map_err(io)?;
+            }
             out.flush().map_err(io)?;
             drop(out);
             f.tmp

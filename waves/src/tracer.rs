@@ -12,12 +12,22 @@ use crate::error::WavesError;
 use crate::scope::{is_valid_name, ScopePath};
 use crate::sinks::Sinks;
 
-/// VCD time units (ns) per clock cycle: cycle `c` starts at time `10 * c`.
+/// The clock a trace's time axis assumes, MHz: the one `ercube cost`
+/// quotes frame rates at for its default family (Artix-7, 200 MHz), so a
+/// time read off a waveform is a time on that part.
+pub const CLOCK_MHZ: u64 = 200;
+
+/// The trace's time unit in picoseconds (`$timescale 100ps`; FST
+/// exponent -10).
+pub const TIME_UNIT_PS: u64 = 100;
+
+/// Time units per clock cycle: cycle `c` starts at time `50 * c`, one
+/// 5 ns cycle of the [`CLOCK_MHZ`] clock.
 ///
-/// Ten rather than one so that the optional `clk` signal can fall half-way
-/// through a cycle (time `10 * c + 5`), which GTKWave then draws as a
-/// recognisable 100 MHz clock with the timescale `1ns`.
-pub const TIME_UNITS_PER_CYCLE: u64 = 10;
+/// Fifty rather than one so that the optional `clk` signal can fall
+/// half-way through a cycle (time `50 * c + 25`), which GTKWave then
+/// draws as the 200 MHz clock it is.
+pub const TIME_UNITS_PER_CYCLE: u64 = 1_000_000 / CLOCK_MHZ / TIME_UNIT_PS;
 
 /// The widest signal accepted, in bits; far above any datapath of the chip,
 /// it only guards against a corrupted width eating memory.
@@ -96,7 +106,15 @@ pub struct TraceInfo {
     pub signals: Vec<SignalInfo>,
     /// First and last cycle actually sampled, `None` if no cycle was.
     pub cycles: Option<RangeInclusive<u64>>,
+    /// The first changes of the marker signal
+    /// ([`TraceConfig::with_markers`]) within the trace, as (cycle, the
+    /// value's name), at most [`MAX_MARKERS`]: a save file's named markers.
+    pub markers: Vec<(u64, String)>,
 }
+
+/// Marker signal changes kept ([`TraceInfo::markers`]): GTKWave's named
+/// markers `A` to `Z`.
+pub const MAX_MARKERS: usize = 26;
 
 /// Per-signal state needed on the hot path, kept small and apart from the
 /// names so that a sample touches as little memory as possible.
@@ -112,6 +130,11 @@ struct Slot {
 /// State of an enabled tracer; boxed so that a disabled [`Tracer`] is a few
 /// words.
 struct Active {
+    /// The slot of the marker signal, if traced.
+    marker_slot: Option<usize>,
+    markers: Vec<(u64, String)>,
+    /// The values the marker signal has taken so far.
+    marker_values: Vec<u64>,
     config: TraceConfig,
     sinks: Sinks,
     slots: Vec<Slot>,
@@ -183,12 +206,12 @@ impl Tracer {
     /// run never leaves a truncated VCD under the expected name. The
     /// directory must exist.
     pub fn new(config: TraceConfig) -> Result<Self, WavesError> {
-        let sinks = Sinks::open(config.path.as_deref(), config.fst.as_deref())?;
-
         let (start, end) = (
             *config.cycles.start(),
             (*config.cycles.end()).min(MAX_CYCLE),
         );
+        let sinks = Sinks::open(config.path.as_deref(), config.fst.as_deref())?;
+
         let len = if start > end { 0 } else { end - start + 1 };
         let mut active = Box::new(Active {
             sinks,
@@ -202,6 +225,9 @@ impl Tracer {
             need_timestamp: false,
             error: None,
             scratch: BitVec::new(),
+            marker_slot: None,
+            markers: Vec::new(),
+            marker_values: Vec::new(),
             config,
         });
         let mut names = HashSet::new();
@@ -383,14 +409,18 @@ impl Tracer {
             info,
             first_cycle,
             cycle,
+            markers,
             ..
         } = *a;
-        let written = sinks.finish(end)?;
+        // The FST header names its start time: the first traced cycle's.
+        let start = first_cycle.map(|c| c * TIME_UNITS_PER_CYCLE);
+        let written = sinks.finish(start, end)?;
         Ok(Some(TraceInfo {
             vcd_path: written.vcd,
             fst_path: written.fst,
             signals: info,
             cycles: first_cycle.zip(cycle).map(|(a, b)| a..=b),
+            markers,
         }))
     }
 
@@ -472,12 +502,16 @@ impl Active {
             written: false,
             wide: (width > 64).then(BitVec::new),
         });
-        self.info.push(SignalInfo {
+        let info = SignalInfo {
             scope,
             name: name.to_string(),
             width,
             names,
-        });
+        };
+        if self.config.markers.as_ref().map(|m| m.0.as_str()) == Some(info.full_name().as_str()) {
+            self.marker_slot = Some(self.slots.len() - 1);
+        }
+        self.info.push(info);
         self.slots.len() - 1
     }
 
@@ -587,8 +621,33 @@ impl Active {
         }
         slot.last = value;
         slot.written = true;
+        if self.marker_slot == Some(i) {
+            self.note_marker(i, value);
+        }
         if let Err(e) = self.emit_narrow(i) {
             self.io_fail(e);
+        }
+    }
+
+    /// Keeps a change of the marker signal, named by its value's name.
+    #[cold]
+    fn note_marker(&mut self, i: usize, value: u64) {
+        let always = self
+            .config
+            .markers
+            .as_ref()
+            .is_some_and(|m| m.1.contains(&value));
+        let first = !self.marker_values.contains(&value);
+        if first {
+            self.marker_values.push(value);
+        }
+        if (first || always) && self.markers.len() < MAX_MARKERS {
+            let names = &self.info[i].names;
+            let label = names
+                .iter()
+                .find(|(v, _)| *v == value)
+                .map_or_else(|| value.to_string(), |(_, n)| n.clone());
+            self.markers.push((self.cycle.unwrap_or_default(), label));
         }
     }
 

@@ -707,15 +707,9 @@ impl Array {
         let p = pes.len();
         if let Some(pr) = self.clock.take_probes() {
             if let Some(info) = pr.finish()? {
-                // A save file beside each dump, opening it (one for both
-                // when they share a name: the VCD's).
-                let mut written = Vec::new();
-                for dump in [&info.vcd_path, &info.fst_path].into_iter().flatten() {
-                    let gtkw = dump.with_extension("gtkw");
-                    if !written.contains(&gtkw) {
-                        info.write_gtkw_for(&gtkw, dump)?;
-                        written.push(gtkw);
-                    }
+                // A save file beside each dump, opening it.
+                for (gtkw, dump) in info.save_files() {
+                    info.write_gtkw_for(&gtkw, &dump)?;
                 }
             }
         }

@@ -17,11 +17,12 @@ pub const ACC: Group = Group {
     name: "acc",
     default: true,
 };
-/// Both link ports of every PE, valid and payload per kind, and its host
-/// port (the readout).
+/// Both link ports of every PE (scopes `left` and `right`), valid and
+/// payload per kind, and its host port (the readout): what the
+/// architecture is about, so on by default.
 pub const PORTS: Group = Group {
     name: "ports",
-    default: false,
+    default: true,
 };
 /// A PE's registers and FIFO levels: rays held, migration FIFOs, columns
 /// arriving, the edge register, whether samples are in flight, the pass's

@@ -6,15 +6,22 @@
 //!
 //! Groups (`--trace-signals`, [`waves::TraceConfig::with_groups`]):
 //! `ctrl` (the controller), `datapath` (a PE's sample path and counters),
-//! `acc` (its accumulators after compositing) are on by default; `ports`
-//! (both link ports of every PE: rays migrating, edge voxels, merge
-//! parents, each as valid and payload, and the host port of the readout)
-//! and `regs` (a PE's registers and FIFO levels) are off by default, since
-//! each more than doubles the signals of a PE.
+//! `acc` (its accumulators after compositing) and `ports` (both link ports
+//! of every PE, scopes `left` and `right`: rays migrating, edge voxels,
+//! merge parents, each as valid and payload, and the host port of the
+//! readout) are on by default; `regs` (a PE's registers and FIFO levels)
+//! is off by default, since it more than doubles the signals of a PE.
 //!
 //! The stage is a [`Stage`], written as its numeric code; its names reach
 //! GTKWave through the translate filter file written beside the `.gtkw`
 //! (`<name>.stage.txt`).
+
+/// The controller's stage signal, whose changes a save file marks.
+pub const STAGE_SIGNAL: &str = "top.ctrl.stage";
+
+/// The stages a save file marks every time they start (besides the first
+/// start of each stage): the region boundaries and the readout.
+pub const MARKED_STAGES: [Stage; 4] = [Stage::Merge, Stage::Split, Stage::Fold, Stage::Readout];
 
 mod groups;
 mod recorder;

@@ -205,9 +205,10 @@ fn merge_parents_cross_the_links() {
     assert!(edges > 0, "no edge voxels crossed a link");
 }
 
-/// The default groups trace what they always did; `ports` alone adds the
-/// ports and drops the rest; the stage's names are in the filter file the
-/// save file uses for `top.ctrl.stage`.
+/// The default groups trace the controller, the datapath, the
+/// accumulators and the link ports; `ports` alone keeps only the ports;
+/// the stage's names are in the filter file the save file uses for
+/// `top.ctrl.stage`.
 #[test]
 fn groups_select_and_stage_names_reach_gtkwave() {
     let s = subject("sphere:16");
@@ -220,8 +221,8 @@ fn groups_select_and_stage_names_reach_gtkwave() {
         t.names().map(String::from).collect()
     };
     let default = count("d.vcd", TraceConfig::new(dir.path().join("d.vcd")));
-    // The clock, the controller's 10 and each PE's 11.
-    assert_eq!(default.len(), 1 + 10 + 2 * 11, "{default:?}");
+    // The clock, the controller's 10 and each PE's 11 and ports.
+    assert_eq!(default.len(), 1 + 10 + 2 * (11 + 2 * 16 + 7), "{default:?}");
     let ports = count(
         "p.vcd",
         TraceConfig::new(dir.path().join("p.vcd")).with_groups(["ports"]),
@@ -246,9 +247,9 @@ fn groups_select_and_stage_names_reach_gtkwave() {
         assert!(text.lines().any(|l| l == line), "{line:?} missing:\n{text}");
     }
     let gtkw = std::fs::read_to_string(dir.path().join("d.gtkw")).expect("gtkw");
-    let abs = std::path::absolute(&filter).expect("absolute");
-    let want = format!("^1 {}\ntop.ctrl.stage[3:0]\n", abs.display());
-    assert!(gtkw.contains(&want), "{want:?} not in\n{gtkw}");
+    // The filter named relative to the save file beside it.
+    let want = "^1 d.stage.txt\n+{stage} top.ctrl.stage[3:0]\n";
+    assert!(gtkw.contains(want), "{want:?} not in\n{gtkw}");
     check_gtkw(&dir.path().join("d.vcd"));
     // Surfer's way: the VCD carries the names as an enum table on the
     // stage, which wellen (Surfer's reader) attaches to the variable.

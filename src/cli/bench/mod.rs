@@ -80,9 +80,9 @@ pub struct BenchArgs {
     /// Image size WxH.
     #[arg(long, value_parser = parse_size, default_value = "256x256")]
     pub size: [u32; 2],
-    /// Image plane: the volume's front face (the paper's figures) or an
-    /// ordinary camera.
-    #[arg(long, value_enum, default_value_t = PlaneArg::Front)]
+    /// Image plane: an ordinary camera (every command's default) or the
+    /// volume's front face (the paper's figures, which --report uses).
+    #[arg(long, value_enum, default_value_t = PlaneArg::Camera)]
     pub image_plane: PlaneArg,
     /// Timed frames per method and distance (the reference: one).
     #[arg(long, default_value_t = 3)]
@@ -99,15 +99,16 @@ pub struct BenchArgs {
     /// Worker threads (default: all cores); results are identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Directory for bench.csv, the plots and summary.md.
-    #[arg(long, default_value = "bench")]
+    /// Directory for bench.csv, the plots and summary.md (the default
+    /// stays clear of the repository's own bench/ folder).
+    #[arg(long, default_value = "bench-results")]
     pub out_dir: PathBuf,
     /// Run the fixed plan of the benchmark report instead and write
     /// DIR/benchmarks.md with its data and plots under DIR/bench/.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// The brainsmall volume for --report.
-    #[arg(long, default_value = "../shared/data/brainsmall.den")]
+    #[arg(long, default_value = "data/brainsmall.den")]
     pub brainsmall: PathBuf,
     /// Run only shard K of N (every N-th distance from the K-th) and write
     /// its rows as DIR/shard-K-of-N.json; `ercube merge-results` joins
@@ -446,7 +447,7 @@ fn case_of(a: &BenchArgs) -> Result<Case> {
         None => distances.iter().copied().fold(f64::INFINITY, f64::min),
     };
     let (vol, default_tf) = a.source.load()?;
-    let tf = a.tf.resolve(default_tf)?;
+    let tf = a.tf.resolve(default_tf, &vol, a.source.window.is_some())?;
     let shade = a.shade.then(|| {
         let mut sh = golden::shading::Shade::default();
         sh.material = tf.material.unwrap_or_default();

@@ -144,7 +144,7 @@ pub fn run(a: &BenchArgs, dir: &Path) -> Result<()> {
         Plan {
             key: "brainsmall",
             title: "brainsmall, eye distance sweep",
-            about: "`../shared/data/brainsmall.den` (128x128x84, 8-bit) with the `grey-ramp` preset, \
+            about: "`data/brainsmall.den` (128x128x84, 8-bit) with the `grey-ramp` preset, \
                     the eye on the centre line in front of the z = 0 face, the field of view fitted \
                     to the front face, image plane on the front face.",
             distances: vec![8.0, 16.0, 32.0, 64.0, 128.0, 256.0],

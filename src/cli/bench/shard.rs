@@ -230,7 +230,7 @@ pub struct MergeArgs {
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
     /// Directory for the merged bench.csv, plots and summary.md.
-    #[arg(long, default_value = "bench")]
+    #[arg(long, default_value = "bench-results")]
     pub out_dir: PathBuf,
     /// Worker threads for rebuilding the case (the volume).
     #[arg(long)]

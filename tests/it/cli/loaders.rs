@@ -172,7 +172,7 @@ fn loaders_through_the_cli() {
 #[test]
 fn brainsmall_as_den_and_as_raw() {
     let Some(path) = crate::scenes::brainsmall() else {
-        eprintln!("note: shared/data/brainsmall.den absent, skipping");
+        eprintln!("note: data/brainsmall.den absent, skipping");
         return;
     };
     let dir = tempdir();

@@ -72,12 +72,17 @@ fn pe_filter_and_window_write_only_the_selection() {
     let mut sorted = names.clone();
     sorted.sort();
     assert_eq!(read_names, sorted, "PEs 0 and 2 must not be in the file");
-    assert_eq!(trace.end_time(), 100);
+    let unit = waves::TIME_UNITS_PER_CYCLE;
+    assert_eq!(trace.end_time(), 10 * unit);
     for name in &names {
         let sig = trace.signal(name).unwrap();
         assert!(!sig.changes().is_empty(), "{name}");
         for ch in sig.changes() {
-            assert!((50..=95).contains(&ch.time), "{name} record at {}", ch.time);
+            assert!(
+                (5 * unit..=10 * unit - unit / 2).contains(&ch.time),
+                "{name} record at {}",
+                ch.time
+            );
         }
         // Nothing before the window, not even a value carried over.
         assert_eq!(sig.value_at_cycle(4), None, "{name}");
@@ -345,5 +350,84 @@ fn io_errors_name_the_path() {
         files_in(dir.path()),
         ["occupied.vcd"],
         "temporary file left behind"
+    );
+}
+
+/// An FST's header starts at the first traced cycle, not at 0, so a
+/// viewer's full zoom shows the traced window and nothing before it.
+#[test]
+fn the_fst_header_starts_at_the_first_traced_cycle() {
+    let dir = tempfile::tempdir().unwrap();
+    let fst = dir.path().join("w.fst");
+    let config = TraceConfig::new_fst(&fst).with_cycles(5..=9);
+    run_model(config, 20).unwrap().unwrap();
+    let bytes = std::fs::read(&fst).unwrap();
+    // FST header block: type 0, section length, then start and end time
+    // (big-endian u64).
+    assert_eq!(bytes[0], 0, "header block first");
+    let word = |at: usize| u64::from_be_bytes(bytes[at..at + 8].try_into().unwrap());
+    let unit = waves::TIME_UNITS_PER_CYCLE;
+    assert_eq!(word(9), 5 * unit, "start time");
+    assert_eq!(word(17), 10 * unit, "end time");
+}
+
+/// The marker signal's first change into each value, and every change
+/// into an `always` value, become named markers (26 at most).
+#[test]
+fn marker_signal_changes_become_named_markers() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.vcd");
+    let mut t = Tracer::new(TraceConfig::new(&path).with_markers("top.ctrl.state", [3])).unwrap();
+    let group = waves::Group {
+        name: "ctrl",
+        default: true,
+    };
+    let names = [(0, "idle"), (3, "merge")];
+    let state = t
+        .register_enum_in(&group, &ScopePath::top().child("ctrl"), "state", 3, &names)
+        .unwrap();
+    // 0 0 1 3 0 1 3 0 ...: each value's first start, and every 3.
+    for c in 0..40u64 {
+        let v = [0, 0, 1, 3, 0, 1, 3, 0][c as usize % 8];
+        t.sample(c, |s| s.set(state, v));
+    }
+    let info = t.finish().unwrap().unwrap();
+    let want: Vec<(u64, String)> = std::iter::once((0, "idle".to_string()))
+        .chain(std::iter::once((2, "1".to_string())))
+        .chain((0..5).flat_map(|k| {
+            [
+                (8 * k + 3, "merge".to_string()),
+                (8 * k + 6, "merge".into()),
+            ]
+        }))
+        .filter(|(c, _)| *c < 40)
+        .collect();
+    assert_eq!(info.markers, want);
+    let text = std::fs::read_to_string(dir.path().join("m.gtkw")).unwrap_or_default();
+    assert!(text.is_empty(), "the tracer writes no save file by itself");
+    info.write_gtkw(dir.path().join("m.gtkw")).unwrap();
+    let text = std::fs::read_to_string(dir.path().join("m.gtkw")).unwrap();
+    assert!(
+        text.contains("[markername] Aidle\n[markername] B1\n[markername] Cmerge\n"),
+        "{text}"
+    );
+}
+
+/// A VCD and an FST of one trace each get their own save file, each
+/// opening its own dump.
+#[test]
+fn vcd_and_fst_of_one_name_get_their_own_save_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (vcd, fst) = (dir.path().join("x.vcd"), dir.path().join("x.fst"));
+    let info = run_model(TraceConfig::new(&vcd).with_fst(&fst), 4)
+        .unwrap()
+        .unwrap();
+    let files = info.save_files();
+    assert_eq!(
+        files,
+        [
+            (dir.path().join("x.gtkw"), vcd.clone()),
+            (dir.path().join("x.fst.gtkw"), fst.clone())
+        ]
     );
 }

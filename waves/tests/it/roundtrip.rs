@@ -185,7 +185,7 @@ fn run(case: &Case) -> Result<(), TestCaseError> {
     prop_assert_eq!(info.signals.len(), probes.len() + usize::from(case.clock));
 
     let trace = Trace::read(&path).unwrap();
-    prop_assert_eq!(trace.timescale(), Some("1ns"));
+    prop_assert_eq!(trace.timescale(), Some("100ps"));
     prop_assert_eq!(trace.end_time(), (last + 1) * TIME_UNITS_PER_CYCLE);
     for (i, p) in probes.iter().enumerate() {
         let name = format!("{}.{}", p.scope, p.name);
@@ -231,7 +231,8 @@ fn run(case: &Case) -> Result<(), TestCaseError> {
         for &c in at_cycle.keys() {
             let t = c * TIME_UNITS_PER_CYCLE;
             prop_assert_eq!(clk.value_at_time(t).and_then(|v| v.as_u64()), Some(1));
-            prop_assert_eq!(clk.value_at_time(t + 5).and_then(|v| v.as_u64()), Some(0));
+            let half = t + TIME_UNITS_PER_CYCLE / 2;
+            prop_assert_eq!(clk.value_at_time(half).and_then(|v| v.as_u64()), Some(0));
         }
     }
     Ok(())
@@ -258,7 +259,8 @@ fn quiet_cycles_write_no_timestamp_without_clock() {
     tracer.finish().unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     let stamps: Vec<&str> = text.lines().filter(|l| l.starts_with('#')).collect();
-    assert_eq!(stamps, ["#0", "#400", "#800", "#1000"]);
+    // Cycles 0, 40, 80 and the end after cycle 99, 50 units (5 ns) each.
+    assert_eq!(stamps, ["#0", "#2000", "#4000", "#5000"]);
     assert!(text.contains("$var wire 8 ! acc [7:0] $end"), "{text}");
     assert!(text.contains("$scope module pe_0 $end"), "{text}");
 }

@@ -219,9 +219,14 @@ fn waveform_reads_back_as_the_models_results() {
     );
     let lines = check_gtkw(&vcd);
     // clk, ten controller signals (stage, slice, row and the pass's
-    // broadcast), eleven per PE: the default groups (ctrl, datapath, acc);
-    // the link ports and registers are off by default.
-    assert_eq!(lines, 1 + 10 + 4 * 11, "signals in the .gtkw");
+    // broadcast), per PE eleven of the datapath and accumulators and the
+    // ports (two links of 16, the host's 7): the default groups (ctrl,
+    // ports, datapath, acc); the registers are off by default.
+    assert_eq!(
+        lines,
+        1 + 10 + 4 * (11 + 2 * 16 + 7),
+        "signals in the .gtkw"
+    );
     crate::tools::vcd2fst(&vcd);
     let (wrong, busy) = readout_mislabelled(&vcd, &frame, &[0, 1, 2, 3]);
     if !wrong.is_empty() {
