@@ -31,6 +31,7 @@ pub mod cost;
 pub mod datapath;
 pub mod fixed;
 pub mod host;
+pub mod hw;
 pub mod mapping;
 pub mod pe;
 pub mod preint;

@@ -26,7 +26,7 @@ mod shading;
 pub use shading::{dividend_bits, divider, sqrt_norm};
 
 use crate::config::PipelineConfig;
-use crate::cost::shapes::{accum_word, table_word, Lerp, Quantizer, Word, RAY_INDEX_BITS};
+use crate::cost::shapes::{table_word, Quantizer, Word, RAY_INDEX_BITS};
 use crate::cost::units::Unit;
 use crate::cost::{memory::MemPorts, Resources, Target};
 use crate::fixed::{Overflow, Quant};
@@ -60,25 +60,25 @@ impl CalibrationModule {
 }
 
 /// Collects the declarations and statements of one module.
-struct Body {
+pub(crate) struct Body {
     text: String,
     next: usize,
 }
 
 impl Body {
-    fn new() -> Body {
+    pub(crate) fn new() -> Body {
         Body {
             text: String::new(),
             next: 0,
         }
     }
 
-    fn fresh(&mut self, stem: &str) -> String {
+    pub(crate) fn fresh(&mut self, stem: &str) -> String {
         self.next += 1;
         format!("{stem}_{}", self.next)
     }
 
-    fn line(&mut self, s: &str) {
+    pub(crate) fn line(&mut self, s: &str) {
         self.text.push_str("  ");
         self.text.push_str(s);
         self.text.push('\n');
@@ -86,7 +86,7 @@ impl Body {
 }
 
 /// `[n-1:0]`.
-fn range(bits: u32) -> String {
+pub(crate) fn range(bits: u32) -> String {
     format!("[{}:0]", bits.saturating_sub(1))
 }
 
@@ -99,7 +99,7 @@ fn sg(signed: bool) -> &'static str {
 }
 
 /// `{x, k'b0}`: `x` shifted up by `k` bits (unsigned concatenation).
-fn shl(x: &str, k: i32) -> String {
+pub(crate) fn shl(x: &str, k: i32) -> String {
     if k > 0 {
         format!("{{{x}, {k}'b0}}")
     } else {
@@ -118,7 +118,7 @@ fn as_signed(x: &str, w: Word) -> String {
 
 /// Emits the assignment of `src` (shaped `qz.input`) into `qz.out`;
 /// returns the name of the `qz.out.bits`-bit result wire.
-fn quantize(b: &mut Body, src: &str, qz: &Quantizer) -> Result<String, RtlError> {
+pub(crate) fn quantize(b: &mut Body, src: &str, qz: &Quantizer) -> Result<String, RtlError> {
     let i = qz.input;
     let s = sg(i.signed);
     let shr = if i.signed { ">>>" } else { ">>" };
@@ -235,41 +235,9 @@ fn quantize(b: &mut Body, src: &str, qz: &Quantizer) -> Result<String, RtlError>
     Ok(y)
 }
 
-/// Emits `a + w (b - a)` (`b = None`: 1.0); returns the result wire.
-fn lerp(b: &mut Body, l: &Lerp, a: &str, bv: Option<&str>, w: &str) -> Result<String, RtlError> {
-    let d = b.fresh("d");
-    let p = b.fresh("p");
-    let s = b.fresh("s");
-    let a_al = shl(a, l.f - l.a.frac);
-    let b_al = match (l.b, bv) {
-        (Some(bw), Some(x)) => shl(x, l.f - bw.frac),
-        // 1.0 at f fraction bits.
-        _ => format!("{{1'b1, {}'b0}}", l.f.max(1)),
-    };
-    let b_al = if l.b.is_none() && l.f == 0 {
-        "1'b1".to_owned()
-    } else {
-        b_al
-    };
-    b.line(&format!(
-        "wire signed {} {d} = $signed({{1'b0, {b_al}}}) - $signed({{1'b0, {a_al}}});",
-        range(l.d.bits)
-    ));
-    b.line(&format!(
-        "wire signed {} {p} = $signed({{1'b0, {w}}}) * {d};",
-        range(l.p.bits)
-    ));
-    b.line(&format!(
-        "wire signed {} {s} = $signed({{1'b0, {}}}) + {p};",
-        range(l.s.bits),
-        shl(a, l.a_shift)
-    ));
-    quantize(b, &s, &l.quant)
-}
-
 /// Wraps a body into a module with a clock, `inputs` and registered
 /// `outputs` (`(name, bits, source wire)`).
-fn module(
+pub(crate) fn module(
     name: &str,
     comment: &str,
     inputs: &[(&str, Word)],
@@ -405,113 +373,127 @@ pub fn add_position(cfg: &PipelineConfig) -> CalibrationModule {
     }
 }
 
-/// Bilinear interpolation, two pipeline stages: the two x lerps of the
-/// voxel rows, registered with the y weight, then the y lerp, registered.
-pub fn bilinear(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
-    let v = Word::from(cfg.voxel);
-    let w = Word::from(cfg.weight);
-    let sm = Word::from(cfg.sample);
-    let lx = Lerp::new(v, Some(v), w, cfg.sample);
-    let ly = Lerp::new(sm, Some(sm), w, cfg.sample);
-    let mut b = Body::new();
-    let top = lerp(&mut b, &lx, "v00", Some("v01"), "wx")?;
-    let bot = lerp(&mut b, &lx, "v10", Some("v11"), "wx")?;
-    let out = lerp(&mut b, &ly, "top_r", Some("bot_r"), "wy_r")?;
-    let name = "ercube_bilinear".to_owned();
-    let verilog = module(
-        &name,
-        &format!(
-            "bilinear: voxels {}b, weights {}b -> sample {}b (two stages)",
-            v.bits, w.bits, sm.bits
-        ),
-        &[
-            ("v00", v),
-            ("v01", v),
-            ("v10", v),
-            ("v11", v),
-            ("wx", w),
-            ("wy", w),
-        ],
-        &[
-            ("top_r".into(), sm.bits, top),
-            ("bot_r".into(), sm.bits, bot),
-            ("wy_r".into(), w.bits, "wy".into()),
-        ],
-        &[("y".into(), sm.bits, out)],
-        &b,
-    );
-    let mut units = lx.units();
-    units.extend(lx.units());
-    // wy_r feeds only the y multiplier: the block's input register.
-    units.extend(ly.units_with_weight_register());
-    units.push(Unit::Reg { bits: 2 * sm.bits });
-    units.push(Unit::Reg { bits: sm.bits });
+/// One calibration module cut from the plain sample's description
+/// ([`crate::hw::sample`]): the nodes between `ports` and `outputs`, its
+/// units those the description prices for them (a declared register
+/// feeding a multiplier alone is the block's input register, priced in
+/// the multiplier).
+fn from_description(
+    g: &crate::hw::Graph,
+    (name, comment, description): (&str, String, String),
+    ports: &[(&str, &str)],
+    outputs: &[(&str, &str)],
+) -> Result<CalibrationModule, RtlError> {
+    let node = |n: &str| {
+        g.find(n)
+            .ok_or_else(|| RtlError::Unsupported(format!("no node {n} in the description")))
+    };
+    let ports: Vec<(&str, crate::hw::NodeId)> = ports
+        .iter()
+        .map(|(p, n)| Ok((*p, node(n)?)))
+        .collect::<Result<_, RtlError>>()?;
+    let outs: Vec<(&str, crate::hw::NodeId)> = outputs
+        .iter()
+        .map(|(p, n)| Ok((*p, node(n)?)))
+        .collect::<Result<_, RtlError>>()?;
+    let cut = crate::hw::verilog::cut(g, &ports, &outs)?;
+    let consumers = g.consumers();
+    let port_ids: Vec<_> = ports.iter().map(|p| p.1).collect();
+    let out_ids: Vec<_> = outs.iter().map(|o| o.1).collect();
+    let cone = g.cone(&out_ids, &port_ids);
+    let mut units = Vec::new();
+    for &id in cone.iter().filter(|id| !port_ids.contains(id)) {
+        units.extend(crate::hw::units::node_units(g, id, &consumers));
+        let n = g.node(id);
+        let held_by_mul = matches!(n.op, crate::hw::Op::Reg(_))
+            && consumers[id.0].len() == 1
+            && matches!(g.node(consumers[id.0][0]).op, crate::hw::Op::Mul(..));
+        let registered = matches!(n.op, crate::hw::Op::Reg(_))
+            || (n.step_out.is_some() && !out_ids.contains(&id));
+        if registered && !held_by_mul {
+            units.push(Unit::Reg { bits: n.word.bits });
+        }
+    }
+    units.extend(outs.iter().map(|o| Unit::Reg {
+        bits: g.word(o.1).bits,
+    }));
     Ok(CalibrationModule {
-        name,
-        description: format!("3 lerps, {}b voxels, {}b weights", v.bits, w.bits),
-        verilog,
+        name: name.to_owned(),
+        description,
+        verilog: crate::hw::verilog::cut_module(name, &comment, &cut),
         units,
     })
 }
 
-/// Back-to-front compositing of one sample into a ray's accumulators,
-/// `C + a (c - C)` per colour and `A + a (1 - A)`, registered.
-pub fn composite(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
-    let ac = Word::from(cfg.accum_color);
-    let aa = Word::from(cfg.accum_alpha);
-    let c = Word::from(cfg.color);
-    let a = Word::from(cfg.opacity_corr);
-    let lc = Lerp::new(ac, Some(c), a, cfg.accum_color);
-    let la = Lerp::new(aa, None, a, cfg.accum_alpha);
-    let mut b = Body::new();
-    let mut outs = Vec::new();
-    for ch in ["r", "g", "b"] {
-        let y = lerp(
-            &mut b,
-            &lc,
-            &format!("acc_{ch}"),
-            Some(&format!("c_{ch}")),
-            "a",
-        )?;
-        outs.push((format!("y_{ch}"), ac.bits, y));
-    }
-    let y = lerp(&mut b, &la, "acc_a", None, "a")?;
-    outs.push(("y_a".to_owned(), aa.bits, y));
-    let name = "ercube_composite".to_owned();
-    let verilog = module(
-        &name,
-        &format!(
-            "compositing: accumulators {}b/{}b, colour {}b, opacity {}b",
-            ac.bits, aa.bits, c.bits, a.bits
+/// The plain sample's description composited back to front (the
+/// calibration units are the back-to-front ones).
+fn btf_description(cfg: &PipelineConfig) -> crate::hw::Graph {
+    crate::hw::sample::plain(&PipelineConfig {
+        order: crate::config::Order::BackToFront,
+        ..*cfg
+    })
+}
+
+/// Bilinear interpolation, two pipeline stages: the two x lerps of the
+/// voxel rows, registered with the y weight, then the y lerp, registered;
+/// cut from the plain sample's description.
+pub fn bilinear(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
+    let (v, w, sm) = (cfg.voxel.bits(), cfg.weight.bits(), cfg.sample.bits());
+    from_description(
+        &btf_description(cfg),
+        (
+            "ercube_bilinear",
+            format!("bilinear: voxels {v}b, weights {w}b -> sample {sm}b (two stages)"),
+            format!("3 lerps, {v}b voxels, {w}b weights"),
         ),
         &[
-            ("acc_r", ac),
-            ("acc_g", ac),
-            ("acc_b", ac),
-            ("acc_a", aa),
-            ("c_r", c),
-            ("c_g", c),
-            ("c_b", c),
-            ("a", a),
+            ("v00", "v00"),
+            ("v01", "v01"),
+            ("v10", "v10"),
+            ("v11", "v11"),
+            ("wx", "wx"),
+            ("wy", "row.wy"),
         ],
-        &[],
-        &outs,
-        &b,
+        &[("y", "sample")],
+    )
+}
+
+/// Back-to-front compositing of one sample into a ray's accumulators,
+/// `C + a (c - C)` per colour and `A + a (1 - A)`, registered; cut from
+/// the plain sample's description.
+pub fn composite(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
+    let g = btf_description(cfg);
+    let c = crate::hw::sample::class_names(&g);
+    let (ac, aa, cb, ob) = (
+        cfg.accum_color.bits(),
+        cfg.accum_alpha.bits(),
+        cfg.color.bits(),
+        cfg.opacity_corr.bits(),
     );
-    let mut units = Vec::new();
-    for _ in 0..3 {
-        units.extend(lc.units());
-    }
-    units.extend(la.units());
-    units.push(Unit::Reg {
-        bits: accum_word(cfg),
-    });
-    Ok(CalibrationModule {
-        name,
-        description: format!("4 multiply-adds, {}b opacity", a.bits),
-        verilog,
-        units,
-    })
+    from_description(
+        &g,
+        (
+            "ercube_composite",
+            format!("compositing: accumulators {ac}b/{aa}b, colour {cb}b, opacity {ob}b"),
+            format!("4 multiply-adds, {ob}b opacity"),
+        ),
+        &[
+            ("acc_r", "acc_r"),
+            ("acc_g", "acc_g"),
+            ("acc_b", "acc_b"),
+            ("acc_a", "acc_a"),
+            ("c_r", c[0]),
+            ("c_g", c[1]),
+            ("c_b", c[2]),
+            ("a", "corrected"),
+        ],
+        &[
+            ("y_r", "comp.r"),
+            ("y_g", "comp.g"),
+            ("y_b", "comp.b"),
+            ("y_a", "comp.a"),
+        ],
+    )
 }
 
 /// The classification table: `table_entries` words of R, G, B and

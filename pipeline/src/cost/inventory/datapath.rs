@@ -7,7 +7,7 @@ use super::{addr_bits, fmt_bits, Geometry, Item};
 use crate::config::PipelineConfig;
 use crate::cost::arch;
 use crate::cost::shapes::{
-    class_weight, exp_weight, table_word, Lerp, MulAdd, Quantizer, Word, RAY_INDEX_BITS,
+    class_weight, exp_weight, table_word, MulAdd, Quantizer, Word, RAY_INDEX_BITS,
 };
 use crate::cost::units::Unit;
 use serde::Serialize;
@@ -114,71 +114,22 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     });
     items.push(Item::new("position", "address and weight", 1, u));
 
-    // Bilinear interpolation.
-    let lx = Lerp::new(
-        cfg.voxel.into(),
-        Some(cfg.voxel.into()),
-        cfg.weight.into(),
-        cfg.sample,
-    );
-    let ly = Lerp::new(
-        cfg.sample.into(),
-        Some(cfg.sample.into()),
-        cfg.weight.into(),
-        cfg.sample,
-    );
-    let mut u = lx.units();
-    u.push(Unit::Reg { bits: sm });
-    items.push(Item::new("interpolation", "x lerp (rows y0, y0+1)", 2, u));
-    // The y weight is the PE's copy of the row broadcast, feeding only
-    // the multiplier.
-    let mut u = ly.units_with_weight_register();
-    u.push(Unit::Reg { bits: sm });
-    items.push(Item::new("interpolation", "y lerp", 1, u));
-
-    // Classification (a pre-integrating PE classifies whole steps in its
-    // unit instead: `crate::cost::preint`).
+    // Interpolation, classification (a pre-integrating PE classifies
+    // whole steps in its unit instead: `crate::cost::preint`), the
+    // opacity correction and the compositing: derived from the plain
+    // sample's description (`crate::hw::sample`).
+    let described = crate::hw::units::items(&crate::hw::sample::plain(cfg));
+    let derived = |group: &'static str| {
+        described
+            .iter()
+            .filter(move |it| it.group == group)
+            .map(|it| Item::new(it.group, it.name.clone(), it.count, it.units.clone()))
+    };
+    items.extend(derived("interpolation"));
     let cw = class_weight(cfg);
     let cw_bits = cw.map(|x| x.bits).unwrap_or(0);
-    let sample_int = u32::from(cfg.sample.int_bits());
     if !geo.preint {
-        let mut u = vec![
-            Unit::Cmp {
-                width: sample_int.max(entry_bits),
-            },
-            Unit::Inc { width: entry_bits },
-            Unit::Mux {
-                width: entry_bits,
-                inputs: 2,
-            },
-        ];
-        u.push(Unit::Reg {
-            bits: 2 * entry_bits + cw_bits,
-        });
-        items.push(Item::new("classification", "table position", 1, u));
-        if let Some(cw) = cw {
-            let lc = Lerp::new(cfg.color.into(), Some(cfg.color.into()), cw, cfg.color);
-            let la = Lerp::new(cfg.alpha.into(), Some(cfg.alpha.into()), cw, cfg.alpha);
-            let mut u = lc.units();
-            u.push(Unit::Reg { bits: c });
-            items.push(Item::new("classification", "colour lerp (R, G, B)", 3, u));
-            let mut u = la.units();
-            u.push(Unit::Reg { bits: al });
-            items.push(Item::new("classification", "opacity lerp", 1, u));
-        } else {
-            items.push(Item::new(
-                "classification",
-                "entry register (no interpolation)",
-                1,
-                vec![Unit::Reg { bits: 3 * c + al }],
-            ));
-        }
-        items.push(Item::new(
-            "classification",
-            "opacity != 0",
-            1,
-            vec![Unit::Reduce { width: al }, Unit::Reg { bits: 1 }],
-        ));
+        items.extend(derived("classification"));
     }
 
     // Path length: sx^2 + sy^2 + sz^2 (sz^2 is a region constant from the
@@ -228,90 +179,12 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     u.push(Unit::Reg { bits: pa });
     items.push(Item::new("path length", "square root", 1, u));
 
-    // Opacity correction.
-    let lp = Quantizer::new(
-        Word::unsigned(lt + pa, i32::from(cfg.log_transmittance.frac()) + pf),
-        cfg.log_transmittance,
-    );
-    let mut u = vec![Unit::Mul {
-        a: lt,
-        a_signed: false,
-        b: pa,
-        b_signed: false,
-        y: lt + pa,
-        post_add: None,
-        registered: false,
-        operand_reg: 0,
-    }];
-    u.extend(lp.units());
-    u.push(Unit::Inc { width: e });
-    u.push(Unit::Reg { bits: lt });
-    if !geo.preint {
-        items.push(Item::new("opacity", "p = -log2(1 - a) ds", 1, u));
-    }
+    // Opacity correction (the pre-integration unit makes `p` itself) and
+    // compositing.
     let ew = exp_weight(cfg);
-    if let Some(ew) = ew {
-        let le = Lerp::new(
-            cfg.opacity_corr.into(),
-            Some(cfg.opacity_corr.into()),
-            ew,
-            cfg.opacity_corr,
-        );
-        let mut u = le.units();
-        u.push(Unit::Reg { bits: oc });
-        items.push(Item::new("opacity", "exp lerp 2^-frac(p)", 1, u));
-    }
     let lt_int = u32::from(cfg.log_transmittance.int_bits());
-    let amount = lt_int.min(addr_bits(u64::from(oc) + 1));
-    let sq = Quantizer::new(
-        Word::unsigned(oc + 1, i32::from(cfg.opacity_corr.frac()) + 1),
-        cfg.opacity_corr,
-    );
-    let mut u = vec![
-        Unit::Shift {
-            width: oc + 1,
-            amount,
-        },
-        Unit::Cmp { width: lt_int },
-    ];
-    u.extend(sq.units());
-    u.push(Unit::Reg { bits: oc });
-    items.push(Item::new("opacity", "T = 2^-frac >> int(p)", 1, u));
-    let om = Quantizer::new(
-        Word::signed(oc + 1, i32::from(cfg.opacity_corr.frac())),
-        cfg.opacity_corr,
-    );
-    let mut u = vec![Unit::Sub { width: oc }];
-    u.extend(om.units());
-    u.push(Unit::Reg { bits: oc });
-    items.push(Item::new("opacity", "a' = 1 - T", 1, u));
-
-    // Compositing: C + a (c - C) per colour, A + a (1 - A); the result is
-    // written straight into the compositing buffer.
-    let lcomp = Lerp::new(
-        cfg.accum_color.into(),
-        Some(cfg.color.into()),
-        cfg.opacity_corr.into(),
-        cfg.accum_color,
-    );
-    let lalpha = Lerp::new(
-        cfg.accum_alpha.into(),
-        None,
-        cfg.opacity_corr.into(),
-        cfg.accum_alpha,
-    );
-    items.push(Item::new(
-        "compositing",
-        "colour: C + a (c - C)",
-        3,
-        lcomp.units(),
-    ));
-    items.push(Item::new(
-        "compositing",
-        "opacity: A + a (1 - A)",
-        1,
-        lalpha.units(),
-    ));
+    items.extend(derived("opacity").filter(|it| !(geo.preint && it.name == "p = -log2(1 - a) ds")));
+    items.extend(derived("compositing"));
 
     // Schedule: (step, dependencies with the bits each brings, latency).
     let root_lat = root.max(1);

@@ -1,0 +1,119 @@
+//! The pipelined schedule of a [`Graph`]: pipeline registers at stage
+//! boundaries so that each stage is at most one multiplier or one carry
+//! chain deep, and the latency that gives.
+//!
+//! Why that depth: the emitted compositing unit, one clock deep
+//! (subtract, 18x18 multiply, add, round, saturate), closes at about
+//! 64 MHz on an ECP5-25F, against the 150 MHz the cost model assumes
+//! there. A multiplier block alone (with its output register) or one
+//! carry chain of the datapath's widths (up to about 40 bits) plus the
+//! LUT levels of a saturation select is what one clock of 150 MHz holds
+//! on those parts; a multiply and its post-add then take two stages,
+//! which is also where a DSP block puts its M and P registers.
+//!
+//! Operators and their depth: products are multipliers; sums,
+//! differences, magnitude compares, rounding increments (an assignment
+//! that rounds, [`crate::cost::shapes::Quantizer::round`]) are carry
+//! chains; an integer square root is one carry chain per result bit;
+//! wires, multiplexers, reductions and truncating assignments (their
+//! saturation select) are logic that joins whatever stage their operands
+//! are in. A memory read and a declared register end a stage. Ports are
+//! held registers (the row broadcast, the ray's accumulators read when
+//! needed): they cost no delay line.
+
+use super::{Graph, Op};
+use crate::cost::shapes::Quantizer;
+
+/// A graph's schedule.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Schedule {
+    /// Per node: the stage whose logic produces it (0 from the first
+    /// clock).
+    pub stage: Vec<u32>,
+    /// Stages from the first to the outputs' register: the latency.
+    pub depth: u32,
+    /// Bits of the pipeline registers the schedule adds (delay lines
+    /// included: a value consumed `n` stages later is held `n` times).
+    pub register_bits: u64,
+}
+
+/// Carry chains an operator adds to its stage (`None`: a multiplier).
+fn chains(g: &Graph, op: Op, id: usize) -> Option<u32> {
+    Some(match op {
+        Op::Mul(..) => return None,
+        Op::Add(..) | Op::Sub(..) | Op::Ge(..) => 1,
+        Op::Quantize(x) => {
+            let q = Quantizer::new(g.word(x), g.nodes[id].fmt.expect("format"));
+            u32::from(q.round)
+        }
+        Op::ShrQuantize(x, _) => {
+            // The shifted word keeps one guard bit, then rounds.
+            let q = Quantizer::new(g.word(x), g.nodes[id].fmt.expect("format"));
+            u32::from(q.out.frac < q.input.frac || q.quant != crate::fixed::Quant::Trn)
+        }
+        Op::Isqrt(_) => g.nodes[id].word.bits.max(1),
+        _ => 0,
+    })
+}
+
+/// Schedules `g` as soon as possible under the one-multiplier-or-one-
+/// carry-chain rule.
+pub fn schedule(g: &Graph) -> Schedule {
+    let n = g.nodes.len();
+    // Per node: its stage and whether its stage already holds a
+    // multiplier or a carry chain on its path.
+    let mut stage = vec![0u32; n];
+    let mut heavy = vec![false; n];
+    // The stage at which each node reads its operands.
+    let mut reads = vec![0u32; n];
+    for (i, node) in g.nodes.iter().enumerate() {
+        let ops = node.op.operands();
+        let s = ops.iter().map(|o| stage[o.0]).max().unwrap_or(0);
+        let busy = ops.iter().any(|o| stage[o.0] == s && heavy[o.0]);
+        let (st, h, r) = match node.op {
+            Op::Input | Op::Const(_) => (0, false, 0),
+            Op::Read(..) | Op::Reg(_) => (s + 1, false, s),
+            op => match chains(g, op, i) {
+                Some(0) => (s, busy, s),
+                // A multiplier or a first carry chain starts a stage when
+                // this one is taken; further chains take one stage each.
+                Some(k) => {
+                    let s0 = s + u32::from(busy);
+                    (s0 + k - 1, true, s0)
+                }
+                None => {
+                    let s0 = s + u32::from(busy);
+                    (s0, true, s0)
+                }
+            },
+        };
+        stage[i] = st;
+        heavy[i] = h;
+        reads[i] = r;
+    }
+    // Delay lines: a value is held until its last reader's stage. Ports
+    // and constants are held anyway.
+    let consumers = g.consumers();
+    let register_bits = (0..n)
+        .filter(|&i| !matches!(g.nodes[i].op, Op::Input | Op::Const(_)))
+        .map(|i| {
+            let last = consumers[i]
+                .iter()
+                .map(|c| reads[c.0])
+                .max()
+                .unwrap_or(stage[i]);
+            u64::from(last.saturating_sub(stage[i])) * u64::from(g.nodes[i].word.bits)
+        })
+        .sum();
+    let depth = g
+        .outputs
+        .iter()
+        .map(|(_, o)| stage[o.0] + 1)
+        .max()
+        .unwrap_or(0);
+    Schedule {
+        stage,
+        depth,
+        register_bits,
+    }
+}
