@@ -11,7 +11,7 @@ mod tools;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-const BRAIN: &str = "../shared/data/brainsmall.den";
+const BRAIN: &str = "data/brainsmall.den";
 
 /// The workspace root (the `ercube` package).
 fn root() -> PathBuf {

@@ -16,7 +16,7 @@ use std::process::{Command, ExitCode};
 
 use serde_json::json;
 
-const BRAIN: &str = "../shared/data/brainsmall.den";
+const BRAIN: &str = "data/brainsmall.den";
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
