@@ -18,7 +18,9 @@ const REL_TOL: f64 = 0.10;
 /// Runs `ercube synth` on `unit` for `target` and returns its JSON report.
 fn synth(dir: &std::path::Path, target: &str, unit: &str) -> serde_json::Value {
     let json = format!("{target}-{unit}.json");
-    let args = ["synth", "--target", target, "--unit", unit, "--stats", &json];
+    let args = [
+        "synth", "--target", target, "--unit", unit, "--stats", &json,
+    ];
     let out = ercube(dir, &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     serde_json::from_slice(&std::fs::read(dir.join(&json)).expect("report written"))
