@@ -106,13 +106,23 @@ impl TransferFunction {
         let tf: TransferFunction = toml::from_str(text).map_err(|e| {
             // The library's own text draws the line under a caret over
             // several lines: give its message and the line number instead.
+            // The table the error is in, when it is not the top level:
+            // serde's message names the field but not its table.
             let at = e
                 .span()
                 .map(|s| {
-                    format!(
-                        "line {}: ",
-                        text[..s.start.min(text.len())].lines().count().max(1)
-                    )
+                    let start = s.start.min(text.len());
+                    let before = &text[..start];
+                    // Up to the end of the error's own line, which may be
+                    // the table's header.
+                    let end = text[start..].find('\n').map_or(text.len(), |n| start + n);
+                    let table = text[..end]
+                        .lines()
+                        .map(str::trim)
+                        .filter(|l| l.starts_with('['))
+                        .last()
+                        .map_or_else(String::new, |t| format!(" in {t}"));
+                    format!("line {}{table}: ", before.lines().count().max(1))
                 })
                 .unwrap_or_default();
             input(format!("transfer function: {at}{}", one_line(e.message())))
@@ -443,7 +453,10 @@ mod tests {
             e.contains("invalid length 5") && e.contains("four values"),
             "{e}"
         );
-        assert!(e.starts_with("transfer function: line 3: "), "{e}");
+        assert!(
+            e.starts_with("transfer function: line 3 in [[point]]: "),
+            "{e}"
+        );
         let three = "[[point]]\nvalue = 3\nrgba = [0, 0, 0]\n";
         assert!(TransferFunction::from_toml_str(three).is_err());
         // An empty file: the message, not the library's caret drawing.

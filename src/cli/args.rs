@@ -312,7 +312,16 @@ impl ViewArgs {
                 if let Some((dims, kind)) = self.source.scene_shape()? {
                     check(dims, kind)?;
                 }
-                self.load()?
+                let (loaded, default_tf) = {
+                    let _s = super::progress::Stage::start("loading volume");
+                    self.source.load_placed()?
+                };
+                // A frame over the budget is refused before the transfer
+                // function is resolved, so a refused run says one line and
+                // no warning about the table.
+                check(loaded.volume.dims(), loaded.volume.kind())?;
+                let (vol, tf, cam, _) = self.place(loaded, default_tf)?;
+                (vol, tf, cam)
             }
         };
         check(vol.dims(), vol.kind())?;

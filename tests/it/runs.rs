@@ -87,7 +87,7 @@ fn sizes_spacings_and_pe_lists_beyond_range_are_refused() {
         ),
         (
             "render --scene checker:16 --size 16x16 --method pipeline --pes 16 --vcd t.vcd --trace-pes 300 --out o.png",
-            "--trace-pes names PE 300, but the array has 16 PEs",
+            "--trace-pes 300: PE 300 outside the array of 16 PEs",
         ),
     ] {
         let (argv, out) = run(dir.path(), args);

@@ -178,15 +178,17 @@ fn file_errors_are_stated_once() {
             "/nonexistent.den",
             "No such file or directory",
         ),
+        // Output paths are checked before any work, in the program's
+        // words rather than the OS error's.
         (
             "render --scene checker:16 --size 16x16 --out nodir/o.png",
             "nodir/o.png",
-            "No such file or directory",
+            "does not exist",
         ),
         (
             "render --scene checker:16 --size 16x16 --out adir",
             "adir",
-            "Is a directory",
+            "is a folder",
         ),
     ];
     let mut failures = Vec::new();
