@@ -96,3 +96,32 @@ fn sizes_spacings_and_pe_lists_beyond_range_are_refused() {
         assert!(!dir.path().join("t.vcd").exists(), "{args}");
     }
 }
+
+/// `animate` whose path fails part-way (the third eye sits on the look-at
+/// point) leaves no frame behind and no output folder it made; an output
+/// folder that was there keeps what it held and gains nothing.
+#[test]
+fn an_animation_that_fails_part_way_leaves_no_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("eyes.txt"),
+        "8,8,-30\n8,8,-28\n7.5,7.5,7.5\n8,8,-26\n",
+    )
+    .unwrap();
+    let args = "animate --scene checker:16 --size 16x16 --path eyes.txt --look-at 7.5,7.5,7.5";
+    let (argv, out) = run(dir.path(), &format!("{args} --out-dir fresh"));
+    assert_refused(&argv, &out, "frame 2: look-at point equals the eye");
+    assert!(
+        !dir.path().join("fresh").exists(),
+        "the failed run left its output folder"
+    );
+    std::fs::create_dir(dir.path().join("kept")).unwrap();
+    std::fs::write(dir.path().join("kept/notes.txt"), "mine").unwrap();
+    let (argv, out) = run(dir.path(), &format!("{args} --out-dir kept"));
+    assert_refused(&argv, &out, "frame 2");
+    let left: Vec<_> = std::fs::read_dir(dir.path().join("kept"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["notes.txt"], "the failed run left frames");
+}
