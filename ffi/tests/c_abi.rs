@@ -21,8 +21,15 @@ fn root() -> PathBuf {
 /// The folder the static library was built into (beside `deps/`, which
 /// holds this test).
 fn lib_dir() -> PathBuf {
+    // `cargo test` builds the library's static archive beside this test
+    // binary, in `deps/`; only `cargo build` copies it up a level.
     let exe = std::env::current_exe().unwrap();
-    exe.parent().unwrap().parent().unwrap().to_path_buf()
+    let deps = exe.parent().unwrap();
+    if deps.join("libercube_ffi.a").is_file() {
+        deps.to_path_buf()
+    } else {
+        deps.parent().unwrap().to_path_buf()
+    }
 }
 
 /// `ercube render ARGS --raw-npy` through the command line's own entry,
