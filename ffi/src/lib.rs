@@ -170,15 +170,24 @@ pub unsafe extern "C" fn ercube_config_from_toml(
     })
 }
 
+/// Drops the boxed handle `p` (null is ignored); a panic in its drop
+/// stays on this side of the boundary.
+///
+/// # Safety
+/// `p` is null or a pointer from `Box::into_raw`, not yet freed.
+unsafe fn free_handle<T>(p: *mut T) {
+    if !p.is_null() {
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(p))));
+    }
+}
+
 /// Releases a configuration (null is ignored).
 ///
 /// # Safety
 /// `cfg` is null or a handle from [`ercube_config_from_toml`], not yet freed.
 #[no_mangle]
 pub unsafe extern "C" fn ercube_config_free(cfg: *mut ErcubeConfig) {
-    if !cfg.is_null() {
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(cfg))));
-    }
+    free_handle(cfg);
 }
 
 /// Loads a volume file, in any format `ercube render --volume` reads
@@ -316,9 +325,7 @@ pub unsafe extern "C" fn ercube_volume_shape(
 /// `vol` is null or a live handle, not used again.
 #[no_mangle]
 pub unsafe extern "C" fn ercube_volume_free(vol: *mut ErcubeVolume) {
-    if !vol.is_null() {
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(vol))));
-    }
+    free_handle(vol);
 }
 
 /// Renders one frame of `vol` as `ercube render ARGV` would (`argv`:
@@ -443,7 +450,5 @@ pub unsafe extern "C" fn ercube_frame_stats_json(frame: *const ErcubeFrame) -> *
 /// `frame` is null or a live handle, not used again.
 #[no_mangle]
 pub unsafe extern "C" fn ercube_frame_free(frame: *mut ErcubeFrame) {
-    if !frame.is_null() {
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(frame))));
-    }
+    free_handle(frame);
 }

@@ -540,14 +540,7 @@ impl Frame {
 pub fn render(prep: &Prepared, lut: &Lut, tech: Technique, opts: &RenderOptions) -> Result<Frame> {
     if let Some(r) = &opts.reference.refine {
         let out = crate::refine::frame::render(prep, lut, tech, opts, r)?;
-        return Ok(Frame {
-            image: out.image,
-            slice: None,
-            mip: out.mip,
-            gaze: Some(out.stats.as_gaze()),
-            sw: None,
-            er_gaze: None,
-        });
+        return Ok(out.into_frame().0);
     }
     match tech {
         Technique::Reference => match &opts.reference.gaze {

@@ -119,8 +119,8 @@ impl TransferFunction {
                     let table = text[..end]
                         .lines()
                         .map(str::trim)
-                        .filter(|l| l.starts_with('['))
-                        .last()
+                        .rev()
+                        .find(|l| l.starts_with('['))
                         .map_or_else(String::new, |t| format!(" in {t}"));
                     format!("line {}{table}: ", before.lines().count().max(1))
                 })

@@ -256,15 +256,8 @@ fn frame_golden(
             let (out, times) = timed(a.repeat, || {
                 Ok(golden::refine::frame::render(&prep, &lut, tech, &opts, r)?)
             })?;
-            let frame = golden::render::Frame {
-                image: out.image,
-                slice: None,
-                mip: out.mip,
-                gaze: Some(out.stats.as_gaze()),
-                sw: None,
-                er_gaze: None,
-            };
-            (frame, times, Some((out.leaf_level, out.stats)))
+            let (frame, leaf_level, stats) = out.into_frame();
+            (frame, times, Some((leaf_level, stats)))
         }
         None => {
             let _s = Stage::start(format!("rendering with {}", tech.name()));

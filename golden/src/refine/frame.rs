@@ -35,6 +35,23 @@ pub struct Refined {
     pub mip: Option<MipStats>,
 }
 
+impl Refined {
+    /// The frame [`crate::render::render`] returns for a refined frame
+    /// (its gaze stats are the refinement's rays per level), and the
+    /// refinement's own per-pixel leaf levels and stats.
+    pub fn into_frame(self) -> (crate::render::Frame, Vec<u8>, RefineStats) {
+        let frame = crate::render::Frame {
+            image: self.image,
+            slice: None,
+            mip: self.mip,
+            gaze: Some(self.stats.as_gaze()),
+            sw: None,
+            er_gaze: None,
+        };
+        (frame, self.leaf_level, self.stats)
+    }
+}
+
 /// One step of a progressive sequence.
 #[derive(Debug, Clone)]
 pub struct Step {
