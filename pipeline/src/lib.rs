@@ -45,8 +45,4 @@ pub mod synth;
 pub mod tables;
 pub mod voi;
 
-pub use array::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint,
-    run_frame_preint_resident, run_frame_resident, run_frame_shaded, run_frame_voi, run_frame_with,
-    Frame, Resident, RunError, VoxelLoad,
-};
+pub use array::{Frame, FrameRun, Resident, RunError, VoxelLoad, Voxels};

@@ -16,7 +16,7 @@
 //! would keep: the volume in PE memory. A frame with the previous frame's
 //! axis map (principal axis, direction, near clip) starts from the PE
 //! memories as they were and the host loads nothing; a frame that changes
-//! it reloads them ([`pipeline::run_frame_resident`]). A frame's cycles are
+//! it reloads them ([`pipeline::FrameRun::resident`]). A frame's cycles are
 //! the same either way; the load's cycles come before them
 //! (`voxel_load.cycles`, 0 when resident), and the stats give each frame's
 //! cycles, its load and both together (`cycles_with_load`).
@@ -34,7 +34,7 @@ use golden::warp::warp;
 use image::codecs::gif::{GifEncoder, Repeat};
 use image::{Delay, Frame, RgbaImage};
 use pipeline::config::PipelineConfig;
-use waves::Tracer;
+use pipeline::{FrameRun, Voxels};
 
 use super::args::{parse_vec3, with_threads, SliceArgs, ViewArgs};
 use super::bench::progress;
@@ -258,27 +258,19 @@ fn animate(a: &AnimateArgs) -> Result<()> {
                 if a.no_reuse {
                     *resident = None;
                 }
+                let stack = Voxels::Stack {
+                    data_bits: vol.kind().bits(),
+                };
+                let frame = FrameRun::prepared(cfg, &lut, &prep, stack)
+                    .skips(opts.slice.skips)
+                    .resident(resident);
                 let f = match &preint {
-                    Some(pt) => pipeline::run_frame_preint_resident(
-                        cfg,
-                        vol.kind().bits(),
-                        &lut,
-                        &prep,
-                        (pt, opts.slice.skips),
-                        Tracer::disabled(),
-                        resident,
-                    ),
-                    None => pipeline::run_frame_resident(
-                        cfg,
-                        vol.kind().bits(),
-                        &lut,
-                        &prep,
-                        opts.slice.skips,
-                        (opts.slice.shade.as_ref(), opts.slice.voi.as_ref()),
-                        Tracer::disabled(),
-                        resident,
-                    ),
+                    Some(pt) => frame.preint(Some(pt)),
+                    None => frame
+                        .shading(opts.slice.shade.as_ref())
+                        .voi(opts.slice.voi.as_ref()),
                 }
+                .run()
                 .with_context(|| format!("frame {i}"))?;
                 chip_frames.cycles.push(f.cycles);
                 chip_frames.loads.push(f.voxel_load);

@@ -16,6 +16,7 @@ use golden::tf::Lut;
 use golden::volume::Volume;
 use golden::warp::warp;
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::{FrameRun, Voxels};
 use waves::{parse_cycle_window, PeFilter, TraceConfig, Tracer};
 
 use super::method::MethodArg;
@@ -329,27 +330,15 @@ fn frame_with(
     (skips, shade, voi, preint): FrameOptions<'_>,
     (tr, resident): (Tracer, &mut Option<pipeline::Resident>),
 ) -> Result<pipeline::Frame> {
+    let frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits })
+        .skips(skips)
+        .trace(tr)
+        .resident(resident);
     Ok(match preint {
-        Some(pt) => pipeline::run_frame_preint_resident(
-            cfg,
-            data_bits,
-            lut,
-            prep,
-            (pt, skips),
-            tr,
-            resident,
-        )?,
-        None => pipeline::run_frame_resident(
-            cfg,
-            data_bits,
-            lut,
-            prep,
-            skips,
-            (shade, voi),
-            tr,
-            resident,
-        )?,
-    })
+        Some(pt) => frame.preint(Some(pt)),
+        None => frame.shading(shade).voi(voi),
+    }
+    .run()?)
 }
 
 /// Raw accumulator words as int64 `H x W x 4`.

@@ -20,6 +20,7 @@ use pipeline::cost::inventory::Geometry;
 use pipeline::cost::report::build;
 use pipeline::cost::throughput::RunSummary;
 use pipeline::cost::{clock, Target};
+use pipeline::{FrameRun, Voxels};
 
 use super::args::ViewArgs;
 use super::chip::{self, ConfigArgs};
@@ -167,23 +168,15 @@ fn run_at(
     cfg.validate()?;
     let _s = Stage::start(format!("clocking {pes} PEs"));
     let bits = vol.kind().bits();
-    let tracer = waves::Tracer::disabled;
+    let frame = FrameRun::prepared(&cfg, lut, prep, Voxels::Stack { data_bits: bits }).skips(skips);
     let frame = if preint {
         // The unit's table is golden's, from the same classification
         // table; the frame's cycles include the prime and finish passes.
         let pt = golden::preint::PreTable::new(lut);
-        pipeline::run_frame_preint(&cfg, bits, lut, prep, (&pt, skips), tracer())?
+        frame.preint(Some(&pt)).run()?
     } else {
         let sh = shade.then(golden::shading::Shade::default);
-        pipeline::run_frame_from_stack_voi(
-            &cfg,
-            bits,
-            lut,
-            prep,
-            skips,
-            (sh.as_ref(), voi),
-            tracer(),
-        )?
+        frame.shading(sh.as_ref()).voi(voi).run()?
     };
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(

@@ -22,6 +22,7 @@ use pipeline::cost::inventory::Geometry;
 use pipeline::cost::parts::parts;
 use pipeline::cost::throughput::RunSummary;
 use pipeline::cost::Target;
+use pipeline::{FrameRun, Voxels};
 
 use super::args::{with_threads, ViewArgs};
 use super::chip;
@@ -235,16 +236,11 @@ pub fn run(a: &ExploreArgs) -> Result<()> {
         cfgs.par_iter()
             .map(|c| {
                 let _done = Done(&stage);
-                let frame = pipeline::run_frame_shaded(
-                    c,
-                    &vol,
-                    &lut,
-                    &prep,
-                    skips,
-                    shade.as_ref(),
-                    waves::Tracer::disabled(),
-                )
-                .with_context(|| pipeline::cost::arch::label(c))?;
+                let frame = FrameRun::prepared(c, &lut, &prep, Voxels::Volume(&vol))
+                    .skips(skips)
+                    .shading(shade.as_ref())
+                    .run()
+                    .with_context(|| pipeline::cost::arch::label(c))?;
                 let plan = pipeline::host::plan(c, &prep.view)?;
                 let geo = Geometry {
                     dims: prep.view.dims,

@@ -26,6 +26,7 @@ use golden::skip::Skips;
 use golden::tf::TransferFunction;
 use golden::volume::{Volume, DEFAULT_MEMORY_LIMIT};
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::Voxels;
 
 use super::args::with_threads;
 use super::render::timed_frames;
@@ -303,14 +304,9 @@ fn measure(
         };
         cfg.validate()?;
         let lut = super::chip::pipeline_lut(&cfg, &case.vol, &case.tf);
-        let f = pipeline::run_frame_with(
-            &cfg,
-            &case.vol,
-            &lut,
-            &prep,
-            skips,
-            waves::Tracer::disabled(),
-        )?;
+        let f = pipeline::FrameRun::prepared(&cfg, &lut, &prep, Voxels::Volume(&case.vol))
+            .skips(skips)
+            .run()?;
         let run = Run {
             image: golden::warp::warp(&prep.view, &f.baseplane),
             cost: f.cycles as f64,

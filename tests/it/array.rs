@@ -122,7 +122,8 @@ fn cli_pipeline_render_writes_everything() {
     let eye = centre - DVec3::Z * (centre.z + 1.5 * s.n as f64);
     let cam = Camera::new(eye, centre, DVec3::Y, 60.0, 48, 48).expect("camera");
     let prep = Prepared::new(&s.vol, &cam).expect("view");
-    let frame = pipeline::run_frame(&config(4), &s.vol, &s.lut, &prep.view, Tracer::disabled())
+    let frame = pipeline::FrameRun::new(&config(4), &s.lut, &s.vol, &prep.view)
+        .run()
         .expect("frame");
     assert_eq!(
         [w, h],
@@ -281,7 +282,9 @@ fn direct_cycles(pes: u16) -> u64 {
     let prep = Prepared::new(&vol, &cam).expect("view");
     // The command skips as render does by default.
     let skips = golden::methods::Options::default().skips;
-    pipeline::run_frame_with(&cfg, &vol, &lut, &prep, skips, waves::Tracer::disabled())
+    pipeline::FrameRun::prepared(&cfg, &lut, &prep, pipeline::Voxels::Volume(&vol))
+        .skips(skips)
+        .run()
         .expect("frame")
         .cycles
 }

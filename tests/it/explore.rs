@@ -32,16 +32,11 @@ fn direct_cycles(pes: u16) -> u64 {
     )
     .expect("camera");
     let prep = Prepared::new(&vol, &cam).expect("view");
-    pipeline::run_frame_with(
-        &cfg,
-        &vol,
-        &lut,
-        &prep,
-        golden::skip::Skips::default(),
-        waves::Tracer::disabled(),
-    )
-    .expect("frame")
-    .cycles
+    pipeline::FrameRun::prepared(&cfg, &lut, &prep, pipeline::Voxels::Volume(&vol))
+        .skips(golden::skip::Skips::default())
+        .run()
+        .expect("frame")
+        .cycles
 }
 
 /// A tiny sweep (checker:32, two mappings, two placements, two PE counts)

@@ -72,7 +72,8 @@ pub fn er_and_pipeline(
         &golden::render::RenderOptions::unskipped(),
     )
     .expect("golden er renders");
-    let frame = pipeline::run_frame(cfg, vol, lut, &prep.view, waves::Tracer::disabled())
+    let frame = pipeline::FrameRun::new(cfg, lut, vol, &prep.view)
+        .run()
         .expect("pipeline frame");
     let image = golden::warp::warp(&prep.view, &frame.baseplane);
     (golden, frame, image)

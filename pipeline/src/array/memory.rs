@@ -13,7 +13,7 @@
 //! (Cube-4's skewed memories read beams along any axis from one copy)
 //! would be a different memory organisation, not modelled here.
 //!
-//! The load happens before a frame's first cycle, so [`Frame::cycles`]
+//! The load happens before a frame's first cycle, so [`crate::Frame::cycles`]
 //! counts the same stages for a fresh and a resident frame, bit-identical;
 //! [`VoxelLoad`] says what the host wrote and the cycles the load took
 //! (0 for a resident frame): the bytes over the host link of
@@ -24,7 +24,6 @@ use std::sync::Arc;
 
 use golden::geometry::{AxisMap, View};
 use rayon::prelude::*;
-use waves::Tracer;
 
 use crate::config::PipelineConfig;
 use crate::datapath::Datapath;
@@ -32,11 +31,8 @@ use crate::fixed::QuantStats;
 use crate::host::VoxelSource;
 use crate::pe::VoxelMem;
 
-use super::run::Units;
-use super::{Array, Frame, RunError};
-
 /// The PE memories a frame ran with, kept for the next frame
-/// ([`run_frame_resident`]).
+/// ([`crate::FrameRun::resident`]).
 pub struct Resident {
     /// What the memories hold (`None`: to be loaded again, into these
     /// buffers).
@@ -158,72 +154,6 @@ impl VoxelLoad {
                 .max(busiest),
         }
     }
-}
-
-/// [`crate::run_frame_from_stack_voi`], keeping the PE memories in `resident`
-/// across calls: when `resident` holds the memories of a frame with the
-/// same axis map, configuration and data width, the PEs start from them
-/// and the host loads nothing (the frame's [`VoxelLoad`] says so);
-/// otherwise they load from `prep`'s stack. Either way `resident` holds
-/// this frame's memories afterwards. The frame is bit-identical, cycles
-/// included, to [`crate::run_frame_from_stack_voi`]'s.
-#[allow(clippy::too_many_arguments)]
-pub fn run_frame_resident(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-    resident: &mut Option<Resident>,
-) -> Result<Frame, RunError> {
-    let units = Units {
-        shade,
-        voi,
-        preint: None,
-    };
-    run_resident(cfg, (data_bits, lut), prep, skips, units, tracer, resident)
-}
-
-/// The frame of `prep` with `units`, the PEs starting from `resident`'s
-/// memories when they fit (see [`run_frame_resident`]) and leaving this
-/// frame's there.
-pub(super) fn run_resident(
-    cfg: &PipelineConfig,
-    (data_bits, lut): (u32, &golden::tf::Lut),
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    units: Units,
-    tracer: Tracer,
-    resident: &mut Option<Resident>,
-) -> Result<Frame, RunError> {
-    if prep.blocks.block != usize::from(cfg.occupancy_block) {
-        return Err(RunError::Schedule(format!(
-            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
-            prep.blocks.block, cfg.occupancy_block
-        )));
-    }
-    let source = VoxelSource::Stack(&prep.stack);
-    let array = Array::load_reusing(
-        cfg,
-        source,
-        data_bits,
-        lut,
-        &prep.view,
-        tracer,
-        resident.take(),
-    )?;
-    let (frame, kept) = super::run::run_loaded(
-        array,
-        (data_bits, lut),
-        prep,
-        prep.blocks.clone(),
-        skips,
-        units,
-    )?;
-    *resident = Some(kept);
-    Ok(frame)
 }
 
 /// Every PE's voxel memory (PE `k` holding columns `held[k]`, ascending),

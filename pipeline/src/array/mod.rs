@@ -28,11 +28,8 @@ mod run;
 pub(crate) mod warm;
 
 pub use clock::{Clock, Links};
-pub use memory::{run_frame_resident, Resident, VoxelLoad};
-pub use run::{
-    run_frame, run_frame_from_stack, run_frame_from_stack_voi, run_frame_preint,
-    run_frame_preint_resident, run_frame_shaded, run_frame_voi, run_frame_with,
-};
+pub use memory::{Resident, VoxelLoad};
+pub use run::{FrameRun, Voxels};
 
 use golden::geometry::View;
 use golden::volume::Volume;
@@ -169,7 +166,7 @@ pub struct Frame {
     /// With the rays' buffer in external memory, what crossed its channel.
     pub ray_buffer: Option<RayBufferStats>,
     /// What the host loaded into the PE memories before the frame (not
-    /// clocked: see [`run_frame_resident`]).
+    /// clocked: see [`FrameRun::resident`]).
     pub voxel_load: VoxelLoad,
 }
 
@@ -308,7 +305,7 @@ impl Array {
 
     /// [`Array::load`], starting from the memories of `resident` when they
     /// hold this view's volume for this configuration (nothing is read
-    /// from `source` then); see [`run_frame_resident`].
+    /// from `source` then); see [`FrameRun::resident`].
     pub fn load_reusing(
         cfg: &PipelineConfig,
         source: VoxelSource,
@@ -434,7 +431,7 @@ impl Array {
     /// loads golden's table `pt` (built from this array's classification
     /// table) into the unit. A pre-integrated frame takes neither shading
     /// nor a volume of interest; it skips only with a plan made for it
-    /// ([`crate::skip::plan_preint_mask`], [`crate::run_frame_preint`]):
+    /// ([`crate::skip::plan_preint_mask`], [`FrameRun::preint`]):
     /// loading the unit drops any other.
     pub fn set_preint(&mut self, pt: &golden::preint::PreTable) -> Result<(), RunError> {
         let unsupported = |what: &str| {

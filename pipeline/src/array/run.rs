@@ -1,225 +1,313 @@
-//! The entry points that run one frame: from a volume or from a prepared
-//! view's slice stack, shaded and with a volume of interest when given.
-//! Each loads an [`Array`], hands it the frame's shading, volume of interest
-//! and skipping plan, clocks it and reads it out.
+//! The one entry point that runs a frame, [`FrameRun`]: where the PEs'
+//! voxels come from, the units the frame loads beside the datapath
+//! (shading, a volume of interest, pre-integration), what the controller
+//! skips, the waveform and the PE memories kept between frames. It loads
+//! an [`Array`], hands it those, clocks it and reads it out.
 
 use golden::geometry::View;
+use golden::render::Prepared;
+use golden::skip::Skips;
+use golden::tf::Lut;
 use golden::volume::Volume;
 use waves::Tracer;
 
 use crate::config::PipelineConfig;
 use crate::host::{PlanError, VoxelSource};
 
-use super::memory::run_resident;
-use super::{run_frame_resident, Array, Frame, Resident, RunError};
+use super::{Array, Frame, Resident, RunError};
 
-/// Runs one frame: plans, loads, clocks and reads out.
-pub fn run_frame(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    view: &View,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    Array::new(cfg, volume, lut, view, tracer)?.run(view)
+/// Where the host reads the scalars it loads into the PE memories.
+#[derive(Clone, Copy)]
+pub enum Voxels<'a> {
+    /// The volume, through the view's axes (its own data width).
+    Volume(&'a Volume),
+    /// The prepared view's slice stack (the same view-space scalars,
+    /// `data_bits` bits each), so a caller that handed its volume to the
+    /// stack holds the voxels once. Only a [`FrameRun::prepared`] frame
+    /// has a stack.
+    Stack {
+        /// Bits of the volume's scalars (8, 12 or 16).
+        data_bits: u32,
+    },
 }
 
-/// Runs one frame of `prep` with the controller skipping what `skips`
-/// allows and clipping to `prep`'s planes: the occupancy memory is built
-/// from the volume's min-max blocks (`occupancy_block` voxels) and this
-/// pipeline's classification table (see [`crate::skip`]).
-pub fn run_frame_with(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_shaded(cfg, volume, lut, prep, skips, None, tracer)
+/// What the frame is of: a bare view (nothing skipped), or golden's
+/// prepared view with its occupancy, clip planes and slice stack.
+#[derive(Clone, Copy)]
+enum Camera<'a> {
+    View(&'a View),
+    Prepared(&'a Prepared),
 }
 
-/// [`run_frame_with`], shaded with `shade` when given
-/// ([`Array::set_shading`]).
-pub fn run_frame_shaded(
-    cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
+/// One frame of the PE array, built up from its options and run once by
+/// [`FrameRun::run`].
+///
+/// A frame of a bare view ([`FrameRun::new`]) loads the volume and runs
+/// every ray of every slice (the controller has no occupancy memory); a
+/// frame of golden's prepared view ([`FrameRun::prepared`]) skips what
+/// [`FrameRun::skips`] allows (by default empty space and culling), clips
+/// to the view's planes, and may load the PEs from the view's slice stack.
+///
+/// ```no_run
+/// # fn frame(
+/// #     cfg: &pipeline::config::PipelineConfig,
+/// #     lut: &golden::tf::Lut,
+/// #     prep: &golden::render::Prepared,
+/// #     shade: &golden::shading::Shade,
+/// # ) -> Result<(), pipeline::RunError> {
+/// use pipeline::{FrameRun, Voxels};
+/// let mut kept = None;
+/// // A shaded frame from the prepared view's slice stack of 8-bit data,
+/// // skipping only empty space, keeping the PE memories for the next
+/// // frame of the same axis map.
+/// let frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits: 8 })
+///     .skips(golden::skip::Skips::EMPTY)
+///     .shading(Some(shade))
+///     .resident(&mut kept)
+///     .run()?;
+/// println!("{} cycles", frame.cycles);
+/// # Ok(()) }
+/// ```
+#[must_use = "a FrameRun does nothing until run"]
+pub struct FrameRun<'a> {
+    cfg: &'a PipelineConfig,
+    lut: &'a Lut,
+    camera: Camera<'a>,
+    voxels: Voxels<'a>,
+    skips: Option<Skips>,
+    units: Units<'a>,
     tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_voi(cfg, volume, lut, prep, skips, (shade, None), tracer)
+    resident: Option<&'a mut Option<Resident>>,
 }
 
-/// [`run_frame_shaded`] with the volume of interest `voi` when given
-/// ([`Array::set_voi`]).
-pub fn run_frame_voi(
+impl<'a> FrameRun<'a> {
+    /// A frame of `volume` seen through `view`, classified by `lut`: the
+    /// host loads the volume, the controller skips nothing, no unit beside
+    /// the datapath, no waveform.
+    pub fn new(
+        cfg: &'a PipelineConfig,
+        lut: &'a Lut,
+        volume: &'a Volume,
+        view: &'a View,
+    ) -> FrameRun<'a> {
+        FrameRun::of(cfg, lut, Camera::View(view), Voxels::Volume(volume))
+    }
+
+    /// A frame of golden's prepared view `prep`, classified by `lut`, the
+    /// PEs loaded from `voxels`: the controller skips what
+    /// [`FrameRun::skips`] allows (default: empty space and culling) with
+    /// an occupancy memory built from the volume's min-max blocks
+    /// (`occupancy_block` voxels; from a stack, `prep` must have been
+    /// prepared with blocks of that edge) and this pipeline's
+    /// classification table ([`crate::skip`]), and clips to `prep`'s
+    /// planes.
+    pub fn prepared(
+        cfg: &'a PipelineConfig,
+        lut: &'a Lut,
+        prep: &'a Prepared,
+        voxels: Voxels<'a>,
+    ) -> FrameRun<'a> {
+        FrameRun::of(cfg, lut, Camera::Prepared(prep), voxels)
+    }
+
+    fn of(
+        cfg: &'a PipelineConfig,
+        lut: &'a Lut,
+        camera: Camera<'a>,
+        voxels: Voxels<'a>,
+    ) -> FrameRun<'a> {
+        FrameRun {
+            cfg,
+            lut,
+            camera,
+            voxels,
+            skips: None,
+            units: Units::default(),
+            tracer: Tracer::disabled(),
+            resident: None,
+        }
+    }
+
+    /// What the controller of a prepared frame skips. A frame of a bare
+    /// view has no occupancy memory: it refuses this at [`FrameRun::run`].
+    pub fn skips(mut self, skips: Skips) -> Self {
+        self.skips = Some(skips);
+        self
+    }
+
+    /// Shades the frame with `shade` when given ([`Array::set_shading`]).
+    pub fn shading(mut self, shade: Option<&'a golden::shading::Shade>) -> Self {
+        self.units.shade = shade;
+        self
+    }
+
+    /// Scales the frame's opacities by the volume of interest `voi` when
+    /// given ([`Array::set_voi`]).
+    pub fn voi(mut self, voi: Option<&'a golden::voi::Voi>) -> Self {
+        self.units.voi = voi;
+        self
+    }
+
+    /// Pre-integrates the frame with golden's table `pt` when given
+    /// ([`crate::preint`], [`Array::set_preint`]): `pt` is pre-integrated
+    /// from this frame's `lut`; a prepared frame's occupancy memory is then
+    /// built for the unit's table ([`crate::skip::plan_preint_mask`]),
+    /// each step's runs over the segment it integrates. A pre-integrated
+    /// frame takes no shading, volume of interest or clip planes.
+    pub fn preint(mut self, pt: Option<&'a golden::preint::PreTable>) -> Self {
+        self.units.preint = pt;
+        self
+    }
+
+    /// Records the frame's waveforms with `tracer` (default: none).
+    pub fn trace(mut self, tracer: Tracer) -> Self {
+        self.tracer = tracer;
+        self
+    }
+
+    /// Keeps the PE memories in `resident` across frames: when it holds
+    /// the memories of a frame with the same axis map, configuration and
+    /// data width, the PEs start from them and the host loads nothing (the
+    /// frame's [`crate::VoxelLoad`] says so); otherwise they load from the
+    /// frame's voxels (into its buffers, [`Resident::stale`]). Either way
+    /// `resident` holds this frame's memories afterwards. The frame is
+    /// bit-identical, cycles included, to one loaded afresh.
+    pub fn resident(mut self, resident: &'a mut Option<Resident>) -> Self {
+        self.resident = Some(resident);
+        self
+    }
+
+    /// Plans, loads, clocks and reads out the frame.
+    pub fn run(self) -> Result<Frame, RunError> {
+        let FrameRun {
+            cfg,
+            lut,
+            camera,
+            voxels,
+            skips,
+            units,
+            tracer,
+            resident,
+        } = self;
+        let view = match camera {
+            Camera::View(view) => view,
+            Camera::Prepared(prep) => &prep.view,
+        };
+        let (source, data_bits) = match (voxels, camera) {
+            (Voxels::Volume(vol), _) => (VoxelSource::Volume(vol, view), vol.kind().bits()),
+            (Voxels::Stack { data_bits }, Camera::Prepared(prep)) => {
+                (VoxelSource::Stack(&prep.stack), data_bits)
+            }
+            (Voxels::Stack { .. }, Camera::View(_)) => {
+                return Err(RunError::Schedule(
+                    "a frame of a bare view has no slice stack: prepare the view".into(),
+                ))
+            }
+        };
+        // The occupancy memory's min-max blocks, checked before the load.
+        let blocks =
+            match camera {
+                Camera::View(_) if skips.is_some() => return Err(RunError::Schedule(
+                    "a frame of a bare view has no occupancy memory to skip with: prepare the view"
+                        .into(),
+                )),
+                Camera::View(_) => None,
+                Camera::Prepared(prep) => Some(min_max(cfg, prep, voxels)?),
+            };
+        let mut spare = None;
+        let resident = resident.unwrap_or(&mut spare);
+        let mut array =
+            Array::load_reusing(cfg, source, data_bits, lut, view, tracer, resident.take())?;
+        let clipped = matches!(camera, Camera::Prepared(prep) if !prep.clip.is_empty());
+        units.load(&mut array, view, (data_bits, clipped))?;
+        if let (Camera::Prepared(prep), Some(mm)) = (camera, blocks) {
+            plan_skipping(
+                &mut array,
+                (data_bits, lut),
+                prep,
+                mm,
+                skips.unwrap_or_default(),
+                units,
+            )?;
+        }
+        let (frame, kept) = array.run_keeping(view)?;
+        *resident = Some(kept);
+        Ok(frame)
+    }
+}
+
+/// The min-max blocks of `prep`'s occupancy memory at the configuration's
+/// `occupancy_block`: `prep`'s own when they are that size; else built
+/// from the volume, which a stack frame does not have.
+fn min_max(
     cfg: &PipelineConfig,
-    volume: &Volume,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
+    prep: &Prepared,
+    voxels: Voxels,
+) -> Result<golden::occupancy::MinMax, RunError> {
     let block = usize::from(cfg.occupancy_block);
-    let mm = if prep.blocks.block == block {
-        prep.blocks.clone()
-    } else {
-        golden::occupancy::MinMax::new(volume, block)
-            .map_err(|e| RunError::Plan(PlanError::Golden(e)))?
-    };
-    let source = VoxelSource::Volume(volume, &prep.view);
-    run_prepared(
-        cfg,
-        (source, volume.kind().bits()),
-        lut,
-        prep,
-        mm,
-        skips,
-        (shade, voi),
-        tracer,
-    )
-}
-
-/// [`run_frame_shaded`] without the volume: the PEs load from `prep`'s
-/// slice stack (the same view-space scalars, `data_bits` bits each), so a
-/// caller that handed its volume to the stack holds the voxels once.
-/// `prep` must have been prepared with min-max blocks of the
-/// configuration's `occupancy_block`.
-pub fn run_frame_from_stack(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    shade: Option<&golden::shading::Shade>,
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_from_stack_voi(cfg, data_bits, lut, prep, skips, (shade, None), tracer)
-}
-
-/// [`run_frame_from_stack`] with the volume of interest `voi` when given
-/// ([`Array::set_voi`]).
-pub fn run_frame_from_stack_voi(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_resident(
-        cfg,
-        data_bits,
-        lut,
-        prep,
-        skips,
-        (shade, voi),
-        tracer,
-        &mut None,
-    )
-}
-
-/// Runs one pre-integrated frame of `prep` ([`crate::preint`]), the PEs
-/// loading from its slice stack (`data_bits`-bit scalars): golden's table
-/// `pt`, pre-integrated from `lut`, goes into the unit, and the controller
-/// skips what `skips` allows with an occupancy memory built for the
-/// unit's table ([`crate::skip::plan_preint_mask`]), each step's runs over
-/// the segment it integrates. The frame is unshaded, without a volume of
-/// interest or clip planes ([`Array::set_preint`]). `prep` must have been
-/// prepared with min-max blocks of the configuration's `occupancy_block`.
-pub fn run_frame_preint(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    (pt, skips): (&golden::preint::PreTable, golden::skip::Skips),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    run_frame_preint_resident(cfg, data_bits, lut, prep, (pt, skips), tracer, &mut None)
-}
-
-/// [`run_frame_preint`], keeping the PE memories in `resident` across
-/// calls as [`crate::run_frame_resident`] does (the same bits and cycles
-/// as a fresh load; the frame's [`crate::VoxelLoad`] says whether the host
-/// loaded anything).
-pub fn run_frame_preint_resident(
-    cfg: &PipelineConfig,
-    data_bits: u32,
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    (pt, skips): (&golden::preint::PreTable, golden::skip::Skips),
-    tracer: Tracer,
-    resident: &mut Option<super::Resident>,
-) -> Result<Frame, RunError> {
-    let units = Units {
-        shade: None,
-        voi: None,
-        preint: Some(pt),
-    };
-    run_resident(cfg, (data_bits, lut), prep, skips, units, tracer, resident)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn run_prepared(
-    cfg: &PipelineConfig,
-    (source, data_bits): (VoxelSource, u32),
-    lut: &golden::tf::Lut,
-    prep: &golden::render::Prepared,
-    mm: golden::occupancy::MinMax,
-    skips: golden::skip::Skips,
-    (shade, voi): (Option<&golden::shading::Shade>, Option<&golden::voi::Voi>),
-    tracer: Tracer,
-) -> Result<Frame, RunError> {
-    let array = Array::load(cfg, source, data_bits, lut, &prep.view, tracer)?;
-    let units = Units {
-        shade,
-        voi,
-        preint: None,
-    };
-    run_loaded(array, (data_bits, lut), prep, mm, skips, units).map(|(frame, _)| frame)
+    if prep.blocks.block == block {
+        return Ok(prep.blocks.clone());
+    }
+    match voxels {
+        Voxels::Volume(volume) => golden::occupancy::MinMax::new(volume, block)
+            .map_err(|e| RunError::Plan(PlanError::Golden(e))),
+        Voxels::Stack { .. } => Err(RunError::Schedule(format!(
+            "the view was prepared with {}-voxel blocks, but occupancy_block = {}",
+            prep.blocks.block, cfg.occupancy_block
+        ))),
+    }
 }
 
 /// The units a frame loads beside the datapath: the gradient and shading
 /// unit's constants, a volume of interest, golden's pre-integration table.
 #[derive(Clone, Copy, Default)]
-pub(super) struct Units<'a> {
-    pub(super) shade: Option<&'a golden::shading::Shade>,
-    pub(super) voi: Option<&'a golden::voi::Voi>,
-    pub(super) preint: Option<&'a golden::preint::PreTable>,
+struct Units<'a> {
+    shade: Option<&'a golden::shading::Shade>,
+    voi: Option<&'a golden::voi::Voi>,
+    preint: Option<&'a golden::preint::PreTable>,
 }
 
-/// Loads `units` into a loaded array, plans the skipping of its frame of
-/// `prep` (`lut` the classification table, for a pre-integrated frame's
-/// occupancy memory) and runs it.
-pub(super) fn run_loaded(
-    mut array: Array,
-    (data_bits, lut): (u32, &golden::tf::Lut),
-    prep: &golden::render::Prepared,
-    mm: golden::occupancy::MinMax,
-    skips: golden::skip::Skips,
-    units: Units,
-) -> Result<(Frame, Resident), RunError> {
-    if let Some(sh) = units.shade {
-        array.set_shading(sh, &prep.view, data_bits)?;
-    }
-    if let Some(v) = units.voi {
-        array.set_voi(v, &prep.view)?;
-    }
-    if let Some(pt) = units.preint {
-        if !prep.clip.is_empty() {
-            return Err(crate::preint::PreintError::Unsupported(
-                "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
-                    .into(),
-            )
-            .into());
+impl Units<'_> {
+    /// Loads the units into `array`, a frame of `view` with
+    /// `data_bits`-bit data, clipped by planes when `clipped` (which a
+    /// pre-integrated frame refuses).
+    fn load(
+        &self,
+        array: &mut Array,
+        view: &View,
+        (data_bits, clipped): (u32, bool),
+    ) -> Result<(), RunError> {
+        if let Some(sh) = self.shade {
+            array.set_shading(sh, view, data_bits)?;
         }
-        array.set_preint(pt)?;
+        if let Some(v) = self.voi {
+            array.set_voi(v, view)?;
+        }
+        if let Some(pt) = self.preint {
+            if clipped {
+                return Err(crate::preint::PreintError::Unsupported(
+                    "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
+                        .into(),
+                )
+                .into());
+            }
+            array.set_preint(pt)?;
+        }
+        Ok(())
     }
+}
+
+/// Plans the skipping of `array`'s frame of `prep` over the min-max
+/// blocks `mm` (`lut` the classification table, for a pre-integrated
+/// frame's occupancy memory) and hands the plan to the controller.
+fn plan_skipping(
+    array: &mut Array,
+    (data_bits, lut): (u32, &Lut),
+    prep: &Prepared,
+    mm: golden::occupancy::MinMax,
+    skips: Skips,
+    units: Units,
+) -> Result<(), RunError> {
     let layout = golden::methods::Method::Er
         .layout(&prep.view)
         .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
@@ -238,5 +326,5 @@ pub(super) fn run_loaded(
         _ => crate::skip::plan_mask(dp, &mm, data_bits, prep, &layout, skips),
     };
     array.set_skipping(mask, counts, &prep.view);
-    array.run_keeping(&prep.view)
+    Ok(())
 }

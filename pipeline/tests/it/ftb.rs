@@ -131,7 +131,9 @@ fn run_case(c: &Case) -> Result<Measured, TestCaseError> {
     let off = ftb(c.cfg, 1.0);
     let golden = golden_ftb(&prep, &lut, 1.0);
     let gout = golden.slice.as_ref().expect("slice-order output");
-    let frame = pipeline::run_frame(&off, &c.vol, &lut, view, Tracer::disabled()).unwrap();
+    let frame = pipeline::FrameRun::new(&off, &lut, &c.vol, view)
+        .run()
+        .unwrap();
     let image = golden::warp::warp(view, &frame.baseplane);
     // 5. The same samples, slice by slice, and the same splits.
     prop_assert_eq!(&frame.samples_per_slice, &gout.stats.samples_per_slice);
@@ -161,7 +163,9 @@ fn run_case(c: &Case) -> Result<Measured, TestCaseError> {
     // Hence 1 - threshold + 3 bound.
     if c.terminate < 1.0 {
         let on = ftb(c.cfg, c.terminate);
-        let f_on = pipeline::run_frame(&on, &c.vol, &lut, view, Tracer::disabled()).unwrap();
+        let f_on = pipeline::FrameRun::new(&on, &lut, &c.vol, view)
+            .run()
+            .unwrap();
         let img_on = golden::warp::warp(view, &f_on.baseplane);
         prop_assert!(f_on.samples <= frame.samples);
         prop_assert_eq!(f_on.samples + f_on.terminated_samples, frame.samples);
@@ -313,14 +317,9 @@ fn default_widths_within_one_grey_level_on_the_checkerboard() {
         let prep = Prepared::new(&vol, &cam).unwrap();
         for t in [1.0f32, 0.99] {
             let golden = golden_ftb(&prep, &lut, t);
-            let f = pipeline::run_frame(
-                &ftb(cfg, f64::from(t)),
-                &vol,
-                &lut,
-                &prep.view,
-                Tracer::disabled(),
-            )
-            .unwrap();
+            let f = pipeline::FrameRun::new(&ftb(cfg, f64::from(t)), &lut, &vol, &prep.view)
+                .run()
+                .unwrap();
             let image = golden::warp::warp(&prep.view, &f.baseplane);
             let m = golden::metrics::compare(&image, &golden.image)
                 .unwrap()

@@ -11,7 +11,7 @@ use golden::render::{PrepareOptions, Prepared};
 use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::VoxelType;
-use pipeline::array::{run_frame_from_stack, run_frame_shaded};
+use pipeline::array::{FrameRun, Voxels};
 use pipeline::config::{Mapping, Order, PipelineConfig};
 use waves::Tracer;
 
@@ -68,9 +68,23 @@ fn the_stack_loads_what_the_volume_loads() {
                 let lut = Lut::for_bits(&table, cfg.table_entries as usize, kind.bits());
                 let skips = Skips::default();
                 let t = Tracer::disabled;
-                let a = run_frame_shaded(&cfg, &vol, &lut, &prep, skips, None, t()).expect("frame");
-                let b = run_frame_from_stack(&cfg, kind.bits(), &lut, &prep, skips, None, t())
+                let a = FrameRun::prepared(&cfg, &lut, &prep, Voxels::Volume(&vol))
+                    .skips(skips)
+                    .trace(t())
+                    .run()
                     .expect("frame");
+                let b = FrameRun::prepared(
+                    &cfg,
+                    &lut,
+                    &prep,
+                    Voxels::Stack {
+                        data_bits: kind.bits(),
+                    },
+                )
+                .skips(skips)
+                .trace(t())
+                .run()
+                .expect("frame");
                 assert_eq!(
                     signature(&a),
                     signature(&b),
@@ -89,7 +103,6 @@ fn the_stack_loads_what_the_volume_loads() {
 /// first, is the frame a fresh load gives, as is a return to the first.
 #[test]
 fn kept_memories_keep_their_tables_only_for_the_same_table() {
-    use pipeline::array::run_frame_resident;
     use pipeline::fixed::{Format, Overflow, Quant};
     let first = tf(&[(20.0, [0.9, 0.5, 0.2, 0.0]), (200.0, [1.0, 1.0, 1.0, 0.7])]);
     let second = tf(&[(60.0, [0.2, 0.5, 0.9, 0.0]), (120.0, [1.0, 0.8, 0.6, 0.4])]);
@@ -117,7 +130,9 @@ fn kept_memories_keep_their_tables_only_for_the_same_table() {
     let skips = Skips::default();
     let fresh = |cfg: &PipelineConfig, l: &Lut| {
         signature(
-            &run_frame_from_stack(cfg, 8, l, &prep, skips, None, Tracer::disabled())
+            &FrameRun::prepared(cfg, l, &prep, Voxels::Stack { data_bits: 8 })
+                .skips(skips)
+                .run()
                 .expect("frame"),
         )
     };
@@ -138,17 +153,11 @@ fn kept_memories_keep_their_tables_only_for_the_same_table() {
             if stale {
                 kept = kept.map(pipeline::Resident::stale);
             }
-            let f = run_frame_resident(
-                cfg,
-                8,
-                l,
-                &prep,
-                skips,
-                (None, None),
-                Tracer::disabled(),
-                &mut kept,
-            )
-            .expect("frame");
+            let f = FrameRun::prepared(cfg, l, &prep, Voxels::Stack { data_bits: 8 })
+                .skips(skips)
+                .resident(&mut kept)
+                .run()
+                .expect("frame");
             assert_eq!(signature(&f), fresh(cfg, l), "frame {n}, stale {stale}");
         }
     }

@@ -18,7 +18,7 @@ use golden::shading::Shade;
 use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
-use pipeline::array::{run_frame_shaded, Array, Frame};
+use pipeline::array::{Array, Frame, FrameRun, Voxels};
 use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 use pipeline::mapping::{ColumnMap, APRON_LEFT, APRON_RIGHT};
 use proptest::prelude::*;
@@ -51,7 +51,10 @@ fn frame(
     skips: Skips,
     shade: Option<&Shade>,
 ) -> Result<Frame, pipeline::RunError> {
-    run_frame_shaded(cfg, vol, lut, prep, skips, shade, Tracer::disabled())
+    FrameRun::prepared(cfg, lut, prep, Voxels::Volume(vol))
+        .skips(skips)
+        .shading(shade)
+        .run()
 }
 
 /// What a mapping may not change: everything but where and when.

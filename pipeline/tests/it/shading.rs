@@ -345,8 +345,9 @@ fn shading_clocked_equals_whole_slice_and_costs_latency() {
                         "{order:?}, {pes} PEs, rotation {rot}: clocked differs from whole-slice"
                     );
                 }
-                let plain =
-                    pipeline::run_frame(&cfg, &vol, &lut, &prep.view, Tracer::disabled()).unwrap();
+                let plain = pipeline::FrameRun::new(&cfg, &lut, &vol, &prep.view)
+                    .run()
+                    .unwrap();
                 assert_eq!(fast.samples, plain.samples, "shading changes no sample set");
                 let reads = |f: &Frame| f.pes.iter().map(|p| p.mem_reads).sum::<u64>();
                 let edges = |f: &Frame| f.pes.iter().map(|p| p.edge_voxels).sum::<u64>();
@@ -419,7 +420,10 @@ fn shaded_waveforms_carry_the_unit_and_the_halo() {
         if shaded {
             pipe_shaded(&cfg, &vol, &lut, prep, sh, None, tr).unwrap();
         } else {
-            pipeline::run_frame(&cfg, &vol, &lut, &prep.view, tr).unwrap();
+            pipeline::FrameRun::new(&cfg, &lut, &vol, &prep.view)
+                .trace(tr)
+                .run()
+                .unwrap();
         }
         let t = Trace::read(&p).unwrap();
         let set: std::collections::BTreeSet<String> = t.names().map(str::to_owned).collect();

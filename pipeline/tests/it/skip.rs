@@ -17,7 +17,7 @@ use golden::render::{render, PrepareOptions, Prepared, RenderOptions, Technique}
 use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
-use pipeline::array::{run_frame_voi, run_frame_with, Array, Frame};
+use pipeline::array::{Array, Frame, FrameRun, Voxels};
 use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
@@ -46,7 +46,10 @@ fn camera(eye: DVec3, look: DVec3, fov: f64) -> Camera {
 }
 
 fn run(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared, skips: Skips) -> Frame {
-    run_frame_with(cfg, vol, lut, prep, skips, Tracer::disabled()).expect("frame runs")
+    FrameRun::prepared(cfg, lut, prep, Voxels::Volume(vol))
+        .skips(skips)
+        .run()
+        .expect("frame runs")
 }
 
 fn image_bits(prep: &Prepared, f: &Frame) -> Vec<[u32; 4]> {
@@ -216,16 +219,11 @@ fn check_voi(c: &Case, v: VoiDraw) -> Result<(), TestCaseError> {
     let (cfg, vol, lut, prep) = setup(c, false)?;
     let voi = voi_for(c.dims, v);
     let run = |skips| {
-        run_frame_voi(
-            &cfg,
-            &vol,
-            &lut,
-            &prep,
-            skips,
-            (None, Some(&voi)),
-            Tracer::disabled(),
-        )
-        .expect("frame runs")
+        FrameRun::prepared(&cfg, &lut, &prep, Voxels::Volume(&vol))
+            .skips(skips)
+            .voi(Some(&voi))
+            .run()
+            .expect("frame runs")
     };
     let off = run(OFF);
     let empty = run(EMPTY);
@@ -307,7 +305,10 @@ proptest! {
 /// `lut`).
 fn run_pre(cfg: &PipelineConfig, lut: &Lut, prep: &Prepared, skips: Skips) -> Frame {
     let pt = golden::preint::PreTable::new(lut);
-    pipeline::run_frame_preint(cfg, 8, lut, prep, (&pt, skips), Tracer::disabled())
+    FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits: 8 })
+        .skips(skips)
+        .preint(Some(&pt))
+        .run()
         .expect("pre-integrated frame runs")
 }
 
@@ -590,7 +591,11 @@ fn waveform_shows_skipped_slices() {
         let tracer =
             Tracer::new(TraceConfig::new(&vcd).with_pes(PeFilter::parse("0").expect("pes")))
                 .expect("tracer");
-        let f = run_frame_with(&cfg, &vol, &lut, &prep, skips, tracer).expect("frame");
+        let f = FrameRun::prepared(&cfg, &lut, &prep, Voxels::Volume(&vol))
+            .skips(skips)
+            .trace(tracer)
+            .run()
+            .expect("frame");
         let trace = waves::Trace::read(&vcd).expect("vcd");
         let stage = trace.signal("top.ctrl.stage").expect("stage");
         let slice = trace.signal("top.ctrl.slice").expect("slice");

@@ -28,7 +28,6 @@ use golden::tf::{Lut, TransferFunction};
 use golden::volume::{Volume, VoxelType};
 use pipeline::bound::{error_bound, ftb_error_bound, region_slices, BoundInputs};
 use pipeline::config::{Order, PipelineConfig};
-use waves::Tracer;
 
 use crate::scenes::{max_diff, tf, volume, voxel_hash};
 
@@ -110,7 +109,8 @@ fn pipeline_vs_golden(
     opts.slice.terminate = cfg.terminate as f32;
     let g = render(prep, lut, Technique::Slice(method), &opts).unwrap();
     let gout = g.slice.as_ref().unwrap();
-    let frame = pipeline::run_frame(cfg, vol, lut, &prep.view, Tracer::disabled())
+    let frame = pipeline::FrameRun::new(cfg, lut, vol, &prep.view)
+        .run()
         .unwrap_or_else(|e| panic!("pipeline failed on eye {}: {e}", prep.view.eye));
     assert_eq!(
         frame.samples_per_slice, gout.stats.samples_per_slice,

@@ -296,29 +296,22 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                     }
                     BenchMethod::Pipeline { cfg, .. } => {
                         let plut = &table_luts[&cfg.table_entries];
-                        // Shaded, the array runs through the prepared view
-                        // (the shading unit needs it), skipping nothing as
-                        // `run_frame` does, and so does its unshaded frame.
+                        // Shaded, the array runs through the prepared view,
+                        // skipping nothing as a frame of the bare view
+                        // does, and so does its unshaded frame.
                         let frame = |shade: Option<&golden::shading::Shade>| match shade {
-                            None if case.shade.is_none() => pipeline::run_frame(
+                            None if case.shade.is_none() => {
+                                pipeline::FrameRun::new(cfg, plut, &case.vol, &prep.view).run()
+                            }
+                            _ => pipeline::FrameRun::prepared(
                                 cfg,
-                                &case.vol,
-                                plut,
-                                &prep.view,
-                                waves::Tracer::disabled(),
-                            ),
-                            _ => pipeline::run_frame_shaded(
-                                cfg,
-                                &case.vol,
                                 plut,
                                 &prep,
-                                golden::skip::Skips {
-                                    empty: false,
-                                    cull: false,
-                                },
-                                shade,
-                                waves::Tracer::disabled(),
-                            ),
+                                pipeline::Voxels::Volume(&case.vol),
+                            )
+                            .skips(golden::skip::Skips::NONE)
+                            .shading(shade)
+                            .run(),
                         };
                         let t0 = Instant::now();
                         let res = frame(case.shade.as_ref());

@@ -56,7 +56,8 @@ fn bad_configurations_are_refused_by_the_library() {
         .err()
         .expect("Array::new refuses zero PEs");
     assert_one_line(&e.to_string(), "pes = 0");
-    let e = pipeline::run_frame(&none, &s.vol, &s.lut, &prep.view, Tracer::disabled())
-        .expect_err("run_frame refuses zero PEs");
+    let e = pipeline::FrameRun::new(&none, &s.lut, &s.vol, &prep.view)
+        .run()
+        .expect_err("a frame refuses zero PEs");
     assert_one_line(&e.to_string(), "pes = 0");
 }

@@ -10,7 +10,6 @@ use golden::tf::Lut;
 use golden::volume::{Volume, VoxelType};
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::fixed::{Format, Overflow, Quant};
-use waves::Tracer;
 
 use super::{
     assert_words_in_format, bad_value, blob, bound_inputs, eye_at, pipeline_vs_golden, ramp,
@@ -93,7 +92,8 @@ fn check_extreme_view(vol: &Volume, lut: &Lut, cam: &Camera, what: &str, tally: 
         // The bound assumes no path length saturates. At the defaults the
         // frame must still run and keep every word in its format; the
         // bound is then checked with a path format 4 integer bits wider.
-        let frame = pipeline::run_frame(&cfg, vol, lut, &prep.view, Tracer::disabled())
+        let frame = pipeline::FrameRun::new(&cfg, lut, vol, &prep.view)
+            .run()
             .unwrap_or_else(|e| panic!("{what}: pipeline failed on a steep view: {e}"));
         assert_words_in_format(&frame, what);
         tally.steep_runs += 1;
@@ -297,7 +297,8 @@ fn pipeline_words_do_not_depend_on_p_when_regions_are_empty() {
                         pes,
                         ..PipelineConfig::default()
                     };
-                    pipeline::run_frame(&cfg, &vol, &lut, &prep.view, Tracer::disabled())
+                    pipeline::FrameRun::new(&cfg, &lut, &vol, &prep.view)
+                        .run()
                         .unwrap()
                         .raw
                 };
