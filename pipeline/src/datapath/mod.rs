@@ -2,18 +2,26 @@
 //! interpolation, classification, opacity correction and compositing, and
 //! the Bartlett merge. Each step mirrors its float counterpart in
 //! `golden::sampling` / `golden::merge` (same order of operations), and
-//! every value is assigned into a declared [`Format`] of the
+//! every value is assigned into a declared [`Format`](crate::fixed::Format) of the
 //! [`PipelineConfig`]: full-precision operators, quantise on assignment.
 
 use crate::config::PipelineConfig;
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide, Word64};
+use crate::fixed::{Fx, FxError, QuantStats, Wide, Word64};
 use crate::tables::Tables;
 
+mod classes;
 mod kernel;
+mod ops;
+mod passes;
 
+use classes::Classes;
 use kernel::Tents;
 pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
+#[cfg(test)]
+pub(crate) use ops::isqrt;
+use ops::split;
+pub use ops::{isqrt_into, lerp};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
 /// as raw words of `accum_color` / `accum_alpha`.
@@ -80,97 +88,6 @@ pub struct Datapath {
     /// The pre-integration unit's table and constants, when the frame is
     /// pre-integrated ([`Datapath::with_preint`]).
     pub preint: Option<crate::preint::PreintUnit>,
-}
-
-/// `a + w (b - a)`, exactly, assigned into `out`.
-#[inline(always)]
-pub fn lerp(a: Fx, b: Fx, w: Fx, out: Format, st: &mut QuantStats) -> Result<Fx, FxError> {
-    if let Some(v) = lerp64(a, b, w) {
-        return Ok(out.assign(v, st));
-    }
-    let d = b - a;
-    let wd = Wide::from(w).checked_mul(d)?;
-    Ok(out.assign(Wide::from(a).checked_add(wd)?, st))
-}
-
-/// [`lerp`]'s exact `a + w (b - a)` before assignment, in 64-bit words,
-/// when the operands' widths prove every intermediate fits (`None`
-/// otherwise, and the caller takes the 128-bit path). The same value and
-/// fraction as the 128-bit path: exact integer arithmetic does not depend
-/// on the word it runs in. With `a`, `b` aligned to their larger fraction
-/// in `B` bits and `w` in `bw`: `|b - a| < 2^(B+1)`, the product below
-/// `2^(B+bw+1)`, `a` shifted by `w`'s fraction below `2^(B+bw)`, so the
-/// sum stays below `2^(B+bw+2)`.
-#[inline(always)]
-fn lerp64(a: Fx, b: Fx, w: Fx) -> Option<Wide> {
-    let (fa, fb, fw) = (a.format().frac(), b.format().frac(), w.format().frac());
-    let f = fa.max(fb);
-    let (sa, sb) = (f - fa, f - fb);
-    // Widths and fractions are at most 63, so these sums fit u8.
-    let bits = (a.format().bits() + sa).max(b.format().bits() + sb);
-    if u32::from(bits) + u32::from(w.format().bits()) + 2 > 62 {
-        return None;
-    }
-    let (x, y) = (a.raw() << sa, b.raw() << sb);
-    let v = (x << fw) + w.raw() * (y - x);
-    Some(Wide::new(i128::from(v), i32::from(f) + i32::from(fw)))
-}
-
-/// `sqrt(v)` truncated onto `f`'s grid: an exact integer square root of
-/// the radicand aligned to `2 f.frac` fraction bits (the path length's and
-/// the gradient norm's unit). `op` names it in an overflow error.
-#[inline(always)]
-pub fn isqrt_into(
-    v: Wide,
-    f: Format,
-    op: &'static str,
-    st: &mut QuantStats,
-) -> Result<Fx, FxError> {
-    let pf = i32::from(f.frac());
-    // sqrt(raw 2^-k) 2^pf = sqrt(raw 2^(2 pf - k)).
-    let shift = 2 * pf - v.frac;
-    // `Wide` shifts move the exponent, so align the raw word by hand.
-    let radicand = if shift >= 0 {
-        // Exact iff shifting back recovers the word.
-        u32::try_from(shift)
-            .ok()
-            .filter(|&s| s < 127)
-            .map(|s| (v.raw << s, s))
-            .filter(|&(r, s)| r >> s == v.raw)
-            .map(|(r, _)| r)
-            .ok_or(FxError::WideOverflow { op })?
-    } else {
-        v.raw >> (-shift) as u32
-    };
-    let root = isqrt(radicand.max(0) as u128) as i128;
-    Ok(f.assign(Wide::new(root, pf), st))
-}
-
-/// `floor(sqrt(v))`, exactly: a float estimate corrected by at most a few
-/// steps when `v` fits 64 bits (the datapath's radicands), the integer
-/// algorithm otherwise. The unit it models is the exact root either way.
-#[inline]
-fn isqrt(v: u128) -> u128 {
-    let Ok(small) = u64::try_from(v) else {
-        return v.isqrt();
-    };
-    // The estimate is within one or two of the root for any u64; the
-    // loops make it exact (squares of roots below 2^32 + 2 fit u128).
-    let mut r = u128::from((small as f64).sqrt() as u64);
-    while r * r > v {
-        r -= 1;
-    }
-    while (r + 1) * (r + 1) <= v {
-        r += 1;
-    }
-    r
-}
-
-/// Integer and fraction of a non-negative or negative fixed value at a
-/// given number of fraction bits: `(floor, fraction raw)`.
-#[inline]
-fn split(raw: i64, frac: u32) -> (i64, i64) {
-    (raw >> frac, raw & ((1i64 << frac) - 1))
 }
 
 impl Datapath {
@@ -478,43 +395,6 @@ impl Datapath {
         Ok(())
     }
 
-    /// One tap pair of the bilinear split, `(p[0] + p[1]) / 2` of raw
-    /// words in format `from`, assigned into `to` (the x pass goes from an
-    /// accumulator into `merge`, the y pass from `merge` back). A child on
-    /// its parent's line passes `p[0] = p[1]`, which is exact whenever
-    /// `to` holds `from`'s grid.
-    #[inline]
-    pub fn halve(&self, p: [i64; 2], from: Format, to: Format, st: &mut QuantStats) -> Fx {
-        // Two words of at most 63 bits: the sum fits i128 trivially.
-        let sum = i128::from(p[0]) + i128::from(p[1]);
-        to.assign(Wide::new(sum, i32::from(from.frac()) + 1), st)
-    }
-
-    /// The fold's difference `result - inherited` (what a ray's samples
-    /// and its children added behind the boundary), from a result word in
-    /// `rf` and an inherited accumulator word in `inf`, into `merge`. Exact
-    /// while it fits: `merge` has at least both formats' fraction bits
-    /// (validated), and the difference is non-negative because front-to-
-    /// back words only grow; a negative one (a wrap-around) would clamp to
-    /// zero with `merge`'s unsigned overflow and be counted.
-    #[inline]
-    pub fn fold_diff(&self, r: i64, rf: Format, inh: i64, inf: Format, st: &mut QuantStats) -> Fx {
-        let d = Fx::from_raw_unchecked(r, rf) - Fx::from_raw_unchecked(inh, inf);
-        self.cfg.merge.assign(d, st)
-    }
-
-    /// The fold's add `final + merged`: a ray's own final accumulator word
-    /// (format `ff`) plus the merged differences of its children (a
-    /// `merge` word), into `merge`. Exact while it fits, for the same
-    /// reason as [`Datapath::fold_diff`]; above `merge`'s range it
-    /// saturates (counted).
-    #[inline]
-    pub fn fold_add(&self, f: i64, ff: Format, merged: i64, st: &mut QuantStats) -> Fx {
-        let m = self.cfg.merge;
-        let s = Fx::from_raw_unchecked(f, ff) + Fx::from_raw_unchecked(merged, m);
-        m.assign(s, st)
-    }
-
     /// The ray's path length per slice step, `sqrt(sx^2 + sy^2 + sz^2)`
     /// from its spacing-scaled slopes, truncated into the `path` format
     /// (an exact integer square root).
@@ -523,212 +403,7 @@ impl Datapath {
         let sum = (sx * sx).checked_add(sy * sy)?.checked_add(sz * sz)?;
         isqrt_into(sum, self.cfg.path, "path length", st)
     }
-
-    /// One Bartlett tap row `(p[-1] + 2 p[0] + p[1]) / 4` of raw words in
-    /// format `from`, assigned into `to` (the x pass goes from an
-    /// accumulator into `merge`, the y pass from `merge` back).
-    #[inline]
-    pub fn tent(&self, p: [i64; 3], from: Format, to: Format, st: &mut QuantStats) -> Fx {
-        // Three words of at most 63 bits: the sum fits i128 trivially.
-        let sum = i128::from(p[0]) + 2 * i128::from(p[1]) + i128::from(p[2]);
-        to.assign(Wide::new(sum, i32::from(from.frac()) + 2), st)
-    }
-
-    /// A whole ray's [`Datapath::tent`], R, G, B and A, of parents `p`:
-    /// the x pass's (`y` false) of accumulator words into `merge`, or the
-    /// y pass's of `merge` words back into the accumulators; through the
-    /// assignments worked out once ([`Datapath::tents`]) when the formats
-    /// are modelled.
-    pub(crate) fn tent_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
-        let tap = |ch: usize| [p[0][ch], p[1][ch], p[2][ch]];
-        let mut out = [0; 4];
-        if let Some(tents) = self.tents() {
-            let mut t = Tally::default();
-            for (ch, o) in out.iter_mut().enumerate() {
-                *o = tents.apply(y, ch, tap(ch), &mut t);
-            }
-            t.add_to(st);
-        } else {
-            let c = &self.cfg;
-            for (ch, o) in out.iter_mut().enumerate() {
-                let acc = if ch < 3 { c.accum_color } else { c.accum_alpha };
-                let (from, to) = if y { (c.merge, acc) } else { (acc, c.merge) };
-                *o = self.tent(tap(ch), from, to, st).raw();
-            }
-        }
-        out
-    }
-}
-
-/// The classification unit's truth table: its output and the
-/// quantisation events it records for every word of the sample format,
-/// each computed once per frame by [`Datapath::classify`]'s own
-/// arithmetic. Classification is a function of the sample word alone, so
-/// looking a sample up here returns the bits and counts the unit would
-/// have produced, in one read instead of five rounded assignments (the
-/// hardware is still the table and interpolator; this is how the model
-/// evaluates it quickly). Listed only for sample formats of at most
-/// [`Classes::MAX_BITS`] bits and when no word's classification fails.
-#[derive(Debug, Clone)]
-struct Classes {
-    /// Per sample word: raw R, G, B (`color`) and opacity (`alpha`), and
-    /// the quantisation events classifying it records.
-    words: Vec<([i64; 4], QuantStats)>,
-    color: Format,
-    alpha: Format,
-}
-
-impl Classes {
-    /// Widest sample format listed (64 Ki words).
-    const MAX_BITS: u8 = 16;
-
-    fn list(dp: &Datapath) -> Option<Classes> {
-        let f = dp.cfg.sample;
-        if f.bits() > Self::MAX_BITS || f.is_signed() {
-            return None;
-        }
-        let (color, alpha) = (dp.cfg.color, dp.cfg.alpha);
-        let mut words = Vec::with_capacity(1 << f.bits());
-        for raw in 0..=f.max_raw() {
-            let mut st = QuantStats::default();
-            let (rgb, a) = dp.classify_unit(Fx::from_raw(raw, f).ok()?, &mut st).ok()?;
-            // The unit's words are in the table's formats (its entries and
-            // its interpolations are assigned into them).
-            debug_assert!(rgb.iter().all(|c| c.format() == color) && a.format() == alpha);
-            words.push(([rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()], st));
-        }
-        Some(Classes {
-            words,
-            color,
-            alpha,
-        })
-    }
-
-    #[inline(always)]
-    fn get(&self, s: Fx, st: &mut QuantStats) -> ([Fx; 3], Fx) {
-        let (raw, events) = &self.words[s.raw() as usize];
-        st.merge(events);
-        let c = |r: i64| Fx::from_raw_unchecked(r, self.color);
-        (
-            [c(raw[0]), c(raw[1]), c(raw[2])],
-            Fx::from_raw_unchecked(raw[3], self.alpha),
-        )
-    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    fn fx(raw: i64, bits: u8, frac: u8, signed: bool) -> Fx {
-        let f = if signed {
-            Format::signed(bits, frac.min(bits))
-        } else {
-            Format::unsigned(bits, frac.min(bits))
-        }
-        .unwrap();
-        let span = i128::from(f.max_raw()) - i128::from(f.min_raw()) + 1;
-        let raw = i128::from(raw).rem_euclid(span) + i128::from(f.min_raw());
-        Fx::from_raw(raw as i64, f).unwrap()
-    }
-
-    /// The listed classification gives, for every sample word, the words
-    /// and the quantisation counts of the unit's own arithmetic: 8- and
-    /// 12-bit voxels, tables with fewer and more entries than voxel codes
-    /// (the weight split both ways), several rounding modes. A sample
-    /// format wider than the list's limit classifies through the unit.
-    #[test]
-    fn listed_classes_are_the_unit_word_for_word() {
-        use crate::fixed::{Overflow, Quant};
-        let tf = golden::scenes::tf_preset("grey-ramp").unwrap();
-        let base = PipelineConfig::default();
-        let u = |bits, frac, q| Format::new(bits, frac, false, q, Overflow::Sat).unwrap();
-        let cases = [
-            base,
-            PipelineConfig {
-                voxel: u(12, 0, Quant::Trn),
-                sample: u(16, 4, Quant::RndConv),
-                ..base
-            },
-            PipelineConfig {
-                table_entries: 64,
-                color: u(9, 8, Quant::Rnd),
-                ..base
-            },
-            PipelineConfig {
-                table_entries: 1 << 12,
-                voxel: u(8, 0, Quant::Trn),
-                sample: u(13, 5, Quant::Trn),
-                alpha: u(12, 12, Quant::RndInf),
-                ..base
-            },
-        ];
-        for (n, cfg) in cases.into_iter().enumerate() {
-            let bits = u32::from(cfg.voxel.bits());
-            let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, bits);
-            let dp = Datapath::new(cfg, Tables::new(&cfg, &lut).unwrap());
-            assert!(dp.classes.is_some(), "case {n} is listed");
-            let mut lit = 0;
-            for raw in 0..=cfg.sample.max_raw() {
-                let s = Fx::from_raw(raw, cfg.sample).unwrap();
-                let (mut a, mut b) = (QuantStats::default(), QuantStats::default());
-                let listed = dp.classify(s, &mut a).unwrap();
-                let unit = dp.classify_unit(s, &mut b).unwrap();
-                assert_eq!(listed, unit, "case {n} word {raw}");
-                assert_eq!(a, b, "case {n} word {raw}");
-                lit += usize::from(unit.1.raw() > 0);
-            }
-            assert!(lit > 0, "case {n} classifies something visible");
-        }
-        let wide = PipelineConfig {
-            sample: Format::new(Classes::MAX_BITS + 1, 4, false, Quant::Trn, Overflow::Sat)
-                .unwrap(),
-            ..base
-        };
-        let lut = golden::tf::Lut::for_bits(&tf, wide.table_entries as usize, 8);
-        assert!(Datapath::new(wide, Tables::new(&wide, &lut).unwrap())
-            .classes
-            .is_none());
-    }
-
-    proptest! {
-        /// Where the 64-bit lerp runs, it gives the 128-bit expression's
-        /// word and fraction.
-        #[test]
-        fn lerp64_is_the_wide_lerp(
-            r in any::<[i64; 3]>(),
-            bits in proptest::array::uniform3(1u8..=63),
-            frac in proptest::array::uniform3(0u8..=63),
-            signed in any::<[bool; 3]>(),
-        ) {
-            let v: Vec<Fx> = (0..3).map(|i| fx(r[i], bits[i], frac[i], signed[i])).collect();
-            let (a, b, w) = (v[0], v[1], v[2]);
-            if let Some(got) = lerp64(a, b, w) {
-                let want = Wide::from(a).checked_add(Wide::from(w).checked_mul(b - a).unwrap());
-                prop_assert_eq!(got, want.unwrap());
-            }
-        }
-    }
-
-    /// The default widths take the 64-bit path in every lerp of the
-    /// datapath (interpolation, classification, the exp table), so the
-    /// fast path is the one that runs.
-    #[test]
-    fn default_lerps_run_in_64_bits() {
-        let c = PipelineConfig::default();
-        let max = |f: Format| f.max_value();
-        for (ab, w) in [
-            (c.voxel, c.weight),
-            (c.sample, c.weight),
-            (c.color, c.weight),
-            (c.alpha, c.weight),
-            (c.opacity_corr, c.weight),
-        ] {
-            assert!(
-                lerp64(max(ab), ab.min_value(), max(w)).is_some(),
-                "{ab:?} {w:?}"
-            );
-        }
-    }
-}
+mod tests;

@@ -114,7 +114,7 @@ fn lerps(a: &Lanes, b: &Lanes, w: &Lanes, fw: u32) -> Lanes {
     each(|l| lerp(a[l], b[l], w[l], fw))
 }
 
-/// [`super::isqrt`] in every lane: the float estimate of a root below
+/// [`crate::datapath::ops::isqrt`] in every lane: the float estimate of a root below
 /// 2^31 is within one of it (its error is below 2^-20), so one correction
 /// each way makes it exact.
 #[inline(always)]

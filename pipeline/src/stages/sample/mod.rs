@@ -12,13 +12,15 @@
 //! one (every cycle ticked; always when tracing) and the whole-slice one
 //! (`fast.rs`), which gives the same bits, cycles and counters.
 
+mod edges;
 mod fast;
 mod pe;
 mod plain;
 mod plan;
 mod preint;
 
-pub use pe::{EdgeWords, RowBus, SampleBus};
+pub use edges::EdgeWords;
+pub use pe::{RowBus, SampleBus};
 pub use plain::ColumnOrder;
 pub(crate) use plain::ColumnTaps;
 pub use plan::{RowPlan, RowRuns};

@@ -6,7 +6,8 @@
 //! the twin of [`golden::sampling::sample_at`]; this is how the model
 //! evaluates it quickly, not a second datapath.
 
-use super::pe::{EdgeWords, RowBus};
+use super::edges::EdgeWords;
+use super::pe::RowBus;
 use crate::datapath::{Batch, Kernel, LaneTally, Ray, Tally, LANES};
 use rayon::prelude::*;
 
