@@ -410,6 +410,48 @@ impl Pe {
     }
 }
 
+/// A PE's report lines to the controller: the fixed-width facts the PE
+/// computes from its own state, which are all the controller reads of a
+/// PE while a frame runs ([`Pe::report`], [`crate::array::Clock::reports`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PeReport {
+    /// The first cycle by which every sample the PE issued has been
+    /// written back: its datapath is empty from then on (the drain waits
+    /// for every PE's).
+    pub drained_at: u64,
+    /// A bound on every held ray's scoreboard stamp: `drained_at`, or the
+    /// latest stamp a migration wrote into a ray it received (a row start
+    /// can wait only while some PE's is in the future).
+    pub lands_by: u64,
+    /// Its migration FIFOs and receive buffer are empty.
+    pub settled: bool,
+    /// Its readout has streamed every held ray.
+    pub readout_done: bool,
+    /// The length of its current sparse pass slot's work list (its done
+    /// line falls after that many cycles).
+    pub slot_work: u32,
+    /// Child rays its merges (front to back, folds) have written so far.
+    pub merge_outputs: u64,
+    /// Front to back: child rays its splits have written so far.
+    pub split_outputs: u64,
+}
+
+impl Pe {
+    /// This PE's report lines ([`PeReport`]).
+    #[inline]
+    pub fn report(&self) -> PeReport {
+        PeReport {
+            drained_at: self.drained_at,
+            lands_by: self.drained_at.max(self.arrived_by),
+            settled: self.settled(),
+            readout_done: self.readout_done(),
+            slot_work: self.pass.slot.len() as u32,
+            merge_outputs: self.counters.merge_outputs,
+            split_outputs: self.counters.split_outputs,
+        }
+    }
+}
+
 /// A clock step that cannot happen in correct hardware.
 #[derive(Debug, thiserror::Error)]
 pub enum StepError {

@@ -32,7 +32,7 @@
 //! ```
 
 use crate::datapath::Acc;
-use crate::pe::{Pe, Port, Ports, StepError};
+use crate::pe::{Pe, PeReport, Port, Ports, StepError};
 use crate::probes::{Ctrl, Probes, Stage};
 
 use super::StageCycles;
@@ -152,6 +152,12 @@ impl Clock {
     /// PEs' combinational reports at a stage's start.
     pub(crate) fn pes_mut(&mut self) -> &mut [Pe] {
         &mut self.pes
+    }
+
+    /// Every PE's report lines, in PE order: what the controller reads of
+    /// the PEs between cycles.
+    pub fn reports(&self) -> impl Iterator<Item = PeReport> + '_ {
+        self.pes.iter().map(Pe::report)
     }
 
     /// The port outputs committed in the last cycle.

@@ -14,7 +14,7 @@ impl Array {
     pub(crate) fn drain(&mut self) -> Result<(), RunError> {
         loop {
             let now = self.clock.now();
-            if self.clock.pes().iter().all(|pe| pe.datapath_empty(now)) {
+            if self.clock.reports().all(|r| r.drained_at <= now) {
                 return self.wait_for_ray_buffer();
             }
             self.clock

@@ -381,8 +381,7 @@ impl Array {
     ) -> Result<(u64, u64), RunError> {
         let prows = bg.counts()[1];
         let (live, reads) = self.live_rows(prows);
-        let written =
-            |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.merge_outputs).sum() };
+        let written = |a: &Array| -> u64 { a.clock.reports().map(|r| r.merge_outputs).sum() };
         let before = written(self);
         let needs: Vec<_> = (fg.lo[1]..=fg.hi[1])
             .map(|my| {

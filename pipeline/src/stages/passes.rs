@@ -400,9 +400,8 @@ impl Array {
                     .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
                 if self
                     .clock
-                    .pes()
-                    .iter()
-                    .all(|pe| pe.pass.slot.len() <= col + 1)
+                    .reports()
+                    .all(|r| r.slot_work as usize <= col + 1)
                 {
                     break;
                 }

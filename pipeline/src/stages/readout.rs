@@ -121,7 +121,7 @@ impl Array {
             }
             return Ok(raw);
         }
-        while !self.clock.pes().iter().all(Pe::readout_done) {
+        while !self.clock.reports().all(|r| r.readout_done) {
             self.clock
                 .tick(Ctrl::at(Stage::Readout, 0, 0), |pe, _, out| {
                     pe.readout_step(out);

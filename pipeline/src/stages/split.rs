@@ -311,8 +311,7 @@ impl Array {
                 inside(rows, prows)
             })
             .collect();
-        let written =
-            |a: &Array| -> u64 { a.clock.pes().iter().map(|p| p.counters.split_outputs).sum() };
+        let written = |a: &Array| -> u64 { a.clock.reports().map(|r| r.split_outputs).sum() };
         let before = written(self);
         // The lowest parent row each child row reads, live or not.
         let lows: Vec<_> = (bg.lo[1]..=bg.hi[1])

@@ -290,7 +290,7 @@ impl Array {
             l.0.iter()
                 .all(|p| p.left.ray.is_none() && p.right.ray.is_none())
         };
-        while !(self.clock.pes().iter().all(Pe::settled) && ports.iter().all(idle)) {
+        while !(self.clock.reports().all(|r| r.settled) && ports.iter().all(idle)) {
             for (i, lane) in ports.iter_mut().enumerate() {
                 let last = i + 1 == lanes;
                 self.clock.tick_links(lane, |pe, links, out| {
@@ -367,7 +367,7 @@ impl Array {
         for pe in self.clock.pes_mut() {
             pe.plan_moves(&owner, route);
         }
-        while !(self.clock.pes().iter().all(Pe::settled)
+        while !(self.clock.reports().all(|r| r.settled)
             && self
                 .clock
                 .ports()

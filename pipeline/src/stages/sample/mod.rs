@@ -113,13 +113,7 @@ impl Array {
         });
         // Every held ray's scoreboard stamp was written by a sample or a
         // migration: when none is later than now, no row can wait.
-        let lands_by = self
-            .clock
-            .pes()
-            .iter()
-            .map(|pe| pe.drained_at.max(pe.arrived_by))
-            .max()
-            .unwrap_or(0);
+        let lands_by = self.clock.reports().map(|r| r.lands_by).max().unwrap_or(0);
         let waits = lands_by > self.clock.now();
         // The rows' broadcast, and for the whole-slice path each PE's edge
         // words in them, read while it plans (one pass over the PEs).
