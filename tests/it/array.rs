@@ -7,7 +7,7 @@ use glam::DVec3;
 use golden::camera::Camera;
 use golden::render::Prepared;
 use pipeline::config::PipelineConfig;
-use waves::{Trace, Tracer, TIME_UNITS_PER_CYCLE};
+use waves::{Trace, TIME_UNITS_PER_CYCLE};
 
 use crate::bin::{assert_refused, describe, ercube};
 use crate::chip::{check_gtkw, config, subject};
