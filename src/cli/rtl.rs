@@ -89,11 +89,12 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         Ok(())
     })?;
     super::say(&format!(
-        "{}: {MODULE}.v ({} lines), {} clocks from issue to the outputs, {} register bits, {} table bits; filelist.f, README.md",
+        "{}: {MODULE}.v ({} lines), {} clocks from issue to the outputs, {} register bits ({} in the schedule's pipeline), {} table bits; filelist.f, README.md",
         a.out_dir.display(),
         m.verilog.lines().count(),
         m.depth,
         m.register_bits,
+        m.schedule_register_bits,
         m.memory_bits
     ));
     Ok(())
@@ -125,8 +126,11 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     );
     let _ = writeln!(
         w,
-        "Declared: {} register bits, {} table bits. Files: `{MODULE}.v`, `filelist.f`.\n",
-        m.register_bits, m.memory_bits
+        "Declared: {} register bits ({} of them the schedule's pipeline registers and delay \
+         lines of datapath values; the rest carry the sample's ports down the pipeline, the \
+         valid bits, the table reads and the outputs), {} table bits. Files: `{MODULE}.v`, \
+         `filelist.f`.\n",
+        m.register_bits, m.schedule_register_bits, m.memory_bits
     );
     let _ = writeln!(w, "## Ports\n");
     let _ = writeln!(

@@ -91,6 +91,11 @@ pub struct PipelinedModule {
     /// Bits of every register the module declares (pipeline, delay lines,
     /// valid bits, square-root stages, table read registers, outputs).
     pub register_bits: u64,
+    /// Of those, the schedule's own pipeline registers and delay lines of
+    /// the datapath's values ([`super::schedule::Schedule::register_bits`]);
+    /// the rest hold the sample's ports down the pipeline, the valid bits,
+    /// the table reads and the outputs.
+    pub schedule_register_bits: u64,
     /// Bits of the tables.
     pub memory_bits: u64,
 }
@@ -372,6 +377,7 @@ pub fn emit(g: &Graph, name: &str) -> Result<PipelinedModule, RtlError> {
         ports,
         tables,
         register_bits,
+        schedule_register_bits: sch.register_bits,
         memory_bits,
     };
     m.verilog = text(g, &m, &b, &regs, &outs, &mem_reads, (sel_bits, ta, td))?;
