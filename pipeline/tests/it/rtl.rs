@@ -58,7 +58,7 @@ fn case(cfg: &PipelineConfig, name: &str, n: usize, seed: u8) -> Case {
             let words = (0..m.depth)
                 .map(|_| {
                     let w = word(&mut rng, m.fmt);
-                    if m.name == "class_a" && rng.next_u64() % 4 == 0 {
+                    if m.name == "class_a" && rng.next_u64().is_multiple_of(4) {
                         0
                     } else {
                         w
@@ -121,7 +121,7 @@ fn case(cfg: &PipelineConfig, name: &str, n: usize, seed: u8) -> Case {
     }
     let mut issue: Vec<Option<usize>> = (0..n / 2).map(Some).collect();
     for k in n / 2..n {
-        while rng.next_u64() % 3 == 0 {
+        while rng.next_u64().is_multiple_of(3) {
             issue.push(None);
         }
         issue.push(Some(k));
