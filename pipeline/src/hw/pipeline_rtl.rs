@@ -1,7 +1,7 @@
 //! A whole [`Graph`] as one pipelined Verilog-2005 module, registers where
 //! its [`schedule`](super::schedule) puts the stage boundaries.
 //!
-//! - Each node's logic is in its scheduled stage ([`super::verilog::comb`]:
+//! - Each node's logic is in its scheduled stage (`hw::verilog::comb`:
 //!   the same operator text as the calibration cuts, every assignment by
 //!   [`crate::rtl`]'s quantiser); a value read `n` stages after its own is
 //!   held by `n` registers (`<wire>_d<stage>`).
@@ -15,7 +15,7 @@
 //!   A memory without a depth (the voxel taps) is outside: its address is
 //!   an output in the address's stage and its words inputs one clock
 //!   later, like a block RAM's.
-//! - An integer square root is the pipelined unit of [`super::isqrt_rtl`].
+//! - An integer square root is the pipelined unit of `hw/isqrt_rtl.rs`.
 //!
 //! Ports are taken once, at issue, and held down the pipeline with the
 //! sample (a sample's accumulators included), so samples issue back to
