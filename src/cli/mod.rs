@@ -19,6 +19,7 @@ mod plot;
 mod progress;
 mod refine;
 pub(crate) mod render;
+mod rtl;
 mod skipbench;
 mod stats;
 mod synth;
@@ -83,6 +84,9 @@ enum Command {
     /// (yosys, nextpnr): measured resources, clock and critical path beside
     /// the estimate.
     Synth(Box<synth::SynthArgs>),
+    /// Write the PE's sample datapath as pipelined Verilog (with a file
+    /// list and a README naming every port).
+    Rtl(Box<rtl::RtlArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -154,6 +158,7 @@ where
         Command::Peer(a) => peer::run(&a),
         Command::Refine(a) => refine::run(&a),
         Command::Synth(a) => synth::run(&a),
+        Command::Rtl(a) => rtl::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

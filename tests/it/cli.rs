@@ -11,6 +11,7 @@ mod errors;
 mod loaders;
 mod range;
 mod render;
+mod rtl;
 mod traces;
 mod vocabulary;
 mod writes;

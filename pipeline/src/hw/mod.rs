@@ -16,11 +16,17 @@
 //! - [`schedule`]: the pipelined schedule (at most one multiplier or one
 //!   carry chain per stage) and the latency it gives;
 //! - [`verilog`]: Verilog-2005 text of a cut of the graph;
+//! - [`pipeline_rtl`]: the whole graph as one pipelined module on that
+//!   schedule, which [`testbench`] and [`sim`] stream samples through;
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
 pub mod eval;
+mod isqrt_rtl;
+pub mod pipeline_rtl;
 pub mod sample;
 pub mod schedule;
+pub mod sim;
+pub mod testbench;
 pub mod units;
 pub mod verilog;
 

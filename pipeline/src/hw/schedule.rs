@@ -30,6 +30,10 @@ pub struct Schedule {
     /// Per node: the stage whose logic produces it (0 from the first
     /// clock).
     pub stage: Vec<u32>,
+    /// Per node: the stage at which it reads its operands (its stage, but
+    /// one before for a register or a memory read, and the first of an
+    /// integer square root's stages).
+    pub reads: Vec<u32>,
     /// Stages from the first to the outputs' register: the latency.
     pub depth: u32,
     /// Bits of the pipeline registers the schedule adds (delay lines
@@ -113,6 +117,7 @@ pub fn schedule(g: &Graph) -> Schedule {
         .unwrap_or(0);
     Schedule {
         stage,
+        reads,
         depth,
         register_bits,
     }

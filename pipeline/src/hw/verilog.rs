@@ -29,6 +29,136 @@ fn signed_at(x: &str, w: Word, k: i32) -> String {
     }
 }
 
+/// Emits node `id` of `g` as the combinational wire `v` (its operands
+/// read through `get`): every operator but a port, a register, a memory
+/// read and a square root, which are not logic of one stage (`Ok(false)`,
+/// nothing emitted).
+pub(crate) fn comb(
+    b: &mut Body,
+    g: &Graph,
+    id: NodeId,
+    v: &str,
+    get: &dyn Fn(NodeId) -> String,
+) -> Result<bool, RtlError> {
+    let n = g.node(id);
+    let w = n.word;
+    let decl = format!(
+        "wire {}{} {v}",
+        if w.signed { "signed " } else { "" },
+        range(w.bits)
+    );
+    match n.op {
+        Op::Const(c) => {
+            if c < 0 {
+                return Err(RtlError::Unsupported(format!(
+                    "negative constant {}",
+                    n.name
+                )));
+            }
+            b.line(&format!("{decl} = {}'d{c};", w.bits));
+        }
+        Op::Add(x, y) | Op::Sub(x, y) => {
+            let op = if matches!(n.op, Op::Add(..)) {
+                "+"
+            } else {
+                "-"
+            };
+            let (wx, wy) = (g.word(x), g.word(y));
+            if w.signed {
+                b.line(&format!(
+                    "{decl} = {} {op} {};",
+                    signed_at(&get(x), wx, w.frac - wx.frac),
+                    signed_at(&get(y), wy, w.frac - wy.frac)
+                ));
+            } else {
+                b.line(&format!(
+                    "{decl} = {} {op} {};",
+                    shl(&get(x), w.frac - wx.frac),
+                    shl(&get(y), w.frac - wy.frac)
+                ));
+            }
+        }
+        Op::Mul(x, y) => {
+            let (wx, wy) = (g.word(x), g.word(y));
+            if w.signed {
+                b.line(&format!(
+                    "{decl} = {} * {};",
+                    signed_at(&get(x), wx, 0),
+                    signed_at(&get(y), wy, 0)
+                ));
+            } else {
+                b.line(&format!("{decl} = {} * {};", get(x), get(y)));
+            }
+        }
+        Op::Quantize(x) => {
+            let q = Quantizer::new(g.word(x), n.fmt.expect("format"));
+            let y = quantize(b, &get(x), &q)?;
+            b.line(&format!("{decl} = {y};"));
+        }
+        Op::ShrQuantize(x, s) => {
+            // One guard bit below the word, shifted, then assigned:
+            // for TRN and RND the guard bit is all the rounding reads.
+            let wx = g.word(x);
+            let gw = Word::unsigned(wx.bits + 1, wx.frac + 1);
+            let gv = format!("{v}_g");
+            b.line(&format!(
+                "wire {} {gv} = {{{}, 1'b0}} >> {};",
+                range(gw.bits),
+                get(x),
+                get(s)
+            ));
+            let q = Quantizer::new(gw, n.fmt.expect("format"));
+            let y = quantize(b, &gv, &q)?;
+            b.line(&format!("{decl} = {y};"));
+        }
+        Op::Field(x, lo) => {
+            let wx = g.word(x);
+            let src = if lo < 0 { shl(&get(x), -lo) } else { get(x) };
+            let (lo, width) = if lo < 0 {
+                (0, wx.bits + (-lo) as u32)
+            } else {
+                (lo as u32, wx.bits)
+            };
+            let hi = lo + w.bits - 1;
+            if hi < width {
+                b.line(&format!("{decl} = {src}[{hi}:{lo}];"));
+            } else {
+                b.line(&format!(
+                    "{decl} = {{{}'b0, {src}[{}:{lo}]}};",
+                    hi + 1 - width,
+                    width - 1
+                ));
+            }
+        }
+        Op::Ge(x, y) | Op::Eq(x, y) => {
+            let op = if matches!(n.op, Op::Ge(..)) {
+                ">="
+            } else {
+                "=="
+            };
+            let (wx, wy) = (g.word(x), g.word(y));
+            let f = wx.frac.max(wy.frac);
+            b.line(&format!(
+                "{decl} = {} {op} {};",
+                signed_at(&get(x), wx, f - wx.frac),
+                signed_at(&get(y), wy, f - wy.frac)
+            ));
+        }
+        Op::NonZero(x) => b.line(&format!("{decl} = |{};", get(x))),
+        Op::Mux { sel, f, t } => {
+            let (wf, wt) = (g.word(f), g.word(t));
+            b.line(&format!(
+                "{decl} = {} ? {} : {};",
+                get(sel),
+                shl(&get(t), w.frac - wt.frac),
+                shl(&get(f), w.frac - wf.frac)
+            ));
+        }
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
 /// The body, registers and outputs of the cut of `g` from `ports` to
 /// `outputs` (each `(Verilog name, node)`).
 pub struct Cut {
@@ -66,118 +196,7 @@ pub fn cut(
         let w = n.word;
         let v = wire(g, id);
         let get = |o: NodeId| name[o.0].clone().expect("operands come first");
-        let decl = format!(
-            "wire {}{} {v}",
-            if w.signed { "signed " } else { "" },
-            range(w.bits)
-        );
         match n.op {
-            Op::Const(c) => {
-                if c < 0 {
-                    return Err(RtlError::Unsupported(format!(
-                        "negative constant {}",
-                        n.name
-                    )));
-                }
-                b.line(&format!("{decl} = {}'d{c};", w.bits));
-            }
-            Op::Add(x, y) | Op::Sub(x, y) => {
-                let op = if matches!(n.op, Op::Add(..)) {
-                    "+"
-                } else {
-                    "-"
-                };
-                let (wx, wy) = (g.word(x), g.word(y));
-                if w.signed {
-                    b.line(&format!(
-                        "{decl} = {} {op} {};",
-                        signed_at(&get(x), wx, w.frac - wx.frac),
-                        signed_at(&get(y), wy, w.frac - wy.frac)
-                    ));
-                } else {
-                    b.line(&format!(
-                        "{decl} = {} {op} {};",
-                        shl(&get(x), w.frac - wx.frac),
-                        shl(&get(y), w.frac - wy.frac)
-                    ));
-                }
-            }
-            Op::Mul(x, y) => {
-                let (wx, wy) = (g.word(x), g.word(y));
-                if w.signed {
-                    b.line(&format!(
-                        "{decl} = {} * {};",
-                        signed_at(&get(x), wx, 0),
-                        signed_at(&get(y), wy, 0)
-                    ));
-                } else {
-                    b.line(&format!("{decl} = {} * {};", get(x), get(y)));
-                }
-            }
-            Op::Quantize(x) => {
-                let q = Quantizer::new(g.word(x), n.fmt.expect("format"));
-                let y = quantize(&mut b, &get(x), &q)?;
-                b.line(&format!("{decl} = {y};"));
-            }
-            Op::ShrQuantize(x, s) => {
-                // One guard bit below the word, shifted, then assigned:
-                // for TRN and RND the guard bit is all the rounding reads.
-                let wx = g.word(x);
-                let gw = Word::unsigned(wx.bits + 1, wx.frac + 1);
-                let gv = format!("{v}_g");
-                b.line(&format!(
-                    "wire {} {gv} = {{{}, 1'b0}} >> {};",
-                    range(gw.bits),
-                    get(x),
-                    get(s)
-                ));
-                let q = Quantizer::new(gw, n.fmt.expect("format"));
-                let y = quantize(&mut b, &gv, &q)?;
-                b.line(&format!("{decl} = {y};"));
-            }
-            Op::Field(x, lo) => {
-                let wx = g.word(x);
-                let src = if lo < 0 { shl(&get(x), -lo) } else { get(x) };
-                let (lo, width) = if lo < 0 {
-                    (0, wx.bits + (-lo) as u32)
-                } else {
-                    (lo as u32, wx.bits)
-                };
-                let hi = lo + w.bits - 1;
-                if hi < width {
-                    b.line(&format!("{decl} = {src}[{hi}:{lo}];"));
-                } else {
-                    b.line(&format!(
-                        "{decl} = {{{}'b0, {src}[{}:{lo}]}};",
-                        hi + 1 - width,
-                        width - 1
-                    ));
-                }
-            }
-            Op::Ge(x, y) | Op::Eq(x, y) => {
-                let op = if matches!(n.op, Op::Ge(..)) {
-                    ">="
-                } else {
-                    "=="
-                };
-                let (wx, wy) = (g.word(x), g.word(y));
-                let f = wx.frac.max(wy.frac);
-                b.line(&format!(
-                    "{decl} = {} {op} {};",
-                    signed_at(&get(x), wx, f - wx.frac),
-                    signed_at(&get(y), wy, f - wy.frac)
-                ));
-            }
-            Op::NonZero(x) => b.line(&format!("{decl} = |{};", get(x))),
-            Op::Mux { sel, f, t } => {
-                let (wf, wt) = (g.word(f), g.word(t));
-                b.line(&format!(
-                    "{decl} = {} ? {} : {};",
-                    get(sel),
-                    shl(&get(t), w.frac - wt.frac),
-                    shl(&get(f), w.frac - wf.frac)
-                ));
-            }
             Op::Reg(d) => {
                 regs.push((v.clone(), w.bits, get(d)));
                 name[id.0] = Some(v);
@@ -193,6 +212,9 @@ pub fn cut(
                     },
                     n.name
                 )))
+            }
+            _ => {
+                comb(&mut b, g, id, &v, &get)?;
             }
         }
         // A step register inside the cut: its readers read the register.

@@ -78,6 +78,11 @@ impl Body {
         format!("{stem}_{}", self.next)
     }
 
+    /// The lines collected.
+    pub(crate) fn text(&self) -> &str {
+        &self.text
+    }
+
     pub(crate) fn line(&mut self, s: &str) {
         self.text.push_str("  ");
         self.text.push_str(s);

@@ -34,7 +34,7 @@ const ABS_TOL: u64 = 3;
 
 /// Narrow widths: 8-bit voxels, 256-entry tables, 12-bit accumulators,
 /// 14-bit gradients, 8 fraction bits of `|n . L|`.
-const NARROW: &str = r#"
+pub(crate) const NARROW: &str = r#"
 voxel = { bits = 8, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
 position = { bits = 20, frac = 10, quant = "RND", overflow = "SAT", signed = true }
 step = { bits = 16, frac = 15, quant = "RND", overflow = "SAT", signed = false }
@@ -58,7 +58,7 @@ normal_dot = { bits = 9, frac = 8, quant = "TRN", overflow = "SAT", signed = fal
 
 /// Wide widths: 16-bit voxels, 32-bit positions, 24-bit accumulators,
 /// 24-bit gradients, 16 fraction bits of `|n . L|`.
-const WIDE: &str = r#"
+pub(crate) const WIDE: &str = r#"
 voxel = { bits = 16, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
 position = { bits = 32, frac = 18, quant = "RND", overflow = "SAT", signed = true }
 step = { bits = 32, frac = 31, quant = "RND", overflow = "SAT", signed = false }

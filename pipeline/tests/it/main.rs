@@ -25,6 +25,7 @@ mod load;
 mod mapping;
 mod model;
 mod preint;
+mod rtl;
 mod shading;
 mod skip;
 mod stress;

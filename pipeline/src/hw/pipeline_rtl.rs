@@ -1,0 +1,578 @@
+//! A whole [`Graph`] as one pipelined Verilog-2005 module, registers where
+//! its [`schedule`](super::schedule) puts the stage boundaries.
+//!
+//! - Each node's logic is in its scheduled stage (`hw::verilog::comb`:
+//!   the same operator text as the calibration cuts, every assignment by
+//!   [`crate::rtl`]'s quantiser); a value read `n` stages after its own is
+//!   held by `n` registers (`<wire>_d<stage>`).
+//! - A valid bit travels with each sample (`valid_d<stage>`); the outputs
+//!   load only from a valid sample, so a bubble never changes them.
+//! - Every register has a synchronous reset to zero (no X reaches an
+//!   output in a four-state simulator, whatever the inputs of a bubble).
+//! - Memories with a depth are tables: synchronous-read RAMs (the read's
+//!   data register is the stage boundary) written through one host port
+//!   (`tbl_we`, `tbl_sel`, `tbl_addr`, `tbl_data`), as yosys infers them.
+//!   A memory without a depth (the voxel taps) is outside: its address is
+//!   an output in the address's stage and its words inputs one clock
+//!   later, like a block RAM's.
+//! - An integer square root is the pipelined unit of `hw/isqrt_rtl.rs`.
+//!
+//! Ports are taken once, at issue, and held down the pipeline with the
+//! sample (a sample's accumulators included), so samples issue back to
+//! back; the schedule's `register_bits` counts ports as held registers
+//! outside the datapath and so does not count these delay lines.
+
+use std::fmt::Write as _;
+
+use super::schedule::schedule;
+use super::{Graph, NodeId, Op, Word};
+use crate::rtl::{range, Body, RtlError};
+
+/// A register: name, word, source expression.
+pub(crate) struct Reg {
+    name: String,
+    word: Word,
+    src: String,
+}
+
+impl Reg {
+    pub(crate) fn new(name: &str, word: Word, src: &str) -> Reg {
+        Reg {
+            name: name.to_owned(),
+            word,
+            src: src.to_owned(),
+        }
+    }
+}
+
+/// One port of the emitted module.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Port {
+    /// Verilog name.
+    pub name: String,
+    /// Whether the module reads it.
+    pub input: bool,
+    /// Its word (width, fraction bits, signedness).
+    pub word: Word,
+    /// The declared format, when the node has one.
+    pub format: Option<String>,
+    /// Clocks after issue at which it is read or valid.
+    pub stage: u32,
+    /// What it carries.
+    pub meaning: String,
+}
+
+/// A table of the host write port: its `tbl_sel` code, depth and word.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Table {
+    /// The memory's name.
+    pub name: String,
+    /// Its `tbl_sel` code.
+    pub sel: u32,
+    /// Words.
+    pub depth: u64,
+    /// Bits per word.
+    pub bits: u32,
+}
+
+/// The emitted module and what a testbench or a reader needs of it.
+#[derive(Debug, Clone)]
+pub struct PipelinedModule {
+    /// Module name.
+    pub name: String,
+    /// The Verilog text.
+    pub verilog: String,
+    /// Clocks from issue to the registered outputs.
+    pub depth: u32,
+    /// Every port, clock and reset included, in declaration order.
+    pub ports: Vec<Port>,
+    /// The tables behind the host write port.
+    pub tables: Vec<Table>,
+    /// Bits of every register the module declares (pipeline, delay lines,
+    /// valid bits, square-root stages, table read registers, outputs).
+    pub register_bits: u64,
+    /// Of those, the schedule's own pipeline registers and delay lines of
+    /// the datapath's values ([`super::schedule::Schedule::register_bits`]);
+    /// the rest hold the sample's ports down the pipeline, the valid bits,
+    /// the table reads and the outputs.
+    pub schedule_register_bits: u64,
+    /// Bits of the tables.
+    pub memory_bits: u64,
+}
+
+/// What a port of the plain sample carries.
+fn meaning(name: &str) -> &'static str {
+    match name {
+        "slot.m" => "ray index m (the ray slot)",
+        "a" => "x position base of the row (x = a + m t)",
+        "t" => "x position step per ray",
+        "b" => "x slope base of the row (sx = b + m k)",
+        "k" => "x slope step per ray",
+        "row.wy" => "y interpolation weight of the row",
+        "sy" => "y slope of the row",
+        "sz" => "z slope of the slice",
+        "acc_r" | "acc_g" | "acc_b" => "the ray's colour accumulator before the sample",
+        "acc_a" => "the ray's opacity accumulator before the sample",
+        "v00" | "v01" => "voxel tap of row y0, column x0 / x0 + 1",
+        "v10" | "v11" => "voxel tap of row y0 + 1, column x0 / x0 + 1",
+        "x0" => "voxel tap column (the taps' read address)",
+        _ if name.starts_with("acc_out") => "the ray's accumulator after the sample",
+        _ => "",
+    }
+}
+
+/// `s` with `.` as `_`: a Verilog identifier of a probe name.
+pub fn verilog_name(s: &str) -> String {
+    s.replace('.', "_")
+}
+
+/// Bits of a table address of `depth` words.
+fn addr_bits(depth: u64) -> u32 {
+    crate::cost::inventory::addr_bits(depth)
+}
+
+/// Emits `g` as module `name`: see the module documentation.
+pub fn emit(g: &Graph, name: &str) -> Result<PipelinedModule, RtlError> {
+    let sch = schedule(g);
+    let (stage, reads, depth) = (&sch.stage, &sch.reads, sch.depth.max(1));
+    let n = g.nodes.len();
+    // Addresses of the outside memory's reads are outputs in their stage.
+    let mut tap = vec![None; n];
+    for (i, node) in g.nodes.iter().enumerate() {
+        if let Op::Read(m, a) = node.op {
+            if g.mems[m.0].depth == 0 {
+                tap[a.0] = Some(reads[i]);
+            }
+        }
+    }
+    let mut last: Vec<u32> = stage.clone();
+    for (i, node) in g.nodes.iter().enumerate() {
+        for o in node.op.operands() {
+            last[o.0] = last[o.0].max(reads[i]);
+        }
+    }
+    for (_, id) in &g.outputs {
+        if tap[id.0].is_none() {
+            last[id.0] = last[id.0].max(depth - 1);
+        }
+    }
+    let base = |i: usize| -> String {
+        let nd = &g.nodes[i];
+        match nd.op {
+            Op::Input => verilog_name(&nd.name),
+            Op::Read(m, _) if g.mems[m.0].depth == 0 => verilog_name(&nd.name),
+            _ => format!("n_{}", verilog_name(&nd.name)),
+        }
+    };
+    let sig = |id: NodeId, k: u32| -> String {
+        let i = id.0;
+        assert!(k >= stage[i], "{} read before its stage", g.nodes[i].name);
+        if k == stage[i] || matches!(g.nodes[i].op, Op::Const(_)) {
+            base(i)
+        } else {
+            format!("{}_d{k}", base(i))
+        }
+    };
+    let valid = |k: u32| -> String {
+        if k == 0 {
+            "in_valid".to_owned()
+        } else {
+            format!("valid_d{k}")
+        }
+    };
+
+    // Tables: their select codes and the host port's widths.
+    let tables: Vec<Table> = g
+        .mems
+        .iter()
+        .filter(|m| m.depth > 0)
+        .enumerate()
+        .map(|(k, m)| Table {
+            name: m.name.clone(),
+            sel: k as u32,
+            depth: m.depth,
+            bits: u32::from(m.fmt.bits()),
+        })
+        .collect();
+    let sel_bits = addr_bits(tables.len().max(2) as u64);
+    let ta = tables.iter().map(|t| addr_bits(t.depth)).max().unwrap_or(1);
+    let td = tables.iter().map(|t| t.bits).max().unwrap_or(1);
+
+    let mut ports = vec![
+        port(
+            "clk",
+            true,
+            Word::unsigned(1, 0),
+            0,
+            "clock; every register loads on its rising edge",
+        ),
+        port(
+            "rst",
+            true,
+            Word::unsigned(1, 0),
+            0,
+            "synchronous reset of every register to zero",
+        ),
+        port(
+            "in_valid",
+            true,
+            Word::unsigned(1, 0),
+            0,
+            "a sample issues this clock",
+        ),
+        port(
+            "tbl_we",
+            true,
+            Word::unsigned(1, 0),
+            0,
+            "host table write enable",
+        ),
+        port(
+            "tbl_sel",
+            true,
+            Word::unsigned(sel_bits, 0),
+            0,
+            "host table select (see the table list)",
+        ),
+        port(
+            "tbl_addr",
+            true,
+            Word::unsigned(ta, 0),
+            0,
+            "host table write address",
+        ),
+        port(
+            "tbl_data",
+            true,
+            Word::unsigned(td, 0),
+            0,
+            "host table write word (low bits)",
+        ),
+    ];
+    let mut b = Body::new();
+    let mut regs: Vec<Reg> = Vec::new();
+    let mut mem_reads: Vec<Vec<(String, String)>> = vec![Vec::new(); g.mems.len()];
+    let mut outs = Vec::new();
+    for (i, node) in g.nodes.iter().enumerate() {
+        let id = NodeId(i);
+        let v = base(i);
+        let w = node.word;
+        let get = |o: NodeId| sig(o, reads[i]);
+        match node.op {
+            Op::Input => ports.push(Port {
+                name: v.clone(),
+                input: true,
+                word: w,
+                format: node.fmt.map(|f| f.to_string()),
+                stage: 0,
+                meaning: meaning(&node.name).to_owned(),
+            }),
+            Op::Reg(d) => regs.push(Reg::new(&v, w, &get(d))),
+            Op::Read(m, a) if g.mems[m.0].depth == 0 => {
+                if !g.outputs.iter().any(|o| o.1 == a) {
+                    return Err(RtlError::Unsupported(format!(
+                        "a read of {} at an address that is not an output",
+                        g.mems[m.0].name
+                    )));
+                }
+                ports.push(Port {
+                    name: v.clone(),
+                    input: true,
+                    word: w,
+                    format: node.fmt.map(|f| f.to_string()),
+                    stage: stage[i],
+                    meaning: meaning(&node.name).to_owned(),
+                });
+            }
+            Op::Read(m, a) => {
+                let ab = addr_bits(g.mems[m.0].depth);
+                let wa = g.word(a);
+                let at = get(a);
+                let addr = if wa.bits >= ab {
+                    format!("{at}[{}:0]", ab - 1)
+                } else {
+                    format!("{{{}'b0, {at}}}", ab - wa.bits)
+                };
+                b.line(&format!("wire {} {v}_a = {addr};", range(ab)));
+                mem_reads[m.0].push((v.clone(), format!("{v}_a")));
+            }
+            Op::Isqrt(x) => {
+                let f = node.fmt.expect("a square root has a format");
+                let y = super::isqrt_rtl::isqrt(
+                    &mut b,
+                    &mut regs,
+                    &v,
+                    &get(x),
+                    g.word(x),
+                    f,
+                    stage[i] - reads[i] + 1,
+                )?;
+                b.line(&format!("wire {} {v} = {y};", decl(w)));
+            }
+            _ => {
+                super::verilog::comb(&mut b, g, id, &v, &get)?;
+            }
+        }
+        // The delay line to the last reader.
+        if !matches!(node.op, Op::Const(_)) {
+            for k in stage[i] + 1..=last[i] {
+                regs.push(Reg::new(&sig(id, k), w, &sig(id, k - 1)));
+            }
+        }
+    }
+    for (oname, id) in &g.outputs {
+        let node = g.node(*id);
+        let p = |stage: u32| Port {
+            name: verilog_name(oname),
+            input: false,
+            word: node.word,
+            format: node.fmt.map(|f| f.to_string()),
+            stage,
+            meaning: meaning(oname).to_owned(),
+        };
+        match tap[id.0] {
+            Some(k) => {
+                ports.push(p(k));
+                b.line(&format!(
+                    "assign {} = {} ? {} : {}'d0;",
+                    verilog_name(oname),
+                    valid(k),
+                    sig(*id, k),
+                    node.word.bits
+                ));
+            }
+            None => {
+                ports.push(p(depth));
+                outs.push((verilog_name(oname), node.word, sig(*id, depth - 1)));
+            }
+        }
+    }
+    ports.insert(
+        3,
+        port(
+            "out_valid",
+            false,
+            Word::unsigned(1, 0),
+            depth,
+            "the outputs hold a sample issued `depth` clocks ago",
+        ),
+    );
+    for k in 1..depth {
+        regs.push(Reg::new(&valid(k), Word::unsigned(1, 0), &valid(k - 1)));
+    }
+
+    let register_bits = regs.iter().map(|r| u64::from(r.word.bits)).sum::<u64>()
+        + outs.iter().map(|o| u64::from(o.1.bits)).sum::<u64>()
+        + 1
+        + g.mems
+            .iter()
+            .zip(&mem_reads)
+            .map(|(m, r)| r.len() as u64 * u64::from(m.fmt.bits()))
+            .sum::<u64>();
+    let memory_bits = tables.iter().map(|t| t.depth * u64::from(t.bits)).sum();
+    let mut m = PipelinedModule {
+        name: name.to_owned(),
+        verilog: String::new(),
+        depth,
+        ports,
+        tables,
+        register_bits,
+        schedule_register_bits: sch.register_bits,
+        memory_bits,
+    };
+    m.verilog = text(g, &m, &b, &regs, &outs, &mem_reads, (sel_bits, ta, td))?;
+    Ok(m)
+}
+
+/// A one-bit or plain port.
+fn port(name: &str, input: bool, word: Word, stage: u32, meaning: &str) -> Port {
+    Port {
+        name: name.to_owned(),
+        input,
+        word,
+        format: None,
+        stage,
+        meaning: meaning.to_owned(),
+    }
+}
+
+/// `signed [n-1:0]` or `[n-1:0]`.
+fn decl(w: Word) -> String {
+    format!("{}{}", if w.signed { "signed " } else { "" }, range(w.bits))
+}
+
+/// The module's text.
+fn text(
+    g: &Graph,
+    m: &PipelinedModule,
+    b: &Body,
+    regs: &[Reg],
+    outs: &[(String, Word, String)],
+    mem_reads: &[Vec<(String, String)>],
+    (sel_bits, ta, td): (u32, u32, u32),
+) -> Result<String, RtlError> {
+    let mut v = String::new();
+    let w = &mut v;
+    let _ = writeln!(
+        w,
+        "// {}: the plain sample's datapath, pipelined, {} clocks from issue to the outputs.",
+        m.name, m.depth
+    );
+    let _ = writeln!(w, "// Emitted by ercube (pipeline::hw::pipeline_rtl) from the datapath's description and its schedule.");
+    let _ = writeln!(
+        w,
+        "//\n// Ports (name, direction, width, format, clocks after issue, meaning):"
+    );
+    for p in &m.ports {
+        let _ = writeln!(
+            w,
+            "//   {:<10} {:<6} {}{:<3} {:<26} {:>3}  {}",
+            p.name,
+            if p.input { "input" } else { "output" },
+            if p.word.signed { "s" } else { "u" },
+            p.word.bits,
+            p.format
+                .clone()
+                .unwrap_or_else(|| format!("frac {}", p.word.frac)),
+            p.stage,
+            p.meaning
+        );
+    }
+    let _ = writeln!(w, "//\n// Tables (tbl_sel, name, words x bits):");
+    for t in &m.tables {
+        let _ = writeln!(w, "//   {} {} {} x {}", t.sel, t.name, t.depth, t.bits);
+    }
+    let _ = writeln!(
+        w,
+        "//\n// Waiver: UNUSEDSIGNAL. A field takes some bits of a word (a position's"
+    );
+    let _ = writeln!(
+        w,
+        "// column and fraction, a sample's table index and weight, a remainder's"
+    );
+    let _ = writeln!(
+        w,
+        "// bits shifted out by the square root); the bits it leaves are wires that"
+    );
+    let _ = writeln!(w, "// go nowhere, by design, and synthesis removes them.");
+    let _ = writeln!(
+        w,
+        "//\n// Waiver: WIDTH. Each expression is written at its node's wired word: an"
+    );
+    let _ = writeln!(
+        w,
+        "// operand narrower than the result is extended by Verilog's rules (signed"
+    );
+    let _ = writeln!(
+        w,
+        "// operands are all $signed, so sign-extended), and a quantiser's shifted"
+    );
+    let _ = writeln!(
+        w,
+        "// word is cut to the bits it keeps, whose dropped top bits are copies of"
+    );
+    let _ = writeln!(
+        w,
+        "// its sign. The words are the description's, which the bit-exact evaluator"
+    );
+    let _ = writeln!(w, "// (hw::eval) checks on every value it computes.");
+    let _ = writeln!(
+        w,
+        "/* verilator lint_off UNUSEDSIGNAL */\n/* verilator lint_off WIDTH */"
+    );
+    let mut decls = Vec::new();
+    for p in &m.ports {
+        let kind = match (p.input, p.name.as_str()) {
+            (true, _) => "input wire",
+            (false, "out_valid") => "output reg",
+            (false, _) if outs.iter().any(|o| o.0 == p.name) => "output reg",
+            (false, _) => "output wire",
+        };
+        decls.push(format!("  {kind} {} {}", decl(p.word), p.name));
+    }
+    let _ = writeln!(w, "module {} (\n{}\n);", m.name, decls.join(",\n"));
+    for r in regs {
+        let _ = writeln!(w, "  reg {} {};", decl(r.word), r.name);
+    }
+    for (mi, reads) in mem_reads.iter().enumerate() {
+        let mem = &g.mems[mi];
+        if mem.depth == 0 {
+            continue;
+        }
+        let bits = u32::from(mem.fmt.bits());
+        for (d, _) in reads {
+            let _ = writeln!(w, "  reg {} {d};", range(bits));
+        }
+    }
+    v.push_str(b.text());
+    let w = &mut v;
+    // The tables: one host write port, synchronous reads with reset.
+    for (mi, reads) in mem_reads.iter().enumerate() {
+        let mem = &g.mems[mi];
+        if mem.depth == 0 {
+            continue;
+        }
+        let t = m
+            .tables
+            .iter()
+            .find(|t| t.name == mem.name)
+            .expect("a table");
+        let (ab, bits) = (addr_bits(mem.depth), t.bits);
+        let arr = format!("mem_{}", verilog_name(&mem.name));
+        let _ = writeln!(w, "  reg {} {arr} [0:{}];", range(bits), mem.depth - 1);
+        let addr = if ab == ta {
+            "tbl_addr".to_owned()
+        } else {
+            format!("tbl_addr[{}:0]", ab - 1)
+        };
+        let data = if bits == td {
+            "tbl_data".to_owned()
+        } else {
+            format!("tbl_data[{}:0]", bits - 1)
+        };
+        let _ = writeln!(w, "  always @(posedge clk) begin");
+        let _ = writeln!(
+            w,
+            "    if (tbl_we && tbl_sel == {sel_bits}'d{}) {arr}[{addr}] <= {data};",
+            t.sel
+        );
+        let _ = writeln!(w, "  end");
+        for (d, a) in reads {
+            let _ = writeln!(w, "  always @(posedge clk) begin");
+            let _ = writeln!(
+                w,
+                "    if (rst) {d} <= {bits}'d0;\n    else {d} <= {arr}[{a}];"
+            );
+            let _ = writeln!(w, "  end");
+        }
+    }
+    // The pipeline: every register resets; the outputs load from a valid
+    // sample only.
+    let last = format!("valid_d{}", m.depth - 1);
+    let last = if m.depth == 1 {
+        "in_valid".to_owned()
+    } else {
+        last
+    };
+    let _ = writeln!(w, "  always @(posedge clk) begin\n    if (rst) begin");
+    for r in regs {
+        let _ = writeln!(w, "      {} <= {}'d0;", r.name, r.word.bits);
+    }
+    for (o, ow, _) in outs {
+        let _ = writeln!(w, "      {o} <= {}'d0;", ow.bits);
+    }
+    let _ = writeln!(w, "      out_valid <= 1'b0;\n    end else begin");
+    for r in regs {
+        let _ = writeln!(w, "      {} <= {};", r.name, r.src);
+    }
+    let _ = writeln!(w, "      out_valid <= {last};\n      if ({last}) begin");
+    for (o, _, src) in outs {
+        let _ = writeln!(w, "        {o} <= {src};");
+    }
+    let _ = writeln!(w, "      end\n    end\n  end\nendmodule");
+    let _ = writeln!(
+        w,
+        "/* verilator lint_on WIDTH */\n/* verilator lint_on UNUSEDSIGNAL */"
+    );
+    Ok(v)
+}

@@ -1,0 +1,190 @@
+//! `ercube rtl`: the PE's sample datapath as synthesizable Verilog, from
+//! the datapath's description (`pipeline::hw::sample`) and its pipelined
+//! schedule (`pipeline::hw::pipeline_rtl`), with a file list and a README
+//! naming every port. What is not emitted yet (the PE's control and stage
+//! state machines, the array, the controller, shading, the volume of
+//! interest, pre-integration) is refused in one line naming it.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+
+use pipeline::config::{Order, PipelineConfig};
+use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+
+/// The emitted module's name.
+pub const MODULE: &str = "ercube_sample";
+
+/// Arguments of `ercube rtl`.
+#[derive(Debug, Args)]
+pub struct RtlArgs {
+    /// Directory the Verilog, `filelist.f` and `README.md` go to (created
+    /// if missing).
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// Pipeline configuration (TOML; missing keys keep their defaults).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Compositing order (overrides the configuration): btf or ftb.
+    #[arg(long, value_parser = ["btf", "ftb"])]
+    pub order: Option<String>,
+    /// The PE with its control and stage state machines (refused: not
+    /// emitted yet).
+    #[arg(long)]
+    pub pe: bool,
+    /// The PE array (refused: not emitted yet).
+    #[arg(long)]
+    pub array: bool,
+    /// The controller (refused: not emitted yet).
+    #[arg(long)]
+    pub controller: bool,
+    /// The shading unit (refused: not emitted yet).
+    #[arg(long)]
+    pub shading: bool,
+    /// The volume-of-interest unit (refused: not emitted yet).
+    #[arg(long)]
+    pub voi: bool,
+    /// The pre-integration unit (refused: not emitted yet).
+    #[arg(long)]
+    pub preint: bool,
+}
+
+/// Runs `ercube rtl`.
+pub fn run(a: &RtlArgs) -> Result<()> {
+    let refused = [
+        (a.pe, "the PE's control and stage state machines are"),
+        (a.array, "the PE array is"),
+        (a.controller, "the controller is"),
+        (a.shading, "shading is"),
+        (a.voi, "the volume of interest is"),
+        (a.preint, "pre-integration is"),
+    ];
+    if let Some((_, what)) = refused.iter().find(|r| r.0) {
+        bail!("rtl: {what} not emitted yet (only the plain sample's datapath is)");
+    }
+    let mut cfg = match &a.config {
+        Some(p) => PipelineConfig::from_toml_file(p)?,
+        None => PipelineConfig::default(),
+    };
+    match a.order.as_deref() {
+        Some("ftb") => cfg.order = Order::FrontToBack,
+        Some(_) => cfg.order = Order::BackToFront,
+        None => {}
+    }
+    cfg.validate()?;
+    let g = pipeline::hw::sample::plain(&cfg);
+    let m = emit(&g, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
+    if a.out_dir.is_file() {
+        bail!("--out-dir {} is a file", a.out_dir.display());
+    }
+    super::outputs::all_or_nothing(&[&a.out_dir], || {
+        std::fs::create_dir_all(&a.out_dir)
+            .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
+        let v = format!("{MODULE}.v");
+        write(&a.out_dir.join(&v), &m.verilog)?;
+        write(&a.out_dir.join("filelist.f"), &format!("{v}\n"))?;
+        write(&a.out_dir.join("README.md"), &readme(&cfg, &m))?;
+        Ok(())
+    })?;
+    super::say(&format!(
+        "{}: {MODULE}.v ({} lines), {} clocks from issue to the outputs, {} register bits ({} in the schedule's pipeline), {} table bits; filelist.f, README.md",
+        a.out_dir.display(),
+        m.verilog.lines().count(),
+        m.depth,
+        m.register_bits,
+        m.schedule_register_bits,
+        m.memory_bits
+    ));
+    Ok(())
+}
+
+/// Writes `text` to `path` atomically (staged with the run's other files).
+fn write(path: &Path, text: &str) -> Result<()> {
+    golden::image::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    Ok(())
+}
+
+/// The README: what the module is, every port, the tables, how to build.
+fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let order = match cfg.order {
+        Order::BackToFront => "back to front",
+        Order::FrontToBack => "front to back",
+    };
+    let _ = writeln!(w, "# {MODULE}: the PE's sample datapath\n");
+    let _ = writeln!(
+        w,
+        "Emitted by `ercube rtl` from the datapath's description (`pipeline::hw::sample::plain`) \
+         and its pipelined schedule (at most one multiplier or one carry chain per stage), \
+         compositing {order}. One sample issues per clock (`in_valid`); its outputs appear \
+         **{} clocks** later with `out_valid`. Every register resets synchronously to zero; \
+         the outputs load only from a valid sample.\n",
+        m.depth
+    );
+    let _ = writeln!(
+        w,
+        "Declared: {} register bits ({} of them the schedule's pipeline registers and delay \
+         lines of datapath values; the rest carry the sample's ports down the pipeline, the \
+         valid bits, the table reads and the outputs), {} table bits. Files: `{MODULE}.v`, \
+         `filelist.f`.\n",
+        m.register_bits, m.schedule_register_bits, m.memory_bits
+    );
+    let _ = writeln!(w, "## Ports\n");
+    let _ = writeln!(
+        w,
+        "| port | dir | width | format | clocks after issue | meaning |\n|---|---|---|---|---|---|"
+    );
+    for p in &m.ports {
+        let _ = writeln!(
+            w,
+            "| `{}` | {} | {}{} | {} | {} | {} |",
+            p.name,
+            if p.input { "in" } else { "out" },
+            if p.word.signed { "s" } else { "u" },
+            p.word.bits,
+            p.format
+                .clone()
+                .unwrap_or_else(|| format!("{} fraction bits", p.word.frac)),
+            p.stage,
+            p.meaning
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\nThe voxel taps are read outside the module like a block RAM: `x0` leaves at its \
+         clock (zero for a bubble) and `v00`..`v11` of that sample are taken one clock later.\n"
+    );
+    let _ = writeln!(w, "## Tables (host write port)\n");
+    let _ = writeln!(
+        w,
+        "Written one word per clock with `tbl_we`, `tbl_sel`, `tbl_addr` and the low bits of \
+         `tbl_data`; read synchronously (one clock) by the datapath.\n"
+    );
+    let _ = writeln!(w, "| tbl_sel | table | words | bits |\n|---|---|---|---|");
+    for t in &m.tables {
+        let _ = writeln!(w, "| {} | `{}` | {} | {} |", t.sel, t.name, t.depth, t.bits);
+    }
+    let _ = writeln!(w, "\n## Not emitted yet\n");
+    let _ = writeln!(
+        w,
+        "The PE's control and stage state machines (migrate, sample, merge, split, fold, \
+         readout), its FIFOs and ray memories, the array, the controller, shading, the \
+         volume of interest and pre-integration: `ercube rtl` refuses them by name.\n"
+    );
+    let _ = writeln!(w, "## Checking it\n");
+    let _ = writeln!(
+        w,
+        "```\nverilator --lint-only -Wall -f filelist.f\niverilog -g2005 -o /dev/null -c filelist.f\n\
+         yosys -p 'read_verilog {MODULE}.v; synth -top {MODULE}'\n```\n"
+    );
+    let _ = writeln!(
+        w,
+        "`cargo test --release -p pipeline --test it -- rtl::` streams random samples through \
+         it in Verilator and Icarus and compares every output word with the description's \
+         evaluator (docs/rtl.md)."
+    );
+    s
+}

@@ -1,0 +1,107 @@
+//! `ercube rtl`: the sample datapath's Verilog, its file list and a README
+//! naming every port the module declares; what is not emitted yet is
+//! refused in one line naming it, leaving nothing behind.
+
+use super::{assert_one_line_error, entries, ercube, tempdir};
+
+/// The ports a module declares, from its port list.
+fn declared_ports(v: &str) -> Vec<String> {
+    let head = v.split("module ").nth(1).expect("a module");
+    let list = head.split(");").next().expect("a port list");
+    list.lines()
+        .filter(|l| l.trim_start().starts_with("input") || l.trim_start().starts_with("output"))
+        .map(|l| {
+            l.trim()
+                .trim_end_matches(',')
+                .rsplit(' ')
+                .next()
+                .expect("a name")
+                .to_owned()
+        })
+        .collect()
+}
+
+/// Both orders: the three files, the README's port table lists every
+/// declared port with its width, and states the depth the run printed.
+#[test]
+fn rtl_writes_the_module_filelist_and_readme() {
+    let dir = tempdir();
+    let d = dir.path();
+    for (order, depth) in [("btf", 35), ("ftb", 36)] {
+        let out = format!("out_{order}");
+        let run = ercube(d, &format!("rtl --out-dir {out} --order {order}")).ok();
+        assert!(
+            run.stdout().contains(&format!("{depth} clocks")),
+            "{}",
+            run.describe()
+        );
+        let o = d.join(&out);
+        assert_eq!(entries(&o), ["README.md", "ercube_sample.v", "filelist.f"]);
+        let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
+        let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(o.join("filelist.f")).unwrap(),
+            "ercube_sample.v\n"
+        );
+        let ports = declared_ports(&v);
+        for p in [
+            "clk",
+            "rst",
+            "in_valid",
+            "out_valid",
+            "slot_m",
+            "row_wy",
+            "acc_a",
+            "v11",
+            "x0",
+            "acc_out_r",
+            "acc_out_a",
+            "tbl_we",
+            "tbl_sel",
+            "tbl_addr",
+            "tbl_data",
+        ] {
+            assert!(
+                ports.iter().any(|q| q == p),
+                "{order}: no port {p} in {ports:?}"
+            );
+        }
+        for p in &ports {
+            assert!(
+                readme.contains(&format!("| `{p}` |")),
+                "{order}: README does not name {p}"
+            );
+        }
+        assert!(readme.contains(&format!("**{depth} clocks**")), "{order}");
+    }
+}
+
+/// Each part not emitted yet, and a rounding mode without an emitter, is
+/// refused in one line naming it, exit 2, nothing written.
+#[test]
+fn rtl_refuses_what_it_does_not_emit() {
+    let dir = tempdir();
+    let d = dir.path();
+    for (flag, word) in [
+        ("--shading", "shading"),
+        ("--voi", "volume of interest"),
+        ("--preint", "pre-integration"),
+        ("--pe", "state machines"),
+        ("--array", "array"),
+        ("--controller", "controller"),
+    ] {
+        let run = ercube(d, &format!("rtl --out-dir out {flag}"));
+        assert_eq!(run.out.status.code(), Some(2), "{}", run.describe());
+        assert_one_line_error(&run, word);
+        assert!(entries(d).is_empty(), "{flag}: left {:?}", entries(d));
+    }
+    std::fs::write(
+        d.join("conv.toml"),
+        "color = { bits = 12, frac = 11, quant = \"RND_CONV\", overflow = \"SAT\", signed = false }\n",
+    )
+    .unwrap();
+    let run = ercube(d, "rtl --out-dir out --config conv.toml");
+    assert_eq!(run.out.status.code(), Some(2), "{}", run.describe());
+    assert_one_line_error(&run, "RND_CONV");
+    assert_eq!(entries(d), ["conv.toml"]);
+}
