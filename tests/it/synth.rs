@@ -95,7 +95,16 @@ fn synth_places_units_on_ice40_and_checks_the_estimator() {
 #[ignore = "ECP5 tools from PyPI (about 400 MB); cargo test --release --test it -- --ignored synth_ecp5"]
 fn synth_ecp5_units_against_the_estimator() {
     let dir = tempfile::tempdir().expect("temp dir");
-    for unit in ["add_position", "mul_ray", "mul_square", "bilinear"] {
+    for unit in [
+        "add_position",
+        "mul_ray",
+        "mul_square",
+        "bilinear",
+        "composite",
+        "class_table",
+        "sqrt_norm",
+        "divider",
+    ] {
         let r = synth(dir.path(), "ecp5-25k", unit);
         check_estimate(&r);
         assert!(r["placed"]["fmax_mhz"].as_f64().expect("clock") > 5.0);

@@ -23,6 +23,7 @@ pub mod arch;
 pub mod clock;
 pub mod design;
 pub mod dsp;
+pub mod fmax;
 pub mod inventory;
 pub mod memory;
 pub mod parts;
