@@ -297,11 +297,12 @@ fn least_squares(rows: &[[f64; 6]], y: &[f64], keep: &[bool; 6]) -> [f64; 6] {
         if a[c][c].abs() < 1e-12 {
             continue;
         }
-        for r in 0..n {
+        let pivot = a[c].clone();
+        for (r, row) in a.iter_mut().enumerate() {
             if r != c {
-                let f = a[r][c] / a[c][c];
-                for k in c..=n {
-                    a[r][k] -= f * a[c][k];
+                let f = row[c] / pivot[c];
+                for (x, p) in row.iter_mut().zip(&pivot).skip(c) {
+                    *x -= f * p;
                 }
             }
         }
@@ -446,6 +447,8 @@ pub struct PePrediction {
     pub path: Path,
     /// The schedule's depth, clocks.
     pub depth: u32,
+    /// The delay model that priced it.
+    pub model: DelayModel,
 }
 
 /// The clock of [`crate::hw::sample::plain`]'s schedule on `t`: each
@@ -498,6 +501,7 @@ pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
         critical: g.node(crate::hw::NodeId(best.0)).name.clone(),
         path: arrive[best.0],
         depth: s.depth,
+        model,
     })
 }
 

@@ -192,7 +192,11 @@ fn block_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
         // and read select: measured at 4096 x 35 ... 39 (2048 x 2 tiles,
         // one and two read ports alike), whose even widths need none.
         Target::Ice40 => {
-            let folded = if width % geo_width != 0 { 20 } else { 0 };
+            let folded = if width.is_multiple_of(geo_width) {
+                0
+            } else {
+                20
+            };
             reads * width * mux_luts(t, deep) + deep + folded
         }
         _ => reads * (width * mux_luts(t, deep) + deep),
