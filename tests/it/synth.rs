@@ -88,7 +88,7 @@ fn synth_places_units_on_ice40_and_checks_the_estimator() {
     }
 }
 
-/// The ECP5 flow on every unit at the default widths (about 8 minutes on
+/// The ECP5 flow on every unit at the default widths (about 5 minutes on
 /// two cores, the first call installing the tools): counts against the
 /// estimate as on iCE40.
 #[test]
