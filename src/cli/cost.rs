@@ -49,8 +49,19 @@ pub struct CostArgs {
     pub target: Target,
     /// Clock in MHz (an assumption, not a timing result). Default: 200 on
     /// xc7, 150 on ecp5, 48 on ice40 (as explore and render).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "clock")]
     pub clock_mhz: Option<f64>,
+    /// Where the clock comes from: "assumed" (the family default or
+    /// --clock-mhz) or "predicted" (the schedule's slowest stage, a delay
+    /// model fitted to `ercube synth` runs; ecp5 and ice40 only).
+    #[arg(long, default_value = "assumed")]
+    pub clock: String,
+    /// Pipeline the sample datapath for this clock on --target (MHz):
+    /// report the stages (latency) and register bits the delay model of
+    /// `pipeline::cost::fmax` needs to reach it, or refuse when no
+    /// schedule does. The cycle model keeps the configured latency.
+    #[arg(long, allow_hyphen_values = true)]
+    pub target_mhz: Option<f64>,
     /// Sample empty space too (as render's --no-skip-empty).
     #[arg(long)]
     pub no_skip_empty: bool,
@@ -196,8 +207,36 @@ fn run_at(
 
 /// Runs `ercube cost`.
 pub fn run(a: &CostArgs) -> Result<()> {
-    let clock = clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
-        .map_err(anyhow::Error::msg)?;
+    let clock = match a.clock.trim() {
+        "assumed" => (
+            clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
+                .map_err(anyhow::Error::msg)?,
+            clock::ClockSource::Assumed,
+        ),
+        "predicted" => {
+            let p = pipeline::cost::fmax::pe_prediction(&a.cfg.load()?, a.target)
+                .with_context(|| {
+                    format!(
+                        "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
+                        a.target.name()
+                    )
+                })?;
+            // One decimal, as the report prints it.
+            ((p.mhz * 10.0).round() / 10.0, clock::ClockSource::Predicted)
+        }
+        other => bail!("--clock {other}: expected assumed or predicted"),
+    };
+    let pipelined = match a.target_mhz {
+        Some(f) => {
+            let f = clock::check_mhz(f)
+                .map_err(|e| anyhow::anyhow!(e.replace("--clock-mhz", "--target-mhz")))?;
+            Some(
+                pipeline::cost::fmax::schedule_for(&a.cfg.load()?, a.target, f)
+                    .map_err(anyhow::Error::msg)?,
+            )
+        }
+        None => None,
+    };
     let skips = Skips {
         empty: !a.no_skip_empty,
         cull: !a.no_cull,
@@ -271,8 +310,27 @@ pub fn run(a: &CostArgs) -> Result<()> {
     }
     let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());
+    if let Some(c) = &pipelined {
+        super::say(&format!(
+            "pipelined for {} MHz on {}: {} stages (latency {} clocks), {} pipeline-register bits, slowest stage predicted at {:.1} MHz (one operator a stage: {} stages, {} bits)",
+            c.target_mhz,
+            c.target.name(),
+            c.depth,
+            c.depth,
+            c.register_bits,
+            c.predicted_mhz,
+            c.one_op_depth,
+            c.one_op_register_bits
+        ));
+    }
     if let Some(p) = &a.stats {
-        let v = serde_json::to_value(&report).context("serialising the report")?;
+        let mut v = serde_json::to_value(&report).context("serialising the report")?;
+        if let (Some(c), Some(obj)) = (&pipelined, v.as_object_mut()) {
+            obj.insert(
+                "clock_schedule".to_owned(),
+                serde_json::to_value(c).context("serialising the schedule")?,
+            );
+        }
         write_json(p, &v)?;
     }
     Ok(())

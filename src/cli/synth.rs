@@ -84,6 +84,9 @@ pub struct SynthReport {
     pub placed: Option<Placed>,
     /// The clock place and route aimed at, MHz.
     pub requested_mhz: Option<f64>,
+    /// The clock the delay model of `pipeline::cost::fmax` predicts for
+    /// the unit's longest path (fitted to the default widths' units).
+    pub predicted_mhz: Option<f64>,
     /// Why there is no timing, where there is none.
     pub timing: String,
     /// Wall-clock seconds of the tools.
@@ -305,6 +308,10 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         wrapper_bits: wrap::shifted_bits(&ports),
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),
+        predicted_mhz: family.and_then(|f| {
+            let model = pipeline::cost::fmax::model(f)?;
+            Some(model.mhz(&pipeline::cost::fmax::module_path(f, &m.units)))
+        }),
         timing,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -386,6 +393,13 @@ fn text(r: &SynthReport, part: Part) -> String {
                 r.timing,
                 r.requested_mhz.unwrap_or(0.0)
             );
+            if let Some(f) = r.predicted_mhz {
+                let _ = writeln!(
+                    s,
+                    "  predicted: {f:.1} MHz (pipeline::cost::fmax, {:+.1}% of measured)",
+                    100.0 * (f - p.fmax_mhz) / p.fmax_mhz
+                );
+            }
             if let Some(c) = &p.critical_path {
                 let _ = writeln!(
                     s,

@@ -88,14 +88,23 @@ fn synth_places_units_on_ice40_and_checks_the_estimator() {
     }
 }
 
-/// The ECP5 flow on every unit at the default widths (about 8 minutes on
+/// The ECP5 flow on every unit at the default widths (about 5 minutes on
 /// two cores, the first call installing the tools): counts against the
 /// estimate as on iCE40.
 #[test]
 #[ignore = "ECP5 tools from PyPI (about 400 MB); cargo test --release --test it -- --ignored synth_ecp5"]
 fn synth_ecp5_units_against_the_estimator() {
     let dir = tempfile::tempdir().expect("temp dir");
-    for unit in ["add_position", "mul_ray", "mul_square", "bilinear"] {
+    for unit in [
+        "add_position",
+        "mul_ray",
+        "mul_square",
+        "bilinear",
+        "composite",
+        "class_table",
+        "sqrt_norm",
+        "divider",
+    ] {
         let r = synth(dir.path(), "ecp5-25k", unit);
         check_estimate(&r);
         assert!(r["placed"]["fmax_mhz"].as_f64().expect("clock") > 5.0);
@@ -128,6 +137,78 @@ fn synth_refuses_bad_input() {
     ];
     for (extra, needle) in cases {
         let mut args = vec!["synth"];
+        args.extend_from_slice(extra);
+        assert_refused(&args, &ercube(d, &args), needle);
+    }
+}
+
+/// `ercube cost --clock predicted` quotes the frame at the clock the
+/// schedule is predicted to reach (`pipeline::cost::fmax`), labelled so,
+/// and prints the predicted clocks beside the assumed one by default;
+/// `--target-mhz` reports a pipelining that reaches the clock or refuses
+/// in one line; xc7 has no prediction. No external tool: about 2 s.
+#[test]
+fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let base = [
+        "cost",
+        "--scene",
+        "checker:16",
+        "--archs",
+        "none",
+        "--sweep-pes",
+        "none",
+    ];
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&str> = base.to_vec();
+        args.extend_from_slice(extra);
+        let out = ercube(d, &args);
+        assert!(out.status.success(), "{}", describe(&args, &out));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let assumed = run(&["--target", "ecp5"]);
+    assert!(assumed.contains("at 150 MHz (assumed clock)"), "{assumed}");
+    let line = assumed
+        .lines()
+        .find(|l| l.contains("predicted clock"))
+        .expect("the predicted clocks are printed");
+    let mhz: f64 = line
+        .split("ecp5 ")
+        .nth(1)
+        .and_then(|r| r.split(" MHz").next())
+        .and_then(|x| x.parse().ok())
+        .expect("an ECP5 figure");
+    // Between the unpipelined compositing unit's measured 64.8 MHz and the
+    // ECP5's fabric limit.
+    assert!(mhz > 64.8 && mhz < 400.0, "{line}");
+    let predicted = run(&["--target", "ecp5", "--clock", "predicted"]);
+    assert!(
+        predicted.contains(&format!("at {mhz} MHz (predicted clock)")),
+        "{predicted}"
+    );
+    let slow = run(&["--target", "ecp5", "--target-mhz", "40"]);
+    let pipelined = slow
+        .lines()
+        .find(|l| l.starts_with("pipelined for 40 MHz on ecp5"))
+        .expect("the pipelining line");
+    let stages: u32 = pipelined
+        .split(": ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .expect("a stage count");
+    assert!(stages > 1 && stages < 35, "{pipelined}");
+    let refusals: [(&[&str], &str); 3] = [
+        (&["--target", "xc7", "--clock", "predicted"], "xc7"),
+        (
+            &["--target", "ecp5", "--target-mhz", "2000"],
+            "no schedule reaches",
+        ),
+        (&["--target", "ecp5", "--clock", "measured"], "--clock"),
+    ];
+    for (extra, needle) in refusals {
+        let mut args: Vec<&str> = base.to_vec();
         args.extend_from_slice(extra);
         assert_refused(&args, &ercube(d, &args), needle);
     }

@@ -4,9 +4,9 @@
 //! quote frames per second at one clock option, `--clock-mhz`, with the
 //! same default ([`assumed_mhz`] of the family; `explore` and `render`
 //! price on xc7) and the same label ([`ClockSource`]). `ercube synth`
-//! measures a unit's clock after place and route; no measured or predicted
-//! clock of the whole PE exists until its Verilog is emitted, so the
-//! commands pricing a frame label theirs assumed.
+//! measures a unit's clock after place and route; the whole PE has no
+//! measured clock, but `ercube cost --clock predicted` quotes the clock its
+//! schedule is predicted to reach ([`super::fmax`]), labelled predicted.
 
 use serde::Serialize;
 

@@ -152,6 +152,17 @@ impl MulNode {
         !live.is_empty() && live.iter().all(|p| p.is_single_block())
     }
 
+    /// Whether every live part of a split is a block itself, not a split
+    /// whose other slices were constant zero. yosys's `ice40_dsp` sums the
+    /// partial products in the SB_MAC16s only then: when both operands were
+    /// cut (a signed operand wider than 16 bits times an unsigned 16-bit
+    /// one, whose zero sign bit is a slice of its own), the partial sum and
+    /// the product's register stay in the fabric.
+    pub fn is_flat_block_chain(&self) -> bool {
+        let live = self.live_parts();
+        !live.is_empty() && live.iter().all(|p| matches!(p, MulNode::Block { .. }))
+    }
+
     /// Whether a split's most significant slice was constant zero.
     pub fn top_is_zero(&self) -> bool {
         matches!(self, MulNode::Split { parts, .. } if parts.last() == Some(&MulNode::Zero))

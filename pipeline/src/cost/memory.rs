@@ -127,8 +127,9 @@ fn tiles(t: Target, geo: Geometry, depth: u64, width: u64) -> (u64, u64) {
     }
 }
 
-/// The best block-RAM mapping of one copy: `(units, cells, depth tiles)`.
-fn best_block(t: Target, depth: u64, width: u64, ports: MemPorts) -> (u64, u64, u64) {
+/// The best block-RAM mapping of one copy: `(units, cells, depth tiles,
+/// the geometry's width)`.
+fn best_block(t: Target, depth: u64, width: u64, ports: MemPorts) -> (u64, u64, u64, u64) {
     let mut geos: Vec<Geometry> = match t {
         Target::Xc7 => XC7_TDP.to_vec(),
         Target::Ecp5 => ECP5_TDP.to_vec(),
@@ -141,16 +142,16 @@ fn best_block(t: Target, depth: u64, width: u64, ports: MemPorts) -> (u64, u64, 
             Target::Ice40 => {}
         }
     }
-    let mut best: Option<(u64, u64, u64)> = None;
+    let mut best: Option<(u64, u64, u64, u64)> = None;
     for geo in geos {
         let (cells, deep) = tiles(t, geo, depth, width);
-        let cand = (cells * geo.units, cells, deep);
+        let cand = (cells * geo.units, cells, deep, geo.width);
         best = Some(match best {
             Some(b) if (b.0, b.1, b.2) <= (cand.0, cand.1, cand.2) => b,
             _ => cand,
         });
     }
-    best.unwrap_or((0, 0, 0))
+    best.unwrap_or((0, 0, 0, 1))
 }
 
 /// LUTs of a `k`-to-1 read multiplexer per data bit.
@@ -178,14 +179,27 @@ fn block_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
         MemPorts::Sdp => 1,
         MemPorts::DualRead => 2,
     };
-    let (units, cells, deep) = best_block(t, depth, width, ports);
+    let (units, cells, deep, geo_width) = best_block(t, depth, width, ports);
     // Each read port of a depth-tiled memory needs a mux per data bit and
     // a registered copy of the tile-select address bits.
     let sel_bits = u64::from(64 - (deep.max(1) - 1).leading_zeros());
-    let mux = if deep > 1 {
-        reads * (width * mux_luts(t, deep) + deep)
-    } else {
-        0
+    let mux = match t {
+        _ if deep <= 1 => 0,
+        // yosys 0.23 decodes the tiles' write enables once (a LUT per
+        // tile) beside the read muxes. Bits left over when the width is
+        // not a multiple of the block's, folded two depth tiles to a block
+        // (see `tiles`), cost about 20 LUT4s more for their write steering
+        // and read select: measured at 4096 x 35 ... 39 (2048 x 2 tiles,
+        // one and two read ports alike), whose even widths need none.
+        Target::Ice40 => {
+            let folded = if width.is_multiple_of(geo_width) {
+                0
+            } else {
+                20
+            };
+            reads * width * mux_luts(t, deep) + deep + folded
+        }
+        _ => reads * (width * mux_luts(t, deep) + deep),
     };
     MemMap {
         kind: MemKind::Block,

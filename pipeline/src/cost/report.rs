@@ -2,7 +2,9 @@
 //! throughput from runs and from the bound, and scaling with `P` and `N`,
 //! as JSON (serde) and as a readable table.
 
-use std::fmt::Write as _;
+mod text;
+
+pub(in crate::cost) use text::{si, table};
 
 use super::design::{self, Design};
 use super::inventory::{controller_inventory, pe_inventory, Geometry, Item, PeInventory};
@@ -100,9 +102,12 @@ pub struct CostReport {
     pub target_description: &'static str,
     /// The clock the rates are quoted at (MHz).
     pub clock_mhz: f64,
-    /// Where it comes from: assumed, until the PE's Verilog is placed and
-    /// routed.
+    /// Where it comes from: assumed (a family default or `--clock-mhz`)
+    /// or predicted from the schedule ([`super::fmax`]).
     pub clock_source: super::clock::ClockSource,
+    /// The clock each family with an open timing flow is predicted to
+    /// reach with the plain sample datapath's schedule ([`super::fmax`]).
+    pub predicted_clocks: Vec<super::fmax::PePrediction>,
     /// The configuration.
     pub config: PipelineConfig,
     /// Volume and PEs of the main run.
@@ -190,12 +195,12 @@ pub fn max_pes(cfg: &PipelineConfig, geo: &Geometry, part: &Part) -> MaxPes {
     }
 }
 
-/// Builds the report for `cfg` on `target` at `clock_mhz`, from the main
-/// run (at `cfg.pes`) and the sweep's runs.
+/// Builds the report for `cfg` on `target` at `clock_mhz` (from
+/// `source`), from the main run (at `cfg.pes`) and the sweep's runs.
 pub fn build(
     cfg: &PipelineConfig,
     target: Target,
-    clock_mhz: f64,
+    (clock_mhz, source): (f64, super::clock::ClockSource),
     run: RunSummary,
     sweep: &[RunSummary],
     archs: &[(PipelineConfig, RunSummary)],
@@ -258,10 +263,17 @@ pub fn build(
     }
     let pes = u64::from(geo.pes.max(1));
     let notes = vec![
-        format!(
-            "Clock {clock_mhz} MHz is an assumption; no timing analysis is done. The datapath is pipelined one unit per clock ({} clocks deep).",
-            pe.schedule.depth
-        ),
+        if source == super::clock::ClockSource::Predicted {
+            format!(
+                "Clock {clock_mhz} MHz is predicted from the slowest stage of the sample datapath's schedule by a delay model fitted to units placed and routed with ercube synth; the PE is not placed and routed. The datapath is pipelined one unit per clock ({} clocks deep).",
+                pe.schedule.depth
+            )
+        } else {
+            format!(
+                "Clock {clock_mhz} MHz is an assumption; no timing analysis is done. The datapath is pipelined one unit per clock ({} clocks deep).",
+                pe.schedule.depth
+            )
+        },
         format!(
             "Voxel memory is external: each PE's {} of the volume is {:.2} Mbit ({:.1} Mbit for the array), read once per frame into double-buffered slice buffers.",
             if super::arch::round_robin_width(cfg).is_some() { "share (its blocks with their aprons)" } else { "block" },
@@ -280,7 +292,11 @@ pub fn build(
         target,
         target_description: target.describe(),
         clock_mhz,
-        clock_source: super::clock::ClockSource::Assumed,
+        clock_source: source,
+        predicted_clocks: [Target::Ecp5, Target::Ice40]
+            .into_iter()
+            .filter_map(|t| super::fmax::pe_prediction(cfg, t))
+            .collect(),
         config: *cfg,
         geometry: geo,
         pe_items: rows(&pe.items, target),
@@ -307,344 +323,5 @@ pub fn build(
             .map(|(c, r)| design::design(c, target, r))
             .collect(),
         notes,
-    }
-}
-
-/// `1234567` as `1.23 M`.
-pub(super) fn si(x: f64) -> String {
-    let a = x.abs();
-    if a >= 1e9 {
-        format!("{:.2} G", x / 1e9)
-    } else if a >= 1e6 {
-        format!("{:.2} M", x / 1e6)
-    } else if a >= 1e3 {
-        format!("{:.1} k", x / 1e3)
-    } else {
-        format!("{x:.1} ")
-    }
-}
-
-fn res_cells(t: Target, r: &Resources) -> [String; 4] {
-    let lut = if t == Target::Ice40 {
-        format!("{} ({} LC)", r.lut, r.logic_cells())
-    } else {
-        r.lut.to_string()
-    };
-    [r.dsp.to_string(), lut, r.ff.to_string(), r.bram.to_string()]
-}
-
-/// Renders rows as a text table with aligned columns.
-pub(super) fn table(out: &mut String, head: &[&str], rows: &[Vec<String>]) {
-    let n = head.len();
-    let mut width: Vec<usize> = head.iter().map(|h| h.len()).collect();
-    for r in rows {
-        for (k, c) in r.iter().enumerate().take(n) {
-            width[k] = width[k].max(c.len());
-        }
-    }
-    let line = |cells: Vec<&str>| -> String {
-        cells
-            .iter()
-            .enumerate()
-            .map(|(k, c)| {
-                if k < 2 {
-                    format!("{c:<w$}", w = width[k])
-                } else {
-                    format!("{c:>w$}", w = width[k])
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("  ")
-            .trim_end()
-            .to_owned()
-    };
-    let _ = writeln!(out, "{}", line(head.to_vec()));
-    let _ = writeln!(
-        out,
-        "{}",
-        width
-            .iter()
-            .map(|w| "-".repeat(*w))
-            .collect::<Vec<_>>()
-            .join("  ")
-    );
-    for r in rows {
-        let _ = writeln!(out, "{}", line(r.iter().map(String::as_str).collect()));
-    }
-}
-
-impl CostReport {
-    /// The readable report.
-    pub fn text(&self) -> String {
-        let t = self.target;
-        let mut o = String::new();
-        let g = &self.geometry;
-        let _ = writeln!(
-            o,
-            "ercube cost: {} at {} MHz ({} clock)\n  {}",
-            t.name(),
-            self.clock_mhz,
-            self.clock_source.name(),
-            t.describe()
-        );
-        let c = &self.config;
-        let _ = writeln!(
-            o,
-            "  widths: voxel {}, position {}, weight {}, sample {}, colour {}, alpha {}, table {} entries, opacity {}, accumulators {}/{}",
-            c.voxel.bits(),
-            c.position.bits(),
-            c.weight.bits(),
-            c.sample.bits(),
-            c.color.bits(),
-            c.alpha.bits(),
-            c.table_entries,
-            c.opacity_corr.bits(),
-            c.accum_color.bits(),
-            c.accum_alpha.bits()
-        );
-        if g.preint {
-            let n = super::preint::bins(c) + 1;
-            let _ = writeln!(
-                o,
-                "  pre-integration: {n} x {n} table of {} bits ({:.2} Mbit per PE), tau {}, colour {}, in place of the classification and -log2(1 - a) tables",
-                super::preint::table_word(c),
-                super::preint::table_bits(c) as f64 / 1e6,
-                c.preint_tau.bits(),
-                c.preint_color.bits()
-            );
-        }
-        let _ = writeln!(
-            o,
-            "  array: P = {} PEs, volume {}x{}x{} (view space), W = {} columns per PE; run: {}\n",
-            g.pes,
-            g.dims[0],
-            g.dims[1],
-            g.dims[2],
-            g.block(),
-            self.run.label
-        );
-        let head = [
-            "unit",
-            "shape",
-            "n",
-            t.dsp_name(),
-            t.lut_name(),
-            "FF",
-            t.bram_name(),
-        ];
-        let mut rows_txt = Vec::new();
-        for r in &self.pe_items {
-            let [d, l, f, b] = res_cells(t, &r.resources);
-            rows_txt.push(vec![
-                format!("{}: {}", r.group, r.name),
-                r.shape.clone(),
-                r.count.to_string(),
-                d,
-                l,
-                f,
-                b,
-            ]);
-        }
-        let [d, l, f, b] = res_cells(t, &self.pe);
-        rows_txt.push(vec![
-            "PE total".into(),
-            format!("pipeline {} clocks", self.pipeline_depth),
-            String::new(),
-            d,
-            l,
-            f,
-            b,
-        ]);
-        let [d, l, f, b] = res_cells(t, &self.controller);
-        rows_txt.push(vec![
-            "controller (once)".into(),
-            String::new(),
-            String::new(),
-            d,
-            l,
-            f,
-            b,
-        ]);
-        let [d, l, f, b] = res_cells(t, &self.array);
-        rows_txt.push(vec![
-            format!("array ({} PEs + controller)", g.pes),
-            String::new(),
-            String::new(),
-            d,
-            l,
-            f,
-            b,
-        ]);
-        let _ = writeln!(o, "Per PE and array");
-        table(&mut o, &head, &rows_txt);
-        let _ = writeln!(
-            o,
-            "  LUT-RAM/SRL LUTs per PE: {}; carry cells per PE: {}; external voxel memory per PE: {:.2} Mbit",
-            self.pe.lutram,
-            self.pe.carry,
-            self.voxel_memory_bits_per_pe as f64 / 1e6
-        );
-        let [rc, rr] = self.run.largest_region;
-        let _ = writeln!(
-            o,
-            "  rays: buffers hold (2W+1)(2ny+1) = {} per PE ({} in all); this view's largest region has {rc} x {rr} = {} rays",
-            g.rays_per_pe(),
-            g.rays_per_pe() * u64::from(g.pes),
-            rc * rr
-        );
-
-        let _ = writeln!(o, "\nFit ({} PEs)", g.pes);
-        let mut fr = Vec::new();
-        for (f, m) in self.fits.iter().zip(&self.max_pes) {
-            let used = f
-                .used
-                .iter()
-                .map(|(k, v)| format!("{k} {:.0}%", v * 100.0))
-                .collect::<Vec<_>>()
-                .join(", ");
-            fr.push(vec![
-                f.part.to_owned(),
-                used,
-                if f.fits { "yes" } else { "no" }.to_owned(),
-                m.pes.to_string(),
-                m.limit.to_owned(),
-            ]);
-        }
-        table(&mut o, &["part", "use", "fits", "max P", "limited by"], &fr);
-
-        let r = &self.run;
-        let _ = writeln!(
-            o,
-            "\nThroughput at {} MHz ({} clock)",
-            self.clock_mhz,
-            self.clock_source.name()
-        );
-        let _ = writeln!(
-            o,
-            "  frame: {}",
-            super::clock::rate_line(r.cycles, self.clock_mhz, self.clock_source)
-        );
-        let _ = writeln!(
-            o,
-            "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}, drain {}, stall {}), utilization {:.3}, {:.1} frames/s",
-            r.cycles,
-            r.stages.sample,
-            r.stages.migrate,
-            r.stages.merge,
-            r.stages.readout,
-            r.stages.drain,
-            r.stages.stall,
-            r.utilization,
-            self.run_rate.fps
-        );
-        let _ = writeln!(
-            o,
-            "  worst case (sampling bound N (2W+1)(2N+1)): {} cycles/frame, {:.1} frames/s",
-            self.bound_rate.cycles, self.bound_rate.fps
-        );
-        let _ = writeln!(
-            o,
-            "  voxel bandwidth: {}B/s at the run's rate ({}B/s per PE), {}B/s at the bound's; slice-buffer reads {:.2} per PE per cycle",
-            si(self.run_rate.bandwidth),
-            si(self.run_rate.bandwidth_per_pe),
-            si(self.bound_rate.bandwidth),
-            self.buffer_reads_per_pe_cycle
-        );
-
-        if !self.sweep.is_empty() {
-            let _ = writeln!(o, "\nP sweep (measured runs, {})", self.run.label);
-            let mut sr = Vec::new();
-            for s in &self.sweep {
-                let [d, l, f, b] = res_cells(t, &s.resources);
-                sr.push(vec![
-                    s.pes.to_string(),
-                    s.cycles.to_string(),
-                    format!("{:.3}", s.utilization),
-                    format!("{:.1}", s.rate.fps),
-                    format!("{}B/s", si(s.rate.bandwidth)),
-                    d,
-                    l,
-                    f,
-                    b,
-                    if s.fits.is_empty() {
-                        "-".to_owned()
-                    } else {
-                        s.fits.join(" ")
-                    },
-                ]);
-            }
-            table(
-                &mut o,
-                &[
-                    "P",
-                    "cycles",
-                    "util",
-                    "fps",
-                    "bandwidth",
-                    t.dsp_name(),
-                    t.lut_name(),
-                    "FF",
-                    t.bram_name(),
-                    "fits",
-                ],
-                &sr,
-            );
-        }
-
-        let _ = writeln!(
-            o,
-            "\nScaling (cubic N^3, worst-case bound; 'scaled' = bound x {:.2}, this run's measured/bound)",
-            if self.bound_rate.cycles == 0 {
-                0.0
-            } else {
-                self.run.cycles as f64 / self.bound_rate.cycles as f64
-            }
-        );
-        let mut sc = Vec::new();
-        for s in &self.scaling {
-            sc.push(vec![
-                s.n.to_string(),
-                s.pes.to_string(),
-                format!("{:.1}", s.bound.fps),
-                format!("{:.1}", s.scaled.fps),
-                format!("{}B/s", si(s.bound.bandwidth)),
-                s.resources.dsp.to_string(),
-                s.resources.lut.to_string(),
-                s.resources.bram.to_string(),
-                if s.fits.is_empty() {
-                    "-".to_owned()
-                } else {
-                    s.fits.join(" ")
-                },
-            ]);
-        }
-        table(
-            &mut o,
-            &[
-                "N",
-                "P",
-                "fps bound",
-                "fps scaled",
-                "bw at bound",
-                t.dsp_name(),
-                t.lut_name(),
-                t.bram_name(),
-                "fits",
-            ],
-            &sc,
-        );
-        if !self.architectures.is_empty() {
-            let _ = writeln!(
-                o,
-                "\nArchitectures (P = {}, measured runs, {})",
-                g.pes, self.run.label
-            );
-            design::text(&mut o, t, &self.architectures);
-        }
-        let _ = writeln!(o);
-        for n in &self.notes {
-            let _ = writeln!(o, "- {n}");
-        }
-        o
     }
 }

@@ -191,8 +191,12 @@ fn soft_mul(t: Target, a: u32, b: u32) -> Resources {
 }
 
 /// Whether the partial products of `node` are summed inside the blocks.
-fn absorbed(t: Target, node: &MulNode) -> bool {
-    t != Target::Ecp5 && node.is_block_chain()
+pub(crate) fn absorbed(t: Target, node: &MulNode) -> bool {
+    match t {
+        Target::Xc7 => node.is_block_chain(),
+        Target::Ice40 => node.is_flat_block_chain(),
+        Target::Ecp5 => false,
+    }
 }
 
 /// LUTs of a decomposition outside the blocks: soft slices and the
@@ -242,7 +246,7 @@ fn mul_register(t: Target, node: &MulNode, y: u32) -> u64 {
                     Some(MulNode::Block { a, b }) => u64::from(a + b).saturating_sub(16),
                     _ => y64,
                 }
-            } else if node.is_block_chain() {
+            } else if node.is_flat_block_chain() {
                 0
             } else if parts[0].is_single_block() || parts[0].is_block_chain() {
                 y64.saturating_sub(u64::from(*shift))
@@ -342,7 +346,14 @@ impl Unit {
                     // and a LUT6 OR tree over the excess bits.
                     Target::Xc7 => Resources::luts(o + ceil_div(excess, 5)),
                     // LUT4s: a mux per output bit and a 3-input OR tree.
-                    Target::Ecp5 | Target::Ice40 => Resources::luts(o + ceil_div(excess, 3)),
+                    Target::Ice40 => Resources::luts(o + ceil_div(excess, 3)),
+                    // synth_ecp5's abc9 does the same while a bit's clamp
+                    // (the bit, the sign and the excess bits) fits a LUT4;
+                    // past that it does not share the OR tree and builds
+                    // each bit as a LUT5 (two LUT4s and a PFUMX): the
+                    // compositing unit's 21 -> 16 bit clamp is 32 LUT4s.
+                    Target::Ecp5 if 1 + excess > 4 => Resources::luts(2 * o),
+                    Target::Ecp5 => Resources::luts(o + ceil_div(excess, 3)),
                 }
             }
             Unit::Cmp { width } => {
