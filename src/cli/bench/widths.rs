@@ -629,6 +629,7 @@ pub fn narrowest_within(rows: &[&WidthRow], limit: f64) -> Option<u8> {
 
 /// Loads, prepares and runs a sweep from the command line's arguments.
 pub fn sweep(a: &SweepArgs) -> Result<()> {
+    crate::cli::outputs::check_dirs(&[Some(&a.out_dir)])?;
     let (base, grid) = grid_of(a)?;
     with_threads(a.threads, || {
         let (vol, tf, cam) = a.view.load()?;
