@@ -113,10 +113,12 @@ fn inflate_into(
         match status {
             Status::StreamEnd => return Ok(z.total_out()),
             // No progress: the input ended before the stream did.
-            _ if n == 0 && z.total_in() == was_in => return Err(format!(
+            _ if n == 0 && z.total_in() == was_in => {
+                return Err(format!(
                 "the deflated data set is cut off after {} of its bytes (the stream does not end)",
                 z.total_out()
-            )),
+            ))
+            }
             _ => {}
         }
     }
