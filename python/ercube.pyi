@@ -57,7 +57,17 @@ def render(
     text. Further options are `ercube render` flags with underscores
     (shade=True, terminate=0.95, pes=8); True is a bare flag, False and
     None leave it out. Pass tf=None to use tf_file=PATH.
+
+    The module keeps the last call's volume and its preparation (the slice
+    stack, the empty-space blocks and occupancy map): a call on the same
+    voxels and spacing, by any camera or method, reuses them and prepares
+    only what the camera changes. Images are the same either way;
+    clear_cache() gives the memory back.
     """
+
+def clear_cache() -> None:
+    """Drops the volume and preparation kept from the last render or
+    Chip.run_frame call."""
 
 class Chip:
     """The bit-accurate PE array with one configuration.

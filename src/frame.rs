@@ -21,7 +21,7 @@ use golden::volume::Volume;
 use crate::cli::args::SourceArgs;
 use crate::cli::render::{self, RenderArgs};
 
-pub use crate::cli::render::Rendered;
+pub use crate::cli::render::{Rendered, Reuse};
 
 /// A failure, in the one-line form the command line prints after
 /// `ercube: error: `.
@@ -114,6 +114,20 @@ pub fn render<S: AsRef<str>>(
     let mut a = parse(args)?;
     a.pipeline.cfg.toml = config.map(str::to_string);
     render::frame(&a, volume).map_err(|e| Error::run(&e))
+}
+
+/// [`render`], preparing the volume through `reuse` (see
+/// [`Reuse`]): a caller rendering frame after frame of the same voxels
+/// prepares them once.
+pub fn render_reusing<S: AsRef<str>>(
+    args: &[S],
+    volume: Option<Volume>,
+    config: Option<&str>,
+    reuse: &mut Reuse,
+) -> Result<Rendered, Error> {
+    let mut a = parse(args)?;
+    a.pipeline.cfg.toml = config.map(str::to_string);
+    render::frame_reusing(&a, volume, Some(reuse)).map_err(|e| Error::run(&e))
 }
 
 /// Checks the pipeline configuration `text` (TOML, as a `--config` file

@@ -5,5 +5,14 @@
 //! commands.
 
 fn main() -> std::process::ExitCode {
+    // A file grown past the process's size limit (`ulimit -f`) should fail
+    // its write with EFBIG, reported in one line with the run's outputs
+    // removed, instead of the signal killing the process mid-run.
+    // SAFETY: setting a signal's disposition to SIG_IGN before any other
+    // thread exists races with nothing.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     ercube::cli::run()
 }

@@ -1,9 +1,8 @@
 //! Float RGBA images (premultiplied colour, as every renderer composites)
 //! and their atomic writers: PNG for looking, `.npy` for numbers.
 
-use std::cell::RefCell;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::error::{Error, Result};
 
@@ -100,75 +99,17 @@ pub fn write_atomic(
 }
 
 /// Puts a finished temporary file at `path`: renamed now, or at the
-/// commit of the open [`Staged`] run.
+/// commit of the open [`Staged`] run (see the `staging` crate).
 pub fn place(tmp: tempfile::NamedTempFile, path: &Path) -> std::io::Result<()> {
-    let tmp = STAGED.with_borrow_mut(|staged| match staged.as_mut() {
-        Some(files) => {
-            files.push((tmp.into_temp_path(), path.to_owned()));
-            None
-        }
-        None => Some(tmp),
-    });
-    if let Some(tmp) = tmp {
-        tmp.persist(path).map_err(|e| e.error)?;
-    }
-    Ok(())
+    staging::place(tmp, path)
 }
 
-thread_local! {
-    /// Files [`write_atomic`] has written on this thread while a [`Staged`]
-    /// run is open, each a complete temporary file beside its destination.
-    static STAGED: RefCell<Option<Vec<(tempfile::TempPath, PathBuf)>>> =
-        const { RefCell::new(None) };
-}
+pub use staging::{adopt, carry, stage, Carried, Staged};
 
-/// A run whose outputs appear together or not at all: while it is open,
-/// [`write_atomic`] leaves each finished file under a temporary name beside
-/// its destination; [`Staged::commit`] renames them all into place, and
-/// dropping the run uncommitted (an error) deletes them.
-#[must_use = "a staged run's files appear only on commit"]
-pub struct Staged(std::marker::PhantomData<*const ()>);
-
-/// Opens a [`Staged`] run for the files this thread writes (one at a time
-/// per thread).
-pub fn stage() -> Staged {
-    STAGED.set(Some(Vec::new()));
-    Staged(std::marker::PhantomData)
-}
-
-/// An open staged run in transit between threads ([`carry`], [`adopt`]),
-/// for a run whose work moves onto a thread pool.
-pub struct Carried(Option<Vec<(tempfile::TempPath, PathBuf)>>);
-
-/// Takes this thread's open staged run (if any), to [`adopt`] on another.
-pub fn carry() -> Carried {
-    Carried(STAGED.take())
-}
-
-/// Continues a [`carry`]-ed run on this thread (nothing if none was open).
-pub fn adopt(c: Carried) {
-    if c.0.is_some() {
-        STAGED.set(c.0);
-    }
-}
-
-impl Staged {
-    /// Renames every staged file into place, in the order written.
-    pub fn commit(self) -> Result<()> {
-        let files = STAGED.take().unwrap_or_default();
-        for (tmp, path) in files {
-            tmp.persist(&path)
-                .map_err(|e| Error::Io { path, err: e.error })?;
-        }
-        Ok(())
-    }
-}
-
-impl Drop for Staged {
-    fn drop(&mut self) {
-        // Uncommitted: the temporary files are deleted as they drop.
-        STAGED.take();
-    }
+/// Renames every file of `run` into place ([`Staged::commit`]), the error
+/// naming the file that could not be.
+pub fn commit(run: Staged) -> Result<()> {
+    run.commit().map_err(|(path, err)| Error::Io { path, err })
 }
 
 /// Writes an 8-bit RGB PNG atomically.
@@ -264,7 +205,7 @@ mod tests {
         let run = stage();
         Image::new(2, 2).write_npy(&a).unwrap();
         Image::new(2, 2).write_npy(&b).unwrap();
-        run.commit().unwrap();
+        commit(run).unwrap();
         assert!(a.exists() && b.exists());
         assert_eq!(files(), 2);
         // Outside a run, files appear at once again.

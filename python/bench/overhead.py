@@ -4,10 +4,11 @@ usage: python overhead.py ERCUBE_BINARY VOLUME [ROUNDS] [-- RENDER FLAGS...]
 
 Interleaves, ROUNDS times (default 15): `ercube render --volume VOLUME
 --stats` (its frame time, stats time_s, and the process's wall-clock
-time), and ercube.render of the same
-voxels (the wall-clock time of the call, converting the arrays in and out,
-and the frame time it reports). Prints the medians and the ratio of the
-Python call to the command line's frame time.
+time), ercube.render of the same voxels (the wall-clock time of the call,
+converting the arrays in and out, and the frame time it reports), and the
+same call after ercube.clear_cache() (the volume prepared again, as a first
+call does). Prints the medians and the ratios of the Python calls to the
+command line's frame time.
 """
 
 import json
@@ -34,7 +35,7 @@ def main() -> None:
     for k in range(0, len(flags), 2):
         kw[flags[k].lstrip("-").replace("-", "_")] = flags[k + 1]
     ercube.render(voxels, spacing=spacing, **kw)  # warm up
-    cli, wall, call, inner = [], [], [], []
+    cli, wall, call, inner, cold = [], [], [], [], []
     with tempfile.TemporaryDirectory() as d:
         stats, png = os.path.join(d, "s.json"), os.path.join(d, "r.png")
         for _ in range(rounds):
@@ -47,10 +48,15 @@ def main() -> None:
             _, st = ercube.render(voxels, spacing=spacing, **kw)
             call.append(time.perf_counter() - t)
             inner.append(st["time_s"])
+            ercube.clear_cache()
+            t = time.perf_counter()
+            ercube.render(voxels, spacing=spacing, **kw)
+            cold.append(time.perf_counter() - t)
     m = statistics.median
     print(f"rounds {rounds}: cli frame {m(cli) * 1e3:.1f} ms (process {m(wall) * 1e3:.1f} ms), python call {m(call) * 1e3:.1f} ms "
           f"(its frame {m(inner) * 1e3:.1f} ms); python call / cli frame = {m(call) / m(cli):.3f}, "
-          f"python frame / cli frame = {m(inner) / m(cli):.3f}")
+          f"python frame / cli frame = {m(inner) / m(cli):.3f}; after clear_cache {m(cold) * 1e3:.1f} ms, "
+          f"{m(cold) / m(cli):.3f} of the cli frame")
 
 
 if __name__ == "__main__":

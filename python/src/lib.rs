@@ -9,6 +9,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
 
+use std::sync::Mutex;
+
+use ercube::frame::Reuse;
 use golden::volume::{Volume, Voxels};
 
 create_exception!(
@@ -151,7 +154,15 @@ struct Out<'py> {
     stats: Bound<'py, PyAny>,
 }
 
-/// Renders with the GIL released and converts the results.
+/// The last frame's volume and preparation (the slice stack, the
+/// empty-space blocks and occupancy map), kept between calls: rendering
+/// the same voxels again, by any camera or method, prepares only what the
+/// camera changes (`ercube::frame::Reuse`). `clear_cache` drops it.
+static REUSE: Mutex<Reuse> = Mutex::new(Reuse::new());
+
+/// Renders with the GIL released and converts the results. A call made
+/// while another thread's call holds the kept preparation renders without
+/// it.
 fn run<'py>(
     py: Python<'py>,
     args: Vec<String>,
@@ -159,7 +170,12 @@ fn run<'py>(
     config: Option<String>,
 ) -> PyResult<Out<'py>> {
     let r = py
-        .detach(|| ercube::frame::render(&args, Some(volume), config.as_deref()))
+        .detach(|| match REUSE.try_lock() {
+            Ok(mut reuse) => {
+                ercube::frame::render_reusing(&args, Some(volume), config.as_deref(), &mut reuse)
+            }
+            Err(_) => ercube::frame::render(&args, Some(volume), config.as_deref()),
+        })
         .map_err(error)?;
     let im = &r.image;
     let image = array(
@@ -245,6 +261,17 @@ fn render<'py>(
     };
     let out = run(py, view.args(options)?, volume, config)?;
     Ok((out.image, out.stats))
+}
+
+/// Drops the volume and preparation kept from the last `render` or
+/// `Chip.run_frame` call (its memory: the voxels and their slice stack).
+#[pyfunction]
+fn clear_cache(py: Python<'_>) {
+    py.detach(|| {
+        if let Ok(mut r) = REUSE.lock() {
+            r.clear();
+        }
+    });
 }
 
 /// The bit-accurate PE array with one configuration: load a volume, then
@@ -334,6 +361,7 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(clear_cache, m)?)?;
     m.add_class::<Chip>()?;
     Ok(())
 }

@@ -156,6 +156,7 @@ pub fn run(a: &AnimateArgs) -> Result<()> {
     if !(1..=10_000).contains(&a.frame_ms) {
         bail!("--frame-ms {} must be 1 to 10000", a.frame_ms);
     }
+    super::outputs::check_dirs(&[Some(&a.out_dir)])?;
     super::outputs::all_or_nothing(&[&a.out_dir], || with_threads(a.threads, || animate(a)))
 }
 

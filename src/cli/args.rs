@@ -474,8 +474,13 @@ impl TfArgs {
             (None, None) => default,
         };
         let tf = tf.fitted(golden::tf::data_range(vol, windowed));
-        let (lo, hi) = vol.value_range();
-        match tf.coverage(vol) {
+        let coverage = tf.coverage(vol);
+        // The range is read again only to word a warning.
+        let (lo, hi) = match coverage {
+            Coverage::Some => (0, 0),
+            _ => vol.value_range(),
+        };
+        match coverage {
             Coverage::None => eprintln!(
                 "ercube: warning: the transfer function makes none of the volume visible (opacity 0 \
                  at every voxel value {lo}..{hi}); check --tf, --tf-file or --window"

@@ -75,6 +75,7 @@ struct Row {
 
 /// Runs `ercube compare`.
 pub fn run(a: &CompareArgs) -> Result<()> {
+    super::outputs::check_dirs(&[Some(&a.out_dir)])?;
     let techs = a
         .methods
         .iter()

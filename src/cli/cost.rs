@@ -207,6 +207,13 @@ fn run_at(
 
 /// Runs `ercube cost`.
 pub fn run(a: &CostArgs) -> Result<()> {
+    super::outputs::check_files(&[a.stats.as_deref()])?;
+    super::outputs::check_dirs(&[a.verilog_dir.as_deref()])?;
+    let made: Vec<&std::path::Path> = a.verilog_dir.as_deref().into_iter().collect();
+    super::outputs::all_or_nothing(&made, || cost(a))
+}
+
+fn cost(a: &CostArgs) -> Result<()> {
     let clock = match a.clock.trim() {
         "assumed" => (
             clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))

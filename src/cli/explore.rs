@@ -204,6 +204,11 @@ fn configs(a: &ExploreArgs, base: &PipelineConfig) -> Result<Vec<PipelineConfig>
 
 /// Runs `ercube explore`.
 pub fn run(a: &ExploreArgs) -> Result<()> {
+    super::outputs::check_dirs(&[Some(&a.out_dir)])?;
+    super::outputs::all_or_nothing(&[&a.out_dir], || explore(a))
+}
+
+fn explore(a: &ExploreArgs) -> Result<()> {
     let clock = pipeline::cost::clock::check_mhz(
         a.clock_mhz
             .unwrap_or_else(|| pipeline::cost::clock::assumed_mhz(Target::Xc7)),

@@ -1,5 +1,5 @@
 //! Runs are all or nothing: every output path is checked before the work
-//! starts ([`check_files`]), and the files a run writes appear together at
+//! starts ([`check_files`], [`check_dirs`]), and the files a run writes appear together at
 //! its end or not at all ([`all_or_nothing`]).
 
 use std::path::Path;
@@ -38,6 +38,44 @@ pub fn check_files(paths: &[Option<&Path>]) -> Result<()> {
     Ok(())
 }
 
+/// Refuses, before any work, an output folder that cannot be written: a
+/// path that is a file, a folder where no file can be created, or a new
+/// folder whose parent does not exist or cannot take it. A run makes at
+/// most the last folder of the path (and removes it again if it fails).
+pub fn check_dirs(paths: &[Option<&Path>]) -> Result<()> {
+    for d in paths.iter().flatten() {
+        if d.exists() && !d.is_dir() {
+            bail!("output folder {} is a file: give a folder", d.display());
+        }
+        let probe = if d.is_dir() {
+            d
+        } else {
+            let parent = match d.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p,
+                _ => Path::new("."),
+            };
+            if !parent.is_dir() {
+                bail!(
+                    "output folder {}: the folder {} does not exist",
+                    d.display(),
+                    parent.display()
+                );
+            }
+            parent
+        };
+        if let Err(e) = tempfile::NamedTempFile::new_in(probe) {
+            let why = e.to_string();
+            let why = why.split(" at path ").next().unwrap_or(&why).to_owned();
+            bail!(
+                "output folder {}: cannot write in {}: {why}",
+                d.display(),
+                probe.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Runs `f` with every file written through `golden::image::write_atomic`
 /// (and [`golden::image::place`]) held back until it succeeds, then renamed
 /// into place together; on an error they are deleted, and any of `dirs`
@@ -47,7 +85,7 @@ pub fn all_or_nothing<T>(dirs: &[&Path], f: impl FnOnce() -> Result<T>) -> Resul
     let staged = golden::image::stage();
     match f() {
         Ok(v) => {
-            staged.commit()?;
+            golden::image::commit(staged)?;
             Ok(v)
         }
         Err(e) => {

@@ -450,6 +450,7 @@ pub fn run(a: &PeerArgs) -> Result<()> {
         );
     }
     let methods = parse_peer_methods(&a.methods)?;
+    super::outputs::check_dirs(&[Some(&a.out_dir)])?;
     with_threads(a.threads, || compare_with_peer(a, &methods))
 }
 

@@ -92,86 +92,91 @@ pub fn run(a: &RefineArgs) -> Result<()> {
             a.method.name()
         ),
     };
-    with_threads(a.threads, || {
-        let refine =
-            refine_of(Some(&a.refine), a.refine_levels, tech)?.expect("a refinement was given");
-        if !(2..=frame::MAX_STEPS).contains(&a.steps) {
-            anyhow::bail!("--steps {} must be 2 to {}", a.steps, frame::MAX_STEPS);
-        }
-        if a.gaze.is_none() && a.gaze_radii.is_some() {
-            anyhow::bail!("--gaze-radii needs --gaze");
-        }
-        let mut opts = a.slice.options()?;
-        let spec = FrameSpec {
-            technique: Some(tech),
-            shade: opts.slice.shade.is_some(),
-            size: a.view.camera.size,
-        };
-        let (vol, tf, cam) = a.view.load_for(tech.name(), &spec)?;
-        a.slice.apply_tf(&mut opts, &tf)?;
-        if let Some(at) = a.gaze {
-            let mut g = golden::gaze::Gaze::around(at, cam.width, cam.height);
-            if let Some([inner, outer]) = a.gaze_radii {
-                g.inner = inner;
-                g.outer = outer;
-            }
-            g.levels = a.gaze_levels;
-            g.validate()?;
-            opts.reference.gaze = Some(g);
-        }
-        let lut = lut_for(vol.kind(), &tf);
-        let prep = a.slice.prepared_owning(vol, &cam)?;
-        if tech == Technique::MipMap {
-            // The pyramid is built once per volume and table, before any
-            // step (its time is not a step's).
-            prep.mipmap_of(&lut, &opts.mip())?;
-        }
-        let (full, full_times) = {
-            let _s = Stage::start("rendering one ray per pixel");
-            timed(1, || Ok(frame::full(&prep, &lut, tech, &opts)?))?
-        };
-        std::fs::create_dir_all(&a.out_dir)?;
-        let mut rows: Vec<Row> = Vec::new();
-        {
-            let _s = Stage::start(format!("refining {} in {} steps", tech.name(), a.steps));
-            frame::progressive(&prep, &lut, tech, &opts, &refine, a.steps, |s: &Step| {
-                s.image
-                    .write_png(&a.out_dir.join(format!("step_{:02}.png", s.index)))?;
-                rows.push(Row {
-                    index: s.index,
-                    rays_new: s.rays_new,
-                    rays: s.rays,
-                    time_s: s.time_s,
-                    err: compare(&s.image, &full)?,
-                    stats: s.stats.clone(),
-                });
-                Ok(())
-            })?;
-        }
-        let last = rows.last().expect("at least two steps");
-        let exact = last.err.max_abs_255 == 0.0 && last.err.rmse == 0.0;
-        write_outputs(a, tech, &refine, &rows, median(&full_times))?;
-        let first = &rows[0];
-        super::say(&format!(
-            "{} refined in {} steps: first step {} rays ({:.3} of {}) in {:.3} s, rmse {:.5}; full image after {:.3} s, {} rays in all{} (one ray per pixel: {:.3} s) -> {}",
-            tech.name(),
-            rows.len(),
-            first.rays,
-            first.rays as f64 / first.stats.pixels as f64,
-            first.stats.pixels,
-            first.time_s,
-            first.err.rmse,
-            last.time_s,
-            last.rays,
-            if exact { ", equal to one ray per pixel" } else { ", DIFFERS from one ray per pixel" },
-            median(&full_times),
-            a.out_dir.display()
-        ));
-        if !exact {
-            anyhow::bail!("the last step differs from the one-ray-per-pixel frame");
-        }
-        Ok(())
+    super::outputs::check_dirs(&[Some(&a.out_dir)])?;
+    super::outputs::all_or_nothing(&[&a.out_dir], || {
+        with_threads(a.threads, || refine(a, tech))
     })
+}
+
+fn refine(a: &RefineArgs, tech: Technique) -> Result<()> {
+    let refine =
+        refine_of(Some(&a.refine), a.refine_levels, tech)?.expect("a refinement was given");
+    if !(2..=frame::MAX_STEPS).contains(&a.steps) {
+        anyhow::bail!("--steps {} must be 2 to {}", a.steps, frame::MAX_STEPS);
+    }
+    if a.gaze.is_none() && a.gaze_radii.is_some() {
+        anyhow::bail!("--gaze-radii needs --gaze");
+    }
+    let mut opts = a.slice.options()?;
+    let spec = FrameSpec {
+        technique: Some(tech),
+        shade: opts.slice.shade.is_some(),
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for(tech.name(), &spec)?;
+    a.slice.apply_tf(&mut opts, &tf)?;
+    if let Some(at) = a.gaze {
+        let mut g = golden::gaze::Gaze::around(at, cam.width, cam.height);
+        if let Some([inner, outer]) = a.gaze_radii {
+            g.inner = inner;
+            g.outer = outer;
+        }
+        g.levels = a.gaze_levels;
+        g.validate()?;
+        opts.reference.gaze = Some(g);
+    }
+    let lut = lut_for(vol.kind(), &tf);
+    let prep = a.slice.prepared_owning(vol, &cam)?;
+    if tech == Technique::MipMap {
+        // The pyramid is built once per volume and table, before any
+        // step (its time is not a step's).
+        prep.mipmap_of(&lut, &opts.mip())?;
+    }
+    let (full, full_times) = {
+        let _s = Stage::start("rendering one ray per pixel");
+        timed(1, || Ok(frame::full(&prep, &lut, tech, &opts)?))?
+    };
+    std::fs::create_dir_all(&a.out_dir)?;
+    let mut rows: Vec<Row> = Vec::new();
+    {
+        let _s = Stage::start(format!("refining {} in {} steps", tech.name(), a.steps));
+        frame::progressive(&prep, &lut, tech, &opts, &refine, a.steps, |s: &Step| {
+            s.image
+                .write_png(&a.out_dir.join(format!("step_{:02}.png", s.index)))?;
+            rows.push(Row {
+                index: s.index,
+                rays_new: s.rays_new,
+                rays: s.rays,
+                time_s: s.time_s,
+                err: compare(&s.image, &full)?,
+                stats: s.stats.clone(),
+            });
+            Ok(())
+        })?;
+    }
+    let last = rows.last().expect("at least two steps");
+    let exact = last.err.max_abs_255 == 0.0 && last.err.rmse == 0.0;
+    write_outputs(a, tech, &refine, &rows, median(&full_times))?;
+    let first = &rows[0];
+    super::say(&format!(
+        "{} refined in {} steps: first step {} rays ({:.3} of {}) in {:.3} s, rmse {:.5}; full image after {:.3} s, {} rays in all{} (one ray per pixel: {:.3} s) -> {}",
+        tech.name(),
+        rows.len(),
+        first.rays,
+        first.rays as f64 / first.stats.pixels as f64,
+        first.stats.pixels,
+        first.time_s,
+        first.err.rmse,
+        last.time_s,
+        last.rays,
+        if exact { ", equal to one ray per pixel" } else { ", DIFFERS from one ray per pixel" },
+        median(&full_times),
+        a.out_dir.display()
+    ));
+    if !exact {
+        anyhow::bail!("the last step differs from the one-ray-per-pixel frame");
+    }
+    Ok(())
 }
 
 /// The CSV, the plot and the stats.

@@ -196,11 +196,84 @@ pub fn run(a: &RenderArgs) -> Result<()> {
 /// (instead of `--scene` or `--volume`) when it is `Some`, and writes
 /// nothing.
 pub fn frame(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Result<Rendered> {
+    frame_reusing(a, given, None)
+}
+
+/// [`frame`], preparing the volume through `reuse` when it is given: a
+/// caller rendering frame after frame in one process keeps what the last
+/// frame prepared.
+pub fn frame_reusing(
+    a: &RenderArgs,
+    given: Option<golden::volume::Volume>,
+    reuse: Option<&mut Reuse>,
+) -> Result<Rendered> {
     let Some(tech) = a.method.technique() else {
-        return with_threads(a.threads, || frame_pipeline(a, given));
+        return with_threads(a.threads, || frame_pipeline(a, given, reuse));
     };
     chip::check_unused(&a.pipeline)?;
-    with_threads(a.threads, || frame_golden(a, tech, given))
+    with_threads(a.threads, || frame_golden(a, tech, given, reuse))
+}
+
+/// The last frame's volume and its preparation, kept between the frames of
+/// a caller that renders many in one process (the Python module): the same
+/// voxels seen again, by any camera, are prepared by [`Prepared::moved`],
+/// which keeps the permuted slice stack while the principal axis holds and
+/// the empty-space blocks and occupancy map while the block size does,
+/// instead of building them again. Frames are the same as without it; the
+/// cost is that the last volume and its stack stay in memory.
+#[derive(Default)]
+pub struct Reuse {
+    last: Option<(golden::volume::Volume, Prepared)>,
+}
+
+impl Reuse {
+    /// Nothing kept yet.
+    pub const fn new() -> Reuse {
+        Reuse { last: None }
+    }
+
+    /// Drops the kept volume and preparation.
+    pub fn clear(&mut self) {
+        self.last = None;
+    }
+
+    /// `vol` prepared for `cam` with `slice`'s options, from the last
+    /// frame's preparation when `vol` holds the same voxels and spacing.
+    fn prepared(
+        &mut self,
+        vol: golden::volume::Volume,
+        cam: &golden::camera::Camera,
+        slice: &SliceArgs,
+    ) -> Result<Prepared> {
+        let opts = slice.prepare()?;
+        let same = |v: &golden::volume::Volume| {
+            v.dims() == vol.dims() && v.spacing() == vol.spacing() && v.voxels() == vol.voxels()
+        };
+        let prep = match &self.last {
+            Some((v, p)) if same(v) => p.moved(v, cam, &opts)?,
+            _ => {
+                // The old volume goes before the new one is prepared.
+                self.last = None;
+                Prepared::with(&vol, cam, &opts)?
+            }
+        };
+        self.last = Some((vol, prep.clone()));
+        Ok(prep)
+    }
+}
+
+/// `vol` prepared for `cam`: through `reuse` when given, else owning the
+/// voxels (a one-off frame holds them once, as the slice stack).
+fn prepare_for(
+    slice: &SliceArgs,
+    vol: golden::volume::Volume,
+    cam: &golden::camera::Camera,
+    reuse: Option<&mut Reuse>,
+) -> Result<Prepared> {
+    match reuse {
+        Some(r) => r.prepared(vol, cam, slice),
+        None => slice.prepared_owning(vol, cam),
+    }
 }
 
 /// [`frame`] with a golden method.
@@ -208,6 +281,7 @@ fn frame_golden(
     a: &RenderArgs,
     tech: Technique,
     given: Option<golden::volume::Volume>,
+    reuse: Option<&mut Reuse>,
 ) -> Result<Rendered> {
     if !matches!(tech, Technique::Slice(_)) && a.slice.preintegrate {
         anyhow::bail!(
@@ -248,7 +322,7 @@ fn frame_golden(
             let _s = Stage::start("preparing the gaze levels");
             prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?
         }
-        _ => a.slice.prepared_owning(vol, &cam)?,
+        _ => prepare_for(&a.slice, vol, &cam, reuse)?,
     };
     let (frame, times, leaf_level) = match &opts.reference.refine {
         Some(r) => {
@@ -495,7 +569,11 @@ fn versus_reference(
 }
 
 /// `ercube render --method pipeline` or `pipeline-ftb`.
-fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Result<Rendered> {
+fn frame_pipeline(
+    a: &RenderArgs,
+    given: Option<golden::volume::Volume>,
+    reuse: Option<&mut Reuse>,
+) -> Result<Rendered> {
     let clock = a.pipeline.clock()?;
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
@@ -514,7 +592,7 @@ fn frame_pipeline(a: &RenderArgs, given: Option<golden::volume::Volume>) -> Resu
     let bits = vol.kind().bits();
     // The PEs load from golden's stack, which takes the volume's voxels:
     // the frame holds them once.
-    let prep = slice.prepared_owning(vol, &cam)?;
+    let prep = prepare_for(&slice, vol, &cam, reuse)?;
     // Golden's own table from the same classification table: the unit
     // quantises it, and the comparison below renders golden with it.
     let preint = opts

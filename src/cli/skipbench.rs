@@ -330,6 +330,7 @@ pub fn run(a: &SkipBenchArgs) -> Result<()> {
     if !(16..=1024).contains(&a.n) {
         bail!("--n {} must be 16 to 1024", a.n);
     }
+    super::outputs::check_dirs(&[Some(&a.report)])?;
     with_threads(a.threads, || {
         let section = section(a)?;
         let md = a.report.join("benchmarks.md");

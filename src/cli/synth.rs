@@ -209,6 +209,8 @@ fn read_json(p: &Path) -> Result<serde_json::Value> {
 
 /// Runs `ercube synth`.
 pub fn run(a: &SynthArgs) -> Result<()> {
+    super::outputs::check_files(&[a.stats.as_deref()])?;
+    super::outputs::check_dirs(&[a.keep.as_deref()])?;
     let part: Part = a.target.parse().map_err(anyhow::Error::msg)?;
     if a.pe || a.array {
         bail!(

@@ -26,6 +26,7 @@ mod docs;
 mod explore;
 mod frame_rate;
 mod memory;
+mod outputs;
 mod peers;
 mod preint;
 mod refine;

@@ -261,14 +261,14 @@ fn relative_to(dir: &Path, path: &Path) -> PathBuf {
 }
 
 /// Writes through a temporary file in the same directory and a rename, so
-/// that readers never see a half-written file.
+/// that readers never see a half-written file (renamed with the rest of
+/// an open staged run's files: the `staging` crate).
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WavesError> {
     let mut tmp = temp_beside(path)?;
     tmp.write_all(bytes)
         .and_then(|()| tmp.flush())
         .map_err(|e| WavesError::io("write", path, e))?;
-    tmp.persist(path)
-        .map_err(|e| WavesError::io("rename to", path, e.error))?;
+    staging::place(tmp, path).map_err(|e| WavesError::io("rename to", path, e))?;
     Ok(())
 }
 

@@ -305,7 +305,8 @@ impl Sinks {
 
     /// Ends the files at `end` (a final timestamp, if any), names `start`
     /// (the first traced cycle's time, if any) as the FST's start time,
-    /// and renames them to their targets.
+    /// and renames them to their targets (at once, or with the rest of an open
+    /// staged run's files: the `staging` crate).
     pub(crate) fn finish(
         mut self,
         start: Option<u64>,
@@ -323,9 +324,9 @@ impl Sinks {
             }
             v.out.flush().map_err(io)?;
             drop(v.out);
-            v.tmp
-                .persist(&v.path)
-                .map_err(|e| WavesError::io("rename trace to", &v.path, e.error))?;
+            // Renamed now, or with the rest of a staged run's files.
+            staging::place(v.tmp, &v.path)
+                .map_err(|e| WavesError::io("rename trace to", &v.path, e))?;
             written.vcd = Some(v.path);
         }
         if let Some(f) = self.fst.take() {
@@ -346,9 +347,8 @@ impl Sinks {
             }
             out.flush().map_err(io)?;
             drop(out);
-            f.tmp
-                .persist(&f.path)
-                .map_err(|e| WavesError::io("rename trace to", &f.path, e.error))?;
+            staging::place(f.tmp, &f.path)
+                .map_err(|e| WavesError::io("rename trace to", &f.path, e))?;
             written.fst = Some(f.path);
         }
         Ok(written)

@@ -294,7 +294,7 @@ fn read_header(path: &Path, limit: u64) -> Result<Vec<Slice>> {
         ));
     }
     let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
-    lengths::check_lengths(&bytes).map_err(|m| format_err(path, m))?;
+    lengths::check_lengths(&bytes, limit).map_err(|m| format_err(path, m))?;
     drop(bytes);
     let obj = open_dicom(path, true)?;
     let ts = obj.meta().transfer_syntax().trim_end_matches('\0').trim();

@@ -408,6 +408,7 @@ pub struct CaseResult {
 
 /// Runs `ercube bench`.
 pub fn run(a: &BenchArgs) -> Result<()> {
+    super::outputs::check_dirs(&[Some(a.report.as_ref().unwrap_or(&a.out_dir))])?;
     if let Some(dir) = &a.report {
         if a.shard.is_some() {
             bail!("--shard splits a sweep's distances; the report's plan is not sharded");

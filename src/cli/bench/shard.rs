@@ -282,6 +282,7 @@ fn read_shards<T: serde::de::DeserializeOwned>(
 
 /// Runs `ercube merge-results`.
 pub fn merge(m: &MergeArgs) -> Result<()> {
+    crate::cli::outputs::check_dirs(&[Some(&m.out_dir)])?;
     let first = &m.shards[0];
     let text = std::fs::read_to_string(first)
         .with_context(|| format!("cannot read {}", first.display()))?;

@@ -443,6 +443,7 @@ pub fn run_sweep(
 
 /// Loads, prepares and runs a sweep from the command line's arguments.
 pub fn sweep(a: &SweepArgs) -> Result<()> {
+    crate::cli::outputs::check_dirs(&[Some(&a.out_dir)])?;
     let (base, grid) = grid_of(a)?;
     with_threads(a.threads, || {
         let (vol, tf, cam) = a.view.load()?;

@@ -20,10 +20,12 @@ const SHORT_VRS: [&[u8; 2]; 21] = [
 ];
 
 /// Checks the element lengths of a Part 10 file's bytes (preamble, `DICM`,
-/// the file meta group, the data set). Files without the magic, and a
-/// deflated data set (whose lengths are inside the compressed stream), are
-/// left to the parser. The error names the element and its length.
-pub(super) fn check_lengths(bytes: &[u8]) -> Result<(), String> {
+/// the file meta group, the data set). Files without the magic are left to
+/// the parser. A deflated data set is inflated first, its size checked
+/// against `limit` before any byte of it is held ([`inflate`]); its lengths
+/// are then checked against the inflated bytes. The error names the element
+/// and its length.
+pub(super) fn check_lengths(bytes: &[u8], limit: u64) -> Result<(), String> {
     if bytes.len() < 132 || &bytes[128..132] != b"DICM" {
         return Ok(());
     }
@@ -48,12 +50,78 @@ pub(super) fn check_lengths(bytes: &[u8]) -> Result<(), String> {
         w.pos += len;
     }
     match ts.as_str() {
-        "1.2.840.10008.1.2.1.99" => return Ok(()),
+        "1.2.840.10008.1.2.1.99" => {
+            // Deflated explicit VR little endian: the data set after the
+            // meta group is one raw deflate stream (RFC 1951).
+            let inflated = inflate(&bytes[w.pos..], limit)?;
+            return Walk {
+                bytes: &inflated,
+                pos: 0,
+                explicit: true,
+                big: false,
+            }
+            .data_set();
+        }
         "1.2.840.10008.1.2" => w.explicit = false,
         "1.2.840.10008.1.2.2" => w.big = true,
         _ => {}
     }
     w.data_set()
+}
+
+/// The bytes of the raw deflate stream `data`, refused in one line when
+/// they would be more than `limit` (a deflate bomb: 1 KB of input may
+/// inflate to 1 MB), when the stream is cut off before its end, or when it
+/// is corrupt. The stream is inflated twice: once counting its bytes
+/// (nothing held), then into a buffer of exactly that size.
+pub(super) fn inflate(data: &[u8], limit: u64) -> Result<Vec<u8>, String> {
+    let size = inflate_into(data, |_, total| {
+        if total > limit {
+            return Err(format!(
+                "the deflated data set inflates to more than the memory limit of {}",
+                crate::error::human_bytes(limit as u128)
+            ));
+        }
+        Ok(())
+    })?;
+    let mut out = Vec::new();
+    out.try_reserve_exact(size as usize)
+        .map_err(|_| format!("cannot hold the {size}-byte inflated data set"))?;
+    inflate_into(data, |chunk, _| {
+        out.extend_from_slice(chunk);
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// Runs the raw deflate stream `data` to its end, handing each inflated
+/// chunk to `take` with the bytes inflated so far; returns their count.
+fn inflate_into(
+    data: &[u8],
+    mut take: impl FnMut(&[u8], u64) -> Result<(), String>,
+) -> Result<u64, String> {
+    use flate2::{Decompress, FlushDecompress, Status};
+    let mut z = Decompress::new(false);
+    let mut buf = vec![0u8; 64 << 10];
+    loop {
+        let (was_in, was_out) = (z.total_in(), z.total_out());
+        let status = z
+            .decompress(&data[was_in as usize..], &mut buf, FlushDecompress::None)
+            .map_err(|e| format!("the deflated data set is corrupt: {e}"))?;
+        let n = (z.total_out() - was_out) as usize;
+        take(&buf[..n], z.total_out())?;
+        match status {
+            Status::StreamEnd => return Ok(z.total_out()),
+            // No progress: the input ended before the stream did.
+            _ if n == 0 && z.total_in() == was_in => {
+                return Err(format!(
+                "the deflated data set is cut off after {} of its bytes (the stream does not end)",
+                z.total_out()
+            ))
+            }
+            _ => {}
+        }
+    }
 }
 
 /// A cursor over the bytes.

@@ -303,3 +303,128 @@ mod fuzz {
         }
     }
 }
+
+/// `plain` (explicit VR little endian) as a deflated explicit VR little
+/// endian file: the meta group with the deflate transfer syntax (and its
+/// group length mended), then the data set as one raw deflate stream.
+fn deflated_twin(plain: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    const LONG: [&[u8]; 6] = [b"OB", b"OW", b"OF", b"SQ", b"UT", b"UN"];
+    let mut pos = 132;
+    let mut meta: Vec<u8> = Vec::new();
+    while u16::from_le_bytes([plain[pos], plain[pos + 1]]) == 0x0002 {
+        let elem = u16::from_le_bytes([plain[pos + 2], plain[pos + 3]]);
+        let vr = &plain[pos + 4..pos + 6];
+        let (head, len) = if LONG.contains(&vr) {
+            (
+                12,
+                u32::from_le_bytes(plain[pos + 8..pos + 12].try_into().unwrap()) as usize,
+            )
+        } else {
+            (
+                8,
+                u16::from_le_bytes([plain[pos + 6], plain[pos + 7]]) as usize,
+            )
+        };
+        match elem {
+            0x0000 => {} // rewritten below
+            0x0010 => {
+                let uid = b"1.2.840.10008.1.2.1.99";
+                meta.extend_from_slice(&plain[pos..pos + 6]);
+                meta.extend_from_slice(&(uid.len() as u16).to_le_bytes());
+                meta.extend_from_slice(uid);
+            }
+            _ => meta.extend_from_slice(&plain[pos..pos + head + len]),
+        }
+        pos += head + len;
+    }
+    let mut out = plain[..132].to_vec();
+    out.extend_from_slice(&[0x02, 0x00, 0x00, 0x00, b'U', b'L', 4, 0]);
+    out.extend_from_slice(&(meta.len() as u32).to_le_bytes());
+    out.extend_from_slice(&meta);
+    let mut z = flate2::write::DeflateEncoder::new(out, flate2::Compression::default());
+    z.write_all(&plain[pos..]).unwrap();
+    z.finish().unwrap()
+}
+
+/// The length of a file's meta group's end (where its data set starts).
+fn data_set_start(file: &[u8]) -> usize {
+    let mut pos = 132;
+    while u16::from_le_bytes([file[pos], file[pos + 1]]) == 0x0002 {
+        let vr = &file[pos + 4..pos + 6];
+        pos += if vr == b"OB" {
+            12 + u32::from_le_bytes(file[pos + 8..pos + 12].try_into().unwrap()) as usize
+        } else {
+            8 + u16::from_le_bytes([file[pos + 6], file[pos + 7]]) as usize
+        };
+    }
+    pos
+}
+
+#[test]
+fn a_deflated_series_loads_to_the_voxels_of_its_plain_twin() {
+    let (dir, files) = copy_series("dicom_u16");
+    for f in &files {
+        let twin = deflated_twin(&std::fs::read(f).unwrap());
+        let meta = &twin[..data_set_start(&twin)];
+        assert!(meta.windows(22).any(|w| w == b"1.2.840.10008.1.2.1.99"));
+        std::fs::write(f, twin).unwrap();
+    }
+    let plain = read_dicom_dir(&fixture_dir("dicom_u16"), LIM).unwrap();
+    let deflated = read_dicom_dir(dir.path(), LIM).unwrap();
+    assert_eq!(deflated.volume.dims(), plain.volume.dims());
+    assert_eq!(deflated.volume.data(), plain.volume.data());
+    assert_eq!(deflated.volume.spacing(), plain.volume.spacing());
+    assert_eq!(deflated.origin, plain.origin);
+}
+
+/// A deflate bomb (a few hundred KB inflating to 64 MiB) is refused under
+/// a 16 MiB limit before its bytes are held; a stream cut short, corrupt
+/// bytes, and a forged length inside the inflated data set are refused
+/// in one line too.
+#[test]
+fn deflate_bombs_and_cut_streams_are_refused_in_one_line() {
+    use std::io::Write;
+    let (dir, files) = copy_series("dicom_u8");
+    let plain = std::fs::read(&files[0]).unwrap();
+    for f in &files[1..] {
+        std::fs::remove_file(f).unwrap();
+    }
+    let twin = deflated_twin(&plain);
+    let start = data_set_start(&twin);
+    let mut bomb = twin[..start].to_vec();
+    let mut z = flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::best());
+    let zeros = vec![0u8; 1 << 20];
+    for _ in 0..64 {
+        z.write_all(&zeros).unwrap();
+    }
+    bomb.extend_from_slice(&z.finish().unwrap());
+    assert!(bomb.len() < 1 << 20);
+    std::fs::write(&files[0], &bomb).unwrap();
+    assert_err(
+        load_dicom_dir(dir.path(), 16 << 20),
+        "inflates to more than the memory limit of 16.0 MiB",
+    );
+
+    std::fs::write(&files[0], &twin[..start + (twin.len() - start) / 2]).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "is cut off after");
+
+    let mut corrupt = twin.clone();
+    corrupt[start..].fill(0xFF);
+    std::fs::write(&files[0], &corrupt).unwrap();
+    assert_err(
+        load_dicom_dir(dir.path(), LIM),
+        "the deflated data set is corrupt",
+    );
+
+    // The plain file with one element's length forged, deflated: the
+    // length is checked against the inflated bytes.
+    let mut forged = plain.clone();
+    let px = forged
+        .windows(4)
+        .rposition(|w| w == [0xE0, 0x7F, 0x10, 0x00])
+        .unwrap();
+    forged[px + 8..px + 12].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    std::fs::write(&files[0], deflated_twin(&forged)).unwrap();
+    assert_err(load_dicom_dir(dir.path(), LIM), "claims 4294967280 bytes");
+}
