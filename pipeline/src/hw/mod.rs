@@ -16,16 +16,21 @@
 //! - [`schedule`]: the pipelined schedule (at most one multiplier or one
 //!   carry chain per stage) and the latency it gives;
 //! - [`verilog`]: Verilog-2005 text of a cut of the graph;
+//! - [`unit`]: the whole sample or a named cut as a verification model
+//!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
 pub mod eval;
 pub mod sample;
 pub mod schedule;
+pub mod unit;
 pub mod units;
 pub mod verilog;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod unit_tests;
 
 pub use crate::cost::shapes::Word;
 use crate::fixed::Format;
