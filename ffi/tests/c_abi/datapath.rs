@@ -50,7 +50,12 @@ fn case(unit: &str, cfg: &PipelineConfig, dp: &Datapath, r: &mut Rng) -> Case {
     ];
     let mut i = HashMap::new();
     let mut o = HashMap::new();
-    let accs = [("acc_r", acc[0]), ("acc_g", acc[1]), ("acc_b", acc[2]), ("acc_a", acc[3])];
+    let accs = [
+        ("acc_r", acc[0]),
+        ("acc_g", acc[1]),
+        ("acc_b", acc[2]),
+        ("acc_a", acc[3]),
+    ];
     let composite = |out: &mut Acc, c: [Fx; 3], a: Fx, st: &mut QuantStats| match cfg.order {
         Order::BackToFront => dp.composite_btf(out, c, a, st).unwrap(),
         Order::FrontToBack => dp.composite_ftb(out, c, a, st).unwrap(),
@@ -58,8 +63,15 @@ fn case(unit: &str, cfg: &PipelineConfig, dp: &Datapath, r: &mut Rng) -> Case {
     match unit {
         "bilinear" => {
             let (wx, wy) = (r.word(cfg.weight), r.word(cfg.weight));
-            let y = dp.bilinear(v, fx(wx, cfg.weight), fx(wy, cfg.weight), st).unwrap();
-            i.extend([("v00", taps[0]), ("v01", taps[1]), ("v10", taps[2]), ("v11", taps[3])]);
+            let y = dp
+                .bilinear(v, fx(wx, cfg.weight), fx(wy, cfg.weight), st)
+                .unwrap();
+            i.extend([
+                ("v00", taps[0]),
+                ("v01", taps[1]),
+                ("v10", taps[2]),
+                ("v11", taps[3]),
+            ]);
             i.extend([("wx", wx), ("wy", wy)]);
             o.insert("y", y.raw());
         }
@@ -67,7 +79,12 @@ fn case(unit: &str, cfg: &PipelineConfig, dp: &Datapath, r: &mut Rng) -> Case {
             let c = [0; 3].map(|_| r.word(cfg.color));
             let a = r.word(cfg.opacity_corr);
             let mut out = Acc { raw: acc };
-            composite(&mut out, c.map(|w| fx(w, cfg.color)), fx(a, cfg.opacity_corr), st);
+            composite(
+                &mut out,
+                c.map(|w| fx(w, cfg.color)),
+                fx(a, cfg.opacity_corr),
+                st,
+            );
             i.extend(accs);
             i.extend([("c_r", c[0]), ("c_g", c[1]), ("c_b", c[2]), ("a", a)]);
             o.extend(["y_r", "y_g", "y_b", "y_a"].into_iter().zip(out.raw));
@@ -79,11 +96,15 @@ fn case(unit: &str, cfg: &PipelineConfig, dp: &Datapath, r: &mut Rng) -> Case {
             let (b, k) = (r.word(cfg.position) >> 20, r.word(cfg.step) >> 30);
             let wy = r.word(cfg.weight);
             let (sy, sz) = (r.word(cfg.position) >> 24, r.word(cfg.position) >> 24);
-            let x = dp.position(fx(a, cfg.position), fx(t, cfg.step), m, st).unwrap();
+            let x = dp
+                .position(fx(a, cfg.position), fx(t, cfg.step), m, st)
+                .unwrap();
             let (x0, wx) = dp.address(x, st);
             let s = dp.bilinear(v, wx, fx(wy, cfg.weight), st).unwrap();
             let (rgb, alpha) = dp.classify(s, st).unwrap();
-            let sx = dp.position(fx(b, cfg.position), fx(k, cfg.step), m, st).unwrap();
+            let sx = dp
+                .position(fx(b, cfg.position), fx(k, cfg.step), m, st)
+                .unwrap();
             let p = cfg.position;
             let ds = dp.path(sx, fx(sy, p), fx(sz, p), st).unwrap();
             let oc = dp.correct(alpha, ds, st).unwrap();
@@ -93,7 +114,12 @@ fn case(unit: &str, cfg: &PipelineConfig, dp: &Datapath, r: &mut Rng) -> Case {
             }
             i.extend([("slot_m", m), ("a", a), ("t", t), ("b", b), ("k", k)]);
             i.extend([("row_wy", wy), ("sy", sy), ("sz", sz)]);
-            i.extend([("v00", taps[0]), ("v01", taps[1]), ("v10", taps[2]), ("v11", taps[3])]);
+            i.extend([
+                ("v00", taps[0]),
+                ("v01", taps[1]),
+                ("v10", taps[2]),
+                ("v11", taps[3]),
+            ]);
             i.extend(accs);
             let names = ["acc_out_r", "acc_out_g", "acc_out_b", "acc_out_a"];
             o.extend(names.into_iter().zip(out.raw));
@@ -137,7 +163,11 @@ fn a_c_program_evaluates_the_models_datapath_samples() {
             .output()
             .unwrap();
         let text = String::from_utf8_lossy(&listing.stdout).into_owned();
-        assert!(listing.status.success(), "{text}\n{}", String::from_utf8_lossy(&listing.stderr));
+        assert!(
+            listing.status.success(),
+            "{text}\n{}",
+            String::from_utf8_lossy(&listing.stderr)
+        );
         let port = |side: &str| -> Vec<String> {
             text.lines()
                 .filter_map(|l| l.strip_prefix(side))
@@ -158,10 +188,19 @@ fn a_c_program_evaluates_the_models_datapath_samples() {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all(input.as_bytes())
+            .unwrap();
         let out = child.wait_with_output().unwrap();
         let got = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{unit}: {got}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{unit}: {got}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let rows: Vec<&str> = got.lines().skip(text.lines().count()).collect();
         assert_eq!(rows.len(), cases.len(), "{unit}: {got}");
         let mut visible = 0;
@@ -172,8 +211,16 @@ fn a_c_program_evaluates_the_models_datapath_samples() {
             visible += usize::from(unit != "sample" || o["acc_out_a"] != i["acc_a"]);
         }
         // Enough samples composited to prove the arithmetic, not the mux.
-        assert!(visible > 30, "{unit}: only {visible} samples changed the accumulators");
-        let lat: u32 = text.lines().next().unwrap()[8..].parse().unwrap();
+        assert!(
+            visible > 30,
+            "{unit}: only {visible} samples changed the accumulators"
+        );
+        let lat: u32 = text
+            .lines()
+            .find_map(|l| l.strip_prefix("latency "))
+            .unwrap()
+            .parse()
+            .unwrap();
         let want_lat = match (unit, order) {
             ("sample", Order::BackToFront) => 35,
             ("sample", Order::FrontToBack) => 36,

@@ -4,6 +4,12 @@
 //! from TOML text, and a u16 buffer), and its error paths return a status
 //! and a one-line message. Needs a C compiler (`cc`); skips with one line
 //! without it unless `ERCUBE_REQUIRE_TOOLS=1`.
+//!
+//! And `tests/c/datapath.c`: one datapath sample per line of input words,
+//! for the whole sample and its units in both orders, equal to the
+//! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`).
+
+mod datapath;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
