@@ -2,7 +2,8 @@
 //! Volumes and images are numpy arrays; every frame is rendered through
 //! [`ercube::frame`], the code `ercube render` runs, so images, raw words
 //! and statistics are the command line's bit for bit. The GIL is released
-//! while a volume loads or a frame renders. Type hints: `ercube.pyi`.
+//! while a volume loads or a frame renders. One datapath sample evaluates
+//! through `ercube.Datapath` ([`datapath`]). Type hints: `ercube.pyi`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -10,6 +11,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
 
 use golden::volume::{Volume, Voxels};
+
+mod datapath;
 
 create_exception!(
     ercube,
@@ -335,5 +338,6 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_class::<Chip>()?;
+    m.add_class::<datapath::Datapath>()?;
     Ok(())
 }
