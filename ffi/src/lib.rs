@@ -20,6 +20,7 @@ use std::ptr;
 use golden::volume::{Volume, Voxels};
 
 mod datapath;
+pub mod testbench;
 pub use datapath::ErcubeDatapath;
 
 /// The ABI's version: it changes whenever a signature, a struct or a

@@ -7,9 +7,11 @@
 //!
 //! And `tests/c/datapath.c`: one datapath sample per line of input words,
 //! for the whole sample and its units in both orders, equal to the
-//! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`).
+//! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`);
+//! and the DPI-C package's scoreboard testbench in Verilator (`dpi.rs`).
 
 mod datapath;
+mod dpi;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
