@@ -23,6 +23,10 @@ pub const PACKAGE: &str = include_str!("../sv/ercube_pkg.sv");
 /// The Verilator main of the testbench (module `tb`), as shipped.
 pub const MAIN: &str = include_str!("../sv/sim_main.cpp");
 
+/// The Verilator control file waiving the emitted unit's WIDTH lint
+/// (`unit.v`), as shipped.
+pub const WAIVER: &str = include_str!("../sv/unit.vlt");
+
 /// The handshake ports a module may have besides the model's.
 const HANDSHAKE: [&str; 3] = ["rst", "in_valid", "out_valid"];
 

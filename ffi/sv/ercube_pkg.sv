@@ -6,7 +6,7 @@
 // (ffi/include/ercube.h, docs/verify.md): link the static library
 // libercube_ffi.a (cargo build --release -p ercube-ffi) with -lpthread -ldl
 // -lm, e.g. in Verilator:
-//   verilator --cc --exe --build ercube_pkg.sv tb.sv unit.v sim_main.cpp \
+//   $ verilator --cc --exe --build ercube_pkg.sv tb.sv unit.v sim_main.cpp \
 //     -LDFLAGS "target/release/libercube_ffi.a -lpthread -ldl -lm"
 //
 // Words are raw two's-complement integers (the value is word * 2^-frac)

@@ -11,7 +11,7 @@ mod mutate;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use ercube_ffi::testbench::{testbench, MAIN, PACKAGE};
+use ercube_ffi::testbench::{testbench, MAIN, PACKAGE, WAIVER};
 use pipeline::hw::unit::Unit;
 
 use super::{lib_dir, tools};
@@ -28,6 +28,7 @@ fn verilate(dir: &Path, unit: &Unit, module: &str, verilog: &str) -> Output {
         ("tb.sv", tb.as_str()),
         ("unit.v", verilog),
         ("sim_main.cpp", MAIN),
+        ("unit.vlt", WAIVER),
     ] {
         std::fs::write(dir.join(name), text).unwrap();
     }
@@ -46,6 +47,7 @@ fn verilate(dir: &Path, unit: &Unit, module: &str, verilog: &str) -> Output {
             "obj",
             "-o",
             "Vtb",
+            "unit.vlt",
             "ercube_pkg.sv",
             "unit.v",
             "tb.sv",
