@@ -8,8 +8,9 @@
 //! ```
 //!
 //! `DIR` gets `ercube_pkg.sv`, `tb.sv`, `unit.v` (the unit's emitted
-//! Verilog, or a copy of `--verilog`), `unit.vlt` and `sim_main.cpp`; the
-//! Verilator command that builds and runs it is printed.
+//! Verilog, or a copy of `--verilog`), `unit.vlt` and `sim_main.cpp`, and
+//! for the whole sample its tables as `$readmemh` files (`class_r.hex`,
+//! ...); the Verilator command that builds and runs it is printed.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -45,12 +46,13 @@ fn run() -> Result<String, String> {
         Some(p) => std::fs::read_to_string(p).map_err(|e| format!("{p}: {e}"))?,
         None => String::new(),
     };
-    let u = Unit::from_toml(
+    let mut u = Unit::from_toml(
         (!toml.is_empty()).then_some(toml.as_str()),
         Some(&order),
         &unit,
     )
     .map_err(|e| e.to_string())?;
+    u.fill_tables(&tf).map_err(|e| e.to_string())?;
     let (text, module) = match (verilog, top) {
         (Some(v), Some(t)) => (
             std::fs::read_to_string(&v).map_err(|e| format!("{v}: {e}"))?,
@@ -72,6 +74,19 @@ fn run() -> Result<String, String> {
         ("sim_main.cpp", MAIN),
     ] {
         std::fs::write(out.join(name), t).map_err(|e| format!("{name}: {e}"))?;
+    }
+    // The tables the model holds (the whole sample's), for a module whose
+    // memories `$readmemh` them: one hex word a line.
+    for t in u.tables() {
+        let digits = (t.fmt.bits() as usize).div_ceil(4);
+        let mask = (1u64 << t.fmt.bits()) - 1;
+        let words = u.table(&t.name).unwrap_or_default();
+        let hex: String = words
+            .iter()
+            .map(|&w| format!("{:0digits$x}\n", w as u64 & mask))
+            .collect();
+        let name = format!("{}.hex", t.name);
+        std::fs::write(out.join(&name), hex).map_err(|e| format!("{name}: {e}"))?;
     }
     // This example is built into target/release/examples, beside the
     // static library's folder.

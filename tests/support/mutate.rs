@@ -21,3 +21,36 @@ pub fn break_one_sum(verilog: &str) -> Option<(String, String)> {
     }
     changed.map(|c| (out, c))
 }
+
+/// `verilog` (module `inner`, ports `(name, bits, signed, is_input)`)
+/// inside a module `outer` with `rst`, `in_valid` and `out_valid` besides
+/// (`out_valid` follows `in_valid` `latency` clocks later): the shape of a
+/// handshaking unit, for the testbenches' handshake path.
+pub fn with_handshake(
+    verilog: &str,
+    inner: &str,
+    outer: &str,
+    ports: &[(String, u32, bool, bool)],
+    latency: u32,
+) -> String {
+    let mut decl = vec![
+        "  input clk".to_owned(),
+        "  input rst".to_owned(),
+        "  input in_valid".to_owned(),
+        "  output out_valid".to_owned(),
+    ];
+    let mut conns = vec![".clk(clk)".to_owned()];
+    for (name, bits, signed, input) in ports {
+        let dir = if *input { "input" } else { "output" };
+        let s = if *signed { "signed " } else { "" };
+        decl.push(format!("  {dir} {s}[{}:0] {name}", bits - 1));
+        conns.push(format!(".{name}({name})"));
+    }
+    format!(
+        "{verilog}\nmodule {outer} (\n{}\n);\n  reg [{l}:0] v;\n  always @(posedge clk) v <= rst ? {n}'d0 : {{v[{l}:0], in_valid}};\n  assign out_valid = v[{l}];\n  {inner} u ({});\nendmodule\n",
+        decl.join(",\n"),
+        conns.join(", "),
+        l = latency - 1,
+        n = latency,
+    )
+}

@@ -1,7 +1,8 @@
 //! The DPI-C scoreboard testbench in Verilator (`ffi/sv/`): the emitted
 //! `composite` and `bilinear` units match the model through DPI-C on
 //! random stimulus; a copy of `composite` with one sum made a difference
-//! stops at its first differing cycle, naming the signal. Needs
+//! stops at its first differing cycle, naming the signal; `composite`
+//! behind `rst`, `in_valid` and `out_valid` passes too. Needs
 //! `verilator` (and `cc`); skips with one line without it unless
 //! `ERCUBE_REQUIRE_TOOLS=1`.
 
@@ -104,6 +105,22 @@ fn the_dpi_testbench_passes_the_units_and_fails_a_broken_copy() {
             assert!(
                 t.contains("first mismatch at cycle") && t.contains("y_r: model"),
                 "the broken sum is y_r's ({line}):\n{t}"
+            );
+            // The same unit behind rst, in_valid and out_valid.
+            let ports: Vec<_> = unit
+                .inputs()
+                .iter()
+                .map(|p| (p, true))
+                .chain(unit.outputs().iter().map(|p| (p, false)))
+                .map(|(p, i)| (p.name.clone(), p.word.bits, p.word.signed, i))
+                .collect();
+            let hs = mutate::with_handshake(&v, &module, "hs", &ports, unit.latency());
+            let out = verilate(&d.join("handshake"), &unit, "hs", &hs);
+            let t = text(&out);
+            assert!(out.status.success(), "handshake:\n{t}");
+            assert!(
+                t.contains(&format!("ercube: {SAMPLES} samples match the model")),
+                "{t}"
             );
         }
     }

@@ -2,7 +2,8 @@
 //! in Icarus: the emitted `composite` (both orders) and `bilinear` units
 //! match `ercube.Datapath` on 2000 random samples each; a copy of
 //! `composite` with one sum made a difference fails at its first cycle,
-//! naming the signal. Needs `iverilog` and cocotb (installed into the
+//! naming the signal; `composite` behind `rst`, `in_valid` and
+//! `out_valid` passes too. Needs `iverilog` and cocotb (installed into the
 //! environment when PyPI is reachable); skips with one line without them
 //! unless `ERCUBE_REQUIRE_TOOLS=1`.
 
@@ -72,10 +73,35 @@ fn the_cocotb_testbench_passes_the_units_and_fails_a_broken_copy() {
         assert!(t.contains("2000 samples match the model"), "{t}");
     }
 
-    let v = Unit::from_toml(None, Some("btf"), "composite")
-        .unwrap()
-        .verilog("ercube_composite")
-        .unwrap();
+    let unit = Unit::from_toml(None, Some("btf"), "composite").unwrap();
+    let v = unit.verilog("ercube_composite").unwrap();
+    // The unit behind rst, in_valid and out_valid.
+    let ports: Vec<_> = unit
+        .inputs()
+        .iter()
+        .map(|p| (p, true))
+        .chain(unit.outputs().iter().map(|p| (p, false)))
+        .map(|(p, i)| (p.name.clone(), p.word.bits, p.word.signed, i))
+        .collect();
+    let hs = mutate::with_handshake(&v, "ercube_composite", "hs", &ports, unit.latency());
+    let file = d.join("hs.v");
+    std::fs::write(&file, hs).unwrap();
+    let o = run(
+        &py,
+        &d.join("handshake"),
+        &[
+            "--unit",
+            "composite",
+            "--verilog",
+            file.to_str().unwrap(),
+            "--top",
+            "hs",
+        ],
+    );
+    let t = text(&o);
+    assert!(o.status.success(), "handshake:\n{t}");
+    assert!(t.contains("2000 samples match the model"), "{t}");
+
     let (broken, line) = mutate::break_one_sum(&v).expect("a sum to break");
     let file = d.join("broken.v");
     std::fs::write(&file, broken).unwrap();
