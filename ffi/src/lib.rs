@@ -4,7 +4,7 @@
 //! them (through [`ercube::frame`]); the final image, the pipeline's raw
 //! accumulator words and the statistics as JSON text; one sample of the
 //! datapath (the whole plain sample or a unit of it) evaluated from its
-//! input words ([`datapath`]).
+//! input words (`src/datapath.rs`).
 //!
 //! Every entry returns an [`ErcubeStatus`]-valued `int` (0 is success) and
 //! leaves a one-line message for [`ercube_last_error`] when it fails.

@@ -3,7 +3,7 @@
 //! [`ercube::frame`], the code `ercube render` runs, so images, raw words
 //! and statistics are the command line's bit for bit. The GIL is released
 //! while a volume loads or a frame renders. One datapath sample evaluates
-//! through `ercube.Datapath` ([`datapath`]). Type hints: `ercube.pyi`.
+//! through `ercube.Datapath` (`src/datapath.rs`). Type hints: `ercube.pyi`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;

@@ -16,7 +16,7 @@
 //! - [`schedule`]: the pipelined schedule (at most one multiplier or one
 //!   carry chain per stage) and the latency it gives;
 //! - [`verilog`]: Verilog-2005 text of a cut of the graph;
-//! - [`unit`]: the whole sample or a named cut as a verification model
+//! - [`unit`](mod@unit): the whole sample or a named cut as a verification model
 //!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
