@@ -8,7 +8,7 @@ indexed (z, y, x); sizes are (width, height). See docs/verify.md.
 """
 
 from os import PathLike
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, List, Optional, Sequence, Tuple, TypedDict, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -104,3 +104,49 @@ class Chip:
         `--raw-npy` writes (formats in stats["raw_format"]). method is
         pipeline or pipeline-ftb.
         """
+
+class Port(TypedDict):
+    name: str
+    bits: int
+    frac: int
+    signed: bool
+
+class Datapath:
+    """One sample of the datapath, bit for bit the model's.
+
+    unit is "sample" (the whole plain sample: ports slot_m, a, t, b, k,
+    row_wy, sy, sz, acc_r..acc_a and the voxel taps v00..v11), "bilinear"
+    or "composite" (the emitted units of `ercube synth --unit`). Words are
+    raw two's-complement integers: the value is word * 2**-frac.
+    """
+
+    def __init__(
+        self, config: Optional[str] = None, order: Optional[str] = "btf", unit: str = "sample"
+    ) -> None:
+        """config is pipeline TOML text (None: defaults); order "btf" or
+        "ftb" (None: the configuration's)."""
+
+    @property
+    def unit(self) -> str: ...
+    @property
+    def inputs(self) -> List[Port]:
+        """Input ports in order: name, bits, frac, signed."""
+    @property
+    def outputs(self) -> List[Port]:
+        """Outputs in order: name, bits, frac, signed."""
+    @property
+    def latency(self) -> int:
+        """Clocks from inputs to outputs in the unit's Verilog."""
+    @property
+    def tables(self) -> List[dict[str, Any]]:
+        """Tables the unit reads: name, depth, format."""
+    def table(self, name: str) -> List[int]:
+        """A table's raw words."""
+    def load_table(self, name: str, words: Sequence[int]) -> None:
+        """Loads a table with exactly its depth of raw words."""
+    def fill_tables(self, tf: str) -> None:
+        """Fills every table from a transfer-function preset (grey-ramp, ml, brain, ...)."""
+    def eval(self, **words: int) -> dict[str, int]:
+        """One sample: every input's raw word by name -> every output's by name."""
+    def verilog(self, module: str = "ercube_unit") -> str:
+        """The unit as a Verilog module (the cuts; the whole sample is refused)."""

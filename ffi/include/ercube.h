@@ -5,7 +5,10 @@
  * Volumes load from files, scenes or caller buffers; a frame of any golden
  * method or of the bit-accurate pipeline renders exactly as `ercube render`
  * renders it (same defaults, same bits); the final image, the pipeline's
- * raw accumulator words and the statistics (JSON text) come back.
+ * raw accumulator words and the statistics (JSON text) come back. One
+ * sample of the datapath (the whole plain sample, or its bilinear or
+ * composite unit) evaluates from its input words to its output words, bit
+ * for bit the model's.
  *
  * Every int-returning entry returns an ercube_status (0 is success) and,
  * when it fails, leaves a one-line message for ercube_last_error(). Handles
@@ -24,7 +27,7 @@ extern "C" {
 #endif
 
 /* The version of this header; compare with ercube_abi_version(). */
-#define ERCUBE_ABI_VERSION 1u
+#define ERCUBE_ABI_VERSION 2u
 
 typedef enum ercube_status {
     ERCUBE_OK = 0,
@@ -42,6 +45,7 @@ typedef enum ercube_status {
 typedef struct ErcubeConfig ErcubeConfig; /* a pipeline configuration */
 typedef struct ErcubeVolume ErcubeVolume; /* voxels, dimensions, spacing */
 typedef struct ErcubeFrame ErcubeFrame;   /* a rendered frame */
+typedef struct ErcubeDatapath ErcubeDatapath; /* one unit of the datapath */
 
 /* The library's ABI version (ERCUBE_ABI_VERSION of the header it was built
  * with); refuse a library whose version differs from yours. */
@@ -98,6 +102,57 @@ int ercube_frame_raw(const ErcubeFrame *frame, const int64_t **words,
  * frame. Lives with the frame. */
 const char *ercube_frame_stats_json(const ErcubeFrame *frame);
 void ercube_frame_free(ErcubeFrame *frame);
+
+/* ---- One datapath sample ----
+ * A unit of the PE's datapath as the model describes it: "sample" (the
+ * whole plain sample: position, bilinear interpolation, classification,
+ * path length, opacity correction, compositing), "bilinear" or
+ * "composite". Inputs and outputs are raw two's-complement words (the
+ * value is word * 2^-frac); the unit's Verilog takes the same words on
+ * ports of the same names and gives the outputs `latency` clocks later.
+ * Table contents ("sample" only) start as the grey-ramp transfer
+ * function's. */
+
+/* The unit `unit` (NULL or "": "sample") of the configuration `toml`
+ * (NULL or "": the defaults), composited in `order` ("btf" or "ftb"; NULL
+ * or "": the configuration's). */
+int ercube_datapath_new(const char *toml, const char *order,
+                        const char *unit, ErcubeDatapath **out);
+void ercube_datapath_free(ErcubeDatapath *dp);
+/* Inputs, outputs, latency in clocks; any output may be NULL. */
+int ercube_datapath_shape(const ErcubeDatapath *dp, uint32_t *n_inputs,
+                          uint32_t *n_outputs, uint32_t *latency);
+/* Port `index` of the inputs (side 0) or outputs (side 1): name (lives
+ * with the datapath), width, fraction bits, 1 if signed; any output may be
+ * NULL. */
+int ercube_datapath_port(const ErcubeDatapath *dp, uint32_t side,
+                         uint32_t index, const char **name, uint32_t *bits,
+                         int32_t *frac, uint32_t *is_signed);
+/* The index of the input (side 0) or output (side 1) named `name`. */
+int ercube_datapath_find(const ErcubeDatapath *dp, uint32_t side,
+                         const char *name, uint32_t *index);
+/* Loads table `name` (class_r, class_g, class_b, class_a, log_table,
+ * exp_table) with exactly its depth of raw words. */
+int ercube_datapath_load_table(ErcubeDatapath *dp, const char *name,
+                               const int64_t *words, size_t n);
+/* Fills every table from a transfer-function preset ("grey-ramp", "ml",
+ * "brain", ...), as a pipeline frame with --tf fills them. */
+int ercube_datapath_fill_tables(ErcubeDatapath *dp, const char *tf);
+/* One sample: n_inputs words in port order to n_outputs words. */
+int ercube_datapath_eval(const ErcubeDatapath *dp, const int64_t *inputs,
+                         size_t n_inputs, int64_t *outputs,
+                         size_t n_outputs);
+/* The same one scalar at a time (what DPI-C passes simply): hold input
+ * words, evaluate, read output words. */
+int ercube_datapath_set(ErcubeDatapath *dp, uint32_t index, int64_t word);
+int ercube_datapath_step(ErcubeDatapath *dp);
+int ercube_datapath_get(const ErcubeDatapath *dp, uint32_t index,
+                        int64_t *word);
+/* The unit as a Verilog module named `module` (the cuts only), released
+ * with ercube_string_free. */
+int ercube_datapath_verilog(const ErcubeDatapath *dp, const char *module,
+                            char **out);
+void ercube_string_free(char *s);
 
 #ifdef __cplusplus
 }

@@ -2,7 +2,9 @@
 //! from files, scenes or caller buffers; frames of every golden method and
 //! of the bit-accurate pipeline rendered exactly as `ercube render` renders
 //! them (through [`ercube::frame`]); the final image, the pipeline's raw
-//! accumulator words and the statistics as JSON text.
+//! accumulator words and the statistics as JSON text; one sample of the
+//! datapath (the whole plain sample or a unit of it) evaluated from its
+//! input words (`src/datapath.rs`).
 //!
 //! Every entry returns an [`ErcubeStatus`]-valued `int` (0 is success) and
 //! leaves a one-line message for [`ercube_last_error`] when it fails.
@@ -17,9 +19,13 @@ use std::ptr;
 
 use golden::volume::{Volume, Voxels};
 
+mod datapath;
+pub mod testbench;
+pub use datapath::ErcubeDatapath;
+
 /// The ABI's version: it changes whenever a signature, a struct or a
 /// meaning in `ercube.h` does (`ERCUBE_ABI_VERSION` there).
-pub const ABI_VERSION: u32 = 1;
+pub const ABI_VERSION: u32 = 2;
 
 /// What an entry returns.
 #[repr(C)]

@@ -2,7 +2,8 @@
 //! Volumes and images are numpy arrays; every frame is rendered through
 //! [`ercube::frame`], the code `ercube render` runs, so images, raw words
 //! and statistics are the command line's bit for bit. The GIL is released
-//! while a volume loads or a frame renders. Type hints: `ercube.pyi`.
+//! while a volume loads or a frame renders. One datapath sample evaluates
+//! through `ercube.Datapath` (`src/datapath.rs`). Type hints: `ercube.pyi`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -13,6 +14,8 @@ use std::sync::Mutex;
 
 use ercube::frame::Reuse;
 use golden::volume::{Volume, Voxels};
+
+mod datapath;
 
 create_exception!(
     ercube,
@@ -363,5 +366,6 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(clear_cache, m)?)?;
     m.add_class::<Chip>()?;
+    m.add_class::<datapath::Datapath>()?;
     Ok(())
 }

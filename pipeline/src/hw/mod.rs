@@ -18,6 +18,8 @@
 //! - [`verilog`]: Verilog-2005 text of a cut of the graph;
 //! - [`pipeline_rtl`]: the whole graph as one pipelined module on that
 //!   schedule, which [`testbench`] and [`sim`] stream samples through;
+//! - [`unit`](mod@unit): the whole sample or a named cut as a verification model
+//!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
 pub mod eval;
@@ -27,11 +29,14 @@ pub mod sample;
 pub mod schedule;
 pub mod sim;
 pub mod testbench;
+pub mod unit;
 pub mod units;
 pub mod verilog;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod unit_tests;
 
 pub use crate::cost::shapes::Word;
 use crate::fixed::Format;

@@ -386,9 +386,9 @@ pub fn add_position(cfg: &PipelineConfig) -> CalibrationModule {
 fn from_description(
     g: &crate::hw::Graph,
     (name, comment, description): (&str, String, String),
-    ports: &[(&str, &str)],
-    outputs: &[(&str, &str)],
+    spec: &crate::hw::unit::Spec,
 ) -> Result<CalibrationModule, RtlError> {
+    let (ports, outputs) = (&spec.ports, &spec.outputs);
     let node = |n: &str| {
         g.find(n)
             .ok_or_else(|| RtlError::Unsupported(format!("no node {n} in the description")))
@@ -444,22 +444,15 @@ fn btf_description(cfg: &PipelineConfig) -> crate::hw::Graph {
 /// cut from the plain sample's description.
 pub fn bilinear(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
     let (v, w, sm) = (cfg.voxel.bits(), cfg.weight.bits(), cfg.sample.bits());
+    let g = btf_description(cfg);
     from_description(
-        &btf_description(cfg),
+        &g,
         (
             "ercube_bilinear",
             format!("bilinear: voxels {v}b, weights {w}b -> sample {sm}b (two stages)"),
             format!("3 lerps, {v}b voxels, {w}b weights"),
         ),
-        &[
-            ("v00", "v00"),
-            ("v01", "v01"),
-            ("v10", "v10"),
-            ("v11", "v11"),
-            ("wx", "wx"),
-            ("wy", "row.wy"),
-        ],
-        &[("y", "sample")],
+        &cut_spec(&g, "bilinear")?,
     )
 }
 
@@ -468,7 +461,6 @@ pub fn bilinear(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
 /// the plain sample's description.
 pub fn composite(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
     let g = btf_description(cfg);
-    let c = crate::hw::sample::class_names(&g);
     let (ac, aa, cb, ob) = (
         cfg.accum_color.bits(),
         cfg.accum_alpha.bits(),
@@ -482,23 +474,15 @@ pub fn composite(cfg: &PipelineConfig) -> Result<CalibrationModule, RtlError> {
             format!("compositing: accumulators {ac}b/{aa}b, colour {cb}b, opacity {ob}b"),
             format!("4 multiply-adds, {ob}b opacity"),
         ),
-        &[
-            ("acc_r", "acc_r"),
-            ("acc_g", "acc_g"),
-            ("acc_b", "acc_b"),
-            ("acc_a", "acc_a"),
-            ("c_r", c[0]),
-            ("c_g", c[1]),
-            ("c_b", c[2]),
-            ("a", "corrected"),
-        ],
-        &[
-            ("y_r", "comp.r"),
-            ("y_g", "comp.g"),
-            ("y_b", "comp.b"),
-            ("y_a", "comp.a"),
-        ],
+        &cut_spec(&g, "composite")?,
     )
+}
+
+/// The port list of the cut `name` ([`crate::hw::unit::spec`]: the
+/// verification kit evaluates the same cuts).
+fn cut_spec(g: &crate::hw::Graph, name: &str) -> Result<crate::hw::unit::Spec, RtlError> {
+    crate::hw::unit::spec(g, name)
+        .ok_or_else(|| RtlError::Unsupported(format!("no cut named {name}")))
 }
 
 /// The classification table: `table_entries` words of R, G, B and

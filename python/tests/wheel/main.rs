@@ -6,13 +6,22 @@
 //! environment (`.ci/run` installs them into `target/pyvenv`; so does this
 //! test when PyPI is reachable); skips with one line without them unless
 //! `ERCUBE_REQUIRE_TOOLS=1`.
+//!
+//! The same environment runs `tests/check_datapath.py` (`ercube.Datapath`
+//! gives the description's words, `datapath.rs`) and the cocotb testbench
+//! (`python/cocotb`) in Icarus on the emitted units and a broken copy
+//! (`cocotb.rs`).
 
-#[path = "../../tests/support/tools.rs"]
+mod cocotb;
+mod datapath;
+
+#[path = "../../../tests/support/tools.rs"]
 mod tools;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
+use std::sync::OnceLock;
 
 use serde_json::json;
 
@@ -77,36 +86,54 @@ fn cli(dir: &Path, name: &str, args: &[&str]) -> serde_json::Value {
     json!({"npy": npy, "stats": stats})
 }
 
+/// `pip install ./python` into the environment, once for every test of
+/// this binary: the environment's Python, or `None` when skipped.
+fn installed() -> Option<PathBuf> {
+    static ONCE: OnceLock<Option<PathBuf>> = OnceLock::new();
+    ONCE.get_or_init(|| {
+        let root = root();
+        let py = venv(&root)?;
+        let bin = py.parent().unwrap();
+        // The environment's maturin builds the wheel: its bin/ leads PATH,
+        // as when it is activated.
+        let install = Command::new(bin.join("pip"))
+            .env("PATH", with_bin(bin))
+            .args([
+                "install",
+                "-q",
+                "--no-build-isolation",
+                "--force-reinstall",
+                "--no-deps",
+            ])
+            .arg(root.join("python"))
+            .output()
+            .unwrap();
+        assert!(
+            install.status.success(),
+            "pip install ./python failed:\n{}",
+            String::from_utf8_lossy(&install.stderr)
+        );
+        Some(py)
+    })
+    .clone()
+}
+
+/// `PATH` with `bin` first.
+fn with_bin(bin: &Path) -> std::ffi::OsString {
+    std::env::join_paths(
+        std::iter::once(bin.to_path_buf()).chain(std::env::split_paths(
+            &std::env::var_os("PATH").unwrap_or_default(),
+        )),
+    )
+    .unwrap()
+}
+
 #[test]
 fn the_python_module_renders_the_command_lines_images() {
     let root = root();
-    let Some(py) = venv(&root) else {
+    let Some(py) = installed() else {
         return;
     };
-    let bin = py.parent().unwrap();
-    // The environment's maturin builds the wheel: its bin/ leads PATH, as
-    // when it is activated.
-    let path = std::env::join_paths(std::iter::once(bin.to_path_buf()).chain(
-        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
-    ))
-    .unwrap();
-    let install = Command::new(bin.join("pip"))
-        .env("PATH", path)
-        .args([
-            "install",
-            "-q",
-            "--no-build-isolation",
-            "--force-reinstall",
-            "--no-deps",
-        ])
-        .arg(root.join("python"))
-        .output()
-        .unwrap();
-    assert!(
-        install.status.success(),
-        "pip install ./python failed:\n{}",
-        String::from_utf8_lossy(&install.stderr)
-    );
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let brain = root.join(BRAIN);

@@ -4,8 +4,16 @@
 //! from TOML text, and a u16 buffer), and its error paths return a status
 //! and a one-line message. Needs a C compiler (`cc`); skips with one line
 //! without it unless `ERCUBE_REQUIRE_TOOLS=1`.
+//!
+//! And `tests/c/datapath.c`: one datapath sample per line of input words,
+//! for the whole sample and its units in both orders, equal to the
+//! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`);
+//! and the DPI-C package's scoreboard testbench in Verilator (`dpi.rs`).
 
-#[path = "../../tests/support/tools.rs"]
+mod datapath;
+mod dpi;
+
+#[path = "../../../tests/support/tools.rs"]
 mod tools;
 
 use std::path::{Path, PathBuf};
@@ -58,23 +66,17 @@ fn words(bytes: &[u8]) -> Vec<i64> {
         .collect()
 }
 
-#[test]
-fn a_c_program_renders_the_command_lines_raw_words_and_reports_errors() {
-    if !tools::have("cc", "gcc", "the C ABI test") {
-        return;
-    }
+/// Compiles `ffi/tests/c/NAME.c` with the header and the static library
+/// into `dir/NAME`.
+fn compile(dir: &Path, name: &str) -> PathBuf {
     let root = root();
-    let brain = root.join(BRAIN);
-    assert!(brain.is_file(), "{} is missing", brain.display());
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let prog = d.join("frame");
+    let prog = dir.join(name);
     let lib = lib_dir().join("libercube_ffi.a");
     assert!(lib.is_file(), "{} was not built", lib.display());
     let cc = Command::new("cc")
         .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-I"])
         .arg(root.join("ffi/include"))
-        .arg(root.join("ffi/tests/c/frame.c"))
+        .arg(root.join(format!("ffi/tests/c/{name}.c")))
         .arg(&lib)
         .args(["-lpthread", "-ldl", "-lm", "-o"])
         .arg(&prog)
@@ -85,6 +87,20 @@ fn a_c_program_renders_the_command_lines_raw_words_and_reports_errors() {
         "cc failed:\n{}",
         String::from_utf8_lossy(&cc.stderr)
     );
+    prog
+}
+
+#[test]
+fn a_c_program_renders_the_command_lines_raw_words_and_reports_errors() {
+    if !tools::have("cc", "gcc", "the C ABI test") {
+        return;
+    }
+    let root = root();
+    let brain = root.join(BRAIN);
+    assert!(brain.is_file(), "{} is missing", brain.display());
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let prog = compile(d, "frame");
     let toml = d.join("cfg.toml");
     std::fs::write(&toml, "pes = 8\n").unwrap();
     let (file_raw, buf_raw) = (d.join("file.raw"), d.join("buffer.raw"));

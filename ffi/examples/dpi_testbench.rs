@@ -1,0 +1,117 @@
+//! Writes the DPI-C scoreboard testbench of a datapath unit into a folder,
+//! ready for Verilator:
+//!
+//! ```text
+//! cargo run --release -p ercube-ffi --example dpi_testbench -- \
+//!     [--unit composite] [--order btf] [--config FILE] [--tf grey-ramp] \
+//!     [--samples 100000] [--verilog FILE --top MODULE] --out-dir DIR
+//! ```
+//!
+//! `DIR` gets `ercube_pkg.sv`, `tb.sv`, `unit.v` (the unit's emitted
+//! Verilog, or a copy of `--verilog`), `unit.vlt` and `sim_main.cpp`, and
+//! for the whole sample its tables as `$readmemh` files (`class_r.hex`,
+//! ...); the Verilator command that builds and runs it is printed.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use ercube_ffi::testbench::{testbench, MAIN, PACKAGE, WAIVER};
+use pipeline::hw::unit::Unit;
+
+fn run() -> Result<String, String> {
+    let mut args = std::env::args().skip(1);
+    let (mut unit, mut order, mut tf) = (
+        "composite".to_owned(),
+        "btf".to_owned(),
+        "grey-ramp".to_owned(),
+    );
+    let (mut config, mut verilog, mut top, mut out) = (None, None, None, None);
+    let mut samples = 100_000u32;
+    while let Some(a) = args.next() {
+        let mut val = || args.next().ok_or_else(|| format!("{a} needs a value"));
+        match a.as_str() {
+            "--unit" => unit = val()?,
+            "--order" => order = val()?,
+            "--tf" => tf = val()?,
+            "--config" => config = Some(val()?),
+            "--verilog" => verilog = Some(val()?),
+            "--top" => top = Some(val()?),
+            "--out-dir" => out = Some(PathBuf::from(val()?)),
+            "--samples" => samples = val()?.parse().map_err(|e| format!("--samples: {e}"))?,
+            _ => return Err(format!("unknown argument {a}")),
+        }
+    }
+    let out = out.ok_or("--out-dir DIR is required")?;
+    let toml = match &config {
+        Some(p) => std::fs::read_to_string(p).map_err(|e| format!("{p}: {e}"))?,
+        None => String::new(),
+    };
+    let mut u = Unit::from_toml(
+        (!toml.is_empty()).then_some(toml.as_str()),
+        Some(&order),
+        &unit,
+    )
+    .map_err(|e| e.to_string())?;
+    u.fill_tables(&tf).map_err(|e| e.to_string())?;
+    let (text, module) = match (verilog, top) {
+        (Some(v), Some(t)) => (
+            std::fs::read_to_string(&v).map_err(|e| format!("{v}: {e}"))?,
+            t,
+        ),
+        (None, None) => {
+            let m = format!("ercube_{unit}");
+            (u.verilog(&m).map_err(|e| e.to_string())?, m)
+        }
+        _ => return Err("--verilog and --top go together".into()),
+    };
+    let tb = testbench(&u, &text, &module, (&toml, &order, &tf), samples)?;
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    for (name, t) in [
+        ("ercube_pkg.sv", PACKAGE),
+        ("tb.sv", tb.as_str()),
+        ("unit.v", text.as_str()),
+        ("unit.vlt", WAIVER),
+        ("sim_main.cpp", MAIN),
+    ] {
+        std::fs::write(out.join(name), t).map_err(|e| format!("{name}: {e}"))?;
+    }
+    // The tables the model holds (the whole sample's), for a module whose
+    // memories `$readmemh` them: one hex word a line.
+    for t in u.tables() {
+        let digits = (t.fmt.bits() as usize).div_ceil(4);
+        let mask = (1u64 << t.fmt.bits()) - 1;
+        let words = u.table(&t.name).unwrap_or_default();
+        let hex: String = words
+            .iter()
+            .map(|&w| format!("{:0digits$x}\n", w as u64 & mask))
+            .collect();
+        let name = format!("{}.hex", t.name);
+        std::fs::write(out.join(&name), hex).map_err(|e| format!("{name}: {e}"))?;
+    }
+    // This example is built into target/release/examples, beside the
+    // static library's folder.
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let lib = exe
+        .parent()
+        .and_then(|p| p.parent())
+        .map(|p| p.join("libercube_ffi.a"));
+    let lib = lib.ok_or("cannot find target/release")?;
+    Ok(format!(
+        "cd {} && verilator --cc --exe --build -j 2 --top-module tb -Mdir obj -o Vtb \\\n  unit.vlt ercube_pkg.sv unit.v tb.sv sim_main.cpp \\\n  -LDFLAGS \"{} -lpthread -ldl -lm\" && obj/Vtb",
+        out.display(),
+        lib.display()
+    ))
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(cmd) => {
+            println!("{cmd}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("dpi_testbench: error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
