@@ -64,6 +64,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
         bail!("rtl: {what} not emitted yet (only the plain sample's datapath is)");
     }
+    super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
         Some(p) => PipelineConfig::from_toml_file(p)?,
         None => PipelineConfig::default(),
@@ -76,9 +77,6 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     cfg.validate()?;
     let g = pipeline::hw::sample::plain(&cfg);
     let m = emit(&g, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
-    if a.out_dir.is_file() {
-        bail!("--out-dir {} is a file", a.out_dir.display());
-    }
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;

@@ -331,16 +331,18 @@ pub fn run(a: &SkipBenchArgs) -> Result<()> {
         bail!("--n {} must be 16 to 1024", a.n);
     }
     super::outputs::check_dirs(&[Some(&a.report)])?;
-    with_threads(a.threads, || {
-        let section = section(a)?;
-        let md = a.report.join("benchmarks.md");
-        splice(&md, &section)?;
-        super::say(&format!(
-            "wrote {} and {}",
-            md.display(),
-            a.report.join("bench/skip/skip.csv").display()
-        ));
-        Ok(())
+    super::outputs::all_or_nothing(&[&a.report], || {
+        with_threads(a.threads, || {
+            let section = section(a)?;
+            let md = a.report.join("benchmarks.md");
+            splice(&md, &section)?;
+            super::say(&format!(
+                "wrote {} and {}",
+                md.display(),
+                a.report.join("bench/skip/skip.csv").display()
+            ));
+            Ok(())
+        })
     })
 }
 

@@ -51,6 +51,7 @@ fn every_writing_command_checks_its_outputs_before_work() {
         "bench --report {}",
         "merge-results shard-1-of-2.json shard-2-of-2.json --out-dir {}",
         "sweep-widths --scene checker:16 --out-dir {}",
+        "rtl --out-dir {}",
     ];
     for cmd in folders {
         for (out, needle) in [
@@ -201,5 +202,13 @@ fn an_animation_failing_at_its_gif_leaves_nothing() {
     fails_late_leaving_nothing(
         "animate --scene checker:32 --size 48x48 --frames 12 --out-dir anim",
         "animation.gif",
+    );
+}
+
+#[test]
+fn a_width_sweep_failing_at_its_chart_leaves_nothing() {
+    fails_late_leaving_nothing(
+        "sweep-widths --scene checker:16 --out-dir out",
+        "widths.png",
     );
 }

@@ -439,10 +439,12 @@ impl Unit {
     /// `--tf`: `grey-ramp`, `ml`, `brain`, ...), as the pipeline's frame
     /// fills them ([`crate::tables::Tables::new`]).
     pub fn fill_tables(&mut self, tf: &str) -> Result<(), UnitError> {
+        // The name is checked even on a unit without tables: a misspelt
+        // preset is an error wherever it is given.
+        let f = golden::scenes::tf_preset(tf).map_err(|e| bad(e.to_string()))?;
         if self.tables.is_empty() {
             return Ok(());
         }
-        let f = golden::scenes::tf_preset(tf).map_err(|e| bad(e.to_string()))?;
         let lut = golden::tf::Lut::for_bits(
             &f,
             self.cfg.table_entries as usize,

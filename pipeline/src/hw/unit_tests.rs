@@ -100,6 +100,11 @@ fn latencies_ports_and_refusals() {
         .unwrap_err()
         .to_string()
         .contains("no table"));
+    assert!(
+        c.fill_tables("no-such-tf").is_err(),
+        "a misspelt preset is refused without tables too"
+    );
+    assert!(c.fill_tables("grey-ramp").is_ok());
     let mut s = s;
     assert!(s
         .load_table("class_r", &[0])

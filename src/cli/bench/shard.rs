@@ -283,6 +283,11 @@ fn read_shards<T: serde::de::DeserializeOwned>(
 /// Runs `ercube merge-results`.
 pub fn merge(m: &MergeArgs) -> Result<()> {
     crate::cli::outputs::check_dirs(&[Some(&m.out_dir)])?;
+    crate::cli::outputs::all_or_nothing(&[&m.out_dir], || merge_files(m))
+}
+
+/// [`merge`] after its output check: every file it writes is staged.
+fn merge_files(m: &MergeArgs) -> Result<()> {
     let first = &m.shards[0];
     let text = std::fs::read_to_string(first)
         .with_context(|| format!("cannot read {}", first.display()))?;

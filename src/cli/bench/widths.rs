@@ -444,6 +444,11 @@ pub fn run_sweep(
 /// Loads, prepares and runs a sweep from the command line's arguments.
 pub fn sweep(a: &SweepArgs) -> Result<()> {
     crate::cli::outputs::check_dirs(&[Some(&a.out_dir)])?;
+    crate::cli::outputs::all_or_nothing(&[&a.out_dir], || sweep_files(a))
+}
+
+/// [`sweep`] after its output check: every file it writes is staged.
+fn sweep_files(a: &SweepArgs) -> Result<()> {
     let (base, grid) = grid_of(a)?;
     with_threads(a.threads, || {
         let (vol, tf, cam) = a.view.load()?;
