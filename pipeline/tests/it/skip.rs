@@ -279,7 +279,29 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
         &off.raw,
         "empty-space skipping changed a raw word"
     );
-    prop_assert!(empty.samples <= off.samples && empty.cycles <= off.cycles + empty.skipped.slices);
+    prop_assert!(empty.samples <= off.samples);
+    // Skipping moves no more through the external ray buffer's channel,
+    // but the channel's stall cycles need not fall with it: it serves
+    // each transfer in the first free cycles from its issue, and such a
+    // greedy schedule is not monotonic in the work removed (a shorter
+    // write-back can put a later read-ahead behind it). Seen on 20x14x19,
+    // 5 PEs, front to back: 561 bytes fewer each way, 14 memory cycles
+    // more (saved in proptest-regressions/skip.txt). Every other stage
+    // keeps the bound.
+    let memory = |f: &Frame| f.stages.memory;
+    prop_assert!(
+        empty.cycles - memory(&empty) <= off.cycles - memory(&off) + empty.skipped.slices,
+        "empty-space skipping took {} cycles outside the ray buffer's waits, the frame without it {} (+ {} skipped slices)",
+        empty.cycles - memory(&empty),
+        off.cycles - memory(&off),
+        empty.skipped.slices
+    );
+    if let (Some(e), Some(o)) = (empty.ray_buffer, off.ray_buffer) {
+        prop_assert!(e.read_bytes <= o.read_bytes && e.written_bytes <= o.written_bytes);
+    } else {
+        prop_assert!(memory(&empty) == 0 && memory(&off) == 0);
+        prop_assert!(empty.cycles <= off.cycles + empty.skipped.slices);
+    }
     let all = run(&cfg, &vol, &lut, &prep, Skips::default());
     prop_assert_eq!(
         image_bits(&prep, &all),
