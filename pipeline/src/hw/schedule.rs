@@ -95,10 +95,23 @@ pub fn schedule(g: &Graph) -> Schedule {
         heavy[i] = h;
         reads[i] = r;
     }
-    // Delay lines: a value is held until its last reader's stage. Ports
-    // and constants are held anyway.
+    let (register_bits, depth) = registers_and_depth(g, &stage, &reads);
+    Schedule {
+        stage,
+        reads,
+        depth,
+        register_bits,
+    }
+}
+
+/// The pipeline register bits and the depth of a placement of `g`'s nodes
+/// (`stage`: where each is produced; `reads`: where each reads its
+/// operands): a value is held from its stage to its last reader's (ports
+/// and constants are held anyway), and the outputs' register ends the
+/// last stage.
+pub(crate) fn registers_and_depth(g: &Graph, stage: &[u32], reads: &[u32]) -> (u64, u32) {
     let consumers = g.consumers();
-    let register_bits = (0..n)
+    let register_bits = (0..g.nodes.len())
         .filter(|&i| !matches!(g.nodes[i].op, Op::Input | Op::Const(_)))
         .map(|i| {
             let last = consumers[i]
@@ -115,10 +128,5 @@ pub fn schedule(g: &Graph) -> Schedule {
         .map(|(_, o)| stage[o.0] + 1)
         .max()
         .unwrap_or(0);
-    Schedule {
-        stage,
-        reads,
-        depth,
-        register_bits,
-    }
+    (register_bits, depth)
 }

@@ -114,23 +114,7 @@ pub fn schedule_for(
         reads[i] = r;
         arrive[i] = arr;
     }
-    let register_bits = (0..n)
-        .filter(|&i| !matches!(g.nodes[i].op, Op::Input | Op::Const(_)))
-        .map(|i| {
-            let last = consumers[i]
-                .iter()
-                .map(|c| reads[c.0])
-                .max()
-                .unwrap_or(stage[i]);
-            u64::from(last.saturating_sub(stage[i])) * u64::from(g.nodes[i].word.bits)
-        })
-        .sum();
-    let depth = g
-        .outputs
-        .iter()
-        .map(|(_, o)| stage[o.0] + 1)
-        .max()
-        .unwrap_or(0);
+    let (register_bits, depth) = crate::hw::schedule::registers_and_depth(&g, &stage, &reads);
     let one = crate::hw::schedule::schedule(&g);
     Ok(ClockSchedule {
         target: t,
