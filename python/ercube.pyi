@@ -56,7 +56,9 @@ def render(
     pipeline, pipeline-ftb. config is a pipeline configuration as TOML
     text. Further options are `ercube render` flags with underscores
     (shade=True, terminate=0.95, pes=8); True is a bare flag, False and
-    None leave it out. Pass tf=None to use tf_file=PATH.
+    None leave it out. Pass tf=None to use tf_file=PATH. A pipeline
+    method also renders its golden twin for the stats' error_vs_golden and
+    bound; no_golden_twin=True skips it (the image and cycles are the same).
 
     The module keeps the last call's volume and its preparation (the slice
     stack, the empty-space blocks and occupancy map): a call on the same

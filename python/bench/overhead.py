@@ -32,8 +32,14 @@ def main() -> None:
     rounds = int(args[2]) if len(args) > 2 else 15
     voxels, spacing = ercube.load(volume)
     kw = {}
-    for k in range(0, len(flags), 2):
-        kw[flags[k].lstrip("-").replace("-", "_")] = flags[k + 1]
+    k = 0
+    while k < len(flags):
+        key = flags[k].lstrip("-").replace("-", "_")
+        # A flag without a value (--no-golden-twin) is a boolean option.
+        if k + 1 < len(flags) and not flags[k + 1].startswith("--"):
+            kw[key], k = flags[k + 1], k + 2
+        else:
+            kw[key], k = True, k + 1
     ercube.render(voxels, spacing=spacing, **kw)  # warm up
     cli, wall, call, inner, cold = [], [], [], [], []
     with tempfile.TemporaryDirectory() as d:

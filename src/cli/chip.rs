@@ -157,6 +157,13 @@ pub struct PipelineArgs {
     /// xc7's assumed 200 MHz, as cost and explore.
     #[arg(long, allow_hyphen_values = true)]
     pub clock_mhz: Option<f64>,
+    /// Skip the golden twin: no render of golden `er` (or `er-ftb`) with
+    /// the same table, so the stats carry no `error_vs_golden` and no
+    /// derived bound. The twin costs about a fifth of a pipeline frame on
+    /// brainsmall, outside the frame's `time_s`; skip it when only the
+    /// image, the raw words or the cycles are wanted.
+    #[arg(long)]
+    pub no_golden_twin: bool,
 }
 
 impl PipelineArgs {

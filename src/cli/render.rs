@@ -470,30 +470,37 @@ fn frame_pipeline(
         time_s: median(&times),
         ..run
     };
-    let (vs_golden, max_abs) = chip::versus_golden(
-        &prep,
-        &lut,
-        &run.image,
-        &cfg,
-        (shade, voi, opts.slice.preintegrate),
-    )?;
-    let bound = super::bound::frame_bound(
-        &cfg,
-        &prep,
-        &lut,
-        bits,
-        super::bound::FrameOptions {
-            shade: shade.as_ref(),
-            voi: voi.as_ref(),
-            preint: preint.as_ref(),
-        },
-        max_abs,
-    )?;
-    if let Some(w) = bound.warning() {
-        eprintln!("{w}");
-    }
+    // The golden twin and the bound derived from the largest difference
+    // against it, unless the run skips them.
+    let twin = if a.pipeline.no_golden_twin {
+        None
+    } else {
+        let (vs_golden, max_abs) = chip::versus_golden(
+            &prep,
+            &lut,
+            &run.image,
+            &cfg,
+            (shade, voi, opts.slice.preintegrate),
+        )?;
+        let bound = super::bound::frame_bound(
+            &cfg,
+            &prep,
+            &lut,
+            bits,
+            super::bound::FrameOptions {
+                shade: shade.as_ref(),
+                voi: voi.as_ref(),
+                preint: preint.as_ref(),
+            },
+            max_abs,
+        )?;
+        if let Some(w) = bound.warning() {
+            eprintln!("{w}");
+        }
+        Some((vs_golden, bound))
+    };
     let err = versus_reference(a, &prep, &lut, &opts, &run.image)?;
-    let extra = chip::stats_json(&cfg, &run, Some(vs_golden.clone()));
+    let extra = chip::stats_json(&cfg, &run, twin.as_ref().map(|(v, _)| v.clone()));
     let frame = golden::render::Frame {
         image: run.image,
         slice: None,
@@ -521,10 +528,12 @@ fn frame_pipeline(
     v["clock_source"] = serde_json::json!(ClockSource::Assumed);
     v["frames_per_s"] = serde_json::json!(pipeline::cost::clock::fps(run.frame.cycles, clock));
     v["times_s"] = serde_json::json!(times);
-    v["bound"] = bound.json();
+    v["bound"] = twin
+        .as_ref()
+        .map_or(serde_json::Value::Null, |(_, b)| b.json());
     let f = &run.frame;
     let summary = format!(
-        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; vs golden {}: max {} /255 ({})",
+        "{}: {} PEs, {} cycles (ideal {:.0}, utilization {:.3}), {} samples, {:.3} s; {}",
         a.method.name(),
         cfg.pes,
         f.cycles,
@@ -532,9 +541,15 @@ fn frame_pipeline(
         f.utilization(),
         f.samples,
         run.time_s,
-        chip::golden_method(&cfg).name(),
-        vs_golden["max_abs_255"],
-        bound.summary(),
+        match &twin {
+            Some((vs_golden, bound)) => format!(
+                "vs golden {}: max {} /255 ({})",
+                chip::golden_method(&cfg).name(),
+                vs_golden["max_abs_255"],
+                bound.summary()
+            ),
+            None => "golden twin skipped".to_string(),
+        },
     );
     let notes = vec![format!(
         "  frame: {}",

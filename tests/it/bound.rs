@@ -126,3 +126,40 @@ fn a_saturating_path_is_reported_and_the_named_format_fixes_it() {
         );
     }
 }
+
+/// `--no-golden-twin` skips the golden render and the bound: the stats
+/// say so with nulls, and the chip's image, raw words and cycles are the
+/// same as with the twin.
+#[test]
+fn skipping_the_golden_twin_changes_nothing_of_the_chip() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "render",
+        "--scene",
+        "ml:24",
+        "--size",
+        "32x32",
+        "--method",
+        "pipeline",
+        "--pes",
+        "3",
+        "--raw-npy",
+        "raw.npy",
+    ];
+    let (with, _) = stats(dir.path(), &base);
+    let raw_with = std::fs::read(dir.path().join("raw.npy")).unwrap();
+    let png_with = std::fs::read(dir.path().join("b.png")).unwrap();
+    let mut args = base.to_vec();
+    args.push("--no-golden-twin");
+    let (without, _) = stats(dir.path(), &args);
+    assert!(with["bound"].is_object(), "{}", with["bound"]);
+    assert!(with["error_vs_golden"].is_object());
+    assert!(without["bound"].is_null(), "{}", without["bound"]);
+    assert!(without["error_vs_golden"].is_null());
+    assert!(without["error_vs_golden_er"].is_null());
+    for k in ["cycles", "samples_total", "stages", "quantization"] {
+        assert_eq!(with[k], without[k], "{k}");
+    }
+    assert_eq!(raw_with, std::fs::read(dir.path().join("raw.npy")).unwrap());
+    assert_eq!(png_with, std::fs::read(dir.path().join("b.png")).unwrap());
+}
