@@ -16,7 +16,7 @@ use super::passes::{plan_slots, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::fixed::Format;
-use crate::pe::{Pe, Ports, RayColumn, StepError};
+use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 
 /// The grids of a fold step and the formats of the back rays' results
@@ -322,18 +322,18 @@ impl Array {
             return self.run_pass(
                 Stage::Fold,
                 (g.back.counts()[1], &needs),
-                |pe| pe.begin_fold(g.front),
+                Broadcast::BeginFold { front: g.front },
                 |pe, bus, links, out| pe.fold_step(&dp, bus, links, g, out),
-                Pe::end_fold,
+                Broadcast::EndFold,
             );
         }
         let slots = plan_slots(g.back.counts()[1], &needs)?;
         self.run_sparse_pass(
             Stage::Fold,
             &slots,
-            |pe| pe.begin_fold(g.front),
+            Broadcast::BeginFold { front: g.front },
             |pe, bus, links, out| pe.fold_step_sparse(&dp, bus, links, g, out),
-            Pe::end_fold,
+            Broadcast::EndFold,
         )
     }
 }

@@ -20,9 +20,9 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use super::stays;
 use crate::mapping::Route;
 use crate::pe::{Pe, RayColumn};
+use crate::stages::migrate::stays;
 
 /// A link queue of PE `k`: 0 sends left, 1 right.
 type Side = usize;

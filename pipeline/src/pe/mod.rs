@@ -9,11 +9,14 @@
 //! controller's broadcast, and writes what it drives into its own port
 //! registers (which the clock hands it idle).
 
+mod broadcast;
+
+pub use broadcast::{Broadcast, EdgeRead, OwnerFn};
+
 use std::collections::VecDeque;
 
 use crate::datapath::{Acc, SampleTrace};
 use crate::fixed::{FxError, QuantStats};
-use crate::host::SlicePlan;
 use crate::mapping::ColumnMap;
 use crate::stages::passes::PassState;
 
@@ -381,16 +384,21 @@ impl Pe {
         self.width
     }
 
-    /// The columns this PE samples in `slice`: the held columns whose `mx`
-    /// lies in the slice's x range (contiguous, since both are sorted).
-    pub fn select(&mut self, slice: &SlicePlan) -> usize {
+    /// The columns this PE samples in a slice whose x range is `lo ..=
+    /// hi`: the held columns whose `mx` lies in it (contiguous, since both
+    /// are sorted).
+    pub fn select(&mut self, (lo, hi): (i64, i64)) {
         let held: u64 = self.rays.iter().map(|c| c.acc.len() as u64).sum();
         self.counters.rays_held_peak = self.counters.rays_held_peak.max(held);
-        let (lo, hi) = slice.range[0];
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);
         self.active = (first, end.saturating_sub(first));
-        self.active.1
+    }
+
+    /// Hands this PE's voxel memory out, leaving it empty (the memory
+    /// stays resident for the next frame).
+    pub(crate) fn take_memory(&mut self) -> VoxelMem {
+        std::mem::replace(&mut self.mem, VoxelMem::Words(Vec::new()))
     }
 
     /// `mx` of the first and last held column.
@@ -427,6 +435,12 @@ pub struct PeReport {
     pub settled: bool,
     /// Its readout has streamed every held ray.
     pub readout_done: bool,
+    /// The held columns it samples in the current slice (its row length
+    /// at most).
+    pub active: u32,
+    /// The children its current merge, split or fold computes (the pass's
+    /// slots are as wide as the most).
+    pub pass_width: u32,
     /// The length of its current sparse pass slot's work list (its done
     /// line falls after that many cycles).
     pub slot_work: u32,
@@ -445,6 +459,8 @@ impl Pe {
             lands_by: self.drained_at.max(self.arrived_by),
             settled: self.settled(),
             readout_done: self.readout_done(),
+            active: self.active.1 as u32,
+            pass_width: self.pass.children.len() as u32,
             slot_work: self.pass.slot.len() as u32,
             merge_outputs: self.counters.merge_outputs,
             split_outputs: self.counters.split_outputs,
