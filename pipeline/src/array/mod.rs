@@ -525,7 +525,7 @@ impl Array {
         let pes = self.clock.pes();
         let mut quant = self.host_stats;
         for pe in pes {
-            quant.merge(&pe.stats);
+            quant.merge(&pe.model.stats);
         }
         let samples: u64 = pes.iter().map(|p| p.counters.samples).sum();
         let terminated_samples = pes.iter().map(|p| p.counters.terminated).sum();

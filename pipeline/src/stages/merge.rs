@@ -233,7 +233,7 @@ impl Pe {
                 };
             }
         }
-        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.stats);
+        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.model.stats);
         self.counters.merge_outputs += 1;
         Ok(())
     }
@@ -248,7 +248,7 @@ impl Pe {
             self.parent(2 * m, q, edges),
             self.parent(2 * m + 1, q, edges),
         ];
-        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.stats);
+        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.model.stats);
         self.pass.line.write(q, c, out);
     }
 

@@ -214,7 +214,7 @@ impl Pe {
         for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
             let to = if ch < 3 { fc } else { fa };
             *o = dp
-                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.stats)
+                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.model.stats)
                 .raw();
         }
         col.ftb[i] = FtbState {
@@ -243,7 +243,7 @@ impl Pe {
         for (ch, o) in out.iter_mut().enumerate() {
             let f = if ch < 3 { fc } else { fa };
             *o = dp
-                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.stats)
+                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.model.stats)
                 .raw();
         }
         self.pass.line.write(q, c, out);

@@ -92,7 +92,7 @@ impl Links {
         pes[k].counters.rays_sent += n;
         pes[k].counters.link_queue += queued;
         pes[nb].counters.rays_received += n;
-        pes[nb].arrived_by = pes[nb].arrived_by.max(free + 1);
+        pes[nb].model.arrived_by = pes[nb].model.arrived_by.max(free + 1);
     }
 }
 

@@ -123,7 +123,7 @@ impl Pe {
             // Received this cycle, readable from the next (what an
             // overlapped migration's rows wait for).
             col.land[row] = now + 1;
-            self.arrived_by = now + 1;
+            self.model.arrived_by = now + 1;
             if let Some(f) = m.ftb {
                 col.ftb[row] = f;
             }
