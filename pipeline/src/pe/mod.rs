@@ -1,13 +1,17 @@
 //! One processing element's state: its voxel memory (a block of columns
 //! of every slice), the compositing buffer of the rays it holds, the
 //! migration FIFOs, the line buffer and pass registers of the merge, split
-//! and fold, its edge register, its port types and its counters.
+//! and fold, its edge register, its port types and its counters; the
+//! memories and FIFOs declared with their depths in [`Pe::declaration`]
+//! (`state.rs`), which the cost model charges.
 //!
-//! What a PE does in a cycle lives with its stage, in [`crate::stages`]:
-//! each step receives only this state, the [`Links`](crate::array::Links)
-//! (its neighbours' port outputs of the previous cycle) and the
-//! controller's broadcast, and writes what it drives into its own port
-//! registers (which the clock hands it idle).
+//! The controller reaches a PE only through the clock: it broadcasts
+//! ([`Broadcast`], `broadcast.rs`) and reads the report lines
+//! ([`PeReport`]). What a PE does in a cycle lives with its stage, in
+//! [`crate::stages`]: each step receives only this state, the
+//! [`Links`](crate::array::Links) (its neighbours' port outputs of the
+//! previous cycle) and the controller's broadcast, and writes what it
+//! drives into its own port registers (which the clock hands it idle).
 
 mod broadcast;
 mod state;

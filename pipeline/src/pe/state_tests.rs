@@ -99,23 +99,33 @@ fn the_default_declaration_has_the_documented_depths() {
             .find(|d| d.name == n)
             .unwrap_or_else(|| panic!("{n} is declared"))
     };
-    // Two slices in two row banks of W columns x ny / 2 rows.
+    let shape = |n: &str| {
+        let d = get(n);
+        (d.copies, d.depth, d.width)
+    };
+    // Two slices in two row banks of W columns x ny / 2 rows of 12-bit
+    // voxels, and the neighbour's edge column.
+    assert_eq!(shape("slice_buffer"), (4, 16 * 128, 12));
+    assert_eq!(shape("edge_column"), (4, 128, 12));
+    // (2W + 1)(2 ny + 1) rays in two column banks, 4 x 16-bit
+    // accumulators each; a row's 2W + 1 slots map to 16-bit indices and a
+    // valid bit.
     assert_eq!(
-        (get("slice_buffer").copies, get("slice_buffer").depth),
-        (4, 16 * 128)
+        shape("compositing_buffer"),
+        (2, (33 * 513u64).div_ceil(2), 64)
     );
-    // (2W + 1)(2 ny + 1) rays in two column banks.
-    assert_eq!(get("compositing_buffer").depth, (33 * 513u64).div_ceil(2));
-    // One ray column of 2 ny + 1 rows per side.
-    let fifo = get("link_fifo");
+    assert_eq!(shape("column_map"), (1, 33, 17));
+    // One ray column of 2 ny + 1 rows per side: the accumulators, the ray
+    // index and a 10-bit row.
+    assert_eq!(get("link_fifo").kind, StateKind::Fifo);
+    assert_eq!(shape("link_fifo"), (2, 513, 64 + 16 + 10));
+    // The passes' line buffer: LINE_ROWS rows of W + 1 children, four
+    // 20-bit merge words each.
+    assert_eq!(shape("line_buffer"), (3, 17, 80));
     assert_eq!(
-        (fifo.kind, fifo.copies, fifo.depth),
-        (StateKind::Fifo, 2, 513)
+        get("line_buffer").copies as usize,
+        crate::stages::passes::LINE_ROWS
     );
-    // The passes' line buffer: LINE_ROWS rows of W + 1 children.
-    let line = get("line_buffer");
-    assert_eq!((line.copies, line.depth), (3, 17));
-    assert_eq!(line.copies as usize, crate::stages::passes::LINE_ROWS);
     // Back to front keeps no finals.
     assert!(decls.iter().all(|d| d.name != "kept_finals"));
 }
