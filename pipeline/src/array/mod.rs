@@ -46,7 +46,7 @@ use crate::datapath::Datapath;
 use crate::fixed::{Format, QuantStats};
 use crate::host::{plan, FramePlan, PreStep, RegionPlan, SlicePlan, VoxelSource, NONE};
 use crate::mapping::ColumnMap;
-use crate::pe::{Pe, RayColumn, VoxelMem};
+use crate::pe::{Pe, RayColumn};
 use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
 use crate::stages::raybuf::Channel;
@@ -77,9 +77,6 @@ pub struct Array {
     /// A pre-integrated pass's runs of compositing and keeping rays.
     pub(crate) pre_runs: crate::stages::sample::PreRuns,
     pub(crate) run_tmp: Vec<(i64, i64)>,
-    /// The whole-slice path's buffers of each PE's edge words per row
-    /// (scratch of the model, reused from slice to slice).
-    pub(crate) edge_rows: Vec<Vec<crate::stages::sample::EdgeWords>>,
     pub(crate) skipped: SkipCounts,
     /// The external ray buffer's channel (`None` on chip).
     pub(crate) channel: Option<Channel>,
@@ -224,7 +221,6 @@ impl Array {
             runs: RowRuns::default(),
             pre_runs: Default::default(),
             run_tmp: Vec::new(),
-            edge_rows: Vec::new(),
             skipped: SkipCounts::default(),
             channel: Channel::of(cfg),
             links_from: 0,
@@ -460,12 +456,7 @@ impl Array {
         let base = self.baseplane(&raw, view, fmt);
         let kept = Resident {
             key: Some(self.resident_key.clone()),
-            mems: self
-                .clock
-                .pes_mut()
-                .iter_mut()
-                .map(|pe| std::mem::replace(&mut pe.mem, VoxelMem::Words(Vec::new())))
-                .collect(),
+            mems: self.clock.take_memories(),
             stats: self.load_stats,
             unit: Some(self.unit.clone()),
         };
@@ -490,9 +481,7 @@ impl Array {
         let first = first.map(|s| self.owners(&dp, s));
         for mx in g.lo[0]..=g.hi[0] {
             let k = first.as_ref().map_or(0, |o| o.of(mx));
-            self.clock.pes_mut()[k]
-                .rays
-                .push_back(RayColumn::empty(mx, rows, ftb));
+            self.clock.load_column(k, RayColumn::empty(mx, rows, ftb));
         }
     }
 
@@ -536,7 +525,7 @@ impl Array {
         let pes = self.clock.pes();
         let mut quant = self.host_stats;
         for pe in pes {
-            quant.merge(&pe.stats);
+            quant.merge(&pe.model.stats);
         }
         let samples: u64 = pes.iter().map(|p| p.counters.samples).sum();
         let terminated_samples = pes.iter().map(|p| p.counters.terminated).sum();

@@ -23,7 +23,7 @@
 //! - **Port**: ten voxel words to the left neighbour, two to the right,
 //!   beside the scalar's two.
 
-use super::inventory::{Geometry, Item, Step};
+use super::inventory::{Item, Step};
 use super::memory::MemPorts;
 use super::shapes::{Lerp, Quantizer, Word};
 use super::units::Unit;
@@ -293,42 +293,6 @@ pub(super) fn steps(cfg: &PipelineConfig, col_bits: u32) -> Vec<Step<'static>> {
             2,
         ),
     ]
-}
-
-/// The slice buffer and edge columns of a shading PE, replacing the
-/// scalar's.
-pub(super) fn memories(
-    cfg: &PipelineConfig,
-    geo: &Geometry,
-    columns: u64,
-    edges: bool,
-) -> Vec<Item> {
-    let ny = geo.dims[1] as u64;
-    let v = bits(cfg.voxel);
-    let quarter = ny.div_ceil(4);
-    let mut items = vec![Item::new(
-        "memories",
-        "slice buffer (4 slices x 4 row banks x 2 column banks)",
-        32,
-        vec![Unit::Mem {
-            depth: columns.div_ceil(2) * quarter,
-            width: v,
-            ports: MemPorts::DualRead,
-        }],
-    )];
-    if edges {
-        items.push(Item::new(
-            "memories",
-            "edge columns (first two, last; 4 slices x 4 row banks)",
-            48,
-            vec![Unit::Mem {
-                depth: quarter,
-                width: v,
-                ports: MemPorts::Sdp,
-            }],
-        ));
-    }
-    items
 }
 
 /// The shading port: the halo to the left, the last column to the right.

@@ -28,6 +28,7 @@ pub mod pipeline_rtl;
 pub mod sample;
 pub mod schedule;
 pub mod sim;
+pub mod state;
 pub mod testbench;
 pub mod unit;
 pub mod units;

@@ -16,7 +16,7 @@ use super::passes::{plan_slots, tent_needs, PassBus};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::fixed::Format;
-use crate::pe::{Pe, Ports, RayColumn, StepError};
+use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 
 /// The grids of a fold step and the formats of the back rays' results
@@ -60,7 +60,9 @@ impl Pe {
             let mut d = [0i64; 4];
             for (ch, o) in d.iter_mut().enumerate() {
                 let (f, hf) = if ch < 3 { (rf[0], fc) } else { (rf[1], fa) };
-                *o = dp.fold_diff(r[ch], f, h[ch], hf, &mut self.stats).raw();
+                *o = dp
+                    .fold_diff(r[ch], f, h[ch], hf, &mut self.model.stats)
+                    .raw();
             }
             line.push(d);
         }
@@ -267,11 +269,11 @@ impl Pe {
                 [taps[0][ch], taps[1][ch], taps[2][ch]],
                 fm,
                 fm,
-                &mut self.stats,
+                &mut self.model.stats,
             );
             let ff = if ch < 3 { fc } else { fa };
             *o = dp
-                .fold_add(fin.raw[ch], ff, merged.raw(), &mut self.stats)
+                .fold_add(fin.raw[ch], ff, merged.raw(), &mut self.model.stats)
                 .raw();
         }
         self.counters.merge_outputs += 1;
@@ -293,7 +295,12 @@ impl Pe {
         let mut out = [0i64; 4];
         for (ch, o) in out.iter_mut().enumerate() {
             *o = dp
-                .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut self.stats)
+                .tent(
+                    [p[0][ch], p[1][ch], p[2][ch]],
+                    fm,
+                    fm,
+                    &mut self.model.stats,
+                )
                 .raw();
         }
         self.pass.line.write(q, c, out);
@@ -322,18 +329,18 @@ impl Array {
             return self.run_pass(
                 Stage::Fold,
                 (g.back.counts()[1], &needs),
-                |pe| pe.begin_fold(g.front),
+                Broadcast::BeginFold { front: g.front },
                 |pe, bus, links, out| pe.fold_step(&dp, bus, links, g, out),
-                Pe::end_fold,
+                Broadcast::EndFold,
             );
         }
         let slots = plan_slots(g.back.counts()[1], &needs)?;
         self.run_sparse_pass(
             Stage::Fold,
             &slots,
-            |pe| pe.begin_fold(g.front),
+            Broadcast::BeginFold { front: g.front },
             |pe, bus, links, out| pe.fold_step_sparse(&dp, bus, links, g, out),
-            Pe::end_fold,
+            Broadcast::EndFold,
         )
     }
 }

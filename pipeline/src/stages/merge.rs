@@ -9,12 +9,10 @@
 
 use golden::geometry::RayGrid;
 
-use crate::array::warm::each_mut;
-
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
-use crate::pe::{Pe, Ports, RayColumn, StepError};
+use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 use crate::schedule::btf::rays;
 
@@ -235,7 +233,7 @@ impl Pe {
                 };
             }
         }
-        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.stats);
+        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.model.stats);
         self.counters.merge_outputs += 1;
         Ok(())
     }
@@ -250,7 +248,7 @@ impl Pe {
             self.parent(2 * m, q, edges),
             self.parent(2 * m + 1, q, edges),
         ];
-        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.stats);
+        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.model.stats);
         self.pass.line.write(q, c, out);
     }
 
@@ -259,6 +257,21 @@ impl Pe {
     pub fn end_merge(&mut self) {
         let next = std::mem::take(&mut self.pass.next);
         self.set_rays(next);
+    }
+
+    /// The row valid bits of the held rays, ORed into `live` (a row is
+    /// valid when some held ray in it is non-zero); returns how many
+    /// non-zero rays it holds.
+    pub fn valid_rows(&self, live: &mut [bool]) -> u64 {
+        let mut count = 0;
+        for col in &self.rays {
+            for (l, a) in live.iter_mut().zip(&col.acc) {
+                let set = a.raw != [0; 4];
+                *l |= set;
+                count += u64::from(set);
+            }
+        }
+        count
     }
 }
 
@@ -281,20 +294,21 @@ impl Array {
         self.run_pass(
             Stage::Merge,
             (prows, &needs),
-            |pe| pe.begin_merge(bg, fg),
+            Broadcast::BeginMerge {
+                back: bg,
+                front: fg,
+            },
             |pe, bus, links, out| pe.merge_step(&dp, bus, links, (bg, fg), out),
-            Pe::end_merge,
+            Broadcast::EndMerge,
         )?;
         Ok((rays(bg), rays(fg)))
     }
 
     /// The dense merge without ticking (untraced, as the whole-slice
-    /// sampling): each PE runs its whole merge ([`Pe::merge_whole`]), the
-    /// PEs in parallel, with the edge rays its neighbours drive for each
-    /// parent row; then the cycles [`Array::run_pass`] ticks for the same
-    /// work are counted: the prologue and every slot (a test compares both
-    /// paths). A failing step reports the error of the earliest cycle,
-    /// the lowest PE within it, as the clocked pass's step order does.
+    /// sampling): the clock's evaluator runs each PE's whole merge
+    /// ([`Pe::merge_whole`]) and counts the cycles [`Array::run_pass`]
+    /// ticks for the same work: the prologue and every slot (a test
+    /// compares both paths).
     fn merge_untraced(
         &mut self,
         dp: &Datapath,
@@ -302,50 +316,15 @@ impl Array {
         grids: (&RayGrid, &RayGrid),
     ) -> Result<(), RunError> {
         let (bg, fg) = grids;
-        let width = self.begin_pass(|pe| pe.begin_merge(bg, fg));
+        let width = self.begin_pass(Broadcast::BeginMerge {
+            back: bg,
+            front: fg,
+        });
         let slots = plan_slots(prows, needs)?;
-        // What each PE drives for each parent row ([`Pe::merge_drive`],
-        // the clocked pass's own drive), and so what its neighbours see.
-        let pes = self.clock.pes();
-        let drives: Vec<Vec<(Acc, Acc)>> = pes
-            .iter()
-            .map(|pe| {
-                (0..prows)
-                    .map(|q| {
-                        // From idle, as the clock hands a step its ports.
-                        let mut port = Ports::default();
-                        pe.merge_drive(q, &mut port);
-                        (port.left.edge_acc, port.right.edge_acc)
-                    })
-                    .collect()
-            })
-            .collect();
-        let edges: Vec<Vec<(Acc, Acc)>> = (0..pes.len())
-            .map(|k| {
-                (0..prows)
-                    .map(|q| {
-                        let l = k.checked_sub(1).map_or(Acc::default(), |n| drives[n][q].1);
-                        let r = drives.get(k + 1).map_or(Acc::default(), |d| d[q].0);
-                        (l, r)
-                    })
-                    .collect()
-            })
-            .collect();
-        if width > 0 {
-            let failed = each_mut(self.clock.pes_mut(), |k, pe| {
-                pe.merge_whole(dp, (&slots, width), &edges[k], grids).err()
-            });
-            let first = failed.into_iter().flatten().min_by_key(|&(cycle, _)| cycle);
-            if let Some((_, e)) = first {
-                return Err(e.into());
-            }
-            let prologue = self.has_prologue(&slots);
-            let cycles = u64::from(prologue) + (slots.len() * width) as u64;
-            if cycles > 0 {
-                self.clock.ran_untraced(Stage::Merge, cycles);
-            }
-        }
-        self.clock.pes_mut().iter_mut().for_each(Pe::end_merge);
+        let prologue = self.has_prologue(&slots);
+        self.clock
+            .merge_untraced(dp, (&slots, width, prologue), prows, grids)?;
+        self.clock.broadcast(&Broadcast::EndMerge);
         Ok(())
     }
 
@@ -353,18 +332,7 @@ impl Array {
     /// valid bits, ORed over the report lines), and how many non-zero rays
     /// the PEs hold.
     pub(crate) fn live_rows(&self, prows: usize) -> (Vec<bool>, u64) {
-        let mut live = vec![false; prows];
-        let mut count = 0u64;
-        for pe in self.clock.pes() {
-            for col in &pe.rays {
-                for (l, a) in live.iter_mut().zip(&col.acc) {
-                    let set = a.raw != [0; 4];
-                    *l |= set;
-                    count += u64::from(set);
-                }
-            }
-        }
-        (live, count)
+        self.clock.live_rows(prows)
     }
 
     /// The sparse merge (`pass_skip_empty`): the controller filters only
@@ -396,9 +364,12 @@ impl Array {
         self.run_sparse_pass(
             Stage::Merge,
             &slots,
-            |pe| pe.begin_merge(bg, fg),
+            Broadcast::BeginMerge {
+                back: bg,
+                front: fg,
+            },
             |pe, bus, links, out| pe.merge_step_sparse(dp, bus, links, (bg, fg), out),
-            Pe::end_merge,
+            Broadcast::EndMerge,
         )?;
         Ok((reads, written(self) - before))
     }

@@ -25,7 +25,7 @@ use golden::geometry::RayGrid;
 
 use crate::array::{Array, Links, RunError};
 use crate::datapath::Acc;
-use crate::pe::{Pe, Ports, RayColumn, StepError};
+use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
 
 /// Rows of the line buffer (as `crate::cost` charges).
@@ -291,31 +291,31 @@ pub(crate) fn inside(taps: impl Iterator<Item = i64>, prows: usize) -> Option<(u
 
 impl Array {
     /// Runs a pass of `stage` over `prows` parent rows whose child rows
-    /// need `needs`: each PE starts it (`begin` returns how many children
-    /// it computes; the slots are as wide as the most), the controller
+    /// need `needs`: the controller broadcasts `begin` (each PE reports how
+    /// many children it computes; the slots are as wide as the most),
     /// clocks the prologue and the slots, each PE running `step` with the
-    /// cycle's broadcast, and each PE ends it (`end`: the bank select).
+    /// cycle's broadcast, and broadcasts `end` (the bank select).
     pub(crate) fn run_pass(
         &mut self,
         stage: Stage,
         (prows, needs): (usize, &[Option<(usize, usize)>]),
-        begin: impl FnMut(&mut Pe) -> usize,
+        begin: Broadcast<'_>,
         mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
-        end: impl FnMut(&mut Pe),
+        end: Broadcast<'_>,
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
         let slots = plan_slots(prows, needs)?;
         self.clock_slots(stage, width, &slots, &mut step)?;
-        self.clock.pes_mut().iter_mut().for_each(end);
+        self.clock.broadcast(&end);
         Ok(())
     }
 
-    /// Begins a pass in every PE; the widest PE's row length.
-    pub(super) fn begin_pass(&mut self, begin: impl FnMut(&mut Pe) -> usize) -> usize {
+    /// Broadcasts the start of a pass; the widest PE's row length.
+    pub(super) fn begin_pass(&mut self, begin: Broadcast<'_>) -> usize {
+        self.clock.broadcast(&begin);
         self.clock
-            .pes_mut()
-            .iter_mut()
-            .map(begin)
+            .reports()
+            .map(|r| r.pass_width as usize)
             .max()
             .unwrap_or(0)
     }
@@ -327,15 +327,15 @@ impl Array {
         &mut self,
         stage: Stage,
         slots: &[Slot],
-        begin: impl FnMut(&mut Pe) -> usize,
+        begin: Broadcast<'_>,
         mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
-        end: impl FnMut(&mut Pe),
+        end: Broadcast<'_>,
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
         if width > 0 {
             self.clock_sparse_slots(stage, slots, &mut step)?;
         }
-        self.clock.pes_mut().iter_mut().for_each(end);
+        self.clock.broadcast(&end);
         Ok(())
     }
 

@@ -6,10 +6,9 @@
 //! in float, the raw words beside it).
 
 use golden::geometry::RayGrid;
-use rayon::prelude::*;
 
 use crate::array::{Array, RunError};
-use crate::pe::{Pe, Ports, Readout};
+use crate::pe::{Broadcast, Pe, Ports, Readout};
 use crate::probes::{Ctrl, Stage};
 
 impl Pe {
@@ -66,61 +65,19 @@ impl Pe {
     }
 }
 
-/// Baseplane rows the untraced readout writes per task.
-const BAND: usize = 8;
-
 impl Array {
     /// Streams the rays of region 0 (grid `g`) out: raw words, row-major.
     pub(crate) fn readout(&mut self, g: &RayGrid) -> Result<Vec<[i64; 4]>, RunError> {
         let [w, h] = g.counts();
         let mut raw = vec![[0i64; 4]; w * h];
+        self.clock.broadcast(&Broadcast::BeginReadout);
+        if !self.clock.tracing() && !self.clocked {
+            self.clock.readout_untraced(g, &mut raw);
+            return Ok(raw);
+        }
         // The host writes each word where its ray index puts it.
         let mut store =
             |o: &Readout| raw[o.row as usize * w + (o.mx - g.lo[0]) as usize] = o.acc.raw;
-        for pe in self.clock.pes_mut() {
-            pe.begin_readout();
-        }
-        if !self.clock.tracing() && !self.clocked {
-            // Untraced, each PE streams its words without ticking (it
-            // shares nothing with the others), and the readout lasts as
-            // many cycles as the longest stream, as the clocked loop ticks.
-            let longest = self
-                .clock
-                .pes_mut()
-                .par_iter_mut()
-                .map(|pe| {
-                    let mut n = 0;
-                    let mut out = crate::pe::Ports::default();
-                    while !pe.readout_done() {
-                        pe.readout_step(&mut out);
-                        n += 1;
-                    }
-                    n
-                })
-                .max()
-                .unwrap_or(0);
-            // The host's writes, a band of rows at a time: each ray's word
-            // lands where its index puts it, the words a sparse stream
-            // leaves out being the cleared zeros, a later PE's over an
-            // earlier's as the streams' order has it.
-            let pes = self.clock.pes();
-            raw.par_chunks_mut((w * BAND).max(1))
-                .enumerate()
-                .for_each(|(b, band)| {
-                    let rows = b * BAND..b * BAND + band.len() / w.max(1);
-                    for col in pes.iter().flat_map(|pe| pe.rays.iter()) {
-                        let x = (col.mx - g.lo[0]) as usize;
-                        let end = rows.end.min(col.acc.len());
-                        for r in rows.start..end {
-                            band[(r - rows.start) * w + x] = col.acc[r].raw;
-                        }
-                    }
-                });
-            if longest > 0 {
-                self.clock.ran_untraced(Stage::Readout, longest);
-            }
-            return Ok(raw);
-        }
         while !self.clock.reports().all(|r| r.readout_done) {
             self.clock
                 .tick(Ctrl::at(Stage::Readout, 0, 0), |pe, _, out| {

@@ -14,7 +14,7 @@ use golden::geometry::RayGrid;
 use super::passes::{inside, plan_slots_where, PassBus};
 use crate::array::{clamp, Array, Links, RunError};
 use crate::datapath::{Acc, Datapath};
-use crate::pe::{FtbState, Pe, Ports, RayColumn, StepError};
+use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 use crate::schedule::btf::rays;
 
@@ -214,7 +214,7 @@ impl Pe {
         for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
             let to = if ch < 3 { fc } else { fa };
             *o = dp
-                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.stats)
+                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.model.stats)
                 .raw();
         }
         col.ftb[i] = FtbState {
@@ -243,7 +243,7 @@ impl Pe {
         for (ch, o) in out.iter_mut().enumerate() {
             let f = if ch < 3 { fc } else { fa };
             *o = dp
-                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.stats)
+                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.model.stats)
                 .raw();
         }
         self.pass.line.write(q, c, out);
@@ -284,9 +284,12 @@ impl Array {
         self.run_pass(
             Stage::Split,
             (prows, &needs),
-            |pe| pe.begin_split(fg, bg),
+            Broadcast::BeginSplit {
+                front: fg,
+                back: bg,
+            },
             |pe, bus, links, out| pe.split_step(&dp, bus, links, (fg, bg), out),
-            Pe::end_split,
+            Broadcast::EndSplit,
         )?;
         Ok((rays(fg), rays(bg)))
     }
@@ -324,9 +327,12 @@ impl Array {
         self.run_sparse_pass(
             Stage::Split,
             &slots,
-            |pe| pe.begin_split(fg, bg),
+            Broadcast::BeginSplit {
+                front: fg,
+                back: bg,
+            },
             |pe, bus, links, out| pe.split_step_sparse(dp, bus, links, (fg, bg), out),
-            Pe::end_split,
+            Broadcast::EndSplit,
         )?;
         Ok((reads, written(self) - before))
     }

@@ -4,14 +4,12 @@
 //! until every PE holds exactly its rays. A ray leaves only once its last
 //! sample has been written back (the datapath's scoreboard); the cycles it
 //! waits are the PE's `waits`. Untraced, a migration between slices is
-//! worked out from the link queues' departures instead (`events.rs`),
-//! with the same moves, cycles and counters.
+//! worked out from the link queues' departures instead (the clock's
+//! `Clock::migrate_untraced`), with the same moves, cycles and counters.
 //!
 //! Golden has no twin of this stage: it is where the array's distribution
 //! of [`golden::sampling::slice_rays`]' rays over the PEs is kept up to
 //! date as the rays' positions move from slice to slice.
-
-mod events;
 
 use std::collections::VecDeque;
 
@@ -20,9 +18,8 @@ use crate::config::Migration;
 use crate::datapath::Acc;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
-use crate::pe::{FtbState, Pe, Ports, RayColumn, RayMove};
+use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, RayMove};
 use crate::probes::{Ctrl, Stage};
-use events::migrate_events;
 
 impl Pe {
     /// Queues every held column whose owner for the next slice is another
@@ -126,7 +123,7 @@ impl Pe {
             // Received this cycle, readable from the next (what an
             // overlapped migration's rows wait for).
             col.land[row] = now + 1;
-            self.arrived_by = now + 1;
+            self.model.arrived_by = now + 1;
             if let Some(f) = m.ftb {
                 col.ftb[row] = f;
             }
@@ -196,7 +193,7 @@ impl Pe {
 /// and no termination; pre-integrated, a zero previous sample) and is not
 /// the column's last row, which always goes (it closes the column at the
 /// receiver).
-fn stays(c: &RayColumn, row: usize) -> bool {
+pub(crate) fn stays(c: &RayColumn, row: usize) -> bool {
     row + 1 < c.acc.len()
         && c.acc[row] == Acc::default()
         && c.ftb.get(row).is_none_or(|f| *f == FtbState::default())
@@ -227,30 +224,6 @@ fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
 }
 
 impl Array {
-    /// Hands every ray to its owner between cycles (the external buffer's
-    /// migration), keeping each PE's columns in ascending `mx`.
-    fn reassign(&mut self, owner: impl Fn(i64) -> usize) {
-        let pes = self.clock.pes_mut();
-        let mut moving = Vec::new();
-        for pe in pes.iter_mut() {
-            let k = pe.k;
-            let held = std::mem::take(&mut pe.rays);
-            for c in held {
-                let dest = owner(c.mx);
-                if dest == k {
-                    pe.rays.push_back(c);
-                } else {
-                    moving.push((dest, c));
-                }
-            }
-        }
-        for (dest, c) in moving {
-            let rays = &mut pes[dest].rays;
-            let at = rays.partition_point(|h| h.mx < c.mx);
-            rays.insert(at, c);
-        }
-    }
-
     /// Migration before `slice`: clocks until every ray sits in its owner,
     /// or, overlapped, runs the links in the cycles the slice samples.
     pub(crate) fn migrate(&mut self, slice: &SlicePlan) -> Result<(), RunError> {
@@ -273,11 +246,12 @@ impl Array {
     /// write-backs. The link cycles are the sampling stage's, so they add
     /// no cycle of their own; the waveforms do not show these moves on
     /// the ports.
-    fn migrate_overlapped(&mut self, owner: impl Fn(i64) -> usize) -> Result<(), RunError> {
+    fn migrate_overlapped(&mut self, owner: impl Fn(i64) -> usize + Sync) -> Result<(), RunError> {
         let route = self.map.route();
-        for pe in self.clock.pes_mut() {
-            pe.plan_moves(&owner, route);
-        }
+        self.clock.broadcast(&Broadcast::PlanMoves {
+            owner: &owner,
+            route,
+        });
         let p = self.clock.pes().len();
         // One pair of port registers per lane: a ray sent on lane `i`
         // arrives through lane `i` next cycle, whatever the other lanes do.
@@ -328,7 +302,7 @@ impl Array {
     pub(crate) fn migrate_home(
         &mut self,
         z: usize,
-        owner: impl Fn(i64) -> usize,
+        owner: impl Fn(i64) -> usize + Sync,
     ) -> Result<(), RunError> {
         if self.dp.cfg.migration != Migration::Overlapped || self.channel.is_some() {
             return self.migrate_by(z, owner);
@@ -350,23 +324,22 @@ impl Array {
     pub(crate) fn migrate_by(
         &mut self,
         z: usize,
-        owner: impl Fn(i64) -> usize,
+        owner: impl Fn(i64) -> usize + Sync,
     ) -> Result<(), RunError> {
         if self.channel.is_some() {
-            self.reassign(owner);
+            self.clock.reassign(owner);
             return Ok(());
         }
         let route = self.map.route();
         if !self.clock.tracing() && !self.clocked {
-            let start = self.clock.now();
-            let cycles = migrate_events(self.clock.pes_mut(), start, &owner, route);
-            self.clock.ran_untraced(Stage::Migrate, cycles);
+            self.clock.migrate_untraced(&owner, route);
             self.settle_links();
             return Ok(());
         }
-        for pe in self.clock.pes_mut() {
-            pe.plan_moves(&owner, route);
-        }
+        self.clock.broadcast(&Broadcast::PlanMoves {
+            owner: &owner,
+            route,
+        });
         while !(self.clock.reports().all(|r| r.settled)
             && self
                 .clock

@@ -6,15 +6,14 @@
 //! right neighbour's, at the issue cycles the controller's row plan gives.
 
 use super::{Row, RowBus, RowTimes};
-use crate::array::warm::each_mut;
 use crate::array::{Array, RunError};
+use crate::datapath::Datapath;
 use crate::host::{RegionPlan, SlicePlan};
-use crate::pe::StepError;
-use crate::probes::Stage;
 
 impl Array {
-    /// Samples `slice` without per-cycle stepping, then counts the cycles
-    /// the clocked path would have ticked.
+    /// Samples `slice` without per-cycle stepping (the clock's untraced
+    /// sampler), which then counts the cycles the clocked path would have
+    /// ticked.
     pub(super) fn sample_whole(
         &mut self,
         region: &RegionPlan,
@@ -54,39 +53,33 @@ impl Array {
             .skip(skip)
             .map(|(b, _)| (slice.z, b.y.0, b.y.1))
             .collect();
-        let shade = self.dp.shade.is_some();
-        // Each PE's edge words for the slice's rows (read while the PEs
-        // planned their rows).
-        let edges = std::mem::take(&mut self.edge_rows);
-        let stalls: u64 = times.stalls.iter().sum();
-        let dp = &self.dp;
-        let nx = self.nx;
-        let results: Vec<Result<(), StepError>> = each_mut(self.clock.pes_mut(), |k, pe| {
-            pe.latch_edges(seq.iter().copied(), shade);
-            if p > 1 {
-                pe.counters.idle += 1;
-            }
-            pe.sample_slice(
-                dp,
-                &buses,
-                (lens, &times.starts),
-                stalls,
-                (
-                    edges.get(k + 1).map(Vec::as_slice),
-                    k.checked_sub(1).map(|l| edges[l].as_slice()),
-                ),
-                nx,
-            )
-        });
-        self.edge_rows = edges;
-        for r in results {
-            r?;
-        }
-        let cycles = u64::from(p > 1) + lens.iter().sum::<usize>() as u64;
-        self.clock
-            .ran_untraced(Stage::Memory, times.memory.iter().sum());
-        self.clock.ran_untraced(Stage::Stall, stalls);
-        self.clock.ran_untraced(Stage::Sample, cycles);
+        let whole = WholeSlice {
+            dp: &self.dp,
+            buses: &buses,
+            times,
+            seq: &seq,
+            shade: self.dp.shade.is_some(),
+            nx: self.nx,
+        };
+        self.clock.sample_untraced(&whole)?;
         Ok(())
     }
+}
+
+/// A whole slice as the controller broadcasts it to the clock's untraced
+/// sampler ([`crate::array::Clock::sample_untraced`]).
+pub(crate) struct WholeSlice<'a> {
+    /// The datapath.
+    pub dp: &'a Datapath,
+    /// Every row's bus.
+    pub buses: &'a [RowBus<'a>],
+    /// The controller's row plan: lengths, starts, stalls.
+    pub times: &'a RowTimes,
+    /// The rows the bus announces as next, in order (the edge registers
+    /// step through them).
+    pub seq: &'a [(usize, usize, usize)],
+    /// Whether the array shades.
+    pub shade: bool,
+    /// Voxel columns.
+    pub nx: usize,
 }

@@ -20,17 +20,18 @@ mod plan;
 mod preint;
 
 pub use edges::EdgeWords;
+pub(crate) use fast::WholeSlice;
 pub use pe::{RowBus, SampleBus};
 pub use plain::ColumnOrder;
 pub(crate) use plain::ColumnTaps;
 pub use plan::{RowPlan, RowRuns};
 pub use preint::{PrePlan, PreRuns};
 
-use crate::array::warm::each_mut;
 use crate::array::{Array, RunError};
 use crate::config::Order;
 use crate::fixed::{Fx, QuantStats, Wide};
 use crate::host::{RegionPlan, SlicePlan};
+use crate::pe::{Broadcast, EdgeRead};
 use crate::probes::{Ctrl, Stage};
 
 /// One ray row of a slice as the controller broadcasts it: the row index
@@ -66,11 +67,12 @@ impl Array {
         if ylo > yhi || xlo > xhi {
             return Ok(());
         }
+        self.clock
+            .broadcast(&Broadcast::BeginSlice { x: (xlo, xhi) });
         let row_len = self
             .clock
-            .pes_mut()
-            .iter_mut()
-            .map(|pe| pe.select(slice))
+            .reports()
+            .map(|r| r.active as usize)
             .max()
             .unwrap_or(0);
         let nrows = (yhi - ylo + 1) as usize;
@@ -115,30 +117,29 @@ impl Array {
         // migration: when none is later than now, no row can wait.
         let lands_by = self.clock.reports().map(|r| r.lands_by).max().unwrap_or(0);
         let waits = lands_by > self.clock.now();
-        // The rows' broadcast, and for the whole-slice path each PE's edge
-        // words in them, read while it plans (one pass over the PEs).
         let mut host = QuantStats::default();
         let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
-        let mut edges = std::mem::take(&mut self.edge_rows);
-        edges.resize_with(p, Vec::new);
-        let (shade, z) = (self.dp.shade.is_some(), slice.z);
-        let bus_rows = rows.as_ref().ok().filter(|_| whole);
-        let mut pairs: Vec<_> = self.clock.pes_mut().iter_mut().zip(&mut edges).collect();
-        each_mut(&mut pairs, |_, (pe, out)| {
-            pe.plan_rows(first_row, nrows, &runs, (ftb, waits), pre.as_ref());
-            if let Some(rows) = bus_rows {
-                pe.edges_for(z, (rows, &runs), shade, out);
-            }
+        let shade = self.dp.shade.is_some();
+        self.clock.broadcast(&Broadcast::PlanRows {
+            first_row,
+            rows: nrows,
+            runs: &runs,
+            ftb,
+            waits,
+            pre: pre.as_ref(),
+            edges: rows.as_ref().ok().filter(|_| whole).map(|rows| EdgeRead {
+                z: slice.z,
+                rows,
+                shade,
+            }),
         });
-        drop(pairs);
-        self.edge_rows = edges;
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.
         let mut reports: Vec<RowReport> = vec![(0, 0, 0); nrows];
-        for pe in self.clock.pes() {
-            for (out, &(n, at)) in reports.iter_mut().zip(pe.row_reports()) {
+        for pe_rows in self.clock.row_reports() {
+            for (out, &(n, at)) in reports.iter_mut().zip(pe_rows) {
                 *out = (out.0.max(n), out.1.max(at), out.2 + n as u64);
             }
         }
@@ -161,9 +162,7 @@ impl Array {
             // Nothing to sample (empty, clipped or terminated): no cycle, no
             // read; the schedules only count the terminated rays.
             for r in 0..nrows {
-                for pe in self.clock.pes_mut() {
-                    pe.begin_row(r);
-                }
+                self.clock.broadcast(&Broadcast::BeginRow(r));
             }
             self.runs = runs;
             self.pre_runs = pre_runs;
@@ -295,9 +294,7 @@ impl Array {
             let row = (my - glo) as usize;
             // Each PE schedules its rays in the row's runs (front to back
             // its live ones, counting the rest).
-            for pe in self.clock.pes_mut() {
-                pe.begin_row(r);
-            }
+            self.clock.broadcast(&Broadcast::BeginRow(r));
             let len = lens[r];
             if len == 0 {
                 continue;

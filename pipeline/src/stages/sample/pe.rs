@@ -156,9 +156,9 @@ impl Pe {
         // The quantisation counters live in a local while the sample runs:
         // then they can stay in registers across the datapath's two dozen
         // assignments instead of chaining loads and stores through the PE.
-        let mut st = self.stats;
+        let mut st = self.model.stats;
         let done = self.sample_datapath::<TRACE>(dp, bus, (j, flags), edge_in, (nx, now), &mut st);
-        self.stats = st;
+        self.model.stats = st;
         done
     }
 
@@ -421,7 +421,7 @@ impl Pe {
             let at = (nx, dp.latency);
             let out = (&mut tally, &mut counts);
             if self.sample_columns(k, rows, (lens, starts), right_edges, at, out) {
-                tally.add_to(&mut self.stats);
+                tally.add_to(&mut self.model.stats);
                 self.add_plain_counts(&counts);
                 return Ok(());
             }

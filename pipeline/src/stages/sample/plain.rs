@@ -236,13 +236,13 @@ impl Pe {
         let (first, count) = self.active;
         // Each active column's address and taps' columns, once: they do
         // not depend on the row.
-        let mut cols = std::mem::take(&mut self.plain_cols);
+        let mut cols = std::mem::take(&mut self.model.plain_cols);
         cols.clear();
         let last = nx as i64 - 1;
         for j in first..first + count {
             let mut t = Tally::default();
             let Some(ray) = kernel.address(&row0, self.rays[j].mx, &mut t) else {
-                self.plain_cols = cols;
+                self.model.plain_cols = cols;
                 return false;
             };
             let (c0, c1) = (
@@ -251,13 +251,13 @@ impl Pe {
             );
             let held = self.holds(c1);
             if !self.owns(c0) || !(held || c1 == self.cols.end) {
-                self.plain_cols = cols;
+                self.model.plain_cols = cols;
                 return false;
             }
             cols.push((ray, t, c0, c1, held));
         }
         // Bucket the row plan's samples by column (a counting sort).
-        let mut order = std::mem::take(&mut self.plain_order);
+        let mut order = std::mem::take(&mut self.model.plain_order);
         order.starts.clear();
         order.starts.resize(count + 1, 0);
         for (r, &len) in lens.iter().enumerate() {
@@ -323,8 +323,8 @@ impl Pe {
         };
         total.add(&t);
         n.add(&c);
-        self.plain_cols = cols;
-        self.plain_order = order;
+        self.model.plain_cols = cols;
+        self.model.plain_order = order;
         true
     }
 }

@@ -31,10 +31,15 @@
 //! # }
 //! ```
 
-use crate::datapath::Acc;
-use crate::pe::{Pe, PeReport, Port, Ports, StepError};
-use crate::probes::{Ctrl, Probes, Stage};
+mod eval;
+mod events;
 
+use crate::datapath::Acc;
+use crate::pe::{Broadcast, Pe, PeReport, Port, Ports, RayColumn, StepError, VoxelMem};
+use crate::probes::{Ctrl, Probes, Stage};
+use crate::stages::sample::EdgeWords;
+
+use super::warm::each_mut;
 use super::StageCycles;
 
 /// What a PE receives from its neighbours in a cycle: read-only views of
@@ -126,6 +131,10 @@ pub struct Clock {
     /// Whether PE `P - 1`'s right port drives PE 0's left (a ray-only wrap
     /// link: the round-robin mappings' migrations go around a ring).
     ring: bool,
+    /// The untraced sampler's scratch: each PE's edge words in each of the
+    /// slice's rows, read with the row plans (reused from slice to slice;
+    /// no chip state).
+    edge_rows: Vec<Vec<EdgeWords>>,
 }
 
 impl Clock {
@@ -140,6 +149,7 @@ impl Clock {
             stages: StageCycles::default(),
             probes,
             ring: false,
+            edge_rows: Vec::new(),
         }
     }
 
@@ -148,16 +158,61 @@ impl Clock {
         &self.pes
     }
 
-    /// The PEs, for what happens between cycles: loading a frame, the
-    /// PEs' combinational reports at a stage's start.
-    pub(crate) fn pes_mut(&mut self) -> &mut [Pe] {
-        &mut self.pes
+    /// Hands the controller's broadcast `b` to every PE, which applies it
+    /// to its own state ([`Pe::on_broadcast`]) between cycles. A PE's
+    /// whole-slice work runs the PEs on the pool's threads (they share
+    /// nothing, so the order cannot matter); a slice's row plan for the
+    /// untraced sampler also reads each PE's edge words in its rows
+    /// ([`crate::pe::EdgeRead`]), in the same step.
+    pub fn broadcast(&mut self, b: &Broadcast<'_>) {
+        if let Broadcast::PlanRows {
+            runs,
+            edges: Some(e),
+            ..
+        } = *b
+        {
+            // The untraced sampler's edge words, read while each PE plans.
+            let mut edges = std::mem::take(&mut self.edge_rows);
+            edges.resize_with(self.pes.len(), Vec::new);
+            let mut pairs: Vec<_> = self.pes.iter_mut().zip(&mut edges).collect();
+            each_mut(&mut pairs, |_, (pe, out)| {
+                pe.on_broadcast(b);
+                pe.edges_for(e.z, (e.rows, runs), e.shade, out);
+            });
+            drop(pairs);
+            self.edge_rows = edges;
+        } else if b.heavy() {
+            each_mut(&mut self.pes, |_, pe| pe.on_broadcast(b));
+        } else {
+            for pe in &mut self.pes {
+                pe.on_broadcast(b);
+            }
+        }
     }
 
     /// Every PE's report lines, in PE order: what the controller reads of
     /// the PEs between cycles.
     pub fn reports(&self) -> impl Iterator<Item = PeReport> + '_ {
         self.pes.iter().map(Pe::report)
+    }
+
+    /// Every PE's row reports of the slice it planned, in PE order
+    /// ([`Pe::row_reports`]: per row, the rays it samples and the earliest
+    /// start its scoreboards allow).
+    pub fn row_reports(&self) -> impl Iterator<Item = &[(usize, u64)]> + '_ {
+        self.pes.iter().map(Pe::row_reports)
+    }
+
+    /// The host writes column `col` into PE `k`'s compositing buffer
+    /// before a frame's first cycle (a region's empty rays).
+    pub(crate) fn load_column(&mut self, k: usize, col: RayColumn) {
+        self.pes[k].rays.push_back(col);
+    }
+
+    /// Takes every PE's voxel memory back at the frame's end (kept
+    /// resident for the next frame), leaving the PEs empty.
+    pub(crate) fn take_memories(&mut self) -> Vec<VoxelMem> {
+        self.pes.iter_mut().map(Pe::take_memory).collect()
     }
 
     /// The port outputs committed in the last cycle.

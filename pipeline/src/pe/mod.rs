@@ -1,19 +1,29 @@
 //! One processing element's state: its voxel memory (a block of columns
 //! of every slice), the compositing buffer of the rays it holds, the
 //! migration FIFOs, the line buffer and pass registers of the merge, split
-//! and fold, its edge register, its port types and its counters.
+//! and fold, its edge register, its port types and its counters; the
+//! memories and FIFOs declared with their depths in [`Pe::declaration`]
+//! (`state.rs`), which the cost model charges.
 //!
-//! What a PE does in a cycle lives with its stage, in [`crate::stages`]:
-//! each step receives only this state, the [`Links`](crate::array::Links)
-//! (its neighbours' port outputs of the previous cycle) and the
-//! controller's broadcast, and writes what it drives into its own port
-//! registers (which the clock hands it idle).
+//! The controller reaches a PE only through the clock: it broadcasts
+//! ([`Broadcast`], `broadcast.rs`) and reads the report lines
+//! ([`PeReport`]). What a PE does in a cycle lives with its stage, in
+//! [`crate::stages`]: each step receives only this state, the
+//! [`Links`](crate::array::Links) (its neighbours' port outputs of the
+//! previous cycle) and the controller's broadcast, and writes what it
+//! drives into its own port registers (which the clock hands it idle).
+
+mod broadcast;
+mod state;
+#[cfg(test)]
+mod state_tests;
+
+pub use broadcast::{Broadcast, EdgeRead, OwnerFn};
 
 use std::collections::VecDeque;
 
 use crate::datapath::{Acc, SampleTrace};
 use crate::fixed::{FxError, QuantStats};
-use crate::host::SlicePlan;
 use crate::mapping::ColumnMap;
 use crate::stages::passes::PassState;
 
@@ -228,7 +238,14 @@ pub struct PeCounters {
     pub rays_held_peak: u64,
 }
 
-/// One processing element.
+/// One processing element: its parameters (which PE, which columns), its
+/// state (registers, memories and FIFOs, declared with their depths in
+/// [`Pe::declaration`]), its event counters, and beside them the model's
+/// scratch and bookkeeping ([`PeModel`]), which no chip holds.
+///
+/// The controller never touches these fields: it broadcasts to the PE
+/// ([`Broadcast`]) and reads its report lines ([`PeReport`]); each stage's
+/// step changes the PE's own state.
 #[derive(Debug, Clone)]
 pub struct Pe {
     /// Index in the array.
@@ -236,10 +253,11 @@ pub struct Pe {
     /// Under column blocks, the owned voxel columns `c0..c1`, whose edge
     /// columns the ports carry; empty under a round-robin mapping, whose
     /// aprons leave the ports nothing to carry.
-    pub cols: std::ops::Range<usize>,
+    pub(crate) cols: std::ops::Range<usize>,
     /// Who owns which column while the array samples.
-    pub map: ColumnMap,
-    /// Voxel words `[z][y][l]`, `l` the local index of a held column.
+    pub(crate) map: ColumnMap,
+    /// The voxel memory (`slice_buffer`, `edge_column`): words
+    /// `[z][y][l]`, `l` the local index of a held column.
     pub(crate) mem: VoxelMem,
     /// The local index of every column this PE's memory holds (its own
     /// and its aprons), [`ABSENT`] for the rest: the address decoder.
@@ -254,23 +272,24 @@ pub struct Pe {
     pub(crate) sparse_passes: bool,
     pub(crate) ny: usize,
     pub(crate) nz: usize,
-    /// Ray columns held, in increasing `mx`.
-    pub rays: VecDeque<RayColumn>,
+    /// The compositing buffer (`compositing_buffer`, `column_map`): ray
+    /// columns held, in increasing `mx`.
+    pub(crate) rays: VecDeque<RayColumn>,
     /// First held column sampled in the current slice, and how many.
-    pub active: (usize, usize),
-    /// Rays waiting to go left / right, each with the cycle from which it
-    /// may leave (its last sample written back).
-    pub out_left: VecDeque<(RayMove, u64)>,
+    pub(crate) active: (usize, usize),
+    /// The link FIFOs (`link_fifo`): rays waiting to go left / right,
+    /// each with the cycle from which it may leave (its last sample
+    /// written back).
+    pub(crate) out_left: VecDeque<(RayMove, u64)>,
     /// See `out_left`.
-    pub out_right: VecDeque<(RayMove, u64)>,
+    pub(crate) out_right: VecDeque<(RayMove, u64)>,
     /// Columns being received, by `mx`.
     pub(crate) incoming: Vec<RayColumn>,
     /// Counters.
-    pub counters: PeCounters,
-    /// Quantisation events.
-    pub stats: QuantStats,
-    /// What the last sampling cycle did (for waveforms).
-    pub last: SampleTrace,
+    pub(crate) counters: PeCounters,
+    /// What the last sampling cycle did: the datapath's output registers
+    /// as the waveforms show them.
+    pub(crate) last: SampleTrace,
     /// Rows whose edge voxels the edge register holds.
     pub(crate) edge_latch: Option<(usize, usize, usize)>,
     /// The edge registers: what this PE drives on its ports while it
@@ -281,28 +300,39 @@ pub struct Pe {
     pub(crate) row_now: usize,
     /// The slice's row schedules and reports, as this PE planned them.
     pub(crate) row_plan: crate::stages::sample::RowPlan,
-    /// The whole-slice path's column buckets and column addresses
-    /// (scratch of the model, reused from slice to slice; no chip state).
-    pub(crate) plain_order: crate::stages::sample::ColumnOrder,
-    pub(crate) plain_cols: Vec<crate::stages::sample::ColumnTaps>,
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).
-    pub drained_at: u64,
-    /// The latest scoreboard stamp a migration wrote into a ray this PE
-    /// received (with every PE's `drained_at`, a bound on every held
-    /// ray's `land`; the model's bookkeeping, not a register).
-    pub(crate) arrived_by: u64,
+    pub(crate) drained_at: u64,
     /// The readout cursor: the next held column and row to stream out.
     pub(crate) readout_at: (usize, usize),
-    /// Front to back: the final states of the rays this PE held at each
-    /// split (one entry per boundary passed, innermost last), kept for the
-    /// fold. With the inherited states this is the front-to-back mode's
-    /// memory cost: every region's rays, about `(W + 1)(ny + 1)` per region
-    /// boundary per PE, on top of the twice-as-wide compositing buffer.
-    pub finals: Vec<Vec<RayColumn>>,
-    /// The merge, split or fold in progress: children, line buffer, the
-    /// children's column being built.
+    /// Front to back (`kept_finals`): the final states of the rays this
+    /// PE held at each split (one entry per boundary passed, innermost
+    /// last), kept for the fold. With the inherited states this is the
+    /// front-to-back mode's memory cost: every region's rays, about
+    /// `(W + 1)(ny + 1)` per region boundary per PE, on top of the
+    /// twice-as-wide compositing buffer.
+    pub(crate) finals: Vec<Vec<RayColumn>>,
+    /// The merge, split or fold in progress (`line_buffer`): children,
+    /// line buffer, the children's column being built.
     pub(crate) pass: PassState,
+    /// The model's scratch and bookkeeping.
+    pub(crate) model: PeModel,
+}
+
+/// What the model keeps beside a PE's state, which no chip holds: scratch
+/// buffers reused from slice to slice, and counts and bounds the model
+/// keeps to report or to skip work.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct PeModel {
+    /// Quantisation events of this PE's datapath.
+    pub(crate) stats: QuantStats,
+    /// The whole-slice path's column buckets and column addresses.
+    pub(crate) plain_order: crate::stages::sample::ColumnOrder,
+    pub(crate) plain_cols: Vec<crate::stages::sample::ColumnTaps>,
+    /// The latest scoreboard stamp a migration wrote into a ray this PE
+    /// received (with `drained_at`, a bound on every held ray's `land`,
+    /// so the controller need not read every scoreboard).
+    pub(crate) arrived_by: u64,
 }
 
 impl Pe {
@@ -339,19 +369,16 @@ impl Pe {
             out_right: VecDeque::new(),
             incoming: Vec::new(),
             counters: PeCounters::default(),
-            stats: QuantStats::default(),
             last: SampleTrace::default(),
             edge_latch: None,
             edge_value: Default::default(),
             row_now: 0,
             row_plan: Default::default(),
-            plain_order: Default::default(),
-            plain_cols: Vec::new(),
             drained_at: 0,
-            arrived_by: 0,
             readout_at: (0, 0),
             finals: Vec::new(),
             pass: PassState::default(),
+            model: PeModel::default(),
         }
     }
 
@@ -381,16 +408,21 @@ impl Pe {
         self.width
     }
 
-    /// The columns this PE samples in `slice`: the held columns whose `mx`
-    /// lies in the slice's x range (contiguous, since both are sorted).
-    pub fn select(&mut self, slice: &SlicePlan) -> usize {
+    /// The columns this PE samples in a slice whose x range is `lo ..=
+    /// hi`: the held columns whose `mx` lies in it (contiguous, since both
+    /// are sorted).
+    pub fn select(&mut self, (lo, hi): (i64, i64)) {
         let held: u64 = self.rays.iter().map(|c| c.acc.len() as u64).sum();
         self.counters.rays_held_peak = self.counters.rays_held_peak.max(held);
-        let (lo, hi) = slice.range[0];
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);
         self.active = (first, end.saturating_sub(first));
-        self.active.1
+    }
+
+    /// Hands this PE's voxel memory out, leaving it empty (the memory
+    /// stays resident for the next frame).
+    pub(crate) fn take_memory(&mut self) -> VoxelMem {
+        std::mem::replace(&mut self.mem, VoxelMem::Words(Vec::new()))
     }
 
     /// `mx` of the first and last held column.
@@ -427,6 +459,12 @@ pub struct PeReport {
     pub settled: bool,
     /// Its readout has streamed every held ray.
     pub readout_done: bool,
+    /// The held columns it samples in the current slice (its row length
+    /// at most).
+    pub active: u32,
+    /// The children its current merge, split or fold computes (the pass's
+    /// slots are as wide as the most).
+    pub pass_width: u32,
     /// The length of its current sparse pass slot's work list (its done
     /// line falls after that many cycles).
     pub slot_work: u32,
@@ -442,9 +480,11 @@ impl Pe {
     pub fn report(&self) -> PeReport {
         PeReport {
             drained_at: self.drained_at,
-            lands_by: self.drained_at.max(self.arrived_by),
+            lands_by: self.drained_at.max(self.model.arrived_by),
             settled: self.settled(),
             readout_done: self.readout_done(),
+            active: self.active.1 as u32,
+            pass_width: self.pass.children.len() as u32,
             slot_work: self.pass.slot.len() as u32,
             merge_outputs: self.counters.merge_outputs,
             split_outputs: self.counters.split_outputs,

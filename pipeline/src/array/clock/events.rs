@@ -20,9 +20,9 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use super::stays;
 use crate::mapping::Route;
 use crate::pe::{Pe, RayColumn};
+use crate::stages::migrate::stays;
 
 /// A link queue of PE `k`: 0 sends left, 1 right.
 type Side = usize;
@@ -92,7 +92,7 @@ impl Links {
         pes[k].counters.rays_sent += n;
         pes[k].counters.link_queue += queued;
         pes[nb].counters.rays_received += n;
-        pes[nb].arrived_by = pes[nb].arrived_by.max(free + 1);
+        pes[nb].model.arrived_by = pes[nb].model.arrived_by.max(free + 1);
     }
 }
 

@@ -1,0 +1,176 @@
+//! The PE's state declared as hardware ([`crate::hw::state`]): its voxel
+//! memory, its compositing buffer (or, with the rays in external memory,
+//! its row buffers), the column map, the passes' line buffer, the link
+//! FIFOs and, front to back, the inherited states and the kept finals,
+//! each with the depth and width it has for the worst view of a
+//! configuration ([`Geometry`]). The cost model's memory inventory charges
+//! exactly these entries (`crate::cost::inventory`), so a depth changes
+//! in one place.
+
+use super::Pe;
+use crate::config::{Order, PipelineConfig, RayBuffer};
+use crate::cost::arch;
+use crate::cost::inventory::{addr_bits, Geometry};
+use crate::cost::memory::MemPorts;
+use crate::cost::shapes::{accum_word, RAY_INDEX_BITS};
+use crate::hw::state::{StateDecl, StateKind};
+use crate::stages::passes::LINE_ROWS;
+
+fn bits(f: crate::fixed::Format) -> u32 {
+    u32::from(f.bits())
+}
+
+fn decl(
+    name: &'static str,
+    what: impl Into<String>,
+    kind: StateKind,
+    (copies, depth, width): (u32, u64, u32),
+) -> StateDecl {
+    StateDecl {
+        name,
+        what: what.into(),
+        kind,
+        copies,
+        depth,
+        width,
+    }
+}
+
+const SDP: StateKind = StateKind::Memory(MemPorts::Sdp);
+const DUAL_READ: StateKind = StateKind::Memory(MemPorts::DualRead);
+
+impl Pe {
+    /// Every state element of a PE of `cfg` for the worst view of `geo`:
+    /// [`Pe::voxel_state`], then [`Pe::ray_state`].
+    pub fn declaration(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
+        let mut all = Pe::voxel_state(cfg, geo);
+        all.extend(Pe::ray_state(cfg, geo));
+        all
+    }
+
+    /// The voxel memory: the slice buffer of the PE's stored columns in
+    /// row banks (two slices; shading, four slices and two column banks
+    /// for the gradient's taps) and, under column blocks, the copy of the
+    /// neighbour's edge column (shading, the first two and the last).
+    /// Round-robin mappings store each block with its apron and read no
+    /// neighbour: no edge-column copies.
+    pub fn voxel_state(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
+        let ny = geo.dims[1] as u64;
+        let v = bits(cfg.voxel);
+        let edges = arch::round_robin_width(cfg).is_none();
+        let stored = arch::stored_columns(cfg, geo);
+        let mut out = Vec::new();
+        if geo.shading {
+            let quarter = ny.div_ceil(4);
+            out.push(decl(
+                "slice_buffer",
+                "slice buffer (4 slices x 4 row banks x 2 column banks)",
+                DUAL_READ,
+                (32, stored.div_ceil(2) * quarter, v),
+            ));
+            if edges {
+                out.push(decl(
+                    "edge_columns",
+                    "edge columns (first two, last; 4 slices x 4 row banks)",
+                    SDP,
+                    (48, quarter, v),
+                ));
+            }
+        } else {
+            let half_rows = ny.div_ceil(2);
+            out.push(decl(
+                "slice_buffer",
+                "slice buffer (2 slices x 2 row banks)",
+                DUAL_READ,
+                (4, stored * half_rows, v),
+            ));
+            if edges {
+                out.push(decl(
+                    "edge_column",
+                    "edge column (2 slices x 2 row banks)",
+                    SDP,
+                    (4, half_rows, v),
+                ));
+            }
+        }
+        out
+    }
+
+    /// The rays' state: the compositing buffer in two column banks (or,
+    /// with the rays in external memory, the row buffers the controller
+    /// reads ahead into), the column map, the passes' line buffer
+    /// ([`LINE_ROWS`] rows of `W + 1` children), a link FIFO per side (one
+    /// ray column of `2 ny + 1` rows) and, front to back on chip, the
+    /// inherited states with their termination flags and the final states
+    /// kept at `K - 1` region boundaries for the fold. A pre-integrating
+    /// ray carries its previous sample beside its accumulators wherever
+    /// they go.
+    pub fn ray_state(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
+        let ny = geo.dims[1] as u64;
+        let w = geo.block();
+        let acc = accum_word(cfg);
+        let prev = crate::cost::preint::ray_bits(cfg, geo);
+        let rays = arch::rays_per_pe(cfg, geo);
+        let row = arch::rays_per_row(cfg, geo);
+        let mut out = Vec::new();
+        if cfg.ray_buffer == RayBuffer::External {
+            let rows = arch::row_buffers(cfg);
+            out.push(decl(
+                "row_buffers",
+                format!("row buffers ({rows} rows x 2 column banks; rays in DDR)"),
+                SDP,
+                (2, (rows * row).div_ceil(2), arch::ray_bits(cfg) + prev),
+            ));
+        } else {
+            out.push(decl(
+                "compositing_buffer",
+                "compositing buffer (2 column banks)",
+                SDP,
+                (2, rays.div_ceil(2), acc + prev),
+            ));
+        }
+        out.push(decl(
+            "column_map",
+            "column map (slot -> ray column)",
+            SDP,
+            (1, row, RAY_INDEX_BITS + 1),
+        ));
+        out.push(decl(
+            "line_buffer",
+            format!("merge line buffer ({LINE_ROWS} rows)"),
+            SDP,
+            (LINE_ROWS as u32, w + 1, 4 * bits(cfg.merge)),
+        ));
+        out.push(decl(
+            "link_fifo",
+            "migration FIFO (one column per side)",
+            StateKind::Fifo,
+            (
+                2,
+                2 * ny + 1,
+                acc + prev + RAY_INDEX_BITS + addr_bits(2 * ny + 2),
+            ),
+        ));
+        if cfg.order == Order::FrontToBack && cfg.ray_buffer == RayBuffer::OnChip {
+            // With an external buffer both live in DDR (the row buffer
+            // carries the inherited state and the flag: `arch::ray_bits`).
+            out.push(decl(
+                "inherited",
+                "inherited state + termination flag (front to back)",
+                SDP,
+                (2, rays.div_ceil(2), acc + 1),
+            ));
+            out.push(decl(
+                "kept_finals",
+                "kept final states, K - 1 boundaries (front to back)",
+                SDP,
+                (
+                    1,
+                    (w + 1) * (ny + 1) * u64::from(geo.regions.saturating_sub(1)),
+                    acc,
+                ),
+            ));
+        }
+        out
+    }
+}

@@ -1,0 +1,131 @@
+//! The PE's declared state against the cost model's memory inventory.
+
+use crate::config::{Mapping, Order, PipelineConfig, RayBuffer};
+use crate::cost::inventory::{pe_inventory, Geometry};
+use crate::cost::memory::MemPorts;
+use crate::cost::units::Unit;
+use crate::hw::state::{StateDecl, StateKind};
+use crate::pe::Pe;
+
+/// The configurations and geometries the checks run over: both orders,
+/// every mapping, the external ray buffer, shading and pre-integration.
+fn cases() -> Vec<(PipelineConfig, Geometry)> {
+    let geo = Geometry::new([256, 256, 256], 16);
+    let base = PipelineConfig::default();
+    let with = |f: &dyn Fn(&mut PipelineConfig)| {
+        let mut c = base;
+        f(&mut c);
+        c
+    };
+    vec![
+        (base, geo),
+        (with(&|c| c.order = Order::FrontToBack), geo),
+        (with(&|c| c.ray_buffer = RayBuffer::External), geo),
+        (
+            with(&|c| {
+                c.order = Order::FrontToBack;
+                c.ray_buffer = RayBuffer::External;
+            }),
+            geo,
+        ),
+        (with(&|c| c.mapping = Mapping::Interleave), geo),
+        (
+            with(&|c| {
+                c.mapping = Mapping::Cyclic;
+                c.cyclic_width = 4;
+            }),
+            geo.with_shading(true),
+        ),
+        (base, geo.with_shading(true)),
+        (base, geo.with_preint(true)),
+        (base, Geometry::new([100, 64, 64], 8)),
+    ]
+}
+
+/// What a declared element costs as a memory: its ports (a FIFO is a
+/// simple dual-port memory).
+fn ports(d: &StateDecl) -> MemPorts {
+    match d.kind {
+        StateKind::Memory(p) => p,
+        StateKind::Fifo | StateKind::Register => MemPorts::Sdp,
+    }
+}
+
+/// Every declared memory and FIFO is charged by the cost inventory with
+/// its copies, depth, width and ports, and every memory the inventory
+/// charges is a declared element or one of the datapath's tables.
+#[test]
+fn the_cost_inventory_charges_every_declared_state_element() {
+    for (cfg, geo) in cases() {
+        let decls = Pe::declaration(&cfg, &geo);
+        let inv = pe_inventory(&cfg, &geo);
+        let mems: Vec<_> = inv.items.iter().filter(|i| i.group == "memories").collect();
+        for d in decls.iter().filter(|d| d.depth > 0) {
+            let item = mems
+                .iter()
+                .find(|i| i.name == d.what)
+                .unwrap_or_else(|| panic!("{} is not charged ({cfg:?}, {geo:?})", d.name));
+            assert_eq!(item.count, d.copies, "{}", d.name);
+            assert_eq!(
+                item.units,
+                vec![Unit::Mem {
+                    depth: d.depth,
+                    width: d.width,
+                    ports: ports(d),
+                }],
+                "{}",
+                d.name
+            );
+        }
+        for i in &mems {
+            assert!(
+                i.name.contains("table") || decls.iter().any(|d| d.what == i.name),
+                "{} is charged but not declared",
+                i.name
+            );
+        }
+    }
+}
+
+/// The declaration's depths for 16 PEs over 256^3 (`W = 16` columns,
+/// `ny = 256`), worked out by hand from the documented sizes.
+#[test]
+fn the_default_declaration_has_the_documented_depths() {
+    let geo = Geometry::new([256, 256, 256], 16);
+    let decls = Pe::declaration(&PipelineConfig::default(), &geo);
+    let get = |n: &str| {
+        decls
+            .iter()
+            .find(|d| d.name == n)
+            .unwrap_or_else(|| panic!("{n} is declared"))
+    };
+    let shape = |n: &str| {
+        let d = get(n);
+        (d.copies, d.depth, d.width)
+    };
+    // Two slices in two row banks of W columns x ny / 2 rows of 12-bit
+    // voxels, and the neighbour's edge column.
+    assert_eq!(shape("slice_buffer"), (4, 16 * 128, 12));
+    assert_eq!(shape("edge_column"), (4, 128, 12));
+    // (2W + 1)(2 ny + 1) rays in two column banks, 4 x 16-bit
+    // accumulators each; a row's 2W + 1 slots map to 16-bit indices and a
+    // valid bit.
+    assert_eq!(
+        shape("compositing_buffer"),
+        (2, (33 * 513u64).div_ceil(2), 64)
+    );
+    assert_eq!(shape("column_map"), (1, 33, 17));
+    // One ray column of 2 ny + 1 rows per side: the accumulators, the ray
+    // index and a 10-bit row.
+    assert_eq!(get("link_fifo").kind, StateKind::Fifo);
+    assert_eq!(shape("link_fifo"), (2, 513, 64 + 16 + 10));
+    // The passes' line buffer: LINE_ROWS rows of W + 1 children, four
+    // 20-bit merge words each.
+    assert_eq!(shape("line_buffer"), (3, 17, 80));
+    assert_eq!(
+        get("line_buffer").copies as usize,
+        crate::stages::passes::LINE_ROWS
+    );
+    // Back to front keeps no finals.
+    assert!(decls.iter().all(|d| d.name != "kept_finals"));
+}
