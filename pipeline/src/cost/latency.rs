@@ -125,3 +125,79 @@ pub fn geometry_latency(cfg: &PipelineConfig, geo: &inventory::Geometry) -> u32 
         unit_latency(cfg, (geo.shading, geo.voi))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Order;
+    use crate::cost::Target;
+
+    /// Each unit's latency is the plain schedule's depth plus the extra
+    /// its inventory steps add, in both orders; the units only deepen it;
+    /// a stated latency is the whole datapath's.
+    #[test]
+    fn unit_latencies_add_the_inventory_extra_to_the_plain_depth() {
+        for order in [Order::BackToFront, Order::FrontToBack] {
+            let cfg = PipelineConfig {
+                order,
+                ..PipelineConfig::default()
+            };
+            let plain = crate::hw::schedule::schedule(&crate::hw::sample::plain(&cfg)).depth;
+            let inv = inventory::schedule_depth(&cfg);
+            let row = [
+                datapath_latency(&cfg),
+                shaded_latency(&cfg),
+                unit_latency(&cfg, (false, true)),
+                unit_latency(&cfg, (true, true)),
+                preint_latency(&cfg),
+            ];
+            eprintln!("{order:?}: plain {plain} (inventory {inv}); plain, shaded, voi, both, preint {row:?}");
+            assert_eq!(row[0], plain);
+            assert_eq!(
+                row[1] - plain,
+                inventory::shaded_schedule_depth(&cfg) - inv
+            );
+            assert_eq!(
+                row[2] - plain,
+                inventory::unit_schedule_depth(&cfg, (false, true)) - inv
+            );
+            assert_eq!(
+                row[3] - plain,
+                inventory::unit_schedule_depth(&cfg, (true, true)) - inv
+            );
+            assert_eq!(
+                row[4] - plain,
+                inventory::preint_schedule_depth(&cfg) - inv
+            );
+            assert!(row[1..].iter().all(|&d| d > plain), "{row:?}");
+            let stated = PipelineConfig {
+                datapath_latency: 40,
+                ..cfg
+            };
+            for units in [(false, false), (true, false), (false, true), (true, true)] {
+                assert_eq!(unit_latency(&stated, units), 40);
+            }
+            assert_eq!(preint_latency(&stated), 40);
+        }
+    }
+
+    /// A clock's schedule sets the plain depth, and a unit still adds its
+    /// extra on top.
+    #[test]
+    fn target_mhz_sets_the_plain_depth() {
+        let d = PipelineConfig::default();
+        let slow = PipelineConfig {
+            target_mhz: 40,
+            target_family: Target::Ecp5,
+            ..d
+        };
+        slow.validate().unwrap();
+        let c = crate::cost::fmax::schedule_for(&d, Target::Ecp5, 40.0).unwrap();
+        assert_eq!(datapath_latency(&slow), c.depth);
+        assert!(c.depth < datapath_latency(&d));
+        assert_eq!(
+            shaded_latency(&slow) - datapath_latency(&slow),
+            shaded_latency(&d) - datapath_latency(&d)
+        );
+    }
+}

@@ -109,10 +109,14 @@ pub fn clock_schedule(g: &Graph, t: Target, target_mhz: f64) -> Result<Clocked, 
         };
         let ns = model.period_ns(&arr);
         if ns > budget {
+            let what = if arr == Path::default() {
+                "a register-to-register hop".to_owned()
+            } else {
+                g.node(id).name.clone()
+            };
             return Err(format!(
-                "target_mhz = {target_mhz}: no schedule reaches it on {}: {} alone is predicted at {:.1} MHz",
+                "target_mhz = {target_mhz}: no schedule reaches it on {}: {what} alone is predicted at {:.1} MHz",
                 t.name(),
-                g.node(id).name,
                 1e3 / ns
             ));
         }
