@@ -248,12 +248,8 @@ fn cost(a: &CostArgs) -> Result<()> {
     // clock), beside the one-operator one.
     let pipelined = if cfg.target_mhz > 0 {
         Some(
-            pipeline::cost::fmax::schedule_for(
-                &cfg,
-                cfg.target_family,
-                f64::from(cfg.target_mhz),
-            )
-            .map_err(anyhow::Error::msg)?,
+            pipeline::cost::fmax::schedule_for(&cfg, cfg.target_family, f64::from(cfg.target_mhz))
+                .map_err(anyhow::Error::msg)?,
         )
     } else {
         None

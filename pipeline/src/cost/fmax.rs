@@ -218,9 +218,7 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
         // The operand's conditional inversion is a LUT level of its own
         // before the chain's (see `Unit::Sqrt`'s cost).
         Unit::Sqrt { root } => Path::chain(root + 2).then(Path::luts(1)),
-        // A stage's adder is the remainder and the next dividend bit,
-        // `divisor + 2` bits, after the divisor's conditional inversion.
-        Unit::Div { divisor, .. } => Path::chain(divisor + 2).then(Path::luts(1)),
+        Unit::Div { divisor, .. } => Path::chain(divisor + 1).then(Path::luts(1)),
         Unit::Mem { .. } => Path {
             brams: 1.0,
             ..Path::default()
@@ -231,18 +229,10 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
 
 /// The longest path of a calibration unit: its units in order up to and
 /// including the first saturation clamp (one lane of a unit whose lanes
-/// work side by side, one stage of a two-stage one). A divider's cap
-/// compare is its stage 0's subtraction (`rtl::divider`: `H - d`, whose
-/// sign is registered), not a chain after its last stage: only the cap's
-/// select follows that stage.
+/// work side by side, one stage of a two-stage one).
 pub fn module_path(t: Target, units: &[Unit]) -> Path {
     let mut p = Path::default();
-    let mut divided = false;
     for u in units {
-        if divided && matches!(u, Unit::Cmp { .. }) {
-            continue;
-        }
-        divided |= matches!(u, Unit::Div { .. });
         p = p.then(unit_path(t, u));
         if matches!(u, Unit::Sat { .. }) {
             break;
@@ -550,28 +540,6 @@ mod tests {
             ] {
                 assert!(c >= 0.0, "{m:?}");
             }
-        }
-    }
-
-    /// Every fitted unit's predicted clock against its measurement
-    /// (`--nocapture` prints the table of docs/cost.md).
-    #[test]
-    fn fitted_units_are_predicted_within_15_percent() {
-        for t in [Target::Ice40, Target::Ecp5] {
-            for u in unit_predictions(t) {
-                let err = u.predicted_mhz / u.measured.mhz - 1.0;
-                let fitted = !CHECK_ONLY.contains(&u.measured.unit);
-                eprintln!(
-                    "| {}{} | {} | {:.1} | {:.1} | {:+.1}% |",
-                    u.measured.unit,
-                    if fitted { "" } else { " *" },
-                    u.measured.part,
-                    u.measured.mhz,
-                    u.predicted_mhz,
-                    100.0 * err
-                );
-            }
-            eprintln!("{:?}", model(t));
         }
     }
 

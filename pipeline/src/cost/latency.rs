@@ -31,8 +31,7 @@ use super::inventory;
 pub fn sample_schedule(cfg: &PipelineConfig) -> Schedule {
     let g = crate::hw::sample::plain(cfg);
     if cfg.target_mhz > 0 {
-        if let Ok(c) =
-            super::fmax::clock_schedule(&g, cfg.target_family, f64::from(cfg.target_mhz))
+        if let Ok(c) = super::fmax::clock_schedule(&g, cfg.target_family, f64::from(cfg.target_mhz))
         {
             return c.schedule;
         }
@@ -153,10 +152,7 @@ mod tests {
             ];
             eprintln!("{order:?}: plain {plain} (inventory {inv}); plain, shaded, voi, both, preint {row:?}");
             assert_eq!(row[0], plain);
-            assert_eq!(
-                row[1] - plain,
-                inventory::shaded_schedule_depth(&cfg) - inv
-            );
+            assert_eq!(row[1] - plain, inventory::shaded_schedule_depth(&cfg) - inv);
             assert_eq!(
                 row[2] - plain,
                 inventory::unit_schedule_depth(&cfg, (false, true)) - inv
@@ -165,10 +161,7 @@ mod tests {
                 row[3] - plain,
                 inventory::unit_schedule_depth(&cfg, (true, true)) - inv
             );
-            assert_eq!(
-                row[4] - plain,
-                inventory::preint_schedule_depth(&cfg) - inv
-            );
+            assert_eq!(row[4] - plain, inventory::preint_schedule_depth(&cfg) - inv);
             assert!(row[1..].iter().all(|&d| d > plain), "{row:?}");
             let stated = PipelineConfig {
                 datapath_latency: 40,

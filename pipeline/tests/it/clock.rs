@@ -227,7 +227,10 @@ fn target_mhz_is_validated() {
             ..d
         };
         let e = c.validate().unwrap_err().to_string();
-        assert!(e.contains(needle) && !e.contains('\n'), "{family:?} {mhz}: {e}");
+        assert!(
+            e.contains(needle) && !e.contains('\n'),
+            "{family:?} {mhz}: {e}"
+        );
         assert!(e.contains("target_mhz"), "{e}");
     }
     let text = "target_family = \"ice40\"\ntarget_mhz = 30\n";

@@ -13,8 +13,8 @@
 use std::path::{Path, PathBuf};
 
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::fixed::{Format, QuantStats};
 use pipeline::cost::latency::sample_schedule;
+use pipeline::fixed::{Format, QuantStats};
 use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 use pipeline::hw::sim::{build, simulate, Simulator};
 use pipeline::hw::testbench::{
