@@ -56,12 +56,14 @@ pub struct CostArgs {
     /// model fitted to `ercube synth` runs; ecp5 and ice40 only).
     #[arg(long, default_value = "assumed")]
     pub clock: String,
-    /// Pipeline the sample datapath for this clock on --target (MHz):
-    /// report the stages (latency) and register bits the delay model of
-    /// `pipeline::cost::fmax` needs to reach it, or refuse when no
-    /// schedule does. The cycle model keeps the configured latency.
+    /// Pipeline the sample datapath for this clock on --target (MHz,
+    /// 1..=1000): sets the configuration's `target_mhz` and
+    /// `target_family`, so the stages the delay model of
+    /// `pipeline::cost::fmax` places set the datapath's latency and the
+    /// run's cycles; reports the stages and register bits, or refuses
+    /// when no schedule reaches the clock.
     #[arg(long, allow_hyphen_values = true)]
-    pub target_mhz: Option<f64>,
+    pub target_mhz: Option<u16>,
     /// Sample empty space too (as render's --no-skip-empty).
     #[arg(long)]
     pub no_skip_empty: bool,
@@ -214,6 +216,15 @@ pub fn run(a: &CostArgs) -> Result<()> {
 }
 
 fn cost(a: &CostArgs) -> Result<()> {
+    let mut cfg = a.cfg.load()?;
+    if let Some(mhz) = a.target_mhz {
+        if mhz == 0 {
+            bail!("--target-mhz 0: give a clock of 1..=1000 MHz (leave the option out for one operator a stage)");
+        }
+        cfg.target_mhz = mhz;
+        cfg.target_family = a.target;
+        cfg.validate()?;
+    }
     let clock = match a.clock.trim() {
         "assumed" => (
             clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
@@ -221,7 +232,7 @@ fn cost(a: &CostArgs) -> Result<()> {
             clock::ClockSource::Assumed,
         ),
         "predicted" => {
-            let p = pipeline::cost::fmax::pe_prediction(&a.cfg.load()?, a.target)
+            let p = pipeline::cost::fmax::pe_prediction(&cfg, a.target)
                 .with_context(|| {
                     format!(
                         "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
@@ -233,22 +244,20 @@ fn cost(a: &CostArgs) -> Result<()> {
         }
         other => bail!("--clock {other}: expected assumed or predicted"),
     };
-    let pipelined = match a.target_mhz {
-        Some(f) => {
-            let f = clock::check_mhz(f)
-                .map_err(|e| anyhow::anyhow!(e.replace("--clock-mhz", "--target-mhz")))?;
-            Some(
-                pipeline::cost::fmax::schedule_for(&a.cfg.load()?, a.target, f)
-                    .map_err(anyhow::Error::msg)?,
-            )
-        }
-        None => None,
+    // The configuration's clock schedule (validated above: it reaches the
+    // clock), beside the one-operator one.
+    let pipelined = if cfg.target_mhz > 0 {
+        Some(
+            pipeline::cost::fmax::schedule_for(&cfg, cfg.target_family, f64::from(cfg.target_mhz))
+                .map_err(anyhow::Error::msg)?,
+        )
+    } else {
+        None
     };
     let skips = Skips {
         empty: !a.no_skip_empty,
         cull: !a.no_cull,
     };
-    let cfg = a.cfg.load()?;
     let sweep = parse_sweep(&a.sweep_pes)?;
     let archs = arch_configs(&cfg, &a.archs)?;
     let view = &a.view;

@@ -12,7 +12,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
@@ -76,7 +76,10 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     }
     cfg.validate()?;
     let g = pipeline::hw::sample::plain(&cfg);
-    let m = emit(&g, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
+    // The schedule the cycle model's latency is read from (one operator a
+    // stage, or the configuration's target_mhz).
+    let sch = pipeline::cost::latency::sample_schedule(&cfg);
+    let m = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
@@ -112,11 +115,20 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
         Order::BackToFront => "back to front",
         Order::FrontToBack => "front to back",
     };
+    let staging = if cfg.target_mhz > 0 {
+        format!(
+            "stages packed for {} MHz on {} by the delay model of `pipeline::cost::fmax`",
+            cfg.target_mhz,
+            cfg.target_family.name()
+        )
+    } else {
+        "at most one multiplier or one carry chain per stage".to_owned()
+    };
     let _ = writeln!(w, "# {MODULE}: the PE's sample datapath\n");
     let _ = writeln!(
         w,
         "Emitted by `ercube rtl` from the datapath's description (`pipeline::hw::sample::plain`) \
-         and its pipelined schedule (at most one multiplier or one carry chain per stage), \
+         and its pipelined schedule ({staging}), \
          compositing {order}. One sample issues per clock (`in_valid`); its outputs appear \
          **{} clocks** later with `out_valid`. Every register resets synchronously to zero; \
          the outputs load only from a valid sample.\n",

@@ -199,12 +199,32 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
         .and_then(|x| x.parse().ok())
         .expect("a stage count");
     assert!(stages > 1 && stages < 35, "{pipelined}");
-    let refusals: [(&[&str], &str); 3] = [
+    // The option sets the configuration's target_mhz: the PE's pipeline
+    // and the frame's drain follow the packed schedule.
+    assert!(
+        slow.contains(&format!("pipeline {stages} clocks")),
+        "{slow}"
+    );
+    assert!(assumed.contains("pipeline 35 clocks"), "{assumed}");
+    let drain = |text: &str| -> u64 {
+        text.split("drain ")
+            .nth(1)
+            .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+            .and_then(|x| x.parse().ok())
+            .expect("the run's drain cycles")
+    };
+    assert!(drain(&slow) < drain(&assumed), "{slow}\n{assumed}");
+    let refusals: [(&[&str], &str); 5] = [
         (&["--target", "xc7", "--clock", "predicted"], "xc7"),
         (
-            &["--target", "ecp5", "--target-mhz", "2000"],
+            &["--target", "ecp5", "--target-mhz", "900"],
             "no schedule reaches",
         ),
+        (
+            &["--target", "ecp5", "--target-mhz", "2000"],
+            "outside 0..=1000",
+        ),
+        (&["--target", "xc7", "--target-mhz", "50"], "delay model"),
         (&["--target", "ecp5", "--clock", "measured"], "--clock"),
     ];
     for (extra, needle) in refusals {

@@ -305,12 +305,45 @@ config_fields! {
         /// was written back; 1 is a datapath that composites in the cycle
         /// it reads.
         ///
-        /// Default 0 (derived: 26 clocks at the default widths).
+        /// Default 0 (derived: 35 clocks back to front and 36 front to
+        /// back at the default widths, the depth of the schedule `ercube
+        /// rtl` emits).
         pub datapath_latency: u16 {
             default: 0,
             range: 0..=256,
-            toml: "clocks from a sample's issue to its accumulators' write-back, 0..=256; 0 = the depth `ercube cost` derives",
+            toml: "clocks from a sample's issue to its accumulators' write-back, 0..=256; 0 = the depth of the emitted schedule",
             check: rules::datapath_latency,
+        },
+        /// The FPGA family whose delay model [`target_mhz`] pipelines the
+        /// sample datapath for: `ecp5` or `ice40` (the families with a
+        /// fitted model, [`crate::cost::fmax::model`]).
+        ///
+        /// Default `ecp5`. Unused while `target_mhz` is 0.
+        ///
+        /// [`target_mhz`]: PipelineConfig::target_mhz
+        pub target_family: crate::cost::Target {
+            default: crate::cost::Target::Ecp5,
+            toml: "FPGA family target_mhz pipelines for: \"ecp5\" or \"ice40\"",
+        },
+        /// The clock in MHz the sample datapath is pipelined for on
+        /// [`target_family`], `0..=1000`: pipeline registers go where the
+        /// delay model of [`crate::cost::fmax`] says a stage would exceed the
+        /// period ([`crate::cost::fmax::clock_schedule`]), fewer stages for
+        /// a slow clock, more where a fast one needs them. 0 keeps one
+        /// multiplier or one carry chain a stage. A derived
+        /// [`datapath_latency`], the model's cycles and `ercube rtl`'s
+        /// module follow the schedule; a clock no schedule reaches is
+        /// refused.
+        ///
+        /// Default 0 (one operator a stage).
+        ///
+        /// [`target_family`]: PipelineConfig::target_family
+        /// [`datapath_latency`]: PipelineConfig::datapath_latency
+        pub target_mhz: u16 {
+            default: 0,
+            range: 0..=1000,
+            toml: "MHz the sample datapath is pipelined for on target_family, 0..=1000; 0 = one multiplier or carry chain a stage",
+            check: rules::target_mhz,
         },
         /// Voxel gradient component (shading): a central difference of two
         /// voxel words times the axis's [`grad_scale`], then interpolated

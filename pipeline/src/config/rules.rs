@@ -29,7 +29,8 @@ impl PipelineConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.check_fields()?;
         terminate(self)?;
-        fold_headroom(self)
+        fold_headroom(self)?;
+        pipelining(self)
     }
 }
 

@@ -190,6 +190,26 @@ impl FieldValue for Migration {
     }
 }
 
+impl FieldValue for crate::cost::Target {
+    type Raw = crate::cost::Target;
+
+    fn to_raw(self) -> crate::cost::Target {
+        self
+    }
+
+    fn from_raw(
+        _: &str,
+        raw: crate::cost::Target,
+        _: Option<Range>,
+    ) -> Result<crate::cost::Target, ConfigError> {
+        Ok(raw)
+    }
+
+    fn toml_value(raw: crate::cost::Target) -> String {
+        format!("\"{}\"", raw.name())
+    }
+}
+
 impl FieldValue for RayBuffer {
     type Raw = RayBuffer;
 

@@ -30,7 +30,7 @@ use crate::config::PipelineConfig;
 
 mod pipelining;
 
-pub use pipelining::{schedule_for, ClockSchedule};
+pub use pipelining::{clock_schedule, schedule_for, ClockSchedule, Clocked};
 
 /// A unit's clock measured by `ercube synth --target PART --unit UNIT` at
 /// the default widths: the unit between its input ports and output
@@ -321,8 +321,18 @@ fn least_squares(rows: &[[f64; 6]], y: &[f64], keep: &[bool; 6]) -> [f64; 6] {
 }
 
 /// The delay model of `t` fitted to [`MEASURED`] (`None` for a family
-/// without an open place and route: xc7).
+/// without an open place and route: xc7), fitted once per process.
 pub fn model(t: Target) -> Option<DelayModel> {
+    static FITTED: std::sync::OnceLock<[Option<DelayModel>; 3]> = std::sync::OnceLock::new();
+    let fits = FITTED.get_or_init(|| Target::ALL.map(fit));
+    Target::ALL
+        .iter()
+        .position(|&x| x == t)
+        .and_then(|i| fits[i])
+}
+
+/// Fits [`model`].
+fn fit(t: Target) -> Option<DelayModel> {
     let cfg = PipelineConfig::default();
     let units = crate::synth::units(&cfg).ok()?;
     let mut rows = Vec::new();
@@ -455,15 +465,17 @@ pub struct PePrediction {
     pub model: DelayModel,
 }
 
-/// The clock of [`crate::hw::sample::plain`]'s schedule on `t`: each
-/// node's arrival within its stage (operands produced in the same stage
-/// chain on; a memory read or register starts a stage), the slowest
-/// arrival priced by [`model`]. `None` for xc7 (no model).
+/// The clock of [`crate::hw::sample::plain`]'s schedule on `t` (the
+/// configuration's, [`crate::cost::latency::sample_schedule`]: one
+/// operator a stage, or the stages `target_mhz` packs): each node's
+/// arrival within its stage (operands produced in the same stage chain
+/// on; a memory read or register starts a stage), the slowest arrival
+/// priced by [`model`]. `None` for xc7 (no model).
 pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
     use crate::hw::Op;
     let model = model(t)?;
     let g = crate::hw::sample::plain(cfg);
-    let s = crate::hw::schedule::schedule(&g);
+    let s = crate::cost::latency::sample_schedule(cfg);
     let consumers = g.consumers();
     let n = g.nodes.len();
     let mut arrive = vec![Path::default(); n];

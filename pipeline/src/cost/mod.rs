@@ -19,7 +19,8 @@
 //! (`synth_xilinx`, `synth_ice40 -dsp`) and checks the estimate: DSP and
 //! block-RAM counts exactly, LUTs and flip-flops within 10% at the default
 //! widths (25% at the narrow and wide ones). [`fmax`] predicts the clock
-//! from the schedule's stages.
+//! from the schedule's stages; [`latency`] gives the datapath's depth in
+//! clocks from the same schedule.
 
 pub mod arch;
 pub mod clock;
@@ -27,6 +28,7 @@ pub mod design;
 pub mod dsp;
 pub mod fmax;
 pub mod inventory;
+pub mod latency;
 pub mod memory;
 pub mod parts;
 pub mod preint;
@@ -40,50 +42,4 @@ pub mod voi;
 
 pub use target::{Resources, Target};
 
-/// The sample datapath's depth in clocks, from a ray slot's read to its
-/// accumulators' write-back: [`PipelineConfig::datapath_latency`] when set,
-/// else the depth [`inventory`]'s schedule derives for the configured
-/// widths (the square root's bits set it apart from a fixed count).
-///
-/// [`PipelineConfig::datapath_latency`]: crate::config::PipelineConfig::datapath_latency
-pub fn datapath_latency(cfg: &crate::config::PipelineConfig) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    inventory::schedule_depth(cfg).max(1)
-}
-
-/// [`datapath_latency`] of a datapath with the gradient and shading unit
-/// (`shading`) and the volume-of-interest stage (`voi`): the configured
-/// latency, or the depth of that schedule.
-pub fn unit_latency(cfg: &crate::config::PipelineConfig, units: (bool, bool)) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    inventory::unit_schedule_depth(cfg, units).max(1)
-}
-
-/// [`datapath_latency`] of a datapath with the gradient and shading unit:
-/// the configured latency, or the depth of the shaded schedule.
-pub fn shaded_latency(cfg: &crate::config::PipelineConfig) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    inventory::shaded_schedule_depth(cfg).max(1)
-}
-
-/// [`datapath_latency`] of a datapath with the pre-integration unit
-/// ([`crate::preint`], priced in [`preint`]): the configured latency, or
-/// the depth of that schedule, where the unit takes the classification's
-/// and the log table's place: from the sample, the table position
-/// multiply, the address, the table read, two lerp levels and `tau len`
-/// into the exp stage, and the colour dividers beside it, before the
-/// compositing. The dividers' quotient bits set it: 29 clocks against 26
-/// at the default widths (`p` and the exp stage finish where the plain
-/// datapath's do, both waiting for the path length's square root).
-pub fn preint_latency(cfg: &crate::config::PipelineConfig) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    inventory::preint_schedule_depth(cfg).max(1)
-}
+pub use latency::{datapath_latency, preint_latency, shaded_latency, unit_latency};

@@ -501,8 +501,14 @@ mod tests {
             crate::cost::preint_latency(&cfg),
         );
         assert!(pre > plain, "{pre} vs {plain}");
-        let pe = pe_inventory(&cfg, &Geometry::new([128, 128, 128], 16).with_preint(true));
-        assert_eq!(pe.schedule.depth, pre);
+        // The plain schedule's depth plus the unit's extra steps in the
+        // inventory's schedule.
+        let geo = Geometry::new([128, 128, 128], 16);
+        let (with, without) = (
+            pe_inventory(&cfg, &geo.with_preint(true)).schedule.depth,
+            pe_inventory(&cfg, &geo).schedule.depth,
+        );
+        assert_eq!(pre - plain, with - without);
         // A stated latency is kept.
         cfg.datapath_latency = 40;
         assert_eq!(crate::cost::preint_latency(&cfg), 40);

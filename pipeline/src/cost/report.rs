@@ -116,7 +116,8 @@ pub struct CostReport {
     pub pe_items: Vec<ItemRow>,
     /// One PE.
     pub pe: Resources,
-    /// Sample pipeline depth in clocks.
+    /// Sample pipeline depth in clocks: the latency the cycle model runs
+    /// ([`super::latency::geometry_latency`]).
     pub pipeline_depth: u32,
     /// External voxel memory per PE (bits).
     pub voxel_memory_bits_per_pe: u64,
@@ -262,16 +263,24 @@ pub fn build(
         }
     }
     let pes = u64::from(geo.pes.max(1));
+    let depth = super::latency::geometry_latency(cfg, &geo);
+    let staging = if cfg.target_mhz > 0 {
+        format!(
+            "pipelined for {} MHz on {} ({depth} clocks deep)",
+            cfg.target_mhz,
+            cfg.target_family.name()
+        )
+    } else {
+        format!("pipelined one multiplier or carry chain a stage ({depth} clocks deep)")
+    };
     let notes = vec![
         if source == super::clock::ClockSource::Predicted {
             format!(
-                "Clock {clock_mhz} MHz is predicted from the slowest stage of the sample datapath's schedule by a delay model fitted to units placed and routed with ercube synth; the PE is not placed and routed. The datapath is pipelined one unit per clock ({} clocks deep).",
-                pe.schedule.depth
+                "Clock {clock_mhz} MHz is predicted from the slowest stage of the sample datapath's schedule by a delay model fitted to units placed and routed with ercube synth; the PE is not placed and routed. The datapath is {staging}."
             )
         } else {
             format!(
-                "Clock {clock_mhz} MHz is an assumption; no timing analysis is done. The datapath is pipelined one unit per clock ({} clocks deep).",
-                pe.schedule.depth
+                "Clock {clock_mhz} MHz is an assumption; no timing analysis is done. The datapath is {staging}."
             )
         },
         format!(
@@ -301,7 +310,7 @@ pub fn build(
         geometry: geo,
         pe_items: rows(&pe.items, target),
         pe: pe_res,
-        pipeline_depth: pe.schedule.depth,
+        pipeline_depth: depth,
         voxel_memory_bits_per_pe: pe.voxel_memory_bits,
         controller_items: rows(&ctrl_items, target),
         controller: ctrl,

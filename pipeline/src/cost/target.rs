@@ -1,12 +1,12 @@
 //! FPGA families the estimator maps to, and the resource vector it counts.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::{Add, AddAssign, Mul};
 use std::str::FromStr;
 
 /// An FPGA family: its logic element, multiplier block and block RAM.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Target {
     /// Xilinx 7-series (Artix-7): LUT6 + CARRY4, DSP48E1 (25x18 signed),
     /// RAMB18E1 / RAMB36E1, LUT-RAM in SLICEMs. UltraScale+ parts are

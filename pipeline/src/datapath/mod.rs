@@ -142,9 +142,10 @@ impl Datapath {
     /// schedule with the stage ([`crate::cost::unit_latency`]): its
     /// distance and weight run beside interpolation and classification,
     /// its multiply between classification and the opacity correction;
-    /// the distance's square root makes the datapath deeper (49 clocks
-    /// against 26 at the default widths), which lengthens only what waits
-    /// for samples in flight. One the configuration states is kept.
+    /// the distance's square root makes the datapath deeper (58 clocks
+    /// against 35 back to front at the default widths), which lengthens
+    /// only what waits for samples in flight. One the configuration states
+    /// is kept.
     pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
         if self.cfg.datapath_latency == 0 {
             let units = (self.shade.is_some(), true);

@@ -133,7 +133,16 @@ fn addr_bits(depth: u64) -> u32 {
 
 /// Emits `g` as module `name`: see the module documentation.
 pub fn emit(g: &Graph, name: &str) -> Result<PipelinedModule, RtlError> {
-    let sch = schedule(g);
+    emit_scheduled(g, &schedule(g), name)
+}
+
+/// Emits `g` as module `name` on the stages of `sch`, a schedule of `g`
+/// (one for a clock: `crate::cost::latency::sample_schedule`).
+pub fn emit_scheduled(
+    g: &Graph,
+    sch: &super::schedule::Schedule,
+    name: &str,
+) -> Result<PipelinedModule, RtlError> {
     let (stage, reads, depth) = (&sch.stage, &sch.reads, sch.depth.max(1));
     let n = g.nodes.len();
     // Addresses of the outside memory's reads are outputs in their stage.

@@ -133,17 +133,68 @@ fn latency_moves_cycles_not_bits() {
     assert!(drained > 0, "no frame drained its datapath");
 }
 
-/// The default latency is the depth `ercube cost` schedules for the
-/// widths, and a wider square root deepens it.
+/// The derived latency is the depth of the module `ercube rtl` emits
+/// (`hw::pipeline_rtl` on the configuration's schedule) at narrow,
+/// default and wide widths, both orders, one operator a stage and
+/// pipelined to a clock on both families; a stated latency is kept.
 #[test]
-fn default_latency_is_the_cost_models_depth() {
+fn derived_latency_is_the_emitted_modules_depth() {
+    use pipeline::cost::Target;
+    use pipeline::hw::pipeline_rtl::emit_scheduled;
+    let widths = [
+        ("default", PipelineConfig::default()),
+        (
+            "narrow",
+            PipelineConfig::from_toml_str(crate::cost::NARROW).expect("narrow"),
+        ),
+        (
+            "wide",
+            PipelineConfig::from_toml_str(crate::cost::WIDE).expect("wide"),
+        ),
+    ];
+    let clocks = [
+        (Target::Ecp5, 0),
+        (Target::Ecp5, 40),
+        (Target::Ecp5, 80),
+        (Target::Ice40, 20),
+    ];
+    let mut depths = Vec::new();
+    for (name, base) in &widths {
+        for order in [Order::BackToFront, Order::FrontToBack] {
+            for (family, mhz) in clocks {
+                let cfg = PipelineConfig {
+                    order,
+                    target_family: family,
+                    target_mhz: mhz,
+                    ..*base
+                };
+                cfg.validate().expect("a reachable clock");
+                let g = pipeline::hw::sample::plain(&cfg);
+                let sch = pipeline::cost::latency::sample_schedule(&cfg);
+                let m = emit_scheduled(&g, &sch, "ercube_sample").expect("emits");
+                let latency = pipeline::cost::datapath_latency(&cfg);
+                assert_eq!(
+                    latency, m.depth,
+                    "{name} {order:?} {family:?} {mhz} MHz: the model's latency"
+                );
+                if mhz == 0 {
+                    // One operator a stage: the schedule the module
+                    // documents, not the cost inventory's step list.
+                    assert_eq!(latency, pipeline::hw::schedule::schedule(&g).depth);
+                }
+                depths.push((name, order, family, mhz, latency));
+            }
+        }
+    }
+    eprintln!("{depths:?}");
+    // The default widths: 35 clocks back to front, 36 front to back.
+    assert_eq!(depths[0].4, 35);
+    assert_eq!(depths[4].4, 36);
+    // A slow clock packs stages: fewer than one operator a stage.
+    for group in depths.chunks(clocks.len()) {
+        assert!(group[1].4 < group[0].4, "{group:?}");
+    }
     let cfg = PipelineConfig::default();
-    let geo = pipeline::cost::inventory::Geometry::new([64, 64, 64], cfg.pes);
-    let depth = pipeline::cost::inventory::pe_inventory(&cfg, &geo)
-        .schedule
-        .depth;
-    assert_eq!(pipeline::cost::datapath_latency(&cfg), depth);
-    assert!(depth > 20, "{depth}");
     let set = PipelineConfig {
         datapath_latency: 7,
         ..cfg
@@ -155,6 +206,40 @@ fn default_latency_is_the_cost_models_depth() {
     };
     let e = bad.validate().unwrap_err().to_string();
     assert!(e.contains("datapath_latency") && e.contains("257"), "{e}");
+}
+
+/// `target_mhz` is checked in one line: its range, a family without a
+/// delay model, a clock no schedule reaches.
+#[test]
+fn target_mhz_is_validated() {
+    use pipeline::cost::Target;
+    let d = PipelineConfig::default();
+    let cases = [
+        (Target::Ecp5, 1001, "outside 0..=1000"),
+        (Target::Xc7, 50, "delay model"),
+        (Target::Ecp5, 900, "no schedule reaches"),
+        (Target::Ice40, 400, "no schedule reaches"),
+    ];
+    for (family, mhz, needle) in cases {
+        let c = PipelineConfig {
+            target_family: family,
+            target_mhz: mhz,
+            ..d
+        };
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.contains(needle) && !e.contains('\n'),
+            "{family:?} {mhz}: {e}"
+        );
+        assert!(e.contains("target_mhz"), "{e}");
+    }
+    let text = "target_family = \"ice40\"\ntarget_mhz = 30\n";
+    let c = PipelineConfig::from_toml_str(text).expect("reads");
+    assert_eq!((c.target_family, c.target_mhz), (Target::Ice40, 30));
+    let back = PipelineConfig::from_toml_str(&c.to_toml()).expect("round trip");
+    assert_eq!(back, c);
+    let e = PipelineConfig::from_toml_str("target_family = \"xc9\"\n").unwrap_err();
+    assert!(!e.to_string().contains('\n'), "{e}");
 }
 
 /// Every stage's step has the shape of a clocked process: the PE's own

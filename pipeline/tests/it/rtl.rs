@@ -13,8 +13,9 @@
 use std::path::{Path, PathBuf};
 
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::cost::latency::sample_schedule;
 use pipeline::fixed::{Format, QuantStats};
-use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 use pipeline::hw::sim::{build, simulate, Simulator};
 use pipeline::hw::testbench::{
     compare, stimulus, table_writes, testbench, Dut, Expected, Mismatch, Sample,
@@ -47,7 +48,7 @@ struct Case {
 /// drained.
 fn case(cfg: &PipelineConfig, name: &str, n: usize, seed: u8) -> Case {
     let g: Graph = plain(cfg);
-    let module = emit(&g, name).expect("the plain sample emits");
+    let module = emit_scheduled(&g, &sample_schedule(cfg), name).expect("the plain sample emits");
     let mut rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]);
     // Random tables; a quarter of the opacities zero (invisible samples).
     let tables: Vec<(String, Vec<i64>)> = g
@@ -209,12 +210,20 @@ fn wide() -> PipelineConfig {
     PipelineConfig::from_toml_str(&text.join("\n")).expect("wide")
 }
 
-/// The four configurations: default widths in both orders, narrow and
-/// wide formats.
+/// The five configurations: default widths in both orders, narrow and
+/// wide formats, and the default widths pipelined for 60 MHz on ECP5
+/// (`target_mhz`: stages packed by the delay model, 22 against 35).
 fn configs() -> Vec<(&'static str, PipelineConfig)> {
     let d = PipelineConfig::default();
     vec![
         ("btf", d),
+        (
+            "ecp5_60mhz",
+            PipelineConfig {
+                target_mhz: 60,
+                ..d
+            },
+        ),
         (
             "ftb",
             PipelineConfig {
@@ -294,7 +303,12 @@ fn a_mutated_operator_is_caught() {
 fn emitted_module_lints_and_synthesizes_without_latches() {
     let dir = tempfile::tempdir().expect("tempdir");
     for (name, cfg) in configs() {
-        let m = emit(&plain(&cfg), &format!("ercube_sample_{name}")).expect("emits");
+        let m = emit_scheduled(
+            &plain(&cfg),
+            &sample_schedule(&cfg),
+            &format!("ercube_sample_{name}"),
+        )
+        .expect("emits");
         let src = dir.path().join(format!("{}.v", m.name));
         std::fs::write(&src, &m.verilog).expect("write");
         let tool = |prog: &str, args: &[&str]| {

@@ -20,6 +20,44 @@ pub(in crate::config) fn datapath_latency(
     Ok(())
 }
 
+/// The check of `target_mhz`: within `0..=1000` and, when set, on a
+/// family with a delay model (the clock's reachability is checked last,
+/// by [`PipelineConfig::validate`], once every width has passed).
+pub(in crate::config) fn target_mhz(
+    c: &PipelineConfig,
+    field: &str,
+    mhz: u16,
+) -> Result<(), ConfigError> {
+    if mhz > 1000 {
+        return Err(invalid(
+            field,
+            format!("target_mhz = {mhz} is outside 0..=1000"),
+        ));
+    }
+    if mhz > 0 && crate::cost::fmax::model(c.target_family).is_none() {
+        return Err(invalid(
+            field,
+            format!(
+                "target_mhz = {mhz} needs a family with a delay model (target_family = \"ecp5\" or \"ice40\"), not \"{}\"",
+                c.target_family.name()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The clock `target_mhz` asks for is one the delay model's schedule
+/// reaches on `target_family` (no single operator slower than the period).
+pub(in crate::config) fn pipelining(c: &PipelineConfig) -> Result<(), ConfigError> {
+    if c.target_mhz == 0 {
+        return Ok(());
+    }
+    let g = crate::hw::sample::plain(c);
+    crate::cost::fmax::clock_schedule(&g, c.target_family, f64::from(c.target_mhz))
+        .map(|_| ())
+        .map_err(|e| invalid("target_mhz", e))
+}
+
 /// The check of `pes`.
 pub(in crate::config) fn pes(_: &PipelineConfig, field: &str, pes: u16) -> Result<(), ConfigError> {
     if pes == 0 || pes > MAX_PES {

@@ -7,6 +7,8 @@ use serde::Serialize;
 use super::{model, node_path, Path};
 use crate::config::PipelineConfig;
 use crate::cost::Target;
+use crate::hw::schedule::{registers_and_depth, Schedule};
+use crate::hw::{Graph, Op};
 
 /// The sample datapath pipelined for a clock: how many chains and
 /// multipliers each stage holds, and what that costs in depth and
@@ -31,27 +33,32 @@ pub struct ClockSchedule {
     pub one_op_register_bits: u64,
 }
 
-/// Schedules [`crate::hw::sample::plain`] for `target_mhz` on `t`: as
-/// soon as possible, each operator joining its operands' stage while the
-/// stage's predicted path stays within the period, else starting the next
-/// stage (its operands registered); a memory read or a declared register
-/// starts a stage, a square root takes one stage per result bit. A
-/// one-line error when the model has no figures for `t` or when one
-/// operator alone is slower than the period.
-pub fn schedule_for(
-    cfg: &PipelineConfig,
-    t: Target,
-    target_mhz: f64,
-) -> Result<ClockSchedule, String> {
-    use crate::hw::Op;
+/// A graph's schedule for a clock, and the clock its slowest stage is
+/// predicted to reach.
+#[derive(Debug, Clone)]
+pub struct Clocked {
+    /// The stages, in the form `ercube rtl` emits and the model's latency
+    /// reads ([`crate::cost::latency::sample_schedule`]).
+    pub schedule: Schedule,
+    /// The slowest stage's predicted clock, MHz (at least the target).
+    pub predicted_mhz: f64,
+}
+
+/// Schedules `g` for `target_mhz` on `t`: as soon as possible, each
+/// operator joining its operands' stage while the stage's predicted path
+/// stays within the period, else starting the next stage (its operands
+/// registered); a memory read or a declared register starts a stage, a
+/// square root takes one stage per result bit. A one-line error when the
+/// model has no figures for `t` or when one operator alone is slower than
+/// the period.
+pub fn clock_schedule(g: &Graph, t: Target, target_mhz: f64) -> Result<Clocked, String> {
     let model = model(t).ok_or_else(|| {
         format!(
-            "--target-mhz: no delay model for {} (no open timing flow to fit it to)",
+            "target_mhz: no delay model for {} (no open timing flow to fit it to)",
             t.name()
         )
     })?;
     let budget = 1e3 / target_mhz;
-    let g = crate::hw::sample::plain(cfg);
     let consumers = g.consumers();
     let n = g.nodes.len();
     let mut stage = vec![0u32; n];
@@ -61,7 +68,7 @@ pub fn schedule_for(
     for i in 0..n {
         let id = crate::hw::NodeId(i);
         let op = g.node(id).op;
-        let own = node_path(t, &g, id, &consumers);
+        let own = node_path(t, g, id, &consumers);
         let ops = op.operands();
         let s = ops.iter().map(|o| stage[o.0]).max().unwrap_or(0);
         let (st, r, arr) = match op {
@@ -102,10 +109,14 @@ pub fn schedule_for(
         };
         let ns = model.period_ns(&arr);
         if ns > budget {
+            let what = if arr == Path::default() {
+                "a register-to-register hop".to_owned()
+            } else {
+                g.node(id).name.clone()
+            };
             return Err(format!(
-                "--target-mhz {target_mhz}: no schedule reaches it on {}: {} alone is predicted at {:.1} MHz",
+                "target_mhz = {target_mhz}: no schedule reaches it on {}: {what} alone is predicted at {:.1} MHz",
                 t.name(),
-                g.node(id).name,
                 1e3 / ns
             ));
         }
@@ -114,14 +125,34 @@ pub fn schedule_for(
         reads[i] = r;
         arrive[i] = arr;
     }
-    let (register_bits, depth) = crate::hw::schedule::registers_and_depth(&g, &stage, &reads);
+    let (register_bits, depth) = registers_and_depth(g, &stage, &reads);
+    Ok(Clocked {
+        schedule: Schedule {
+            stage,
+            reads,
+            depth,
+            register_bits,
+        },
+        predicted_mhz: 1e3 / worst.max(model.base_ns),
+    })
+}
+
+/// Schedules [`crate::hw::sample::plain`] for `target_mhz` on `t`
+/// ([`clock_schedule`]), against the one-operator-per-stage schedule.
+pub fn schedule_for(
+    cfg: &PipelineConfig,
+    t: Target,
+    target_mhz: f64,
+) -> Result<ClockSchedule, String> {
+    let g = crate::hw::sample::plain(cfg);
+    let c = clock_schedule(&g, t, target_mhz)?;
     let one = crate::hw::schedule::schedule(&g);
     Ok(ClockSchedule {
         target: t,
         target_mhz,
-        predicted_mhz: 1e3 / worst.max(model.base_ns),
-        depth,
-        register_bits,
+        predicted_mhz: c.predicted_mhz,
+        depth: c.schedule.depth,
+        register_bits: c.schedule.register_bits,
         one_op_depth: one.depth,
         one_op_register_bits: one.register_bits,
     })
