@@ -296,6 +296,7 @@ pub fn emit(g: &Graph, name: &str) -> Result<PipelinedModule, RtlError> {
                 b.line(&format!("wire {} {v}_a = {addr};", range(ab)));
                 mem_reads[m.0].push((v.clone(), format!("{v}_a")));
             }
+            Op::Div(..) => return Err(RtlError::Unsupported(format!("a divider ({})", node.name))),
             Op::Isqrt(x) => {
                 let f = node.fmt.expect("a square root has a format");
                 let y = super::isqrt_rtl::isqrt(

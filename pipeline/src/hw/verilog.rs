@@ -202,11 +202,12 @@ pub fn cut(
                 name[id.0] = Some(v);
                 continue;
             }
-            Op::Input | Op::Read(..) | Op::Isqrt(_) => {
+            Op::Input | Op::Read(..) | Op::Isqrt(_) | Op::Div(..) => {
                 return Err(RtlError::Unsupported(format!(
                     "{} inside a cut ({})",
                     match n.op {
                         Op::Isqrt(_) => "an integer square root",
+                        Op::Div(..) => "a divider",
                         Op::Read(..) => "a memory read",
                         _ => "a port",
                     },
