@@ -3,12 +3,16 @@
 //! cost inventory, the probe names and the Verilog all derive.
 //!
 //! A [`Graph`] is built once per configuration (for instance
-//! [`sample::plain`] from a [`PipelineConfig`](crate::config::PipelineConfig)).
+//! [`sample::plain`] from a [`PipelineConfig`](crate::config::PipelineConfig));
+//! the units beside the plain sample are graphs of their own:
+//! [`shading::shading`], [`voi::voi`], [`preint::preint`] and the merge's
+//! [`tents::tents`].
 //! Every node is one operator on wired words ([`Word`]: width, fraction
 //! bits, signedness); the operators are full precision, as in
 //! [`crate::fixed`], and only a [`Op::Quantize`] (or [`Op::ShrQuantize`],
 //! [`Op::Isqrt`]) assigns into a declared [`Format`] with its rounding and
-//! overflow. Nodes are created in dependency order, so the node list is a
+//! overflow (a divider, [`Op::Div`], truncates and saturates onto its
+//! word). Nodes are created in dependency order, so the node list is a
 //! topological order and every consumer is one pass over it:
 //!
 //! - [`eval`]: the bit-exact evaluator (each node's raw word);
@@ -22,6 +26,7 @@
 //!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
+mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
 pub mod pipeline_rtl;

@@ -17,7 +17,7 @@
 //! Ports: the step's front scalar `front` (the sample), the ray's
 //! previous sample `prev`, the half-step flag `half` (its back scalar is
 //! the front one, its path half the step's), the per-frame table scale
-//! `k` (`step`) and the ray's path per slice step `len` (`path`).
+//! `scale` (`K`, in `step`) and the ray's path per slice step `len` (`path`).
 //! Outputs: `visible` (the extinction is not zero), the colour `c_r`,
 //! `c_g`, `c_b` (`color`) and the opacity `alpha` (`opacity_corr`).
 
@@ -125,7 +125,7 @@ pub fn preint(cfg: &PipelineConfig) -> Graph {
     let front = g.input("front", c.sample);
     let prev = g.input("prev", c.sample);
     let half = g.input_word("half", Word::unsigned(1, 0));
-    let k = g.input("k", c.step);
+    let k = g.input("scale", c.step);
     let len = g.input("len", c.path);
 
     // 1. Table positions: the front's bin i, the back's j (a half step's

@@ -17,7 +17,8 @@
 //! `ty.<col>.<k>`, `tz.<k>.<row>.<col>`, as [`crate::shading::Taps`]),
 //! the scalar's weights `wx`, `wy`, the per-frame broadcast (`scale.*`,
 //! `light<i>.*`, `halfv<i>.*`, `ka`, `kd`, `ks`, `inv_fade`, `inv_g`,
-//! the flags) and the classified `r`, `g`, `b`, `a`. Outputs: the shaded
+//! the flags) and the classified `class.r`, `class.g`, `class.b`,
+//! `class.a`. Outputs: the shaded
 //! `c_r`, `c_g`, `c_b` (`color`), `alpha` (`alpha`).
 
 use super::{Graph, NodeId, Word};
@@ -77,8 +78,8 @@ pub fn shading(cfg: &PipelineConfig, lights: usize) -> Graph {
     let bit = Word::unsigned(1, 0);
     let fade = g.input_word("fade", bit);
     let gopac = g.input_word("gopac", bit);
-    let rgb = ["r", "g", "b"].map(|n| g.input(n, c.color));
-    let a = g.input("a", c.alpha);
+    let rgb = ["r", "g", "b"].map(|n| g.input(&format!("class.{n}"), c.color));
+    let a = g.input("class.a", c.alpha);
 
     // 1. Central differences (hi - lo) k into `gradient`, per axis and
     // corner [row][col].
@@ -240,7 +241,9 @@ pub fn shading(cfg: &PipelineConfig, lights: usize) -> Graph {
         } else {
             e0
         };
-        g.item("shading", "sums over the lights", 0);
+        if i > 0 {
+            g.item("shading", "sums over the lights", 0);
+        }
         diffuse = Some(match diffuse {
             None => dl,
             Some(s) => g.sum(&format!("diffuse.s{i}"), s, dl, false),

@@ -12,7 +12,7 @@
 //!
 //! Ports: the sample's position (`x`, `y` in `position`, the slice `z`),
 //! the per-frame broadcast (`centre.*`, `axis.*`, `half.*`, `radius`,
-//! its square `radius2`, `gain`, the flags) and the classified opacity `a`. Outputs: `weight`
+//! its square `radius2`, `gain`, the flags) and the classified opacity `class.a`. Outputs: `weight`
 //! (`voi_weight`), `factor` (`voi_factor`) and `alpha` (`alpha`).
 
 use super::{Graph, NodeId, Word};
@@ -54,7 +54,7 @@ pub fn voi(cfg: &PipelineConfig) -> Graph {
     let gain = g.input("gain", c.voi_gain);
     let bit = Word::unsigned(1, 0);
     let [sphere, step, outside] = ["sphere", "step", "outside"].map(|n| g.input_word(n, bit));
-    let a = g.input("a", c.alpha);
+    let a = g.input("class.a", c.alpha);
 
     // 1. q = |p - c| k per axis.
     let fd = i32::from(dist.frac());
