@@ -136,6 +136,13 @@ impl PreintUnit {
         Ok(PreintUnit { bins, scale, table })
     }
 
+    /// The unit from its words, for the description's checks
+    /// (`crate::hw::units_tests`).
+    #[cfg(test)]
+    pub(crate) fn from_words(bins: usize, scale: Fx, table: Vec<[Fx; 4]>) -> PreintUnit {
+        PreintUnit { bins, scale, table }
+    }
+
     /// Bins per table axis.
     pub fn bins(&self) -> usize {
         self.bins

@@ -217,6 +217,30 @@ impl ShadeUnit {
         })
     }
 
+    /// The unit from its words, for the description's checks
+    /// (`crate::hw::units_tests`).
+    #[cfg(test)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn from_words(
+        lights: Vec<[Fx; 3]>,
+        halves: Vec<[Fx; 3]>,
+        k: [Fx; 3],
+        scale: [Fx; 3],
+        inv_fade: Option<Fx>,
+        inv_g: Option<Fx>,
+        power: Vec<Fx>,
+    ) -> ShadeUnit {
+        ShadeUnit {
+            lights,
+            halves,
+            k,
+            scale,
+            inv_fade,
+            inv_g,
+            power,
+        }
+    }
+
     /// Lights in the frame (the headlight counts one).
     pub fn light_count(&self) -> usize {
         self.lights.len()

@@ -141,6 +141,30 @@ impl VoiUnit {
         })
     }
 
+    /// The stage's constants from their words, for the description's
+    /// checks (`crate::hw::units_tests`).
+    #[cfg(test)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn from_words(
+        centre: [Fx; 3],
+        axis: [Fx; 3],
+        half: [Fx; 3],
+        radius: Fx,
+        gain: Fx,
+        (sphere, outside, step): (bool, bool, bool),
+    ) -> VoiUnit {
+        VoiUnit {
+            centre,
+            axis,
+            half,
+            radius,
+            sphere,
+            outside,
+            step,
+            gain,
+        }
+    }
+
     /// Steps 1 to 5: the opacity factor of a sample at view position
     /// `(x, y, z)` (`x`, `y` in `position`, `z` the slice).
     pub fn factor(

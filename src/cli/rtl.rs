@@ -1,9 +1,11 @@
 //! `ercube rtl`: the PE's sample datapath as synthesizable Verilog, from
 //! the datapath's description (`pipeline::hw::sample`) and its pipelined
 //! schedule (`pipeline::hw::pipeline_rtl`), with a file list and a README
-//! naming every port. What is not emitted yet (the PE's control and stage
-//! state machines, the array, the controller, shading, the volume of
-//! interest, pre-integration) is refused in one line naming it.
+//! naming every port; with `--shading`, `--voi`, `--preint` also those
+//! units, each its own pipelined module from its description
+//! (`pipeline::hw::shading`, `voi`, `preint`). What is not emitted yet
+//! (the PE's control and stage state machines, the array, the controller)
+//! is refused in one line naming it.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -40,13 +42,14 @@ pub struct RtlArgs {
     /// The controller (refused: not emitted yet).
     #[arg(long)]
     pub controller: bool,
-    /// The shading unit (refused: not emitted yet).
+    /// Also the gradient and shading unit (`ercube_shading.v`, built for
+    /// one light).
     #[arg(long)]
     pub shading: bool,
-    /// The volume-of-interest unit (refused: not emitted yet).
+    /// Also the volume-of-interest stage (`ercube_voi.v`).
     #[arg(long)]
     pub voi: bool,
-    /// The pre-integration unit (refused: not emitted yet).
+    /// Also the pre-integration unit (`ercube_preint.v`).
     #[arg(long)]
     pub preint: bool,
 }
@@ -57,12 +60,9 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         (a.pe, "the PE's control and stage state machines are"),
         (a.array, "the PE array is"),
         (a.controller, "the controller is"),
-        (a.shading, "shading is"),
-        (a.voi, "the volume of interest is"),
-        (a.preint, "pre-integration is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the plain sample's datapath is)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -80,24 +80,52 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     // stage, or the configuration's target_mhz).
     let sch = pipeline::cost::latency::sample_schedule(&cfg);
     let m = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
+    let mut units = Vec::new();
+    let builders: [(bool, &str, fn(&PipelineConfig) -> pipeline::hw::Graph); 3] = [
+        (a.shading, "shading", |c| {
+            pipeline::hw::shading::shading(c, 1)
+        }),
+        (a.voi, "voi", pipeline::hw::voi::voi),
+        (a.preint, "preint", pipeline::hw::preint::preint),
+    ];
+    for (on, name, g) in builders {
+        if on {
+            let module = format!("ercube_{name}");
+            let u = emit(&g(&cfg), &module).map_err(|e| anyhow!("rtl: {name}: {e}"))?;
+            units.push(u);
+        }
+    }
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
-        let v = format!("{MODULE}.v");
-        write(&a.out_dir.join(&v), &m.verilog)?;
-        write(&a.out_dir.join("filelist.f"), &format!("{v}\n"))?;
-        write(&a.out_dir.join("README.md"), &readme(&cfg, &m))?;
+        let mut list = String::new();
+        for u in std::iter::once(&m).chain(&units) {
+            let v = format!("{}.v", u.name);
+            write(&a.out_dir.join(&v), &u.verilog)?;
+            list.push_str(&v);
+            list.push('\n');
+        }
+        write(&a.out_dir.join("filelist.f"), &list)?;
+        let mut text = readme(&cfg, &m);
+        for u in &units {
+            text.push_str(&unit_section(u));
+        }
+        write(&a.out_dir.join("README.md"), &text)?;
         Ok(())
     })?;
-    super::say(&format!(
-        "{}: {MODULE}.v ({} lines), {} clocks from issue to the outputs, {} register bits ({} in the schedule's pipeline), {} table bits; filelist.f, README.md",
-        a.out_dir.display(),
-        m.verilog.lines().count(),
-        m.depth,
-        m.register_bits,
-        m.schedule_register_bits,
-        m.memory_bits
-    ));
+    for u in std::iter::once(&m).chain(&units) {
+        super::say(&format!(
+            "{}: {}.v ({} lines), {} clocks from issue to the outputs, {} register bits ({} in the schedule's pipeline), {} table bits",
+            a.out_dir.display(),
+            u.name,
+            u.verilog.lines().count(),
+            u.depth,
+            u.register_bits,
+            u.schedule_register_bits,
+            u.memory_bits
+        ));
+    }
+    super::say(&format!("{}: filelist.f, README.md", a.out_dir.display()));
     Ok(())
 }
 
@@ -143,25 +171,7 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
         m.register_bits, m.schedule_register_bits, m.memory_bits
     );
     let _ = writeln!(w, "## Ports\n");
-    let _ = writeln!(
-        w,
-        "| port | dir | width | format | clocks after issue | meaning |\n|---|---|---|---|---|---|"
-    );
-    for p in &m.ports {
-        let _ = writeln!(
-            w,
-            "| `{}` | {} | {}{} | {} | {} | {} |",
-            p.name,
-            if p.input { "in" } else { "out" },
-            if p.word.signed { "s" } else { "u" },
-            p.word.bits,
-            p.format
-                .clone()
-                .unwrap_or_else(|| format!("{} fraction bits", p.word.frac)),
-            p.stage,
-            p.meaning
-        );
-    }
+    ports_table(w, m);
     let _ = writeln!(
         w,
         "\nThe voxel taps are read outside the module like a block RAM: `x0` leaves at its \
@@ -181,8 +191,9 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(
         w,
         "The PE's control and stage state machines (migrate, sample, merge, split, fold, \
-         readout), its FIFOs and ray memories, the array, the controller, shading, the \
-         volume of interest and pre-integration: `ercube rtl` refuses them by name.\n"
+         readout), its FIFOs and ray memories, the array and the controller: `ercube rtl` \
+         refuses them by name. The shading unit, the volume-of-interest stage and the \
+         pre-integration unit are written with `--shading`, `--voi`, `--preint`.\n"
     );
     let _ = writeln!(w, "## Checking it\n");
     let _ = writeln!(
@@ -196,5 +207,56 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
          it in Verilator and Icarus and compares every output word with the description's \
          evaluator (docs/rtl.md)."
     );
+    s
+}
+
+/// The ports of `m` as a table.
+fn ports_table(w: &mut String, m: &PipelinedModule) {
+    let _ = writeln!(
+        w,
+        "| port | dir | width | format | clocks after issue | meaning |\n|---|---|---|---|---|---|"
+    );
+    for p in &m.ports {
+        let _ = writeln!(
+            w,
+            "| `{}` | {} | {}{} | {} | {} | {} |",
+            p.name,
+            if p.input { "in" } else { "out" },
+            if p.word.signed { "s" } else { "u" },
+            p.word.bits,
+            p.format
+                .clone()
+                .unwrap_or_else(|| format!("{} fraction bits", p.word.frac)),
+            p.stage,
+            p.meaning
+        );
+    }
+}
+
+/// A unit module's section of the README: depth, registers, ports and
+/// tables.
+fn unit_section(m: &PipelinedModule) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(w, "\n## {}\n", m.name);
+    let _ = writeln!(
+        w,
+        "From its description (`pipeline::hw::{}`; its rustdoc names every port), on the same \
+         schedule rules: **{} clocks** from `in_valid` to `out_valid`; {} register bits ({} \
+         the schedule's), {} table bits. `cargo test --release -p pipeline --test it -- \
+         rtl_units::` checks it in Verilator and Icarus against the evaluator.\n",
+        m.name.trim_start_matches("ercube_"),
+        m.depth,
+        m.register_bits,
+        m.schedule_register_bits,
+        m.memory_bits
+    );
+    ports_table(w, m);
+    if !m.tables.is_empty() {
+        let _ = writeln!(w, "\n| tbl_sel | table | words | bits |\n|---|---|---|---|");
+        for t in &m.tables {
+            let _ = writeln!(w, "| {} | `{}` | {} | {} |", t.sel, t.name, t.depth, t.bits);
+        }
+    }
     s
 }

@@ -203,44 +203,6 @@ pub(super) fn fmt_bits(f: crate::fixed::Format) -> u32 {
     u32::from(f.bits())
 }
 
-/// The merge unit: the x pass (a tent of three parents into `merge`) and
-/// the y pass (a tent of three line-buffer rows back into the
-/// accumulators), one child per clock.
-fn merge_unit(cfg: &PipelineConfig) -> Vec<Item> {
-    let acc_c = fmt_bits(cfg.accum_color);
-    let acc_a = fmt_bits(cfg.accum_alpha);
-    let mb = fmt_bits(cfg.merge);
-    let tent = |from: crate::fixed::Format, to: crate::fixed::Format| {
-        let fb = u32::from(from.bits());
-        let q = Quantizer::new(Word::unsigned(fb + 2, i32::from(from.frac()) + 2), to);
-        let mut u = vec![Unit::Add { width: fb }, Unit::Add { width: fb + 1 }];
-        u.extend(q.units());
-        u
-    };
-    let mut x = Vec::new();
-    for _ in 0..3 {
-        x.extend(tent(cfg.accum_color, cfg.merge));
-    }
-    x.extend(tent(cfg.accum_alpha, cfg.merge));
-    x.push(Unit::Reg { bits: 4 * mb });
-    // The previous child's right parent is the next child's left one.
-    x.push(Unit::Reg {
-        bits: 3 * acc_c + acc_a,
-    });
-    let mut y = Vec::new();
-    for _ in 0..3 {
-        y.extend(tent(cfg.merge, cfg.accum_color));
-    }
-    y.extend(tent(cfg.merge, cfg.accum_alpha));
-    y.push(Unit::Reg {
-        bits: 3 * acc_c + acc_a,
-    });
-    vec![
-        Item::new("merge", "x pass (R, G, B, A tents)", 1, x),
-        Item::new("merge", "y pass (R, G, B, A tents)", 1, y),
-    ]
-}
-
 /// Ports to the neighbours, the PE's copy of the broadcast bus, and the
 /// PE's counters.
 fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
@@ -345,7 +307,10 @@ impl PeInventory {
 pub fn pe_inventory(cfg: &PipelineConfig, geo: &Geometry) -> PeInventory {
     let dp = datapath(cfg, geo);
     let mut items = dp.items;
-    items.extend(merge_unit(cfg));
+    // The merge unit: the x pass (a tent of three parents into `merge`)
+    // and the y pass (back into the accumulators), one child per clock,
+    // from its description.
+    items.extend(datapath::described_items(&crate::hw::tents::tents(cfg)));
     items.extend(memories(cfg, geo));
     items.extend(links(cfg, geo));
     let [_, ny, nz] = geo.dims;

@@ -43,7 +43,7 @@
 
 use super::inventory::{addr_bits, Geometry, Item, Step};
 use super::memory::MemPorts;
-use super::shapes::{Lerp, Quantizer, Word, RAY_INDEX_BITS};
+use super::shapes::RAY_INDEX_BITS;
 use super::units::Unit;
 use crate::config::PipelineConfig;
 
@@ -92,16 +92,6 @@ fn quotient_bits(cfg: &PipelineConfig) -> u32 {
     (frac(cfg.color) + crate::preint::GUARD_BITS + 1).max(1) as u32
 }
 
-/// Bits of a table position `s K`: the sample times the `step` constant.
-fn position_word(cfg: &PipelineConfig) -> Word {
-    let (s, k) = (Word::from(cfg.sample), Word::from(cfg.step));
-    Word {
-        bits: s.bits + k.bits,
-        frac: s.frac + k.frac,
-        signed: k.signed,
-    }
-}
-
 /// Bits of a bin index, `0..bins`.
 fn bin_bits(cfg: &PipelineConfig) -> u32 {
     addr_bits(bins(cfg))
@@ -139,25 +129,12 @@ pub(super) fn memories(cfg: &PipelineConfig) -> Vec<Item> {
     )]
 }
 
-/// The unit's datapath items.
-pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
-    let (sm, stb, wt, c, pa, lt) = (
-        bits(cfg.sample),
-        bits(cfg.step),
-        bits(cfg.weight),
-        bits(cfg.color),
-        bits(cfg.path),
-        bits(cfg.log_transmittance),
-    );
-    let (pc, pt) = (bits(cfg.preint_color), bits(cfg.preint_tau));
-    let (bb, word) = (bin_bits(cfg), table_word(cfg));
-    let e = u32::from(cfg.exp_table_bits);
-    let n = bins(cfg) + 1;
-    let bank_addr = addr_bits(bank_rows(cfg)[0] * n);
-    let row_bits = addr_bits(bank_rows(cfg)[0]);
-    let f = position_word(cfg);
+/// The unit's control beside its datapath (whose units come from its
+/// description, [`crate::hw::preint`]): the PE's copy of the pass's
+/// broadcast and the tests of its ray against the pass's rectangles.
+pub(super) fn control_items(cfg: &PipelineConfig) -> Vec<Item> {
+    let stb = bits(cfg.step);
     let mut out = Vec::new();
-
     out.push(Item::new(
         "preint",
         "broadcast copy: K, comp/keep/lead rays, half",
@@ -167,176 +144,16 @@ pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
         }],
     ));
     // Which of the pass's three rectangles the ray is in (two compares per
-    // axis and rectangle), and the half step's back scalar: the sample.
+    // axis and rectangle).
     let mut u = vec![
         Unit::Cmp {
             width: RAY_INDEX_BITS,
         };
         12
     ];
-    u.push(Unit::Mux {
-        width: sm,
-        inputs: 2,
-    });
     u.push(Unit::Reg { bits: 3 });
     out.push(Item::new("preint", "pass rays: comp, keep, lead", 1, u));
 
-    // Front and back positions: the multiply, the clamp at the last bin
-    // (index and weight), and the weight from the fraction.
-    let int_bits = f.int_bits().max(1) as u32;
-    let weight_q = Quantizer::new(Word::unsigned(f.frac.max(0) as u32, f.frac), cfg.weight);
-    let mut u = vec![Unit::Mul {
-        a: sm,
-        a_signed: false,
-        b: stb,
-        b_signed: f.signed,
-        y: f.bits,
-        post_add: None,
-        registered: true,
-        operand_reg: 0,
-    }];
-    u.push(Unit::Cmp { width: int_bits });
-    u.push(Unit::Mux {
-        width: bb,
-        inputs: 2,
-    });
-    u.extend(weight_q.units());
-    u.push(Unit::Mux {
-        width: wt,
-        inputs: 2,
-    });
-    u.push(Unit::Reg { bits: bb + wt });
-    out.push(Item::new(
-        "preint",
-        "table position f = s K (front, back)",
-        2,
-        u,
-    ));
-    // Bank addresses: row (bins + 1) + j (a shift-add for the constant,
-    // the column), the even bank's row rounded up, the second port's j + 1.
-    let mut u = Vec::new();
-    for _ in 0..2 {
-        u.push(Unit::Add { width: bank_addr });
-        u.push(Unit::Add { width: bank_addr });
-        u.push(Unit::Inc { width: bank_addr });
-    }
-    u.push(Unit::Inc { width: row_bits });
-    u.push(Unit::Reg {
-        bits: 4 * bank_addr + 1,
-    });
-    out.push(Item::new(
-        "preint",
-        "table address (2 banks x 2 ports)",
-        1,
-        u,
-    ));
-    out.push(Item::new(
-        "preint",
-        "table rows i, i+1: swap by i's parity",
-        2,
-        vec![Unit::Mux {
-            width: 2 * word,
-            inputs: 2,
-        }],
-    ));
-
-    let lerp = |fmt: crate::fixed::Format, register: bool| {
-        let l = Lerp::new(fmt.into(), Some(fmt.into()), cfg.weight.into(), fmt);
-        let mut u = l.units();
-        if register {
-            u.push(Unit::Reg { bits: bits(fmt) });
-        }
-        u
-    };
-    out.push(Item::new(
-        "preint",
-        "back lerp, colour (R, G, B; rows i, i+1)",
-        6,
-        lerp(cfg.preint_color, true),
-    ));
-    out.push(Item::new(
-        "preint",
-        "back lerp, extinction (rows i, i+1)",
-        2,
-        lerp(cfg.preint_tau, true),
-    ));
-    out.push(Item::new(
-        "preint",
-        "front lerp, colour (R, G, B)",
-        3,
-        lerp(cfg.preint_color, true),
-    ));
-    out.push(Item::new(
-        "preint",
-        "front lerp, extinction",
-        1,
-        lerp(cfg.preint_tau, true),
-    ));
-    out.push(Item::new(
-        "preint",
-        "extinction != 0",
-        1,
-        vec![Unit::Reduce { width: pt }, Unit::Reg { bits: 1 }],
-    ));
-
-    // p = tau len: the half step's product is the whole step's one bit
-    // lower (a mux before the assignment); the exp table's second index.
-    let prod = Word::unsigned(pt + pa, frac(cfg.preint_tau) + frac(cfg.path));
-    let lp = Quantizer::new(
-        Word {
-            bits: prod.bits + 1,
-            frac: prod.frac + 1,
-            ..prod
-        },
-        cfg.log_transmittance,
-    );
-    let mut u = vec![
-        Unit::Mul {
-            a: pt,
-            a_signed: false,
-            b: pa,
-            b_signed: false,
-            y: pt + pa,
-            post_add: None,
-            registered: false,
-            operand_reg: 0,
-        },
-        Unit::Mux {
-            width: pt + pa + 1,
-            inputs: 2,
-        },
-    ];
-    u.extend(lp.units());
-    u.push(Unit::Inc { width: e });
-    u.push(Unit::Reg { bits: lt });
-    out.push(Item::new("preint", "p = tau len", 1, u));
-
-    // The colour divider per channel: the quotient capped at 1, assigned
-    // into `color`.
-    let qb = quotient_bits(cfg);
-    let cq = Quantizer::new(
-        Word::unsigned(qb, frac(cfg.color) + crate::preint::GUARD_BITS),
-        cfg.color,
-    );
-    let mut u = vec![
-        Unit::Div {
-            quotient: qb,
-            divisor: pt,
-        },
-        Unit::Cmp { width: qb },
-        Unit::Mux {
-            width: qb,
-            inputs: 2,
-        },
-    ];
-    u.extend(cq.units());
-    u.push(Unit::Reg { bits: c });
-    out.push(Item::new(
-        "preint",
-        format!("colour min(wc / tau, 1) ({pc}b / {pt}b)"),
-        3,
-        u,
-    ));
     out
 }
 
@@ -423,7 +240,14 @@ mod tests {
         let unit = |items: &[Item]| items.iter().filter(|i| i.group == "preint").count();
         assert_eq!(unit(&plain.items), 0);
         assert!(table_item(&plain.items).is_none());
-        assert_eq!(unit(&pre.items), items(&cfg).len());
+        assert_eq!(
+            unit(&pre.items),
+            control_items(&cfg).len()
+                + crate::hw::units::items(&crate::hw::preint::preint(&cfg))
+                    .iter()
+                    .filter(|i| i.group == "preint")
+                    .count()
+        );
         assert!(table_item(&pre.items).is_some());
         // The unit takes the classification's place, tables included.
         let named = |items: &[Item], s: &str| items.iter().any(|i| i.name.contains(s));

@@ -1,7 +1,9 @@
 //! The gradient and shading unit's hardware ([`crate::shading`]), for an
-//! array built with it ([`Geometry::shading`]): its datapath units and
-//! pipeline steps, the wider slice buffer and edge columns it reads, and
-//! its port.
+//! array built with it ([`Geometry::shading`]): its pipeline steps, the
+//! wider slice buffer and edge columns it reads, and its port. Its
+//! datapath units come from its description ([`crate::hw::shading`],
+//! built for one light) and its power table from the description's
+//! memory ([`table_item`]); what they are:
 //!
 //! - **Gradient**: twelve central differences (three axes at the four
 //!   corners), each a subtract and a multiply by the axis scale, then the
@@ -25,7 +27,6 @@
 
 use super::inventory::{Item, Step};
 use super::memory::MemPorts;
-use super::shapes::{Lerp, Quantizer, Word};
 use super::units::Unit;
 use crate::config::PipelineConfig;
 
@@ -39,19 +40,6 @@ pub fn norm_root(cfg: &PipelineConfig) -> u32 {
     let shift = 2 * i32::from(cfg.grad_norm.frac()) - 2 * i32::from(cfg.gradient.frac());
     let radicand = (2 * gb as i32 + 2 + shift).max(2) as u32;
     radicand.div_ceil(2).min(bits(cfg.grad_norm))
-}
-
-fn mul(a: u32, a_signed: bool, b: u32, b_signed: bool, y: u32, post_add: Option<u32>) -> Unit {
-    Unit::Mul {
-        a,
-        a_signed,
-        b,
-        b_signed,
-        y,
-        post_add,
-        registered: true,
-        operand_reg: 0,
-    }
 }
 
 /// The square root `|g|` with its output register (one per shading unit;
@@ -85,153 +73,26 @@ pub fn divider_units(cfg: &PipelineConfig) -> Vec<Unit> {
     ]
 }
 
-/// The unit's datapath items.
-pub(super) fn items(cfg: &PipelineConfig) -> Vec<Item> {
-    let (v, gb, gs, nb, lb) = (
-        bits(cfg.voxel),
-        bits(cfg.gradient),
-        bits(cfg.grad_scale),
-        bits(cfg.grad_norm),
-        bits(cfg.light),
-    );
-    let (nd, sb, mb, rb, c, al) = (
-        bits(cfg.normal_dot),
-        bits(cfg.specular),
-        bits(cfg.material),
-        bits(cfg.grad_recip),
-        bits(cfg.color),
-        bits(cfg.alpha),
-    );
-    let mut out = Vec::new();
-    let dq = Quantizer::new(
-        Word::signed(v + 1 + gs, i32::from(cfg.grad_scale.frac())),
-        cfg.gradient,
-    );
-    let mut u = vec![
-        Unit::Sub { width: v },
-        mul(v + 1, true, gs, false, v + 1 + gs, None),
-    ];
-    u.extend(dq.units());
-    u.push(Unit::Reg { bits: gb });
-    out.push(Item::new("gradient", "central difference x scale", 12, u));
-    let g: Word = cfg.gradient.into();
-    let l = Lerp::new(g, Some(g), cfg.weight.into(), cfg.gradient);
-    let mut u = l.units();
-    u.push(Unit::Reg { bits: gb });
-    out.push(Item::new(
-        "gradient",
-        "x lerp (3 components, 2 rows)",
-        6,
-        u.clone(),
-    ));
-    out.push(Item::new("gradient", "y lerp (3 components)", 3, u));
-    out.push(Item::new(
-        "shading",
-        "squares of the gradient",
-        3,
-        vec![mul(gb, true, gb, true, 2 * gb, None)],
-    ));
-    out.push(Item::new(
-        "shading",
-        "sum of squares",
-        1,
-        vec![
-            Unit::Add { width: 2 * gb },
-            Unit::Add { width: 2 * gb + 1 },
-            Unit::Reg { bits: 2 * gb + 2 },
-        ],
-    ));
-    out.push(Item::new("shading", "|g|: square root", 1, sqrt_units(cfg)));
-    let dot = gb + lb + 2;
-    out.push(Item::new(
-        "shading",
-        "g . L, g . H (3 multiply-adds each)",
-        2,
-        vec![
-            mul(gb, true, lb, true, gb + lb, None),
-            mul(gb, true, lb, true, gb + lb, Some(gb + lb + 1)),
-            mul(gb, true, lb, true, gb + lb, Some(dot)),
-            Unit::Reg { bits: dot },
-        ],
-    ));
-    out.push(Item::new(
-        "shading",
-        "divider |g . v| / |g|",
-        2,
-        divider_units(cfg),
-    ));
-    out.push(Item::new(
-        "shading",
-        "specular power table x^p",
-        1,
-        vec![Unit::Mem {
-            depth: (1u64 << cfg.shade_table_bits) + 1,
-            width: sb,
-            ports: MemPorts::DualRead,
-        }],
-    ));
-    let s: Word = cfg.specular.into();
-    let mut u = Lerp::new(s, Some(s), cfg.weight.into(), cfg.specular).units();
-    u.push(Unit::Reg { bits: sb });
-    out.push(Item::new("shading", "power lerp", 1, u));
-    let minunit = |w: u32| {
-        vec![
-            Unit::Cmp { width: w },
-            Unit::Mux {
-                width: w,
-                inputs: 2,
-            },
-        ]
-    };
-    let mut u = vec![mul(nb, false, rb, false, nb + rb, None)];
-    u.extend(minunit(nb + rb));
-    u.push(Unit::Reg { bits: nd });
-    out.push(Item::new("shading", "normal fade min(1, |g| / F)", 1, u));
-    out.push(Item::new(
-        "shading",
-        "light mix r D + (1 - r) n_L",
-        1,
-        vec![
-            mul(nd, false, nd + 1, true, 2 * nd + 1, Some(2 * nd + 2)),
-            Unit::Reg { bits: 2 * nd + 2 },
-        ],
-    ));
-    out.push(Item::new(
-        "shading",
-        "gain ka + kd D, highlight ks r S",
-        2,
-        vec![
-            mul(
-                mb,
-                false,
-                2 * nd + 2,
-                false,
-                mb + 2 * nd + 2,
-                Some(mb + 2 * nd + 3),
-            ),
-            Unit::Reg {
-                bits: mb + 2 * nd + 3,
-            },
-        ],
-    ));
-    let gain = mb + 2 * nd + 3;
-    let cq = Quantizer::new(Word::unsigned(c + gain, 0), cfg.color);
-    let mut u = vec![mul(c, false, gain, false, c + gain, Some(c + gain + 1))];
-    u.extend(minunit(c + gain));
-    u.extend(cq.units());
-    u.push(Unit::Reg { bits: c });
-    out.push(Item::new("shading", "c gain + highlight, clamp at 1", 3, u));
-    let mut u = vec![mul(nb, false, rb, false, nb + rb, None)];
-    u.extend(minunit(nb + rb));
-    u.push(mul(al, false, nd, false, al + nd, None));
-    u.push(Unit::Reg { bits: al });
-    out.push(Item::new(
-        "shading",
-        "gradient opacity a min(1, |g| / G)",
-        1,
-        u,
-    ));
-    out
+/// The specular power table of the unit's description `g`: two reads
+/// per light of a dual-read memory (its datapath items come from the
+/// description, [`crate::hw::shading`]).
+pub(super) fn table_item(g: &crate::hw::Graph) -> Vec<Item> {
+    g.mems
+        .iter()
+        .filter(|m| m.name == crate::hw::shading::POWER_TABLE)
+        .map(|m| {
+            Item::new(
+                "shading",
+                "specular power table x^p",
+                1,
+                vec![Unit::Mem {
+                    depth: m.depth,
+                    width: bits(m.fmt),
+                    ports: MemPorts::DualRead,
+                }],
+            )
+        })
+        .collect()
 }
 
 /// The unit's pipeline steps, after the scalar's `address` and beside its

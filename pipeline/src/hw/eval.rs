@@ -119,6 +119,7 @@ pub fn eval(
                 EvalError::Missing(format!("{}: address {} outside", n.name, v[a.0]))
             })?),
             Op::Reg(d) => v[d.0],
+            Op::Div(a, b) => divide(v[a.0], g.word(a).frac, v[b.0], g.word(b).frac, n)?,
         };
         let w = n.word;
         let (lo, hi) = if w.signed {
@@ -137,4 +138,28 @@ pub fn eval(
         v.push(x);
     }
     Ok(v)
+}
+
+/// [`Op::Div`]: `num 2^-fa / (den 2^-fb)` on node `n`'s grid, truncated,
+/// saturated at its word's largest value (also for a zero divisor).
+fn divide(num: i128, fa: i32, den: i128, fb: i32, n: &super::Node) -> Result<i128, EvalError> {
+    if num < 0 || den < 0 {
+        return Err(EvalError::Missing(format!(
+            "{}: a negative operand",
+            n.name
+        )));
+    }
+    let max = (1i128 << n.word.bits) - 1;
+    if den == 0 {
+        return Ok(max);
+    }
+    // floor(num 2^s / den): nested floors of non-negative integers are
+    // the floor of the whole, so a right shift first is exact too.
+    let s = n.word.frac + fb - fa;
+    let scaled = if s >= 0 {
+        up(num, s, &n.name)?
+    } else {
+        num >> (-s).min(127)
+    };
+    Ok((scaled / den).min(max))
 }

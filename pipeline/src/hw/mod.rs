@@ -3,12 +3,16 @@
 //! cost inventory, the probe names and the Verilog all derive.
 //!
 //! A [`Graph`] is built once per configuration (for instance
-//! [`sample::plain`] from a [`PipelineConfig`](crate::config::PipelineConfig)).
+//! [`sample::plain`] from a [`PipelineConfig`](crate::config::PipelineConfig));
+//! the units beside the plain sample are graphs of their own:
+//! [`shading::shading`], [`voi::voi`], [`preint::preint`] and the merge's
+//! [`tents::tents`].
 //! Every node is one operator on wired words ([`Word`]: width, fraction
 //! bits, signedness); the operators are full precision, as in
 //! [`crate::fixed`], and only a [`Op::Quantize`] (or [`Op::ShrQuantize`],
 //! [`Op::Isqrt`]) assigns into a declared [`Format`] with its rounding and
-//! overflow. Nodes are created in dependency order, so the node list is a
+//! overflow (a divider, [`Op::Div`], truncates and saturates onto its
+//! word). Nodes are created in dependency order, so the node list is a
 //! topological order and every consumer is one pass over it:
 //!
 //! - [`eval`]: the bit-exact evaluator (each node's raw word);
@@ -22,22 +26,29 @@
 //!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
+mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
 pub mod pipeline_rtl;
+pub mod preint;
 pub mod sample;
 pub mod schedule;
+pub mod shading;
 pub mod sim;
 pub mod state;
+pub mod tents;
 pub mod testbench;
 pub mod unit;
 pub mod units;
 pub mod verilog;
+pub mod voi;
 
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod unit_tests;
+#[cfg(test)]
+mod units_tests;
 
 pub use crate::cost::shapes::Word;
 use crate::fixed::Format;
@@ -99,6 +110,12 @@ pub enum Op {
     /// [`crate::datapath::isqrt_into`]: one add/subtract stage per result
     /// bit (non-restoring).
     Isqrt(NodeId),
+    /// `floor(num / den)` onto the node's (unsigned) word's grid, as a
+    /// restoring divider gives it: both operands non-negative, the exact
+    /// quotient truncated, saturated at the word's largest value (a zero
+    /// divisor gives that value too); one subtract-and-select stage per
+    /// quotient bit.
+    Div(NodeId, NodeId),
 }
 
 impl Op {
@@ -106,7 +123,12 @@ impl Op {
     pub fn operands(&self) -> Vec<NodeId> {
         match *self {
             Op::Input | Op::Const(_) => vec![],
-            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Ge(a, b) | Op::Eq(a, b) => {
+            Op::Add(a, b)
+            | Op::Sub(a, b)
+            | Op::Mul(a, b)
+            | Op::Ge(a, b)
+            | Op::Eq(a, b)
+            | Op::Div(a, b) => {
                 vec![a, b]
             }
             Op::ShrQuantize(a, b) => vec![a, b],
@@ -341,6 +363,58 @@ impl Graph {
     pub fn read(&mut self, name: &str, m: MemId, addr: NodeId) -> NodeId {
         let f = self.mems[m.0].fmt;
         self.push(name, Op::Read(m, addr), f.into(), Some(f))
+    }
+
+    /// `a >= b` (one bit).
+    pub fn ge(&mut self, name: &str, a: NodeId, b: NodeId) -> NodeId {
+        self.push(name, Op::Ge(a, b), Word::unsigned(1, 0), None)
+    }
+
+    /// Whether any bit of `x` is set (one bit).
+    pub fn nonzero(&mut self, name: &str, x: NodeId) -> NodeId {
+        self.push(name, Op::NonZero(x), Word::unsigned(1, 0), None)
+    }
+
+    /// `sel ? t : f` in `w`.
+    pub fn mux(&mut self, name: &str, sel: NodeId, f: NodeId, t: NodeId, w: Word) -> NodeId {
+        self.push(name, Op::Mux { sel, f, t }, w, None)
+    }
+
+    /// `sel ? t : f` in the narrowest word holding both.
+    pub fn select(&mut self, name: &str, sel: NodeId, f: NodeId, t: NodeId) -> NodeId {
+        let (wf, wt) = (self.word(f), self.word(t));
+        let w = joint(wf, wt, wf.frac.max(wt.frac), 0, false);
+        self.mux(name, sel, f, t, w)
+    }
+
+    /// The smaller of `a` and `b`: a compare (`name.ge`) and a select.
+    pub fn min(&mut self, name: &str, a: NodeId, b: NodeId) -> NodeId {
+        let ge = self.ge(&format!("{name}.ge"), a, b);
+        self.select(name, ge, a, b)
+    }
+
+    /// The larger of `a` and `b`: a compare (`name.ge`) and a select.
+    pub fn max(&mut self, name: &str, a: NodeId, b: NodeId) -> NodeId {
+        let ge = self.ge(&format!("{name}.ge"), b, a);
+        self.select(name, ge, a, b)
+    }
+
+    /// `a + b` (`sub`: `a - b`) in the narrowest word holding every
+    /// result.
+    pub fn sum(&mut self, name: &str, a: NodeId, b: NodeId, sub: bool) -> NodeId {
+        let (wa, wb) = (self.word(a), self.word(b));
+        let w = joint(wa, wb, wa.frac.max(wb.frac), 1, sub);
+        if sub {
+            self.sub(name, a, b, w)
+        } else {
+            self.add(name, a, b, w)
+        }
+    }
+
+    /// `num / den` truncated onto `w`'s grid, saturated ([`Op::Div`]).
+    pub fn div(&mut self, name: &str, num: NodeId, den: NodeId, w: Word) -> NodeId {
+        debug_assert!(!w.signed, "{name}: a quotient is unsigned");
+        self.push(name, Op::Div(num, den), w, None)
     }
 
     /// `a + w (b - a)` assigned into `out` (`b = None`: the constant 1.0),

@@ -15,7 +15,8 @@
 //!   A memory without a depth (the voxel taps) is outside: its address is
 //!   an output in the address's stage and its words inputs one clock
 //!   later, like a block RAM's.
-//! - An integer square root is the pipelined unit of `hw/isqrt_rtl.rs`.
+//! - An integer square root is the pipelined unit of `hw/isqrt_rtl.rs`,
+//!   a divider that of `hw/div_rtl.rs`.
 //!
 //! Ports are taken once, at issue, and held down the pipeline with the
 //! sample (a sample's accumulators included), so samples issue back to
@@ -304,6 +305,18 @@ pub fn emit_scheduled(
                 };
                 b.line(&format!("wire {} {v}_a = {addr};", range(ab)));
                 mem_reads[m.0].push((v.clone(), format!("{v}_a")));
+            }
+            Op::Div(x, y) => {
+                let q = super::div_rtl::div(
+                    &mut b,
+                    &mut regs,
+                    &v,
+                    (&get(x), g.word(x)),
+                    (&get(y), g.word(y)),
+                    w,
+                    stage[i] - reads[i] + 1,
+                )?;
+                b.line(&format!("wire {} {v} = {q};", decl(w)));
             }
             Op::Isqrt(x) => {
                 let f = node.fmt.expect("a square root has a format");

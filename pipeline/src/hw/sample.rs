@@ -252,46 +252,7 @@ pub fn plain(cfg: &PipelineConfig) -> Graph {
     g.item("opacity", "p = -log2(1 - a) ds", 0);
     let prod = g.mul_exact("p.prod", log_t, ds);
     let p = g.quantize("p", prod, lf);
-    let fb = u32::from(lf.frac());
-    let e = u32::from(c.exp_table_bits);
-    let idx = g.field("exp.index", p, (fb - e) as i32, Word::unsigned(e.max(1), 0));
-    let one = g.constant("exp.one", 1, Word::unsigned(1, 0));
-    let idx1 = g.add("exp.next", idx, one, Word::unsigned(e.max(1) + 1, 0));
-    g.step_out(p);
-    g.no_item();
-    let e0 = g.read("exp.e0", mems[5], idx);
-    let e1 = g.read("exp.e1", mems[5], idx1);
-    let oc = c.opacity_corr;
-    let tf = if fb > e {
-        g.item("opacity", "exp lerp 2^-frac(p)", 0);
-        let r = g.field("exp.frac", p, 0, Word::unsigned(fb - e, (fb - e) as i32));
-        let w = weight_of(&mut g, "exp.w", r, c.weight);
-        let tf = g.lerp("exp", e0, Some(e1), w, oc);
-        g.step_out(tf)
-    } else {
-        e0
-    };
-    g.item("opacity", "T = 2^-frac >> int(p)", 0);
-    let lt_int = u32::from(lf.int_bits()).max(1);
-    let int = g.field("p.int", p, fb as i32, Word::unsigned(lt_int, 0));
-    let trans = g.push(
-        "trans",
-        super::Op::ShrQuantize(tf, int),
-        oc.into(),
-        Some(oc),
-    );
-    g.step_out(trans);
-    g.item("opacity", "a' = 1 - T", 0);
-    let foc = i32::from(oc.frac());
-    let one = g.constant(
-        "one_minus.one",
-        1 << foc,
-        Word::unsigned(foc as u32 + 1, foc),
-    );
-    let ocb = u32::from(oc.bits());
-    let d = g.sub("one_minus.d", one, trans, Word::signed(ocb + 1, foc));
-    let corrected = g.quantize("corrected", d, oc);
-    g.step_out(corrected);
+    let corrected = transmit(&mut g, c, p, mems[5]);
 
     // Compositing into the ray's accumulators, written straight back.
     let (fc, fa) = (c.accum_color, c.accum_alpha);
@@ -353,4 +314,54 @@ pub fn plain(cfg: &PipelineConfig) -> Graph {
     }
     g.output("x0", x0);
     g
+}
+
+/// The opacity correction's `2^-p` stage from `p` (a
+/// `log_transmittance` word, the step's `-log2 T`): the exp table `exp`
+/// read at `p`'s top fraction bits and interpolated with the rest,
+/// shifted by `p`'s integer part, `a' = 1 - T` into `opacity_corr`
+/// ([`crate::datapath::Datapath::transmit`]). The plain sample's `p` is
+/// `-log2(1 - a) ds`; the pre-integration unit's `tau len`.
+pub(crate) fn transmit(g: &mut Graph, c: &PipelineConfig, p: NodeId, exp: super::MemId) -> NodeId {
+    let lf = c.log_transmittance;
+    let fb = u32::from(lf.frac());
+    let e = u32::from(c.exp_table_bits);
+    let idx = g.field("exp.index", p, (fb - e) as i32, Word::unsigned(e.max(1), 0));
+    let one = g.constant("exp.one", 1, Word::unsigned(1, 0));
+    let idx1 = g.add("exp.next", idx, one, Word::unsigned(e.max(1) + 1, 0));
+    g.step_out(p);
+    g.no_item();
+    let e0 = g.read("exp.e0", exp, idx);
+    let e1 = g.read("exp.e1", exp, idx1);
+    let oc = c.opacity_corr;
+    let tf = if fb > e {
+        g.item("opacity", "exp lerp 2^-frac(p)", 0);
+        let r = g.field("exp.frac", p, 0, Word::unsigned(fb - e, (fb - e) as i32));
+        let w = weight_of(g, "exp.w", r, c.weight);
+        let tf = g.lerp("exp", e0, Some(e1), w, oc);
+        g.step_out(tf)
+    } else {
+        e0
+    };
+    g.item("opacity", "T = 2^-frac >> int(p)", 0);
+    let lt_int = u32::from(lf.int_bits()).max(1);
+    let int = g.field("p.int", p, fb as i32, Word::unsigned(lt_int, 0));
+    let trans = g.push(
+        "trans",
+        super::Op::ShrQuantize(tf, int),
+        oc.into(),
+        Some(oc),
+    );
+    g.step_out(trans);
+    g.item("opacity", "a' = 1 - T", 0);
+    let foc = i32::from(oc.frac());
+    let one = g.constant(
+        "one_minus.one",
+        1 << foc,
+        Word::unsigned(foc as u32 + 1, foc),
+    );
+    let ocb = u32::from(oc.bits());
+    let d = g.sub("one_minus.d", one, trans, Word::signed(ocb + 1, foc));
+    let corrected = g.quantize("corrected", d, oc);
+    g.step_out(corrected)
 }

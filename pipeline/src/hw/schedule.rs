@@ -14,7 +14,8 @@
 //! Operators and their depth: products are multipliers; sums,
 //! differences, magnitude compares, rounding increments (an assignment
 //! that rounds, [`crate::cost::shapes::Quantizer::round`]) are carry
-//! chains; an integer square root is one carry chain per result bit;
+//! chains; an integer square root is one carry chain per result bit, a
+//! divider one per quotient bit after its saturation compare;
 //! wires, multiplexers, reductions and truncating assignments (their
 //! saturation select) are logic that joins whatever stage their operands
 //! are in. A memory read and a declared register end a stage. Ports are
@@ -56,6 +57,8 @@ fn chains(g: &Graph, op: Op, id: usize) -> Option<u32> {
             u32::from(q.out.frac < q.input.frac || q.quant != crate::fixed::Quant::Trn)
         }
         Op::Isqrt(_) => g.nodes[id].word.bits.max(1),
+        // The saturation compare, then one chain per quotient bit.
+        Op::Div(..) => g.nodes[id].word.bits + 1,
         _ => 0,
     })
 }

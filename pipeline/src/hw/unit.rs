@@ -170,6 +170,7 @@ fn remap(op: Op, m: &dyn Fn(NodeId) -> NodeId) -> Op {
         Op::NonZero(x) => Op::NonZero(m(x)),
         Op::Reg(x) => Op::Reg(m(x)),
         Op::Isqrt(x) => Op::Isqrt(m(x)),
+        Op::Div(a, b) => Op::Div(m(a), m(b)),
         Op::Read(mem, a) => Op::Read(mem, m(a)),
         Op::Mux { sel, f, t } => Op::Mux {
             sel: m(sel),

@@ -114,6 +114,10 @@ pub fn node_units(g: &Graph, id: NodeId, consumers: &[Vec<NodeId>]) -> Vec<Unit>
             width: g.word(x).bits,
         }],
         Op::Isqrt(_) => vec![Unit::Sqrt { root: w.bits }],
+        Op::Div(_, d) => vec![Unit::Div {
+            quotient: w.bits,
+            divisor: g.word(d).bits,
+        }],
         Op::Input | Op::Const(_) | Op::Field(..) | Op::Read(..) | Op::Reg(_) => vec![],
     }
 }

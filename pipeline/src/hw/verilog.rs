@@ -113,7 +113,19 @@ pub(crate) fn comb(
         }
         Op::Field(x, lo) => {
             let wx = g.word(x);
-            let src = if lo < 0 { shl(&get(x), -lo) } else { get(x) };
+            // A part-select of a concatenation is not Verilog-2005: the
+            // shifted word gets its own wire.
+            let src = if lo < 0 {
+                let sh = format!("{v}_sh");
+                b.line(&format!(
+                    "wire {} {sh} = {};",
+                    range(wx.bits + (-lo) as u32),
+                    shl(&get(x), -lo)
+                ));
+                sh
+            } else {
+                get(x)
+            };
             let (lo, width) = if lo < 0 {
                 (0, wx.bits + (-lo) as u32)
             } else {
@@ -202,11 +214,12 @@ pub fn cut(
                 name[id.0] = Some(v);
                 continue;
             }
-            Op::Input | Op::Read(..) | Op::Isqrt(_) => {
+            Op::Input | Op::Read(..) | Op::Isqrt(_) | Op::Div(..) => {
                 return Err(RtlError::Unsupported(format!(
                     "{} inside a cut ({})",
                     match n.op {
                         Op::Isqrt(_) => "an integer square root",
+                        Op::Div(..) => "a divider",
                         Op::Read(..) => "a memory read",
                         _ => "a port",
                     },

@@ -26,6 +26,7 @@ mod mapping;
 mod model;
 mod preint;
 mod rtl;
+mod rtl_units;
 mod shading;
 mod skip;
 mod stress;

@@ -28,19 +28,19 @@ use crate::cost::{NARROW, WIDE};
 use crate::tools::have;
 
 /// A random raw word of `f`.
-fn word(rng: &mut TestRng, f: Format) -> i64 {
+pub(super) fn word(rng: &mut TestRng, f: Format) -> i64 {
     let span = (f.max_raw() as i128 - f.min_raw() as i128 + 1) as u128;
     (u128::from(rng.next_u64()) % span) as i64 + f.min_raw()
 }
 
 /// One configuration's module, samples, expected outputs, issue plan and
 /// table contents.
-struct Case {
-    module: PipelinedModule,
-    samples: Vec<Sample>,
-    expected: Vec<Expected>,
-    issue: Vec<Option<usize>>,
-    tables: Vec<(String, Vec<i64>)>,
+pub(super) struct Case {
+    pub(super) module: PipelinedModule,
+    pub(super) samples: Vec<Sample>,
+    pub(super) expected: Vec<Expected>,
+    pub(super) issue: Vec<Option<usize>>,
+    pub(super) tables: Vec<(String, Vec<i64>)>,
 }
 
 /// `n` random samples of `cfg` through the evaluator: the first half
@@ -175,7 +175,11 @@ fn write(dir: &Path, cases: &[Case], verilog: &[String]) -> (Vec<PathBuf>, Vec<P
 
 /// Runs the cases (with `verilog` as each module's text) in `sim`; each
 /// case's first mismatch, or the words it checked.
-fn run(sim: Simulator, cases: &[Case], verilog: &[String]) -> Vec<Result<usize, Mismatch>> {
+pub(super) fn run(
+    sim: Simulator,
+    cases: &[Case],
+    verilog: &[String],
+) -> Vec<Result<usize, Mismatch>> {
     let dir = tempfile::tempdir().expect("tempdir");
     let (sources, outs) = write(dir.path(), cases, verilog);
     let t = std::time::Instant::now();

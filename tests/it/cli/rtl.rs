@@ -76,6 +76,49 @@ fn rtl_writes_the_module_filelist_and_readme() {
     }
 }
 
+/// `--shading --voi --preint`: the three units' modules beside the
+/// sample's, in the file list, each with its section in the README naming
+/// every port it declares.
+#[test]
+fn rtl_writes_the_units() {
+    let dir = tempdir();
+    let d = dir.path();
+    let run = ercube(d, "rtl --out-dir out --shading --voi --preint").ok();
+    let o = d.join("out");
+    let units = ["ercube_preint", "ercube_shading", "ercube_voi"];
+    let mut want: Vec<String> = ["README.md", "ercube_sample.v", "filelist.f"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    want.extend(units.iter().map(|u| format!("{u}.v")));
+    want.sort();
+    assert_eq!(entries(&o), want);
+    let list = std::fs::read_to_string(o.join("filelist.f")).unwrap();
+    assert_eq!(
+        list,
+        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\n"
+    );
+    let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
+    for u in units {
+        let v = std::fs::read_to_string(o.join(format!("{u}.v"))).unwrap();
+        assert!(
+            run.stdout().contains(&format!("{u}.v (")),
+            "{}",
+            run.describe()
+        );
+        let section = readme
+            .split(&format!("## {u}\n"))
+            .nth(1)
+            .unwrap_or_else(|| panic!("README has no section {u}"));
+        for p in declared_ports(&v) {
+            assert!(
+                section.contains(&format!("| `{p}` |")),
+                "{u}: README does not name {p}"
+            );
+        }
+    }
+}
+
 /// Each part not emitted yet, and a rounding mode without an emitter, is
 /// refused in one line naming it, exit 2, nothing written.
 #[test]
@@ -83,9 +126,6 @@ fn rtl_refuses_what_it_does_not_emit() {
     let dir = tempdir();
     let d = dir.path();
     for (flag, word) in [
-        ("--shading", "shading"),
-        ("--voi", "volume of interest"),
-        ("--preint", "pre-integration"),
         ("--pe", "state machines"),
         ("--array", "array"),
         ("--controller", "controller"),

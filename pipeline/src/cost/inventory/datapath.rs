@@ -118,12 +118,12 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     // whole steps in its unit instead: `crate::cost::preint`), the
     // opacity correction and the compositing: derived from the plain
     // sample's description (`crate::hw::sample`).
-    let described = crate::hw::units::items(&crate::hw::sample::plain(cfg));
+    let described = described_items(&crate::hw::sample::plain(cfg));
     let derived = |group: &'static str| {
         described
             .iter()
             .filter(move |it| it.group == group)
-            .map(|it| Item::new(it.group, it.name.clone(), it.count, it.units.clone()))
+            .cloned()
     };
     items.extend(derived("interpolation"));
     let cw = class_weight(cfg);
@@ -234,7 +234,15 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             !(geo.shading || geo.voi),
             "pre-integration is priced without the shading unit and the VOI stage"
         );
-        items.extend(crate::cost::preint::items(cfg));
+        // The unit's datapath from its description (its `2^-p` stage is
+        // the opacity correction's, priced above), the pass's ray
+        // selection from the controller's broadcast.
+        items.extend(crate::cost::preint::control_items(cfg));
+        items.extend(
+            described_items(&crate::hw::preint::preint(cfg))
+                .into_iter()
+                .filter(|it| it.group == "preint"),
+        );
         // The unit replaces the classification and the log table's
         // product; the exp stage reads its `p`, the compositing its colour
         // and keeps the sample as the ray's next back scalar.
@@ -253,7 +261,11 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         steps.splice(at..at, crate::cost::preint::steps(cfg));
     }
     if geo.shading {
-        items.extend(crate::cost::shading::items(cfg));
+        // Built for one light: each further light adds a dot product
+        // pair, two dividers and a power-table read per sample.
+        let g = crate::hw::shading::shading(cfg, 1);
+        items.extend(described_items(&g));
+        items.extend(crate::cost::shading::table_item(&g));
         // The opacity correction reads the gradient-modulated opacity and
         // the compositing the shaded colour.
         for st in steps.iter_mut() {
@@ -274,7 +286,7 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         steps.splice(at..at, extra);
     }
     if geo.voi {
-        items.extend(crate::cost::voi::items(cfg));
+        items.extend(described_items(&crate::hw::voi::voi(cfg)));
         // Golden scales the classified opacity before the shading's
         // gradient opacity and the correction: whichever read it reads
         // the scaled one.
@@ -334,6 +346,14 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             delays,
         },
     }
+}
+
+/// The cost items of a unit's description ([`crate::hw::units::items`]).
+pub(crate) fn described_items(g: &crate::hw::Graph) -> Vec<Item> {
+    crate::hw::units::items(g)
+        .into_iter()
+        .map(|it| Item::new(it.group, it.name, it.count, it.units))
+        .collect()
 }
 
 /// The sample datapath's scheduled depth for `cfg`'s widths: the
