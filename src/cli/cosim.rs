@@ -47,6 +47,11 @@ pub struct CosimArgs {
     /// each to its write-back); the model still runs the whole frame.
     #[arg(long)]
     pub max_cycles: Option<u64>,
+    /// The datapath's Verilog from this file instead of the emitted one:
+    /// a module named `ercube_sample` with the emitted module's ports
+    /// (`ercube rtl` lists them), say a team's own or a modified copy.
+    #[arg(long)]
+    pub verilog: Option<PathBuf>,
     /// Where builds are kept, by a hash of their Verilog (default:
     /// $XDG_CACHE_HOME/ercube/cosim or ~/.cache/ercube/cosim).
     #[arg(long)]
@@ -215,7 +220,14 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         bail!("--max-cycles 0: give at least one cycle");
     }
     let sim = simulator(&a.simulator)?;
+    let given = match &a.verilog {
+        Some(p) => Some(
+            std::fs::read_to_string(p).map_err(|e| anyhow!("--verilog {}: {e}", p.display()))?,
+        ),
+        None => None,
+    };
     let s = setup(&a.frame, "cosim")?;
+    let datapath = given.as_deref().unwrap_or(&s.module.verilog);
     let p = usize::from(s.cfg.pes);
     let depth = u64::from(s.module.depth);
     let latency = s.latency();
@@ -249,7 +261,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     // The RTL: built once per text, run on the streams.
     let tb = replay.testbench(p);
     let sources = [
-        (format!("{MODULE}.v"), s.module.verilog.as_str()),
+        (format!("{MODULE}.v"), datapath),
         (format!("{TOP}.v"), tb.as_str()),
     ];
     let sources: Vec<(&str, &str)> = sources.iter().map(|(n, t)| (n.as_str(), *t)).collect();
@@ -274,6 +286,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         times: [untraced_s, capture_s, built.seconds, sim_s],
         cached: built.cached,
         tb_lines: tb.lines().count(),
+        datapath_lines: datapath.lines().count(),
     };
     let mut problems = report.problems(&issued);
     if latency != depth {
@@ -335,6 +348,7 @@ struct Report<'a> {
     times: [f64; 4],
     cached: bool,
     tb_lines: usize,
+    datapath_lines: usize,
 }
 
 impl Report<'_> {
@@ -396,7 +410,7 @@ impl Report<'_> {
         ));
         v.push(format!(
             "  rtl: {MODULE} {} lines ({} clocks deep) x {} + {TOP} {} lines; {}; ran {} cycles in {sim_s:.2} s ({:.0} cycles/s)",
-            s.module.verilog.lines().count(),
+            self.datapath_lines,
             s.module.depth,
             s.cfg.pes,
             self.tb_lines,
@@ -440,7 +454,8 @@ impl Report<'_> {
             "rtl_build_cached": self.cached,
             "rtl_run_s": sim_s,
             "rtl_cycles_per_s": rate(self.cycles, sim_s),
-            "rtl_lines": { "datapath": s.module.verilog.lines().count(), "top": self.tb_lines },
+            "rtl_lines": { "datapath": self.datapath_lines, "top": self.tb_lines },
+            "verilog": self.a.verilog.as_ref().map(|p| p.display().to_string()),
             "config": serde_json::to_value(&s.cfg).unwrap_or(serde_json::Value::Null),
         })
     }
