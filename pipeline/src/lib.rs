@@ -27,6 +27,7 @@
 pub mod array;
 pub mod bound;
 pub mod config;
+pub mod cosim;
 pub mod cost;
 pub mod datapath;
 pub mod fixed;

@@ -8,6 +8,7 @@ mod bench;
 mod bound;
 mod chip;
 mod compare;
+mod cosim;
 mod cost;
 mod explore;
 mod memory;
@@ -23,6 +24,7 @@ mod rtl;
 mod skipbench;
 mod stats;
 mod synth;
+mod vectors;
 
 use std::process::ExitCode;
 
@@ -87,6 +89,14 @@ enum Command {
     /// Write the PE's sample datapath as pipelined Verilog (with a file
     /// list and a README naming every port).
     Rtl(Box<rtl::RtlArgs>),
+    /// Run a frame in the model and, replayed from it, in the emitted
+    /// Verilog of every PE's datapath (Verilator or Icarus); compare every
+    /// output on every cycle (exit status 1 on a mismatch).
+    Cosim(Box<cosim::CosimArgs>),
+    /// Write a frame's per-PE, per-port stimulus and expected responses
+    /// of the datapath as $readmemh files, a JSON manifest and a plain
+    /// Verilog testbench.
+    Vectors(Box<vectors::VectorsArgs>),
 }
 
 /// Prints a line to stdout; a closed pipe (`ercube ... | head`) is not an
@@ -159,9 +169,15 @@ where
         Command::Refine(a) => refine::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Rtl(a) => rtl::run(&a),
+        Command::Cosim(a) => cosim::run(&a),
+        Command::Vectors(a) => vectors::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<cosim::Mismatched>() => {
+            eprintln!("ercube: {e}");
+            ExitCode::from(1)
+        }
         Err(e) => {
             let msg = format!("{e:#}");
             eprintln!("ercube: error: {}", msg.replace('\n', " "));

@@ -12,6 +12,8 @@
 mod bin;
 #[path = "../support/chip.rs"]
 mod chip;
+#[path = "../support/mutate.rs"]
+mod mutate;
 #[path = "../support/scenes.rs"]
 mod scenes;
 #[path = "../support/tools.rs"]
@@ -22,6 +24,7 @@ mod array;
 mod bench;
 mod bound;
 mod cli;
+mod cosim;
 mod docs;
 mod explore;
 mod frame_rate;

@@ -78,6 +78,7 @@ pub struct FrameRun<'a> {
     units: Units<'a>,
     tracer: Tracer,
     resident: Option<&'a mut Option<Resident>>,
+    capture: Option<crate::cosim::capture::Capture>,
 }
 
 impl<'a> FrameRun<'a> {
@@ -125,6 +126,7 @@ impl<'a> FrameRun<'a> {
             units: Units::default(),
             tracer: Tracer::disabled(),
             resident: None,
+            capture: None,
         }
     }
 
@@ -177,6 +179,14 @@ impl<'a> FrameRun<'a> {
         self
     }
 
+    /// Records every sample the PEs' datapaths issue into `capture`
+    /// ([`crate::cosim::capture`]): the frame runs clocked, with the same
+    /// bits and cycles.
+    pub fn capture(mut self, capture: crate::cosim::capture::Capture) -> Self {
+        self.capture = Some(capture);
+        self
+    }
+
     /// Plans, loads, clocks and reads out the frame.
     pub fn run(self) -> Result<Frame, RunError> {
         let FrameRun {
@@ -188,6 +198,7 @@ impl<'a> FrameRun<'a> {
             units,
             tracer,
             resident,
+            capture,
         } = self;
         let view = match camera {
             Camera::View(view) => view,
@@ -229,6 +240,11 @@ impl<'a> FrameRun<'a> {
                 skips.unwrap_or_default(),
                 units,
             )?;
+        }
+        if let Some(c) = capture {
+            crate::cosim::capture::begin(&c, &array.dp);
+            array.clocked = true;
+            array.clock.set_capture(c);
         }
         let (frame, kept) = array.run_keeping(view)?;
         *resident = Some(kept);

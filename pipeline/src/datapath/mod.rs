@@ -57,6 +57,9 @@ pub struct SampleTrace {
     pub voi: crate::voi::VoiTrace,
     /// The pre-integration unit's words (zero unless pre-integrating).
     pub preint: crate::preint::PreintTrace,
+    /// The words the plain sample took at issue, for a capture
+    /// ([`crate::cosim::capture`]; zero on other paths).
+    pub issue: crate::cosim::capture::SampleIn,
 }
 
 /// The fixed-point datapath: the configuration, its tables and the

@@ -16,6 +16,7 @@ mod scenes;
 mod tools;
 
 mod architecture;
+mod capture;
 mod clock;
 mod cost;
 mod equivalence;

@@ -128,6 +128,8 @@ pub struct Clock {
     cycle: u64,
     stages: StageCycles,
     probes: Option<Probes>,
+    /// The capture of the datapath's issues ([`crate::cosim::capture`]).
+    capture: Option<crate::cosim::capture::Capture>,
     /// Whether PE `P - 1`'s right port drives PE 0's left (a ray-only wrap
     /// link: the round-robin mappings' migrations go around a ring).
     ring: bool,
@@ -148,6 +150,7 @@ impl Clock {
             cycle: 0,
             stages: StageCycles::default(),
             probes,
+            capture: None,
             ring: false,
             edge_rows: Vec::new(),
         }
@@ -256,6 +259,11 @@ impl Clock {
         self.probes = Some(probes);
     }
 
+    /// Hands every sampling cycle's issues to `capture` from now on.
+    pub(crate) fn set_capture(&mut self, capture: crate::cosim::capture::Capture) {
+        self.capture = Some(capture);
+    }
+
     pub(crate) fn take_probes(&mut self) -> Option<Probes> {
         self.probes.take()
     }
@@ -279,6 +287,13 @@ impl Clock {
         self.stages.add(ctrl.stage, 1);
         if let Some(pr) = self.probes.as_mut() {
             pr.sample(self.cycle, &self.pes, &self.ports, ctrl);
+        }
+        if let Some(c) = self
+            .capture
+            .as_ref()
+            .filter(|_| ctrl.stage == Stage::Sample)
+        {
+            crate::cosim::capture::record(c, self.cycle, &self.pes);
         }
         Ok(())
     }

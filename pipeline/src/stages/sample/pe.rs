@@ -235,6 +235,12 @@ impl Pe {
         let mut corrected = 0;
         let mut terminated = false;
         let row = bus.row;
+        // The accumulators the sample reads, kept for a capture.
+        let acc_in = if TRACE {
+            self.rays[j].acc[row]
+        } else {
+            Default::default()
+        };
         if alpha.raw() > 0 {
             // The ray's x slope `b + mx k`, in `position` like a position.
             let (b, k) = bus.slope_x;
@@ -266,6 +272,20 @@ impl Pe {
                 shade,
                 voi,
                 preint: Default::default(),
+                issue: crate::cosim::capture::SampleIn {
+                    m: mx,
+                    a: s.a[0].raw(),
+                    t: s.t[0].raw(),
+                    b: bus.slope_x.0.raw(),
+                    k: bus.slope_x.1.raw(),
+                    wy: wy.raw(),
+                    sy: bus.slope_yz.0.raw(),
+                    sz: bus.slope_yz.1.raw(),
+                    acc: acc_in,
+                    taps: [left[0], right[0], left[1], right[1]],
+                    x0,
+                    land,
+                },
             };
         }
         Ok(())

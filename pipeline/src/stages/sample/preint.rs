@@ -234,6 +234,7 @@ impl Pe {
                 shade: Default::default(),
                 voi: Default::default(),
                 preint: trace,
+                issue: Default::default(),
             };
         }
         Ok(())

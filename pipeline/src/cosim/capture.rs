@@ -1,0 +1,186 @@
+//! The capture: every sample each PE's datapath issues in a frame, with
+//! the words it took and the words it wrote back, recorded from the clocked
+//! sample path.
+//!
+//! The clocked path already leaves each PE's last sampling cycle in
+//! [`Pe::last`] for the waveform probes; in that same copy (compiled only
+//! into the clocked path, `TRACE`) it keeps the sample's input bundle
+//! ([`SampleIn`]). When a frame is run with a [`Capture`]
+//! ([`crate::FrameRun::capture`]) the clock hands the busy PEs' bundles of
+//! every sampling cycle to the capture's [`IssueSink`], and the frame runs
+//! clocked (the same bits and cycles as the whole-slice path: the array's
+//! tests compare them). Without one, nothing is recorded and nothing is
+//! different: the whole-slice path never fills the bundle.
+
+use std::sync::{Arc, Mutex};
+
+use crate::datapath::{Acc, Datapath};
+use crate::pe::Pe;
+
+/// The words a sample's datapath takes when it issues, as the model holds
+/// them (raw words of their formats): the row broadcast, the ray index, the
+/// ray's accumulators before the sample and the four voxel taps; and the
+/// tap column it computed and the cycle its result is written back.
+///
+/// Golden twin: the arguments of `golden::sampling::sample_at`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SampleIn {
+    /// Ray index `m` (the ray slot), port `slot_m`.
+    pub m: i64,
+    /// The slice's x position base (`position`), port `a`.
+    pub a: i64,
+    /// The slice's x position step per ray (`step`), port `t`.
+    pub t: i64,
+    /// The region's x slope base (`position`), port `b`.
+    pub b: i64,
+    /// The region's x slope step per ray (`step`), port `k`.
+    pub k: i64,
+    /// The row's y weight (`weight`), port `row_wy`.
+    pub wy: i64,
+    /// The row's y slope (`position`), port `sy`.
+    pub sy: i64,
+    /// The region's z slope (`position`), port `sz`.
+    pub sz: i64,
+    /// The ray's accumulators before the sample, ports `acc_r`..`acc_a`.
+    pub acc: Acc,
+    /// The voxel taps: row y0 at columns x0 and x0 + 1, then row y0 + 1
+    /// (ports `v00`, `v01`, `v10`, `v11`), after the memory's clamping.
+    pub taps: [u16; 4],
+    /// The tap column `x0` (unclamped), output `x0`.
+    pub x0: i64,
+    /// The cycle the accumulators are written back (issue plus the
+    /// model's `datapath_latency`).
+    pub land: u64,
+}
+
+/// One issued sample: its cycle, its PE, what it took and what it wrote
+/// back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Issue {
+    /// The cycle it issued (the frame's cycles count from 1).
+    pub cycle: u64,
+    /// The PE.
+    pub pe: usize,
+    /// What it took.
+    pub input: SampleIn,
+    /// The accumulators written back at `input.land` (unchanged for an
+    /// invisible sample), outputs `acc_out_r`..`acc_out_a`.
+    pub out: Acc,
+}
+
+/// Where a capture's issues go.
+pub trait IssueSink: Send {
+    /// The frame's datapath (configuration, tables and units), before its
+    /// first cycle.
+    fn begin(&mut self, _dp: &Datapath) {}
+    /// One issued sample, in cycle order, PEs in index order within a
+    /// cycle.
+    fn issue(&mut self, issue: &Issue);
+}
+
+/// A capture handed to a frame: the caller keeps its own handle on the
+/// sink to read it afterwards.
+pub type Capture = Arc<Mutex<dyn IssueSink>>;
+
+/// Hands every PE that sampled in `cycle` to `capture`.
+pub(crate) fn record(capture: &Capture, cycle: u64, pes: &[Pe]) {
+    let mut sink = capture.lock().unwrap_or_else(|e| e.into_inner());
+    for (pe, p) in pes.iter().enumerate() {
+        if p.last.busy {
+            sink.issue(&Issue {
+                cycle,
+                pe,
+                input: p.last.issue,
+                out: p.last.acc,
+            });
+        }
+    }
+}
+
+/// Tells `capture` the frame's datapath.
+pub(crate) fn begin(capture: &Capture, dp: &Datapath) {
+    capture.lock().unwrap_or_else(|e| e.into_inner()).begin(dp);
+}
+
+/// A sink keeping the issues in memory (optionally only those issued in
+/// a window of cycles) and the frame's table words.
+#[derive(Debug, Clone, Default)]
+pub struct Recorded {
+    /// The issues kept, in capture order.
+    pub issues: Vec<Issue>,
+    /// The frame's tables by name ([`crate::hw::sample::MEMORIES`]), raw
+    /// words.
+    pub tables: Vec<(String, Vec<i64>)>,
+    /// The model's write-back latency.
+    pub latency: u64,
+    /// Issues seen in all (kept or not).
+    pub seen: u64,
+    /// Whether issues in the window were dropped past the limit.
+    pub overflow: bool,
+    window: Option<(u64, u64)>,
+    limit: Option<usize>,
+}
+
+impl Recorded {
+    /// Keeps every issue.
+    pub fn new() -> Recorded {
+        Recorded::default()
+    }
+
+    /// Keeps the issues of cycles `first..=last` only.
+    pub fn window(first: u64, last: u64) -> Recorded {
+        Recorded {
+            window: Some((first, last)),
+            ..Recorded::default()
+        }
+    }
+
+    /// Keeps at most `n` issues; past them [`Recorded::overflow`] is set.
+    pub fn limit(self, n: usize) -> Recorded {
+        Recorded {
+            limit: Some(n),
+            ..self
+        }
+    }
+}
+
+/// The raw words of `dp`'s tables, named as the emitted module's
+/// ([`crate::hw::sample::MEMORIES`]).
+pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
+    let t = dp.tables();
+    let raw = |v: &[crate::fixed::Fx]| v.iter().map(|x| x.raw()).collect::<Vec<i64>>();
+    let cols = [
+        t.color.iter().map(|c| c[0].raw()).collect(),
+        t.color.iter().map(|c| c[1].raw()).collect(),
+        t.color.iter().map(|c| c[2].raw()).collect(),
+        raw(&t.alpha),
+        raw(&t.log_t),
+        raw(&t.exp),
+    ];
+    crate::hw::sample::MEMORIES
+        .iter()
+        .zip(cols)
+        .map(|(n, w)| ((*n).to_owned(), w))
+        .collect()
+}
+
+impl IssueSink for Recorded {
+    fn begin(&mut self, dp: &Datapath) {
+        self.tables = table_words(dp);
+        self.latency = dp.latency;
+    }
+
+    fn issue(&mut self, issue: &Issue) {
+        self.seen += 1;
+        if self
+            .window
+            .is_none_or(|(a, b)| (a..=b).contains(&issue.cycle))
+        {
+            if self.limit.is_some_and(|n| self.issues.len() >= n) {
+                self.overflow = true;
+            } else {
+                self.issues.push(*issue);
+            }
+        }
+    }
+}

@@ -1,0 +1,22 @@
+//! The co-simulation of the model against the emitted Verilog, its first
+//! stage: the datapath of every PE, every cycle of a real frame.
+//!
+//! The model runs the frame with a [`capture`] of every sample each PE's
+//! datapath issues; [`replay`] writes each PE's issue stream as a file and
+//! a generated top that instantiates the pipelined datapath
+//! ([`crate::hw::pipeline_rtl`]) once per PE and replays the streams cycle
+//! by cycle (bubbles included, the voxel taps served one clock after the
+//! tap column, as from a block RAM), checking every output of every PE on
+//! every cycle against the model's write-backs; [`build`] builds it with
+//! Verilator or Icarus, cached by a hash of its text. [`vectors`] writes the
+//! same capture as per-port `$readmemh` files with a plain testbench.
+//!
+//! The PE's control, the array and the controller are not emitted yet: the
+//! replay stands in for them, feeding each datapath what the model's PE fed
+//! its own.
+
+pub mod build;
+pub mod capture;
+pub mod outcome;
+pub mod replay;
+pub mod vectors;

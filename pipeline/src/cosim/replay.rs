@@ -1,0 +1,591 @@
+//! The replay: each PE's captured issue stream as a file, and a generated
+//! top that drives one emitted datapath per PE with it, cycle by cycle, and
+//! checks every output on every cycle.
+//!
+//! A stream file (`pe<K>.stim`) has one line per issued sample, in issue
+//! order: the issue cycle, the write-back cycle, then every field of
+//! [`Replay::fields`] as a hexadecimal word (two's complement over the
+//! port's width). The replayer of PE `K` (module `ercube_cosim_pe`) keeps
+//! the next line in registers; on the clock edge that ends cycle `c` it
+//!
+//! 1. checks what the module shows in cycle `c`: `out_valid` exactly when
+//!    the model wrote a sample back in `c`, then that sample's accumulators,
+//!    and the tap column `x0` of the sample issued `stage(x0)` clocks
+//!    before (zero in a bubble);
+//! 2. drives cycle `c + 1`: `in_valid` and the sample's ports if the next
+//!    line issues then (zeros and `in_valid` low otherwise: a bubble), and
+//!    the voxel taps of the sample issued `stage(v00)` clocks before, one
+//!    clock after its tap column, as a block RAM would return them.
+//!
+//! Expectations wait in rings indexed by cycle modulo a power of two
+//! longer than the pipeline. The top (`ercube_cosim`) resets every
+//! replayer, writes the frame's tables into every datapath through the
+//! host port (`tables.hex`, one row per word), runs cycles `0..=cycles`
+//! (`+cycles=N`), and prints one line per PE; each replayer prints its first
+//! mismatch. Nothing in the text depends on the frame, so a build serves
+//! every frame of the same configuration and PE count.
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use super::capture::{table_words, Issue, IssueSink};
+use crate::datapath::Datapath;
+use crate::hw::pipeline_rtl::{PipelinedModule, Port};
+
+/// The generated top's name.
+pub const TOP: &str = "ercube_cosim";
+
+/// The per-PE replayer's name.
+pub const REPLAYER: &str = "ercube_cosim_pe";
+
+/// How a port of the datapath is fed or checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// An input taken with the sample at issue.
+    Issue,
+    /// An input read `stage` clocks after issue (the voxel taps).
+    Late,
+    /// An output shown `stage` clocks after issue (the tap column).
+    Probe,
+    /// An output shown when the sample is written back (the
+    /// accumulators, with `out_valid`).
+    Result,
+}
+
+/// One port of the datapath as the replay sees it.
+#[derive(Debug, Clone)]
+pub struct Field {
+    /// The port.
+    pub port: Port,
+    /// How it is fed or checked.
+    pub role: Role,
+}
+
+/// Why a replay cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The module has a port the capture has no word for.
+    #[error("the emitted datapath has port {0}, which the capture does not carry")]
+    UnknownPort(String),
+}
+
+/// The word of `issue` that port `name` carries (the accumulators
+/// written back for `acc_out_*`); `None` for a port the capture does not
+/// carry.
+pub fn word_of(issue: &Issue, name: &str) -> Option<i64> {
+    let s = &issue.input;
+    Some(match name {
+        "slot_m" => s.m,
+        "a" => s.a,
+        "t" => s.t,
+        "b" => s.b,
+        "k" => s.k,
+        "row_wy" => s.wy,
+        "sy" => s.sy,
+        "sz" => s.sz,
+        "acc_r" => s.acc.raw[0],
+        "acc_g" => s.acc.raw[1],
+        "acc_b" => s.acc.raw[2],
+        "acc_a" => s.acc.raw[3],
+        "v00" => i64::from(s.taps[0]),
+        "v01" => i64::from(s.taps[1]),
+        "v10" => i64::from(s.taps[2]),
+        "v11" => i64::from(s.taps[3]),
+        "x0" => s.x0,
+        "acc_out_r" => issue.out.raw[0],
+        "acc_out_g" => issue.out.raw[1],
+        "acc_out_b" => issue.out.raw[2],
+        "acc_out_a" => issue.out.raw[3],
+        _ => return None,
+    })
+}
+
+/// `v`'s low `bits` bits as an unsigned word.
+pub fn masked(v: i64, bits: u32) -> u128 {
+    if bits >= 128 {
+        v as i128 as u128
+    } else {
+        (v as i128 as u128) & ((1u128 << bits) - 1)
+    }
+}
+
+/// A word read back in hexadecimal, sign-extended when `signed`.
+pub fn parse_hex(s: &str, bits: u32, signed: bool) -> Option<i128> {
+    let u = u128::from_str_radix(s, 16).ok()?;
+    let v = u as i128;
+    Some(if signed && bits < 128 && (v >> (bits - 1)) & 1 == 1 {
+        v - (1i128 << bits)
+    } else {
+        v
+    })
+}
+
+/// The control ports: driven by the replayer or the top, not captured.
+const CONTROL: [&str; 8] = [
+    "clk",
+    "rst",
+    "in_valid",
+    "out_valid",
+    "tbl_we",
+    "tbl_sel",
+    "tbl_addr",
+    "tbl_data",
+];
+
+/// The fields of `m`'s ports, in the module's order.
+pub fn fields(m: &PipelinedModule) -> Result<Vec<Field>, ReplayError> {
+    let probe = Issue {
+        cycle: 0,
+        pe: 0,
+        input: Default::default(),
+        out: Default::default(),
+    };
+    m.ports
+        .iter()
+        .filter(|p| !CONTROL.contains(&p.name.as_str()))
+        .map(|p| {
+            if word_of(&probe, &p.name).is_none() {
+                return Err(ReplayError::UnknownPort(p.name.clone()));
+            }
+            let role = match (p.input, p.stage) {
+                (true, 0) => Role::Issue,
+                (true, _) => Role::Late,
+                (false, s) if s == m.depth => Role::Result,
+                (false, _) => Role::Probe,
+            };
+            Ok(Field {
+                port: p.clone(),
+                role,
+            })
+        })
+        .collect()
+}
+
+/// The width of `m`'s port `name` (1 if it has none).
+pub fn port_bits(m: &PipelinedModule, name: &str) -> u32 {
+    m.ports
+        .iter()
+        .find(|p| p.name == name)
+        .map_or(1, |p| p.word.bits)
+}
+
+/// The host port's rows writing `tables` (by name) into `m`'s tables:
+/// `{1, tbl_sel, tbl_addr, tbl_data}` in hexadecimal, one a line, table
+/// after table in `tbl_sel` order; and the row count.
+pub fn table_rows(m: &PipelinedModule, tables: &[(String, Vec<i64>)]) -> (String, usize) {
+    let (sb, ab, db) = (
+        port_bits(m, "tbl_sel"),
+        port_bits(m, "tbl_addr"),
+        port_bits(m, "tbl_data"),
+    );
+    let mut s = String::new();
+    let mut n = 0;
+    for t in &m.tables {
+        let Some((_, words)) = tables.iter().find(|c| c.0 == t.name) else {
+            continue;
+        };
+        for (a, &w) in words.iter().enumerate().take(t.depth as usize) {
+            let row = (1u128 << (sb + ab + db))
+                | (u128::from(t.sel) << (ab + db))
+                | ((a as u128) << db)
+                | masked(w, db);
+            let _ = writeln!(s, "{row:x}");
+            n += 1;
+        }
+    }
+    (s, n)
+}
+
+/// The replay of one configuration's datapath: the module, its fields and
+/// the generated text.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// The emitted datapath.
+    pub module: PipelinedModule,
+    /// Its captured ports, in the stream files' order.
+    pub fields: Vec<Field>,
+    /// Bits of the rings' index: `2^ring_bits` cycles exceed the longest
+    /// wait (the pipeline's depth or the model's latency).
+    pub ring_bits: u32,
+}
+
+impl Replay {
+    /// The replay of `module` for a model writing back `latency` clocks
+    /// after issue.
+    pub fn new(module: PipelinedModule, latency: u64) -> Result<Replay, ReplayError> {
+        let fields = fields(&module)?;
+        let longest = latency.max(u64::from(module.depth)) + 2;
+        let ring_bits = (64 - longest.leading_zeros()).max(2);
+        Ok(Replay {
+            module,
+            fields,
+            ring_bits,
+        })
+    }
+
+    /// Rows the top writes through the host port (every word of every
+    /// table).
+    pub fn table_words(&self) -> usize {
+        self.module.tables.iter().map(|t| t.depth as usize).sum()
+    }
+
+    /// A stream file's line for `issue`, written back at `land`.
+    pub fn line(&self, issue: &Issue, land: u64, out: &mut String) {
+        let _ = write!(out, "{:x} {:x}", issue.cycle, land);
+        for f in &self.fields {
+            let v = word_of(issue, &f.port.name).unwrap_or(0);
+            let _ = write!(out, " {:x}", masked(v, f.port.word.bits));
+        }
+        out.push('\n');
+    }
+
+    /// The generated Verilog: the replayer and a top with `pes` of them.
+    pub fn testbench(&self, pes: usize) -> String {
+        let mut v = String::new();
+        self.replayer(&mut v);
+        self.top(&mut v, pes);
+        v
+    }
+
+    /// `[w-1:0]` or `signed [w-1:0]`.
+    fn decl(p: &Port) -> String {
+        format!(
+            "{}[{}:0]",
+            if p.word.signed { "signed " } else { "" },
+            p.word.bits - 1
+        )
+    }
+
+    fn host_widths(&self) -> (u32, u32, u32) {
+        let m = &self.module;
+        (
+            port_bits(m, "tbl_sel"),
+            port_bits(m, "tbl_addr"),
+            port_bits(m, "tbl_data"),
+        )
+    }
+
+    fn of(&self, role: Role) -> impl Iterator<Item = &Field> {
+        self.fields.iter().filter(move |f| f.role == role)
+    }
+
+    /// The replayer module.
+    fn replayer(&self, v: &mut String) {
+        let m = &self.module;
+        let (sb, ab, db) = self.host_widths();
+        let l = self.ring_bits;
+        let r = 1u32 << l;
+        let _ = writeln!(
+            v,
+            "// {REPLAYER}: replays one PE's captured issue stream (pe<K>.stim) through {} and\n\
+             // checks its outputs every cycle. Emitted by ercube (pipeline::cosim::replay).\n\
+             `timescale 1ns/1ps\n\
+             module {REPLAYER} (\n  input wire clk,\n  input wire rst,\n  input wire run,\n  \
+             input wire [63:0] cyc,\n  input wire [31:0] pe,\n  input wire tbl_we,\n  \
+             input wire [{}:0] tbl_sel,\n  input wire [{}:0] tbl_addr,\n  input wire [{}:0] tbl_data,\n  \
+             output reg [63:0] issued,\n  output reg [63:0] checked,\n  output reg [63:0] mismatches,\n  \
+             output reg pending\n);",
+            m.name,
+            sb - 1,
+            ab - 1,
+            db - 1
+        );
+        let _ = writeln!(v, "  reg in_valid;\n  wire out_valid;");
+        for f in &self.fields {
+            let kind = if f.port.input { "reg" } else { "wire" };
+            let _ = writeln!(v, "  {kind} {} {};", Self::decl(&f.port), f.port.name);
+        }
+        let conns: Vec<String> = m
+            .ports
+            .iter()
+            .map(|p| format!(".{0}({0})", p.name))
+            .collect();
+        let _ = writeln!(v, "  {} dut ({});", m.name, conns.join(", "));
+        let _ = writeln!(
+            v,
+            "  // The next captured sample.\n  reg [63:0] n_cycle, n_land;"
+        );
+        for f in &self.fields {
+            let _ = writeln!(v, "  reg [{}:0] n_{};", f.port.word.bits - 1, f.port.name);
+        }
+        let _ = writeln!(
+            v,
+            "  // What each cycle (modulo {r}) expects or serves.\n  reg r_valid [0:{}];",
+            r - 1
+        );
+        for f in self.fields.iter().filter(|f| f.role != Role::Issue) {
+            let _ = writeln!(
+                v,
+                "  reg [{}:0] r_{} [0:{}];",
+                f.port.word.bits - 1,
+                f.port.name,
+                r - 1
+            );
+        }
+        let _ = writeln!(
+            v,
+            "  reg opened;\n  reg [255:0] fname;\n  reg [{0}:0] now, nxt, at;\n  integer fd, got, i;",
+            l - 1
+        );
+        // Initial values: nothing issued, nothing expected.
+        let _ = writeln!(
+            v,
+            "  initial begin\n    opened = 1'b0; fd = 0; got = 0; pending = 1'b0;\n    \
+             issued = 64'd0; checked = 64'd0; mismatches = 64'd0; in_valid = 1'b0;"
+        );
+        for f in self.fields.iter().filter(|f| f.port.input) {
+            let _ = writeln!(v, "    {} = {}'d0;", f.port.name, f.port.word.bits);
+        }
+        let _ = writeln!(
+            v,
+            "    for (i = 0; i < {r}; i = i + 1) begin\n      r_valid[i] = 1'b0;"
+        );
+        for f in self.fields.iter().filter(|f| f.role != Role::Issue) {
+            let _ = writeln!(v, "      r_{}[i] = {}'d0;", f.port.name, f.port.word.bits);
+        }
+        let _ = writeln!(v, "    end\n  end");
+        // Reading the next line.
+        let n = self.fields.len() + 2;
+        let fmt = vec!["%h"; n].join(" ");
+        let mut args = vec!["n_cycle".to_owned(), "n_land".to_owned()];
+        args.extend(self.fields.iter().map(|f| format!("n_{}", f.port.name)));
+        let _ = writeln!(
+            v,
+            "  task fetch;\n    begin\n      got = $fscanf(fd, \"{fmt}\\n\", {});\n      \
+             pending = (got == {n});\n    end\n  endtask",
+            args.join(", ")
+        );
+        let miss = |v: &mut String, ind: &str, name: &str, want: &str, have: &str| {
+            let _ = writeln!(
+                v,
+                "{ind}if (mismatches == 64'd0) $display(\"MISMATCH %0d %0d {name} %h %h\", cyc, pe, {want}, {have});\n\
+                 {ind}mismatches = mismatches + 64'd1;"
+            );
+        };
+        let _ = writeln!(
+            v,
+            "  always @(posedge clk) begin\n    if (rst) begin\n      if (!opened) begin\n        \
+             opened = 1'b1;\n        $sformat(fname, \"pe%0d.stim\", pe);\n        \
+             fd = $fopen(fname, \"r\");\n        if (fd == 0) $display(\"ERROR %0d cannot open its stream\", pe);\n        \
+             else fetch;\n      end\n    end else if (run) begin\n      now = cyc[{}:0];",
+            l - 1
+        );
+        // 1. This cycle's outputs.
+        let _ = writeln!(v, "      if (out_valid !== r_valid[now]) begin");
+        miss(v, "        ", "out_valid", "r_valid[now]", "out_valid");
+        let _ = writeln!(
+            v,
+            "      end else if (r_valid[now]) begin\n        checked = checked + 64'd1;"
+        );
+        for f in self.of(Role::Result) {
+            let name = &f.port.name;
+            let _ = writeln!(v, "        if ({name} !== r_{name}[now]) begin");
+            miss(v, "          ", name, &format!("r_{name}[now]"), name);
+            let _ = writeln!(v, "        end");
+        }
+        let _ = writeln!(v, "      end\n      r_valid[now] = 1'b0;");
+        for f in self.of(Role::Probe) {
+            let name = &f.port.name;
+            let _ = writeln!(v, "      if ({name} !== r_{name}[now]) begin");
+            miss(v, "        ", name, &format!("r_{name}[now]"), name);
+            let _ = writeln!(
+                v,
+                "      end\n      r_{name}[now] = {}'d0;",
+                f.port.word.bits
+            );
+        }
+        // 2. The next cycle's inputs.
+        let _ = writeln!(v, "      nxt = now + {l}'d1;");
+        for f in self.of(Role::Late) {
+            let name = &f.port.name;
+            let _ = writeln!(
+                v,
+                "      {name} <= r_{name}[nxt];\n      r_{name}[nxt] = {}'d0;",
+                f.port.word.bits
+            );
+        }
+        let _ = writeln!(
+            v,
+            "      if (pending && n_cycle <= cyc) begin\n        \
+             if (mismatches == 64'd0) $display(\"MISMATCH %0d %0d issue_order %h %h\", cyc, pe, cyc + 64'd1, n_cycle);\n        \
+             mismatches = mismatches + 64'd1;\n        pending = 1'b0;\n      end\n      \
+             if (pending && n_cycle == cyc + 64'd1) begin\n        in_valid <= 1'b1;"
+        );
+        for f in self.of(Role::Issue) {
+            let _ = writeln!(v, "        {0} <= n_{0};", f.port.name);
+        }
+        // Each index is computed into a register of the ring's width, so
+        // that it wraps (Icarus widens an index expression).
+        for f in self
+            .fields
+            .iter()
+            .filter(|f| matches!(f.role, Role::Late | Role::Probe))
+        {
+            let _ = writeln!(
+                v,
+                "        at = nxt + {l}'d{1};\n        r_{0}[at] = n_{0};",
+                f.port.name,
+                f.port.stage % r
+            );
+        }
+        for f in self.of(Role::Result) {
+            let _ = writeln!(
+                v,
+                "        r_{0}[n_land[{1}:0]] = n_{0};",
+                f.port.name,
+                l - 1
+            );
+        }
+        let _ = writeln!(
+            v,
+            "        r_valid[n_land[{}:0]] = 1'b1;\n        issued = issued + 64'd1;\n        fetch;\n      end else begin\n        in_valid <= 1'b0;",
+            l - 1
+        );
+        for f in self.of(Role::Issue) {
+            let _ = writeln!(v, "        {} <= {}'d0;", f.port.name, f.port.word.bits);
+        }
+        let _ = writeln!(v, "      end\n    end\n  end\nendmodule\n");
+    }
+
+    /// The top: clock, reset, the tables through the host port, `pes`
+    /// replayers.
+    fn top(&self, v: &mut String, pes: usize) {
+        let (sb, ab, db) = self.host_widths();
+        let nt = self.table_words().max(1);
+        let wb = 1 + sb + ab + db;
+        let _ = writeln!(
+            v,
+            "// {TOP}: {pes} PEs' datapaths, each replaying its captured issue stream. Run with\n\
+             // +cycles=N (the last cycle checked) beside tables.hex and pe<K>.stim.\n\
+             module {TOP};\n  reg clk = 1'b0;\n  always #5 clk = ~clk;\n  reg rst = 1'b1;\n  \
+             reg run = 1'b0;\n  reg [63:0] cyc = 64'd0;\n  reg [63:0] last = 64'd0;\n  \
+             reg tbl_we = 1'b0;\n  reg [{}:0] tbl_sel = {sb}'d0;\n  reg [{}:0] tbl_addr = {ab}'d0;\n  \
+             reg [{}:0] tbl_data = {db}'d0;\n  reg [{}:0] tw [0:{}];\n  integer c;",
+            sb - 1,
+            ab - 1,
+            db - 1,
+            wb - 1,
+            nt - 1
+        );
+        for k in 0..pes {
+            let _ = writeln!(
+                v,
+                "  wire [63:0] issued{k}, checked{k}, mismatches{k};\n  wire pending{k};\n  \
+                 {REPLAYER} pe{k} (.clk(clk), .rst(rst), .run(run), .cyc(cyc), .pe(32'd{k}), \
+                 .tbl_we(tbl_we), .tbl_sel(tbl_sel), .tbl_addr(tbl_addr), .tbl_data(tbl_data), \
+                 .issued(issued{k}), .checked(checked{k}), .mismatches(mismatches{k}), .pending(pending{k}));"
+            );
+        }
+        let _ = writeln!(
+            v,
+            "  always @(posedge clk) if (run) cyc <= cyc + 64'd1;\n  initial begin\n    \
+             if (!$value$plusargs(\"cycles=%d\", last)) last = 64'd0;\n\
+             `ifdef ERCUBE_VCD\n    $dumpfile(\"rtl.vcd\");\n    $dumpvars(0, {TOP});\n`endif\n    \
+             $readmemh(\"tables.hex\", tw);\n    @(posedge clk); @(posedge clk); #1 rst = 1'b0;\n    \
+             for (c = 0; c < {}; c = c + 1) begin\n      {{tbl_we, tbl_sel, tbl_addr, tbl_data}} = tw[c];\n      \
+             @(posedge clk); #1;\n    end\n    tbl_we = 1'b0;\n    run = 1'b1;\n    \
+             while (cyc <= last) begin\n      @(posedge clk); #1;\n    end\n    \
+             $display(\"CYCLES %0d\", last);",
+            self.table_words()
+        );
+        for k in 0..pes {
+            let _ = writeln!(
+                v,
+                "    $display(\"PE {k} %0d %0d %0d %0d\", issued{k}, checked{k}, mismatches{k}, pending{k});"
+            );
+        }
+        let _ = writeln!(v, "    $finish;\n  end\nendmodule");
+    }
+}
+
+/// A sink writing each PE's issue stream file (`pe<K>.stim`) and the host
+/// port's table rows (`tables.hex`) into a directory, as the frame runs.
+pub struct StreamFiles {
+    replay: Replay,
+    dir: PathBuf,
+    files: Vec<BufWriter<File>>,
+    /// Issues after this cycle are left out.
+    last_issue: u64,
+    /// Write back at issue plus this instead of the model's cycle.
+    realign: Option<u64>,
+    line: String,
+    /// Issues written, per PE.
+    pub issued: Vec<u64>,
+    /// The last write-back cycle written.
+    pub last_land: u64,
+    /// The model's latency, known at the frame's start.
+    pub latency: u64,
+    /// The first error writing.
+    pub error: Option<std::io::Error>,
+}
+
+impl StreamFiles {
+    /// Streams for `pes` PEs into `dir`, keeping issues up to cycle
+    /// `last_issue`; `realign` writes results back `realign` clocks after
+    /// issue (the module's depth) instead of at the model's cycle.
+    pub fn create(
+        replay: Replay,
+        dir: &Path,
+        pes: usize,
+        last_issue: u64,
+        realign: Option<u64>,
+    ) -> std::io::Result<StreamFiles> {
+        let files = (0..pes)
+            .map(|k| File::create(dir.join(format!("pe{k}.stim"))).map(BufWriter::new))
+            .collect::<std::io::Result<Vec<_>>>()?;
+        Ok(StreamFiles {
+            replay,
+            dir: dir.to_owned(),
+            files,
+            last_issue,
+            realign,
+            line: String::new(),
+            issued: vec![0; pes],
+            last_land: 0,
+            latency: 0,
+            error: None,
+        })
+    }
+
+    /// Flushes the streams; the first error met, if any.
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        for f in &mut self.files {
+            f.flush()?;
+        }
+        Ok(())
+    }
+}
+
+impl IssueSink for StreamFiles {
+    fn begin(&mut self, dp: &Datapath) {
+        self.latency = dp.latency;
+        let (rows, _) = table_rows(&self.replay.module, &table_words(dp));
+        if let Err(e) = std::fs::write(self.dir.join("tables.hex"), rows) {
+            self.error.get_or_insert(e);
+        }
+    }
+
+    fn issue(&mut self, issue: &Issue) {
+        if issue.cycle > self.last_issue || self.error.is_some() {
+            return;
+        }
+        let land = match self.realign {
+            Some(d) => issue.cycle + d,
+            None => issue.input.land,
+        };
+        self.last_land = self.last_land.max(land);
+        self.line.clear();
+        self.replay.line(issue, land, &mut self.line);
+        if let Some(f) = self.files.get_mut(issue.pe) {
+            if let Err(e) = f.write_all(self.line.as_bytes()) {
+                self.error = Some(e);
+            }
+            self.issued[issue.pe] += 1;
+        }
+    }
+}

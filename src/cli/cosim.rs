@@ -1,0 +1,467 @@
+//! `ercube cosim`: the frame in the model and, replayed from it, in the
+//! emitted Verilog of every PE's datapath, compared on every cycle
+//! (`pipeline::cosim`). This is the datapath stage of the co-simulation:
+//! the PE's control, the array and the controller are not emitted yet, so
+//! each PE's datapath is fed the issue stream the model's PE gave its own,
+//! bubbles included, and its outputs are checked against the model's
+//! write-backs. Exit status 1 on any mismatch.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use serde_json::json;
+
+use golden::render::Prepared;
+use golden::tf::Lut;
+use pipeline::config::{Order, PipelineConfig};
+use pipeline::cosim::build::{build, run as run_sim, Simulator};
+use pipeline::cosim::outcome::{parse, Outcome};
+use pipeline::cosim::replay::{Replay, StreamFiles, TOP};
+use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+use pipeline::{FrameRun, Voxels};
+
+use super::args::{SliceArgs, ViewArgs};
+use super::chip::{self, ConfigArgs};
+use super::memory::FrameSpec;
+use super::method::MethodArg;
+use super::rtl::MODULE;
+
+/// Arguments of `ercube cosim`.
+#[derive(Debug, Args)]
+pub struct CosimArgs {
+    #[command(flatten)]
+    pub frame: FrameArgs,
+    /// The simulator: verilator or iverilog.
+    #[arg(long, value_parser = ["verilator", "iverilog"], default_value = "verilator")]
+    pub simulator: String,
+    /// Write the figures as JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Write the RTL's waveform (every PE's datapath) as VCD here.
+    #[arg(long)]
+    pub vcd: Option<PathBuf>,
+    /// Check the RTL up to this cycle only (the samples issued by then,
+    /// each to its write-back); the model still runs the whole frame.
+    #[arg(long)]
+    pub max_cycles: Option<u64>,
+    /// The datapath's Verilog from this file instead of the emitted one:
+    /// a module named `ercube_sample` with the emitted module's ports
+    /// (`ercube rtl` lists them), say a team's own or a modified copy.
+    #[arg(long)]
+    pub verilog: Option<PathBuf>,
+    /// Where builds are kept, by a hash of their Verilog (default:
+    /// $XDG_CACHE_HOME/ercube/cosim or ~/.cache/ercube/cosim).
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+}
+
+/// The frame `cosim` and `vectors` capture: the view, the renderer's
+/// options, the pipeline configuration and the order.
+#[derive(Debug, Args)]
+pub struct FrameArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub slice: SliceArgs,
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
+    /// Compositing order (overrides the configuration): btf or ftb (front
+    /// to back with --terminate's threshold).
+    #[arg(long, value_parser = ["btf", "ftb"])]
+    pub order: Option<String>,
+}
+
+/// A frame ready to run with a capture.
+pub struct Setup {
+    /// The configuration.
+    pub cfg: PipelineConfig,
+    /// The classification table.
+    pub lut: Lut,
+    /// The prepared view, holding the voxels.
+    pub prep: Prepared,
+    /// Bits of the volume's scalars.
+    pub bits: u32,
+    /// What the controller skips.
+    pub skips: golden::skip::Skips,
+    /// The volume's name.
+    pub label: String,
+    /// The emitted datapath.
+    pub module: PipelinedModule,
+}
+
+impl Setup {
+    /// The frame, to run with or without a capture.
+    pub fn frame(&self) -> FrameRun<'_> {
+        FrameRun::prepared(
+            &self.cfg,
+            &self.lut,
+            &self.prep,
+            Voxels::Stack {
+                data_bits: self.bits,
+            },
+        )
+        .skips(self.skips)
+    }
+
+    /// The model's write-back latency.
+    pub fn latency(&self) -> u64 {
+        u64::from(pipeline::cost::datapath_latency(&self.cfg))
+    }
+}
+
+/// Loads the frame `a` describes, refusing in one line (as `cmd`) what the
+/// datapath's stream does not cover yet.
+pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
+    let method = match a.order.as_deref() {
+        Some("ftb") => MethodArg::PipelineFtb,
+        _ => MethodArg::Pipeline,
+    };
+    let (mut cfg, slice) = chip::configure(&a.cfg, method, &a.slice)?;
+    if a.order.as_deref() == Some("btf") {
+        cfg.order = Order::BackToFront;
+        cfg.validate()?;
+    }
+    let opts = slice.options()?;
+    chip::check_options(&opts)?;
+    let refused = [
+        (
+            opts.slice.shade.is_some(),
+            "shading (--shade, --light, ...)",
+        ),
+        (opts.slice.voi.is_some(), "a volume of interest (--voi)"),
+        (opts.slice.preintegrate, "pre-integration (--preintegrate)"),
+    ];
+    if let Some((_, what)) = refused.iter().find(|r| r.0) {
+        bail!("{cmd}: {what} is not in the emitted datapath yet (only the plain sample is)");
+    }
+    let g = pipeline::hw::sample::plain(&cfg);
+    let module = emit(&g, MODULE).map_err(|e| anyhow!("{cmd}: {e}"))?;
+    let spec = FrameSpec {
+        technique: None,
+        shade: false,
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for(cmd, &spec)?;
+    let mut opts = opts;
+    slice.apply_tf(&mut opts, &tf)?;
+    let lut = chip::pipeline_lut(&cfg, &vol, &tf);
+    let bits = vol.kind().bits();
+    let prep = slice.prepared_owning(vol, &cam)?;
+    Ok(Setup {
+        cfg,
+        lut,
+        prep,
+        bits,
+        skips: opts.slice.skips,
+        label: a.view.source.label(),
+        module,
+    })
+}
+
+/// A failed comparison: the report is printed, the exit status is 1.
+#[derive(Debug)]
+pub struct Mismatched(pub String);
+
+impl std::fmt::Display for Mismatched {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Mismatched {}
+
+/// The simulator named on the command line, refused in one line when it
+/// is not installed.
+fn simulator(name: &str) -> Result<Simulator> {
+    let sim = match name {
+        "iverilog" => Simulator::Icarus,
+        _ => Simulator::Verilator,
+    };
+    let found = std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(sim.tool()).is_file()));
+    if !found {
+        bail!(
+            "cosim: {} is not on PATH (Debian: apt-get install {})",
+            sim.tool(),
+            sim.tool()
+        );
+    }
+    Ok(sim)
+}
+
+/// The build cache's folder.
+fn cache_dir(given: Option<&Path>) -> PathBuf {
+    if let Some(d) = given {
+        return d.to_owned();
+    }
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(std::env::temp_dir);
+    base.join("ercube").join("cosim")
+}
+
+/// `n / s` per second, `0` for no time.
+fn rate(n: u64, s: f64) -> f64 {
+    if s > 0.0 {
+        n as f64 / s
+    } else {
+        0.0
+    }
+}
+
+/// Runs `ercube cosim`.
+pub fn run(a: &CosimArgs) -> Result<()> {
+    super::outputs::check_files(&[a.stats.as_deref(), a.vcd.as_deref()])?;
+    if a.max_cycles == Some(0) {
+        bail!("--max-cycles 0: give at least one cycle");
+    }
+    let sim = simulator(&a.simulator)?;
+    let given = match &a.verilog {
+        Some(p) => Some(
+            std::fs::read_to_string(p).map_err(|e| anyhow!("--verilog {}: {e}", p.display()))?,
+        ),
+        None => None,
+    };
+    let s = setup(&a.frame, "cosim")?;
+    let datapath = given.as_deref().unwrap_or(&s.module.verilog);
+    let p = usize::from(s.cfg.pes);
+    let depth = u64::from(s.module.depth);
+    let latency = s.latency();
+    // The model untraced: the frame as `render` runs it.
+    let t = Instant::now();
+    let plain = s.frame().run()?;
+    let untraced_s = t.elapsed().as_secs_f64();
+    // The model again, each PE's issue stream written as it runs.
+    let replay = Replay::new(s.module.clone(), latency)?;
+    let run_dir = tempfile::Builder::new().prefix("ercube-cosim-").tempdir()?;
+    let last_issue = a.max_cycles.unwrap_or(u64::MAX);
+    let realign = (latency != depth).then_some(depth);
+    let streams = StreamFiles::create(replay.clone(), run_dir.path(), p, last_issue, realign)?;
+    let streams = Arc::new(Mutex::new(streams));
+    let t = Instant::now();
+    let captured = s.frame().capture(streams.clone()).run()?;
+    let capture_s = t.elapsed().as_secs_f64();
+    if captured.cycles != plain.cycles || captured.raw != plain.raw {
+        bail!("cosim: the captured frame differs from the untraced one (a model bug)");
+    }
+    let (issued, last_land) = {
+        let mut st = streams
+            .lock()
+            .map_err(|_| anyhow!("cosim: capture poisoned"))?;
+        st.finish()?;
+        (st.issued.clone(), st.last_land)
+    };
+    let samples: u64 = issued.iter().sum();
+    let frame_end = a.max_cycles.map_or(plain.cycles, |m| m.min(plain.cycles));
+    let cycles = frame_end.max(last_land);
+    // The RTL: built once per text, run on the streams.
+    let tb = replay.testbench(p);
+    let sources = [
+        (format!("{MODULE}.v"), datapath),
+        (format!("{TOP}.v"), tb.as_str()),
+    ];
+    let sources: Vec<(&str, &str)> = sources.iter().map(|(n, t)| (n.as_str(), *t)).collect();
+    let cache = cache_dir(a.cache_dir.as_deref());
+    let built =
+        build(sim, &cache, &sources, TOP, a.vcd.is_some()).map_err(|e| anyhow!("cosim: {e}"))?;
+    let mut args = vec![format!("+cycles={cycles}")];
+    if a.vcd.is_some() {
+        args.push("+vcd".into());
+    }
+    let (text, sim_s) =
+        run_sim(&built, run_dir.path(), &args).map_err(|e| anyhow!("cosim: {e}"))?;
+    let o = parse(&replay, p, &text);
+    let report = Report {
+        a,
+        s: &s,
+        sim,
+        o: &o,
+        samples,
+        cycles,
+        frame_cycles: plain.cycles,
+        times: [untraced_s, capture_s, built.seconds, sim_s],
+        cached: built.cached,
+        tb_lines: tb.lines().count(),
+        load_clocks: replay.table_words() as u64 + 2,
+        datapath_lines: datapath.lines().count(),
+    };
+    let mut problems = report.problems(&issued);
+    if latency != depth {
+        problems.insert(
+            0,
+            format!(
+                "mismatch class latency: the model writes back {latency} clocks after issue, the RTL {depth} (results compared at the RTL's)"
+            ),
+        );
+    }
+    let lines = report.lines();
+    super::outputs::all_or_nothing(&[], || {
+        if let Some(path) = &a.stats {
+            super::stats::write_json(path, &report.json(&problems))?;
+        }
+        if let Some(path) = &a.vcd {
+            place_vcd(&run_dir.path().join("rtl.vcd"), path)?;
+        }
+        Ok(())
+    })?;
+    for l in lines {
+        super::say(&l);
+    }
+    if !problems.is_empty() {
+        for l in &problems[1..] {
+            super::say(&format!("  {l}"));
+        }
+        return Err(Mismatched(problems[0].clone()).into());
+    }
+    Ok(())
+}
+
+/// Moves the simulation's VCD to `dest`, staged with the run's files.
+fn place_vcd(vcd: &Path, dest: &Path) -> Result<()> {
+    let dir = match dest.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::NamedTempFile::new_in(dir)?;
+    if std::fs::rename(vcd, tmp.path()).is_err() {
+        std::fs::copy(vcd, tmp.path())
+            .map_err(|e| anyhow!("cosim: the simulation wrote no waveform: {e}"))?;
+    }
+    golden::image::place(tmp, dest)?;
+    Ok(())
+}
+
+/// What a cosim run measured, for the lines it prints and `--stats`.
+struct Report<'a> {
+    a: &'a CosimArgs,
+    s: &'a Setup,
+    sim: Simulator,
+    o: &'a Outcome,
+    samples: u64,
+    cycles: u64,
+    frame_cycles: u64,
+    /// Seconds: the model untraced, the model capturing, the build, the
+    /// simulation.
+    times: [f64; 4],
+    cached: bool,
+    tb_lines: usize,
+    /// Clocks before the frame's first: the reset and the table writes.
+    load_clocks: u64,
+    datapath_lines: usize,
+}
+
+impl Report<'_> {
+    /// Every way the run failed, most telling first (the first mismatch).
+    fn problems(&self, issued: &[u64]) -> Vec<String> {
+        let o = self.o;
+        let mut v = Vec::new();
+        if let Some(m) = &o.first {
+            v.push(format!("{} mismatches; the first: {m}", o.mismatches()));
+        } else if o.mismatches() > 0 {
+            v.push(format!("{} mismatches", o.mismatches()));
+        }
+        for (k, (pe, &n)) in o.pes.iter().zip(issued).enumerate() {
+            if pe.issued != n || pe.left {
+                v.push(format!(
+                    "PE {k}: the RTL issued {} of the model's {n} samples",
+                    pe.issued
+                ));
+            }
+        }
+        if o.checked() != o.issued() {
+            v.push(format!(
+                "{} write-backs compared of {} samples issued",
+                o.checked(),
+                o.issued()
+            ));
+        }
+        v.extend(o.errors.iter().cloned());
+        v
+    }
+
+    fn lines(&self) -> Vec<String> {
+        let (s, o) = (self.s, self.o);
+        let [untraced, capture, build_s, sim_s] = self.times;
+        let order = match s.cfg.order {
+            Order::BackToFront => "back to front",
+            Order::FrontToBack => "front to back",
+        };
+        let mut v = vec![format!(
+            "cosim: {}, {} PEs, {order}, {}: {} cycles{}, {} samples, {} write-backs compared, {} mismatches",
+            s.label,
+            s.cfg.pes,
+            self.sim.tool(),
+            self.cycles,
+            if self.cycles == self.frame_cycles {
+                String::new()
+            } else {
+                format!(" (of the frame's {})", self.frame_cycles)
+            },
+            self.samples,
+            o.checked(),
+            o.mismatches()
+        )];
+        v.push(format!(
+            "  model: {} cycles in {untraced:.2} s untraced ({:.0} cycles/s), {capture:.2} s capturing ({:.0} cycles/s)",
+            self.frame_cycles,
+            rate(self.frame_cycles, untraced),
+            rate(self.frame_cycles, capture)
+        ));
+        v.push(format!(
+            "  rtl: {MODULE} {} lines ({} clocks deep) x {} + {TOP} {} lines; {}; ran {} cycles after {} clocks of reset and table writes in {sim_s:.2} s ({:.0} clocks/s)",
+            self.datapath_lines,
+            s.module.depth,
+            s.cfg.pes,
+            self.tb_lines,
+            if self.cached {
+                "build cached".to_owned()
+            } else {
+                format!("built in {build_s:.1} s")
+            },
+            self.cycles,
+            self.load_clocks,
+            rate(self.cycles + self.load_clocks, sim_s)
+        ));
+        v
+    }
+
+    fn json(&self, problems: &[String]) -> serde_json::Value {
+        let (s, o) = (self.s, self.o);
+        let [untraced, capture, build_s, sim_s] = self.times;
+        json!({
+            "volume": s.label,
+            "pes": s.cfg.pes,
+            "order": s.cfg.order.name(),
+            "simulator": self.sim.tool(),
+            "frame_cycles": self.frame_cycles,
+            "cycles": self.cycles,
+            "max_cycles": self.a.max_cycles,
+            "samples": self.samples,
+            "write_backs_compared": o.checked(),
+            "mismatches": o.mismatches(),
+            "first_mismatch": o.first.as_ref().map(|m| json!({
+                "cycle": m.cycle, "pe": m.pe, "signal": m.signal, "model": m.model, "rtl": m.rtl,
+            })),
+            "problems": problems,
+            "per_pe": o.pes,
+            "model_latency": s.latency(),
+            "rtl_depth": s.module.depth,
+            "model_untraced_s": untraced,
+            "model_untraced_cycles_per_s": rate(self.frame_cycles, untraced),
+            "model_capture_s": capture,
+            "model_capture_cycles_per_s": rate(self.frame_cycles, capture),
+            "rtl_build_s": build_s,
+            "rtl_build_cached": self.cached,
+            "rtl_run_s": sim_s,
+            "rtl_load_clocks": self.load_clocks,
+            "rtl_clocks_per_s": rate(self.cycles + self.load_clocks, sim_s),
+            "rtl_lines": { "datapath": self.datapath_lines, "top": self.tb_lines },
+            "verilog": self.a.verilog.as_ref().map(|p| p.display().to_string()),
+            "config": serde_json::to_value(s.cfg).unwrap_or(serde_json::Value::Null),
+        })
+    }
+}
