@@ -389,7 +389,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
     /// The property test's many cases (`-- --ignored cosim::many`).
     #[test]
-    #[ignore = "many cases: about 10 s each in Icarus"]
+    #[ignore = "many cases: 10 to 25 s each in Icarus"]
     fn many_cosim_property((scene, eye, pes, ftb) in case_strategy()) {
         if have("iverilog", "iverilog", "the cosim property test") {
             icarus_case(scene, eye, pes, ftb);
