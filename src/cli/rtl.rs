@@ -14,7 +14,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
+use pipeline::hw::pipeline_rtl::{emit, emit_scheduled, PipelinedModule};
 
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
