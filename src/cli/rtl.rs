@@ -19,6 +19,9 @@ use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
 
+/// A unit's description from the configuration.
+type Builder = fn(&PipelineConfig) -> pipeline::hw::Graph;
+
 /// Arguments of `ercube rtl`.
 #[derive(Debug, Args)]
 pub struct RtlArgs {
@@ -78,7 +81,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let g = pipeline::hw::sample::plain(&cfg);
     let m = emit(&g, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
     let mut units = Vec::new();
-    let builders: [(bool, &str, fn(&PipelineConfig) -> pipeline::hw::Graph); 3] = [
+    let builders: [(bool, &str, Builder); 3] = [
         (a.shading, "shading", |c| {
             pipeline::hw::shading::shading(c, 1)
         }),
