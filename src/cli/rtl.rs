@@ -19,6 +19,9 @@ use pipeline::hw::pipeline_rtl::{emit, emit_scheduled, PipelinedModule};
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
 
+/// A unit's description from the configuration.
+type Builder = fn(&PipelineConfig) -> pipeline::hw::Graph;
+
 /// Arguments of `ercube rtl`.
 #[derive(Debug, Args)]
 pub struct RtlArgs {
@@ -81,7 +84,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let sch = pipeline::cost::latency::sample_schedule(&cfg);
     let m = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("rtl: {e}"))?;
     let mut units = Vec::new();
-    let builders: [(bool, &str, fn(&PipelineConfig) -> pipeline::hw::Graph); 3] = [
+    let builders: [(bool, &str, Builder); 3] = [
         (a.shading, "shading", |c| {
             pipeline::hw::shading::shading(c, 1)
         }),

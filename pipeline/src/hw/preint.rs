@@ -50,8 +50,8 @@ pub fn bank_name(ch: usize, odd: bool) -> String {
 fn times(g: &mut Graph, name: &str, x: NodeId, n: u64, bits: u32) -> NodeId {
     let w = Word::unsigned(bits, 0);
     let mut acc: Option<NodeId> = None;
-    for b in (0..64).filter(|b| n >> b & 1 == 1) {
-        let t = g.field(&format!("{name}.t{b}"), x, -(b as i32), w);
+    for b in (0..64i32).filter(|&b| n >> b & 1 == 1) {
+        let t = g.field(&format!("{name}.t{b}"), x, -b, w);
         acc = Some(match acc {
             None => t,
             Some(a) => g.add(&format!("{name}.a{b}"), a, t, w),
@@ -180,18 +180,17 @@ pub fn preint(cfg: &PipelineConfig) -> Graph {
         let o = [read(&mut g, 1, 0), read(&mut g, 1, 1)];
         let fw: Word = f.into();
         let mut rows_in_order = [[NodeId(0); 2]; 2];
-        for row in 0..2 {
+        for (row, words) in rows_in_order.iter_mut().enumerate() {
             g.item(
                 "preint",
                 "table rows i, i+1: swap by i's parity",
                 row as u32,
             );
-            for col in 0..2 {
+            for (col, word) in words.iter_mut().enumerate() {
                 // Row i is the even bank's when i is even.
                 let (ev, od) = (e[col], o[col]);
                 let (fv, tv) = if row == 0 { (ev, od) } else { (od, ev) };
-                rows_in_order[row][col] =
-                    g.mux(&format!("pre.{name}.row{row}{col}"), parity, fv, tv, fw);
+                *word = g.mux(&format!("pre.{name}.row{row}{col}"), parity, fv, tv, fw);
             }
         }
         let (back_item, front_item, copies) = if ch < 3 {
