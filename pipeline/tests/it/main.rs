@@ -24,6 +24,7 @@ mod kernel;
 mod load;
 mod mapping;
 mod model;
+mod preexact;
 mod preint;
 mod rtl;
 mod shading;
