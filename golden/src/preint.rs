@@ -132,7 +132,7 @@ pub struct PreTable {
     /// extinction, `k tau`, per channel (the fourth word 0); empty for
     /// [`Colouring::Fast`].
     slope: Vec<[f32; 4]>,
-    /// `[layer * bins^2 + front * bins + back]`: the exact colouring's
+    /// `[(front * bins + back) * LAYERS + layer]`: the exact colouring's
     /// colour words per depth layer ([`exact`]); empty for the others.
     layers: Vec<[f32; 4]>,
 }
@@ -335,12 +335,26 @@ impl PreTable {
         e: &[f32; 4],
         (layer, w): (usize, f32),
     ) -> [f32; 3] {
-        let at = self.taps(front, back);
-        let n2 = self.bins * self.bins;
-        let lo = bilinear(&self.layers[layer * n2..], self.bins, at);
-        let mut c = [lo[0], lo[1], lo[2]];
+        let (r, ti, tj) = self.taps(front, back);
+        // Entry `r`'s layer `layer` and its bilinear neighbours, `LAYERS`
+        // words apart per bin.
+        let words = &self.layers[layer..];
+        let at = |k: usize| words[k * LAYERS];
+        let mix = |a: [f32; 4], b: [f32; 4], c: [f32; 4], d: [f32; 4]| {
+            let mut e = [0f32; 3];
+            for k in 0..3 {
+                let top = a[k] + tj * (b[k] - a[k]);
+                let bot = c[k] + tj * (d[k] - c[k]);
+                e[k] = top + ti * (bot - top);
+            }
+            e
+        };
+        let n = self.bins;
+        let lo = mix(at(r), at(r + 1), at(r + n), at(r + n + 1));
+        let mut c = lo;
         if w > 0.0 {
-            let hi = bilinear(&self.layers[(layer + 1) * n2..], self.bins, at);
+            let up = |k: usize| words[k * LAYERS + 1];
+            let hi = mix(up(r), up(r + 1), up(r + n), up(r + n + 1));
             for ch in 0..3 {
                 c[ch] += w * (hi[ch] - c[ch]);
             }
@@ -354,7 +368,7 @@ impl PreTable {
     /// first three; the pipeline's host quantises them). Panics unless the
     /// table is [`Colouring::Exact`].
     pub fn layer_entry(&self, layer: usize, front: usize, back: usize) -> [f32; 4] {
-        self.layers[layer * self.bins * self.bins + front * self.bins + back]
+        self.layers[(front * self.bins + back) * LAYERS + layer]
     }
 
     /// The first of the four entries a lookup reads, and its weights

@@ -399,10 +399,12 @@ fn run_peer(
         .arg(&raw)
         .args(["--raw-dims", &format!("{},{},{}", d[0], d[1], d[2])])
         .args(["--raw-type", kind])
-        .args(["--spacing", &vec3(vol.spacing())])
-        .args(["--eye", &vec3(cam.eye.to_array())])
-        .args(["--look-at", &vec3(cam.look_at.to_array())])
-        .args(["--up", &vec3(cam.up.to_array())])
+        // `--name=value`: a vector starting with a minus sign would read
+        // as an option.
+        .arg(format!("--spacing={}", vec3(vol.spacing())))
+        .arg(format!("--eye={}", vec3(cam.eye.to_array())))
+        .arg(format!("--look-at={}", vec3(cam.look_at.to_array())))
+        .arg(format!("--up={}", vec3(cam.up.to_array())))
         .args(["--fov", &cam.fov_deg.to_string()])
         .args(["--size", &format!("{}x{}", cam.width, cam.height)])
         .arg("--tf-file")

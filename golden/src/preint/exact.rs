@@ -85,7 +85,9 @@ pub fn layer_position(p: f64) -> (usize, f32) {
     (l, (m2 - m as f64) as f32)
 }
 
-/// The layers' words, `[layer][front * bins + back]`: the node colours
+/// The layers' words, `[(front * bins + back) * LAYERS + layer]` (a bin
+/// pair's layers side by side, so a step's two layers share cache
+/// lines): the node colours
 /// times the fast table's mean extinction (so that they interpolate as
 /// its colour words do), layer 0 the fast table's own. `at` interpolates
 /// the classification table at a position in entries, `tau` turns an
@@ -142,12 +144,10 @@ pub(super) fn layers(
                 .collect()
         })
         .collect();
-    let mut out = vec![[0f32; 4]; LAYERS * n2];
-    for (i, row) in rows.iter().enumerate() {
-        for (j, w) in row.iter().enumerate() {
-            for (l, v) in w.iter().enumerate() {
-                out[l * n2 + i * bins + j] = *v;
-            }
+    let mut out = Vec::with_capacity(LAYERS * n2);
+    for row in &rows {
+        for w in row {
+            out.extend_from_slice(w);
         }
     }
     out
