@@ -215,3 +215,34 @@ fn preexact_is_never_worse_than_plain_sampling_on_thin_shells() {
     }
     println!("largest exact / plain RMSE: {worst_ratio:.3}");
 }
+
+/// The exact colouring's eight-ray path (`sampling::lanes`) gives the
+/// one-ray path's bits, for every slice-order method, on the ribbon from
+/// two views.
+#[test]
+fn preexact_lanes_match_the_one_ray_path() {
+    let n = 32;
+    let vol = golden::scenes::Scene::Ribbon { n }
+        .build(golden::volume::DEFAULT_MEMORY_LIMIT)
+        .expect("ribbon");
+    let lut = ribbon_lut();
+    for (view, cam) in views(n).into_iter().take(2) {
+        let prep = Prepared::new(&vol, &cam).expect("view");
+        for m in Method::ALL {
+            let image = |lanes: bool| {
+                let mut opts = RenderOptions::default();
+                opts.slice.preintegrate = true;
+                opts.slice.pre_colouring = Colouring::Exact;
+                opts.slice.lanes = lanes;
+                let img = render(&prep, &lut, Technique::Slice(m), &opts)
+                    .expect("render")
+                    .image;
+                img.data
+                    .iter()
+                    .map(|p| p.map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(image(true), image(false), "{view}, {}", m.name());
+        }
+    }
+}
