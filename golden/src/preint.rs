@@ -54,6 +54,9 @@
 use crate::opacity::neg_expm1;
 use crate::tf::{clear_bound, Lut};
 
+mod exact;
+pub use exact::{layer_depth, layer_position, LAYERS, LAYER_MAX_EXP, LAYER_MIN_EXP};
+
 /// Largest table side.
 pub const MAX_BINS: usize = 256;
 
@@ -73,6 +76,10 @@ pub enum Colouring {
     /// The mean colour corrected to first order for attenuation within
     /// the step (golden only).
     Attenuated,
+    /// The self-attenuated colour integrated at table-build time for a
+    /// ladder of step optical depths and interpolated between them (see
+    /// the module notes; golden and the pipeline).
+    Exact,
 }
 
 impl Colouring {
@@ -81,6 +88,7 @@ impl Colouring {
         match self {
             Colouring::Fast => "fast",
             Colouring::Attenuated => "attenuated",
+            Colouring::Exact => "exact",
         }
     }
 }
@@ -92,8 +100,9 @@ impl std::str::FromStr for Colouring {
         match s {
             "fast" => Ok(Colouring::Fast),
             "attenuated" => Ok(Colouring::Attenuated),
+            "exact" => Ok(Colouring::Exact),
             _ => Err(crate::error::input(format!(
-                "unknown pre-integrated colouring {s:?}: use fast or attenuated"
+                "unknown pre-integrated colouring {s:?}: use fast, attenuated or exact"
             ))),
         }
     }
@@ -123,6 +132,9 @@ pub struct PreTable {
     /// extinction, `k tau`, per channel (the fourth word 0); empty for
     /// [`Colouring::Fast`].
     slope: Vec<[f32; 4]>,
+    /// `[(front * bins + back) * LAYERS + layer]`: the exact colouring's
+    /// colour words per depth layer ([`exact`]); empty for the others.
+    layers: Vec<[f32; 4]>,
 }
 
 impl PreTable {
@@ -204,8 +216,12 @@ impl PreTable {
         });
         let clear_below = clear_square(&data, bins);
         let slope = match colouring {
-            Colouring::Fast => Vec::new(),
             Colouring::Attenuated => slopes(&at, &tau, bins, stride),
+            _ => Vec::new(),
+        };
+        let layers = match colouring {
+            Colouring::Exact => exact::layers(&at, &tau, bins, stride, &data),
+            _ => Vec::new(),
         };
         PreTable {
             bins,
@@ -216,6 +232,7 @@ impl PreTable {
             widened,
             clear_below,
             slope,
+            layers,
         }
     }
 
@@ -293,7 +310,7 @@ impl PreTable {
     pub fn step_colour(&self, e: &[f32; 4], k: &[f32; 4], h: f32) -> [f32; 3] {
         let inv = 1.0 / e[3];
         match self.colouring {
-            Colouring::Fast => [e[0], e[1], e[2]].map(|v| (v * inv).min(1.0)),
+            Colouring::Fast | Colouring::Exact => [e[0], e[1], e[2]].map(|v| (v * inv).min(1.0)),
             Colouring::Attenuated => {
                 let mut c = [0f32; 3];
                 for ch in 0..3 {
@@ -302,6 +319,56 @@ impl PreTable {
                 c
             }
         }
+    }
+
+    /// The exact colouring's step colour ([`Colouring::Exact`]) from
+    /// front and back scalars, the step's table words `e`
+    /// ([`PreTable::lookup`]) and its depth layer and weight
+    /// ([`layer_position`]): the layers' words interpolated bilinearly
+    /// like `e`, then linearly between the two layers, over `e`'s
+    /// extinction, clamped to `[0, 1]`.
+    #[inline(always)]
+    pub fn layered_colour(
+        &self,
+        front: f32,
+        back: f32,
+        e: &[f32; 4],
+        (layer, w): (usize, f32),
+    ) -> [f32; 3] {
+        let (r, ti, tj) = self.taps(front, back);
+        // Entry `r`'s layer `layer` and its bilinear neighbours, `LAYERS`
+        // words apart per bin.
+        let words = &self.layers[layer..];
+        let at = |k: usize| words[k * LAYERS];
+        let mix = |a: [f32; 4], b: [f32; 4], c: [f32; 4], d: [f32; 4]| {
+            let mut e = [0f32; 3];
+            for k in 0..3 {
+                let top = a[k] + tj * (b[k] - a[k]);
+                let bot = c[k] + tj * (d[k] - c[k]);
+                e[k] = top + ti * (bot - top);
+            }
+            e
+        };
+        let n = self.bins;
+        let lo = mix(at(r), at(r + 1), at(r + n), at(r + n + 1));
+        let mut c = lo;
+        if w > 0.0 {
+            let up = |k: usize| words[k * LAYERS + 1];
+            let hi = mix(up(r), up(r + 1), up(r + n), up(r + n + 1));
+            for ch in 0..3 {
+                c[ch] += w * (hi[ch] - c[ch]);
+            }
+        }
+        let inv = 1.0 / e[3];
+        c.map(|v| (v * inv).clamp(0.0, 1.0))
+    }
+
+    /// The exact colouring's words of layer `layer` at bins `(front,
+    /// back)` (colour times mean extinction, as [`PreTable::entry`]'s
+    /// first three; the pipeline's host quantises them). Panics unless the
+    /// table is [`Colouring::Exact`].
+    pub fn layer_entry(&self, layer: usize, front: usize, back: usize) -> [f32; 4] {
+        self.layers[(front * self.bins + back) * LAYERS + layer]
     }
 
     /// The first of the four entries a lookup reads, and its weights
@@ -422,6 +489,19 @@ pub fn segment_attenuation(tau: f32, ds: f32) -> (f32, f32) {
     let y = -f64::from(ds) * f64::from(tau);
     let a = neg_expm1(y);
     (a as f32, attenuation_weight(-y, a) as f32)
+}
+
+/// Opacity and depth layer of an exact step ([`Colouring::Exact`]) of
+/// length `ds` at mean extinction `tau`: [`segment_opacity`]'s opacity
+/// (the same bits) and [`layer_position`] at `p = ds tau / ln 2`.
+#[inline]
+pub fn segment_exact(tau: f32, ds: f32) -> (f32, (usize, f32)) {
+    if tau <= 0.0 {
+        return (0.0, (0, 0.0));
+    }
+    let y = -f64::from(ds) * f64::from(tau);
+    let a = neg_expm1(y);
+    (a as f32, layer_position(-y / std::f64::consts::LN_2))
 }
 
 /// `h(lambda)` of [`segment_attenuation`] from `lambda >= 0` and

@@ -124,6 +124,35 @@ type KeyedMipMap = (u64, Arc<MipMap>);
 
 /// A pre-integrated table and the key of the table it integrates.
 type KeyedPreTable = ((u64, Colouring), Arc<PreTable>);
+
+/// Pre-integrated tables kept for the process, newest last: another
+/// view of the same classification (another `Prepared`) reuses its
+/// table, which for the exact colouring takes about a second to build.
+const SHARED_PREINT: usize = 4;
+
+/// The process's table for `key` (the classification's key and the
+/// colouring), else `lut` pre-integrated and kept (the oldest of
+/// [`SHARED_PREINT`] dropped).
+fn shared_preint(key: (u64, Colouring), lut: &Lut, colouring: Colouring) -> Arc<PreTable> {
+    static TABLES: Mutex<Vec<KeyedPreTable>> = Mutex::new(Vec::new());
+    let lock = || {
+        TABLES
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    };
+    if let Some((_, t)) = lock().iter().find(|(k, _)| *k == key) {
+        return Arc::clone(t);
+    }
+    // Built unlocked: frames of other classifications need not wait.
+    let t = Arc::new(PreTable::with_colouring(lut, colouring));
+    let mut tables = lock();
+    tables.retain(|(k, _)| *k != key);
+    if tables.len() >= SHARED_PREINT {
+        tables.remove(0);
+    }
+    tables.push((key, Arc::clone(&t)));
+    t
+}
 /// A classified stack and the key of its table.
 type KeyedClassified = (u64, Arc<Classified>);
 
@@ -319,7 +348,7 @@ impl Prepared {
         match &*cached {
             Some((k, t)) if *k == key => Arc::clone(t),
             _ => {
-                let t = Arc::new(PreTable::with_colouring(lut, colouring));
+                let t = shared_preint(key, lut, colouring);
                 *cached = Some((key, Arc::clone(&t)));
                 t
             }

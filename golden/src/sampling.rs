@@ -25,7 +25,7 @@ use self::preint::TapCache;
 
 use crate::geometry::{inside, Affine, RayGrid, View};
 use crate::merge::Rgba;
-use crate::preint::{segment_attenuation, segment_opacity, Colouring, PreTable};
+use crate::preint::{segment_attenuation, segment_exact, segment_opacity, Colouring, PreTable};
 use crate::shading::Shader;
 use crate::skip::SampleMask;
 use crate::slices::{Plane, SliceStack};
@@ -468,9 +468,17 @@ impl<'a> RayRow<'a> {
             };
             let step = |ray: &mut Rgba, s0: f32, s1: f32, len: f32, f: f32| {
                 let (e, k) = pt.lookup_with_slope(s0, s1);
+                if pt.colouring() == Colouring::Exact {
+                    let (a, at) = segment_exact(e[3] * f, len);
+                    if a > 0.0 {
+                        let c = pt.layered_colour(s0, s1, &e, at);
+                        composite_alpha(ray, [c[0], c[1], c[2], 0.0], a, order);
+                    }
+                    return;
+                }
                 let (a, h) = match pt.colouring() {
-                    Colouring::Fast => (segment_opacity(e[3] * f, len), 0.0),
                     Colouring::Attenuated => segment_attenuation(e[3] * f, len),
+                    _ => (segment_opacity(e[3] * f, len), 0.0),
                 };
                 if a > 0.0 {
                     let c = pt.step_colour(&e, &k, h);

@@ -30,7 +30,7 @@ pub const ML_FM: f64 = 6.0;
 /// Marschner-Lobb modulation depth `alpha` (the standard test value).
 pub const ML_ALPHA: f64 = 0.25;
 
-const USAGE: &str = "use checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N]";
+const USAGE: &str = "use checker[:N[:cube]], ml[:N], sphere[:N], ribbon[:N] or impulse[:N]";
 
 /// A synthetic volume; `n` is the edge length in voxels (the volume is `n^3`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,6 +69,16 @@ pub enum Scene {
         /// Edge length in voxels.
         n: usize,
     },
+    /// A thin, folded shell like a cortical ribbon: the surface
+    /// `r = 0.3 n (1 + 0.15 sin(5 theta) sin(4 phi))` about the centre, its
+    /// cross-section a Gaussian of standard deviation `0.6` voxels and peak
+    /// 220 in distance along the radius, so the scalar rises and falls
+    /// within two voxels on every ray that crosses it (a high-frequency
+    /// volume for pre-integration).
+    Ribbon {
+        /// Edge length in voxels.
+        n: usize,
+    },
     /// A single voxel of value 255 at `(n/2, n/2, n/2)`, all else 0: the
     /// impulse response of a renderer.
     Impulse {
@@ -89,6 +99,7 @@ impl Scene {
             Scene::Checker { n, .. }
             | Scene::MarschnerLobb { n }
             | Scene::Sphere { n }
+            | Scene::Ribbon { n }
             | Scene::Impulse { n } => n,
         }
     }
@@ -100,6 +111,7 @@ impl Scene {
             Scene::Checker { .. } => "checker",
             Scene::MarschnerLobb { .. } => "ml",
             Scene::Sphere { .. } => "sphere",
+            Scene::Ribbon { .. } => "ribbon",
             Scene::Impulse { .. } => "impulse",
         }
     }
@@ -144,6 +156,19 @@ impl Scene {
                     // shell, 0.5 on its surfaces, 0 a half voxel outside.
                     let cover = (half - (d - radius).abs() + 0.5).clamp(0.0, 1.0);
                     (cover * 255.0).round() as u16
+                })
+            }
+            Scene::Ribbon { n } => {
+                let c = (n as f64 - 1.0) / 2.0;
+                let r0 = 0.3 * n as f64;
+                Volume::from_fn(dims, VoxelType::U8, limit, |x, y, z| {
+                    let (dx, dy, dz) = (x as f64 - c, y as f64 - c, z as f64 - c);
+                    let d = (dx * dx + dy * dy + dz * dz).sqrt();
+                    let theta = (dz / d.max(1e-9)).clamp(-1.0, 1.0).acos();
+                    let phi = dy.atan2(dx);
+                    let r = r0 * (1.0 + 0.15 * (5.0 * theta).sin() * (4.0 * phi).sin());
+                    let u = (d - r) / 0.6;
+                    (220.0 * (-0.5 * u * u).exp()).round() as u16
                 })
             }
             Scene::Impulse { n } => Volume::from_fn(dims, VoxelType::U8, limit, |x, y, z| {
@@ -202,6 +227,7 @@ impl FromStr for Scene {
             "checker" => (256, 2),
             "ml" | "marschner-lobb" => (64, 1),
             "sphere" => (64, 1),
+            "ribbon" => (64, 1),
             "impulse" => (16, 1),
             _ => return Err(input(format!("unknown scene '{spec}': {USAGE}"))),
         };
@@ -240,6 +266,7 @@ impl FromStr for Scene {
                 Scene::Checker { n, cube }
             }
             "sphere" => Scene::Sphere { n },
+            "ribbon" => Scene::Ribbon { n },
             "impulse" => Scene::Impulse { n },
             _ => Scene::MarschnerLobb { n },
         })
@@ -263,6 +290,7 @@ pub const PRESETS: &[&str] = &[
     "checker-mono",
     "ml",
     "sphere",
+    "ribbon",
     "impulse",
     "grey-ramp",
     "brain",
@@ -282,6 +310,9 @@ pub const PRESETS: &[&str] = &[
 ///   function's 0.5 iso-level) up, lightening towards 255.
 /// - `sphere`: pale blue, transparent below 32, opacity rising to 0.25 at
 ///   255 so the far side of the shell shows through the near one.
+/// - `ribbon`: transparent below 40, dark red rising to opaque yellow
+///   (opacity 0.95 from 160): the ribbon's colour changes inside one
+///   voxel, where a step's own attenuation decides what shows.
 /// - `impulse`: white, opacity rising linearly from 0 at 0 to 1 at 255.
 /// - `grey-ramp`: colour `value / 255` grey; opacity 0 up to 30, rising
 ///   linearly to 1 at 150, then 1 (the classic `brainsmall` ramp).
@@ -328,6 +359,13 @@ pub fn tf_preset(name: &str) -> Result<TransferFunction> {
             (32.0, pale, 0.0),
             (128.0, [0.75, 0.88, 1.0], 0.1),
             (255.0, [0.9, 0.95, 1.0], 0.25),
+        ],
+        "ribbon" => vec![
+            (0.0, [0.5, 0.0, 0.1], 0.0),
+            (40.0, [0.5, 0.0, 0.1], 0.0),
+            (100.0, [0.9, 0.2, 0.1], 0.6),
+            (160.0, [1.0, 0.9, 0.2], 0.95),
+            (255.0, [1.0, 1.0, 0.6], 0.95),
         ],
         "impulse" => vec![(0.0, white, 0.0), (255.0, white, 1.0)],
         "grey-ramp" => vec![

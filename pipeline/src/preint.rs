@@ -44,8 +44,30 @@
 //!
 //! A step whose interpolated extinction is zero composites nothing
 //! (golden's `a > 0`).
+//!
+//! **The exact colouring** (golden's [`golden::preint::Colouring::Exact`]):
+//! the same steps 1 to 4 and 5, and between them the colour words come
+//! from a depth-layered table instead of step 2's words:
+//!
+//! 4b. the layer and weight from `p` (the `log_transmittance` word of
+//!    step 4): below `2^LAYER_MIN_EXP`, layer 0 with weight
+//!    `p / 2^LAYER_MIN_EXP` (the word's bits, shifted); at or above
+//!    `2^LAYER_MAX_EXP`, the last layer with weight 0; else with `b` the
+//!    position of `p`'s leading one, layer `1 + 2 (b - frac - LAYER_MIN_EXP)
+//!    + bit(b - 1)` and weight the bits below `b - 1` (truncated into
+//!    [`PipelineConfig::weight`]) — a leading-one detector and a shifter;
+//! 4c. three channels of the layer's `(bins + 1)^2` table
+//!    ([`PipelineConfig::preint_color`], layer 0 being step 2's colour
+//!    words) at step 1's bins and weights, interpolated as in step 3, and
+//!    of the next layer when the weight is not zero, then one lerp per
+//!    channel between the two layers (into `preint_color`).
+//!
+//! Step 5 divides those colour words by step 3's extinction. So the
+//! exact colouring adds the layers' memory (`LAYERS - 1` more colour
+//! tables), a second, dependent table read after `p`, nine lerps and the
+//! layer position; the extinction, opacity and divider are unchanged.
 
-use golden::preint::PreTable;
+use golden::preint::{Colouring, PreTable, LAYERS, LAYER_MAX_EXP, LAYER_MIN_EXP};
 
 use crate::config::PipelineConfig;
 use crate::datapath::{lerp, Datapath};
@@ -64,6 +86,28 @@ pub struct PreintUnit {
     /// `(bins + 1)^2` entries, `[front * (bins + 1) + back]`: R, G, B in
     /// `preint_color`, extinction in `preint_tau`.
     table: Vec<[Fx; 4]>,
+    /// The exact colouring's layers 1 and up, `(bins + 1)^2` entries each
+    /// (`[(layer - 1) (bins + 1)^2 + front (bins + 1) + back]`), R, G, B
+    /// in `preint_color`; empty for the fast colouring.
+    layers: Vec<[Fx; 3]>,
+}
+
+/// A step's interpolated table words (step 3) and the bins and weights
+/// they were read at, which the exact colouring's layer read reuses
+/// (step 4c). Dereferences to the four words.
+#[derive(Debug, Clone, Copy)]
+pub struct PreintWords {
+    /// R, G, B in `preint_color`, extinction in `preint_tau`.
+    pub words: [Fx; 4],
+    /// Front and back bins and weights (step 1).
+    at: [(usize, Fx); 2],
+}
+
+impl std::ops::Deref for PreintWords {
+    type Target = [Fx; 4];
+    fn deref(&self) -> &[Fx; 4] {
+        &self.words
+    }
 }
 
 /// The words of one step, for waveforms.
@@ -99,10 +143,18 @@ impl PreintUnit {
         entries: usize,
         st: &mut QuantStats,
     ) -> Result<PreintUnit, PreintError> {
-        if pt.colouring() != golden::preint::Colouring::Fast {
+        if pt.colouring() == Colouring::Attenuated {
             return Err(PreintError::Unsupported(format!(
-                "the pre-integration unit models the fast colouring only, not {}",
+                "the pre-integration unit models the fast and exact colourings, not {}",
                 pt.colouring().name()
+            )));
+        }
+        let exact = pt.colouring() == Colouring::Exact;
+        let lf = i32::from(cfg.log_transmittance.frac());
+        if exact && lf + LAYER_MIN_EXP < 1 {
+            return Err(PreintError::Unsupported(format!(
+                "the exact colouring's depth layers need log_transmittance.frac >= {}, not {lf}",
+                1 - LAYER_MIN_EXP
             )));
         }
         let bins = pt.bins;
@@ -133,7 +185,78 @@ impl PreintUnit {
                 ]);
             }
         }
-        Ok(PreintUnit { bins, scale, table })
+        let mut layers = Vec::new();
+        if exact {
+            layers.reserve((LAYERS - 1) * n * n);
+            for l in 1..LAYERS {
+                for i in 0..n {
+                    for j in 0..n {
+                        let e = pt.layer_entry(l, i.min(bins - 1), j.min(bins - 1));
+                        layers.push([
+                            q(cfg.preint_color, f64::from(e[0]) / ln2)?,
+                            q(cfg.preint_color, f64::from(e[1]) / ln2)?,
+                            q(cfg.preint_color, f64::from(e[2]) / ln2)?,
+                        ]);
+                    }
+                }
+            }
+        }
+        Ok(PreintUnit {
+            bins,
+            scale,
+            table,
+            layers,
+        })
+    }
+
+    /// Whether the unit holds the exact colouring's layers.
+    pub fn exact(&self) -> bool {
+        !self.layers.is_empty()
+    }
+
+    /// Step 4b: the depth layer and its weight of a step with `p`
+    /// (`log_transmittance`, unsigned).
+    #[inline(always)]
+    fn layer(cfg: &PipelineConfig, p: Fx, st: &mut QuantStats) -> (usize, Fx) {
+        let r = p.raw().max(0);
+        let frac = i32::from(p.format().frac());
+        let first = frac + LAYER_MIN_EXP;
+        if r < 1i64 << first {
+            return (0, cfg.weight.assign(Wide::new(i128::from(r), first), st));
+        }
+        let b = 63 - r.leading_zeros() as i32;
+        let e = b - frac;
+        if e >= LAYER_MAX_EXP {
+            return (LAYERS - 1, cfg.weight.zero());
+        }
+        let m = ((r >> (b - 1)) & 1) as usize;
+        let rem = r & ((1i64 << (b - 1)) - 1);
+        let l = 1 + 2 * (e - LAYER_MIN_EXP) as usize + m;
+        (l, cfg.weight.assign(Wide::new(i128::from(rem), b - 1), st))
+    }
+
+    /// Step 4c: the colour words of layer `l` (at least 1) at the step's
+    /// bins and weights.
+    #[inline(always)]
+    fn layer_words(
+        &self,
+        cfg: &PipelineConfig,
+        l: usize,
+        [(i, wi), (j, wj)]: [(usize, Fx); 2],
+        st: &mut QuantStats,
+    ) -> Result<[Fx; 3], FxError> {
+        let n = self.bins + 1;
+        let base = &self.layers[(l - 1) * n * n..l * n * n];
+        let r = i * n + j;
+        let (a, b, c, d) = (base[r], base[r + 1], base[r + n], base[r + n + 1]);
+        let f = cfg.preint_color;
+        let mut out = [f.zero(); 3];
+        for k in 0..3 {
+            let top = lerp(a[k], b[k], wj, f, st)?;
+            let bot = lerp(c[k], d[k], wj, f, st)?;
+            out[k] = lerp(top, bot, wi, f, st)?;
+        }
+        Ok(out)
     }
 
     /// The unit from its words, for the description's checks
@@ -184,7 +307,7 @@ impl PreintUnit {
         front: Fx,
         back: Fx,
         st: &mut QuantStats,
-    ) -> Result<[Fx; 4], FxError> {
+    ) -> Result<PreintWords, FxError> {
         let (i, wi) = self.position(cfg, front, st);
         let (j, wj) = self.position(cfg, back, st);
         let n = self.bins + 1;
@@ -206,16 +329,20 @@ impl PreintUnit {
             let bot = lerp(c[k], d[k], wj, f, st)?;
             out[k] = lerp(top, bot, wi, f, st)?;
         }
-        Ok(out)
+        Ok(PreintWords {
+            words: out,
+            at: [(i, wi), (j, wj)],
+        })
     }
 
     /// The colour and opacity of a step with table words `e` over a path
-    /// of `len` (a `path` word, halved when `half`), steps 4 and 5; `None`
-    /// when the step's extinction is zero.
+    /// of `len` (a `path` word, halved when `half`), steps 4 and 5 (and
+    /// 4b, 4c when the frame's unit is exact); `None` when the step's
+    /// extinction is zero.
     #[inline(always)]
     pub fn step(
         dp: &Datapath,
-        e: [Fx; 4],
+        e: PreintWords,
         (len, half): (Fx, bool),
         st: &mut QuantStats,
     ) -> Result<Option<([Fx; 3], Fx)>, FxError> {
@@ -230,10 +357,23 @@ impl PreintUnit {
         }
         let p = cfg.log_transmittance.assign(p, st);
         let a = dp.transmit(p, st)?;
+        let mut colour = [e[0], e[1], e[2]];
+        if let Some(unit) = dp.preint.as_ref().filter(|u| u.exact()) {
+            let (l, w) = PreintUnit::layer(cfg, p, st);
+            if l > 0 {
+                colour = unit.layer_words(cfg, l, e.at, st)?;
+            }
+            if w.raw() > 0 {
+                let hi = unit.layer_words(cfg, l + 1, e.at, st)?;
+                for (lo, hi) in colour.iter_mut().zip(hi) {
+                    *lo = lerp(*lo, hi, w, cfg.preint_color, st)?;
+                }
+            }
+        }
         let c = cfg.color;
         let one = Wide::new(1, 0);
         let mut rgb = [c.zero(); 3];
-        for (out, &wc) in rgb.iter_mut().zip(&e[..3]) {
+        for (out, &wc) in rgb.iter_mut().zip(&colour) {
             // Quotient raw at `color.frac + GUARD_BITS` fraction bits:
             // wc / tau = (wc_raw 2^-fw) / (tau_raw 2^-ft).
             let qf = i32::from(c.frac()) + GUARD_BITS;

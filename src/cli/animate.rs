@@ -212,7 +212,7 @@ fn animate(a: &AnimateArgs) -> Result<()> {
     // The pipeline's pre-integration table, once for every frame (the
     // classification does not change along the path).
     let preint = (matches!(renderer, Renderer::Pipeline(_)) && opts.slice.preintegrate)
-        .then(|| golden::preint::PreTable::new(&lut));
+        .then(|| golden::preint::PreTable::with_colouring(&lut, opts.slice.pre_colouring));
     let load_s = t0.elapsed().as_secs_f64();
     let path = path_of(a, &first, frame.as_ref())?;
     std::fs::create_dir_all(&a.out_dir)

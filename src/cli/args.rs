@@ -103,7 +103,7 @@ fn parse_raw_type(s: &str) -> std::result::Result<RawType, String> {
 #[derive(Debug, Clone, Args)]
 #[command(next_help_heading = "Volume")]
 pub struct SourceArgs {
-    /// Synthetic scene: checker[:N[:cube]], ml[:N], sphere[:N] or impulse[:N].
+    /// Synthetic scene: checker[:N[:cube]], ml[:N], sphere[:N], ribbon[:N] or impulse[:N].
     #[arg(long, conflicts_with = "volume")]
     pub scene: Option<String>,
     /// Volume file: .den (VolPack), .nii/.nii.gz (NIfTI-1), .nrrd/.nhdr (NRRD), .mha/.mhd

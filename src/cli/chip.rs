@@ -100,8 +100,8 @@ pub fn check_options(opts: &RenderOptions) -> Result<()> {
     if opts.slice.preintegrate && opts.slice.shade.is_some() {
         bail!("the pipeline's pre-integrated frames are unshaded; drop --shade or --preintegrate");
     }
-    if opts.slice.pre_colouring != golden::preint::Colouring::Fast {
-        bail!("the pipeline's pre-integration unit models the fast colouring only; drop --pre-colouring");
+    if opts.slice.pre_colouring == golden::preint::Colouring::Attenuated {
+        bail!("the pipeline's pre-integration unit models the fast and exact colourings, not attenuated");
     }
     if opts.slice.preintegrate && opts.slice.voi.is_some() {
         bail!("the pipeline's pre-integrated frames take no volume of interest; drop --voi or --preintegrate");

@@ -33,6 +33,7 @@ use super::method::MethodArg;
 use super::montage::write_montage;
 use super::plot::{write_chart, Chart, Kind, Series};
 use super::progress::Stage;
+use views::PeerView;
 
 /// The peers `ercube peer` can drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -51,14 +52,19 @@ pub struct PeerArgs {
     pub view: ViewArgs,
     /// Comma-separated golden methods, each NAME, NAME:SUBSTEPS
     /// (e.g. er-ftb:2 is er-ftb with --substeps 2), NAME:pre (with
-    /// --preintegrate) or NAME:pre-att (with --preintegrate
-    /// --pre-colouring attenuated); the reference is always rendered for
-    /// the errors.
+    /// --preintegrate), NAME:pre-att or NAME:pre-exact (with
+    /// --preintegrate --pre-colouring attenuated or exact); the
+    /// reference is always rendered for the errors.
     #[arg(
         long,
-        default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,er-ftb:pre-att,over"
+        default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,er-ftb:pre-att,er-ftb:pre-exact,over"
     )]
     pub methods: String,
+    /// Comma-separated views, each rendered and compared in its own
+    /// folder under --out-dir (with one table of all in views.md):
+    /// front (the command's camera), oblique, near, far, or all.
+    #[arg(long, default_value = "front")]
+    pub views: String,
     /// Timed frames per method, after one warm-up frame (the reference:
     /// one frame).
     #[arg(long, default_value_t = 5)]
@@ -100,6 +106,7 @@ impl MethodSpec {
             let tail = match c {
                 Colouring::Fast => "",
                 Colouring::Attenuated => "-att",
+                Colouring::Exact => "-exact",
             };
             format!("{}:pre{tail}", self.tech.name())
         } else if self.substeps > 1 {
@@ -117,6 +124,7 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
         let (name, sub, pre) = match tok.split_once(':') {
             Some((n, "pre")) => (n, 1, Some(Colouring::Fast)),
             Some((n, "pre-att")) => (n, 1, Some(Colouring::Attenuated)),
+            Some((n, "pre-exact")) => (n, 1, Some(Colouring::Exact)),
             Some((n, k)) => {
                 let k: u32 = k
                     .parse()
@@ -131,7 +139,7 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
         };
         let Some(tech) = MethodArg::parse(name).and_then(MethodArg::technique) else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS, :pre or :pre-att"
+                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS, :pre, :pre-att or :pre-exact"
             );
         };
         if tech == Technique::Reference && tok.contains(':') {
@@ -370,30 +378,33 @@ fn vec3(v: [f64; 3]) -> String {
 /// Runs the peer's script on the exported view; returns its report and image.
 fn run_peer(
     a: &PeerArgs,
+    out_dir: &Path,
     vol: &Volume,
     cam: &Camera,
     tf_toml: &str,
     threads: usize,
 ) -> Result<(PeerReport, Image)> {
     let script = script_path(a)?;
-    let dir = a.out_dir.join("peer-input");
+    let dir = out_dir.join("peer-input");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let raw = dir.join("volume.raw");
     let kind = write_raw(&raw, vol)?;
     let tf = dir.join("tf.toml");
     golden::image::write_atomic(&tf, |w| w.write_all(tf_toml.as_bytes()))?;
     let d = vol.dims();
-    let npy = a.out_dir.join("vtk.npy");
+    let npy = out_dir.join("vtk.npy");
     let mut cmd = Command::new(&a.python);
     cmd.arg(&script)
         .arg("--volume")
         .arg(&raw)
         .args(["--raw-dims", &format!("{},{},{}", d[0], d[1], d[2])])
         .args(["--raw-type", kind])
-        .args(["--spacing", &vec3(vol.spacing())])
-        .args(["--eye", &vec3(cam.eye.to_array())])
-        .args(["--look-at", &vec3(cam.look_at.to_array())])
-        .args(["--up", &vec3(cam.up.to_array())])
+        // `--name=value`: a vector starting with a minus sign would read
+        // as an option.
+        .arg(format!("--spacing={}", vec3(vol.spacing())))
+        .arg(format!("--eye={}", vec3(cam.eye.to_array())))
+        .arg(format!("--look-at={}", vec3(cam.look_at.to_array())))
+        .arg(format!("--up={}", vec3(cam.up.to_array())))
         .args(["--fov", &cam.fov_deg.to_string()])
         .args(["--size", &format!("{}x{}", cam.width, cam.height)])
         .arg("--tf-file")
@@ -404,7 +415,7 @@ fn run_peer(
         .arg("--npy")
         .arg(&npy)
         .arg("--png")
-        .arg(a.out_dir.join("vtk.png"));
+        .arg(out_dir.join("vtk.png"));
     let out = cmd.output().with_context(|| {
         format!(
             "peer vtk: cannot run {} (give --python)",
@@ -450,21 +461,49 @@ pub fn run(a: &PeerArgs) -> Result<()> {
         );
     }
     let methods = parse_peer_methods(&a.methods)?;
+    let views = views::parse_views(&a.views)?;
     super::outputs::check_dirs(&[Some(&a.out_dir)])?;
-    with_threads(a.threads, || compare_with_peer(a, &methods))
+    with_threads(a.threads, || compare_with_peer(a, &methods, &views))
 }
 
-fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
-    let (vol, tf, cam) = a.view.load()?;
-    if cam.image_plane != ImagePlane::Camera {
+fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec], views: &[PeerView]) -> Result<()> {
+    let (vol, tf, given) = a.view.load()?;
+    if given.image_plane != ImagePlane::Camera {
         bail!("the peer renders an ordinary camera: drop --image-plane front");
     }
     script_path(a)?;
+    let cams = views
+        .iter()
+        .map(|v| Ok((*v, v.camera(&given)?)))
+        .collect::<Result<Vec<_>>>()?;
+    let mut all = Vec::new();
+    for (v, cam) in cams {
+        let out = if views.len() > 1 {
+            a.out_dir.join(v.name())
+        } else {
+            a.out_dir.clone()
+        };
+        let rows = compare_view(a, methods, (&vol, &tf, &cam), &out)?;
+        all.push((v, cam, rows));
+    }
+    if views.len() > 1 {
+        write_views_table(a, &all)?;
+    }
+    Ok(())
+}
+
+/// One view's comparison, written under `out`; returns its rows.
+fn compare_view(
+    a: &PeerArgs,
+    methods: &[MethodSpec],
+    (vol, tf, cam): (&Volume, &golden::tf::TransferFunction, &Camera),
+    out: &Path,
+) -> Result<Vec<PeerRow>> {
+    let cam = *cam;
     let threads = rayon::current_num_threads();
-    let lut = lut_for(vol.kind(), &tf);
-    let prep = Prepared::new(&vol, &cam)?;
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let lut = lut_for(vol.kind(), tf);
+    let prep = Prepared::new(vol, &cam)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
 
     let (reference, ref_time) = {
         let _s = Stage::start("rendering the reference");
@@ -472,8 +511,8 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
         let f = render(&prep, &lut, Technique::Reference, &RenderOptions::default())?;
         (f.image, t.elapsed().as_secs_f64())
     };
-    reference.write_png(&a.out_dir.join("reference.png"))?;
-    reference.write_npy(&a.out_dir.join("reference.npy"))?;
+    reference.write_png(&out.join("reference.png"))?;
+    reference.write_npy(&out.join("reference.npy"))?;
     let mut rows = Vec::new();
     let mut images: Vec<(String, Image)> = Vec::new();
     for m in methods.iter().filter(|m| m.tech != Technique::Reference) {
@@ -502,15 +541,12 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
             frames: a.frames,
             err: compare(&img, &reference)?,
         });
-        img.write_png(
-            &a.out_dir
-                .join(format!("{}.png", m.label().replace(':', "-s"))),
-        )?;
+        img.write_png(&out.join(format!("{}.png", m.label().replace(':', "-s"))))?;
         images.push((m.label(), img));
     }
     let (report, vtk_img) = {
         let _s = Stage::start("rendering with vtk");
-        run_peer(a, &vol, &cam, &tf.to_toml_string(), threads)?
+        run_peer(a, out, vol, &cam, &tf.to_toml_string(), threads)?
     };
     rows.push(PeerRow {
         method: "vtk".into(),
@@ -531,7 +567,62 @@ fn compare_with_peer(a: &PeerArgs, methods: &[MethodSpec]) -> Result<()> {
     set_speedups(&mut rows, report.time_s, report.wall_time_s);
     images.push(("vtk".into(), vtk_img));
     images.push(("reference".into(), reference));
-    write_outputs(a, &vol, &cam, &rows, &report, threads, &images)
+    write_outputs(a, out, (vol, &cam), &rows, &report, threads, &images)?;
+    Ok(rows)
+}
+
+/// `views.md` and `views.csv` under --out-dir: every view's rows in one
+/// table.
+fn write_views_table(a: &PeerArgs, all: &[(PeerView, Camera, Vec<PeerRow>)]) -> Result<()> {
+    let mut md = format!(
+        "# {}: ercube against VTK, {} views\n\nGenerated by `{}`; each view's details in its folder.\n\n\
+         | view | eye | fov | method | median s/frame | x VTK (mapper) | x VTK (wall) | RMSE vs reference | max of 255 |\n\
+         | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+        a.view.source.label(),
+        all.len(),
+        super::bench::command_line()
+    );
+    let mut csv =
+        String::from("view,method,time_s,x_vtk_mapper,x_vtk_wall,frames,rmse,max_abs_255\n");
+    let num = |x: Option<f64>| x.map_or_else(String::new, |x| format!("{x:.4}"));
+    for (v, cam, rows) in all {
+        let e = cam.eye.to_array();
+        for r in rows {
+            writeln!(
+                md,
+                "| {} | ({:.1}, {:.1}, {:.1}) | {:.1} | {} | {:.4} | {} | {} | {:.4} | {} |",
+                v.name(),
+                e[0],
+                e[1],
+                e[2],
+                cam.fov_deg,
+                r.method,
+                r.time_s,
+                speedup_cell(r.speedup[0]),
+                speedup_cell(r.speedup[1]),
+                r.err.rmse,
+                r.err.max_abs_255
+            )?;
+            writeln!(
+                csv,
+                "{},{},{:.6},{},{},{},{:.6},{}",
+                v.name(),
+                r.method,
+                r.time_s,
+                num(r.speedup[0]),
+                num(r.speedup[1]),
+                r.frames,
+                r.err.rmse,
+                r.err.max_abs_255
+            )?;
+        }
+    }
+    golden::image::write_atomic(&a.out_dir.join("views.md"), |w| w.write_all(md.as_bytes()))?;
+    golden::image::write_atomic(&a.out_dir.join("views.csv"), |w| {
+        w.write_all(csv.as_bytes())
+    })?;
+    super::say(&format!("wrote {}", a.out_dir.join("views.md").display()));
+    Ok(())
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -546,8 +637,8 @@ fn median(v: &mut [f64]) -> f64 {
 
 fn write_outputs(
     a: &PeerArgs,
-    vol: &Volume,
-    cam: &Camera,
+    out: &Path,
+    (vol, cam): (&Volume, &Camera),
     rows: &[PeerRow],
     report: &PeerReport,
     threads: usize,
@@ -599,7 +690,7 @@ fn write_outputs(
             r.err.psnr
         )?;
     }
-    golden::image::write_atomic(&a.out_dir.join("peer.csv"), |w| w.write_all(csv.as_bytes()))?;
+    golden::image::write_atomic(&out.join("peer.csv"), |w| w.write_all(csv.as_bytes()))?;
     let json = serde_json::json!({
         "view": view,
         "peer": {"name": "vtk", "version": report.vtk_version, "backend": report.backend,
@@ -614,7 +705,7 @@ fn write_outputs(
             "error_vs_reference": super::stats::error_json(&r.err),
         })).collect::<Vec<_>>(),
     });
-    super::stats::write_json(&a.out_dir.join("peer.json"), &json)?;
+    super::stats::write_json(&out.join("peer.json"), &json)?;
 
     // Error against time, with the Pareto front of the measured points.
     let mut series = Vec::new();
@@ -638,7 +729,7 @@ fn write_outputs(
         );
     }
     write_chart(
-        &a.out_dir.join("error_vs_time.png"),
+        &out.join("error_vs_time.png"),
         &Chart {
             title: format!("{label}: ercube and VTK, error against time"),
             x_label: format!(
@@ -653,7 +744,7 @@ fn write_outputs(
         (720, 560),
     )?;
     let labelled: Vec<(String, &Image)> = images.iter().map(|(l, i)| (l.clone(), i)).collect();
-    write_montage(&a.out_dir.join("montage.png"), &labelled)?;
+    write_montage(&out.join("montage.png"), &labelled)?;
 
     let md = format!(
         "# {label}: ercube against VTK\n\n\
@@ -665,16 +756,15 @@ fn write_outputs(
         a.frames,
         markdown_table(rows)
     );
-    golden::image::write_atomic(&a.out_dir.join("summary.md"), |w| {
-        w.write_all(md.as_bytes())
-    })?;
+    golden::image::write_atomic(&out.join("summary.md"), |w| w.write_all(md.as_bytes()))?;
     super::say(&format!(
         "{view}\n{peer}\n{}",
         markdown_table(rows).trim_end()
     ));
-    super::say(&format!("wrote {}", a.out_dir.display()));
+    super::say(&format!("wrote {}", out.display()));
     Ok(())
 }
 
 #[cfg(test)]
 mod tests;
+mod views;

@@ -445,7 +445,7 @@ fn frame_pipeline(
     let preint = opts
         .slice
         .preintegrate
-        .then(|| golden::preint::PreTable::new(&lut));
+        .then(|| golden::preint::PreTable::with_colouring(&lut, opts.slice.pre_colouring));
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         let mut spare = None;

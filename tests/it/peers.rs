@@ -156,7 +156,7 @@ fn peer_vtk_renders_the_same_view_on_a_tiny_volume() {
     let vtk_rmse: f64 = csv
         .lines()
         .find(|l| l.starts_with("vtk,"))
-        .and_then(|l| l.split(',').nth(3))
+        .and_then(|l| l.split(',').nth(5))
         .unwrap()
         .parse()
         .unwrap();
@@ -176,6 +176,76 @@ fn peer_vtk_renders_the_same_view_on_a_tiny_volume() {
         (cr.0 - cv.0).abs() < 0.5 && (cr.1 - cv.1).abs() < 0.5,
         "the bright voxel is at {cr:?} in ercube's reference, {cv:?} in VTK's image"
     );
+}
+
+/// `--views all`: every view in its folder and one table of all, VTK
+/// near ercube's reference on each (the oblique view's eye has negative
+/// coordinates, which reach the script as `--eye=...`).
+#[test]
+fn peer_vtk_renders_every_view() {
+    let Some(py) = vtk_python("ercube peer vtk --views all") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let n = 24;
+    let mut vox = vec![0u8; n * n * n];
+    vox[(12 * n + 7) * n + 17] = 255;
+    std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
+    let mut args: Vec<String> = [
+        "peer",
+        "vtk",
+        "--volume",
+        "v.raw",
+        "--raw-dims",
+        "24,24,24",
+        "--eye",
+        "11.5,11.5,-24",
+        "--fov",
+        "60",
+        "--size",
+        "48x48",
+        "--methods",
+        "reference,er-ftb",
+        "--views",
+        "all",
+        "--frames",
+        "1",
+        "--threads",
+        "2",
+        "--out-dir",
+        "out",
+        "--python",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    args.push(py.to_string_lossy().into_owned());
+    args.push("--script".into());
+    args.push(script().to_string_lossy().into_owned());
+    let out = ercube(dir.path(), &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let o = dir.path().join("out");
+    for v in ["front", "oblique", "near", "far"] {
+        assert!(o.join(v).join("peer.csv").is_file(), "no {v}/peer.csv");
+    }
+    assert!(o.join("views.md").is_file());
+    let csv = std::fs::read_to_string(o.join("views.csv")).unwrap();
+    let vtk: Vec<(&str, f64)> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').nth(1) == Some("vtk"))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0], f[6].parse().unwrap())
+        })
+        .collect();
+    assert_eq!(vtk.len(), 4, "{csv}");
+    for (view, rmse) in vtk {
+        assert!(
+            rmse < 0.02,
+            "{view}: VTK is {rmse} RMSE from the reference\n{csv}"
+        );
+    }
 }
 
 #[test]

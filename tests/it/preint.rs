@@ -117,11 +117,11 @@ fn preintegrate_is_taken_by_slice_methods_and_refused_elsewhere() {
         ),
         (
             format!("{s} --method er --preintegrate --pre-colouring thick"),
-            "fast or attenuated",
+            "fast, attenuated or exact",
         ),
         (
             format!("{s} --method pipeline --preintegrate --pre-colouring attenuated"),
-            "fast colouring",
+            "fast and exact colourings",
         ),
     ];
     for (line, needle) in &cases {

@@ -15,7 +15,9 @@
 
 use super::{composite_alpha, preint_span, Order, RayRow, TapCache};
 use crate::merge::Rgba;
-use crate::opacity::{correct_opacity_lanes, segment_attenuation_lanes, segment_opacity_lanes};
+use crate::opacity::{
+    correct_opacity_lanes, segment_attenuation_lanes, segment_exact_lanes, segment_opacity_lanes,
+};
 use crate::preint::Colouring;
 use crate::slices::{bilinear_lanes, Plane};
 
@@ -164,11 +166,22 @@ impl RayRow<'_> {
             tau[l] = e[l][3] * 1.0;
             len[l] = self.ds[at[l]] * back;
         }
-        let (a, h) = match pt.colouring() {
-            Colouring::Fast => (segment_opacity_lanes(&tau, &len), [0.0; LANES]),
-            Colouring::Attenuated => segment_attenuation_lanes(&tau, &len),
-        };
         let order: Order = self.pass.order;
+        if pt.colouring() == Colouring::Exact {
+            let (a, pos) = segment_exact_lanes(&tau, &len);
+            for l in 0..n {
+                if a[l] > 0.0 {
+                    let (sf, sb) = steps[l];
+                    let c = pt.layered_colour(sf, sb, &e[l], pos[l]);
+                    composite_alpha(&mut row[at[l]], [c[0], c[1], c[2], 0.0], a[l], order);
+                }
+            }
+            return;
+        }
+        let (a, h) = match pt.colouring() {
+            Colouring::Attenuated => segment_attenuation_lanes(&tau, &len),
+            _ => (segment_opacity_lanes(&tau, &len), [0.0; LANES]),
+        };
         for l in 0..n {
             if a[l] > 0.0 {
                 let c = pt.step_colour(&e[l], &k[l], h[l]);

@@ -16,6 +16,7 @@ mod mipgaze;
 mod mipmap;
 mod opacity;
 mod orientation;
+mod preexact;
 mod preint;
 mod refine;
 mod shading;

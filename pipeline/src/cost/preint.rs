@@ -74,6 +74,16 @@ pub fn table_bits(cfg: &PipelineConfig) -> u64 {
     n * n * u64::from(table_word(cfg))
 }
 
+/// Bits of the exact colouring's depth layers ([`crate::preint`], steps
+/// 4b and 4c), which a unit loaded with `--pre-colouring exact` holds
+/// beside [`table_bits`]: `LAYERS - 1` more `(bins + 1)^2` tables of R, G,
+/// B in `preint_color` (layer 0 is the table's own colour words). The
+/// inventory prices the fast unit; this is the memory the exact one adds.
+pub fn exact_layer_bits(cfg: &PipelineConfig) -> u64 {
+    let n = bins(cfg) + 1;
+    (golden::preint::LAYERS as u64 - 1) * n * n * 3 * u64::from(bits(cfg.preint_color))
+}
+
 /// Bits a ray carries beyond its accumulators (and front to back its
 /// inherited state) in the buffers and on the links: its previous sample
 /// when `geo` pre-integrates, else none.

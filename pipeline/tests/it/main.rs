@@ -25,6 +25,7 @@ mod kernel;
 mod load;
 mod mapping;
 mod model;
+mod preexact;
 mod preint;
 mod rtl;
 mod rtl_units;

@@ -30,9 +30,10 @@ pub struct SliceArgs {
     #[arg(long)]
     pub preintegrate: bool,
     /// How a pre-integrated step weighs the colours along it: fast (the
-    /// extinction-weighted mean, Engel's fast variant; the pipeline's) or
-    /// attenuated (corrected for attenuation within the step; golden
-    /// only). Needs --preintegrate.
+    /// extinction-weighted mean, Engel's fast variant), attenuated
+    /// (corrected to first order for attenuation within the step; golden
+    /// only) or exact (the self-attenuated colour from a table with a
+    /// step-depth axis; golden and the pipeline). Needs --preintegrate.
     #[arg(long, value_parser = parse_colouring, default_value = "fast")]
     pub pre_colouring: golden::preint::Colouring,
     /// Sample empty space too (skipping it never changes the image).

@@ -21,6 +21,9 @@ fn method_tokens() {
     assert_eq!(p[2].preintegrate, Some(Colouring::Attenuated));
     assert_eq!(p[0].label(), "er-ftb:pre");
     assert_eq!(p[2].label(), "er:pre-att");
+    let x = parse_peer_methods("er-ftb:pre-exact").unwrap();
+    assert_eq!(x[0].preintegrate, Some(Colouring::Exact));
+    assert_eq!(x[0].label(), "er-ftb:pre-exact");
     assert!(parse_peer_methods("er:pre-x").is_err());
     assert!(parse_peer_methods("").is_err());
 }

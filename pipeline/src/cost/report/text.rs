@@ -116,6 +116,12 @@ impl CostReport {
                 c.preint_tau.bits(),
                 c.preint_color.bits()
             );
+            let _ = writeln!(
+                o,
+                "  pre-integration, exact colouring (--pre-colouring exact): {} more depth layers of {n} x {n} x 3 colour words, {:.2} Mbit per PE",
+                golden::preint::LAYERS - 1,
+                crate::cost::preint::exact_layer_bits(c) as f64 / 1e6,
+            );
         }
         let _ = writeln!(
             o,
