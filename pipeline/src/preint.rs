@@ -260,10 +260,16 @@ impl PreintUnit {
     }
 
     /// The unit from its words, for the description's checks
-    /// (`crate::hw::units_tests`).
+    /// (`crate::hw::units_tests`): the fast colouring, without the exact
+    /// colouring's layers (the description covers the fast unit).
     #[cfg(test)]
     pub(crate) fn from_words(bins: usize, scale: Fx, table: Vec<[Fx; 4]>) -> PreintUnit {
-        PreintUnit { bins, scale, table }
+        PreintUnit {
+            bins,
+            scale,
+            table,
+            layers: Vec::new(),
+        }
     }
 
     /// Bins per table axis.
