@@ -128,7 +128,7 @@ fn timed_with<T>(
     Ok((last.expect("at least one run"), times))
 }
 
-/// One `ercube render` frame in memory: everything [`run`] writes, before
+/// One `ercube render` frame in memory: everything `run` writes, before
 /// it is written (the library's route, `ercube::frame`, returns it).
 pub struct Rendered {
     /// The final image (`--out`, `--npy`).

@@ -3,7 +3,7 @@
 //! sample path.
 //!
 //! The clocked path already leaves each PE's last sampling cycle in
-//! [`Pe::last`] for the waveform probes; in that same copy (compiled only
+//! `Pe::last` for the waveform probes; in that same copy (compiled only
 //! into the clocked path, `TRACE`) it keeps the sample's input bundle
 //! ([`SampleIn`]). When a frame is run with a [`Capture`]
 //! ([`crate::FrameRun::capture`]) the clock hands the busy PEs' bundles of

@@ -1,9 +1,9 @@
 //! The gradient and shading unit's hardware ([`crate::shading`]), for an
-//! array built with it ([`Geometry::shading`]): its pipeline steps, the
+//! array built with it (`Geometry::shading`): its pipeline steps, the
 //! wider slice buffer and edge columns it reads, and its port. Its
 //! datapath units come from its description ([`crate::hw::shading`],
 //! built for one light) and its power table from the description's
-//! memory ([`table_item`]); what they are:
+//! memory (`table_item`); what they are:
 //!
 //! - **Gradient**: twelve central differences (three axes at the four
 //!   corners), each a subtract and a multiply by the axis scale, then the

@@ -1,7 +1,7 @@
 //! The pre-integration unit described once: a step's table positions,
 //! the table read, the bilinear interpolation of its four channels, `p =
 //! tau len` into the opacity correction's `2^-p` stage
-//! ([`super::sample::transmit`]) and the colour dividers, as
+//! (`hw::sample::transmit`) and the colour dividers, as
 //! [`crate::preint::PreintUnit::lookup`] and
 //! [`crate::preint::PreintUnit::step`] (`hw::units_tests` checks it word
 //! for word). Golden twins: `golden::preint::PreTable::lookup` and

@@ -241,7 +241,7 @@ pub struct PeCounters {
 /// One processing element: its parameters (which PE, which columns), its
 /// state (registers, memories and FIFOs, declared with their depths in
 /// [`Pe::declaration`]), its event counters, and beside them the model's
-/// scratch and bookkeeping ([`PeModel`]), which no chip holds.
+/// scratch and bookkeeping (`PeModel`), which no chip holds.
 ///
 /// The controller never touches these fields: it broadcasts to the PE
 /// ([`Broadcast`]) and reads its report lines ([`PeReport`]); each stage's
