@@ -47,8 +47,8 @@ fn intra_doc_links_resolve() {
 }
 
 /// The docs and comments describe the product as it is: no development
-/// narrative ("stop 22", "this round", "other sessions built", ...);
-/// the history is in git.
+/// narrative (the phrases below, or a numbered development step); the
+/// history is in git.
 #[test]
 fn docs_and_comments_tell_no_development_story() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -60,7 +60,7 @@ fn docs_and_comments_tell_no_development_story() {
         "two helpers",
         "sessions built",
     ];
-    // "stop 22", "stops 31 and 32": a development step's number.
+    // The word for a development step followed by its number.
     let numbered_stop = |line: &str| {
         ["stop ", "stops "].iter().any(|w| {
             line.match_indices(w)
