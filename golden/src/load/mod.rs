@@ -309,8 +309,26 @@ fn io_err(path: &Path, source: std::io::Error) -> Error {
 fn format_err(path: &Path, msg: impl Into<String>) -> Error {
     Error::Format {
         path: path.to_owned(),
-        msg: msg.into(),
+        msg: one_line(msg.into()),
     }
+}
+
+/// `msg` with its control characters escaped (`\n`, `\u{1b}`): messages
+/// quote values read from the file (a DICOM string, a header field), and a
+/// corrupt file's newline must not break the one-line error.
+fn one_line(msg: String) -> String {
+    if !msg.chars().any(char::is_control) {
+        return msg;
+    }
+    msg.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// A read error inside the data: a corrupt or cut gzip stream is the file's

@@ -87,3 +87,18 @@ fn dicom_lengths_segment_counts_and_attributes_are_checked() {
     let m = load_small(&write(dir.path(), "garbage.dcm", &b)).expect("refused");
     assert!(m.contains("RLE fragment 1"), "{m}");
 }
+
+/// A control character inside a quoted attribute (a newline in
+/// PhotometricInterpretation) is escaped: the error stays one line.
+#[test]
+fn a_newline_in_an_attribute_stays_one_line() {
+    let _g = serial();
+    let dir = edited_series("dicom_u8", |b| {
+        let at = b
+            .windows(11)
+            .position(|w| w == b"MONOCHROME2")
+            .expect("PhotometricInterpretation value");
+        b[at + 1] = b'\n';
+    });
+    refused(dir.path(), "PhotometricInterpretation M\\nNOCHROME2");
+}

@@ -95,7 +95,15 @@ fn cases() -> u32 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(cases()))]
+    // The cases live beside `hostile.rs` (the default, beside a `lib.rs`
+    // or `main.rs`, finds none for a test in a subfolder and saves nothing).
+    #![proptest_config(ProptestConfig {
+        cases: cases(),
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::Direct(
+            "tests/hostile.proptest-regressions",
+        ))),
+        ..ProptestConfig::default()
+    })]
 
     /// Header bytes of every fixture (NIfTI, NRRD, MetaImage, TIFF, DICOM,
     /// gzip, zlib) overwritten: a volume or one line, within the peak goal.
