@@ -102,3 +102,22 @@ fn a_newline_in_an_attribute_stays_one_line() {
     });
     refused(dir.path(), "PhotometricInterpretation M\\nNOCHROME2");
 }
+
+/// The meta group ends where its group length (0002,0000) says, as the
+/// parser reads it: a length that stops after the transfer syntax leaves
+/// (0002,0012) to the implicit-VR data set, where its `UI` bytes read as
+/// a 4-byte length of about 4.8 MB. The walk checks that length where the
+/// parser will read it.
+#[test]
+fn the_meta_group_ends_where_its_group_length_says() {
+    let _g = serial();
+    let dir = edited_series("dicom_i16", |b| {
+        let gl = find_tag(b, 0x0002, 0x0000);
+        let ts = find_tag(b, 0x0002, 0x0010);
+        let ts_len = u16::from_le_bytes([b[ts + 6], b[ts + 7]]) as usize;
+        let meta_end = ts + 8 + ts_len;
+        let value = (meta_end - (gl + 12)) as u32;
+        b[gl + 8..gl + 12].copy_from_slice(&value.to_le_bytes());
+    });
+    refused(dir.path(), "element (0002,0012) claims");
+}

@@ -36,18 +36,39 @@ pub(super) fn check_lengths(bytes: &[u8], limit: u64) -> Result<(), String> {
         big: false,
     };
     // The file meta group is explicit VR little endian; it names the
-    // transfer syntax of the rest.
+    // transfer syntax of the rest. The parser reads it element by element
+    // until the bytes its group length (0002,0000) declares are consumed,
+    // so the walk does the same: where that length disagrees with the
+    // elements (a forged count, a value one element too long), the data
+    // set starts where the parser will start it, not at the first element
+    // of another group. Without a group length the parser refuses the file
+    // (nothing is allocated), and the walk checks what follows group 2.
     let mut ts = String::new();
-    while w.peek_group() == Some(0x0002) {
+    let group_length = w.group_length();
+    let mut read = 0u64;
+    while match group_length {
+        Some(n) => read < n,
+        None => w.peek_group() == Some(0x0002),
+    } {
+        let at = w.pos;
         let (tag, len, _) = w.header()?;
+        if len == UNDEFINED {
+            // The parser refuses an undefined length in the meta group.
+            return Ok(());
+        }
         let len = w.fit(tag, len)?;
         if tag == (0x0002, 0x0010) {
             let v = &bytes[w.pos..w.pos + len];
+            // Trimmed as the parser trims it (any whitespace and NULs).
             ts = String::from_utf8_lossy(v)
-                .trim_end_matches(['\0', ' '])
+                .trim_end_matches(|c: char| c.is_whitespace() || c == '\0')
                 .to_owned();
         }
         w.pos += len;
+        read += (w.pos - at) as u64;
+        if w.left() < 8 {
+            break;
+        }
     }
     match ts.as_str() {
         "1.2.840.10008.1.2.1.99" => {
@@ -158,6 +179,18 @@ impl Walk<'_> {
 
     fn left(&self) -> usize {
         self.bytes.len() - self.pos
+    }
+
+    /// The value of the group length element (0002,0000) at the cursor,
+    /// stepping over it, if the file meta group starts with one (explicit
+    /// VR `UL`, length 4), as the parser requires.
+    fn group_length(&mut self) -> Option<u64> {
+        let b = self.bytes.get(self.pos..self.pos + 12)?;
+        if b[..4] != [2, 0, 0, 0] || &b[4..6] != b"UL" || b[6..8] != [4, 0] {
+            return None;
+        }
+        self.pos += 12;
+        Some(u32::from_le_bytes([b[8], b[9], b[10], b[11]]) as u64)
     }
 
     fn peek_group(&self) -> Option<u16> {
