@@ -178,6 +178,53 @@ pub fn prepare_levels(
         .collect()
 }
 
+/// Rays per pixel, across, that [`footprint_level`] keeps: two, so the
+/// warp's bilinear reconstruction still has a sample on each side of every
+/// pixel centre. Measured on brainsmall's far views against the reference,
+/// one ray per pixel doubled the error of the full frame; two cost it
+/// 0-25% (docs/golden.md#rays-matched-to-the-image).
+pub const RAYS_PER_PIXEL: f64 = 2.0;
+
+/// The coarsest level whose rays still give every pixel
+/// [`RAYS_PER_PIXEL`] rays across (`--rays footprint`): ER's final rays (region 0's, one voxel apart on
+/// its back plane `z = D`, [`crate::geometry::Layout::exponential`]) set
+/// the base density; a pixel covers `f` of them across, measured on that
+/// plane along both pixel axes at nine points spread over the image (the
+/// smallest counts), and level `l` casts `f / 2^l`. So the level is
+/// `floor(log2(f / RAYS_PER_PIXEL))`, 0 when the image needs the voxels' rays
+/// (then the frame is ER's own, bit for bit), at most [`MAX_LEVEL`]. The
+/// coarse volume is the prefiltered one of [`coarse_volume`], so fewer
+/// rays do not alias.
+///
+/// [`MAX_LEVEL`]: crate::gaze::MAX_LEVEL
+pub fn footprint_level(view: &View) -> u32 {
+    let r = &view.rays;
+    let depth = 2.0 * view.d;
+    let [w, h] = view.size.map(f64::from);
+    let mut f = f64::INFINITY;
+    for (u, v) in [0.0, 0.5, 1.0]
+        .iter()
+        .flat_map(|&u| [0.0, 0.5, 1.0].map(move |v| (u, v)))
+    {
+        let dir = r.dir(u * w, v * h);
+        if dir.z <= 1e-12 {
+            // A pixel looking away from the volume's slices says nothing.
+            continue;
+        }
+        for step in [r.b, r.c] {
+            // d/dpx of the hit point (x, y) = eye + depth * dir / dir.z.
+            let dx = depth * (step.x * dir.z - dir.x * step.z) / (dir.z * dir.z);
+            let dy = depth * (step.y * dir.z - dir.y * step.z) / (dir.z * dir.z);
+            f = f.min(dx.hypot(dy));
+        }
+    }
+    let f = f / RAYS_PER_PIXEL;
+    if !f.is_finite() || f < 2.0 {
+        return 0;
+    }
+    (f.log2().floor() as u32).min(crate::gaze::MAX_LEVEL)
+}
+
 /// Which levels each pixel reads: `(l0, t)` with the colour
 /// `(1 - t) level[l0] + t level[l0 + 1]` (`t = 0`: level `l0` alone).
 fn pixel_levels(gaze: &Gaze, w: usize, h: usize) -> Vec<(usize, f64)> {

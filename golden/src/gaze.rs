@@ -88,6 +88,18 @@ impl Gaze {
         }
     }
 
+    /// Every pixel at level `levels` (a uniform profile: the gaze point
+    /// off the image and the coarsest level from radius zero), as
+    /// `--rays footprint` renders ER ([`crate::ergaze::footprint_level`]).
+    pub fn uniform(levels: u32) -> Gaze {
+        Gaze {
+            at: [-1.0, -1.0],
+            inner: 0.0,
+            outer: 1e-6,
+            levels,
+        }
+    }
+
     /// Refuses non-finite values, `outer < inner` and levels past
     /// [`MAX_LEVEL`].
     pub fn validate(&self) -> Result<()> {

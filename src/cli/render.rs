@@ -18,7 +18,7 @@ use pipeline::cost::clock::ClockSource;
 
 mod versus;
 pub use versus::refine_of;
-use versus::{gaze_of, versus_full, versus_reference};
+use versus::{footprint_of, gaze_of, versus_full, versus_reference};
 
 /// Arguments of `ercube render`.
 #[derive(Debug, Args)]
@@ -54,6 +54,13 @@ pub struct RenderArgs {
     pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
+    /// er and er-ftb: how many rays. `voxels` (default) casts the paper's
+    /// one to two rays per voxel whatever the image; `footprint` casts no
+    /// more than the image needs: the frame at the coarsest prefiltered
+    /// level whose rays still give every pixel one
+    /// (docs/golden.md#rays-matched-to-the-image).
+    #[arg(long, value_enum, default_value_t = Rays::Voxels)]
+    pub rays: Rays,
     /// Reference, mipmap, er and er-ftb: gaze-directed variable resolution
     /// around pixel x,y (full resolution near it, one ray per 16 pixels and
     /// a quarter of the samples at the periphery; ER renders one frame per
@@ -87,6 +94,15 @@ pub struct RenderArgs {
     /// 1 to 6.
     #[arg(long, default_value_t = golden::refine::Refine::DEFAULT_LEVELS)]
     pub refine_levels: u32,
+}
+
+/// How many rays an ER frame casts (`--rays`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Rays {
+    /// One to two rays per voxel (the paper's density).
+    Voxels,
+    /// The coarsest prefiltered level that still gives every pixel a ray.
+    Footprint,
 }
 
 /// Runs `f` `n` times (at least once), returning the last result and each
@@ -309,6 +325,9 @@ fn frame_golden(
     // The comparison's reference is always the full one.
     let full = opts;
     opts.reference.gaze = gaze_of(a, &cam, tech)?;
+    if a.rays == Rays::Footprint {
+        opts.reference.gaze = footprint_of(a, &vol, &cam, tech)?;
+    }
     opts.reference.refine = refine_of(a.refine.as_deref(), a.refine_levels, tech)?;
     let lut = lut_for(vol.kind(), &tf);
     if a.baseplane_npy.is_some() && opts.reference.gaze.is_some() {

@@ -254,3 +254,65 @@ fn compare_and_bench_take_er_gaze() {
         assert_refused(&args, &ercube(d, &args), needle);
     }
 }
+
+/// `--rays footprint`: a view as fine as the voxels renders ER's own frame
+/// byte for byte; a far one renders one coarse level (in the stats) with
+/// at most a quarter of the samples; the flag is refused beside `--gaze`
+/// and for other methods.
+#[test]
+fn rays_footprint_follows_the_image() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    let run = |line: &str| {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let out = ercube(d, &args);
+        assert!(
+            out.status.success(),
+            "{}",
+            crate::bin::describe(&args, &out)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
+                .expect("json");
+        v
+    };
+    for m in ["er", "er-ftb"] {
+        let near = format!("render --scene ml:24 --size 96x96 --method {m} --stats s.json");
+        run(&format!("{near} --out voxels.png"));
+        let v = run(&format!("{near} --rays footprint --out footprint.png"));
+        assert!(v["er_gaze"].is_null(), "{m}: {}", v["er_gaze"]);
+        assert_eq!(
+            std::fs::read(d.join("voxels.png")).unwrap(),
+            std::fs::read(d.join("footprint.png")).unwrap(),
+            "{m}"
+        );
+        let far =
+            format!("render --scene ml:24 --size 32x32 --eye 12,12,-300 --fov 20 --method {m} --stats s.json --out o.png");
+        let full = run(&far)["samples_total"].as_u64().unwrap();
+        let v = run(&format!("{far} --rays footprint"));
+        let levels = v["er_gaze"]["levels"].as_array().expect("levels");
+        let used: Vec<u64> = levels
+            .iter()
+            .filter(|l| l["samples"].as_u64().unwrap() > 0)
+            .map(|l| l["level"].as_u64().unwrap())
+            .collect();
+        assert_eq!(used.len(), 1, "{m}: one level renders: {levels:?}");
+        assert!(used[0] >= 1, "{m}: {used:?}");
+        let samples = v["er_gaze"]["samples_total"].as_u64().unwrap();
+        assert!(4 * samples <= full, "{m}: {samples} samples against {full}");
+    }
+    let cases = [
+        (
+            "render --scene ml:24 --size 32x32 --method er --rays footprint --gaze 4,4 --out o.png",
+            "--rays footprint and --gaze",
+        ),
+        (
+            "render --scene ml:24 --size 32x32 --method reference --rays footprint --out o.png",
+            "--rays footprint applies to --method er or er-ftb",
+        ),
+    ];
+    for (line, needle) in cases {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        assert_refused(&args, &ercube(d, &args), needle);
+    }
+}

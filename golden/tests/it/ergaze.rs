@@ -320,3 +320,47 @@ fn ergaze_coarse_volume_filters_and_refuses_too_many_levels() {
         .to_string();
     assert!(err.contains("er and er-ftb"), "{err}");
 }
+
+/// `--rays footprint`'s level: halving the image doubles each pixel's
+/// footprint, so the level rises by exactly one (until the coarsest);
+/// a near, fine view keeps the voxels' rays (level 0); the level's rays
+/// give every pixel at least `RAYS_PER_PIXEL` across, and one level
+/// coarser would not.
+#[test]
+fn footprint_level_follows_the_pixel_size() {
+    use golden::ergaze::{footprint_level, RAYS_PER_PIXEL};
+    use golden::geometry::View;
+    let vol = scene("ml:32");
+    let c = DVec3::from_array(vol.center_world());
+    let level = |off: DVec3, fov: f64, side: u32| {
+        let eye = c + off;
+        let cam = Camera::new(eye, c, up_for(c - eye), fov, side, side).unwrap();
+        let view = View::new(vol.dims(), vol.spacing(), &cam, 1.0).unwrap();
+        (footprint_level(&view), view)
+    };
+    assert_eq!(level(DVec3::new(0.0, 0.0, -40.0), 60.0, 256).0, 0);
+    for off in [
+        DVec3::new(0.0, 0.0, -400.0),
+        DVec3::new(300.0, -200.0, -500.0),
+    ] {
+        let (l64, view) = level(off, 20.0, 64);
+        let (l32, _) = level(off, 20.0, 32);
+        assert!(l64 >= 1, "a far 64-pixel view keeps level {l64}");
+        assert_eq!(l32, (l64 + 1).min(golden::gaze::MAX_LEVEL), "{off}");
+        // The centre pixel's footprint on region 0's back plane, from two
+        // neighbouring pixel rays (independent of the level's formula).
+        let hit = |px: f64, py: f64| {
+            let d = view.rays.dir(px, py);
+            let s = 2.0 * view.d / d.z;
+            DVec3::new(view.eye.x + s * d.x, view.eye.y + s * d.y, 0.0)
+        };
+        let [w, h] = view.size.map(f64::from);
+        let f = hit(w / 2.0, h / 2.0).distance(hit(w / 2.0 + 1.0, h / 2.0));
+        let across = f / 2f64.powi(l64 as i32);
+        assert!(across >= RAYS_PER_PIXEL, "{across} rays per pixel");
+        assert!(
+            across < 2.0 * RAYS_PER_PIXEL * 1.5,
+            "{across}: a coarser level fits"
+        );
+    }
+}

@@ -152,6 +152,30 @@ pub(super) fn gaze_of(
     Ok(Some(g))
 }
 
+/// The uniform gaze profile `--rays footprint` asks for: every pixel at
+/// [`golden::ergaze::footprint_level`] of the view, `None` at level 0 (the
+/// plain frame).
+pub(super) fn footprint_of(
+    a: &RenderArgs,
+    vol: &golden::volume::Volume,
+    cam: &golden::camera::Camera,
+    tech: Technique,
+) -> Result<Option<golden::gaze::Gaze>> {
+    if !matches!(
+        tech,
+        Technique::Slice(golden::methods::Method::Er | golden::methods::Method::ErFtb)
+    ) {
+        anyhow::bail!("--rays footprint applies to --method er or er-ftb only");
+    }
+    if a.gaze.is_some() {
+        anyhow::bail!("--rays footprint and --gaze both choose the rays: drop one of them");
+    }
+    let near = a.slice.prepare()?.near;
+    let view = golden::geometry::View::new(vol.dims(), vol.spacing(), cam, near)?;
+    let level = golden::ergaze::footprint_level(&view);
+    Ok((level > 0).then(|| golden::gaze::Gaze::uniform(level)))
+}
+
 /// With `--compare-reference`, `image`'s error against the reference.
 pub(super) fn versus_reference(
     a: &RenderArgs,
