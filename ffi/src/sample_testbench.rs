@@ -34,7 +34,14 @@ use pipeline::synth::wrap::{ports, Dir};
 
 /// The host port's and handshake's ports, driven by the testbench itself.
 const CONTROL: [&str; 8] = [
-    "clk", "rst", "in_valid", "out_valid", "tbl_we", "tbl_sel", "tbl_addr", "tbl_data",
+    "clk",
+    "rst",
+    "in_valid",
+    "out_valid",
+    "tbl_we",
+    "tbl_sel",
+    "tbl_addr",
+    "tbl_data",
 ];
 
 /// Checks that `module` in `verilog` has exactly the ports of the emitted
@@ -132,7 +139,12 @@ pub fn sample_testbench(
         .filter(|p| !p.input && p.stage == depth)
         .collect();
     let ring = (depth + 2).next_power_of_two().max(8);
-    let width = |n: &str| m.ports.iter().find(|p| p.name == n).map_or(1, |p| p.word.bits);
+    let width = |n: &str| {
+        m.ports
+            .iter()
+            .find(|p| p.name == n)
+            .map_or(1, |p| p.word.bits)
+    };
     let (sb, ab, db) = (width("tbl_sel"), width("tbl_addr"), width("tbl_data"));
     let table_words: u64 = m.tables.iter().map(|t| t.depth).sum();
 
@@ -163,7 +175,11 @@ pub fn sample_testbench(
             let _ = writeln!(w, "  wire {} {};", decl(p), p.name);
         }
     }
-    let conns: Vec<String> = m.ports.iter().map(|p| format!(".{0}({0})", p.name)).collect();
+    let conns: Vec<String> = m
+        .ports
+        .iter()
+        .map(|p| format!(".{0}({0})", p.name))
+        .collect();
     let _ = writeln!(w, "  {dut} dut ({});", conns.join(", "));
     // The next bundle, the rings of what each cycle drives or expects.
     let _ = writeln!(w, "  logic b_valid;");
@@ -173,7 +189,10 @@ pub fn sample_testbench(
     for p in &late {
         let _ = writeln!(w, "  logic {} r_{} [R];", decl(p), p.name);
     }
-    let _ = writeln!(w, "  logic e_valid [R];\n  int e_from [R];\n  int held_from = 0;");
+    let _ = writeln!(
+        w,
+        "  logic e_valid [R];\n  int e_from [R];\n  int held_from = 0;"
+    );
     for p in probes.iter().chain(&results) {
         let _ = writeln!(w, "  logic {} e_{} [R];", decl(p), p.name);
         let _ = writeln!(w, "  int unsigned i_{};", p.name);
@@ -236,7 +255,11 @@ pub fn sample_testbench(
         let _ = writeln!(w, "      r_{}[ix] = '0;", p.name);
     }
     for p in &probes {
-        let _ = writeln!(w, "      e_{0}[ix] = '0;\n      e_{0}_from[ix] = 0;", p.name);
+        let _ = writeln!(
+            w,
+            "      e_{0}[ix] = '0;\n      e_{0}_from[ix] = 0;",
+            p.name
+        );
     }
     for p in &results {
         let _ = writeln!(w, "      e_{}[ix] = '0;", p.name);
@@ -356,10 +379,19 @@ pub fn sample_testbench(
     for p in &results {
         let _ = writeln!(w, "        held_{0} = e_{0}[at];", p.name);
     }
-    let _ = writeln!(w, "        held_from = e_from[at];\n        checked++;\n      end");
+    let _ = writeln!(
+        w,
+        "        held_from = e_from[at];\n        checked++;\n      end"
+    );
     for p in &results {
         let _ = writeln!(w, "      if ({0} !== held_{0})", p.name);
-        miss(w, "        ", &p.name, &format!("held_{}", p.name), "held_from");
+        miss(
+            w,
+            "        ",
+            &p.name,
+            &format!("held_{}", p.name),
+            "held_from",
+        );
     }
     for p in &probes {
         let _ = writeln!(w, "      if ({0} !== e_{0}[at])", p.name);
@@ -372,11 +404,17 @@ pub fn sample_testbench(
         );
         let _ = writeln!(w, "      e_{}[at] = '0;", p.name);
     }
-    let _ = writeln!(w, "      e_valid[at] = 1'b0;\n      // This cycle's inputs.");
+    let _ = writeln!(
+        w,
+        "      e_valid[at] = 1'b0;\n      // This cycle's inputs."
+    );
     for p in &late {
         let _ = writeln!(w, "      {0} = r_{0}[at];", p.name);
     }
-    let _ = writeln!(w, "      if (!done) next_bundle();\n      else b_valid = 1'b0;");
+    let _ = writeln!(
+        w,
+        "      if (!done) next_bundle();\n      else b_valid = 1'b0;"
+    );
     let _ = writeln!(w, "      in_valid = b_valid;");
     for p in &issue {
         let _ = writeln!(w, "      {0} = b_{0};", p.name);
@@ -392,7 +430,10 @@ pub fn sample_testbench(
             p.name
         );
     }
-    let _ = writeln!(w, "        ercube_check(ercube_datapath_step(dp), \"step\");");
+    let _ = writeln!(
+        w,
+        "        ercube_check(ercube_datapath_step(dp), \"step\");"
+    );
     for p in probes.iter().chain(&results) {
         let after = if p.stage == depth {
             "DEPTH".to_owned()

@@ -491,7 +491,9 @@ impl Unit {
             )));
         }
         if word < f.min_raw() || word > f.max_raw() {
-            return Err(bad(format!("table {name}: word {addr} = {word} is outside {f}")));
+            return Err(bad(format!(
+                "table {name}: word {addr} = {word} is outside {f}"
+            )));
         }
         self.held_mut(name)[addr] = word;
         Ok(())
@@ -515,9 +517,15 @@ impl Unit {
             .ok_or_else(|| {
                 let names: Vec<&str> = self.tables().map(|t| t.name.as_str()).collect();
                 if names.is_empty() {
-                    bad(format!("unknown table '{name}': unit {} reads no table", self.name))
+                    bad(format!(
+                        "unknown table '{name}': unit {} reads no table",
+                        self.name
+                    ))
                 } else {
-                    bad(format!("unknown table '{name}': expected {}", names.join(", ")))
+                    bad(format!(
+                        "unknown table '{name}': expected {}",
+                        names.join(", ")
+                    ))
                 }
             })
     }
@@ -599,7 +607,10 @@ impl Unit {
     /// with its handshake, host table port and the voxel taps read outside
     /// one clock after their column. Its depth is [`Unit::latency`]. A cut
     /// is refused: its Verilog is [`Unit::verilog`].
-    pub fn pipelined(&self, module: &str) -> Result<super::pipeline_rtl::PipelinedModule, UnitError> {
+    pub fn pipelined(
+        &self,
+        module: &str,
+    ) -> Result<super::pipeline_rtl::PipelinedModule, UnitError> {
         if self.name != "sample" {
             return Err(bad(format!(
                 "unit {} is a cut: its module is Unit::verilog's (the pipelined module is the whole sample's)",
