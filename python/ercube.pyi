@@ -150,5 +150,9 @@ class Datapath:
         """Fills every table from a transfer-function preset (grey-ramp, ml, brain, ...)."""
     def eval(self, **words: int) -> dict[str, int]:
         """One sample: every input's raw word by name -> every output's by name."""
+    def pipelined(self, module: str = "ercube_sample") -> dict[str, Any]:
+        """The whole sample's pipelined module as `ercube rtl` emits it: name,
+        verilog, depth, ports (name, input, bits, frac, signed, stage) and
+        tables (name, sel, depth, bits). A cut is refused."""
     def verilog(self, module: str = "ercube_unit") -> str:
-        """The unit as a Verilog module (the cuts; the whole sample is refused)."""
+        """The unit as a Verilog module (the cuts; the whole sample's is `pipelined`)."""

@@ -8,13 +8,19 @@
 //! ```
 //!
 //! `DIR` gets `ercube_pkg.sv`, `tb.sv`, `unit.v` (the unit's emitted
-//! Verilog, or a copy of `--verilog`), `unit.vlt` and `sim_main.cpp`, and
-//! for the whole sample its tables as `$readmemh` files (`class_r.hex`,
-//! ...); the Verilator command that builds and runs it is printed.
+//! Verilog, or a copy of `--verilog`), `unit.vlt` and `sim_main.cpp`; the
+//! Verilator command that builds and runs it is printed.
+//!
+//! `--unit sample` is the whole pipelined datapath, `ercube_sample` as
+//! `ercube rtl` emits it (`--verilog FILE --top MODULE`: a module with its
+//! ports), checked by [`ercube_ffi::sample_testbench`]: random bundles
+//! with bubbles by default, or a frame's captured issue stream written by
+//! `ercube vectors` (run with `+vectors=DIR +pe=K +first=N`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use ercube_ffi::sample_testbench::sample_testbench;
 use ercube_ffi::testbench::{testbench, MAIN, PACKAGE, WAIVER};
 use pipeline::hw::unit::Unit;
 
@@ -53,18 +59,30 @@ fn run() -> Result<String, String> {
     )
     .map_err(|e| e.to_string())?;
     u.fill_tables(&tf).map_err(|e| e.to_string())?;
+    let whole = u.name() == "sample";
     let (text, module) = match (verilog, top) {
         (Some(v), Some(t)) => (
             std::fs::read_to_string(&v).map_err(|e| format!("{v}: {e}"))?,
             t,
         ),
+        (None, None) if whole => {
+            let m = u.pipelined("ercube_sample").map_err(|e| e.to_string())?;
+            (m.verilog, m.name)
+        }
         (None, None) => {
             let m = format!("ercube_{unit}");
             (u.verilog(&m).map_err(|e| e.to_string())?, m)
         }
         _ => return Err("--verilog and --top go together".into()),
     };
-    let tb = testbench(&u, &text, &module, (&toml, &order, &tf), samples)?;
+    let (tb, run) = if whole {
+        let reference = u.pipelined("ercube_sample").map_err(|e| e.to_string())?;
+        let tb = sample_testbench(&u, &reference, (&text, &module), (&toml, &order, &tf))?;
+        (tb, format!(" +samples={samples}"))
+    } else {
+        let tb = testbench(&u, &text, &module, (&toml, &order, &tf), samples)?;
+        (tb, String::new())
+    };
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     for (name, t) in [
         ("ercube_pkg.sv", PACKAGE),
@@ -75,19 +93,6 @@ fn run() -> Result<String, String> {
     ] {
         std::fs::write(out.join(name), t).map_err(|e| format!("{name}: {e}"))?;
     }
-    // The tables the model holds (the whole sample's), for a module whose
-    // memories `$readmemh` them: one hex word a line.
-    for t in u.tables() {
-        let digits = (t.fmt.bits() as usize).div_ceil(4);
-        let mask = (1u64 << t.fmt.bits()) - 1;
-        let words = u.table(&t.name).unwrap_or_default();
-        let hex: String = words
-            .iter()
-            .map(|&w| format!("{:0digits$x}\n", w as u64 & mask))
-            .collect();
-        let name = format!("{}.hex", t.name);
-        std::fs::write(out.join(&name), hex).map_err(|e| format!("{name}: {e}"))?;
-    }
     // This example is built into target/release/examples, beside the
     // static library's folder.
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
@@ -97,7 +102,7 @@ fn run() -> Result<String, String> {
         .map(|p| p.join("libercube_ffi.a"));
     let lib = lib.ok_or("cannot find target/release")?;
     Ok(format!(
-        "cd {} && verilator --cc --exe --build -j 2 --top-module tb -Mdir obj -o Vtb \\\n  unit.vlt ercube_pkg.sv unit.v tb.sv sim_main.cpp \\\n  -LDFLAGS \"{} -lpthread -ldl -lm\" && obj/Vtb",
+        "cd {} && verilator --cc --exe --build -j 2 --top-module tb -Mdir obj -o Vtb \\\n  unit.vlt ercube_pkg.sv unit.v tb.sv sim_main.cpp \\\n  -LDFLAGS \"{} -lpthread -ldl -lm\" && obj/Vtb{run}",
         out.display(),
         lib.display()
     ))

@@ -138,6 +138,12 @@ int ercube_datapath_load_table(ErcubeDatapath *dp, const char *name,
 /* Fills every table from a transfer-function preset ("grey-ramp", "ml",
  * "brain", ...), as a pipeline frame with --tf fills them. */
 int ercube_datapath_fill_tables(ErcubeDatapath *dp, const char *tf);
+/* One word of table `name`: read it, or set it (a raw word of the table's
+ * format), as a host port writes one word (what DPI-C passes simply). */
+int ercube_datapath_table_get(const ErcubeDatapath *dp, const char *name,
+                              uint32_t addr, int64_t *word);
+int ercube_datapath_table_set(ErcubeDatapath *dp, const char *name,
+                              uint32_t addr, int64_t word);
 /* One sample: n_inputs words in port order to n_outputs words. */
 int ercube_datapath_eval(const ErcubeDatapath *dp, const int64_t *inputs,
                          size_t n_inputs, int64_t *outputs,

@@ -268,6 +268,49 @@ pub unsafe extern "C" fn ercube_datapath_fill_tables(
     })
 }
 
+/// Word `addr` of the table `name` (the whole sample's), into `word`.
+///
+/// # Safety
+/// `dp` is a live handle; `name` NUL-terminated; `word` valid for one
+/// write.
+#[no_mangle]
+pub unsafe extern "C" fn ercube_datapath_table_get(
+    dp: *const ErcubeDatapath,
+    name: *const c_char,
+    addr: u32,
+    word: *mut i64,
+) -> c_int {
+    guard(|| {
+        let d = get(dp)?;
+        let t = text(name, "the table name")?;
+        let w = d.unit.table_word(t, addr as usize)?;
+        if word.is_null() {
+            return Err(argument("the output pointer is null"));
+        }
+        *word = w;
+        Ok(())
+    })
+}
+
+/// Sets word `addr` of the table `name` to `word` (a raw word of its
+/// format), as the emitted module's host port writes one word.
+///
+/// # Safety
+/// `dp` is a live handle; `name` NUL-terminated.
+#[no_mangle]
+pub unsafe extern "C" fn ercube_datapath_table_set(
+    dp: *mut ErcubeDatapath,
+    name: *const c_char,
+    addr: u32,
+    word: i64,
+) -> c_int {
+    guard(|| {
+        let d = get_mut(dp)?;
+        let t = text(name, "the table name")?;
+        Ok(d.unit.set_table_word(t, addr as usize, word)?)
+    })
+}
+
 /// Evaluates one sample: `n_inputs` input words (raw, in port order) to
 /// `n_outputs` output words. The counts must be the unit's.
 ///

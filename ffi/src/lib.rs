@@ -20,6 +20,7 @@ use std::ptr;
 use golden::volume::{Volume, Voxels};
 
 mod datapath;
+pub mod sample_testbench;
 pub mod testbench;
 pub use datapath::ErcubeDatapath;
 

@@ -41,6 +41,11 @@ package ercube_pkg;
     output int unsigned index);
   // Tables (the whole sample's) from a transfer-function preset.
   import "DPI-C" function int ercube_datapath_fill_tables(input chandle dp, input string tf);
+  // One table word: read it, or set it (as the module's host port writes it).
+  import "DPI-C" function int ercube_datapath_table_get(
+    input chandle dp, input string name, input int unsigned addr, output longint word);
+  import "DPI-C" function int ercube_datapath_table_set(
+    input chandle dp, input string name, input int unsigned addr, input longint word);
   // Hold input words, evaluate one sample, read output words.
   import "DPI-C" function int ercube_datapath_set(
     input chandle dp, input int unsigned index, input longint word);

@@ -1,10 +1,13 @@
-"""Runs the cocotb testbench (test_unit.py) on a datapath unit in Icarus.
+"""Runs the cocotb testbench on a datapath unit in Icarus.
 
 usage: python run.py --unit composite [--order btf] [--config FILE]
            [--tf grey-ramp] [--verilog FILE --top MODULE] [--samples N]
-           [--seed S] [--build-dir DIR]
+           [--bubbles PERCENT] [--seed S] [--build-dir DIR]
 
-Without --verilog the unit's Verilog is emitted by ercube.Datapath.verilog.
+--unit sample is the whole pipelined datapath, ercube_sample (test_sample.py;
+emitted by ercube.Datapath.pipelined); the cuts (bilinear, composite) are
+test_unit.py's, emitted by ercube.Datapath.verilog. --verilog FILE --top
+MODULE takes a module with the same ports instead.
 Prints the result; exit status 1 when a sample differs from the model.
 Needs cocotb 2.x and the ercube module in this Python, and iverilog.
 """
@@ -28,6 +31,7 @@ def main():
     ap.add_argument("--verilog")
     ap.add_argument("--top")
     ap.add_argument("--samples", type=int, default=2000)
+    ap.add_argument("--bubbles", type=int, default=25, help="percent of cycles (whole sample)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--build-dir", default="cocotb_build")
     a = ap.parse_args()
@@ -41,7 +45,9 @@ def main():
         config = open(a.config).read() if a.config else None
         top = f"ercube_{a.unit}"
         source = build / f"{top}.v"
-        source.write_text(ercube.Datapath(config, a.order, a.unit).verilog(top))
+        dp = ercube.Datapath(config, a.order, a.unit)
+        text = dp.pipelined(top)["verilog"] if a.unit == "sample" else dp.verilog(top)
+        source.write_text(text)
     runner = get_runner("icarus")
     runner.build(
         sources=[source],
@@ -56,12 +62,13 @@ def main():
         "ERCUBE_TF": a.tf,
         "ERCUBE_SAMPLES": str(a.samples),
         "ERCUBE_SEED": str(a.seed),
+        "ERCUBE_BUBBLES": str(a.bubbles),
     }
     if a.config:
         env["ERCUBE_CONFIG"] = str(Path(a.config).resolve())
     xml = runner.test(
         hdl_toplevel=top,
-        test_module="test_unit",
+        test_module="test_sample" if a.unit == "sample" else "test_unit",
         test_dir=Path(__file__).resolve().parent,
         build_dir=build,
         extra_env=env,

@@ -146,8 +146,46 @@ impl Datapath {
         Ok(d)
     }
 
+    /// The whole sample's pipelined module as `ercube rtl` emits it, named
+    /// `module`: a dict of `name`, `verilog` (the text), `depth` (clocks
+    /// from `in_valid` to `out_valid`), `ports` (dicts of `name`, `input`,
+    /// `bits`, `frac`, `signed`, `stage`: clocks after issue it is read or
+    /// shown) and `tables` (dicts of `name`, `sel`: its `tbl_sel` code,
+    /// `depth`, `bits`). A cut is refused (its module is `verilog`).
+    #[pyo3(signature = (module="ercube_sample"))]
+    fn pipelined<'py>(&self, py: Python<'py>, module: &str) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.unit.pipelined(module).map_err(error)?;
+        let ports = PyList::empty(py);
+        for p in &m.ports {
+            let d = PyDict::new(py);
+            d.set_item("name", &p.name)?;
+            d.set_item("input", p.input)?;
+            d.set_item("bits", p.word.bits)?;
+            d.set_item("frac", p.word.frac)?;
+            d.set_item("signed", p.word.signed)?;
+            d.set_item("stage", p.stage)?;
+            ports.append(d)?;
+        }
+        let tables = PyList::empty(py);
+        for t in &m.tables {
+            let d = PyDict::new(py);
+            d.set_item("name", &t.name)?;
+            d.set_item("sel", t.sel)?;
+            d.set_item("depth", t.depth)?;
+            d.set_item("bits", t.bits)?;
+            tables.append(d)?;
+        }
+        let d = PyDict::new(py);
+        d.set_item("name", &m.name)?;
+        d.set_item("verilog", &m.verilog)?;
+        d.set_item("depth", m.depth)?;
+        d.set_item("ports", ports)?;
+        d.set_item("tables", tables)?;
+        Ok(d)
+    }
+
     /// The unit as a Verilog module named `module` (the cuts; the whole
-    /// sample is refused).
+    /// sample's is `pipelined`).
     #[pyo3(signature = (module="ercube_unit"))]
     fn verilog(&self, module: &str) -> PyResult<String> {
         self.unit

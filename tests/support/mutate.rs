@@ -22,6 +22,26 @@ pub fn break_one_sum(verilog: &str) -> Option<(String, String)> {
     changed.map(|c| (out, c))
 }
 
+/// `verilog` with the sum assigned to the wire `wire` (`n_comp_r_s`, a
+/// `+`) made a difference, and the line changed; `None` if no such sum.
+pub fn break_sum(verilog: &str, wire: &str) -> Option<(String, String)> {
+    let head = format!(" {wire} = ");
+    let mut out = String::with_capacity(verilog.len());
+    let mut changed = None;
+    for line in verilog.lines() {
+        let is_it = line.trim_start().starts_with("wire") && line.contains(&head);
+        if changed.is_none() && is_it && line.contains(" + ") {
+            let l = line.replacen(" + ", " - ", 1);
+            changed = Some(l.trim().to_owned());
+            out.push_str(&l);
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    changed.map(|c| (out, c))
+}
+
 /// `verilog` (module `inner`, ports `(name, bits, signed, is_input)`)
 /// inside a module `outer` with `rst`, `in_valid` and `out_valid` besides
 /// (`out_valid` follows `in_valid` `latency` clocks later): the shape of a

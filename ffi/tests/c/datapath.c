@@ -44,6 +44,17 @@ static int errors(void) {
     uint32_t i;
     bad |= expect_error("no port", ercube_datapath_find(dp, 0, "acc_x", &i));
     bad |= expect_error("null datapath", ercube_datapath_step(NULL));
+    int64_t w = 0;
+    bad |= expect_error("no table word", ercube_datapath_table_get(dp, "class_r", 0, &w));
+    ercube_datapath_free(dp);
+    /* A table word of the whole sample: set, read back, refused past the
+     * table or outside its format. */
+    if (ercube_datapath_new(NULL, "btf", "sample", &dp) != ERCUBE_OK) return fail("new sample", 1);
+    if (ercube_datapath_table_set(dp, "class_a", 7, 123) != ERCUBE_OK) return fail("table_set", 1);
+    if (ercube_datapath_table_get(dp, "class_a", 7, &w) != ERCUBE_OK || w != 123)
+        return fail("table_get after table_set", 1);
+    bad |= expect_error("table address", ercube_datapath_table_get(dp, "class_a", 1u << 30, &w));
+    bad |= expect_error("table word", ercube_datapath_table_set(dp, "class_a", 0, -1));
     ercube_datapath_free(dp);
     return bad;
 }

@@ -238,6 +238,9 @@ fn a_c_program_evaluates_the_models_datapath_samples() {
                 ("no table:", "reads no table"),
                 ("no port:", "acc_x"),
                 ("null datapath:", "null"),
+                ("no table word:", "reads no table"),
+                ("table address:", "past its"),
+                ("table word:", "outside"),
             ] {
                 let l = text.lines().find(|l| l.starts_with(line)).unwrap();
                 assert!(l.contains(says), "{l}");

@@ -7,7 +7,7 @@
 //! `ERCUBE_REQUIRE_TOOLS=1`.
 
 #[path = "../../../tests/support/mutate.rs"]
-mod mutate;
+pub(super) mod mutate;
 
 use std::path::Path;
 use std::process::{Command, Output};

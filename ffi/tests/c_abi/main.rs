@@ -12,6 +12,7 @@
 
 mod datapath;
 mod dpi;
+mod dpi_sample;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;

@@ -300,7 +300,10 @@ impl Unit {
                 })
                 .map(|(i, n)| (n.name.replace('.', "_"), NodeId(i)))
                 .collect();
-            let depth = super::schedule::schedule(&full).depth;
+            // The emitted module's schedule (`ercube rtl`'s, the model's
+            // `datapath_latency`): one operator a stage, or packed for
+            // `target_mhz`.
+            let depth = crate::cost::latency::plain_depth(cfg);
             (ports, full.outputs.clone(), depth)
         } else if let Some(s) = spec(&full, name.trim()) {
             let ports: Vec<(String, NodeId)> = s
@@ -406,25 +409,14 @@ impl Unit {
     /// Loads the table `name` with `words` (raw words of its format, as
     /// many as it is deep).
     pub fn load_table(&mut self, name: &str, words: &[i64]) -> Result<(), UnitError> {
-        let names: Vec<&str> = self.tables().map(|t| t.name.as_str()).collect();
-        let list = if names.is_empty() {
-            format!("unit {} reads no table", self.name)
-        } else {
-            format!("expected {}", names.join(", "))
-        };
-        let (t, held) = self
-            .tables
-            .iter_mut()
-            .find(|t| t.0.name == name)
-            .ok_or_else(|| bad(format!("unknown table '{name}': {list}")))?;
-        if words.len() != t.depth {
+        let (t, _) = self.find_table(name)?;
+        let (depth, f) = (t.depth, t.fmt);
+        if words.len() != depth {
             return Err(bad(format!(
-                "table {name}: {} words given, it holds {}",
-                words.len(),
-                t.depth
+                "table {name}: {} words given, it holds {depth}",
+                words.len()
             )));
         }
-        let f = t.fmt;
         if let Some((i, w)) = words
             .iter()
             .enumerate()
@@ -432,7 +424,7 @@ impl Unit {
         {
             return Err(bad(format!("table {name}: word {i} = {w} is outside {f}")));
         }
-        held.copy_from_slice(words);
+        self.held_mut(name).copy_from_slice(words);
         Ok(())
     }
 
@@ -475,6 +467,67 @@ impl Unit {
             .iter()
             .find(|t| t.0.name == name)
             .map(|t| t.1.as_slice())
+    }
+
+    /// Word `addr` of the table `name`.
+    pub fn table_word(&self, name: &str, addr: usize) -> Result<i64, UnitError> {
+        let (t, held) = self.find_table(name)?;
+        held.get(addr).copied().ok_or_else(|| {
+            bad(format!(
+                "table {name}: address {addr} is past its {} words",
+                t.depth
+            ))
+        })
+    }
+
+    /// Sets word `addr` of the table `name` to `word` (a raw word of its
+    /// format), as a host port writes one word.
+    pub fn set_table_word(&mut self, name: &str, addr: usize, word: i64) -> Result<(), UnitError> {
+        let (t, _) = self.find_table(name)?;
+        let (depth, f) = (t.depth, t.fmt);
+        if addr >= depth {
+            return Err(bad(format!(
+                "table {name}: address {addr} is past its {depth} words"
+            )));
+        }
+        if word < f.min_raw() || word > f.max_raw() {
+            return Err(bad(format!(
+                "table {name}: word {addr} = {word} is outside {f}"
+            )));
+        }
+        self.held_mut(name)[addr] = word;
+        Ok(())
+    }
+
+    /// The words of the table `name`, which [`Unit::find_table`] found.
+    fn held_mut(&mut self, name: &str) -> &mut [i64] {
+        self.tables
+            .iter_mut()
+            .find(|t| t.0.name == name)
+            .map(|t| t.1.as_mut_slice())
+            .expect("a table found by name")
+    }
+
+    /// The table `name` and its words, or an error listing the unit's.
+    fn find_table(&self, name: &str) -> Result<(&Table, &[i64]), UnitError> {
+        self.tables
+            .iter()
+            .find(|t| t.0.name == name)
+            .map(|t| (&t.0, t.1.as_slice()))
+            .ok_or_else(|| {
+                let names: Vec<&str> = self.tables().map(|t| t.name.as_str()).collect();
+                if names.is_empty() {
+                    bad(format!(
+                        "unknown table '{name}': unit {} reads no table",
+                        self.name
+                    ))
+                } else {
+                    bad(format!(
+                        "unknown table '{name}': expected {}",
+                        names.join(", ")
+                    ))
+                }
+            })
     }
 
     /// The index of input `name`.
@@ -548,10 +601,31 @@ impl Unit {
         Ok(eval(g, &input, &read, &mut QuantStats::default())?)
     }
 
+    /// The whole sample as `ercube rtl` emits it, named `module`: the
+    /// pipelined datapath ([`super::pipeline_rtl`]) on the schedule the
+    /// model's latency follows ([`crate::cost::latency::sample_schedule`]),
+    /// with its handshake, host table port and the voxel taps read outside
+    /// one clock after their column. Its depth is [`Unit::latency`]. A cut
+    /// is refused: its Verilog is [`Unit::verilog`].
+    pub fn pipelined(
+        &self,
+        module: &str,
+    ) -> Result<super::pipeline_rtl::PipelinedModule, UnitError> {
+        if self.name != "sample" {
+            return Err(bad(format!(
+                "unit {} is a cut: its module is Unit::verilog's (the pipelined module is the whole sample's)",
+                self.name
+            )));
+        }
+        let sch = crate::cost::latency::sample_schedule(&self.cfg);
+        super::pipeline_rtl::emit_scheduled(&self.full, &sch, module)
+            .map_err(|e| bad(format!("rtl: {e}")))
+    }
+
     /// The unit as a Verilog module named `module` (a clock, the ports,
     /// registered outputs), as [`crate::rtl`] emits its calibration
     /// modules; the whole sample is not emitted here (its memory reads and
-    /// square root are refused).
+    /// square root are refused): its module is [`Unit::pipelined`].
     pub fn verilog(&self, module: &str) -> Result<String, RtlError> {
         let ports: Vec<(&str, NodeId)> = self
             .full_ports

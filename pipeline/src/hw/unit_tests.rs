@@ -114,3 +114,51 @@ fn latencies_ports_and_refusals() {
     assert!(s.fill_tables("no-such-tf").is_err());
     assert!(s.verilog("m").is_err(), "the whole sample has reads inside");
 }
+
+#[test]
+fn the_whole_sample_is_the_emitted_module_and_its_tables_take_single_words() {
+    for cfg in [
+        PipelineConfig::default(),
+        PipelineConfig {
+            target_mhz: 100,
+            ..PipelineConfig::default()
+        },
+    ] {
+        let mut s = Unit::new(&cfg, "sample").unwrap();
+        let m = s.pipelined("ercube_sample").unwrap();
+        // The module `ercube rtl` writes, whose depth the model's latency is.
+        let sch = crate::cost::latency::sample_schedule(&cfg);
+        let rtl =
+            super::pipeline_rtl::emit_scheduled(&super::sample::plain(&cfg), &sch, "ercube_sample")
+                .unwrap();
+        assert_eq!(m.verilog, rtl.verilog);
+        assert_eq!(s.latency(), m.depth);
+        assert_eq!(m.depth, crate::cost::latency::plain_depth(&cfg));
+        let w = s.table_word("class_a", 100).unwrap();
+        assert_eq!(Some(w), s.table("class_a").map(|t| t[100]));
+        s.set_table_word("class_a", 100, w ^ 1).unwrap();
+        assert_eq!(s.table("class_a").unwrap()[100], w ^ 1);
+        assert!(s
+            .table_word("class_a", 1 << 30)
+            .unwrap_err()
+            .to_string()
+            .contains("past"));
+        assert!(s
+            .set_table_word("class_a", 0, -1)
+            .unwrap_err()
+            .to_string()
+            .contains("outside"));
+        assert!(s
+            .set_table_word("nope", 0, 0)
+            .unwrap_err()
+            .to_string()
+            .contains("expected class_r"));
+    }
+    let c = Unit::new(&PipelineConfig::default(), "composite").unwrap();
+    assert!(c.pipelined("m").unwrap_err().to_string().contains("cut"));
+    assert!(c
+        .table_word("class_r", 0)
+        .unwrap_err()
+        .to_string()
+        .contains("reads no table"));
+}
