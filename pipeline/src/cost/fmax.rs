@@ -20,7 +20,7 @@
 //!
 //! The period is `max(base, base + carry bit x n + LUT level x l + fanout
 //! net x f + block x m + registered block x k + block RAM x r)`, the
-//! coefficients a least-squares fit of the relative error ([`fit`]) to the
+//! coefficients a least-squares fit of the relative error (`fmax::fit`) to the
 //! calibration settings of [`MEASURED`] (every unit, single-clock ones
 //! included); the holdout settings check it out of sample.
 //!
