@@ -1,5 +1,6 @@
-//! `ercube synth`: a unit of the PE synthesized and placed and routed on a
-//! real FPGA part, its measured resources and clock beside the estimate.
+//! `ercube synth`: a unit of the PE, or the whole emitted sample datapath,
+//! synthesized and placed and routed on a real FPGA part, its measured
+//! resources and clock beside the estimate.
 //!
 //! The unit's Verilog comes from `pipeline::rtl` at the configuration's
 //! widths; `pipeline::synth` wraps it between shift registers so that it
@@ -92,8 +93,9 @@ pub struct SynthReport {
     pub placed: Option<Placed>,
     /// The clock place and route aimed at, MHz.
     pub requested_mhz: Option<f64>,
-    /// The clock the delay model of `pipeline::cost::fmax` predicts for
-    /// the unit's longest path (fitted to the default widths' units).
+    /// The clock the delay model of `pipeline::cost::fmax` predicts: the
+    /// unit's slowest path, or for the datapath its schedule's slowest
+    /// stage (the model fitted to the units at the calibration widths).
     pub predicted_mhz: Option<f64>,
     /// yosys's `proc` (the first pass of `synth -top`) inferred no latch
     /// in the design (checked with `select -assert-none` on latch cells).
