@@ -411,8 +411,8 @@ fn best_per_part(designs: &[Design]) -> String {
         let _ = match best {
             Some((d, fps)) => writeln!(
                 o,
-                "- {}: {} / {} / {} at P = {}, {fps:.1} frames/s",
-                p.name, d.mapping, d.migration, d.ray_buffer, d.pes
+                "- {}: {} / {} / {} at P = {}, {fps:.1} frames/s at {} MHz (assumed clock of the part)",
+                p.name, d.mapping, d.migration, d.ray_buffer, d.pes, p.clock_mhz
             ),
             None => writeln!(o, "- {}: no design of the sweep fits", p.name),
         };

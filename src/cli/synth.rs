@@ -1,5 +1,6 @@
-//! `ercube synth`: a unit of the PE synthesized and placed and routed on a
-//! real FPGA part, its measured resources and clock beside the estimate.
+//! `ercube synth`: a unit of the PE, or the whole emitted sample datapath,
+//! synthesized and placed and routed on a real FPGA part, its measured
+//! resources and clock beside the estimate.
 //!
 //! The unit's Verilog comes from `pipeline::rtl` at the configuration's
 //! widths; `pipeline::synth` wraps it between shift registers so that it
@@ -38,7 +39,13 @@ pub struct SynthArgs {
     /// bilinear, composite, class_table, sqrt_norm or divider.
     #[arg(long)]
     pub unit: Option<String>,
-    /// The whole PE (refused: its Verilog is not emitted yet).
+    /// The whole pipelined sample datapath as `ercube rtl` writes it
+    /// (`ercube_sample`, its tables included): the datapath only, not the
+    /// PE, whose control is not emitted yet.
+    #[arg(long, conflicts_with = "unit")]
+    pub datapath: bool,
+    /// The whole PE (refused: its control and stage state machines are not
+    /// emitted yet; --datapath places its sample datapath).
     #[arg(long)]
     pub pe: bool,
     /// The whole array (refused: its Verilog is not emitted yet).
@@ -61,8 +68,10 @@ pub struct SynthArgs {
 /// What `ercube synth` measured.
 #[derive(Debug, Serialize)]
 pub struct SynthReport {
-    /// The unit's name.
+    /// The unit's name (`datapath` for the whole sample datapath).
     pub unit: String,
+    /// The Verilog module synthesized.
+    pub module: String,
     /// What the unit is.
     pub description: String,
     /// The part's name.
@@ -84,9 +93,13 @@ pub struct SynthReport {
     pub placed: Option<Placed>,
     /// The clock place and route aimed at, MHz.
     pub requested_mhz: Option<f64>,
-    /// The clock the delay model of `pipeline::cost::fmax` predicts for
-    /// the unit's longest path (fitted to the default widths' units).
+    /// The clock the delay model of `pipeline::cost::fmax` predicts: the
+    /// unit's slowest path, or for the datapath its schedule's slowest
+    /// stage (the model fitted to the units at the calibration widths).
     pub predicted_mhz: Option<f64>,
+    /// yosys's `proc` (the first pass of `synth -top`) inferred no latch
+    /// in the design (checked with `select -assert-none` on latch cells).
+    pub latch_free: bool,
     /// Why there is no timing, where there is none.
     pub timing: String,
     /// Wall-clock seconds of the tools.
@@ -214,20 +227,24 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     let part: Part = a.target.parse().map_err(anyhow::Error::msg)?;
     if a.pe || a.array {
         bail!(
-            "synth --{}: the PE's Verilog is not emitted yet; synthesize a unit with --unit NAME",
-            if a.pe { "pe" } else { "array" }
+            "synth --{}: the {}'s control and stage state machines are not emitted yet; --datapath places the sample datapath alone, --unit NAME one unit",
+            if a.pe { "pe" } else { "array" },
+            if a.pe { "PE" } else { "array" }
         );
     }
-    let Some(name) = a.unit.as_deref() else {
-        bail!("synth: give --unit NAME (--pe and --array need the PE's Verilog, not emitted yet)");
-    };
+    if a.unit.is_none() && !a.datapath {
+        bail!("synth: give --unit NAME or --datapath (--pe and --array need the PE's control, not emitted yet)");
+    }
     if let Some(c) = a.clock_mhz {
         if !c.is_finite() || c <= 0.0 || c > 2000.0 {
             bail!("--clock-mhz {c} must be a clock above 0 and at most 2000 MHz");
         }
     }
     let cfg = a.cfg.load()?;
-    let m = unit(&cfg, name).map_err(anyhow::Error::msg)?;
+    let m = match a.unit.as_deref() {
+        Some(name) => unit(&cfg, name).map_err(anyhow::Error::msg)?,
+        None => pipeline::synth::datapath(&cfg).map_err(anyhow::Error::msg)?,
+    };
     let ports = wrap::ports(&m.verilog, &m.name).map_err(anyhow::Error::msg)?;
     let top = wrap::wrapper(&m.name, &ports).map_err(anyhow::Error::msg)?;
     let tools = tools(part)?;
@@ -248,9 +265,15 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         .trim()
         .to_owned();
 
-    // The unit alone: what the estimator predicts.
+    // The unit alone: what the estimator predicts. `proc` infers no latch
+    // (the run fails naming the assertion otherwise).
     let synth = part.synth_command(&m.name);
-    let script = format!("read_verilog {unit_v}; {synth}; tee -q -o unit_stat.json stat -json");
+    let script = format!(
+        "read_verilog {unit_v}; hierarchy -top {}; proc; \
+         select -assert-none t:$dlatch t:$adlatch t:$dlatchsr; \
+         {synth}; tee -q -o unit_stat.json stat -json",
+        m.name
+    );
     run_quiet(
         Command::new(&tools.yosys)
             .current_dir(&dir)
@@ -267,6 +290,9 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     let requested = a.clock_mhz.unwrap_or_else(|| {
         pipeline::cost::clock::assumed_mhz(family.unwrap_or(pipeline::cost::Target::Ice40))
     });
+    // A design that does not fit fails in nextpnr: its synthesized counts
+    // are printed before the error.
+    let mut failed = None;
     let (placed, timing) = match (&tools.nextpnr, part.nextpnr_device()) {
         (Some(pnr), Some(device)) => {
             let top_synth = part.synth_command(wrap::TOP);
@@ -282,24 +308,39 @@ pub fn run(a: &SynthArgs) -> Result<()> {
                 .file_name()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            run_quiet(
+            match run_quiet(
                 Command::new(pnr)
                     .current_dir(&dir)
                     .args(device)
                     .args(["--json", "top.json", "--report", "report.json", "-q"])
                     .args(["--timing-allow-fail", "--freq", &format!("{freq}")]),
                 &tool,
-            )?;
-            let p = nextpnr(&read_json(&dir.join("report.json"))?).map_err(anyhow::Error::msg)?;
-            (Some(p), format!("measured by {tool} after place and route"))
+            ) {
+                Ok(_) => {
+                    let p = nextpnr(&read_json(&dir.join("report.json"))?)
+                        .map_err(anyhow::Error::msg)?;
+                    (Some(p), format!("measured by {tool} after place and route"))
+                }
+                Err(e) => {
+                    let why = format!("{e:#}");
+                    failed = Some(e);
+                    (None, why)
+                }
+            }
         }
         _ => (
             None,
             "no open place and route for Xilinx parts: synthesis counts only, no timing".to_owned(),
         ),
     };
+    let is_datapath = a.unit.is_none();
     let report = SynthReport {
-        unit: pipeline::synth::unit_name(&m).to_owned(),
+        unit: if is_datapath {
+            "datapath".to_owned()
+        } else {
+            pipeline::synth::unit_name(&m).to_owned()
+        },
+        module: m.name.clone(),
         description: m.description.clone(),
         target: part.name().to_owned(),
         device: part.device().to_owned(),
@@ -311,13 +352,21 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),
         predicted_mhz: family.and_then(|f| {
-            let model = pipeline::cost::fmax::model(f)?;
-            Some(model.mhz(&pipeline::cost::fmax::module_path(f, &m.units)))
+            if is_datapath {
+                // The schedule's slowest stage, as `ercube cost` predicts it.
+                Some(pipeline::cost::fmax::pe_prediction(&cfg, f)?.mhz)
+            } else {
+                pipeline::cost::fmax::unit_prediction(f, &m.units)
+            }
         }),
+        latch_free: true,
         timing,
         seconds: t0.elapsed().as_secs_f64(),
     };
     super::say(text(&report, part).trim_end());
+    if let Some(e) = failed {
+        return Err(e);
+    }
     if let Some(p) = &a.stats {
         write_json(
             p,
@@ -355,6 +404,12 @@ fn text(r: &SynthReport, part: Part) -> String {
         "  synthesized ({}): {lut} {}, FF {}, {dsp} {}, {bram} {}",
         r.synth_command, g.lut, g.ff, g.dsp, g.bram
     );
+    if r.latch_free {
+        let _ = writeln!(
+            s,
+            "  latches: none inferred (yosys proc, then select -assert-none on latch cells)"
+        );
+    }
     match r.estimated {
         Some(e) => {
             let _ = writeln!(

@@ -47,51 +47,11 @@ const ABS_TOL: u64 = 3;
 
 /// Narrow widths: 8-bit voxels, 256-entry tables, 12-bit accumulators,
 /// 14-bit gradients, 8 fraction bits of `|n . L|`.
-pub(crate) const NARROW: &str = r#"
-voxel = { bits = 8, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
-position = { bits = 20, frac = 10, quant = "RND", overflow = "SAT", signed = true }
-step = { bits = 16, frac = 15, quant = "RND", overflow = "SAT", signed = false }
-weight = { bits = 8, frac = 8, quant = "TRN", overflow = "SAT", signed = false }
-sample = { bits = 10, frac = 2, quant = "RND", overflow = "SAT", signed = false }
-color = { bits = 9, frac = 8, quant = "RND", overflow = "SAT", signed = false }
-alpha = { bits = 8, frac = 8, quant = "RND", overflow = "SAT", signed = false }
-table_entries = 256
-path = { bits = 12, frac = 9, quant = "RND", overflow = "SAT", signed = false }
-log_transmittance = { bits = 14, frac = 10, quant = "RND", overflow = "SAT", signed = false }
-exp_table_bits = 6
-opacity_corr = { bits = 10, frac = 9, quant = "RND", overflow = "SAT", signed = false }
-accum_color = { bits = 12, frac = 12, quant = "RND", overflow = "SAT", signed = false }
-accum_alpha = { bits = 12, frac = 12, quant = "RND", overflow = "SAT", signed = false }
-merge = { bits = 16, frac = 12, quant = "RND", overflow = "SAT", signed = false }
-gradient = { bits = 14, frac = 4, quant = "RND", overflow = "SAT", signed = true }
-grad_norm = { bits = 14, frac = 4, quant = "TRN", overflow = "SAT", signed = false }
-light = { bits = 12, frac = 10, quant = "RND", overflow = "SAT", signed = true }
-normal_dot = { bits = 9, frac = 8, quant = "TRN", overflow = "SAT", signed = false }
-"#;
+pub(crate) const NARROW: &str = include_str!("../../data/widths/narrow.toml");
 
 /// Wide widths: 16-bit voxels, 32-bit positions, 24-bit accumulators,
 /// 24-bit gradients, 16 fraction bits of `|n . L|`.
-pub(crate) const WIDE: &str = r#"
-voxel = { bits = 16, frac = 0, quant = "TRN", overflow = "SAT", signed = false }
-position = { bits = 32, frac = 18, quant = "RND", overflow = "SAT", signed = true }
-step = { bits = 32, frac = 31, quant = "RND", overflow = "SAT", signed = false }
-weight = { bits = 16, frac = 16, quant = "TRN", overflow = "SAT", signed = false }
-sample = { bits = 20, frac = 4, quant = "RND", overflow = "SAT", signed = false }
-color = { bits = 13, frac = 12, quant = "RND", overflow = "SAT", signed = false }
-alpha = { bits = 16, frac = 16, quant = "RND", overflow = "SAT", signed = false }
-table_entries = 4096
-path = { bits = 18, frac = 15, quant = "RND", overflow = "SAT", signed = false }
-log_transmittance = { bits = 24, frac = 19, quant = "RND", overflow = "SAT", signed = false }
-exp_table_bits = 12
-opacity_corr = { bits = 20, frac = 19, quant = "RND", overflow = "SAT", signed = false }
-accum_color = { bits = 24, frac = 24, quant = "RND", overflow = "SAT", signed = false }
-accum_alpha = { bits = 24, frac = 24, quant = "RND", overflow = "SAT", signed = false }
-merge = { bits = 28, frac = 24, quant = "RND", overflow = "SAT", signed = false }
-gradient = { bits = 24, frac = 6, quant = "RND", overflow = "SAT", signed = true }
-grad_norm = { bits = 24, frac = 6, quant = "TRN", overflow = "SAT", signed = false }
-light = { bits = 18, frac = 16, quant = "RND", overflow = "SAT", signed = true }
-normal_dot = { bits = 17, frac = 16, quant = "TRN", overflow = "SAT", signed = false }
-"#;
+pub(crate) const WIDE: &str = include_str!("../../data/widths/wide.toml");
 
 fn settings() -> Vec<(&'static str, PipelineConfig)> {
     vec![

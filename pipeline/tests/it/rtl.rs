@@ -216,7 +216,7 @@ fn wide() -> PipelineConfig {
 
 /// The five configurations: default widths in both orders, narrow and
 /// wide formats, and the default widths pipelined for 60 MHz on ECP5
-/// (`target_mhz`: stages packed by the delay model, 22 against 35).
+/// (`target_mhz`: stages packed by the delay model, 24 against 35).
 fn configs() -> Vec<(&'static str, PipelineConfig)> {
     let d = PipelineConfig::default();
     vec![
