@@ -692,7 +692,11 @@ mod tests {
             };
             for units in [(false, false, false), (true, true, true)] {
                 let set = SignalSet::new(&cfg, units);
-                assert_eq!(every_signal_has_a_field(&set), Ok(()), "{order:?} {units:?}");
+                assert_eq!(
+                    every_signal_has_a_field(&set),
+                    Ok(()),
+                    "{order:?} {units:?}"
+                );
             }
         }
     }

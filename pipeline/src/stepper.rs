@@ -47,7 +47,7 @@ pub struct Cycle {
 /// What the caller tells the worker before a tick.
 enum Go {
     /// Run one tick and send it; reuse the previous cycle's buffers.
-    Step(Option<Cycle>),
+    Step(Option<Box<Cycle>>),
     /// Run the rest of the frame without handing over.
     Run,
 }
@@ -56,10 +56,10 @@ enum Go {
 /// tick and sends the caller each committed cycle.
 pub struct Tap {
     go: Receiver<Go>,
-    out: Sender<Cycle>,
+    out: Sender<Box<Cycle>>,
     signals: Option<Arc<SignalSet>>,
     commands: Vec<Command>,
-    spare: Option<Cycle>,
+    spare: Option<Box<Cycle>>,
     /// Told to run the rest of the frame without handing over.
     free: bool,
 }
@@ -107,12 +107,14 @@ impl Tap {
         let Some(signals) = &self.signals else {
             return;
         };
-        let mut c = self.spare.take().unwrap_or_else(|| Cycle {
-            number,
-            ctrl,
-            commands: Vec::new(),
-            pes: Vec::with_capacity(pes.len()),
-            signals: Arc::clone(signals),
+        let mut c = self.spare.take().unwrap_or_else(|| {
+            Box::new(Cycle {
+                number,
+                ctrl,
+                commands: Vec::new(),
+                pes: Vec::with_capacity(pes.len()),
+                signals: Arc::clone(signals),
+            })
         });
         c.number = number;
         c.ctrl = ctrl;
@@ -136,9 +138,9 @@ impl Tap {
 /// caller's whole render built around it).
 pub struct Stepper<T> {
     go: Option<SyncSender<Go>>,
-    cycles: Option<Receiver<Cycle>>,
+    cycles: Option<Receiver<Box<Cycle>>>,
     worker: Option<JoinHandle<T>>,
-    current: Option<Cycle>,
+    current: Option<Box<Cycle>>,
     done: bool,
 }
 
@@ -193,7 +195,7 @@ impl<T: Send + 'static> Stepper<T> {
         match self.cycles.as_ref().filter(|_| sent).map(Receiver::recv) {
             Some(Ok(c)) => {
                 self.current = Some(c);
-                self.current.as_ref()
+                self.current.as_deref()
             }
             _ => {
                 // The frame has ended (its tap is gone) or never ticks.
@@ -205,7 +207,7 @@ impl<T: Send + 'static> Stepper<T> {
 
     /// The last cycle clocked (`None` before the first).
     pub fn current(&self) -> Option<&Cycle> {
-        self.current.as_ref()
+        self.current.as_deref()
     }
 
     /// Whether the frame has no more cycles.

@@ -69,10 +69,13 @@ impl Chip {
     }
 }
 
+/// A camera: eye, look-at, up, field of view.
+type Camera = (Option<[f64; 3]>, Option<[f64; 3]>, [f64; 3], f64);
+
 /// The camera and method arguments of `begin` and `run_frame`, refusing a
 /// golden method.
 fn view_of(
-    (eye, look_at, up, fov): (Option<[f64; 3]>, Option<[f64; 3]>, [f64; 3], f64),
+    (eye, look_at, up, fov): Camera,
     size: [u32; 2],
     method: &str,
     tf: Option<&str>,
