@@ -102,11 +102,13 @@ fn the_python_chip_steps_the_waveforms_cycles() {
     });
     let file = d.join("chip.json");
     std::fs::write(&file, serde_json::to_string(&case).unwrap()).unwrap();
+    let t = std::time::Instant::now();
     let out = Command::new(&py)
         .arg(root().join("python/tests/check_chip.py"))
         .arg(&file)
         .output()
         .unwrap();
+    eprintln!("check_chip.py: {:.1} s", t.elapsed().as_secs_f64());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
