@@ -74,8 +74,11 @@ def clear_cache() -> None:
 class Chip:
     """The bit-accurate PE array with one configuration.
 
-    Frames are whole frames: the model has no per-cycle stepping API, so
-    there is no step() or ports().
+    Runs whole frames (run_frame) or steps one clock at a time: begin(),
+    then step(), ports() and broadcast() after each step, and finish(). A
+    stepped frame runs on a worker thread that hands over after every
+    cycle: the same cycles, and every PE's values, as the frame
+    `ercube render --vcd` traces.
     """
 
     def __init__(self, config: Optional[str] = None) -> None:
@@ -105,6 +108,75 @@ class Chip:
         raw is the int64 H x W x 4 baseplane of accumulator words
         `--raw-npy` writes (formats in stats["raw_format"]). method is
         pipeline or pipeline-ftb.
+        """
+
+    def begin(
+        self,
+        voxels: Optional[npt.NDArray[Union[np.uint8, np.uint16]]] = None,
+        *,
+        spacing: Vec3 = (1.0, 1.0, 1.0),
+        eye: Optional[Vec3] = None,
+        look_at: Optional[Vec3] = None,
+        up: Vec3 = (0.0, 1.0, 0.0),
+        fov: float = 60.0,
+        size: Union[Tuple[int, int], Sequence[int]] = (256, 256),
+        method: str = "pipeline",
+        tf: Optional[str] = "grey-ramp",
+        **options: Any,
+    ) -> None:
+        """Begins a frame to step one clock at a time.
+
+        Of voxels ((z, y, x) with spacing) or, when None, of the loaded
+        volume, with run_frame's options. A frame in progress stops. No
+        cycle runs before step().
+        """
+
+    def step(self, n: int = 1) -> int:
+        """Clocks up to n cycles (the GIL released).
+
+        Returns the number of the last cycle clocked (the frame's cycles
+        count from 1); once the frame has ended (done), its cycle count,
+        stats["cycles"]. A frame that fails raises its error here.
+        """
+
+    @property
+    def done(self) -> bool:
+        """Whether the frame has no cycle left."""
+
+    @property
+    def cycle(self) -> int:
+        """The number of the last cycle clocked (0 before the first)."""
+
+    def ports(self) -> List[dict[str, Any]]:
+        """Every PE in the last cycle clocked, in PE order.
+
+        Each a dict of its signals named as the waveform names them below
+        top.pe_K ("busy", "sample", "acc_r", ..., "left.ray_valid",
+        "left.ray_r", "right.edge_0", "host.valid", "host.r", ...), raw
+        words (two's complement over the signal's width), and "report": its
+        report lines to the controller ("drained_at", "lands_by", "settled",
+        "readout_done", "active", "pass_width", "slot_work",
+        "merge_outputs", "split_outputs").
+        """
+
+    def broadcast(self) -> dict[str, Any]:
+        """The controller in the last cycle clocked.
+
+        Its signals as the waveform names them below top.ctrl ("stage",
+        "slice", "row", "pass_x_valid", "pass_x", "pass_y_valid", "pass_y",
+        "pass_col", "drive_valid", "drive_row"), "cycle", "stage_name", and
+        "commands": the commands broadcast to every PE since the previous
+        cycle, each (name, a, b), e.g. ("begin_slice", first ray, last
+        ray), ("plan_rows", first row, rows), ("begin_row", row, 0).
+        """
+
+    def finish(
+        self,
+    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int64], dict[str, Any]]:
+        """Runs the rest of the frame; returns (image, raw, stats).
+
+        The same as run_frame returns for the frame (apart from the
+        wall-clock times in stats).
         """
 
 class Port(TypedDict):

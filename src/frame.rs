@@ -130,6 +130,43 @@ pub fn render_reusing<S: AsRef<str>>(
     render::frame_reusing(&a, volume, Some(reuse)).map_err(|e| Error::run(&e))
 }
 
+/// A pipeline frame stepped one clock at a time: what the stepper's
+/// worker returns when the frame is over (the whole render, as
+/// [`render`] returns it).
+pub type Stepper = pipeline::stepper::Stepper<Result<Rendered, Error>>;
+
+/// Starts the pipeline frame `ercube render ARGS` renders, of `volume`
+/// when given, with the configuration `config` (TOML text) when given, to
+/// be stepped one clock at a time ([`pipeline::stepper`]): the arguments
+/// are checked here, the frame runs on the stepper's worker thread, and
+/// [`pipeline::stepper::Stepper::finish`] returns the render, the same
+/// image, raw words and statistics as [`render`]'s (the wall-clock times
+/// apart). `--method` must be a pipeline's; no `--repeat`.
+pub fn stepper<S: AsRef<str>>(
+    args: &[S],
+    volume: Option<Volume>,
+    config: Option<&str>,
+) -> Result<Stepper, Error> {
+    let mut a = parse(args)?;
+    a.pipeline.cfg.toml = config.map(str::to_string);
+    if a.method.technique().is_some() {
+        return Err(Error {
+            usage: true,
+            message: format!(
+                "only the pipeline steps cycle by cycle; {} is a golden method",
+                a.method.name()
+            ),
+        });
+    }
+    pipeline::stepper::Stepper::start(move |tap| {
+        render::frame_tapped(&a, volume, tap).map_err(|e| Error::run(&e))
+    })
+    .map_err(|e| Error {
+        usage: false,
+        message: format!("cannot start the stepper's thread: {e}"),
+    })
+}
+
 /// Checks the pipeline configuration `text` (TOML, as a `--config` file
 /// holds; missing keys keep their defaults), with the command line's
 /// message when it is wrong.

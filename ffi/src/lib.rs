@@ -4,7 +4,9 @@
 //! them (through [`ercube::frame`]); the final image, the pipeline's raw
 //! accumulator words and the statistics as JSON text; one sample of the
 //! datapath (the whole plain sample or a unit of it) evaluated from its
-//! input words (`src/datapath.rs`).
+//! input words (`src/datapath.rs`); the array stepped one clock at a
+//! time, every PE's signals, ports and report lines read out as
+//! `#[repr(C)]` structs (`src/chip.rs`).
 //!
 //! Every entry returns an [`ErcubeStatus`]-valued `int` (0 is success) and
 //! leaves a one-line message for [`ercube_last_error`] when it fails.
@@ -19,14 +21,16 @@ use std::ptr;
 
 use golden::volume::{Volume, Voxels};
 
+pub mod chip;
 mod datapath;
 pub mod sample_testbench;
 pub mod testbench;
+pub use chip::ErcubeChip;
 pub use datapath::ErcubeDatapath;
 
 /// The ABI's version: it changes whenever a signature, a struct or a
 /// meaning in `ercube.h` does (`ERCUBE_ABI_VERSION` there).
-pub const ABI_VERSION: u32 = 2;
+pub const ABI_VERSION: u32 = 3;
 
 /// What an entry returns.
 #[repr(C)]
@@ -45,6 +49,8 @@ pub enum ErcubeStatus {
     Failed = 3,
     /// A bug: the model panicked (the message says where).
     Panic = 4,
+    /// `ercube_chip_step`: the frame has no cycle left (not a failure).
+    Done = 5,
 }
 
 /// A pipeline configuration (checked TOML text).
@@ -63,6 +69,20 @@ pub struct ErcubeFrame {
     /// The image as contiguous float32 RGBA.
     rgba: Vec<f32>,
     stats: CString,
+}
+
+impl ErcubeFrame {
+    /// The frame's outputs as the C side reads them.
+    fn new(rendered: ercube::frame::Rendered) -> Result<ErcubeFrame, Failure> {
+        let rgba = rendered.image.data.iter().flatten().copied().collect();
+        let stats = CString::new(rendered.stats.to_string())
+            .map_err(|_| argument("the statistics hold a NUL"))?;
+        Ok(ErcubeFrame {
+            rendered,
+            rgba,
+            stats,
+        })
+    }
 }
 
 thread_local! {
@@ -366,17 +386,7 @@ pub unsafe extern "C" fn ercube_render(
         }
         let toml = cfg.as_ref().map(|c| c.toml.as_str());
         let rendered = ercube::frame::render(&args, Some(v.clone()), toml)?;
-        let rgba = rendered.image.data.iter().flatten().copied().collect();
-        let stats = CString::new(rendered.stats.to_string())
-            .map_err(|_| argument("the statistics hold a NUL"))?;
-        hand_out(
-            out,
-            ErcubeFrame {
-                rendered,
-                rgba,
-                stats,
-            },
-        )
+        hand_out(out, ErcubeFrame::new(rendered)?)
     })
 }
 

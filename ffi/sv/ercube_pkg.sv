@@ -16,7 +16,7 @@
 package ercube_pkg;
 
   // ERCUBE_ABI_VERSION of ercube.h this package is written against.
-  localparam int unsigned ERCUBE_ABI_VERSION = 2;
+  localparam int unsigned ERCUBE_ABI_VERSION = 3;
   localparam int unsigned ERCUBE_INPUTS = 0;
   localparam int unsigned ERCUBE_OUTPUTS = 1;
 

@@ -14,7 +14,8 @@
 //! baseplane comes out as raw accumulator words and, scaled to float, goes
 //! through the golden warp.
 //!
-//! [`probes`] declares the array's waveform signals, one table per scope.
+//! [`probes`] declares the array's waveform signals, one table per scope;
+//! [`stepper`] steps a frame one clock at a time from outside, reading them.
 //!
 //! [`fixed`] is the arithmetic every datapath register uses: declared
 //! formats with `ap_fixed` quantisation and overflow semantics, exact
@@ -42,6 +43,7 @@ pub mod schedule;
 pub mod shading;
 pub mod skip;
 pub mod stages;
+pub mod stepper;
 pub mod synth;
 pub mod tables;
 pub mod voi;

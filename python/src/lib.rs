@@ -2,8 +2,10 @@
 //! Volumes and images are numpy arrays; every frame is rendered through
 //! [`ercube::frame`], the code `ercube render` runs, so images, raw words
 //! and statistics are the command line's bit for bit. The GIL is released
-//! while a volume loads or a frame renders. One datapath sample evaluates
-//! through `ercube.Datapath` (`src/datapath.rs`). Type hints: `ercube.pyi`.
+//! while a volume loads or a frame renders. The PE array runs whole frames
+//! or steps one clock at a time through `ercube.Chip` (`src/chip.rs`); one
+//! datapath sample evaluates through `ercube.Datapath` (`src/datapath.rs`).
+//! Type hints: `ercube.pyi`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -15,6 +17,7 @@ use std::sync::Mutex;
 use ercube::frame::Reuse;
 use golden::volume::{Volume, Voxels};
 
+mod chip;
 mod datapath;
 
 create_exception!(
@@ -180,6 +183,12 @@ fn run<'py>(
             Err(_) => ercube::frame::render(&args, Some(volume), config.as_deref()),
         })
         .map_err(error)?;
+    outputs(py, &r)
+}
+
+/// A render's image, raw words (pipeline only) and statistics as numpy
+/// arrays and a dict.
+fn outputs<'py>(py: Python<'py>, r: &ercube::frame::Rendered) -> PyResult<Out<'py>> {
     let im = &r.image;
     let image = array(
         py,
@@ -187,7 +196,7 @@ fn run<'py>(
         &[im.height, im.width, 4],
         "float32",
     )?;
-    let raw = match ercube::frame::raw_words(&r) {
+    let raw = match ercube::frame::raw_words(r) {
         Some((w, h, words)) => Some(array(py, words.as_flattened(), &[h, w, 4], "int64")?),
         None => None,
     };
@@ -277,85 +286,6 @@ fn clear_cache(py: Python<'_>) {
     });
 }
 
-/// The bit-accurate PE array with one configuration: load a volume, then
-/// run frames of it. Each frame is a whole frame (the model has no
-/// per-cycle stepping API to expose).
-#[pyclass(module = "ercube")]
-struct Chip {
-    config: Option<String>,
-    volume: Option<Volume>,
-}
-
-#[pymethods]
-impl Chip {
-    /// A chip with the pipeline configuration `config` (TOML text, as a
-    /// `--config` file holds; missing keys keep their defaults), or the
-    /// default configuration.
-    #[new]
-    #[pyo3(signature = (config=None))]
-    fn new(config: Option<String>) -> PyResult<Chip> {
-        if let Some(c) = &config {
-            ercube::frame::check_config(c).map_err(error)?;
-        }
-        Ok(Chip {
-            config,
-            volume: None,
-        })
-    }
-
-    /// Loads `voxels` (numpy `(z, y, x)`, uint8 or uint16) with `spacing`
-    /// (x, y, z) for the next frames.
-    #[pyo3(signature = (voxels, spacing=[1.0, 1.0, 1.0]))]
-    fn load(&mut self, voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<()> {
-        self.volume = Some(volume_of(voxels, spacing)?);
-        Ok(())
-    }
-
-    /// Runs one frame of the loaded volume and returns `(image, raw,
-    /// stats)`: the image as `render` returns it, raw the int64 `H x W x
-    /// 4` accumulator words `--raw-npy` writes (formats in
-    /// `stats["raw_format"]`), and the stats dict. `method` is `pipeline`
-    /// (back to front) or `pipeline-ftb`; the rest as `render`.
-    #[pyo3(signature = (*, eye=None, look_at=None, up=[0.0, 1.0, 0.0], fov=60.0,
-        size=[256, 256], method="pipeline", tf=Some("grey-ramp"), **options))]
-    #[allow(clippy::too_many_arguments)]
-    fn run_frame<'py>(
-        &self,
-        py: Python<'py>,
-        eye: Option<[f64; 3]>,
-        look_at: Option<[f64; 3]>,
-        up: [f64; 3],
-        fov: f64,
-        size: [u32; 2],
-        method: &str,
-        tf: Option<&str>,
-        options: Option<&Bound<'py, PyDict>>,
-    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-        if !method.starts_with("pipeline") {
-            return Err(Error::new_err(format!(
-                "a Chip runs --method pipeline or pipeline-ftb; {method} is a golden method (use ercube.render)"
-            )));
-        }
-        let Some(volume) = self.volume.clone() else {
-            return Err(Error::new_err("no volume: call Chip.load(voxels) first"));
-        };
-        let view = View {
-            eye,
-            look_at,
-            up,
-            fov,
-            size,
-            method: method.to_string(),
-            tf: tf.map(str::to_string),
-        };
-        let out = run(py, view.args(options)?, volume, self.config.clone())?;
-        let raw = out
-            .raw
-            .ok_or_else(|| Error::new_err("the frame has no raw words"))?;
-        Ok((out.image, raw, out.stats))
-    }
-}
-
 /// The module.
 #[pymodule]
 #[pyo3(name = "ercube")]
@@ -365,7 +295,7 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(clear_cache, m)?)?;
-    m.add_class::<Chip>()?;
+    m.add_class::<chip::Chip>()?;
     m.add_class::<datapath::Datapath>()?;
     Ok(())
 }

@@ -280,7 +280,10 @@ pub fn run(
         Option<&golden::voi::Voi>,
         Option<&golden::preint::PreTable>,
     ),
-    spare: &mut Option<pipeline::Resident>,
+    (spare, tap): (
+        &mut Option<pipeline::Resident>,
+        Option<pipeline::stepper::Tap>,
+    ),
 ) -> Result<PipelineRun> {
     let tracing = a.vcd.is_some() || a.fst.is_some();
     let pes = match traced_pes(a, cfg.pes)? {
@@ -289,7 +292,7 @@ pub fn run(
         None => {
             // The busiest PEs are known once the frame has run.
             let mut scratch = None;
-            let untraced = (Tracer::disabled(), &mut scratch);
+            let untraced = (Tracer::disabled(), &mut scratch, None);
             let opts = (skips, shade, voi, preint);
             let f = frame_with(cfg, data_bits, lut, prep, opts, untraced)?;
             busiest(&f.pes)
@@ -306,7 +309,7 @@ pub fn run(
         lut,
         prep,
         (skips, shade, voi, preint),
-        (tr, &mut resident),
+        (tr, &mut resident, tap),
     )?;
     *spare = resident;
     let time_s = t.elapsed().as_secs_f64();
@@ -328,19 +331,26 @@ type FrameOptions<'a> = (
 );
 
 /// One frame through the array with tracer `tr`, reusing `resident`'s
-/// memories.
+/// memories, stepped through `tap` when given.
 fn frame_with(
     cfg: &PipelineConfig,
     data_bits: u32,
     lut: &Lut,
     prep: &Prepared,
     (skips, shade, voi, preint): FrameOptions<'_>,
-    (tr, resident): (Tracer, &mut Option<pipeline::Resident>),
+    (tr, resident, tap): (
+        Tracer,
+        &mut Option<pipeline::Resident>,
+        Option<pipeline::stepper::Tap>,
+    ),
 ) -> Result<pipeline::Frame> {
-    let frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits })
+    let mut frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits })
         .skips(skips)
         .trace(tr)
         .resident(resident);
+    if let Some(t) = tap {
+        frame = frame.tap(t);
+    }
     Ok(match preint {
         Some(pt) => frame.preint(Some(pt)),
         None => frame.shading(shade).voi(voi),

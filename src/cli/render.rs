@@ -227,10 +227,32 @@ pub fn frame_reusing(
     reuse: Option<&mut Reuse>,
 ) -> Result<Rendered> {
     let Some(tech) = a.method.technique() else {
-        return with_threads(a.threads, || frame_pipeline(a, given, reuse));
+        return with_threads(a.threads, || frame_pipeline(a, given, reuse, None));
     };
     chip::check_unused(&a.pipeline)?;
     with_threads(a.threads, || frame_golden(a, tech, given, reuse))
+}
+
+/// [`frame`] of a pipeline method, stepped from outside: the array's
+/// clock hands every cycle over through `tap`
+/// ([`pipeline::stepper::Stepper`]). The frame runs once, clocked, with the
+/// same image, raw words and statistics as [`frame`]'s (apart from the
+/// wall-clock times).
+pub fn frame_tapped(
+    a: &RenderArgs,
+    given: Option<golden::volume::Volume>,
+    tap: pipeline::stepper::Tap,
+) -> Result<Rendered> {
+    if a.method.technique().is_some() {
+        anyhow::bail!(
+            "only the pipeline steps cycle by cycle; {} is a golden method",
+            a.method.name()
+        );
+    }
+    if a.repeat != 1 {
+        anyhow::bail!("a stepped frame runs once; drop --repeat {}", a.repeat);
+    }
+    with_threads(a.threads, || frame_pipeline(a, given, None, Some(tap)))
 }
 
 /// The last frame's volume and its preparation, kept between the frames of
@@ -439,6 +461,7 @@ fn frame_pipeline(
     a: &RenderArgs,
     given: Option<golden::volume::Volume>,
     reuse: Option<&mut Reuse>,
+    tap: Option<pipeline::stepper::Tap>,
 ) -> Result<Rendered> {
     let clock = a.pipeline.clock()?;
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
@@ -468,6 +491,7 @@ fn frame_pipeline(
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
         let mut spare = None;
+        let mut tap = tap;
         timed(a.repeat, || {
             chip::run(
                 &a.pipeline,
@@ -481,7 +505,7 @@ fn frame_pipeline(
                     voi.as_ref(),
                     preint.as_ref(),
                 ),
-                &mut spare,
+                (&mut spare, tap.take()),
             )
         })?
     };

@@ -8,6 +8,8 @@
 //! And `tests/c/datapath.c`: one datapath sample per line of input words,
 //! for the whole sample and its units in both orders, equal to the
 //! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`);
+//! `tests/c/chip.c`: a frame stepped one clock at a time, ending with
+//! `ercube_render`'s raw words and cycles;
 //! and the DPI-C package's scoreboard testbench in Verilator (`dpi.rs`).
 
 mod datapath;
@@ -183,4 +185,43 @@ fn a_c_program_renders_the_command_lines_raw_words_and_reports_errors() {
         "an empty frame proves nothing"
     );
     assert_eq!(c_buf, cli_buf, "buffer volume: raw words differ");
+}
+
+/// `tests/c/chip.c` steps a frame one clock at a time through the C ABI:
+/// to the end (the cycles stepped equal the statistics' `cycles`, the raw
+/// words `ercube_render`'s), finished after 100 cycles (the same raw
+/// words), freed mid-frame (returns); its error paths report a status and
+/// a message; the header's structs have the library's sizes.
+#[test]
+fn a_c_program_steps_a_frame_to_the_renders_raw_words() {
+    if !tools::have("cc", "gcc", "the C ABI test") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let prog = compile(dir.path(), "chip");
+    let out = Command::new(&prog).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "the C program failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for (line, says) in [
+        ("step before begin:", "ercube_chip_begin"),
+        ("golden begin:", "golden method"),
+        ("ports past the end:", "outside"),
+        ("stepped frame:", "equal ercube_render's"),
+        ("finished after 100 cycles:", "equal"),
+        ("freed mid-frame", ""),
+    ] {
+        let l = text
+            .lines()
+            .find(|l| l.starts_with(line))
+            .unwrap_or_else(|| panic!("no line {line:?} in\n{text}"));
+        assert!(l.contains(says), "{l}");
+    }
+    eprintln!(
+        "{}",
+        text.lines().find(|l| l.starts_with("stepped ")).unwrap()
+    );
 }

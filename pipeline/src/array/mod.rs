@@ -431,6 +431,14 @@ impl Array {
             let probes = Probes::new(t, p, &self.dp.cfg, units)?;
             self.clock.attach(probes);
         }
+        self.clock.begin_tap(crate::probes::SignalSet::new(
+            &self.dp.cfg,
+            (
+                self.dp.shade.is_some(),
+                self.dp.voi.is_some(),
+                self.dp.preint.is_some(),
+            ),
+        ));
         let mut plan: FramePlan = plan(&self.dp.cfg, view)?;
         if self.dp.preint.is_some() {
             let mut st = QuantStats::default();

@@ -79,6 +79,7 @@ pub struct FrameRun<'a> {
     tracer: Tracer,
     resident: Option<&'a mut Option<Resident>>,
     capture: Option<crate::cosim::capture::Capture>,
+    tap: Option<crate::stepper::Tap>,
 }
 
 impl<'a> FrameRun<'a> {
@@ -127,6 +128,7 @@ impl<'a> FrameRun<'a> {
             tracer: Tracer::disabled(),
             resident: None,
             capture: None,
+            tap: None,
         }
     }
 
@@ -187,6 +189,15 @@ impl<'a> FrameRun<'a> {
         self
     }
 
+    /// Hands every cycle to the caller stepping the frame through `tap`
+    /// ([`crate::stepper::Stepper`]): the frame runs clocked, as a traced
+    /// one does, with the same bits and cycles, each tick waiting for the
+    /// caller.
+    pub fn tap(mut self, tap: crate::stepper::Tap) -> Self {
+        self.tap = Some(tap);
+        self
+    }
+
     /// Plans, loads, clocks and reads out the frame.
     pub fn run(self) -> Result<Frame, RunError> {
         let FrameRun {
@@ -199,6 +210,7 @@ impl<'a> FrameRun<'a> {
             tracer,
             resident,
             capture,
+            tap,
         } = self;
         let view = match camera {
             Camera::View(view) => view,
@@ -245,6 +257,10 @@ impl<'a> FrameRun<'a> {
             crate::cosim::capture::begin(&c, &array.dp);
             array.clocked = true;
             array.clock.set_capture(c);
+        }
+        if let Some(t) = tap {
+            array.clocked = true;
+            array.clock.set_tap(t);
         }
         let (frame, kept) = array.run_keeping(view)?;
         *resident = Some(kept);

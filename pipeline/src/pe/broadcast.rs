@@ -105,7 +105,111 @@ pub enum Broadcast<'a> {
     BeginReadout,
 }
 
+/// A broadcast as plain data, without the tables and plans it carries:
+/// which command, and its scalar arguments. What a caller stepping the
+/// array sees of the controller's commands between two cycles
+/// ([`crate::stepper`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Command {
+    /// [`Broadcast::BeginSlice`] over ray indices `lo ..= hi`.
+    BeginSlice {
+        /// First ray index along x.
+        lo: i64,
+        /// Last ray index along x.
+        hi: i64,
+    },
+    /// [`Broadcast::PlanRows`]: `rows` rows from `first_row` of the
+    /// region's grid.
+    PlanRows {
+        /// The slice's first row relative to the region's grid.
+        first_row: usize,
+        /// Rows in the slice.
+        rows: usize,
+    },
+    /// [`Broadcast::BeginRow`] of the slice's row `r`.
+    BeginRow(usize),
+    /// [`Broadcast::BeginMerge`].
+    BeginMerge,
+    /// [`Broadcast::BeginSplit`].
+    BeginSplit,
+    /// [`Broadcast::BeginFold`].
+    BeginFold,
+    /// [`Broadcast::EndMerge`].
+    EndMerge,
+    /// [`Broadcast::EndSplit`].
+    EndSplit,
+    /// [`Broadcast::EndFold`].
+    EndFold,
+    /// [`Broadcast::PlanMoves`] around a ring (`true`) or along the line.
+    PlanMoves {
+        /// Whether the route is a ring.
+        ring: bool,
+    },
+    /// [`Broadcast::BeginReadout`].
+    BeginReadout,
+}
+
+impl Command {
+    /// The command's code (its position in [`Command`]'s declaration,
+    /// from 0), and its two arguments (0 where it has fewer): `BeginSlice`
+    /// (lo, hi), `PlanRows` (first_row, rows), `BeginRow` (r, 0),
+    /// `PlanMoves` (ring, 0).
+    pub fn words(&self) -> (u32, i64, i64) {
+        match *self {
+            Command::BeginSlice { lo, hi } => (0, lo, hi),
+            Command::PlanRows { first_row, rows } => (1, first_row as i64, rows as i64),
+            Command::BeginRow(r) => (2, r as i64, 0),
+            Command::BeginMerge => (3, 0, 0),
+            Command::BeginSplit => (4, 0, 0),
+            Command::BeginFold => (5, 0, 0),
+            Command::EndMerge => (6, 0, 0),
+            Command::EndSplit => (7, 0, 0),
+            Command::EndFold => (8, 0, 0),
+            Command::PlanMoves { ring } => (9, i64::from(ring), 0),
+            Command::BeginReadout => (10, 0, 0),
+        }
+    }
+
+    /// The command's name (`begin_slice`, `plan_rows`, ...).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::BeginSlice { .. } => "begin_slice",
+            Command::PlanRows { .. } => "plan_rows",
+            Command::BeginRow(_) => "begin_row",
+            Command::BeginMerge => "begin_merge",
+            Command::BeginSplit => "begin_split",
+            Command::BeginFold => "begin_fold",
+            Command::EndMerge => "end_merge",
+            Command::EndSplit => "end_split",
+            Command::EndFold => "end_fold",
+            Command::PlanMoves { .. } => "plan_moves",
+            Command::BeginReadout => "begin_readout",
+        }
+    }
+}
+
 impl Broadcast<'_> {
+    /// The broadcast as plain data.
+    pub fn command(&self) -> Command {
+        match *self {
+            Broadcast::BeginSlice { x } => Command::BeginSlice { lo: x.0, hi: x.1 },
+            Broadcast::PlanRows {
+                first_row, rows, ..
+            } => Command::PlanRows { first_row, rows },
+            Broadcast::BeginRow(r) => Command::BeginRow(r),
+            Broadcast::BeginMerge { .. } => Command::BeginMerge,
+            Broadcast::BeginSplit { .. } => Command::BeginSplit,
+            Broadcast::BeginFold { .. } => Command::BeginFold,
+            Broadcast::EndMerge => Command::EndMerge,
+            Broadcast::EndSplit => Command::EndSplit,
+            Broadcast::EndFold => Command::EndFold,
+            Broadcast::PlanMoves { route, .. } => Command::PlanMoves {
+                ring: matches!(route, Route::Ring(_)),
+            },
+            Broadcast::BeginReadout => Command::BeginReadout,
+        }
+    }
+
     /// Whether applying it is a PE's whole-slice work (planning every
     /// row), worth spreading the PEs over threads.
     pub(crate) fn heavy(&self) -> bool {

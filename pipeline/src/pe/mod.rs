@@ -18,7 +18,7 @@ mod state;
 #[cfg(test)]
 mod state_tests;
 
-pub use broadcast::{Broadcast, EdgeRead, OwnerFn};
+pub use broadcast::{Broadcast, Command, EdgeRead, OwnerFn};
 
 use std::collections::VecDeque;
 
@@ -523,6 +523,10 @@ pub enum StepError {
         /// The row.
         row: usize,
     },
+    /// The frame was stopped before its end: the caller stepping it
+    /// ([`crate::stepper::Stepper`]) let it go.
+    #[error("the frame was stopped before its end (its stepper was dropped)")]
+    Stopped,
     /// An intermediate outgrew the 128-bit model.
     #[error("{0}")]
     Fixed(#[from] FxError),

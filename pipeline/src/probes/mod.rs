@@ -27,12 +27,14 @@ mod groups;
 mod pe;
 mod ports;
 mod recorder;
+mod signals;
 mod stage;
 
 pub use groups::{parse_groups, ACC, CTRL, DATAPATH, GROUPS, PORTS, REGS};
 use pe::{PeView, PE_PROBES};
 use ports::{PortView, HOST_PROBES, PORT_PROBES};
 pub(crate) use recorder::Probes;
+pub use signals::{PeCycle, Signal, SignalSet};
 pub use stage::Stage;
 
 use waves::Group;
@@ -122,6 +124,15 @@ impl<S> Probe<S> {
     /// Only in configurations where `present` holds.
     const fn only(self, present: fn(&PipelineConfig) -> bool) -> Self {
         Probe { present, ..self }
+    }
+
+    /// Whether a frame of `cfg` with the `units` (shading, volume of
+    /// interest, pre-integration) has this signal.
+    fn shown(&self, cfg: &PipelineConfig, (shading, voi, preint): (bool, bool, bool)) -> bool {
+        (self.present)(cfg)
+            && (shading || !self.shaded)
+            && (voi || !self.voi)
+            && (preint || !self.preint)
     }
 }
 

@@ -16,6 +16,7 @@ fn bits_of_grad(s: &PeView) -> u32 {
 /// counter, its registers and FIFO levels, and the controller's stage (a
 /// PE is busy only while sampling). A copy rather than a borrow, so the
 /// tables' readers need no lifetime.
+#[derive(Debug, Clone)]
 pub(crate) struct PeView {
     last: SampleTrace,
     rays_sent: u64,

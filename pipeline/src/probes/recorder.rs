@@ -13,18 +13,14 @@ use crate::pe::{Pe, Ports};
 /// (NONE for the absent and the unselected).
 fn register<S>(
     tracer: &mut Tracer,
-    (cfg, (shading, voi, preint)): (&PipelineConfig, (bool, bool, bool)),
+    (cfg, units): (&PipelineConfig, (bool, bool, bool)),
     scope: &ScopePath,
     table: &[Probe<S>],
 ) -> Result<Vec<SignalId>, WavesError> {
     table
         .iter()
         .map(|p| {
-            if !(p.present)(cfg)
-                || (p.shaded && !shading)
-                || (p.voi && !voi)
-                || (p.preint && !preint)
-            {
+            if !p.shown(cfg, units) {
                 return Ok(SignalId::NONE);
             }
             let width = (p.width)(cfg);

@@ -31,6 +31,7 @@ mod rtl;
 mod rtl_units;
 mod shading;
 mod skip;
+mod stepper;
 mod stress;
 mod traces;
 mod voi;

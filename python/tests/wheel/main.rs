@@ -12,6 +12,7 @@
 //! (`python/cocotb`) in Icarus on the emitted units and a broken copy
 //! (`cocotb.rs`).
 
+mod chip;
 mod cocotb;
 mod datapath;
 

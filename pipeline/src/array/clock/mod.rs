@@ -130,6 +130,8 @@ pub struct Clock {
     probes: Option<Probes>,
     /// The capture of the datapath's issues ([`crate::cosim::capture`]).
     capture: Option<crate::cosim::capture::Capture>,
+    /// A stepped frame's handover to its caller ([`crate::stepper`]).
+    tap: Option<crate::stepper::Tap>,
     /// Whether PE `P - 1`'s right port drives PE 0's left (a ray-only wrap
     /// link: the round-robin mappings' migrations go around a ring).
     ring: bool,
@@ -151,6 +153,7 @@ impl Clock {
             stages: StageCycles::default(),
             probes,
             capture: None,
+            tap: None,
             ring: false,
             edge_rows: Vec::new(),
         }
@@ -168,6 +171,9 @@ impl Clock {
     /// untraced sampler also reads each PE's edge words in its rows
     /// ([`crate::pe::EdgeRead`]), in the same step.
     pub fn broadcast(&mut self, b: &Broadcast<'_>) {
+        if let Some(t) = self.tap.as_mut() {
+            t.command(b);
+        }
         if let Broadcast::PlanRows {
             runs,
             edges: Some(e),
@@ -264,6 +270,19 @@ impl Clock {
         self.capture = Some(capture);
     }
 
+    /// Hands every cycle to the caller stepping the frame from now on:
+    /// each tick waits for the caller first.
+    pub(crate) fn set_tap(&mut self, tap: crate::stepper::Tap) {
+        self.tap = Some(tap);
+    }
+
+    /// Tells the tap the frame's signals, once its datapath is final.
+    pub(crate) fn begin_tap(&mut self, signals: crate::probes::SignalSet) {
+        if let Some(t) = self.tap.as_mut() {
+            t.begin(signals);
+        }
+    }
+
     pub(crate) fn take_probes(&mut self) -> Option<Probes> {
         self.probes.take()
     }
@@ -275,6 +294,9 @@ impl Clock {
         ctrl: Ctrl,
         step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
     ) -> Result<(), StepError> {
+        if let Some(t) = self.tap.as_mut() {
+            t.wait()?;
+        }
         step_all(
             &mut self.pes,
             (&self.ports, &mut self.spare),
@@ -294,6 +316,9 @@ impl Clock {
             .filter(|_| ctrl.stage == Stage::Sample)
         {
             crate::cosim::capture::record(c, self.cycle, &self.pes);
+        }
+        if let Some(t) = self.tap.as_mut() {
+            t.publish(self.cycle, ctrl, &self.pes, &self.ports);
         }
         Ok(())
     }
@@ -318,7 +343,7 @@ impl Clock {
     /// work (a test compares the two). The ports end idle, as after the
     /// clocked path's last sampling cycle nothing reads them.
     pub(crate) fn ran_untraced(&mut self, stage: Stage, n: u64) {
-        debug_assert!(self.probes.is_none());
+        debug_assert!(self.probes.is_none() && self.tap.is_none());
         self.cycle += n;
         self.stages.add(stage, n);
         self.ports.fill(Ports::default());
