@@ -18,5 +18,6 @@
 pub mod build;
 pub mod capture;
 pub mod outcome;
+pub mod readout;
 pub mod replay;
 pub mod vectors;

@@ -305,6 +305,9 @@ pub struct Pe {
     pub(crate) drained_at: u64,
     /// The readout cursor: the next held column and row to stream out.
     pub(crate) readout_at: (usize, usize),
+    /// The compositing buffer's read register during the readout: the ray
+    /// read last clock, on the host port this clock.
+    pub(crate) readout_read: Option<Readout>,
     /// Front to back (`kept_finals`): the final states of the rays this
     /// PE held at each split (one entry per boundary passed, innermost
     /// last), kept for the fold. With the inherited states this is the
@@ -376,6 +379,7 @@ impl Pe {
             row_plan: Default::default(),
             drained_at: 0,
             readout_at: (0, 0),
+            readout_read: None,
             finals: Vec::new(),
             pass: PassState::default(),
             model: PeModel::default(),

@@ -8,6 +8,7 @@
 use golden::geometry::RayGrid;
 
 use crate::array::{Array, RunError};
+use crate::cosim::capture;
 use crate::pe::{Broadcast, Pe, Ports, Readout};
 use crate::probes::{Ctrl, Stage};
 
@@ -15,12 +16,14 @@ impl Pe {
     /// Rewinds the readout cursor to the first ray it streams.
     pub fn begin_readout(&mut self) {
         self.readout_at = (0, 0);
-        self.skip_unread();
+        self.readout_read = None;
+        self.skip_empty();
     }
 
-    /// Whether every held ray has been streamed out.
+    /// Whether every held ray has been read out of the compositing buffer
+    /// and its read register has driven the host port.
     pub fn readout_done(&self) -> bool {
-        self.readout_at.0 >= self.rays.len()
+        self.readout_at.0 >= self.rays.len() && self.readout_read.is_none()
     }
 
     /// The cursor's next position after `(c, r)`: the next row of the
@@ -33,35 +36,38 @@ impl Pe {
         }
     }
 
-    /// Moves the cursor past what is not streamed: columns without rows
-    /// (an empty region) and, with `pass_skip_empty`, rays whose valid bit
-    /// is clear (all-zero words, which the host's cleared baseplane
-    /// already holds).
-    fn skip_unread(&mut self) {
-        while let Some(col) = self.rays.get(self.readout_at.0) {
-            let (c, r) = self.readout_at;
-            if col.acc.is_empty() {
-                self.readout_at = (c + 1, 0);
-            } else if self.sparse_passes && col.acc[r].raw == [0; 4] {
-                self.readout_at = self.after((c, r));
-            } else {
-                break;
-            }
+    /// Moves the cursor past columns without rows (an empty region).
+    fn skip_empty(&mut self) {
+        while self
+            .rays
+            .get(self.readout_at.0)
+            .is_some_and(|col| col.acc.is_empty())
+        {
+            self.readout_at = (self.readout_at.0 + 1, 0);
         }
     }
 
-    /// One readout clock: the next held ray on the host port.
+    /// One readout clock, as `ercube_pe_readout` does it: the ray read
+    /// last clock leaves the buffer's read register for the host port
+    /// (with `pass_skip_empty`, an all-zero word is left off: the host's
+    /// cleared baseplane already holds it), and the ray under the cursor
+    /// is read. Every held ray costs a clock, zero or not, plus one for
+    /// the first read.
     pub fn readout_step(&mut self, out: &mut Ports) {
+        out.host = self
+            .readout_read
+            .take()
+            .filter(|o| !(self.sparse_passes && o.acc.raw == [0; 4]));
         let (c, r) = self.readout_at;
         if let Some(col) = self.rays.get(c) {
-            out.host = Some(Readout {
+            self.readout_read = Some(Readout {
                 mx: col.mx,
                 row: r as u32,
                 acc: col.acc[r],
             });
             self.readout_at = self.after((c, r));
         }
-        self.skip_unread();
+        self.skip_empty();
     }
 }
 
@@ -74,6 +80,10 @@ impl Array {
         if !self.clock.tracing() && !self.clocked {
             self.clock.readout_untraced(g, &mut raw);
             return Ok(raw);
+        }
+        let capture = self.clock.capture().cloned();
+        if let Some(c) = &capture {
+            capture::readout_begin(c, self.clock.cycle(), g, self.clock.pes());
         }
         // The host writes each word where its ray index puts it.
         let mut store =
@@ -88,6 +98,9 @@ impl Array {
                 if let Some(o) = &port.host {
                     store(o);
                 }
+            }
+            if let Some(c) = &capture {
+                capture::readout_tick(c, &self.clock);
             }
         }
         Ok(raw)
