@@ -19,7 +19,9 @@ use super::outcome::Mismatch;
 use super::replay::parse_hex;
 use crate::cost::shapes::RAY_INDEX_BITS;
 use crate::datapath::Datapath;
-use crate::hw::readout_rtl::{ReadoutShape, ARRAY_MODULE, SEL_BUFFER, SEL_COUNTS, SEL_MAP};
+use crate::hw::readout_rtl::{
+    ReadoutShape, ARRAY_MODULE, SEL_BUFFER, SEL_COUNTS, SEL_MAP, SEL_VALID,
+};
 
 /// The generated testbench's module name.
 pub const TOP: &str = "ercube_readout_cosim";
@@ -170,12 +172,25 @@ pub fn write_files(
                 pack(&[(mx, RAY_INDEX_BITS), (valid, 1)])
             );
         }
-        for (a, w) in pe.words.iter().enumerate() {
+        // Ray (c, r) at r * slots + c; the start lists them column after
+        // column.
+        let rows_n = rows as usize;
+        for (i, w) in pe.words.iter().enumerate() {
+            let (c, r) = (i / rows_n.max(1), i % rows_n.max(1));
+            let a = r as u64 * shape.map_depth + c as u64;
             let _ = writeln!(
                 load,
                 "{k:x} {SEL_BUFFER:x} {a:x} {}",
                 pack(&acc_fields(shape, w))
             );
+        }
+        if shape.sparse {
+            for r in 0..rows_n {
+                let bits: Vec<(i64, u32)> = (0..pe.mx.len())
+                    .map(|c| (i64::from(pe.words[c * rows_n + r] != [0; 4]), 1))
+                    .collect();
+                let _ = writeln!(load, "{k:x} {SEL_VALID:x} {r:x} {}", pack(&bits));
+            }
         }
     }
     let mut expect = String::new();

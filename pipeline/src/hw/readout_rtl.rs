@@ -8,15 +8,20 @@
 //! whose golden twin is the baseplane [`golden::warp::Baseplane`] the host
 //! assembles.
 //!
-//! The buffer holds region 0's rays column after column (ray `(slot, row)`
-//! at `slot * rows + row`), its two banks interleaved by the address's low
-//! bit; the column map's slot `s` holds `{valid, mx}` of the `s`-th held
-//! column. On `begin_readout` the cursor starts at `(0, 0)`; each clock it
-//! reads one ray (buffer and map, one clock of read latency) and moves to
-//! the next row or the next column's first; the read register drives the
-//! host port the clock after, an all-zero word left off when the
-//! configuration skips empty rays (`pass_skip_empty`). `done` rises once
-//! the cursor has passed the last ray and the read register is empty.
+//! The buffer holds region 0's rays row by row at a stride of the column
+//! map's slots (ray `(c, r)` at `r * slots + c`), its two banks
+//! interleaved by the address's low bit; the column map's slot `c` holds
+//! `{valid, mx}` of the `c`-th held column; with `pass_skip_empty` the
+//! valid bits (the cost model's `ray valid bits`, a row to a word) say
+//! which rays are not all zero. On `begin_readout` the machine reads row
+//! 0's valid word (all held columns without `pass_skip_empty`); then each
+//! clock it reads the lowest column still to read in the row in hand
+//! (buffer and map, one clock of read latency), and the clock that leaves
+//! a row reads the next row's word. The read register drives the host
+//! port the clock after; `done` rises once the last row is left and the
+//! read register is empty. A row costs as many clocks as it has rays to
+//! stream, at least one, and the readout two more: what the model counts
+//! ([`crate::stages::readout::ReadoutFsm`]).
 
 use std::fmt::Write as _;
 
@@ -37,6 +42,8 @@ pub const SEL_BUFFER: u32 = 0;
 pub const SEL_MAP: u32 = 1;
 /// `ld_sel` of the counts register `{ncols, rows}`.
 pub const SEL_COUNTS: u32 = 2;
+/// `ld_sel` of a row's valid word (with `pass_skip_empty`).
+pub const SEL_VALID: u32 = 3;
 
 /// Bits to hold `0 ..= n` (at least one).
 fn bits_for(n: u64) -> u32 {
@@ -163,44 +170,53 @@ impl ReadoutShape {
     pub fn map_bits(&self) -> u32 {
         addr_bits(self.map_depth)
     }
+    /// Bits of a valid word's address (a row).
+    pub fn valid_bits(&self) -> u32 {
+        addr_bits(self.max_rows)
+    }
     /// Bits of `ld_addr`.
     pub fn ld_addr_bits(&self) -> u32 {
-        self.ray_addr_bits().max(self.map_bits())
+        self.ray_addr_bits()
+            .max(self.map_bits())
+            .max(self.valid_bits())
     }
     /// Bits of `ld_data`.
     pub fn ld_data_bits(&self) -> u32 {
         self.buffer_width
             .max(self.map_width)
             .max(self.slot_bits() + self.row_bits())
+            .max(self.map_depth as u32)
     }
     /// Bits of `ld_pe` in the array.
     pub fn pe_bits(&self) -> u32 {
         addr_bits(self.pes as u64)
     }
-    /// Memory bits one PE's readout module declares (both banks and the
-    /// column map).
+    /// Memory bits one PE's readout module declares (both banks, the
+    /// column map and, with `pass_skip_empty`, the valid words).
     pub fn memory_bits(&self) -> u64 {
+        let valid = if self.sparse {
+            self.max_rows * self.map_depth
+        } else {
+            0
+        };
         2 * self.bank_depth * u64::from(self.buffer_width)
             + self.map_depth * u64::from(self.map_width)
+            + valid
     }
-    /// Register bits one PE's readout module declares.
+    /// Register bits one PE's readout module declares: the counts; the
+    /// valid word's read register and its row; the row in hand and its
+    /// bits; the buffer's and the map's read registers with their row and
+    /// bank.
     pub fn register_bits(&self) -> u64 {
-        let (s, r, a) = (
+        let (s, r, n) = (
             u64::from(self.slot_bits()),
             u64::from(self.row_bits()),
-            u64::from(self.ray_addr_bits()),
+            self.map_depth,
         );
-        // ncols, rows; busy, slot, row, ra; rv, rbank, r_row; q0, q1, mq.
-        s + r
-            + 1
-            + s
-            + r
-            + a
-            + 1
-            + 1
-            + r
-            + 2 * u64::from(self.buffer_width)
-            + u64::from(self.map_width)
+        (s + r)
+            + (1 + r + n)
+            + (1 + r + n)
+            + (1 + 1 + r + 2 * u64::from(self.buffer_width) + u64::from(self.map_width))
     }
 }
 
@@ -226,32 +242,63 @@ pub fn emit(shape: &ReadoutShape) -> ReadoutRtl {
 
 fn pe_module(s: &ReadoutShape) -> String {
     let (cw, aw, w) = (s.color_bits, s.alpha_bits, s.buffer_width);
-    let (lab, sb, rb, mb) = (s.ray_addr_bits(), s.slot_bits(), s.row_bits(), s.map_bits());
+    let (lab, sb, rb, mb, vb) = (
+        s.ray_addr_bits(),
+        s.slot_bits(),
+        s.row_bits(),
+        s.map_bits(),
+        s.valid_bits(),
+    );
     let (la, ld) = (s.ld_addr_bits(), s.ld_data_bits());
     let ib = RAY_INDEX_BITS;
     let mw = s.map_width;
-    let (d, m) = (s.bank_depth, s.map_depth);
-    let nonzero = if s.sparse { "|word" } else { "1'b1" };
+    let (d, m, rm) = (s.bank_depth, s.map_depth, s.max_rows);
+    let n = m;
+    let (valid_decl, valid_port, valid_doc) = if s.sparse {
+        (
+            format!("  reg [{n1}:0] ray_valid [0:{rm1}];\n", n1 = n - 1, rm1 = rm - 1),
+            format!(
+                "    if (ld_we && ld_sel == 2'd{SEL_VALID}) ray_valid[ld_addr[{vb1}:0]] <= ld_data[{n1}:0];\n    if (rst) vq <= {n}'d0;\n    else if (issue_v) vq <= ray_valid[v_addr[{vb1}:0]];\n",
+                vb1 = vb - 1,
+                n1 = n - 1
+            ),
+            format!(
+                "//   ray_valid: {rm} words x {n} bits, row r's word holding bit c set when ray\n//     (c, r) is not all zero (pass_skip_empty: the readout streams those only).\n"
+            ),
+        )
+    } else {
+        (
+            String::new(),
+            format!(
+                "    if (rst) vq <= {n}'d0;\n    else if (issue_v) vq <= ~({n}'d0 - {n}'d1 << ncols);\n"
+            ),
+            String::new(),
+        )
+    };
     let mut v = String::new();
     let o = &mut v;
     let _ = writeln!(
         o,
         "// {PE_MODULE}: one PE's readout stage, emitted by ercube (pipeline::hw::readout_rtl).
 //
-// Memories as declared by Pe::declaration, each a synchronous-read RAM
-// (one write port, the host load; one read port, the cursor):
+// Memories as declared by Pe::declaration (and, for the valid bits, the
+// cost model's ray valid bits), each a synchronous-read RAM with one write
+// port (the host load) and one read port (the readout):
 //   compositing_buffer: 2 banks x {d} words x {w} bits ({{a, b, g, r}}: r at bit 0,
-//     {cw}-bit colour words, a {aw}-bit opacity word), ray (slot, row) at the
-//     linear address slot * rows + row, bank = its low bit;
-//   column_map: {m} words x {mw} bits ({{valid, mx}}, mx a {ib}-bit two's complement index).
+//     {cw}-bit colour words, a {aw}-bit opacity word), ray (slot c, row r) at the
+//     linear address r * {m} + c, bank = its low bit;
+//   column_map: {m} words x {mw} bits ({{valid, mx}}, mx a {ib}-bit two's complement index);
+{valid_doc}// The readout runs row by row: begin_readout reads row 0's valid word; then
+// each clock reads the lowest column still to read in the row in hand, and
+// the clock that leaves a row (its last ray read, or none) reads the next
+// row's valid word. The buffer's read register drives the host port.
 // Ports:
 //   clk, rst               synchronous reset of every register
 //   ld_we, ld_sel, ld_addr, ld_data  host load: ld_sel {SEL_BUFFER} buffer word at the linear
-//                          address, {SEL_MAP} column map slot, {SEL_COUNTS} {{ncols, rows}} ({sb} + {rb} bits)
-//   begin_readout          the controller's BeginReadout broadcast; the clock it is
-//                          high reads ray (0, 0)
+//                          address, {SEL_MAP} column map slot, {SEL_COUNTS} {{ncols, rows}} ({sb} + {rb} bits){}
+//   begin_readout          the controller's BeginReadout broadcast
 //   host_valid, host_mx, host_row, host_r, host_g, host_b, host_a
-//                          the ray read the clock before (all zero when not valid{});
+//                          the ray read the clock before (all zero when not valid)
 //   done                   every ray read and driven (the readout_done report line)
 // Lint: WIDTH is waived: counters compare and add at their own widths and
 // Verilog's rules extend the shorter operand with zeros; UNUSEDSIGNAL is
@@ -279,42 +326,61 @@ module {PE_MODULE} (
   reg [{w1}:0] bank0 [0:{d1}];
   reg [{w1}:0] bank1 [0:{d1}];
   reg [{mw1}:0] column_map [0:{m1}];
-  reg [{sb1}:0] ncols;
+{valid_decl}  reg [{sb1}:0] ncols;
   reg [{rb1}:0] rows;
-  reg busy;
-  reg [{sb1}:0] slot;
-  reg [{rb1}:0] row;
-  reg [{lab1}:0] ra;
+  reg vv;
+  reg [{rb1}:0] vq_row;
+  reg [{n1}:0] vq;
+  reg have_cur;
+  reg [{rb1}:0] cur_row;
+  reg [{n1}:0] cur_bits;
   reg rv;
   reg rbank;
   reg [{rb1}:0] r_row;
   reg [{w1}:0] q0;
   reg [{w1}:0] q1;
   reg [{mw1}:0] mq;
-  // The cursor this clock: (0, 0) on begin_readout, else the registers.
-  wire go = begin_readout ? (ncols != {sb}'d0 && rows != {rb}'d0) : busy;
-  wire [{sb1}:0] c_slot = begin_readout ? {sb}'d0 : slot;
-  wire [{rb1}:0] c_row = begin_readout ? {rb}'d0 : row;
-  wire [{lab1}:0] c_a = begin_readout ? {lab}'d0 : ra;
-  wire [{rb1}:0] n_row = c_row + {rb}'d1;
-  wire [{sb1}:0] n_slot = c_slot + {sb}'d1;
-  wire last_row = (n_row == rows);
+  // The lowest set bit of a row's word still to read.
+  function [{mb1}:0] lowest;
+    input [{n1}:0] b;
+    integer i;
+    begin
+      lowest = {mb}'d0;
+      for (i = {n1}; i >= 0; i = i - 1)
+        if (b[i]) lowest = i;
+    end
+  endfunction
+  // The row in hand: the one being worked, or the one whose valid word
+  // arrives this clock.
+  wire active = have_cur || vv;
+  wire [{n1}:0] bits = have_cur ? cur_bits : (vv ? vq : {n}'d0);
+  wire [{rb1}:0] row_now = have_cur ? cur_row : vq_row;
+  wire [{n1}:0] rest = bits & (bits - {n}'d1);
+  wire pick = active && bits != {n}'d0;
+  wire row_end = active && rest == {n}'d0;
+  wire [{rb1}:0] next_row = row_now + {rb}'d1;
+  wire issue_v = begin_readout ? (ncols != {sb}'d0 && rows != {rb}'d0) : (row_end && next_row != rows);
+  wire [{rb1}:0] v_addr = begin_readout ? {rb}'d0 : next_row;
+  wire [{mb1}:0] col = lowest(bits);
+  wire [{lab1}:0] addr = row_now * {lab}'d{m} + col;
   wire ld_buf = ld_we && ld_sel == 2'd{SEL_BUFFER};
   always @(posedge clk) begin
     if (ld_buf && !ld_addr[0]) bank0[ld_addr[{lab1}:1]] <= ld_data[{w1}:0];
     if (rst) q0 <= {w}'d0;
-    else if (go) q0 <= bank0[c_a[{lab1}:1]];
+    else if (pick) q0 <= bank0[addr[{lab1}:1]];
   end
   always @(posedge clk) begin
     if (ld_buf && ld_addr[0]) bank1[ld_addr[{lab1}:1]] <= ld_data[{w1}:0];
     if (rst) q1 <= {w}'d0;
-    else if (go) q1 <= bank1[c_a[{lab1}:1]];
+    else if (pick) q1 <= bank1[addr[{lab1}:1]];
   end
   always @(posedge clk) begin
     if (ld_we && ld_sel == 2'd{SEL_MAP}) column_map[ld_addr[{mb1}:0]] <= ld_data[{mw1}:0];
     if (rst) mq <= {mw}'d0;
-    else if (go) mq <= column_map[c_slot[{mb1}:0]];
+    else if (pick) mq <= column_map[col];
   end
+  always @(posedge clk) begin
+{valid_port}  end
   always @(posedge clk) begin
     if (rst) begin
       ncols <= {sb}'d0;
@@ -326,49 +392,46 @@ module {PE_MODULE} (
   end
   always @(posedge clk) begin
     if (rst) begin
-      busy <= 1'b0;
-      slot <= {sb}'d0;
-      row <= {rb}'d0;
-      ra <= {lab}'d0;
+      vv <= 1'b0;
+      vq_row <= {rb}'d0;
+      have_cur <= 1'b0;
+      cur_row <= {rb}'d0;
+      cur_bits <= {n}'d0;
       rv <= 1'b0;
       rbank <= 1'b0;
       r_row <= {rb}'d0;
     end else begin
-      rv <= go;
-      if (go) begin
-        r_row <= c_row;
-        rbank <= c_a[0];
-        ra <= c_a + {lab}'d1;
-        if (last_row) begin
-          row <= {rb}'d0;
-          slot <= n_slot;
-          busy <= (n_slot != ncols);
-        end else begin
-          row <= n_row;
-          slot <= c_slot;
-          busy <= 1'b1;
-        end
+      vv <= issue_v;
+      if (issue_v) vq_row <= v_addr;
+      have_cur <= active && !row_end;
+      if (active) begin
+        cur_bits <= rest;
+        cur_row <= row_now;
+      end
+      rv <= pick;
+      if (pick) begin
+        r_row <= row_now;
+        rbank <= addr[0];
       end
     end
   end
   // The read register drives the host port.
   wire [{w1}:0] word = rbank ? q1 : q0;
-  wire live = rv && mq[{ib}];
-  assign host_valid = live && {nonzero};
+  assign host_valid = rv && mq[{ib}];
   assign host_mx = host_valid ? mq[{ib1}:0] : {ib}'d0;
   assign host_row = host_valid ? r_row : {rb}'d0;
   assign host_r = host_valid ? word[{cw1}:0] : {cw}'d0;
   assign host_g = host_valid ? word[{cw2}:{cw}] : {cw}'d0;
   assign host_b = host_valid ? word[{cw3}:{cw2p}] : {cw}'d0;
   assign host_a = host_valid ? word[{w1}:{cw3p}] : {aw}'d0;
-  assign done = !busy && !rv;
+  assign done = !vv && !have_cur && !rv;
 endmodule
 /* verilator lint_on UNUSEDSIGNAL */
 /* verilator lint_on WIDTH */",
         if s.sparse {
-            "; an all-zero ray is not valid"
+            format!(", {SEL_VALID} ray_valid row word")
         } else {
-            ""
+            String::new()
         },
         la1 = la - 1,
         ld1 = ld - 1,
@@ -380,6 +443,7 @@ endmodule
         d1 = d - 1,
         mw1 = mw - 1,
         m1 = m - 1,
+        n1 = n - 1,
         sb1 = sb - 1,
         lab1 = lab - 1,
         mb1 = mb - 1,

@@ -38,7 +38,7 @@ struct Readout {
     readout_cycles: u64,
 }
 
-fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: usize) -> Readout {
+fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Readout {
     let s = subject(scene);
     let centre = glam::DVec3::from_array(s.vol.center_world());
     let cam = Camera::new(
@@ -170,11 +170,11 @@ fn readout_matches_the_model_in_icarus() {
     assert_matches(&r, &s, "ftb dense one PE");
 }
 
-/// The cursor turning to the next column one row early (the emitted
-/// `last_row` compare off by one) is reported at its first clock, PE and
+/// The state machine stepping two rows where it should step one (the
+/// emitted `next_row` off by one) is reported at its first clock, PE and
 /// signal, and the baseplane differs.
 #[test]
-fn a_cursor_that_skips_a_row_is_caught() {
+fn a_state_machine_that_skips_a_row_is_caught() {
     if !have("iverilog", "iverilog", "the readout mutation test") {
         return;
     }
@@ -184,24 +184,27 @@ fn a_cursor_that_skips_a_row_is_caught() {
         [30.0, 20.0, -40.0],
         16,
     );
-    let good = "wire last_row = (n_row == rows);";
-    assert!(r.rtl.pe.contains(good));
-    let bad = r
-        .rtl
-        .pe
-        .replace(good, "wire last_row = (n_row == rows - 1'b1);");
+    let good = "wire [RB:0] next_row = row_now + BITS'd1;";
+    let rb = r.rtl.shape.row_bits();
+    let good = good
+        .replace("RB", &(rb - 1).to_string())
+        .replace("BITS", &rb.to_string());
+    assert!(r.rtl.pe.contains(&good), "{good}");
+    let bad = r.rtl.pe.replace(&good, &good.replace("'d1;", "'d2;"));
     let s = run(&r, &bad, Simulator::Icarus);
     let m = s.outcome.first.clone().expect("the mutation is caught");
     let start = r.rec.start.as_ref().unwrap();
-    let rows = start.pes[m.pe].rows[0] as u64;
-    // The first column's last row is skipped: the next column's first ray
-    // is read in its place, on the host port one clock later.
-    assert_eq!(m.cycle, start.cycle + rows + 1, "{m}");
-    assert_eq!(m.signal, "host_mx", "{m}");
+    let ncols = start.pes[m.pe].mx.len() as u64;
+    // Row 0 reads in clocks 2 ..= ncols + 1 and the last of them reads
+    // row 2's valid word in place of row 1's: row 2's first ray is read
+    // next and on the host port the clock after.
+    assert_eq!(m.cycle, start.cycle + ncols + 3, "{m}");
+    assert_eq!(m.signal, "host_row", "{m}");
+    assert_eq!((m.model.as_str(), m.rtl.as_str()), ("1", "2"), "{m}");
     assert!(s.raw.1 > 0, "the baseplane differs");
     let p = s.problems();
     assert!(
-        p[0].contains(&format!("cycle {}, PE {}, host_mx", m.cycle, m.pe)),
+        p[0].contains(&format!("cycle {}, PE {}, host_row", m.cycle, m.pe)),
         "{p:?}"
     );
 }
