@@ -300,8 +300,10 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         datapath_lines: datapath.lines().count(),
     };
     let mut problems = report.problems(&issued);
-    if let Stage::Ran(r) = &stage {
-        problems.extend(r.problems());
+    match &stage {
+        Stage::Ran(r) => problems.extend(r.problems()),
+        Stage::Unfit(why) => problems.push(why.clone()),
+        Stage::Skipped(_) => {}
     }
     if latency != depth {
         problems.insert(
@@ -488,6 +490,9 @@ enum Stage {
     Ran(Box<StageRun>),
     /// Not simulated, and why.
     Skipped(String),
+    /// Not simulated: a PE holds more rays than the emitted memories (a
+    /// failure of the design, reported as a mismatch).
+    Unfit(String),
 }
 
 /// Runs the readout stage on the frame's captured readout, when the frame
@@ -516,6 +521,11 @@ fn readout_stage(
         Ok(shape) => shape,
         Err(e) => return Ok(Stage::Skipped(format!("not checked: {e}"))),
     };
+    if let Err(e) = pipeline::cosim::readout::counts(&shape, start) {
+        return Ok(Stage::Unfit(format!(
+            "readout: the frame does not fit the emitted memories: {e}"
+        )));
+    }
     let rtl = emit_readout(&shape);
     let dir = run_dir.join("readout");
     std::fs::create_dir_all(&dir)?;
@@ -530,6 +540,7 @@ impl Stage {
     fn line(&self, s: &Setup, frame_readout: u64) -> String {
         match self {
             Stage::Skipped(why) => format!("  readout: {why}"),
+            Stage::Unfit(why) => format!("  {why}"),
             Stage::Ran(r) => {
                 let o = &r.outcome;
                 format!(
@@ -561,6 +572,7 @@ impl Stage {
     fn json(&self, frame_readout: u64) -> serde_json::Value {
         match self {
             Stage::Skipped(why) => json!({ "skipped": why }),
+            Stage::Unfit(why) => json!({ "unfit": why }),
             Stage::Ran(r) => {
                 let o = &r.outcome;
                 json!({

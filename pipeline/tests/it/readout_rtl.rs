@@ -114,60 +114,94 @@ fn cfg(pes: u16, order: Order, sparse: bool) -> PipelineConfig {
     }
 }
 
-/// Verilator: back to front with every ray streamed under the block
-/// mapping (two frames on one build), and front to back with zero rays
-/// skipped under the interleave with the overlapped migration and two
-/// lanes.
+/// Verilator (one build): both orders with zero rays skipped, under the
+/// block mapping, on a sphere (most rays zero).
 #[test]
 fn readout_matches_the_model_in_verilator() {
     if !have("verilator", "verilator", "the readout cosim in Verilator") {
         return;
     }
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let r = frame(&cfg(3, order, true), "sphere:24", [16.0, 10.0, -36.0], 24);
+        let s = run(&r, &r.rtl.pe, Simulator::Verilator);
+        assert_matches(&r, &s, &format!("{order:?} sparse"));
+        assert!(
+            s.outcome.words() * 2 < s.raw.0,
+            "sparse: zero rays left off"
+        );
+    }
+}
+
+/// Icarus: every ray streamed back to front (two scenes) and front to back
+/// on one PE; zero rays skipped under the interleave with the overlapped
+/// migration and two lanes (front to back) and under the cyclic mapping
+/// (back to front).
+#[test]
+fn readout_matches_the_model_in_icarus() {
+    if !have("iverilog", "iverilog", "the readout cosim in Icarus") {
+        return;
+    }
     let c = cfg(3, Order::BackToFront, false);
     for (scene, eye) in [
-        ("ml:24", [30.0, 20.0, -40.0]),
-        ("ml:24", [-10.0, 40.0, -30.0]),
+        ("ml:24", [16.0, 10.0, -36.0]),
+        ("sphere:24", [20.0, 20.0, -30.0]),
     ] {
         let r = frame(&c, scene, eye, 24);
-        let s = run(&r, &r.rtl.pe, Simulator::Verilator);
-        assert_matches(&r, &s, &format!("btf dense {eye:?}"));
+        let s = run(&r, &r.rtl.pe, Simulator::Icarus);
+        assert_matches(&r, &s, &format!("btf dense {scene} {eye:?}"));
         assert_eq!(s.outcome.words(), s.raw.0, "dense: one word a ray");
     }
+    let r = frame(
+        &cfg(1, Order::FrontToBack, false),
+        "ml:24",
+        [12.0, -30.0, 12.0],
+        16,
+    );
+    let s = run(&r, &r.rtl.pe, Simulator::Icarus);
+    assert_matches(&r, &s, "ftb dense one PE");
     let c = PipelineConfig {
         mapping: Mapping::Interleave,
         migration: Migration::Overlapped,
         link_lanes: 2,
         ..cfg(4, Order::FrontToBack, true)
     };
-    let r = frame(&c, "ml:24", [25.0, 30.0, -35.0], 24);
-    let s = run(&r, &r.rtl.pe, Simulator::Verilator);
+    let r = frame(&c, "sphere:24", [16.0, 10.0, -36.0], 24);
+    let s = run(&r, &r.rtl.pe, Simulator::Icarus);
     assert_matches(&r, &s, "ftb sparse interleave");
-    assert!(s.outcome.words() < s.raw.0, "sparse: zero rays left off");
-}
-
-/// Icarus: back to front sparse under the cyclic mapping, front to back
-/// dense on one PE.
-#[test]
-fn readout_matches_the_model_in_icarus() {
-    if !have("iverilog", "iverilog", "the readout cosim in Icarus") {
-        return;
-    }
+    assert!(
+        s.outcome.words() * 2 < s.raw.0,
+        "sparse: zero rays left off"
+    );
     let c = PipelineConfig {
         mapping: Mapping::Cyclic,
         cyclic_width: 4,
         ..cfg(3, Order::BackToFront, true)
     };
-    let r = frame(&c, "ml:24", [30.0, 20.0, -40.0], 20);
+    let r = frame(&c, "sphere:24", [8.0, 14.0, -30.0], 20);
     let s = run(&r, &r.rtl.pe, Simulator::Icarus);
     assert_matches(&r, &s, "btf sparse cyclic");
-    let r = frame(
-        &cfg(1, Order::FrontToBack, false),
-        "ml:24",
-        [20.0, 25.0, -30.0],
-        16,
+    assert!(
+        s.outcome.words() * 2 < s.raw.0,
+        "sparse: zero rays left off"
     );
-    let s = run(&r, &r.rtl.pe, Simulator::Icarus);
-    assert_matches(&r, &s, "ftb dense one PE");
+}
+
+/// A frame whose PE holds more columns than the column map declares is
+/// refused in one line naming the PE and both counts.
+#[test]
+fn a_frame_past_the_declared_depths_is_refused() {
+    let r = frame(
+        &cfg(3, Order::BackToFront, false),
+        "ml:24",
+        [30.0, 20.0, -40.0],
+        24,
+    );
+    let start = r.rec.start.as_ref().unwrap();
+    let e = pipeline::cosim::readout::counts(&r.rtl.shape, start).unwrap_err();
+    assert_eq!(
+        e,
+        "PE 2 holds 20 columns of 49 rows, past the declared 17 slots of 834 rays"
+    );
 }
 
 /// The state machine stepping two rows where it should step one (the
@@ -181,7 +215,7 @@ fn a_state_machine_that_skips_a_row_is_caught() {
     let r = frame(
         &cfg(2, Order::BackToFront, false),
         "ml:24",
-        [30.0, 20.0, -40.0],
+        [12.0, 12.0, -40.0],
         16,
     );
     let good = "wire [RB:0] next_row = row_now + BITS'd1;";
@@ -215,11 +249,11 @@ fn a_state_machine_that_skips_a_row_is_caught() {
 /// without error and leave no latch.
 #[test]
 fn readout_modules_lint_and_synthesize_without_latches() {
-    let geo = Geometry::new([32, 32, 32], 4);
+    let geo = Geometry::new([16, 16, 16], 4);
     let rtl = emit(&ReadoutShape::new(&cfg(4, Order::BackToFront, true), &geo).unwrap());
     let dir = tempfile::tempdir().unwrap();
     let pe = dir.path().join(format!("{PE_MODULE}.v"));
-    let array = dir.path().join("array.v");
+    let array = dir.path().join("ercube_readout_array.v");
     std::fs::write(&pe, &rtl.pe).unwrap();
     std::fs::write(&array, &rtl.array).unwrap();
     let quiet = |prog: &str, args: &[&str]| {
