@@ -4,7 +4,11 @@
 //! the PE's control, the array and the controller are not emitted yet, so
 //! each PE's datapath is fed the issue stream the model's PE gave its own,
 //! bubbles included, and its outputs are checked against the model's
-//! write-backs. Exit status 1 on any mismatch.
+//! write-backs. Then the readout stage (`pipeline::cosim::readout`): the
+//! emitted readout array loaded with the PEs' buffers as the model held
+//! them at `BeginReadout`, every PE's host port compared on every readout
+//! cycle, and the host's baseplane from the RTL's stream compared with the
+//! model's final raw words. Exit status 1 on any mismatch.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -301,7 +305,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     };
     let mut problems = report.problems(&issued);
     match &stage {
-        Stage::Ran(r) => problems.extend(r.problems()),
+        Stage::Ran(r, _) => problems.extend(r.problems()),
         Stage::Unfit(why) => problems.push(why.clone()),
         Stage::Skipped(_) => {}
     }
@@ -486,8 +490,8 @@ impl Report<'_> {
 
 /// The readout stage of a cosim run: simulated, or why not.
 enum Stage {
-    /// Simulated and compared.
-    Ran(Box<StageRun>),
+    /// Simulated and compared, with the emitted shape.
+    Ran(Box<StageRun>, ReadoutShape),
     /// Not simulated, and why.
     Skipped(String),
     /// Not simulated: a PE holds more rays than the emitted memories (a
@@ -533,7 +537,7 @@ fn readout_stage(
         &rtl, &rtl.pe, start, &rec.ticks, raw, sim, cache, &dir, false,
     )
     .map_err(|e| anyhow!("cosim: readout: {e}"))?;
-    Ok(Stage::Ran(Box::new(run)))
+    Ok(Stage::Ran(Box::new(run), shape))
 }
 
 impl Stage {
@@ -541,10 +545,21 @@ impl Stage {
         match self {
             Stage::Skipped(why) => format!("  readout: {why}"),
             Stage::Unfit(why) => format!("  {why}"),
-            Stage::Ran(r) => {
+            Stage::Ran(r, shape) => {
                 let o = &r.outcome;
                 format!(
-                    "  readout: {} clocks (the frame's readout cycles: {frame_readout}) x {} PEs, {} host words, {} mismatches; {} raw words compared with the model's, {} differ; {} {} lines x {} + {} {} + {} {}; {}; ran in {:.2} s",
+                    "  readout: {} memory bits and {} register bits a PE (compositing buffer 2 x {} x {}, column map {} x {}{}); {} clocks (the frame's readout cycles: {frame_readout}) x {} PEs, {} host words, {} mismatches; {} raw words compared with the model's, {} differ; {} {} lines x {} + {} {} + {} {}; {}; ran in {:.2} s",
+                    shape.memory_bits(),
+                    shape.register_bits(),
+                    shape.bank_depth,
+                    shape.buffer_width,
+                    shape.map_depth,
+                    shape.map_width,
+                    if shape.sparse {
+                        format!(", valid bits {} x {}", shape.max_rows, shape.map_depth)
+                    } else {
+                        String::new()
+                    },
                     o.ticks,
                     s.cfg.pes,
                     o.words(),
@@ -573,9 +588,12 @@ impl Stage {
         match self {
             Stage::Skipped(why) => json!({ "skipped": why }),
             Stage::Unfit(why) => json!({ "unfit": why }),
-            Stage::Ran(r) => {
+            Stage::Ran(r, shape) => {
                 let o = &r.outcome;
                 json!({
+                    "shape": shape,
+                    "memory_bits_per_pe": shape.memory_bits(),
+                    "register_bits_per_pe": shape.register_bits(),
                     "clocks": o.ticks,
                     "frame_readout_cycles": frame_readout,
                     "host_words": o.words(),

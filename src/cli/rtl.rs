@@ -361,5 +361,121 @@ fn readout_section(r: &ReadoutRtl, dims: [usize; 3]) -> String {
             ""
         }
     );
+    let _ = writeln!(
+        w,
+        "| port | module | dir | width | meaning |\n|---|---|---|---|---|"
+    );
+    let (p, rb) = (s.pes as u32, s.row_bits());
+    let ports: [(&str, &str, &str, String, &str); 15] = [
+        ("clk", "both", "in", "1".into(), "clock"),
+        (
+            "rst",
+            "both",
+            "in",
+            "1".into(),
+            "synchronous reset of every register",
+        ),
+        (
+            "ld_we",
+            "both",
+            "in",
+            "1".into(),
+            "host load: write this clock",
+        ),
+        (
+            "ld_pe",
+            ARRAY_MODULE,
+            "in",
+            s.pe_bits().to_string(),
+            "host load: the PE written",
+        ),
+        (
+            "ld_sel",
+            "both",
+            "in",
+            "2".into(),
+            "host load: 0 buffer, 1 column map, 2 counts, 3 valid word",
+        ),
+        (
+            "ld_addr",
+            "both",
+            "in",
+            s.ld_addr_bits().to_string(),
+            "host load: address (buffer: row * slots + column)",
+        ),
+        (
+            "ld_data",
+            "both",
+            "in",
+            s.ld_data_bits().to_string(),
+            "host load: word (low bits)",
+        ),
+        (
+            "begin_readout",
+            "both",
+            "in",
+            "1".into(),
+            "the controller's BeginReadout broadcast",
+        ),
+        (
+            "host_valid",
+            "both",
+            "out",
+            format!("1 a PE ({p} in the array)"),
+            "a ray on the host port",
+        ),
+        (
+            "host_mx",
+            "both",
+            "out",
+            format!("16 a PE"),
+            "its ray index (two's complement)",
+        ),
+        (
+            "host_row",
+            "both",
+            "out",
+            format!("{rb} a PE"),
+            "its row in region 0",
+        ),
+        (
+            "host_r",
+            "both",
+            "out",
+            format!("{} a PE (also host_g, host_b)", s.color_bits),
+            "its colour accumulators",
+        ),
+        (
+            "host_a",
+            "both",
+            "out",
+            format!("{} a PE", s.alpha_bits),
+            "its opacity accumulator",
+        ),
+        (
+            "done",
+            "both",
+            "out",
+            "1 a PE".into(),
+            "the PE's readout_done report line",
+        ),
+        (
+            "all_done",
+            ARRAY_MODULE,
+            "out",
+            "1".into(),
+            "every PE's done",
+        ),
+    ];
+    for (name, module, dir, width, meaning) in ports {
+        let _ = writeln!(w, "| `{name}` | {module} | {dir} | {width} | {meaning} |");
+    }
+    for extra in ["host_g", "host_b"] {
+        let _ = writeln!(
+            w,
+            "| `{extra}` | both | out | {} a PE | its colour accumulators |",
+            s.color_bits
+        );
+    }
     t
 }
