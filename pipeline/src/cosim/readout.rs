@@ -520,13 +520,13 @@ pub fn parse(shape: &ReadoutShape, start: &ReadoutStart, text: &str) -> ReadoutO
     o
 }
 
+/// Raw words compared: how many, how many differ, and the first that does
+/// (`x`, `y`, the model's words, the RTL's).
+pub type RawCompare = (u64, u64, Option<(usize, usize, [i64; 4], [i64; 4])>);
+
 /// The raw words compared: how many, how many differ, and the first that
 /// does (`x`, `y`, the model's words, the RTL's).
-pub fn compare_raw(
-    model: &[[i64; 4]],
-    rtl: &[[i64; 4]],
-    width: usize,
-) -> (u64, u64, Option<(usize, usize, [i64; 4], [i64; 4])>) {
+pub fn compare_raw(model: &[[i64; 4]], rtl: &[[i64; 4]], width: usize) -> RawCompare {
     let mut diff = 0;
     let mut first = None;
     for (i, (m, r)) in model.iter().zip(rtl).enumerate() {
@@ -550,7 +550,7 @@ pub struct StageRun {
     pub outcome: ReadoutOutcome,
     /// Raw words compared with the model's final ones, how many differ,
     /// and the first that does (`x`, `y`, model, RTL).
-    pub raw: (u64, u64, Option<(usize, usize, [i64; 4], [i64; 4])>),
+    pub raw: RawCompare,
     /// The model's readout clocks.
     pub model_ticks: u64,
     /// The build.
