@@ -428,7 +428,7 @@ fn readout_section(r: &ReadoutRtl, dims: [usize; 3]) -> String {
             "host_mx",
             "both",
             "out",
-            format!("16 a PE"),
+            "16 a PE".to_string(),
             "its ray index (two's complement)",
         ),
         (
