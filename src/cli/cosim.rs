@@ -4,7 +4,11 @@
 //! the PE's control, the array and the controller are not emitted yet, so
 //! each PE's datapath is fed the issue stream the model's PE gave its own,
 //! bubbles included, and its outputs are checked against the model's
-//! write-backs. Exit status 1 on any mismatch.
+//! write-backs. Then the readout stage (`pipeline::cosim::readout`): the
+//! emitted readout array loaded with the PEs' buffers as the model held
+//! them at `BeginReadout`, every PE's host port compared on every readout
+//! cycle, and the host's baseplane from the RTL's stream compared with the
+//! model's final raw words. Exit status 1 on any mismatch.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -19,8 +23,10 @@ use golden::tf::Lut;
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cosim::build::{build, run as run_sim, Simulator};
 use pipeline::cosim::outcome::{parse, Outcome};
+use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun, Tee};
 use pipeline::cosim::replay::{Replay, StreamFiles, TOP};
 use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+use pipeline::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
 use pipeline::{FrameRun, Voxels};
 
 use super::args::{SliceArgs, ViewArgs};
@@ -242,8 +248,12 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     let realign = (latency != depth).then_some(depth);
     let streams = StreamFiles::create(replay.clone(), run_dir.path(), p, last_issue, realign)?;
     let streams = Arc::new(Mutex::new(streams));
+    let readout = Arc::new(Mutex::new(ReadoutRecord::default()));
     let t = Instant::now();
-    let captured = s.frame().capture(streams.clone()).run()?;
+    let captured = s
+        .frame()
+        .capture(Tee::capture(streams.clone(), readout.clone()))
+        .run()?;
     let capture_s = t.elapsed().as_secs_f64();
     if captured.cycles != plain.cycles || captured.raw != plain.raw {
         bail!("cosim: the captured frame differs from the untraced one (a model bug)");
@@ -275,6 +285,10 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     let (text, sim_s) =
         run_sim(&built, run_dir.path(), &args).map_err(|e| anyhow!("cosim: {e}"))?;
     let o = parse(&replay, p, &text);
+    let readout = readout
+        .lock()
+        .map_err(|_| anyhow!("cosim: capture poisoned"))?;
+    let stage = readout_stage(a, &s, sim, &readout, &plain.raw, &cache, run_dir.path())?;
     let report = Report {
         a,
         s: &s,
@@ -290,6 +304,10 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         datapath_lines: datapath.lines().count(),
     };
     let mut problems = report.problems(&issued);
+    match &stage {
+        Stage::Ran(r, _) => problems.extend(r.problems()),
+        Stage::Unfit(_) | Stage::Skipped(_) => {}
+    }
     if latency != depth {
         problems.insert(
             0,
@@ -298,10 +316,13 @@ pub fn run(a: &CosimArgs) -> Result<()> {
             ),
         );
     }
-    let lines = report.lines();
+    let mut lines = report.lines();
+    lines.push(stage.line(&s, plain.stages.readout));
     super::outputs::all_or_nothing(&[], || {
         if let Some(path) = &a.stats {
-            super::stats::write_json(path, &report.json(&problems))?;
+            let mut j = report.json(&problems);
+            j["readout"] = stage.json(plain.stages.readout);
+            super::stats::write_json(path, &j)?;
         }
         if let Some(path) = &a.vcd {
             place_vcd(&run_dir.path().join("rtl.vcd"), path)?;
@@ -463,5 +484,133 @@ impl Report<'_> {
             "verilog": self.a.verilog.as_ref().map(|p| p.display().to_string()),
             "config": serde_json::to_value(s.cfg).unwrap_or(serde_json::Value::Null),
         })
+    }
+}
+
+/// The readout stage of a cosim run: simulated, or why not.
+enum Stage {
+    /// Simulated and compared, with the emitted shape.
+    Ran(Box<StageRun>, ReadoutShape),
+    /// Not simulated, and why.
+    Skipped(String),
+    /// Not simulated: a PE holds more rays than the emitted memories
+    /// declare (said in one line; the datapath's result stands).
+    Unfit(String),
+}
+
+/// Runs the readout stage on the frame's captured readout, when the frame
+/// reached it (`--max-cycles`) and the configuration's readout is emitted.
+fn readout_stage(
+    a: &CosimArgs,
+    s: &Setup,
+    sim: Simulator,
+    rec: &ReadoutRecord,
+    raw: &[[i64; 4]],
+    cache: &Path,
+    run_dir: &Path,
+) -> Result<Stage> {
+    let Some(start) = &rec.start else {
+        return Ok(Stage::Skipped("the frame has no readout".into()));
+    };
+    if a.max_cycles
+        .is_some_and(|m| m < start.cycle + rec.ticks.len() as u64)
+    {
+        return Ok(Stage::Skipped(format!(
+            "not checked: --max-cycles ends before the readout's last cycle {}",
+            start.cycle + rec.ticks.len() as u64
+        )));
+    }
+    let shape = match ReadoutShape::for_view(&s.cfg, &s.prep.view) {
+        Ok(shape) => shape,
+        Err(e) => return Ok(Stage::Skipped(format!("not checked: {e}"))),
+    };
+    if let Err(e) = pipeline::cosim::readout::counts(&shape, start) {
+        return Ok(Stage::Unfit(format!(
+            "readout: not checked: the frame does not fit the declared memories: {e}"
+        )));
+    }
+    let rtl = emit_readout(&shape);
+    let dir = run_dir.join("readout");
+    std::fs::create_dir_all(&dir)?;
+    let run = simulate(
+        &rtl, &rtl.pe, start, &rec.ticks, raw, sim, cache, &dir, false,
+    )
+    .map_err(|e| anyhow!("cosim: readout: {e}"))?;
+    Ok(Stage::Ran(Box::new(run), shape))
+}
+
+impl Stage {
+    fn line(&self, s: &Setup, frame_readout: u64) -> String {
+        match self {
+            Stage::Skipped(why) => format!("  readout: {why}"),
+            Stage::Unfit(why) => format!("  {why}"),
+            Stage::Ran(r, shape) => {
+                let o = &r.outcome;
+                format!(
+                    "  readout: {} memory bits and {} register bits a PE (compositing buffer 2 x {} x {}, column map {} x {}{}); {} clocks (the frame's readout cycles: {frame_readout}) x {} PEs, {} host words, {} mismatches; {} raw words compared with the model's, {} differ; {} {} lines x {} + {} {} + {} {}; {}; ran in {:.2} s",
+                    shape.memory_bits(),
+                    shape.register_bits(),
+                    shape.bank_depth,
+                    shape.buffer_width,
+                    shape.map_depth,
+                    shape.map_width,
+                    if shape.sparse {
+                        format!(", valid bits {} x {}", shape.max_rows, shape.map_depth)
+                    } else {
+                        String::new()
+                    },
+                    o.ticks,
+                    s.cfg.pes,
+                    o.words(),
+                    o.mismatches(),
+                    r.raw.0,
+                    r.raw.1,
+                    pipeline::hw::readout_rtl::PE_MODULE,
+                    r.lines[0],
+                    s.cfg.pes,
+                    pipeline::hw::readout_rtl::ARRAY_MODULE,
+                    r.lines[1],
+                    pipeline::cosim::readout::TOP,
+                    r.lines[2],
+                    if r.built.cached {
+                        "build cached".to_owned()
+                    } else {
+                        format!("built in {:.1} s", r.built.seconds)
+                    },
+                    r.run_s
+                )
+            }
+        }
+    }
+
+    fn json(&self, frame_readout: u64) -> serde_json::Value {
+        match self {
+            Stage::Skipped(why) => json!({ "skipped": why }),
+            Stage::Unfit(why) => json!({ "unfit": why }),
+            Stage::Ran(r, shape) => {
+                let o = &r.outcome;
+                json!({
+                    "shape": shape,
+                    "memory_bits_per_pe": shape.memory_bits(),
+                    "register_bits_per_pe": shape.register_bits(),
+                    "clocks": o.ticks,
+                    "frame_readout_cycles": frame_readout,
+                    "host_words": o.words(),
+                    "loads": o.loads,
+                    "mismatches": o.mismatches(),
+                    "first_mismatch": o.first.as_ref().map(|m| json!({
+                        "cycle": m.cycle, "pe": m.pe, "signal": m.signal, "model": m.model, "rtl": m.rtl,
+                    })),
+                    "raw_words_compared": r.raw.0,
+                    "raw_words_differing": r.raw.1,
+                    "per_pe": o.pes.iter().map(|p| json!({"host_words": p.0, "mismatches": p.1})).collect::<Vec<_>>(),
+                    "rtl_build_s": r.built.seconds,
+                    "rtl_build_cached": r.built.cached,
+                    "rtl_run_s": r.run_s,
+                    "rtl_lines": { "pe": r.lines[0], "array": r.lines[1], "top": r.lines[2] },
+                    "problems": r.problems(),
+                })
+            }
+        }
     }
 }

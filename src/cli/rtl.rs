@@ -3,9 +3,11 @@
 //! schedule (`pipeline::hw::pipeline_rtl`), with a file list and a README
 //! naming every port; with `--shading`, `--voi`, `--preint` also those
 //! units, each its own pipelined module from its description
-//! (`pipeline::hw::shading`, `voi`, `preint`). What is not emitted yet
-//! (the PE's control and stage state machines, the array, the controller)
-//! is refused in one line naming it.
+//! (`pipeline::hw::shading`, `voi`, `preint`); and the readout stage (the
+//! PE's compositing buffer, column map and readout state machine, and the
+//! array of P of them with their host ports, `pipeline::hw::readout_rtl`).
+//! What is not emitted yet (the other stages' state machines, the array's
+//! links, the controller) is refused in one line naming it.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,7 +16,11 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::cost::inventory::Geometry;
 use pipeline::hw::pipeline_rtl::{emit, emit_scheduled, PipelinedModule};
+use pipeline::hw::readout_rtl::{
+    emit as emit_readout, ReadoutRtl, ReadoutShape, ARRAY_MODULE, PE_MODULE,
+};
 
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
@@ -35,6 +41,14 @@ pub struct RtlArgs {
     /// Compositing order (overrides the configuration): btf or ftb.
     #[arg(long, value_parser = ["btf", "ftb"])]
     pub order: Option<String>,
+    /// PEs of the readout array (default: the configuration's).
+    #[arg(long)]
+    pub pes: Option<u16>,
+    /// The view-space volume dimensions the PEs' memories are declared
+    /// for (the compositing buffer's and column map's depths), as
+    /// NX,NY,NZ.
+    #[arg(long, default_value = "256,256,256")]
+    pub dims: String,
     /// The PE with its control and stage state machines (refused: not
     /// emitted yet).
     #[arg(long)]
@@ -60,12 +74,15 @@ pub struct RtlArgs {
 /// Runs `ercube rtl`.
 pub fn run(a: &RtlArgs) -> Result<()> {
     let refused = [
-        (a.pe, "the PE's control and stage state machines are"),
-        (a.array, "the PE array is"),
+        (
+            a.pe,
+            "the PE's control and stage state machines other than the readout are",
+        ),
+        (a.array, "the PE array with its links is"),
         (a.controller, "the controller is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the datapath's units are)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units and the readout stage are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -77,7 +94,14 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         Some(_) => cfg.order = Order::BackToFront,
         None => {}
     }
+    if let Some(p) = a.pes {
+        cfg.pes = p;
+    }
     cfg.validate()?;
+    let dims = parse_dims(&a.dims)?;
+    let readout = ReadoutShape::new(&cfg, &Geometry::new(dims, cfg.pes))
+        .map(|shape| emit_readout(&shape))
+        .map_err(|e| format!("rtl: readout not written: {e}"));
     let g = pipeline::hw::sample::plain(&cfg);
     // The schedule the cycle model's latency is read from (one operator a
     // stage, or the configuration's target_mhz).
@@ -108,10 +132,21 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             list.push_str(&v);
             list.push('\n');
         }
+        if let Ok(r) = &readout {
+            for (name, text) in [(PE_MODULE, &r.pe), (ARRAY_MODULE, &r.array)] {
+                let v = format!("{name}.v");
+                write(&a.out_dir.join(&v), text)?;
+                list.push_str(&v);
+                list.push('\n');
+            }
+        }
         write(&a.out_dir.join("filelist.f"), &list)?;
         let mut text = readme(&cfg, &m);
         for u in &units {
             text.push_str(&unit_section(u));
+        }
+        if let Ok(r) = &readout {
+            text.push_str(&readout_section(r, dims));
         }
         write(&a.out_dir.join("README.md"), &text)?;
         Ok(())
@@ -127,6 +162,18 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             u.schedule_register_bits,
             u.memory_bits
         ));
+    }
+    match &readout {
+        Ok(r) => super::say(&format!(
+            "{}: {PE_MODULE}.v ({} lines), {ARRAY_MODULE}.v ({} lines, {} PEs), {} memory bits and {} register bits a PE",
+            a.out_dir.display(),
+            r.pe.lines().count(),
+            r.array.lines().count(),
+            r.shape.pes,
+            r.shape.memory_bits(),
+            r.shape.register_bits()
+        )),
+        Err(e) => super::say(e),
     }
     super::say(&format!("{}: filelist.f, README.md", a.out_dir.display()));
     Ok(())
@@ -193,9 +240,9 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(w, "\n## Not emitted yet\n");
     let _ = writeln!(
         w,
-        "The PE's control and stage state machines (migrate, sample, merge, split, fold, \
-         readout), its FIFOs and ray memories, the array and the controller: `ercube rtl` \
-         refuses them by name. The shading unit, the volume-of-interest stage and the \
+        "The PE's control and stage state machines other than the readout (migrate, sample, \
+         merge, split, fold), its voxel memory, line buffer and FIFOs, the array's links and \
+         the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`.\n"
     );
     let _ = writeln!(w, "## Checking it\n");
@@ -262,4 +309,173 @@ fn unit_section(m: &PipelinedModule) -> String {
         }
     }
     s
+}
+
+/// `NX,NY,NZ`, each at least 1, refused in one line otherwise.
+fn parse_dims(s: &str) -> Result<[usize; 3]> {
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|w| {
+            w.trim()
+                .parse::<usize>()
+                .ok()
+                .filter(|&n| (1..=65536).contains(&n))
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| anyhow!("--dims '{s}': give NX,NY,NZ, each 1..=65536"))?;
+    match v.as_slice() {
+        &[x, y, z] => Ok([x, y, z]),
+        _ => bail!("--dims '{s}': give three sizes NX,NY,NZ"),
+    }
+}
+
+fn readout_section(r: &ReadoutRtl, dims: [usize; 3]) -> String {
+    let s = &r.shape;
+    let mut t = String::new();
+    let w = &mut t;
+    let _ = writeln!(w, "\n## {PE_MODULE}, {ARRAY_MODULE}: the readout stage\n");
+    let _ = writeln!(
+        w,
+        "From `pipeline::hw::readout_rtl`, for a view-space volume of {}x{}x{} (`--dims`): each \
+         PE's compositing buffer (2 banks x {} words x {} bits) and column map ({} words x {} \
+         bits) as the PE declares them (`ercube cost` charges the same entries), the readout's \
+         cursor as a state machine, and the array of {} PEs with their host ports. {} memory \
+         bits and {} register bits a PE. `begin_readout` is the controller's broadcast; each \
+         clock a PE reads one ray and drives the ray it read the clock before on its host port{}; \
+         `done` is its report line. The host loads the buffers through `ld_we`, `ld_pe`, \
+         `ld_sel` (0 buffer word, 1 column map slot, 2 the counts `{{ncols, rows}}`), `ld_addr`, \
+         `ld_data`; each module's header names every port.\n",
+        dims[0],
+        dims[1],
+        dims[2],
+        s.bank_depth,
+        s.buffer_width,
+        s.map_depth,
+        s.map_width,
+        s.pes,
+        s.memory_bits(),
+        s.register_bits(),
+        if s.sparse {
+            " (an all-zero ray left off: `pass_skip_empty`)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        w,
+        "| port | module | dir | width | meaning |\n|---|---|---|---|---|"
+    );
+    let (p, rb) = (s.pes as u32, s.row_bits());
+    let ports: [(&str, &str, &str, String, &str); 15] = [
+        ("clk", "both", "in", "1".into(), "clock"),
+        (
+            "rst",
+            "both",
+            "in",
+            "1".into(),
+            "synchronous reset of every register",
+        ),
+        (
+            "ld_we",
+            "both",
+            "in",
+            "1".into(),
+            "host load: write this clock",
+        ),
+        (
+            "ld_pe",
+            ARRAY_MODULE,
+            "in",
+            s.pe_bits().to_string(),
+            "host load: the PE written",
+        ),
+        (
+            "ld_sel",
+            "both",
+            "in",
+            "2".into(),
+            "host load: 0 buffer, 1 column map, 2 counts, 3 valid word",
+        ),
+        (
+            "ld_addr",
+            "both",
+            "in",
+            s.ld_addr_bits().to_string(),
+            "host load: address (buffer: row * slots + column)",
+        ),
+        (
+            "ld_data",
+            "both",
+            "in",
+            s.ld_data_bits().to_string(),
+            "host load: word (low bits)",
+        ),
+        (
+            "begin_readout",
+            "both",
+            "in",
+            "1".into(),
+            "the controller's BeginReadout broadcast",
+        ),
+        (
+            "host_valid",
+            "both",
+            "out",
+            format!("1 a PE ({p} in the array)"),
+            "a ray on the host port",
+        ),
+        (
+            "host_mx",
+            "both",
+            "out",
+            "16 a PE".to_string(),
+            "its ray index (two's complement)",
+        ),
+        (
+            "host_row",
+            "both",
+            "out",
+            format!("{rb} a PE"),
+            "its row in region 0",
+        ),
+        (
+            "host_r",
+            "both",
+            "out",
+            format!("{} a PE (also host_g, host_b)", s.color_bits),
+            "its colour accumulators",
+        ),
+        (
+            "host_a",
+            "both",
+            "out",
+            format!("{} a PE", s.alpha_bits),
+            "its opacity accumulator",
+        ),
+        (
+            "done",
+            "both",
+            "out",
+            "1 a PE".into(),
+            "the PE's readout_done report line",
+        ),
+        (
+            "all_done",
+            ARRAY_MODULE,
+            "out",
+            "1".into(),
+            "every PE's done",
+        ),
+    ];
+    for (name, module, dir, width, meaning) in ports {
+        let _ = writeln!(w, "| `{name}` | {module} | {dir} | {width} | {meaning} |");
+    }
+    for extra in ["host_g", "host_b"] {
+        let _ = writeln!(
+            w,
+            "| `{extra}` | both | out | {} a PE | its colour accumulators |",
+            s.color_bits
+        );
+    }
+    t
 }

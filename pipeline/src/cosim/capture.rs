@@ -14,8 +14,11 @@
 
 use std::sync::{Arc, Mutex};
 
+use golden::geometry::RayGrid;
+
+use crate::array::Clock;
 use crate::datapath::{Acc, Datapath};
-use crate::pe::Pe;
+use crate::pe::{Pe, Readout};
 
 /// The words a sample's datapath takes when it issues, as the model holds
 /// them (raw words of their formats): the row broadcast, the ray index, the
@@ -76,6 +79,87 @@ pub trait IssueSink: Send {
     /// One issued sample, in cycle order, PEs in index order within a
     /// cycle.
     fn issue(&mut self, issue: &Issue);
+    /// The readout's start: every PE's compositing buffer and column map
+    /// as the broadcast `BeginReadout` finds them.
+    fn readout_begin(&mut self, _start: &ReadoutStart) {}
+    /// One readout clock: every PE's host port in it and its
+    /// `readout_done` report line after it.
+    fn readout_tick(&mut self, _tick: &ReadoutTick) {}
+}
+
+/// One PE's rays at the readout's start: its held columns in order (the
+/// column map's slots), each column's rows (the compositing buffer's words
+/// of region 0, column after column).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct PeRays {
+    /// Each held column's ray index `mx`.
+    pub mx: Vec<i64>,
+    /// Each held column's row count.
+    pub rows: Vec<usize>,
+    /// The rays' raw words, column after column, row after row.
+    pub words: Vec<[i64; 4]>,
+}
+
+/// What the readout starts from.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReadoutStart {
+    /// The cycle before the readout's first.
+    pub cycle: u64,
+    /// Region 0's first ray index along x.
+    pub lo: i64,
+    /// Region 0's rays along x and y.
+    pub size: [usize; 2],
+    /// Per PE.
+    pub pes: Vec<PeRays>,
+}
+
+/// One readout clock as the model ran it.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReadoutTick {
+    /// The cycle.
+    pub cycle: u64,
+    /// Per PE, what its host port carried.
+    pub host: Vec<Option<Readout>>,
+    /// Per PE, its `readout_done` report after the clock.
+    pub done: Vec<bool>,
+}
+
+/// Tells `capture` what the readout starts from.
+pub(crate) fn readout_begin(capture: &Capture, cycle: u64, g: &RayGrid, pes: &[Pe]) {
+    let start = ReadoutStart {
+        cycle,
+        lo: g.lo[0],
+        size: g.counts(),
+        pes: pes
+            .iter()
+            .map(|pe| PeRays {
+                mx: pe.rays.iter().map(|c| c.mx).collect(),
+                rows: pe.rays.iter().map(|c| c.acc.len()).collect(),
+                words: pe
+                    .rays
+                    .iter()
+                    .flat_map(|c| c.acc.iter().map(|a| a.raw))
+                    .collect(),
+            })
+            .collect(),
+    };
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .readout_begin(&start);
+}
+
+/// Hands `capture` the readout clock `clock` just ran.
+pub(crate) fn readout_tick(capture: &Capture, clock: &Clock) {
+    let tick = ReadoutTick {
+        cycle: clock.cycle(),
+        host: clock.ports().iter().map(|p| p.host).collect(),
+        done: clock.reports().map(|r| r.readout_done).collect(),
+    };
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .readout_tick(&tick);
 }
 
 /// A capture handed to a frame: the caller keeps its own handle on the
@@ -117,6 +201,10 @@ pub struct Recorded {
     pub seen: u64,
     /// Whether issues in the window were dropped past the limit.
     pub overflow: bool,
+    /// What the readout started from.
+    pub readout: Option<ReadoutStart>,
+    /// The readout's clocks.
+    pub ticks: Vec<ReadoutTick>,
     window: Option<(u64, u64)>,
     limit: Option<usize>,
 }
@@ -168,6 +256,14 @@ impl IssueSink for Recorded {
     fn begin(&mut self, dp: &Datapath) {
         self.tables = table_words(dp);
         self.latency = dp.latency;
+    }
+
+    fn readout_begin(&mut self, start: &ReadoutStart) {
+        self.readout = Some(start.clone());
+    }
+
+    fn readout_tick(&mut self, tick: &ReadoutTick) {
+        self.ticks.push(tick.clone());
     }
 
     fn issue(&mut self, issue: &Issue) {

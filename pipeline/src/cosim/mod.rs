@@ -1,5 +1,5 @@
-//! The co-simulation of the model against the emitted Verilog, its first
-//! stage: the datapath of every PE, every cycle of a real frame.
+//! The co-simulation of the model against the emitted Verilog: the
+//! datapath of every PE, every cycle of a real frame, and the readout.
 //!
 //! The model runs the frame with a [`capture`] of every sample each PE's
 //! datapath issues; [`replay`] writes each PE's issue stream as a file and
@@ -11,12 +11,19 @@
 //! Verilator or Icarus, cached by a hash of its text. [`vectors`] writes the
 //! same capture as per-port `$readmemh` files with a plain testbench.
 //!
-//! The PE's control, the array and the controller are not emitted yet: the
-//! replay stands in for them, feeding each datapath what the model's PE fed
-//! its own.
+//! [`readout`] is the second stage: the emitted readout (each PE's
+//! compositing buffer, column map and readout state machine, and the array
+//! of them, [`crate::hw::readout_rtl`]) loaded with the buffers as the
+//! model held them at `BeginReadout`, compared on every readout cycle and
+//! then on the host's baseplane, word for word.
+//!
+//! The PE's other control, the array's links and the controller are not
+//! emitted yet: the replay stands in for them, feeding each datapath what
+//! the model's PE fed its own.
 
 pub mod build;
 pub mod capture;
 pub mod outcome;
+pub mod readout;
 pub mod replay;
 pub mod vectors;

@@ -31,6 +31,7 @@ pub mod eval;
 mod isqrt_rtl;
 pub mod pipeline_rtl;
 pub mod preint;
+pub mod readout_rtl;
 pub mod sample;
 pub mod schedule;
 pub mod shading;

@@ -303,8 +303,8 @@ pub struct Pe {
     /// The first cycle in which every sample this PE issued has been
     /// written back (the datapath is empty).
     pub(crate) drained_at: u64,
-    /// The readout cursor: the next held column and row to stream out.
-    pub(crate) readout_at: (usize, usize),
+    /// The readout's state machine ([`crate::stages::readout`]).
+    pub(crate) readout: crate::stages::readout::ReadoutFsm,
     /// Front to back (`kept_finals`): the final states of the rays this
     /// PE held at each split (one entry per boundary passed, innermost
     /// last), kept for the fold. With the inherited states this is the
@@ -375,7 +375,7 @@ impl Pe {
             row_now: 0,
             row_plan: Default::default(),
             drained_at: 0,
-            readout_at: (0, 0),
+            readout: Default::default(),
             finals: Vec::new(),
             pass: PassState::default(),
             model: PeModel::default(),

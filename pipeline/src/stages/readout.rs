@@ -1,5 +1,7 @@
 //! The readout: each PE streams its region-0 rays to the host, one per
-//! cycle on its host port, column by column and row by row; the host
+//! cycle on its host port, row by row and within a row by ascending held
+//! column ([`ReadoutFsm`], the registers of the emitted state machine
+//! `ercube_pe_readout`, [`crate::hw::readout_rtl`]); the host
 //! writes each word where its ray index puts it in the baseplane (cleared
 //! first: with `pass_skip_empty` the PEs leave their zero rays out) that
 //! [`golden::warp::warp`] then resamples (a [`golden::warp::Baseplane`]
@@ -8,60 +10,105 @@
 use golden::geometry::RayGrid;
 
 use crate::array::{Array, RunError};
+use crate::cosim::capture;
 use crate::pe::{Broadcast, Pe, Ports, Readout};
 use crate::probes::{Ctrl, Stage};
 
+/// The readout's registers in a PE, as `ercube_pe_readout` holds them
+/// ([`crate::hw::readout_rtl`]): the valid word's read register (the row
+/// it holds), the row being worked with its columns still to read, and
+/// the compositing buffer's read register, which drives the host port.
+#[derive(Debug, Clone, Default)]
+pub struct ReadoutFsm {
+    /// `BeginReadout` was broadcast and its clock (the read of row 0's
+    /// valid word) has not run yet.
+    start: bool,
+    /// Rows of the held columns.
+    rows: usize,
+    /// The row whose valid word is in its read register.
+    valid_row: Option<usize>,
+    /// The row being worked.
+    row: Option<usize>,
+    /// Its columns to read, ascending (a priority encoder over the valid
+    /// word in the RTL), and how many have been read.
+    cols: Vec<usize>,
+    done_cols: usize,
+    /// The buffer's read register: the ray read last clock.
+    read: Option<Readout>,
+}
+
 impl Pe {
-    /// Rewinds the readout cursor to the first ray it streams.
+    /// Rewinds the readout to its first clock.
     pub fn begin_readout(&mut self) {
-        self.readout_at = (0, 0);
-        self.skip_unread();
+        let f = &mut self.readout;
+        f.rows = self.rays.iter().map(|c| c.acc.len()).max().unwrap_or(0);
+        f.start = f.rows > 0;
+        f.valid_row = None;
+        f.row = None;
+        f.cols.clear();
+        f.done_cols = 0;
+        f.read = None;
     }
 
-    /// Whether every held ray has been streamed out.
+    /// Whether every ray to stream has been read out of the compositing
+    /// buffer and driven on the host port.
     pub fn readout_done(&self) -> bool {
-        self.readout_at.0 >= self.rays.len()
+        let f = &self.readout;
+        !f.start && f.valid_row.is_none() && f.row.is_none() && f.read.is_none()
     }
 
-    /// The cursor's next position after `(c, r)`: the next row of the
-    /// column, or the next column's first.
-    fn after(&self, (c, r): (usize, usize)) -> (usize, usize) {
-        if self.rays.get(c).is_some_and(|col| r + 1 < col.acc.len()) {
-            (c, r + 1)
-        } else {
-            (c + 1, 0)
+    /// Whether ray `(c, r)` is streamed: the column has row `r` and, with
+    /// `pass_skip_empty`, the ray is not all zero (its valid bit; the
+    /// host's cleared baseplane already holds the zero ones).
+    fn streamed(&self, c: usize, r: usize) -> bool {
+        self.rays[c]
+            .acc
+            .get(r)
+            .is_some_and(|a| !(self.sparse_passes && a.raw == [0; 4]))
+    }
+
+    /// One readout clock, as `ercube_pe_readout` runs it, row by row: the
+    /// ray read last clock leaves the buffer's read register for the host
+    /// port; the first clock reads row 0's valid word; then each clock
+    /// reads the lowest column still to read in the row in hand, and the
+    /// clock that leaves a row (its last ray read, or none to read) reads
+    /// the next row's valid word. A row costs as many clocks as it has
+    /// rays to stream, at least one; the readout two more.
+    pub fn readout_step(&mut self, out: &mut Ports) {
+        out.host = self.readout.read.take();
+        if self.readout.start {
+            self.readout.start = false;
+            self.readout.valid_row = Some(0);
+            return;
         }
-    }
-
-    /// Moves the cursor past what is not streamed: columns without rows
-    /// (an empty region) and, with `pass_skip_empty`, rays whose valid bit
-    /// is clear (all-zero words, which the host's cleared baseplane
-    /// already holds).
-    fn skip_unread(&mut self) {
-        while let Some(col) = self.rays.get(self.readout_at.0) {
-            let (c, r) = self.readout_at;
-            if col.acc.is_empty() {
-                self.readout_at = (c + 1, 0);
-            } else if self.sparse_passes && col.acc[r].raw == [0; 4] {
-                self.readout_at = self.after((c, r));
-            } else {
-                break;
+        if self.readout.row.is_none() {
+            if let Some(r) = self.readout.valid_row.take() {
+                let mut cols = std::mem::take(&mut self.readout.cols);
+                cols.clear();
+                cols.extend((0..self.rays.len()).filter(|&c| self.streamed(c, r)));
+                self.readout.cols = cols;
+                self.readout.done_cols = 0;
+                self.readout.row = Some(r);
             }
         }
-    }
-
-    /// One readout clock: the next held ray on the host port.
-    pub fn readout_step(&mut self, out: &mut Ports) {
-        let (c, r) = self.readout_at;
-        if let Some(col) = self.rays.get(c) {
-            out.host = Some(Readout {
-                mx: col.mx,
-                row: r as u32,
-                acc: col.acc[r],
-            });
-            self.readout_at = self.after((c, r));
+        let f = &mut self.readout;
+        if let Some(r) = f.row {
+            if let Some(&c) = f.cols.get(f.done_cols) {
+                f.done_cols += 1;
+                let col = &self.rays[c];
+                f.read = Some(Readout {
+                    mx: col.mx,
+                    row: r as u32,
+                    acc: col.acc[r],
+                });
+            }
+            if f.done_cols >= f.cols.len() {
+                f.row = None;
+                if r + 1 < f.rows {
+                    f.valid_row = Some(r + 1);
+                }
+            }
         }
-        self.skip_unread();
     }
 }
 
@@ -74,6 +121,10 @@ impl Array {
         if !self.clock.tracing() && !self.clocked {
             self.clock.readout_untraced(g, &mut raw);
             return Ok(raw);
+        }
+        let capture = self.clock.capture().cloned();
+        if let Some(c) = &capture {
+            capture::readout_begin(c, self.clock.cycle(), g, self.clock.pes());
         }
         // The host writes each word where its ray index puts it.
         let mut store =
@@ -88,6 +139,9 @@ impl Array {
                 if let Some(o) = &port.host {
                     store(o);
                 }
+            }
+            if let Some(c) = &capture {
+                capture::readout_tick(c, &self.clock);
             }
         }
         Ok(raw)

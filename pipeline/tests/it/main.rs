@@ -27,6 +27,7 @@ mod mapping;
 mod model;
 mod preexact;
 mod preint;
+mod readout_rtl;
 mod rtl;
 mod rtl_units;
 mod shading;

@@ -36,13 +36,31 @@ fn rtl_writes_the_module_filelist_and_readme() {
             run.describe()
         );
         let o = d.join(&out);
-        assert_eq!(entries(&o), ["README.md", "ercube_sample.v", "filelist.f"]);
+        assert_eq!(
+            entries(&o),
+            [
+                "README.md",
+                "ercube_pe_readout.v",
+                "ercube_readout_array.v",
+                "ercube_sample.v",
+                "filelist.f"
+            ]
+        );
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
         let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
         assert_eq!(
             std::fs::read_to_string(o.join("filelist.f")).unwrap(),
-            "ercube_sample.v\n"
+            "ercube_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
         );
+        for m in ["ercube_pe_readout", "ercube_readout_array"] {
+            let text = std::fs::read_to_string(o.join(format!("{m}.v"))).unwrap();
+            for p in declared_ports(&text) {
+                assert!(
+                    readme.contains(&format!("| `{p}` |")),
+                    "{order}: README does not name {m}'s {p}"
+                );
+            }
+        }
         let ports = declared_ports(&v);
         for p in [
             "clk",
@@ -86,17 +104,23 @@ fn rtl_writes_the_units() {
     let run = ercube(d, "rtl --out-dir out --shading --voi --preint").ok();
     let o = d.join("out");
     let units = ["ercube_preint", "ercube_shading", "ercube_voi"];
-    let mut want: Vec<String> = ["README.md", "ercube_sample.v", "filelist.f"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let mut want: Vec<String> = [
+        "README.md",
+        "ercube_pe_readout.v",
+        "ercube_readout_array.v",
+        "ercube_sample.v",
+        "filelist.f",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     want.extend(units.iter().map(|u| format!("{u}.v")));
     want.sort();
     assert_eq!(entries(&o), want);
     let list = std::fs::read_to_string(o.join("filelist.f")).unwrap();
     assert_eq!(
         list,
-        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\n"
+        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_pe_readout.v\nercube_readout_array.v\n"
     );
     let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
     for u in units {
@@ -144,4 +168,28 @@ fn rtl_refuses_what_it_does_not_emit() {
     assert_eq!(run.out.status.code(), Some(2), "{}", run.describe());
     assert_one_line_error(&run, "RND_CONV");
     assert_eq!(entries(d), ["conv.toml"]);
+    let run = ercube(d, "rtl --out-dir out --dims 64,0,64");
+    assert_eq!(run.out.status.code(), Some(2), "{}", run.describe());
+    assert_one_line_error(&run, "--dims");
+    assert_eq!(entries(d), ["conv.toml"]);
+}
+
+/// With the rays in external memory the readout stage is not written, and
+/// the run says so in one line.
+#[test]
+fn rtl_leaves_out_the_readout_of_an_external_ray_buffer() {
+    let dir = tempdir();
+    let d = dir.path();
+    std::fs::write(d.join("ext.toml"), "ray_buffer = \"external\"\n").unwrap();
+    let run = ercube(d, "rtl --out-dir out --config ext.toml").ok();
+    assert!(
+        run.stdout()
+            .contains("readout not written: the readout from an external ray buffer"),
+        "{}",
+        run.describe()
+    );
+    assert_eq!(
+        entries(&d.join("out")),
+        ["README.md", "ercube_sample.v", "filelist.f"]
+    );
 }

@@ -283,6 +283,11 @@ impl Clock {
         }
     }
 
+    /// The capture the frame runs with, if any.
+    pub(crate) fn capture(&self) -> Option<&crate::cosim::capture::Capture> {
+        self.capture.as_ref()
+    }
+
     pub(crate) fn take_probes(&mut self) -> Option<Probes> {
         self.probes.take()
     }
