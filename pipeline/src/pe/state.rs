@@ -147,10 +147,7 @@ impl Pe {
         // model's FIFOs never hold more than this.
         out.push(decl(
             "link_fifo",
-            format!(
-                "link FIFO ({} rows per side, fed from the compositing buffer)",
-                cfg.link_fifo_depth
-            ),
+            format!("link FIFO ({} rows per side)", cfg.link_fifo_depth),
             StateKind::Fifo,
             (
                 2,
