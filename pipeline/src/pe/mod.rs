@@ -475,7 +475,8 @@ pub struct PeReport {
     /// latest stamp a migration wrote into a ray it received (a row start
     /// can wait only while some PE's is in the future).
     pub lands_by: u64,
-    /// Its migration FIFOs and receive buffer are empty.
+    /// Its link queues (FIFOs and the rows still to feed them) and
+    /// receive buffer are empty.
     pub settled: bool,
     /// Its readout has streamed every held ray.
     pub readout_done: bool,
