@@ -27,8 +27,14 @@ fn bad_configurations_are_refused_by_the_cli() {
         "alpha = { bits = 12, frac = 20, signed = false, quant = \"RND\", overflow = \"SAT\" }\n",
     )
     .unwrap();
+    std::fs::write(dir.path().join("fifo0.toml"), "link_fifo_depth = 0\n").unwrap();
+    std::fs::write(
+        dir.path().join("fifo_huge.toml"),
+        "link_fifo_depth = 65535\n",
+    )
+    .unwrap();
     let base = ["render", "--scene", "sphere:16", "--size", "16x16"];
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 6] = [
         (&["--method", "pipeline", "--pes", "0"], "pes = 0"),
         (
             &["--method", "pipeline", "--config", "unknown.toml"],
@@ -39,6 +45,14 @@ fn bad_configurations_are_refused_by_the_cli() {
             "alpha.frac = 20 exceeds alpha.bits = 12",
         ),
         (&["--method", "er", "--pes", "4"], "--pes"),
+        (
+            &["--method", "pipeline", "--config", "fifo0.toml"],
+            "link_fifo_depth = 0 is outside 1..=4096",
+        ),
+        (
+            &["--method", "pipeline-ftb", "--config", "fifo_huge.toml"],
+            "link_fifo_depth = 65535 is outside 1..=4096",
+        ),
     ];
     for (extra, needle) in cases {
         let args: Vec<&str> = base.iter().chain(extra).copied().collect();

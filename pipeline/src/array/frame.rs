@@ -131,6 +131,23 @@ pub struct Frame {
     /// What the host loaded into the PE memories before the frame (not
     /// clocked: see [`FrameRun::resident`]).
     pub voxel_load: VoxelLoad,
+    /// The link FIFOs' probe: the most rows any PE's link FIFO held and
+    /// the cycles the PEs' feeds waited for room in a full one. Measured
+    /// where the links step (clocked migrations and the overlapped
+    /// migration); the untraced migration between slices works out the
+    /// same departures from its queues without stepping a FIFO and adds
+    /// nothing. Not a stats field.
+    pub link_fifo: LinkFifoProbe,
+}
+
+/// What a frame's link FIFOs held ([`Frame::link_fifo`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LinkFifoProbe {
+    /// The most rows one link FIFO held.
+    pub peak: u64,
+    /// Cycles, summed over PEs and sides, in which a PE's feed had a row
+    /// and its FIFO was full (its front waiting for a write-back).
+    pub feed_stalls: u64,
 }
 
 impl Frame {

@@ -29,7 +29,7 @@ mod run;
 pub(crate) mod warm;
 
 pub use clock::{Clock, Links};
-pub use frame::{Frame, RunError, StageCycles};
+pub use frame::{Frame, LinkFifoProbe, RunError, StageCycles};
 pub use memory::{Resident, VoxelLoad};
 pub use run::{FrameRun, Voxels};
 
@@ -194,6 +194,7 @@ impl Array {
                 let mut pe = Pe::new(k, map, &held[k], mem, view.dims);
                 pe.sparse_links = cfg.link_skip_empty;
                 pe.sparse_passes = cfg.pass_skip_empty;
+                pe.set_link_fifo_depth(usize::from(cfg.link_fifo_depth));
                 pe
             })
             .collect();
@@ -538,6 +539,13 @@ impl Array {
         let samples: u64 = pes.iter().map(|p| p.counters.samples).sum();
         let terminated_samples = pes.iter().map(|p| p.counters.terminated).sum();
         let counters = pes.iter().map(|p| p.counters).collect();
+        let link_fifo = pes.iter().map(Pe::link_fifo_probe).fold(
+            LinkFifoProbe::default(),
+            |a, (peak, stalls)| LinkFifoProbe {
+                peak: a.peak.max(peak as u64),
+                feed_stalls: a.feed_stalls + stalls,
+            },
+        );
         let p = pes.len();
         if let Some(pr) = self.clock.take_probes() {
             if let Some(info) = pr.finish()? {
@@ -557,6 +565,7 @@ impl Array {
             skipped: self.skipped,
             ray_buffer: self.channel.as_ref().map(|c| c.stats),
             voxel_load: self.voxel_load,
+            link_fifo,
             cycles: self.clock.cycle(),
             stages: self.clock.stages(),
             samples,

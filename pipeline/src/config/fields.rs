@@ -601,6 +601,22 @@ config_fields! {
             toml: "rays per link, direction and cycle during the overlapped migration, 1..=4",
             check: rules::link_lanes,
         },
+        /// Rows each link FIFO holds, per side, `1..=4096`: the rays a PE
+        /// has read out of its compositing buffer to send to one
+        /// neighbour. A leaving column stays in the compositing buffer
+        /// until its rows enter the FIFO; the PE feeds the FIFO one row a
+        /// cycle (per lane) and stops while it is full, so the FIFO never
+        /// holds more than this and the link never waits for it. The cost
+        /// model charges exactly this depth (`link_fifo`).
+        ///
+        /// Default 2: the row landing from the buffer's registered read
+        /// beside the row leaving, so a row can leave every cycle.
+        pub link_fifo_depth: u16 {
+            default: 2,
+            range: 1..=4096,
+            toml: "rows per link FIFO and side (fed from the compositing buffer), 1..=4096",
+            check: rules::link_fifo_depth,
+        },
         /// Whether the back-to-front merge, the front-to-back split and
         /// fold, and the readout spend cycles only on rays that can be
         /// non-zero: a pass

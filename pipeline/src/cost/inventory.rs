@@ -32,7 +32,8 @@
 //!   `VecDeque` of held columns);
 //! - **line buffer**: three rows of x-merged children (`W + 1` each) for
 //!   the merge's y pass;
-//! - **migration FIFOs**: one ray column arriving from each side;
+//! - **link FIFOs**: `link_fifo_depth` rows per side, fed from the
+//!   compositing buffer;
 //! - the three **tables** (classification, `-log2(1 - a)`, `2^-f`), loaded
 //!   by the host between frames; a pre-integrating PE holds the
 //!   pre-integration table in place of the first two

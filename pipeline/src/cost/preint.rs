@@ -276,7 +276,8 @@ mod tests {
                 })
         };
         let sm = u32::from(cfg.sample.bits());
-        for m in ["compositing buffer", "migration FIFO"] {
+        for m in ["compositing buffer", "link FIFO"] {
+            assert!(width(&plain.items, m).is_some(), "{m} is charged");
             assert_eq!(
                 width(&pre.items, m),
                 width(&plain.items, m).map(|w| w + sm),
@@ -318,9 +319,10 @@ mod tests {
         assert_eq!(geo.with_preint(false), geo);
         assert_eq!(ray_bits(&cfg, &geo), 0);
         let pe = pe_inventory(&cfg, &geo.with_preint(true).with_preint(false));
-        // The default PE as `ercube cost` priced it before the unit.
+        // The default PE as `ercube cost` prices it without the unit (its
+        // link FIFOs two rows deep in LUT-RAM).
         let r = pe.cost(Target::Xc7);
-        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (25, 2324, 1975, 47));
+        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (25, 2444, 2153, 41));
         assert_eq!(pe.schedule.depth, 26);
         // A report's JSON leaves the flag out unless it is set.
         let json = serde_json::to_string(&geo).unwrap();

@@ -25,7 +25,12 @@ use std::collections::VecDeque;
 use crate::datapath::{Acc, SampleTrace};
 use crate::fixed::{FxError, QuantStats};
 use crate::mapping::ColumnMap;
+use crate::stages::migrate::LinkQueue;
 use crate::stages::passes::PassState;
+
+/// The link FIFOs' depth of a PE built without a configuration's
+/// (`link_fifo_depth`'s default).
+const DEFAULT_LINK_FIFO_DEPTH: usize = 2;
 
 /// A PE's voxel memory as the model stores it: the voxel words, or for
 /// 8-bit data the data bytes beside the 256 words they quantise to (the
@@ -277,12 +282,13 @@ pub struct Pe {
     pub(crate) rays: VecDeque<RayColumn>,
     /// First held column sampled in the current slice, and how many.
     pub(crate) active: (usize, usize),
-    /// The link FIFOs (`link_fifo`): rays waiting to go left / right,
-    /// each with the cycle from which it may leave (its last sample
-    /// written back).
-    pub(crate) out_left: VecDeque<(RayMove, u64)>,
+    /// The link queues to the left / right: each a link FIFO
+    /// (`link_fifo`, bounded at its declared depth) fed from the leaving
+    /// columns' rows in the compositing buffer, each row with the cycle
+    /// from which it may leave (its last sample written back).
+    pub(crate) out_left: LinkQueue,
     /// See `out_left`.
-    pub(crate) out_right: VecDeque<(RayMove, u64)>,
+    pub(crate) out_right: LinkQueue,
     /// Columns being received, by `mx`.
     pub(crate) incoming: Vec<RayColumn>,
     /// Counters.
@@ -365,8 +371,8 @@ impl Pe {
             nz,
             rays: VecDeque::new(),
             active: (0, 0),
-            out_left: VecDeque::new(),
-            out_right: VecDeque::new(),
+            out_left: LinkQueue::new(DEFAULT_LINK_FIFO_DEPTH),
+            out_right: LinkQueue::new(DEFAULT_LINK_FIFO_DEPTH),
             incoming: Vec::new(),
             counters: PeCounters::default(),
             last: SampleTrace::default(),
@@ -380,6 +386,20 @@ impl Pe {
             pass: PassState::default(),
             model: PeModel::default(),
         }
+    }
+
+    /// Builds the link FIFOs `depth` rows deep (`link_fifo_depth`), empty.
+    pub fn set_link_fifo_depth(&mut self, depth: usize) {
+        debug_assert!(self.settled());
+        self.out_left = LinkQueue::new(depth);
+        self.out_right = LinkQueue::new(depth);
+    }
+
+    /// The most rows either link FIFO has held, and the cycles its feed
+    /// waited for room (both sides).
+    pub fn link_fifo_probe(&self) -> (usize, u64) {
+        let (l, r) = (&self.out_left, &self.out_right);
+        (l.peak().max(r.peak()), l.feed_stalls() + r.feed_stalls())
     }
 
     /// Voxel `(x, y)` of slice `z` from this PE's memory (`x` held),
@@ -455,7 +475,8 @@ pub struct PeReport {
     /// latest stamp a migration wrote into a ray it received (a row start
     /// can wait only while some PE's is in the future).
     pub lands_by: u64,
-    /// Its migration FIFOs and receive buffer are empty.
+    /// Its link queues (FIFOs and the rows still to feed them) and
+    /// receive buffer are empty.
     pub settled: bool,
     /// Its readout has streamed every held ray.
     pub readout_done: bool,

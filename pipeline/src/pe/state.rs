@@ -99,8 +99,8 @@ impl Pe {
     /// The rays' state: the compositing buffer in two column banks (or,
     /// with the rays in external memory, the row buffers the controller
     /// reads ahead into), the column map, the passes' line buffer
-    /// ([`LINE_ROWS`] rows of `W + 1` children), a link FIFO per side (one
-    /// ray column of `2 ny + 1` rows) and, front to back on chip, the
+    /// ([`LINE_ROWS`] rows of `W + 1` children), a link FIFO per side
+    /// (`link_fifo_depth` rows) and, front to back on chip, the
     /// inherited states with their termination flags and the final states
     /// kept at `K - 1` region boundaries for the fold. A pre-integrating
     /// ray carries its previous sample beside its accumulators wherever
@@ -141,13 +141,17 @@ impl Pe {
             SDP,
             (LINE_ROWS as u32, w + 1, 4 * bits(cfg.merge)),
         ));
+        // The FIFOs hold `link_fifo_depth` rows: a leaving column waits in
+        // the compositing buffer (charged above) and is read into its FIFO
+        // a row a cycle ([`crate::stages::migrate::LinkQueue`]), so the
+        // model's FIFOs never hold more than this.
         out.push(decl(
             "link_fifo",
-            "migration FIFO (one column per side)",
+            format!("link FIFO ({} rows per side)", cfg.link_fifo_depth),
             StateKind::Fifo,
             (
                 2,
-                2 * ny + 1,
+                u64::from(cfg.link_fifo_depth),
                 acc + prev + RAY_INDEX_BITS + addr_bits(2 * ny + 2),
             ),
         ));

@@ -8,7 +8,8 @@ use crate::hw::state::{StateDecl, StateKind};
 use crate::pe::Pe;
 
 /// The configurations and geometries the checks run over: both orders,
-/// every mapping, the external ray buffer, shading and pre-integration.
+/// every mapping, the external ray buffer, shading, pre-integration and
+/// link FIFOs shallower and deeper than the default.
 fn cases() -> Vec<(PipelineConfig, Geometry)> {
     let geo = Geometry::new([256, 256, 256], 16);
     let base = PipelineConfig::default();
@@ -39,6 +40,8 @@ fn cases() -> Vec<(PipelineConfig, Geometry)> {
         (base, geo.with_shading(true)),
         (base, geo.with_preint(true)),
         (base, Geometry::new([100, 64, 64], 8)),
+        (with(&|c| c.link_fifo_depth = 1), geo),
+        (with(&|c| c.link_fifo_depth = 300), geo),
     ]
 }
 
@@ -115,10 +118,19 @@ fn the_default_declaration_has_the_documented_depths() {
         (2, (33 * 513u64).div_ceil(2), 64)
     );
     assert_eq!(shape("column_map"), (1, 33, 17));
-    // One ray column of 2 ny + 1 rows per side: the accumulators, the ray
-    // index and a 10-bit row.
+    // `link_fifo_depth` rows per side (default 2): the accumulators, the
+    // ray index and a 10-bit row; and exactly the configured depth.
     assert_eq!(get("link_fifo").kind, StateKind::Fifo);
-    assert_eq!(shape("link_fifo"), (2, 513, 64 + 16 + 10));
+    assert_eq!(shape("link_fifo"), (2, 2, 64 + 16 + 10));
+    for depth in [1, 7, 4096] {
+        let cfg = PipelineConfig {
+            link_fifo_depth: depth,
+            ..PipelineConfig::default()
+        };
+        let d = Pe::declaration(&cfg, &geo);
+        let fifo = d.iter().find(|d| d.name == "link_fifo").expect("declared");
+        assert_eq!(fifo.depth, u64::from(depth));
+    }
     // The passes' line buffer: LINE_ROWS rows of W + 1 children, four
     // 20-bit merge words each.
     assert_eq!(shape("line_buffer"), (3, 17, 80));

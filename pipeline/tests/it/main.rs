@@ -22,6 +22,7 @@ mod cost;
 mod equivalence;
 mod ftb;
 mod kernel;
+mod links;
 mod load;
 mod mapping;
 mod model;

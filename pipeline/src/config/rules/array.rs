@@ -110,6 +110,17 @@ pub(in crate::config) fn link_lanes(
     Ok(())
 }
 
+/// `link_fifo_depth` in `1..=4096`: a FIFO of no row could never send,
+/// and past a few rows a deeper one only costs memory (the feed keeps
+/// pace with the link at depth 2).
+pub(in crate::config) fn link_fifo_depth(
+    _: &PipelineConfig,
+    field: &str,
+    d: u16,
+) -> Result<(), ConfigError> {
+    in_range(field, i64::from(d), 1, 4096)
+}
+
 /// `ray_buffer_bandwidth` in `1..=4096`.
 pub(in crate::config) fn ray_buffer_bandwidth(
     _: &PipelineConfig,

@@ -241,3 +241,32 @@ fn link_lanes_need_the_overlapped_migration() {
     let e = PipelineConfig::from_toml_str("link_lanes = 3\n").unwrap_err();
     assert!(e.to_string().contains("needs migration"), "{e}");
 }
+
+/// `link_fifo_depth` stays in `1..=4096`: a FIFO of no row could never
+/// send, and an absurd depth is a one-line error, not an allocation.
+#[test]
+fn link_fifo_depth_is_a_row_to_4096() {
+    for (text, want) in [
+        (
+            "link_fifo_depth = 0\n",
+            "link_fifo_depth = 0 is outside 1..=4096",
+        ),
+        (
+            "link_fifo_depth = 4097\n",
+            "link_fifo_depth = 4097 is outside 1..=4096",
+        ),
+    ] {
+        let e = PipelineConfig::from_toml_str(text).unwrap_err().to_string();
+        assert!(e.contains(want), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+    // Past u16 the TOML itself is refused, in one line.
+    let e = PipelineConfig::from_toml_str("link_fifo_depth = 100000000\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("link_fifo_depth"), "{e}");
+    for d in [1, 2, 4096] {
+        let c = PipelineConfig::from_toml_str(&format!("link_fifo_depth = {d}\n")).expect("valid");
+        assert_eq!(c.link_fifo_depth, d);
+    }
+}

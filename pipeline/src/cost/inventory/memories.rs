@@ -1,7 +1,7 @@
 //! The PE's memories as cost items, sized for the worst view (see the
 //! parent module): the PE's declared state ([`Pe::declaration`]: the
 //! slice buffer, the edge column, the compositing buffer and its column
-//! map, the line buffer, the migration FIFOs) and the tables.
+//! map, the line buffer, the link FIFOs) and the tables.
 
 use super::{fmt_bits, Geometry, Item};
 use crate::config::PipelineConfig;

@@ -11,7 +11,9 @@
 //! of [`golden::sampling::slice_rays`]' rays over the PEs is kept up to
 //! date as the rays' positions move from slice to slice.
 
-use std::collections::VecDeque;
+mod queue;
+
+pub use queue::LinkQueue;
 
 use crate::array::{Array, Links, RunError};
 use crate::config::Migration;
@@ -162,13 +164,16 @@ impl Pe {
             (&mut self.out_left, &mut out.left),
             (&mut self.out_right, &mut out.right),
         ] {
+            // The feed reads the next row into the FIFO ahead of the send
+            // (see `queue`), so the front is always the queue's next row.
+            q.feed();
             match q.front() {
                 Some(&(_, land)) if land > now => {
                     waited = true;
                     queued += q.len() - 1;
                 }
                 Some(_) => {
-                    let (m, _) = q.pop_front().expect("front exists");
+                    let (m, _) = q.pop().expect("front exists");
                     self.counters.rays_sent += 1;
                     port.ray = Some(m);
                     queued += q.len();
@@ -201,9 +206,10 @@ pub(crate) fn stays(c: &RayColumn, row: usize) -> bool {
 }
 
 /// Splits a column into ray moves, row by row, each with the cycle from
-/// which it may leave; with `sparse`, without the rows that stay behind
-/// ([`stays`]).
-fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
+/// which it may leave, queued behind the link FIFO (the rows stay in the
+/// compositing buffer until the feed reads them); with `sparse`, without
+/// the rows that stay behind ([`stays`]).
+fn queue(q: &mut LinkQueue, c: RayColumn, sparse: bool) {
     let rows = c.acc.len() as u32;
     for row in 0..rows as usize {
         if sparse && stays(&c, row) {
@@ -219,7 +225,7 @@ fn queue(q: &mut VecDeque<(RayMove, u64)>, c: RayColumn, sparse: bool) {
             ftb,
             prev,
         };
-        q.push_back((mv, c.land.get(row).copied().unwrap_or(0)));
+        q.enqueue((mv, c.land.get(row).copied().unwrap_or(0)));
     }
 }
 
