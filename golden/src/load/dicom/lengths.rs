@@ -46,10 +46,13 @@ pub(super) fn check_lengths(bytes: &[u8], limit: u64) -> Result<(), String> {
     let mut ts = String::new();
     let group_length = w.group_length();
     let mut read = 0u64;
-    while match group_length {
-        Some(n) => read < n,
-        None => w.peek_group() == Some(0x0002),
-    } {
+    // Fewer than 8 bytes cannot hold a header: the parser fails there.
+    while w.left() >= 8
+        && match group_length {
+            Some(n) => read < n,
+            None => w.peek_group() == Some(0x0002),
+        }
+    {
         let at = w.pos;
         let (tag, len, _) = w.header()?;
         if len == UNDEFINED {
@@ -66,9 +69,6 @@ pub(super) fn check_lengths(bytes: &[u8], limit: u64) -> Result<(), String> {
         }
         w.pos += len;
         read += (w.pos - at) as u64;
-        if w.left() < 8 {
-            break;
-        }
     }
     match ts.as_str() {
         "1.2.840.10008.1.2.1.99" => {
