@@ -18,6 +18,7 @@ use pipeline::cost::clock::ClockSource;
 
 mod versus;
 pub use versus::refine_of;
+pub use versus::Rays;
 use versus::{footprint_of, gaze_of, versus_full, versus_reference};
 
 /// Arguments of `ercube render`.
@@ -94,15 +95,6 @@ pub struct RenderArgs {
     /// 1 to 6.
     #[arg(long, default_value_t = golden::refine::Refine::DEFAULT_LEVELS)]
     pub refine_levels: u32,
-}
-
-/// How many rays an ER frame casts (`--rays`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Rays {
-    /// One to two rays per voxel (the paper's density).
-    Voxels,
-    /// The coarsest prefiltered level that still gives every pixel a ray.
-    Footprint,
 }
 
 /// Runs `f` `n` times (at least once), returning the last result and each

@@ -152,6 +152,15 @@ pub(super) fn gaze_of(
     Ok(Some(g))
 }
 
+/// How many rays an ER frame casts (`--rays`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Rays {
+    /// One to two rays per voxel (the paper's density).
+    Voxels,
+    /// The coarsest prefiltered level that still gives every pixel two rays across.
+    Footprint,
+}
+
 /// The uniform gaze profile `--rays footprint` asks for: every pixel at
 /// [`golden::ergaze::footprint_level`] of the view, `None` at level 0 (the
 /// plain frame).
