@@ -53,6 +53,26 @@ impl ErcubeChip {
     }
 }
 
+/// Answers a query on the live `chip` into `out`: both checked for null,
+/// `answer` run under [`guard`], its value written.
+///
+/// # Safety
+/// `chip` is null or a live handle; `out` is null or valid for one write.
+unsafe fn query<T>(
+    chip: *const ErcubeChip,
+    out: *mut T,
+    answer: impl FnOnce(&ErcubeChip) -> Result<T, Failure>,
+) -> c_int {
+    guard(|| {
+        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
+        if out.is_null() {
+            return Err(argument("the output pointer is null"));
+        }
+        *out = answer(c)?;
+        Ok(())
+    })
+}
+
 /// A chip with the pipeline configuration `cfg` (null: the defaults).
 ///
 /// # Safety
@@ -167,14 +187,7 @@ pub unsafe extern "C" fn ercube_chip_step(chip: *mut ErcubeChip) -> c_int {
 /// `chip` is a live handle; `cycle` is valid for one write.
 #[no_mangle]
 pub unsafe extern "C" fn ercube_chip_cycle(chip: *const ErcubeChip, cycle: *mut u64) -> c_int {
-    guard(|| {
-        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
-        if cycle.is_null() {
-            return Err(argument("the output pointer is null"));
-        }
-        *cycle = c.cycles;
-        Ok(())
-    })
+    query(chip, cycle, |c| Ok(c.cycles))
 }
 
 /// The PEs of the frame (known after the first cycle).
@@ -183,14 +196,7 @@ pub unsafe extern "C" fn ercube_chip_cycle(chip: *const ErcubeChip, cycle: *mut 
 /// `chip` is a live handle; `n` is valid for one write.
 #[no_mangle]
 pub unsafe extern "C" fn ercube_chip_pes(chip: *const ErcubeChip, n: *mut u32) -> c_int {
-    guard(|| {
-        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
-        if n.is_null() {
-            return Err(argument("the output pointer is null"));
-        }
-        *n = c.current()?.pes.len() as u32;
-        Ok(())
-    })
+    query(chip, n, |c| Ok(c.current()?.pes.len() as u32))
 }
 
 /// PE `k` in the last cycle clocked: its signals, ports and report lines.
@@ -203,19 +209,14 @@ pub unsafe extern "C" fn ercube_chip_ports(
     k: u32,
     out: *mut ErcubePe,
 ) -> c_int {
-    guard(|| {
-        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
-        if out.is_null() {
-            return Err(argument("the output pointer is null"));
-        }
+    query(chip, out, |c| {
         let cycle = c.current()?;
-        *out = pe_of(cycle, k as usize).ok_or_else(|| {
+        pe_of(cycle, k as usize).ok_or_else(|| {
             argument(format!(
                 "PE {k} is outside the array's {} PEs",
                 cycle.pes.len()
             ))
-        })?;
-        Ok(())
+        })
     })
 }
 
@@ -228,14 +229,7 @@ pub unsafe extern "C" fn ercube_chip_broadcast(
     chip: *const ErcubeChip,
     out: *mut ErcubeBroadcast,
 ) -> c_int {
-    guard(|| {
-        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
-        if out.is_null() {
-            return Err(argument("the output pointer is null"));
-        }
-        *out = broadcast_of(c.current()?);
-        Ok(())
-    })
+    query(chip, out, |c| Ok(broadcast_of(c.current()?)))
 }
 
 /// Command `i` of those broadcast before the last cycle clocked.
@@ -248,11 +242,7 @@ pub unsafe extern "C" fn ercube_chip_command(
     i: u32,
     out: *mut ErcubeCommand,
 ) -> c_int {
-    guard(|| {
-        let c = chip.as_ref().ok_or_else(|| argument("the chip is null"))?;
-        if out.is_null() {
-            return Err(argument("the output pointer is null"));
-        }
+    query(chip, out, |c| {
         let cycle = c.current()?;
         let cmd = cycle.commands.get(i as usize).ok_or_else(|| {
             argument(format!(
@@ -261,8 +251,7 @@ pub unsafe extern "C" fn ercube_chip_command(
             ))
         })?;
         let (kind, a, b) = cmd.words();
-        *out = ErcubeCommand { kind, a, b };
-        Ok(())
+        Ok(ErcubeCommand { kind, a, b })
     })
 }
 
