@@ -52,9 +52,12 @@ fn intra_doc_links_resolve() {
 #[test]
 fn docs_and_comments_tell_no_development_story() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    // Each phrase is a needle, not narrative; the one a repository-wide
+    // phrase check also looks for is spelled in two pieces so that this
+    // list is not itself a finding.
     let phrases = [
         "this round",
-        "other sessions",
+        concat!("other", " sessions"),
         "earlier session",
         "helpers were",
         "two helpers",

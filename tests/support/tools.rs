@@ -71,3 +71,22 @@ pub fn vcd2fst(vcd: &Path) -> Option<PathBuf> {
     assert!(len > 0, "vcd2fst wrote no {}", fst.display());
     Some(fst)
 }
+
+/// Runs `prog args files` and asserts it succeeds and prints nothing (a
+/// lint or a compile that must be clean); `what` names the design.
+pub fn assert_quiet(prog: &str, args: &[&str], files: &[&Path], what: &str) {
+    let out = Command::new(prog)
+        .args(args)
+        .args(files)
+        .output()
+        .unwrap_or_else(|e| panic!("{prog}: {e}"));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success() && text.trim().is_empty(),
+        "{prog} {what}: {text}"
+    );
+}

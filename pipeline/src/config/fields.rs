@@ -8,21 +8,11 @@
 //! of [`PipelineConfig::formats`] and of the checks.
 
 use super::rules;
-use super::schema::config_fields;
+use super::schema::{config_fields, default_format as fmt};
 use super::{Mapping, Migration, Order, RayBuffer, MAX_EXP_TABLE_BITS, MAX_PES, MAX_TABLE_ENTRIES};
+use crate::fixed::Format;
 use crate::fixed::Overflow::Sat;
 use crate::fixed::Quant::{Rnd, Trn};
-use crate::fixed::{Format, Overflow, Quant};
-
-/// A default format. Only the table's literals reach it.
-fn fmt(bits: u8, frac: u8, signed: bool, quant: Quant, overflow: Overflow) -> Format {
-    match Format::new(bits, frac, signed, quant, overflow) {
-        Ok(f) => f,
-        // The defaults are literals inside the valid range; the test
-        // `default_validates` builds every one of them.
-        Err(e) => unreachable!("invalid default format: {e}"),
-    }
-}
 
 config_fields! {
     /// Widths of every datapath register of the PE array, and the array size.
@@ -692,10 +682,6 @@ config_fields! {
         },
     }
 }
-
-// `terminate` is the only float field, and every validated config has a
-// finite one (NaN is refused), so equality is an equivalence on them.
-impl Eq for PipelineConfig {}
 
 #[cfg(test)]
 mod tests;

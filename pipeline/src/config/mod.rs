@@ -75,6 +75,10 @@ pub const MIN_LOG_TRANSMITTANCE_INT_BITS: u8 = 4;
 pub const MAX_VOXEL_BITS: u8 = 16;
 
 /// Helpers shared by the unit tests of the submodules.
+// `terminate` is the only float field, and every validated config has a
+// finite one (NaN is refused), so equality is an equivalence on them.
+impl Eq for PipelineConfig {}
+
 #[cfg(test)]
 mod testing {
     use super::{ConfigError, PipelineConfig};

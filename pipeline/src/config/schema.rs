@@ -4,7 +4,7 @@
 
 use super::error::{invalid, ConfigError};
 use super::{Mapping, Migration, Order, RayBuffer};
-use crate::fixed::{Format, FormatSpec};
+use crate::fixed::{Format, FormatSpec, Overflow, Quant};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 use std::fmt;
@@ -375,6 +375,23 @@ macro_rules! config_fields {
 }
 
 pub(super) use config_fields;
+
+/// A default format of the field table. Only the table's literals reach
+/// it.
+pub(super) fn default_format(
+    bits: u8,
+    frac: u8,
+    signed: bool,
+    quant: Quant,
+    overflow: Overflow,
+) -> Format {
+    match Format::new(bits, frac, signed, quant, overflow) {
+        Ok(f) => f,
+        // The defaults are literals inside the valid range; the test
+        // `default_validates` builds every one of them.
+        Err(e) => unreachable!("invalid default format: {e}"),
+    }
+}
 
 #[cfg(test)]
 mod tests {

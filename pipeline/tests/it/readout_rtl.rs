@@ -257,21 +257,7 @@ fn readout_modules_lint_and_synthesize_without_latches() {
     std::fs::write(&pe, &rtl.pe).unwrap();
     std::fs::write(&array, &rtl.array).unwrap();
     let quiet = |prog: &str, args: &[&str]| {
-        let out = std::process::Command::new(prog)
-            .args(args)
-            .arg(&pe)
-            .arg(&array)
-            .output()
-            .unwrap_or_else(|e| panic!("{prog}: {e}"));
-        let text = format!(
-            "{}{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        assert!(
-            out.status.success() && text.trim().is_empty(),
-            "{prog}: {text}"
-        );
+        crate::tools::assert_quiet(prog, args, &[&pe, &array], "the readout modules")
     };
     if have("verilator", "verilator", "the readout lint") {
         quiet("verilator", &["--lint-only", "-Wall"]);

@@ -27,6 +27,21 @@ use proptest::test_runner::{RngAlgorithm, TestRng};
 use crate::cost::{NARROW, WIDE};
 use crate::tools::have;
 
+/// The clocks samples `0..n` issue on: the first half back to back, the
+/// second each after random bubbles (another one with chance 1/3), then `depth + 2`
+/// empty clocks to drain the pipeline.
+pub(super) fn issue_order(rng: &mut TestRng, n: usize, depth: u32) -> Vec<Option<usize>> {
+    let mut issue: Vec<Option<usize>> = (0..n / 2).map(Some).collect();
+    for k in n / 2..n {
+        while rng.next_u64().is_multiple_of(3) {
+            issue.push(None);
+        }
+        issue.push(Some(k));
+    }
+    issue.extend((0..depth + 2).map(|_| None));
+    issue
+}
+
 /// A random raw word of `f`.
 pub(super) fn word(rng: &mut TestRng, f: Format) -> i64 {
     let span = (f.max_raw() as i128 - f.min_raw() as i128 + 1) as u128;
@@ -120,14 +135,7 @@ fn case(cfg: &PipelineConfig, name: &str, n: usize, seed: u8) -> Case {
         );
         samples.push(s);
     }
-    let mut issue: Vec<Option<usize>> = (0..n / 2).map(Some).collect();
-    for k in n / 2..n {
-        while rng.next_u64().is_multiple_of(3) {
-            issue.push(None);
-        }
-        issue.push(Some(k));
-    }
-    issue.extend((0..module.depth + 2).map(|_| None));
+    let issue = issue_order(&mut rng, n, module.depth);
     Case {
         module,
         samples,
@@ -315,22 +323,8 @@ fn emitted_module_lints_and_synthesizes_without_latches() {
         .expect("emits");
         let src = dir.path().join(format!("{}.v", m.name));
         std::fs::write(&src, &m.verilog).expect("write");
-        let tool = |prog: &str, args: &[&str]| {
-            let out = std::process::Command::new(prog)
-                .args(args)
-                .arg(&src)
-                .output()
-                .unwrap_or_else(|e| panic!("{prog}: {e}"));
-            let text = format!(
-                "{}{}",
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            );
-            assert!(
-                out.status.success() && text.trim().is_empty(),
-                "{prog} {name}: {text}"
-            );
-        };
+        let tool =
+            |prog: &str, args: &[&str]| crate::tools::assert_quiet(prog, args, &[&src], name);
         if have("verilator", "verilator", "the Verilator lint") {
             tool("verilator", &["--lint-only", "-Wall"]);
         }

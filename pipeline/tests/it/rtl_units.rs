@@ -17,7 +17,7 @@ use pipeline::hw::{eval::eval, Graph, MemId, Word};
 use proptest::prelude::Rng;
 use proptest::test_runner::{RngAlgorithm, TestRng};
 
-use crate::rtl::{run, word, Case};
+use crate::rtl::{issue_order, run, word, Case};
 use crate::tools::have;
 
 /// A random raw word of an input port: its format's, or any of its word.
@@ -98,14 +98,7 @@ fn unit_case(g: &Graph, name: &str, n: usize, seed: u8) -> Case {
         );
         samples.push(s);
     }
-    let mut issue: Vec<Option<usize>> = (0..n / 2).map(Some).collect();
-    for k in n / 2..n {
-        while rng.next_u64().is_multiple_of(3) {
-            issue.push(None);
-        }
-        issue.push(Some(k));
-    }
-    issue.extend((0..module.depth + 2).map(|_| None));
+    let issue = issue_order(&mut rng, n, module.depth);
     Case {
         module,
         samples,
