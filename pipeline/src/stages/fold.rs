@@ -12,8 +12,9 @@
 
 use golden::geometry::RayGrid;
 
+use super::boundary::{BoundaryPass, Edges};
 use super::passes::{plan_slots, tent_needs, PassBus};
-use crate::array::{Array, Links, RunError};
+use crate::array::{Array, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::fixed::Format;
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
@@ -141,172 +142,6 @@ impl Pe {
         ])
     }
 
-    /// One fold clock: the y pass writes child `col` of front row `bus.y`
-    /// (the tent of back rows `2 my - 1 ..= 2 my + 1` from the line buffer
-    /// plus the kept final state), then the x pass filters child `col` of
-    /// back row `bus.x` (the tent of back rays `2m - 1 ..= 2m + 1`'s
-    /// differences) into the line buffer.
-    pub fn fold_step(
-        &mut self,
-        dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        g: FoldGrids,
-        out: &mut Ports,
-    ) -> Result<(), StepError> {
-        let c = bus.col;
-        let n = self.pass.children.len();
-        if let Some(i) = bus.y.filter(|_| c < n) {
-            self.fold_y(dp, c, i, g, false)?;
-        }
-        if let Some(q) = bus.x {
-            self.fold_line(dp, q, g.rf);
-            if c < n {
-                let left = (links.from_left.edge_acc, links.from_left.edge_mx);
-                self.fold_x(dp, c, q, g, left)?;
-            }
-        }
-        self.fold_ports(dp, bus, g, out);
-        Ok(())
-    }
-
-    /// One clock of the sparse fold (`pass_skip_empty`), as
-    /// [`Pe::merge_step_sparse`]: in the slot's first cycle the PE forms
-    /// the x row's differences, latches the left neighbour's edge
-    /// difference and forms its work list (children with a non-zero tap
-    /// difference in the x row; children of the y row with a non-zero
-    /// kept final state or a valid line-buffer entry). A child left out is
-    /// `final + merged` with both zero: zero, as the bank reads.
-    pub fn fold_step_sparse(
-        &mut self,
-        dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        g: FoldGrids,
-        out: &mut Ports,
-    ) -> Result<(), StepError> {
-        if bus.col == 0 {
-            if let Some(q) = bus.x {
-                self.fold_line(dp, q, g.rf);
-            }
-            self.pass.edge_in.0 = links.from_left.edge_acc;
-            self.pass.edge_mx.0 = links.from_left.edge_mx;
-            self.plan_fold_slot(bus, g)?;
-        }
-        let left = (self.pass.edge_in.0, self.pass.edge_mx.0);
-        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
-            if let Some(i) = bus.y.filter(|_| y) {
-                self.fold_y(dp, c, i, g, true)?;
-            }
-            if let Some(q) = bus.x.filter(|_| x) {
-                self.fold_x(dp, c, q, g, left)?;
-            }
-        }
-        self.fold_ports(dp, bus, g, out);
-        Ok(())
-    }
-
-    /// What the PE drives in a fold cycle (forming the driven row's
-    /// differences if they are not formed yet).
-    fn fold_ports(&mut self, dp: &Datapath, bus: &PassBus, g: FoldGrids, out: &mut Ports) {
-        if let Some(r) = bus.drive {
-            self.fold_drive(dp, r, g.rf, out);
-        }
-    }
-
-    /// The sparse fold's work list for the slot on `bus`.
-    fn plan_fold_slot(&mut self, bus: &PassBus, g: FoldGrids) -> Result<(), StepError> {
-        let prows = g.back.counts()[1] as i64;
-        let grid = (g.back.lo[0], g.back.hi[0]);
-        let left = (self.pass.edge_in.0, self.pass.edge_mx.0);
-        self.set_work_list(|pe, c| {
-            let x = match bus.x {
-                Some(_) => pe.fold_taps(c, grid, left)?.iter().any(|t| *t != [0; 4]),
-                None => false,
-            };
-            let y = bus.y.is_some_and(|i| {
-                let kept = pe.finals.last().is_some_and(|f| f[c].acc[i].raw != [0; 4]);
-                let my = g.front.lo[1] + i as i64;
-                kept || pe.pass.line.holds_any(
-                    (2 * my - 1..=2 * my + 1).map(|py| py - g.back.lo[1]),
-                    prows,
-                    c,
-                )
-            });
-            Ok((x, y))
-        })
-    }
-
-    /// The y pass for child `c` of front row `i`: the tent of the line
-    /// buffer's back rows plus the kept final state (`sparse`: entries the
-    /// x pass left unwritten read zero).
-    fn fold_y(
-        &mut self,
-        dp: &Datapath,
-        c: usize,
-        i: usize,
-        g: FoldGrids,
-        sparse: bool,
-    ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
-        let prows = g.back.counts()[1] as i64;
-        let my = g.front.lo[1] + i as i64;
-        let mut taps = [[0i64; 4]; 3];
-        for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
-            let row = py - g.back.lo[1];
-            if (0..prows).contains(&row) {
-                *t = if sparse {
-                    self.pass.line.read_sparse(self.k, row as usize, c)?
-                } else {
-                    self.pass.line.read(self.k, row as usize, c)?
-                };
-            }
-        }
-        let fin = self.finals.last().map(|f| f[c].acc[i]).unwrap_or_default();
-        let out = &mut self.pass.next[c].acc[i].raw;
-        for (ch, o) in out.iter_mut().enumerate() {
-            let merged = dp.tent(
-                [taps[0][ch], taps[1][ch], taps[2][ch]],
-                fm,
-                fm,
-                &mut self.model.stats,
-            );
-            let ff = if ch < 3 { fc } else { fa };
-            *o = dp
-                .fold_add(fin.raw[ch], ff, merged.raw(), &mut self.model.stats)
-                .raw();
-        }
-        self.counters.merge_outputs += 1;
-        Ok(())
-    }
-
-    /// The x pass for child `c` of back row `q`: the tent of its three
-    /// taps' differences into the line buffer.
-    fn fold_x(
-        &mut self,
-        dp: &Datapath,
-        c: usize,
-        q: usize,
-        g: FoldGrids,
-        left: (Acc, Option<i64>),
-    ) -> Result<(), StepError> {
-        let fm = dp.cfg.merge;
-        let p = self.fold_taps(c, (g.back.lo[0], g.back.hi[0]), left)?;
-        let mut out = [0i64; 4];
-        for (ch, o) in out.iter_mut().enumerate() {
-            *o = dp
-                .tent(
-                    [p[0][ch], p[1][ch], p[2][ch]],
-                    fm,
-                    fm,
-                    &mut self.model.stats,
-                )
-                .raw();
-        }
-        self.pass.line.write(q, c, out);
-        Ok(())
-    }
-
     /// Ends a fold step: the kept final states are spent and the results
     /// become the held columns.
     pub fn end_fold(&mut self) {
@@ -316,10 +151,108 @@ impl Pe {
     }
 }
 
+/// The fold as a [`BoundaryPass`]: the back rays' differences (result
+/// minus inherited state) filtered onto the front rays and added to their
+/// kept final states. A tap beyond the held span is the left neighbour's
+/// edge difference, found by its index.
+impl BoundaryPass for FoldGrids<'_> {
+    /// Forms back row `q`'s differences (unless its drive formed them).
+    fn x_row(&self, pe: &mut Pe, dp: &Datapath, q: usize) {
+        pe.fold_line(dp, q, self.rf);
+    }
+
+    /// The tent of child `c`'s three taps' differences in back row `q`
+    /// into the line buffer.
+    fn x(
+        &self,
+        pe: &mut Pe,
+        dp: &Datapath,
+        c: usize,
+        q: usize,
+        edges: Edges,
+    ) -> Result<(), StepError> {
+        let fm = dp.cfg.merge;
+        let p = pe.fold_taps(c, (self.back.lo[0], self.back.hi[0]), edges.left)?;
+        let mut out = [0i64; 4];
+        for (ch, o) in out.iter_mut().enumerate() {
+            *o = dp
+                .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut pe.model.stats)
+                .raw();
+        }
+        pe.pass.line.write(q, c, out);
+        Ok(())
+    }
+
+    /// Child `c` of front row `i`: the tent of the line buffer's back rows
+    /// `2 my - 1 ..= 2 my + 1` plus the kept final state.
+    fn y(
+        &self,
+        pe: &mut Pe,
+        dp: &Datapath,
+        c: usize,
+        i: usize,
+        sparse: bool,
+    ) -> Result<(), StepError> {
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let prows = self.back.counts()[1] as i64;
+        let my = self.front.lo[1] + i as i64;
+        let rows = [2 * my - 1, 2 * my, 2 * my + 1].map(|py| py - self.back.lo[1]);
+        let taps = pe.pass.line.taps(pe.k, rows, prows, c, sparse)?;
+        let fin = pe.finals.last().map(|f| f[c].acc[i]).unwrap_or_default();
+        let out = &mut pe.pass.next[c].acc[i].raw;
+        for (ch, o) in out.iter_mut().enumerate() {
+            let merged = dp.tent(
+                [taps[0][ch], taps[1][ch], taps[2][ch]],
+                fm,
+                fm,
+                &mut pe.model.stats,
+            );
+            let ff = if ch < 3 { fc } else { fa };
+            *o = dp
+                .fold_add(fin.raw[ch], ff, merged.raw(), &mut pe.model.stats)
+                .raw();
+        }
+        pe.counters.merge_outputs += 1;
+        Ok(())
+    }
+
+    /// Children with a non-zero tap difference in the x row; children of
+    /// the y row with a non-zero kept final state or a valid line-buffer
+    /// entry. A child left out is `final + merged` with both zero: zero,
+    /// as the bank reads.
+    fn work_list(&self, pe: &mut Pe, bus: &PassBus) -> Result<(), StepError> {
+        let prows = self.back.counts()[1] as i64;
+        let grid = (self.back.lo[0], self.back.hi[0]);
+        let left = pe.pass.edges.left;
+        pe.set_work_list(|pe, c| {
+            let x = match bus.x {
+                Some(_) => pe.fold_taps(c, grid, left)?.iter().any(|t| *t != [0; 4]),
+                None => false,
+            };
+            let y = bus.y.is_some_and(|i| {
+                let kept = pe.finals.last().is_some_and(|f| f[c].acc[i].raw != [0; 4]);
+                let my = self.front.lo[1] + i as i64;
+                kept || pe.pass.line.holds_any(
+                    (2 * my - 1..=2 * my + 1).map(|py| py - self.back.lo[1]),
+                    prows,
+                    c,
+                )
+            });
+            Ok((x, y))
+        })
+    }
+
+    /// [`Pe::fold_drive`](Pe): the last held column's difference of back
+    /// row `row` to the right neighbour.
+    fn drive(&self, pe: &mut Pe, dp: &Datapath, row: usize, out: &mut Ports) {
+        pe.fold_drive(dp, row, self.rf, out);
+    }
+}
+
 impl Array {
     /// Front to back: one step of the fold, `g.back`'s rays into
     /// `g.front`'s. With `pass_skip_empty` every slot lasts as long as the
-    /// busiest PE's work list ([`Pe::fold_step_sparse`]); every row keeps
+    /// busiest PE's work list ([`Pe::pass_step_sparse`]); every row keeps
     /// its slot, since which back rows hold a difference is known only
     /// once each PE forms them.
     pub(crate) fn fold(&mut self, g: FoldGrids) -> Result<(), RunError> {
@@ -330,7 +263,7 @@ impl Array {
                 Stage::Fold,
                 (g.back.counts()[1], &needs),
                 Broadcast::BeginFold { front: g.front },
-                |pe, bus, links, out| pe.fold_step(&dp, bus, links, g, out),
+                |pe, bus, links, out| pe.pass_step(&g, &dp, bus, links, out),
                 Broadcast::EndFold,
             );
         }
@@ -339,7 +272,7 @@ impl Array {
             Stage::Fold,
             &slots,
             Broadcast::BeginFold { front: g.front },
-            |pe, bus, links, out| pe.fold_step_sparse(&dp, bus, links, g, out),
+            |pe, bus, links, out| pe.pass_step_sparse(&g, &dp, bus, links, out),
             Broadcast::EndFold,
         )
     }

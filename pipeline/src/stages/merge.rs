@@ -9,8 +9,9 @@
 
 use golden::geometry::RayGrid;
 
+use super::boundary::{BoundaryPass, Edges};
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
-use crate::array::{Array, Links, RunError};
+use crate::array::{Array, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
@@ -40,7 +41,8 @@ impl Pe {
     /// Accumulators of held column `mx` at `row`, or the neighbours' edge
     /// rays `(left, right)` when `mx` is just beyond the held span; empty
     /// rays otherwise.
-    fn parent(&self, mx: i64, row: usize, (left, right): (Acc, Acc)) -> Acc {
+    fn parent(&self, mx: i64, row: usize, e: &Edges) -> Acc {
+        let (left, right) = (e.left.0, e.right.0);
         let Some((lo, hi)) = self.span() else {
             return Acc::default();
         };
@@ -51,14 +53,6 @@ impl Pe {
             return if mx == hi + 1 { right } else { Acc::default() };
         }
         self.rays[(mx - lo) as usize].acc[row]
-    }
-
-    /// What the PE drives in a merge cycle: the edge rays of the row the
-    /// bus names, or nothing.
-    fn merge_ports(&self, bus: &PassBus, out: &mut Ports) {
-        if let Some(r) = bus.drive {
-            self.merge_drive(r, out);
-        }
     }
 
     /// Drives this PE's edge rays of parent row `row`: its first held
@@ -72,45 +66,8 @@ impl Pe {
         }
     }
 
-    /// One merge clock: the y pass writes child `col` of child row `bus.y`
-    /// from the line buffer (parent rows `2 my - 1 ..= 2 my + 1` of the
-    /// back grid `bg`), then the x pass filters child `col` of parent row
-    /// `bus.x` (parents `2m - 1 ..= 2m + 1`) into it.
-    pub fn merge_step(
-        &mut self,
-        dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        (bg, fg): (&RayGrid, &RayGrid),
-        out: &mut Ports,
-    ) -> Result<(), StepError> {
-        let edges = (links.from_left.edge_acc, links.from_right.edge_acc);
-        self.merge_work(dp, bus, edges, (bg, fg))?;
-        self.merge_ports(bus, out);
-        Ok(())
-    }
-
-    /// What a merge clock computes ([`Pe::merge_step`] without its
-    /// ports), with the neighbours' edge rays `edges` of row `bus.x`.
-    fn merge_work(
-        &mut self,
-        dp: &Datapath,
-        bus: &PassBus,
-        edges: (Acc, Acc),
-        (bg, fg): (&RayGrid, &RayGrid),
-    ) -> Result<(), StepError> {
-        let c = bus.col;
-        if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
-            self.merge_y(dp, c, i, (bg, fg), false)?;
-        }
-        if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
-            self.merge_x(dp, c, q, edges);
-        }
-        Ok(())
-    }
-
     /// Runs a whole dense merge's clocks, `slots` of `width` cycles each,
-    /// without ticking: what [`Pe::merge_step`] computes in each, with the
+    /// without ticking: what [`Pe::pass_step`] computes in each, with the
     /// neighbours' edge rays of each parent row from `edges` (what they
     /// drive on their ports: their parents stay put during the pass, so
     /// the rays are known before it starts). Returns the index of the
@@ -128,8 +85,9 @@ impl Pe {
         dp: &Datapath,
         (slots, width): (&[Slot], usize),
         edges: &[(Acc, Acc)],
-        grids: (&RayGrid, &RayGrid),
+        (bg, fg): (&RayGrid, &RayGrid),
     ) -> Result<(), (usize, StepError)> {
+        let pass = MergePass { bg, fg };
         let mut first: Option<(usize, StepError)> = None;
         for col in 0..width {
             for (s, slot) in slots.iter().enumerate() {
@@ -138,118 +96,24 @@ impl Pe {
                 if first.as_ref().is_some_and(|&(at, _)| at < cycle) {
                     break;
                 }
-                let e = slot.x.map_or_else(Default::default, |q| edges[q]);
+                let (l, r) = slot.x.map_or_else(Default::default, |q| edges[q]);
                 let bus = PassBus {
                     x: slot.x,
                     y: slot.y,
                     col,
                     drive: None,
                 };
-                if let Err(err) = self.merge_work(dp, &bus, e, grids) {
+                let e = Edges {
+                    left: (l, None),
+                    right: (r, None),
+                };
+                if let Err(err) = self.pass_work(&pass, dp, &bus, e) {
                     first = Some((cycle, err));
                     break;
                 }
             }
         }
         first.map_or(Ok(()), Err)
-    }
-
-    /// One clock of the sparse merge (`pass_skip_empty`): in the slot's
-    /// first cycle the PE latches the neighbours' edge rays of the slot's
-    /// parent row and forms its work list; each cycle it works the list's
-    /// next entry (y pass before x pass, as in [`Pe::merge_step`]), and it
-    /// drives the next slot's edge rays throughout.
-    pub fn merge_step_sparse(
-        &mut self,
-        dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        (bg, fg): (&RayGrid, &RayGrid),
-        out: &mut Ports,
-    ) -> Result<(), StepError> {
-        if bus.col == 0 {
-            self.pass.edge_in = (links.from_left.edge_acc, links.from_right.edge_acc);
-            self.plan_slot(bus, (bg, fg))?;
-        }
-        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
-            if let Some(i) = bus.y.filter(|_| y) {
-                self.merge_y(dp, c, i, (bg, fg), true)?;
-            }
-            if let Some(q) = bus.x.filter(|_| x) {
-                self.merge_x(dp, c, q, self.pass.edge_in);
-            }
-        }
-        self.merge_ports(bus, out);
-        Ok(())
-    }
-
-    /// The sparse slot's work list: the children whose x-filtered value
-    /// in parent row `bus.x` can be non-zero (a held parent's valid bit or
-    /// a latched edge ray is set; the tent of zeros is zero), and those of
-    /// child row `bus.y` with a valid line-buffer entry to read.
-    fn plan_slot(
-        &mut self,
-        bus: &PassBus,
-        (bg, fg): (&RayGrid, &RayGrid),
-    ) -> Result<(), StepError> {
-        let prows = bg.counts()[1] as i64;
-        let edges = self.pass.edge_in;
-        self.set_work_list(|pe, c| {
-            let m = pe.pass.children[c];
-            let x = bus.x.is_some_and(|q| {
-                (2 * m - 1..=2 * m + 1).any(|p| pe.parent(p, q, edges).raw != [0; 4])
-            });
-            let y = bus.y.is_some_and(|i| {
-                let my = fg.lo[1] + i as i64;
-                pe.pass
-                    .line
-                    .holds_any((2 * my - 1..=2 * my + 1).map(|py| py - bg.lo[1]), prows, c)
-            });
-            Ok((x, y))
-        })
-    }
-
-    /// The y pass for child `c` of child row `i`: the tent of the line
-    /// buffer's parent rows `2 my - 1 ..= 2 my + 1` into the children's
-    /// bank (`sparse`: entries the x pass left unwritten read zero).
-    fn merge_y(
-        &mut self,
-        dp: &Datapath,
-        c: usize,
-        i: usize,
-        (bg, fg): (&RayGrid, &RayGrid),
-        sparse: bool,
-    ) -> Result<(), StepError> {
-        let prows = bg.counts()[1] as i64;
-        let my = fg.lo[1] + i as i64;
-        let mut taps = [[0i64; 4]; 3];
-        for (t, py) in taps.iter_mut().zip(2 * my - 1..=2 * my + 1) {
-            let row = py - bg.lo[1];
-            if (0..prows).contains(&row) {
-                *t = if sparse {
-                    self.pass.line.read_sparse(self.k, row as usize, c)?
-                } else {
-                    self.pass.line.read(self.k, row as usize, c)?
-                };
-            }
-        }
-        self.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut self.model.stats);
-        self.counters.merge_outputs += 1;
-        Ok(())
-    }
-
-    /// The x pass for child `c` of parent row `q`: the tent of parents
-    /// `2m - 1 ..= 2m + 1` (the neighbours' edge rays `edges` beyond the
-    /// held span) into the line buffer.
-    fn merge_x(&mut self, dp: &Datapath, c: usize, q: usize, edges: (Acc, Acc)) {
-        let m = self.pass.children[c];
-        let p = [
-            self.parent(2 * m - 1, q, edges),
-            self.parent(2 * m, q, edges),
-            self.parent(2 * m + 1, q, edges),
-        ];
-        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut self.model.stats);
-        self.pass.line.write(q, c, out);
     }
 
     /// Ends a merge: the children become the held columns (the bank
@@ -272,6 +136,88 @@ impl Pe {
             }
         }
         count
+    }
+}
+
+/// The merge as a [`BoundaryPass`]: the back grid `bg`'s rays into the
+/// front grid `fg`'s. Parents beyond the held span are both neighbours'
+/// edge rays, found by position.
+#[derive(Debug, Clone, Copy)]
+pub struct MergePass<'a> {
+    /// The back grid (the parents, the x pass's rows).
+    pub bg: &'a RayGrid,
+    /// The front grid (the children).
+    pub fg: &'a RayGrid,
+}
+
+impl BoundaryPass for MergePass<'_> {
+    /// The tent of parents `2m - 1 ..= 2m + 1` (the neighbours' edge rays
+    /// beyond the held span) into the line buffer.
+    fn x(
+        &self,
+        pe: &mut Pe,
+        dp: &Datapath,
+        c: usize,
+        q: usize,
+        edges: Edges,
+    ) -> Result<(), StepError> {
+        let m = pe.pass.children[c];
+        let p = [
+            pe.parent(2 * m - 1, q, &edges),
+            pe.parent(2 * m, q, &edges),
+            pe.parent(2 * m + 1, q, &edges),
+        ];
+        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut pe.model.stats);
+        pe.pass.line.write(q, c, out);
+        Ok(())
+    }
+
+    /// The tent of the line buffer's parent rows `2 my - 1 ..= 2 my + 1`
+    /// into the children's bank.
+    fn y(
+        &self,
+        pe: &mut Pe,
+        dp: &Datapath,
+        c: usize,
+        i: usize,
+        sparse: bool,
+    ) -> Result<(), StepError> {
+        let (bg, fg) = (self.bg, self.fg);
+        let prows = bg.counts()[1] as i64;
+        let my = fg.lo[1] + i as i64;
+        let rows = [2 * my - 1, 2 * my, 2 * my + 1].map(|py| py - bg.lo[1]);
+        let taps = pe.pass.line.taps(pe.k, rows, prows, c, sparse)?;
+        pe.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut pe.model.stats);
+        pe.counters.merge_outputs += 1;
+        Ok(())
+    }
+
+    /// The children whose x-filtered value in parent row `bus.x` can be
+    /// non-zero (a held parent's valid bit or a latched edge ray is set;
+    /// the tent of zeros is zero), and those of child row `bus.y` with a
+    /// valid line-buffer entry to read.
+    fn work_list(&self, pe: &mut Pe, bus: &PassBus) -> Result<(), StepError> {
+        let (bg, fg) = (self.bg, self.fg);
+        let prows = bg.counts()[1] as i64;
+        let edges = pe.pass.edges;
+        pe.set_work_list(|pe, c| {
+            let m = pe.pass.children[c];
+            let x = bus.x.is_some_and(|q| {
+                (2 * m - 1..=2 * m + 1).any(|p| pe.parent(p, q, &edges).raw != [0; 4])
+            });
+            let y = bus.y.is_some_and(|i| {
+                let my = fg.lo[1] + i as i64;
+                pe.pass
+                    .line
+                    .holds_any((2 * my - 1..=2 * my + 1).map(|py| py - bg.lo[1]), prows, c)
+            });
+            Ok((x, y))
+        })
+    }
+
+    /// [`Pe::merge_drive`].
+    fn drive(&self, pe: &mut Pe, _dp: &Datapath, row: usize, out: &mut Ports) {
+        pe.merge_drive(row, out);
     }
 }
 
@@ -298,7 +244,7 @@ impl Array {
                 back: bg,
                 front: fg,
             },
-            |pe, bus, links, out| pe.merge_step(&dp, bus, links, (bg, fg), out),
+            |pe, bus, links, out| pe.pass_step(&MergePass { bg, fg }, &dp, bus, links, out),
             Broadcast::EndMerge,
         )?;
         Ok((rays(bg), rays(fg)))
@@ -339,7 +285,7 @@ impl Array {
     /// the parent rows some PE holds a non-zero ray in (each PE's row
     /// valid bits, ORed over the report lines) and writes only the child
     /// rows that read one; each slot lasts as long as the busiest PE's
-    /// work list ([`Pe::merge_step_sparse`]). What it skips is zero, so
+    /// work list ([`Pe::pass_step_sparse`] of a [`MergePass`]). What it skips is zero, so
     /// the children's words equal the dense merge's.
     fn merge_sparse(
         &mut self,
@@ -368,7 +314,7 @@ impl Array {
                 back: bg,
                 front: fg,
             },
-            |pe, bus, links, out| pe.merge_step_sparse(dp, bus, links, (bg, fg), out),
+            |pe, bus, links, out| pe.pass_step_sparse(&MergePass { bg, fg }, dp, bus, links, out),
             Broadcast::EndMerge,
         )?;
         Ok((reads, written(self) - before))

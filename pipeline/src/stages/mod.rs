@@ -13,7 +13,8 @@
 //!   reads every accumulator.
 //! - [`merge`], [`split`], [`fold`]: the region-boundary filters, each an
 //!   x pass (edge rays over the ports) into a line buffer and a y pass out
-//!   of it, scheduled by [`passes`].
+//!   of it, one [`boundary::BoundaryPass`] each, clocked by
+//!   [`boundary`] and scheduled by [`passes`].
 //! - [`readout`]: each PE streams its rays to the host.
 //! - [`raybuf`]: with the rays' buffer in external memory, the channel
 //!   every row's rays cross, and the waits for it.
@@ -21,6 +22,7 @@
 //! Which stages run in which order is the frame's schedule, in
 //! [`crate::schedule`].
 
+pub mod boundary;
 pub mod drain;
 pub mod fold;
 pub mod merge;

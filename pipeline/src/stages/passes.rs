@@ -23,8 +23,9 @@
 
 use golden::geometry::RayGrid;
 
+use super::boundary::Edges;
+
 use crate::array::{Array, Links, RunError};
-use crate::datapath::Acc;
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
 
@@ -84,6 +85,30 @@ impl LineBuffer {
             .any(|row| (0..prows).contains(&row) && self.holds(row as usize, c))
     }
 
+    /// The y pass's `N` taps of child `c`: parent rows `rows` (relative to
+    /// the parent grid; rows outside its `prows` read zero), each through
+    /// [`LineBuffer::read`], or [`LineBuffer::read_sparse`] when `sparse`.
+    pub(crate) fn taps<const N: usize>(
+        &self,
+        pe: usize,
+        rows: [i64; N],
+        prows: i64,
+        c: usize,
+        sparse: bool,
+    ) -> Result<[[i64; 4]; N], StepError> {
+        let mut taps = [[0i64; 4]; N];
+        for (t, row) in taps.iter_mut().zip(rows) {
+            if (0..prows).contains(&row) {
+                *t = if sparse {
+                    self.read_sparse(pe, row as usize, c)?
+                } else {
+                    self.read(pe, row as usize, c)?
+                };
+            }
+        }
+        Ok(taps)
+    }
+
     /// The sparse y pass's read: entry `c` of parent row `row`, zero when
     /// the x pass left it unwritten (the entry is empty or holds an older
     /// row); a newer row there means the schedule overran the buffer.
@@ -121,12 +146,9 @@ pub struct PassState {
     /// Sparse merge: this slot's work list, formed in its first cycle
     /// from the valid bits (one entry a cycle, ascending columns).
     pub(crate) slot: Vec<SlotWork>,
-    /// Sparse merge: the neighbours' edge rays of the slot's parent row
-    /// (left, right), latched in its first cycle.
-    pub(crate) edge_in: (Acc, Acc),
-    /// Sparse split and fold: the indices of the edge rays latched with
-    /// them (left, right).
-    pub(crate) edge_mx: (Option<i64>, Option<i64>),
+    /// Sparse passes: the neighbours' edge rays of the slot's parent row,
+    /// latched in its first cycle ([`Pe::pass_step_sparse`]).
+    pub edges: Edges,
 }
 
 impl PassState {

@@ -11,8 +11,9 @@
 
 use golden::geometry::RayGrid;
 
+use super::boundary::{BoundaryPass, Edges};
 use super::passes::{inside, plan_slots_where, PassBus};
-use crate::array::{clamp, Array, Links, RunError};
+use crate::array::{clamp, Array, RunError};
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
@@ -94,79 +95,97 @@ impl Pe {
         Ok((a, b))
     }
 
-    /// One split clock: the y pass writes child `col` of child row `bus.y`
-    /// (the mean of parent rows `floor(my / 2)` and the next when `my` is
-    /// odd) with its inherited state and termination flag, then the x pass
-    /// forms child `col` of parent row `bus.x` into the line buffer.
-    pub fn split_step(
-        &mut self,
+    /// Ends a split: the parents' final states are kept for the fold and
+    /// the children become the held columns.
+    pub fn end_split(&mut self) {
+        let next = std::mem::take(&mut self.pass.next);
+        let parents = std::mem::take(&mut self.rays);
+        self.finals.push(parents.into());
+        self.set_rays(next);
+    }
+}
+
+/// The split as a [`BoundaryPass`]: the front grid `fg`'s rays (the
+/// parents) into the back grid `bg`'s. A child's second parent beyond the
+/// held span is the right neighbour's edge ray, found by its index.
+#[derive(Debug, Clone, Copy)]
+pub struct SplitPass<'a> {
+    /// The front grid (the parents, the x pass's rows).
+    pub fg: &'a RayGrid,
+    /// The back grid (the children).
+    pub bg: &'a RayGrid,
+}
+
+impl BoundaryPass for SplitPass<'_> {
+    /// The mean of child `c`'s two parents in parent row `q` into the line
+    /// buffer.
+    fn x(
+        &self,
+        pe: &mut Pe,
         dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        (fg, bg): (&RayGrid, &RayGrid),
-        out: &mut Ports,
+        c: usize,
+        q: usize,
+        edges: Edges,
     ) -> Result<(), StepError> {
-        let c = bus.col;
-        let right = (links.from_right.edge_acc, links.from_right.edge_mx);
-        if let Some(i) = bus.y.filter(|_| c < self.pass.children.len()) {
-            self.split_y(dp, c, i, (fg, bg), false)?;
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let fg = self.fg;
+        let (a, b) = pe.split_parents(c, q, (fg.lo[0], fg.hi[0]), edges.right)?;
+        let mut out = [0i64; 4];
+        for (ch, o) in out.iter_mut().enumerate() {
+            let f = if ch < 3 { fc } else { fa };
+            *o = dp
+                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut pe.model.stats)
+                .raw();
         }
-        if let Some(q) = bus.x.filter(|_| c < self.pass.children.len()) {
-            self.split_x(dp, c, q, fg, right)?;
-        }
-        self.split_ports(bus, out);
+        pe.pass.line.write(q, c, out);
         Ok(())
     }
 
-    /// One clock of the sparse split (`pass_skip_empty`), as
-    /// [`Pe::merge_step_sparse`]: the slot's first cycle latches the right
-    /// neighbour's edge ray and forms the work list (children with a
-    /// non-zero parent in the x row, or a valid line-buffer entry for the
-    /// y row); children left out stay transparent, live and inheriting
-    /// nothing, which is what the dense split writes for them.
-    pub fn split_step_sparse(
-        &mut self,
+    /// Child `c` of child row `i`: the mean of its parent rows
+    /// `floor(my / 2)` and, when `my` is odd, the next, from the line
+    /// buffer, with its inherited state and termination flag.
+    fn y(
+        &self,
+        pe: &mut Pe,
         dp: &Datapath,
-        bus: &PassBus,
-        links: Links<'_>,
-        (fg, bg): (&RayGrid, &RayGrid),
-        out: &mut Ports,
+        c: usize,
+        i: usize,
+        sparse: bool,
     ) -> Result<(), StepError> {
-        if bus.col == 0 {
-            self.pass.edge_in.1 = links.from_right.edge_acc;
-            self.pass.edge_mx.1 = links.from_right.edge_mx;
-            self.plan_split_slot(bus, (fg, bg))?;
+        let (fg, bg) = (self.fg, self.bg);
+        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let prows = fg.counts()[1] as i64;
+        let my = bg.lo[1] + i as i64;
+        let py = my.div_euclid(2);
+        let rows = [py, py + my.rem_euclid(2)].map(|p| p - fg.lo[1]);
+        let taps = pe.pass.line.taps(pe.k, rows, prows, c, sparse)?;
+        let col = &mut pe.pass.next[c];
+        for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
+            let to = if ch < 3 { fc } else { fa };
+            *o = dp
+                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut pe.model.stats)
+                .raw();
         }
-        let right = (self.pass.edge_in.1, self.pass.edge_mx.1);
-        if let Some(&(c, x, y)) = self.pass.slot.get(bus.col) {
-            if let Some(i) = bus.y.filter(|_| y) {
-                self.split_y(dp, c, i, (fg, bg), true)?;
-            }
-            if let Some(q) = bus.x.filter(|_| x) {
-                self.split_x(dp, c, q, fg, right)?;
-            }
-        }
-        self.split_ports(bus, out);
+        col.ftb[i] = FtbState {
+            inh: col.acc[i],
+            // A child of terminated parents is terminated: the
+            // comparator checks every child as it is written.
+            done: dp.terminated(&col.acc[i]),
+        };
+        pe.counters.split_outputs += 1;
         Ok(())
     }
 
-    /// What the PE drives in a split cycle.
-    fn split_ports(&self, bus: &PassBus, out: &mut Ports) {
-        if let Some(r) = bus.drive {
-            self.split_drive(r, out);
-        }
-    }
-
-    /// The sparse split's work list for the slot on `bus`.
-    fn plan_split_slot(
-        &mut self,
-        bus: &PassBus,
-        (fg, bg): (&RayGrid, &RayGrid),
-    ) -> Result<(), StepError> {
+    /// Children with a non-zero parent in the x row, or a valid
+    /// line-buffer entry for the y row; children left out stay
+    /// transparent, live and inheriting nothing, which is what the dense
+    /// split writes for them.
+    fn work_list(&self, pe: &mut Pe, bus: &PassBus) -> Result<(), StepError> {
+        let (fg, bg) = (self.fg, self.bg);
         let prows = fg.counts()[1] as i64;
         let grid = (fg.lo[0], fg.hi[0]);
-        let right = (self.pass.edge_in.1, self.pass.edge_mx.1);
-        self.set_work_list(|pe, c| {
+        let right = pe.pass.edges.right;
+        pe.set_work_list(|pe, c| {
             let x = match bus.x {
                 Some(q) => {
                     let (a, b) = pe.split_parents(c, q, grid, right)?;
@@ -185,78 +204,9 @@ impl Pe {
         })
     }
 
-    /// The y pass for child `c` of child row `i`: the mean of its parent
-    /// rows from the line buffer, with the inherited state and the flag.
-    fn split_y(
-        &mut self,
-        dp: &Datapath,
-        c: usize,
-        i: usize,
-        (fg, bg): (&RayGrid, &RayGrid),
-        sparse: bool,
-    ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
-        let prows = fg.counts()[1] as i64;
-        let my = bg.lo[1] + i as i64;
-        let py = my.div_euclid(2);
-        let mut taps = [[0i64; 4]; 2];
-        for (t, p) in taps.iter_mut().zip([py, py + my.rem_euclid(2)]) {
-            let row = p - fg.lo[1];
-            if (0..prows).contains(&row) {
-                *t = if sparse {
-                    self.pass.line.read_sparse(self.k, row as usize, c)?
-                } else {
-                    self.pass.line.read(self.k, row as usize, c)?
-                };
-            }
-        }
-        let col = &mut self.pass.next[c];
-        for (ch, o) in col.acc[i].raw.iter_mut().enumerate() {
-            let to = if ch < 3 { fc } else { fa };
-            *o = dp
-                .halve([taps[0][ch], taps[1][ch]], fm, to, &mut self.model.stats)
-                .raw();
-        }
-        col.ftb[i] = FtbState {
-            inh: col.acc[i],
-            // A child of terminated parents is terminated: the
-            // comparator checks every child as it is written.
-            done: dp.terminated(&col.acc[i]),
-        };
-        self.counters.split_outputs += 1;
-        Ok(())
-    }
-
-    /// The x pass for child `c` of parent row `q`: the mean of its two
-    /// parents into the line buffer.
-    fn split_x(
-        &mut self,
-        dp: &Datapath,
-        c: usize,
-        q: usize,
-        fg: &RayGrid,
-        right: (Acc, Option<i64>),
-    ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
-        let (a, b) = self.split_parents(c, q, (fg.lo[0], fg.hi[0]), right)?;
-        let mut out = [0i64; 4];
-        for (ch, o) in out.iter_mut().enumerate() {
-            let f = if ch < 3 { fc } else { fa };
-            *o = dp
-                .halve([a.raw[ch], b.raw[ch]], f, fm, &mut self.model.stats)
-                .raw();
-        }
-        self.pass.line.write(q, c, out);
-        Ok(())
-    }
-
-    /// Ends a split: the parents' final states are kept for the fold and
-    /// the children become the held columns.
-    pub fn end_split(&mut self) {
-        let next = std::mem::take(&mut self.pass.next);
-        let parents = std::mem::take(&mut self.rays);
-        self.finals.push(parents.into());
-        self.set_rays(next);
+    /// [`Pe::split_drive`].
+    fn drive(&self, pe: &mut Pe, _dp: &Datapath, row: usize, out: &mut Ports) {
+        pe.split_drive(row, out);
     }
 }
 
@@ -288,7 +238,7 @@ impl Array {
                 front: fg,
                 back: bg,
             },
-            |pe, bus, links, out| pe.split_step(&dp, bus, links, (fg, bg), out),
+            |pe, bus, links, out| pe.pass_step(&SplitPass { fg, bg }, &dp, bus, links, out),
             Broadcast::EndSplit,
         )?;
         Ok((rays(fg), rays(bg)))
@@ -331,7 +281,7 @@ impl Array {
                 front: fg,
                 back: bg,
             },
-            |pe, bus, links, out| pe.split_step_sparse(dp, bus, links, (fg, bg), out),
+            |pe, bus, links, out| pe.pass_step_sparse(&SplitPass { fg, bg }, dp, bus, links, out),
             Broadcast::EndSplit,
         )?;
         Ok((reads, written(self) - before))

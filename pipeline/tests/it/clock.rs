@@ -251,18 +251,19 @@ fn target_mhz_is_validated() {
 /// `compile_fail` example of a step that tries).
 #[test]
 fn steps_see_only_their_own_state_and_links() {
-    type PassStep<G> = for<'l, 'o> fn(
+    type PassStep<P> = for<'l, 'o> fn(
         &mut Pe,
+        &P,
         &Datapath,
         &PassBus,
         Links<'l>,
-        G,
         &'o mut Ports,
     ) -> Result<(), StepError>;
-    type Grids<'a> = (&'a golden::geometry::RayGrid, &'a golden::geometry::RayGrid);
-    let merge: PassStep<Grids> = Pe::merge_step;
-    let split: PassStep<Grids> = Pe::split_step;
-    let fold: PassStep<pipeline::stages::fold::FoldGrids> = Pe::fold_step;
+    use pipeline::stages::{fold::FoldGrids, merge::MergePass, split::SplitPass};
+    let merge: PassStep<MergePass> = Pe::pass_step;
+    let split: PassStep<SplitPass> = Pe::pass_step;
+    let fold: PassStep<FoldGrids> = Pe::pass_step;
+    let sparse: PassStep<FoldGrids> = Pe::pass_step_sparse;
     type SampleStep = for<'l, 'o> fn(
         &mut Pe,
         &Datapath,
@@ -282,6 +283,7 @@ fn steps_see_only_their_own_state_and_links() {
         merge as usize,
         split as usize,
         fold as usize,
+        sparse as usize,
         sample as usize,
         stall as usize,
         readout as usize,
