@@ -374,6 +374,7 @@ pub fn every_signal_has_a_field(signals: &SignalSet) -> Result<(), String> {
             name,
             group: "",
             width,
+            signed: false,
             value: 0,
         };
         if !fill(&mut pe, &s) {

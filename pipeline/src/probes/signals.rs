@@ -24,6 +24,9 @@ pub struct Signal {
     pub group: &'static str,
     /// Its width in bits.
     pub width: u32,
+    /// Whether its word is two's complement over `width` (a ray index, a
+    /// word of a signed format).
+    pub signed: bool,
     /// Its value: the low `width` bits, two's complement for a signed
     /// word, as the waveform holds it.
     pub value: u64,
@@ -82,6 +85,7 @@ impl SignalSet {
                 name: p.name,
                 group: p.group.name,
                 width: (p.width)(&self.cfg),
+                signed: (p.signed)(&self.cfg),
                 value: (p.read)(state),
             });
         }
@@ -124,16 +128,23 @@ impl SignalSet {
     /// order the waveform declares them.
     pub fn pe(&self, pe: &PeCycle) -> Vec<Signal> {
         let mut out = Vec::new();
-        self.read("", PE_PROBES, &pe.view, &mut out);
+        self.pe_into(pe, &mut out);
+        out
+    }
+
+    /// [`SignalSet::pe`] into `out` (cleared first), so a caller reading
+    /// every cycle reuses one buffer.
+    pub fn pe_into(&self, pe: &PeCycle, out: &mut Vec<Signal>) {
+        out.clear();
+        self.read("", PE_PROBES, &pe.view, out);
         for (scope, port) in [("left", pe.ports.left), ("right", pe.ports.right)] {
             let view = PortView {
                 port,
                 color: link_color(&self.cfg),
                 alpha: link_alpha(&self.cfg),
             };
-            self.read(scope, PORT_PROBES, &view, &mut out);
+            self.read(scope, PORT_PROBES, &view, out);
         }
-        self.read("host", HOST_PROBES, &pe.ports.host, &mut out);
-        out
+        self.read("host", HOST_PROBES, &pe.ports.host, out);
     }
 }
