@@ -117,7 +117,7 @@ impl Layout {
         }
     }
 
-    /// A PE's record in a frame of `set`: its signals (`busy`, ...,
+    /// A PE's record in `cycle`'s frame: its signals (`busy`, ...,
     /// `left.ray_valid`, ..., `host.r`) then its report lines
     /// (`report.drained_at`, ...).
     pub fn pe(cycle: &Cycle) -> Layout {
@@ -221,7 +221,8 @@ pub(crate) fn array<'py>(
         .call_method1("frombuffer", (bytes, dtype))
 }
 
-/// The signals set of a cycle, for matching a cached layout.
+/// Whether `a` is a cycle of the frame whose signals are `b` (a cached
+/// layout still fits).
 pub(crate) fn same_set(a: &Cycle, b: &std::sync::Arc<SignalSet>) -> bool {
     std::sync::Arc::ptr_eq(&a.signals, b)
 }

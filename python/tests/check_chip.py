@@ -121,6 +121,14 @@ def main() -> int:
     except ercube.Error as e:
         print(f"unknown signal: {str(e)[:60]}...")
     chip2.finish()
+    # A whole frame's trace: the PEs' busy cycles are the stats' samples.
+    chip2.begin(voxels, **kw)
+    whole = chip2.run(10**9, signals=["busy"])
+    busy = int(whole["busy"].sum())
+    if len(whole["cycle"]) != stats["cycles"] or busy != stats["samples_total"] or not chip2.done:
+        print(f"FAIL: Chip.run of the whole frame: {len(whole['cycle'])} cycles, {busy} busy")
+        return 1
+    print(f"Chip.run of the whole frame: {busy} busy PE cycles, the stats' samples_total")
 
     chip.begin(voxels, **kw)
     while not chip.done:

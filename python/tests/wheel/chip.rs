@@ -125,5 +125,6 @@ fn the_python_chip_steps_the_waveforms_cycles() {
     );
     assert!(text.contains("raw words equal --raw-npy's"), "{text}");
     assert!(text.contains("Chip.run traced"), "{text}");
+    assert!(text.contains("the stats' samples_total"), "{text}");
     let _: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
 }
