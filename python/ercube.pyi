@@ -67,6 +67,9 @@ def render(
     clear_cache() gives the memory back.
     """
 
+STAGES: List[str]
+"""The controller's stages by code: STAGES[Chip.broadcast()["stage"]]."""
+
 def clear_cache() -> None:
     """Drops the volume and preparation kept from the last render or
     Chip.run_frame call."""
@@ -75,7 +78,9 @@ class Chip:
     """The bit-accurate PE array with one configuration.
 
     Runs whole frames (run_frame) or steps one clock at a time: begin(),
-    then step(), ports() and broadcast() after each step, and finish(). A
+    then step(), ports(), broadcast() and commands() after each step, or
+    run(cycles, signals) for a trace of many cycles as arrays, and
+    finish(). A
     stepped frame runs on a worker thread that hands over after every
     cycle: the same cycles, and every PE's values, as the frame
     `ercube render --vcd` traces.
@@ -147,27 +152,52 @@ class Chip:
     def cycle(self) -> int:
         """The number of the last cycle clocked (0 before the first)."""
 
-    def ports(self) -> List[dict[str, Any]]:
-        """Every PE in the last cycle clocked, in PE order.
+    def ports(self) -> npt.NDArray[np.void]:
+        """Every PE in the last cycle clocked: a numpy structured array, one
+        record per PE in PE order.
 
-        Each a dict of its signals named as the waveform names them below
-        top.pe_K ("busy", "sample", "acc_r", ..., "left.ray_valid",
-        "left.ray_r", "right.edge_0", "host.valid", "host.r", ...), raw
-        words (two's complement over the signal's width), and "report": its
-        report lines to the controller ("drained_at", "lands_by", "settled",
-        "readout_done", "active", "pass_width", "slot_work",
-        "merge_outputs", "split_outputs").
+        A field per signal, named as the waveform names it below top.pe_K
+        ("busy", "ray_mx", "sample", "acc_r", ..., "left.ray_valid",
+        "left.ray_r", "right.edge_0", "host.valid", "host.r", ...), then the
+        report lines to the controller ("report.drained_at",
+        "report.lands_by", "report.settled", "report.readout_done",
+        "report.active", "report.pass_width", "report.slot_work",
+        "report.merge_outputs", "report.split_outputs"). Each field is the
+        smallest numpy integer holding the signal's width (uint8 to uint64;
+        int8 to int64 where the word is two's complement: ray indices,
+        words of signed formats); dtype.metadata["bits"][name] is the
+        width. ports()["acc_r"] is every PE's acc_r; ports()[k] PE k's
+        record. One copy per call.
         """
 
-    def broadcast(self) -> dict[str, Any]:
-        """The controller in the last cycle clocked.
+    def broadcast(self) -> np.void:
+        """The controller in the last cycle clocked: a numpy record.
 
-        Its signals as the waveform names them below top.ctrl ("stage",
-        "slice", "row", "pass_x_valid", "pass_x", "pass_y_valid", "pass_y",
-        "pass_col", "drive_valid", "drive_row"), "cycle", "stage_name", and
-        "commands": the commands broadcast to every PE since the previous
-        cycle, each (name, a, b), e.g. ("begin_slice", first ray, last
-        ray), ("plan_rows", first row, rows), ("begin_row", row, 0).
+        Fields "cycle", then its signals as the waveform names them below
+        top.ctrl ("stage", "slice", "row", "pass_x_valid", "pass_x",
+        "pass_y_valid", "pass_y", "pass_col", "drive_valid", "drive_row"),
+        each the smallest numpy integer holding its width.
+        STAGES[record["stage"]] names the stage.
+        """
+
+    def commands(self) -> List[Tuple[str, int, int]]:
+        """The commands the controller broadcast to every PE before the
+        last cycle clocked (since the previous cycle), each (name, a, b),
+        e.g. ("begin_slice", first ray, last ray), ("plan_rows", first row,
+        rows), ("begin_row", row, 0)."""
+
+    def run(
+        self, cycles: int, signals: Optional[Sequence[str]] = None
+    ) -> dict[str, npt.NDArray[Any]]:
+        """Clocks up to cycles cycles (the GIL released) and returns the
+        chosen signals of every cycle clocked, as arrays by name.
+
+        A PE's signal or report line (a ports() field name) is a 2-D array
+        (cycle, PE); the controller's, named "ctrl.stage", "ctrl.row", ...,
+        a 1-D array; "cycle" (the cycles' numbers) is always there. The
+        dtypes are ports()'s and broadcast()'s fields'. signals=None takes
+        every signal. Fewer rows than cycles when the frame ends. An
+        unknown name raises Error listing the frame's signals.
         """
 
     def finish(

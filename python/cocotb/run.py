@@ -3,16 +3,22 @@
 usage: python run.py --unit composite [--order btf] [--config FILE]
            [--tf grey-ramp] [--verilog FILE --top MODULE] [--samples N]
            [--bubbles PERCENT] [--seed S] [--build-dir DIR]
+       python run.py --vectors DIR [--pes 0,3] [--order btf] [--config FILE]
+           [--verilog FILE --top MODULE] [--build-dir DIR]
 
 --unit sample is the whole pipelined datapath, ercube_sample (test_sample.py;
 emitted by ercube.Datapath.pipelined); the cuts (bilinear, composite) are
-test_unit.py's, emitted by ercube.Datapath.verilog. --verilog FILE --top
-MODULE takes a module with the same ports instead.
+test_unit.py's, emitted by ercube.Datapath.verilog. --vectors DIR replays
+a real frame's captured issue stream (the files `ercube vectors --out-dir
+DIR` writes) of the PEs --pes into the vectors' ercube_sample.v
+(test_frame.py); give the frame's --order and --config. --verilog FILE
+--top MODULE takes a module with the same ports instead.
 Prints the result; exit status 1 when a sample differs from the model.
 Needs cocotb 2.x and the ercube module in this Python, and iverilog.
 """
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -33,14 +39,24 @@ def main():
     ap.add_argument("--samples", type=int, default=2000)
     ap.add_argument("--bubbles", type=int, default=25, help="percent of cycles (whole sample)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--vectors", help="a directory of `ercube vectors` files (a frame's stream)")
+    ap.add_argument("--pes", default="0", help="the PEs whose streams --vectors replays, e.g. 0,3")
     ap.add_argument("--build-dir", default="cocotb_build")
     a = ap.parse_args()
+    if a.vectors:
+        a.unit = "sample"
     build = Path(a.build_dir).resolve()
     build.mkdir(parents=True, exist_ok=True)
     if a.verilog:
         source, top = Path(a.verilog).resolve(), a.top
         if not top:
             ap.error("--verilog needs --top MODULE")
+    elif a.vectors:
+        man = Path(a.vectors) / "manifest.json"
+        if not man.is_file():
+            ap.error(f"--vectors {a.vectors}: no manifest.json (write it with ercube vectors --out-dir)")
+        manifest = json.loads(man.read_text())
+        source, top = (Path(a.vectors) / manifest["verilog"]).resolve(), manifest["module"]
     else:
         config = open(a.config).read() if a.config else None
         top = f"ercube_{a.unit}"
@@ -66,9 +82,14 @@ def main():
     }
     if a.config:
         env["ERCUBE_CONFIG"] = str(Path(a.config).resolve())
+    module = "test_sample" if a.unit == "sample" else "test_unit"
+    if a.vectors:
+        env["ERCUBE_VECTORS"] = str(Path(a.vectors).resolve())
+        env["ERCUBE_PES"] = a.pes
+        module = "test_frame"
     xml = runner.test(
         hdl_toplevel=top,
-        test_module="test_sample" if a.unit == "sample" else "test_unit",
+        test_module=module,
         test_dir=Path(__file__).resolve().parent,
         build_dir=build,
         extra_env=env,

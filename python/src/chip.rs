@@ -5,15 +5,17 @@
 //! (`pipeline::stepper`), so the cycles and every PE's values are those
 //! of the frame `ercube render --vcd` traces.
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use golden::volume::Volume;
+use pipeline::probes::SignalSet;
 use pipeline::stepper::Cycle;
 
-use crate::{error, outputs, run, volume_of, Error, View};
+use crate::records::{self, Layout};
+use crate::{error, outputs, run, trace, volume_of, Error, View};
 
 /// A frame being stepped: the stepper while it runs, then its render.
 #[derive(Default)]
@@ -24,9 +26,62 @@ struct Stepping {
     /// The frame's render, once it ended.
     result: Option<Result<ercube::frame::Rendered, PyErr>>,
     cycles: u64,
+    /// The records' layouts and numpy dtypes of the frame's signals.
+    layouts: Option<Layouts>,
+}
+
+/// The layouts of a frame's records and their numpy dtypes.
+struct Layouts {
+    signals: Arc<SignalSet>,
+    pe: Layout,
+    ctrl: Layout,
+    pe_dtype: Py<PyAny>,
+    ctrl_dtype: Py<PyAny>,
 }
 
 impl Stepping {
+    /// Refuses a frame that failed (its error) or was never begun.
+    fn check(&self, py: Python<'_>) -> PyResult<()> {
+        if let Some(Err(e)) = &self.result {
+            return Err(e.clone_ref(py));
+        }
+        if self.stepper.is_none() && self.result.is_none() {
+            return Err(Error::new_err("no frame: call Chip.begin first"));
+        }
+        Ok(())
+    }
+
+    /// The stepper has no cycle left: keeps its last cycle and its render.
+    fn end(&mut self) {
+        if let Some(s) = self.stepper.take() {
+            self.last = s.current().cloned();
+            self.result = Some(finished(s));
+        }
+    }
+
+    /// The current cycle and the layouts of its frame's records (made at
+    /// the frame's first call).
+    fn layouts(&mut self, py: Python<'_>) -> PyResult<(&Cycle, &Layouts)> {
+        let cycle = self.current()?;
+        let fresh = match &self.layouts {
+            Some(l) => !records::same_set(cycle, &l.signals),
+            None => true,
+        };
+        if fresh {
+            let (pe, ctrl) = (Layout::pe(cycle), Layout::ctrl(cycle));
+            let signals = Arc::clone(&cycle.signals);
+            self.layouts = Some(Layouts {
+                pe_dtype: pe.dtype(py)?.unbind(),
+                ctrl_dtype: ctrl.dtype(py)?.unbind(),
+                signals,
+                pe,
+                ctrl,
+            });
+        }
+        let l = self.layouts.as_ref().expect("made above");
+        Ok((self.current()?, l))
+    }
+
     /// The last cycle clocked.
     fn current(&self) -> PyResult<&Cycle> {
         self.stepper
@@ -199,24 +254,17 @@ impl Chip {
     #[pyo3(signature = (n=1))]
     fn step(&self, py: Python<'_>, n: u64) -> PyResult<u64> {
         let mut st = self.stepping()?;
-        if let Some(Err(e)) = &st.result {
-            return Err(e.clone_ref(py));
-        }
-        if st.stepper.is_none() && st.result.is_none() {
-            return Err(Error::new_err("no frame: call Chip.begin first"));
-        }
+        st.check(py)?;
         let st = &mut *st;
         py.detach(|| {
-            let Some(s) = st.stepper.as_mut() else {
-                return;
-            };
             for _ in 0..n {
+                let Some(s) = st.stepper.as_mut() else {
+                    return;
+                };
                 match s.step() {
                     Some(c) => st.cycles = c.number,
                     None => {
-                        let s = st.stepper.take().expect("stepping it");
-                        st.last = s.current().cloned();
-                        st.result = Some(finished(s));
+                        st.end();
                         return;
                     }
                 }
@@ -240,62 +288,99 @@ impl Chip {
         Ok(self.stepping()?.cycles)
     }
 
-    /// Every PE in the last cycle clocked, in PE order: a dict per PE of
-    /// its signals, named as the waveform names them below `top.pe_K`
-    /// (`busy`, `acc_r`, ..., `left.ray_valid`, `right.edge_0`,
-    /// `host.r`, ...; raw words, two's complement over their width), and
-    /// `report`, a dict of its report lines to the controller.
-    fn ports<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        let st = self.stepping()?;
-        let cycle = st.current()?;
-        let list = PyList::empty(py);
-        for pe in &cycle.pes {
-            let d = PyDict::new(py);
-            for s in cycle.signals.pe(pe) {
-                if s.scope.is_empty() {
-                    d.set_item(s.name, s.value)?;
-                } else {
-                    d.set_item(format!("{}.{}", s.scope, s.name), s.value)?;
-                }
-            }
-            let r = pe.report;
-            let report = PyDict::new(py);
-            report.set_item("drained_at", r.drained_at)?;
-            report.set_item("lands_by", r.lands_by)?;
-            report.set_item("settled", r.settled)?;
-            report.set_item("readout_done", r.readout_done)?;
-            report.set_item("active", r.active)?;
-            report.set_item("pass_width", r.pass_width)?;
-            report.set_item("slot_work", r.slot_work)?;
-            report.set_item("merge_outputs", r.merge_outputs)?;
-            report.set_item("split_outputs", r.split_outputs)?;
-            d.set_item("report", report)?;
-            list.append(d)?;
-        }
-        Ok(list)
+    /// Every PE in the last cycle clocked, in PE order, as a numpy
+    /// structured array (one record per PE): a field per signal, named as
+    /// the waveform names it below `top.pe_K` (`busy`, `acc_r`, ...,
+    /// `left.ray_valid`, `right.edge_0`, `host.r`, ...), then the report
+    /// lines (`report.drained_at`, ...). Each field is the smallest numpy
+    /// integer holding the signal's width (`dtype.metadata["bits"]`),
+    /// signed where the word is two's complement.
+    fn ports<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut st = self.stepping()?;
+        let st = &mut *st;
+        let (cycle, layouts) = st.layouts(py)?;
+        let mut values = Vec::new();
+        records::pe_values(cycle, &mut Vec::new(), &mut values);
+        records::array(py, &layouts.pe, layouts.pe_dtype.bind(py), &values)
     }
 
-    /// The controller in the last cycle clocked: its signals as the
-    /// waveform names them below `top.ctrl` (`stage`, `slice`, `row`,
-    /// `pass_x_valid`, ...), `cycle`, `stage_name`, and `commands`, the
-    /// commands it broadcast to every PE since the previous cycle, each a
-    /// tuple `(name, a, b)` (see docs/verify.md).
-    fn broadcast<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    /// The controller in the last cycle clocked, as a numpy record
+    /// (`numpy.void`): `cycle`, then its signals as the waveform names
+    /// them below `top.ctrl` (`stage`, `slice`, `row`, `pass_x_valid`,
+    /// ...), each the smallest numpy integer holding its width.
+    /// `ercube.STAGES[record["stage"]]` names the stage.
+    fn broadcast<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut st = self.stepping()?;
+        let st = &mut *st;
+        let (cycle, layouts) = st.layouts(py)?;
+        let mut values = Vec::new();
+        records::ctrl_values(cycle, &mut values);
+        records::array(py, &layouts.ctrl, layouts.ctrl_dtype.bind(py), &values)?.get_item(0)
+    }
+
+    /// The commands the controller broadcast to every PE before the last
+    /// cycle clocked (since the previous cycle), in order, each a tuple
+    /// `(name, a, b)` (see docs/verify.md).
+    fn commands<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let st = self.stepping()?;
         let cycle = st.current()?;
-        let d = PyDict::new(py);
-        d.set_item("cycle", cycle.number)?;
-        for s in cycle.signals.ctrl(&cycle.ctrl) {
-            d.set_item(s.name, s.value)?;
-        }
-        d.set_item("stage_name", cycle.ctrl.stage.name())?;
         let cmds = PyList::empty(py);
         for c in &cycle.commands {
             let (_, a, b) = c.words();
             cmds.append((c.name(), a, b))?;
         }
-        d.set_item("commands", cmds)?;
-        Ok(d)
+        Ok(cmds)
+    }
+
+    /// Clocks up to `cycles` cycles (the GIL released) and returns the
+    /// chosen signals of every cycle clocked as numpy arrays by name: a
+    /// PE's signal or report line (`ports()`'s field names) as a 2-D
+    /// array `(cycle, PE)`, the controller's as `ctrl.NAME` (`ctrl.stage`,
+    /// ...) a 1-D array, and always `cycle`, the cycles' numbers. `signals`
+    /// None takes every one. Fewer rows than `cycles` when the frame ends.
+    #[pyo3(signature = (cycles, signals=None))]
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        cycles: u64,
+        signals: Option<Vec<String>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut st = self.stepping()?;
+        st.check(py)?;
+        let st = &mut *st;
+        let mut trace: Option<trace::Trace> = None;
+        let made = py.detach(|| -> Result<(), String> {
+            for _ in 0..cycles {
+                let Some(s) = st.stepper.as_mut() else {
+                    break;
+                };
+                match s.step() {
+                    Some(c) => {
+                        st.cycles = c.number;
+                        let t = match &mut trace {
+                            Some(t) => t,
+                            None => trace.insert(trace::Trace::new(c, signals.as_deref())?),
+                        };
+                        t.record(c);
+                    }
+                    None => {
+                        st.end();
+                        break;
+                    }
+                }
+            }
+            Ok(())
+        });
+        made.map_err(Error::new_err)?;
+        let t = match trace {
+            Some(t) => t,
+            // Nothing clocked: the frame had ended; empty columns.
+            None => trace::Trace::new(st.current()?, signals.as_deref()).map_err(Error::new_err)?,
+        };
+        if let Some(Err(e)) = &st.result {
+            return Err(e.clone_ref(py));
+        }
+        t.into_dict(py)
     }
 
     /// Runs the rest of the frame (the GIL released) and returns `(image,

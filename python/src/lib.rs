@@ -19,6 +19,8 @@ use golden::volume::{Volume, Voxels};
 
 mod chip;
 mod datapath;
+mod records;
+mod trace;
 
 create_exception!(
     ercube,
@@ -295,6 +297,12 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(clear_cache, m)?)?;
+    // The controller's stages by code (`Chip.broadcast()["stage"]`).
+    let mut stages = vec![""; pipeline::probes::Stage::ALL.len()];
+    for s in pipeline::probes::Stage::ALL {
+        stages[s.code() as usize] = s.name();
+    }
+    m.add("STAGES", stages)?;
     m.add_class::<chip::Chip>()?;
     m.add_class::<datapath::Datapath>()?;
     Ok(())

@@ -7,7 +7,10 @@ CASE.json holds the frame ("scene", "kwargs" for Chip.begin), the values
 "ctrl": {name: value}, "pes": [{name: value}, ...]}], names below top.ctrl
 and top.pe_K), and the command line's "raw" (--raw-npy) and "stats"
 (--stats) files. Steps the frame to each cycle and requires Chip.ports()
-and Chip.broadcast() to hold the traced values; steps to the end and
+(a structured array, one record per PE) and Chip.broadcast() (a record) to
+hold the traced values, bit pattern for bit pattern, in fields wide enough;
+requires Chip.run's trace of the same frame to hold ports()'s values at
+those cycles; steps to the end and
 requires the cycle count to be the statistics' and finish()'s raw words to
 be --raw-npy's and run_frame's. Prints one line per check; exits 1 on a
 mismatch.
@@ -19,6 +22,12 @@ import sys
 import numpy as np
 
 import ercube
+
+
+def pattern(value, bits: int) -> int:
+    """A field's value as the waveform's bit pattern (two's complement
+    over the signal's width)."""
+    return int(value) & ((1 << bits) - 1)
 
 
 def main() -> int:
@@ -43,6 +52,7 @@ def main() -> int:
 
     chip.begin(voxels, **kw)
     assert chip.cycle == 0 and not chip.done
+    checked = []
     for want in case["cycles"]:
         c = want["cycle"]
         got = chip.step(c - chip.cycle)
@@ -51,16 +61,76 @@ def main() -> int:
             return 1
         ports = chip.ports()
         bc = chip.broadcast()
-        bad = [n for n, v in want["ctrl"].items() if bc[n] != v]
+        bits = ports.dtype.metadata["bits"]
+        if ports.shape != (len(want["pes"]),):
+            print(f"FAIL cycle {c}: ports() has shape {ports.shape}")
+            return 1
+        bad = [n for n, v in want["ctrl"].items() if pattern(bc[n], bc.dtype.metadata["bits"][n]) != v]
         for k, pe in enumerate(want["pes"]):
-            bad += [f"pe_{k}.{n}: {ports[k][n]} != {v}" for n, v in pe.items() if ports[k][n] != v]
-        # Every signal the VCD has for a PE, and no other.
-        extra = [n for n in ports[0] if n != "report" and n not in want["pes"][0]]
-        if bad or extra or bc["cycle"] != c:
-            print(f"FAIL cycle {c}: {bad[:5]} extra {extra[:5]}")
+            bad += [
+                f"pe_{k}.{n}: {ports[n][k]} != {v}"
+                for n, v in pe.items()
+                if pattern(ports[n][k], bits[n]) != v
+            ]
+        # Every signal the VCD has for a PE, and no other; each field wide
+        # enough for its signal, signed where it is two's complement.
+        names = [n for n in ports.dtype.names if not n.startswith("report.")]
+        extra = [n for n in names if n not in want["pes"][0]]
+        missing = [n for n in want["pes"][0] if n not in names]
+        narrow = [n for n in names if ports.dtype[n].itemsize * 8 < bits[n] or ports.dtype[n].kind not in "ui"]
+        # Ray indices are two's complement; valids and accumulators not.
+        kinds = {"ray_mx": "i", "left.ray_mx": "i", "right.parent_mx": "i", "host.mx": "i",
+                 "busy": "u", "acc_r": "u", "host.valid": "u"}
+        narrow += [f"{n} kind {ports.dtype[n].kind}" for n, k in kinds.items() if ports.dtype[n].kind != k]
+        if bad or extra or missing or narrow or bc["cycle"] != c:
+            print(f"FAIL cycle {c}: {bad[:5]} extra {extra[:5]} missing {missing[:5]} narrow {narrow[:5]}")
             return 1
         n = sum(len(pe) for pe in want["pes"]) + len(want["ctrl"])
-        print(f"cycle {c} ({bc['stage_name']}): {n} values equal to the VCD; commands {bc['commands'][:3]}")
+        print(
+            f"cycle {c} ({ercube.STAGES[bc['stage']]}): {n} values equal to the VCD; "
+            f"commands {chip.commands()[:3]}"
+        )
+        checked.append(c)
+
+    # The same cycles traced by Chip.run: every column equals ports() and
+    # broadcast() at those cycles.
+    chip.begin(voxels, **kw)
+    names = [n for n in ports.dtype.names]
+    trace = chip.run(max(checked), signals=names + ["ctrl.stage", "ctrl.row"])
+    if list(trace["cycle"]) != list(range(1, max(checked) + 1)):
+        print("FAIL: Chip.run's cycles are not 1..N")
+        return 1
+    chip2 = ercube.Chip()
+    chip2.begin(voxels, **kw)
+    for c in checked:
+        chip2.step(c - chip2.cycle)
+        p = chip2.ports()
+        b = chip2.broadcast()
+        diff = [n for n in names if not np.array_equal(trace[n][c - 1], p[n])]
+        if diff or trace["ctrl.stage"][c - 1] != b["stage"] or trace["ctrl.row"][c - 1] != b["row"]:
+            print(f"FAIL: Chip.run's trace differs from ports() at cycle {c}: {diff[:5]}")
+            return 1
+        if trace[names[0]].dtype != p.dtype[names[0]]:
+            print("FAIL: Chip.run's arrays have other dtypes than ports()'s fields")
+            return 1
+    print(f"Chip.run traced {len(trace['cycle'])} cycles of {len(names)} PE signals: equal to ports() at {checked}")
+    try:
+        chip2.run(1, signals=["no_such_signal"])
+        print("FAIL: an unknown signal was traced")
+        return 1
+    except ercube.Error as e:
+        print(f"unknown signal: {str(e)[:60]}...")
+    chip2.finish()
+    # A whole frame's trace: the PEs' busy cycles are the stats' samples.
+    chip2.begin(voxels, **kw)
+    whole = chip2.run(10**9, signals=["busy"])
+    busy = int(whole["busy"].sum())
+    if len(whole["cycle"]) != stats["cycles"] or busy != stats["samples_total"] or not chip2.done:
+        print(f"FAIL: Chip.run of the whole frame: {len(whole['cycle'])} cycles, {busy} busy")
+        return 1
+    print(f"Chip.run of the whole frame: {busy} busy PE cycles, the stats' samples_total")
+
+    chip.begin(voxels, **kw)
     while not chip.done:
         chip.step(100000)
     if chip.cycle != stats["cycles"]:

@@ -368,12 +368,13 @@ pub fn broadcast_of(cycle: &Cycle) -> ErcubeBroadcast {
 /// Whether every signal a frame with `signals` can have fills a field.
 pub fn every_signal_has_a_field(signals: &SignalSet) -> Result<(), String> {
     let mut pe = ErcubePe::default();
-    for (scope, name, width) in signals.pe_declared() {
+    for (scope, name, width, signed) in signals.pe_declared() {
         let s = Signal {
             scope,
             name,
             group: "",
             width,
+            signed,
             value: 0,
         };
         if !fill(&mut pe, &s) {

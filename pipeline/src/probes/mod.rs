@@ -61,6 +61,8 @@ struct Probe<S> {
     name: &'static str,
     group: Group,
     width: fn(&PipelineConfig) -> u32,
+    /// Whether the word is two's complement (from its format).
+    signed: fn(&PipelineConfig) -> bool,
     read: fn(&S) -> u64,
     present: fn(&PipelineConfig) -> bool,
     /// Only in an array that shades (the gradient and shading unit's
@@ -86,6 +88,7 @@ impl<S> Probe<S> {
             name,
             group,
             width,
+            signed: |_| false,
             read,
             present: |_| true,
             shaded: false,
@@ -114,6 +117,19 @@ impl<S> Probe<S> {
             preint: true,
             ..self
         }
+    }
+
+    /// A two's-complement word (a ray index).
+    const fn signed(self) -> Self {
+        Probe {
+            signed: |_| true,
+            ..self
+        }
+    }
+
+    /// A word of a format whose signedness `signed` reads.
+    const fn signed_as(self, signed: fn(&PipelineConfig) -> bool) -> Self {
+        Probe { signed, ..self }
     }
 
     /// An enumeration whose values have `names`.
@@ -153,6 +169,13 @@ fn link_color(c: &PipelineConfig) -> u32 {
 }
 fn link_alpha(c: &PipelineConfig) -> u32 {
     bits(c.accum_alpha).max(bits(c.merge))
+}
+/// Whether a link's colour word is two's complement: either format is.
+fn link_color_signed(c: &PipelineConfig) -> bool {
+    c.accum_color.is_signed() || c.merge.is_signed()
+}
+fn link_alpha_signed(c: &PipelineConfig) -> bool {
+    c.accum_alpha.is_signed() || c.merge.is_signed()
 }
 
 /// A raw word in two's complement over the port's width (the words are

@@ -62,56 +62,64 @@ impl PeView {
 /// one table).
 pub(super) const PE_PROBES: &[Probe<PeView>] = &[
     Probe::<PeView>::new("busy", DATAPATH, |_| 1, |s| u64::from(s.busy())),
-    Probe::<PeView>::new("ray_mx", DATAPATH, |_| 16, |s| index16(s.last.mx)),
+    Probe::<PeView>::new("ray_mx", DATAPATH, |_| 16, |s| index16(s.last.mx)).signed(),
     Probe::<PeView>::new("ray_row", DATAPATH, |_| 16, |s| s.last.row as u64 & 0xffff),
     Probe::<PeView>::new(
         "sample",
         DATAPATH,
         |c| bits(c.sample),
         |s| s.last.sample as u64,
-    ),
+    )
+    .signed_as(|c| c.sample.is_signed()),
     Probe::<PeView>::new(
         "alpha",
         DATAPATH,
         |c| bits(c.alpha),
         |s| s.last.alpha as u64,
-    ),
+    )
+    .signed_as(|c| c.alpha.is_signed()),
     Probe::<PeView>::new(
         "alpha_corr",
         DATAPATH,
         |c| bits(c.opacity_corr),
         |s| s.last.corrected as u64,
-    ),
+    )
+    .signed_as(|c| c.opacity_corr.is_signed()),
     Probe::<PeView>::new(
         "acc_r",
         ACC,
         |c| bits(c.accum_color),
         |s| s.last.acc.raw[0] as u64,
-    ),
+    )
+    .signed_as(|c| c.accum_color.is_signed()),
     Probe::<PeView>::new(
         "acc_g",
         ACC,
         |c| bits(c.accum_color),
         |s| s.last.acc.raw[1] as u64,
-    ),
+    )
+    .signed_as(|c| c.accum_color.is_signed()),
     Probe::<PeView>::new(
         "acc_b",
         ACC,
         |c| bits(c.accum_color),
         |s| s.last.acc.raw[2] as u64,
-    ),
+    )
+    .signed_as(|c| c.accum_color.is_signed()),
     Probe::<PeView>::new(
         "acc_a",
         ACC,
         |c| bits(c.accum_alpha),
         |s| s.last.acc.raw[3] as u64,
-    ),
+    )
+    .signed_as(|c| c.accum_alpha.is_signed()),
     Probe::<PeView>::new(
         "grad_x",
         DATAPATH,
         |c| bits(c.gradient),
         |s| word(s.last.shade.grad[0], bits_of_grad(s)),
     )
+    .signed_as(|c| c.gradient.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "grad_y",
@@ -119,6 +127,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.gradient),
         |s| word(s.last.shade.grad[1], bits_of_grad(s)),
     )
+    .signed_as(|c| c.gradient.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "grad_z",
@@ -126,6 +135,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.gradient),
         |s| word(s.last.shade.grad[2], bits_of_grad(s)),
     )
+    .signed_as(|c| c.gradient.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "grad_norm",
@@ -133,6 +143,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.grad_norm),
         |s| s.last.shade.norm as u64,
     )
+    .signed_as(|c| c.grad_norm.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "n_dot_l",
@@ -140,6 +151,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.normal_dot),
         |s| s.last.shade.diffuse as u64,
     )
+    .signed_as(|c| c.normal_dot.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "shaded_r",
@@ -147,6 +159,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.color),
         |s| s.last.shade.rgb[0] as u64,
     )
+    .signed_as(|c| c.color.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "shaded_g",
@@ -154,6 +167,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.color),
         |s| s.last.shade.rgb[1] as u64,
     )
+    .signed_as(|c| c.color.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "shaded_b",
@@ -161,6 +175,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.color),
         |s| s.last.shade.rgb[2] as u64,
     )
+    .signed_as(|c| c.color.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "voi_weight",
@@ -168,6 +183,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voi_weight),
         |s| s.last.voi.weight as u64,
     )
+    .signed_as(|c| c.voi_weight.is_signed())
     .with_voi(),
     Probe::<PeView>::new(
         "voi_factor",
@@ -175,6 +191,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voi_factor),
         |s| s.last.voi.factor as u64,
     )
+    .signed_as(|c| c.voi_factor.is_signed())
     .with_voi(),
     Probe::<PeView>::new(
         "pre_back",
@@ -182,6 +199,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.sample),
         |s| s.last.preint.back as u64,
     )
+    .signed_as(|c| c.sample.is_signed())
     .with_preint(),
     Probe::<PeView>::new(
         "pre_tau",
@@ -189,6 +207,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.preint_tau),
         |s| s.last.preint.tau as u64,
     )
+    .signed_as(|c| c.preint_tau.is_signed())
     .with_preint(),
     Probe::<PeView>::new("rays_sent", DATAPATH, |_| 32, |s| s.rays_sent & 0xffff_ffff),
     // Front to back only, so back-to-front waveforms stay as they were.
@@ -208,19 +227,22 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         REGS,
         |c| bits(c.voxel),
         |s| u64::from(s.edge_reg[0]),
-    ),
+    )
+    .signed_as(|c| c.voxel.is_signed()),
     Probe::<PeView>::new(
         "edge_reg_1",
         REGS,
         |c| bits(c.voxel),
         |s| u64::from(s.edge_reg[1]),
-    ),
+    )
+    .signed_as(|c| c.voxel.is_signed()),
     Probe::<PeView>::new(
         "halo_reg_0",
         REGS,
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[0]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_1",
@@ -228,6 +250,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[1]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_2",
@@ -235,6 +258,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[2]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_3",
@@ -242,6 +266,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[3]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_4",
@@ -249,6 +274,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[4]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_5",
@@ -256,6 +282,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[5]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_6",
@@ -263,6 +290,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[6]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new(
         "halo_reg_7",
@@ -270,6 +298,7 @@ pub(super) const PE_PROBES: &[Probe<PeView>] = &[
         |c| bits(c.voxel),
         |s| u64::from(s.halo_reg[7]),
     )
+    .signed_as(|c| c.voxel.is_signed())
     .shaded(),
     Probe::<PeView>::new("in_flight", REGS, |_| 1, |s| u64::from(s.in_flight)),
     Probe::<PeView>::new("pass_children", REGS, |_| 16, |s| s.children & 0xffff),

@@ -24,6 +24,9 @@ pub struct Signal {
     pub group: &'static str,
     /// Its width in bits.
     pub width: u32,
+    /// Whether its word is two's complement over `width` (a ray index, a
+    /// word of a signed format).
+    pub signed: bool,
     /// Its value: the low `width` bits, two's complement for a signed
     /// word, as the waveform holds it.
     pub value: u64,
@@ -82,19 +85,20 @@ impl SignalSet {
                 name: p.name,
                 group: p.group.name,
                 width: (p.width)(&self.cfg),
+                signed: (p.signed)(&self.cfg),
                 value: (p.read)(state),
             });
         }
     }
 
-    /// Every signal a PE has in this frame (scope, name, width), in the
-    /// order [`SignalSet::pe`] reads them.
-    pub fn pe_declared(&self) -> Vec<(&'static str, &'static str, u32)> {
+    /// Every signal a PE has in this frame (scope, name, width, whether
+    /// two's complement), in the order [`SignalSet::pe`] reads them.
+    pub fn pe_declared(&self) -> Vec<(&'static str, &'static str, u32, bool)> {
         let mut out = Vec::new();
-        let mut add = |scope: &'static str,
-                       names: &mut dyn Iterator<Item = (&'static str, u32)>| {
-            out.extend(names.map(|(n, w)| (scope, n, w)));
-        };
+        let mut add =
+            |scope: &'static str, names: &mut dyn Iterator<Item = (&'static str, u32, bool)>| {
+                out.extend(names.map(|(n, w, s)| (scope, n, w, s)));
+            };
         add("", &mut self.declared(PE_PROBES));
         add("left", &mut self.declared(PORT_PROBES));
         add("right", &mut self.declared(PORT_PROBES));
@@ -102,15 +106,16 @@ impl SignalSet {
         out
     }
 
-    /// The names and widths of `table`'s signals in this frame.
+    /// The names, widths and signedness of `table`'s signals in this
+    /// frame.
     fn declared<'t, S>(
         &'t self,
         table: &'t [Probe<S>],
-    ) -> impl Iterator<Item = (&'static str, u32)> + 't {
+    ) -> impl Iterator<Item = (&'static str, u32, bool)> + 't {
         table
             .iter()
             .filter(|p| p.shown(&self.cfg, self.units))
-            .map(|p| (p.name, (p.width)(&self.cfg)))
+            .map(|p| (p.name, (p.width)(&self.cfg), (p.signed)(&self.cfg)))
     }
 
     /// The controller's signals (scope `top.ctrl`) while it shows `ctrl`.
@@ -124,16 +129,66 @@ impl SignalSet {
     /// order the waveform declares them.
     pub fn pe(&self, pe: &PeCycle) -> Vec<Signal> {
         let mut out = Vec::new();
-        self.read("", PE_PROBES, &pe.view, &mut out);
+        self.pe_into(pe, &mut out);
+        out
+    }
+
+    /// [`SignalSet::pe`] into `out` (cleared first), so a caller reading
+    /// every cycle reuses one buffer.
+    pub fn pe_into(&self, pe: &PeCycle, out: &mut Vec<Signal>) {
+        out.clear();
+        self.read("", PE_PROBES, &pe.view, out);
         for (scope, port) in [("left", pe.ports.left), ("right", pe.ports.right)] {
             let view = PortView {
                 port,
                 color: link_color(&self.cfg),
                 alpha: link_alpha(&self.cfg),
             };
-            self.read(scope, PORT_PROBES, &view, &mut out);
+            self.read(scope, PORT_PROBES, &view, out);
         }
-        self.read("host", HOST_PROBES, &pe.ports.host, &mut out);
-        out
+        self.read("host", HOST_PROBES, &pe.ports.host, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixed::Format;
+
+    fn signed(cfg: &PipelineConfig) -> Vec<String> {
+        SignalSet::new(cfg, (true, true, true))
+            .pe_declared()
+            .into_iter()
+            .filter(|d| d.3)
+            .map(|(scope, name, ..)| format!("{scope}.{name}"))
+            .collect()
+    }
+
+    #[test]
+    fn ray_indices_and_words_of_signed_formats_are_signed() {
+        // The default formats: only the gradient is signed.
+        let cfg = PipelineConfig::default();
+        assert_eq!(
+            signed(&cfg),
+            [
+                ".ray_mx",
+                ".grad_x",
+                ".grad_y",
+                ".grad_z",
+                "left.ray_mx",
+                "left.parent_mx",
+                "right.ray_mx",
+                "right.parent_mx",
+                "host.mx"
+            ]
+        );
+        // A signed merge word makes every link and host colour word signed.
+        let merge = Format::signed(cfg.merge.bits(), cfg.merge.frac()).unwrap();
+        let cfg = PipelineConfig { merge, ..cfg };
+        let s = signed(&cfg);
+        for w in ["left.ray_r", "right.parent_a", "host.g"] {
+            assert!(s.iter().any(|n| n == w), "{w} in {s:?}");
+        }
+        assert!(!s.iter().any(|n| n == ".acc_r"), "{s:?}");
     }
 }

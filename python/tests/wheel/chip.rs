@@ -5,7 +5,10 @@
 //! frame through `Chip.begin`/`step` and requires `Chip.ports()` and
 //! `Chip.broadcast()` to hold those values at those cycles, then steps to
 //! the end and requires the cycles to be the statistics' and `finish()`'s
-//! raw words `--raw-npy`'s (and `run_frame`'s).
+//! raw words `--raw-npy`'s (and `run_frame`'s). `ports()` is a numpy
+//! structured array (a record per PE, a field per signal of the signal's
+//! width and signedness); `Chip.run`'s trace of the same frame holds
+//! `ports()`'s values at those cycles.
 
 use std::collections::BTreeMap;
 use std::process::{Command, ExitCode};
@@ -121,5 +124,7 @@ fn the_python_chip_steps_the_waveforms_cycles() {
         "{text}"
     );
     assert!(text.contains("raw words equal --raw-npy's"), "{text}");
+    assert!(text.contains("Chip.run traced"), "{text}");
+    assert!(text.contains("the stats' samples_total"), "{text}");
     let _: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
 }

@@ -6,7 +6,12 @@
 //! `out_valid` passes too. The whole pipelined datapath, `ercube_sample`
 //! (`test_sample.py`), matches the model on 1000 random bundles with
 //! bubbles in both orders, and a copy whose red compositing sum is made a
-//! difference fails at its first differing cycle, naming `acc_out_r`. Needs `iverilog` and cocotb (installed into the
+//! difference fails at its first differing cycle, naming `acc_out_r`.
+//! In captured-frame mode (`test_frame.py`), two PEs' issue streams of a
+//! window of a brainsmall frame (`ercube vectors`) replay into it with
+//! every write-back equal to the model's, and the broken copy fails at the
+//! first write-back it changes, naming the frame's cycle, the PE and
+//! `acc_out_r`. Needs `iverilog` and cocotb (installed into the
 //! environment when PyPI is reachable); skips with one line without them
 //! unless `ERCUBE_REQUIRE_TOOLS=1`.
 
@@ -14,11 +19,16 @@
 mod mutate;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Command, ExitCode, Output};
 
 use pipeline::hw::unit::Unit;
 
-use super::{installed, ok, root, skip, tools, with_bin};
+use super::{installed, ok, root, skip, tools, with_bin, BRAIN};
+
+/// The captured window: cycles of a 64x64 brainsmall frame on 4 PEs (the
+/// DPI-C testbench's frame, `ffi/tests/c_abi/dpi_sample.rs`).
+const FIRST: u64 = 300_001;
+const LAST: u64 = 302_000;
 
 /// `run.py ARGS` in `dir`.
 fn run(py: &Path, dir: &Path, args: &[&str]) -> Output {
@@ -178,4 +188,91 @@ fn the_cocotb_testbench_passes_the_units_and_fails_a_broken_copy() {
         t.contains("y_r: model"),
         "the broken sum is y_r's ({line}):\n{t}"
     );
+}
+
+#[test]
+fn the_cocotb_testbench_replays_a_brainsmall_frame_and_fails_a_broken_copy() {
+    let Some(py) = cocotb_python("the cocotb testbench of a captured frame") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vec = d.join("vec");
+    let status = ercube::cli::run_with([
+        "ercube",
+        "vectors",
+        "--volume",
+        root().join(BRAIN).to_str().unwrap(),
+        "--pes",
+        "4",
+        "--size",
+        "64x64",
+        "--cycles",
+        &format!("{FIRST}-{LAST}"),
+        "--out-dir",
+        vec.to_str().unwrap(),
+    ]);
+    assert_eq!(status, ExitCode::SUCCESS);
+    let issued = |pe: usize| {
+        std::fs::read_to_string(vec.join(format!("pe{pe}_in_valid.hex")))
+            .unwrap()
+            .lines()
+            .filter(|l| l.trim() == "1")
+            .count()
+    };
+    let (n0, n3) = (issued(0), issued(3));
+    assert!(n0 > 500 && n3 > 500, "PEs 0 and 3 issued {n0} and {n3}");
+    let v = vec.to_str().unwrap();
+    let o = run(&py, &d.join("pass"), &["--vectors", v, "--pes", "0,3"]);
+    let t = text(&o);
+    assert!(o.status.success(), "the frame's streams:\n{t}");
+    assert!(
+        t.contains(&format!("PE 0: {n0} samples match the model"))
+            && t.contains(&format!("PE 3: {n3} samples match the model")),
+        "PEs 0 and 3 issued {n0} and {n3}:\n{t}"
+    );
+
+    let verilog = std::fs::read_to_string(vec.join("ercube_sample.v")).unwrap();
+    let (broken, line) = mutate::break_sum(&verilog, "n_comp_r_s").expect("the red sum");
+    let file = d.join("broken.v");
+    std::fs::write(&file, broken).unwrap();
+    let args = [
+        "--vectors",
+        v,
+        "--pes",
+        "0,3",
+        "--verilog",
+        file.to_str().unwrap(),
+        "--top",
+        "ercube_sample",
+    ];
+    let o = run(&py, &d.join("broken"), &args);
+    let t = text(&o);
+    assert!(!o.status.success(), "the broken copy ({line}) passed:\n{t}");
+    // The first mismatch is a write-back of PE 0's inside the window.
+    let key = "first mismatch at cycle ";
+    let at = t
+        .find(key)
+        .unwrap_or_else(|| panic!("no mismatch named:\n{t}"));
+    let rest = &t[at + key.len()..];
+    let num = |s: &str| -> u64 {
+        s.split(|c: char| !c.is_ascii_digit())
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let cycle = num(rest);
+    let from = num(&rest[rest.find("issued at cycle ").unwrap() + 16..]);
+    assert!(
+        rest.contains("(PE 0,") && rest.contains("acc_out_r: model"),
+        "{t}"
+    );
+    assert!((FIRST..=LAST).contains(&from), "{t}");
+    let depth = Unit::from_toml(None, None, "sample")
+        .unwrap()
+        .pipelined("ercube_sample")
+        .unwrap()
+        .depth;
+    assert_eq!(cycle, from + u64::from(depth), "{t}");
 }
