@@ -183,8 +183,8 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
         label: a.view.source.label(),
         module,
         units,
-        shade: opts.slice.shade.clone(),
-        voi: opts.slice.voi.clone(),
+        shade: opts.slice.shade,
+        voi: opts.slice.voi,
     })
 }
 

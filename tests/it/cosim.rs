@@ -263,8 +263,9 @@ fn cosim_covers_shading_and_the_voi_in_verilator() {
 }
 
 /// The shaded sample back to front and the VOI's front to back, in Icarus
-/// (a window of the first cycles: Icarus runs the composed module at a few
-/// hundred clocks a second).
+/// (back to front a window of the first 2500 cycles, past the first
+/// visible samples: Icarus runs the composed module at a few hundred
+/// clocks a second).
 #[test]
 fn cosim_covers_shading_and_the_voi_in_icarus() {
     if !have(
@@ -277,8 +278,8 @@ fn cosim_covers_shading_and_the_voi_in_icarus() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for frame in [
-        "--scene ml:16 --size 12x12 --pes 2 --shade --max-cycles 400",
-        "--scene ml:16 --size 12x12 --pes 2 --order ftb --voi sphere:8,8,8,5 --voi-ramp 2 --voi-scale 3 --max-cycles 400",
+        "--scene ml:16 --size 12x12 --pes 2 --shade --max-cycles 2500",
+        "--scene ml:16 --size 12x12 --pes 2 --order ftb --voi sphere:8,8,8,5 --voi-ramp 2 --voi-scale 3",
     ] {
         let s = passes(d, &format!("{frame} --simulator iverilog"));
         assert_eq!(s["model_latency"], s["rtl_depth"], "{frame}");
@@ -286,10 +287,10 @@ fn cosim_covers_shading_and_the_voi_in_icarus() {
     }
 }
 
-/// One operator of the shading unit inside the composed sample (the light
-/// mix's sum `n_shade_mix`, as `ercube vectors` writes the module) turned
-/// from `+` into `-`: cosim exits 1 naming the first differing cycle, PE
-/// and accumulator with both words.
+/// One operator of the shading unit inside the composed sample (the gain's
+/// sum `ka + kd D`, `n_shade_gain`, as `ercube vectors` writes the module)
+/// turned from `+` into `-`: cosim exits 1 naming the first differing
+/// cycle, PE and accumulator with both words.
 #[test]
 fn a_mutated_shading_operator_is_caught() {
     if !have("iverilog", "iverilog", "the shading cosim mutation test") {
@@ -301,10 +302,10 @@ fn a_mutated_shading_operator_is_caught() {
     let (a, out) = run(d, &format!("vectors {frame} --cycles 1-10 --out-dir v"));
     assert!(out.status.success(), "{}", describe(&a, &out));
     let v = std::fs::read_to_string(d.join("v/ercube_sample.v")).unwrap();
-    let (broken, line) = crate::mutate::break_sum(&v, "n_shade_mix").expect("the light mix");
+    let (broken, line) = crate::mutate::break_sum(&v, "n_shade_gain").expect("the gain's sum");
     std::fs::write(d.join("broken.v"), broken).unwrap();
     let args = format!(
-        "cosim {frame} --simulator iverilog --verilog broken.v --max-cycles 400 --cache-dir {}",
+        "cosim {frame} --simulator iverilog --verilog broken.v --max-cycles 2500 --cache-dir {}",
         cache().display()
     );
     let (a, out) = run(d, &args);

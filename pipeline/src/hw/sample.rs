@@ -106,14 +106,15 @@ pub struct Classified {
     pub alpha: NodeId,
 }
 
+/// What [`with_units`] calls between the classification and the opacity
+/// correction: adds the units' nodes, returns the colour and opacity.
+pub type UnitsFn<'a> = dyn FnMut(&mut Graph, &Classified) -> ([NodeId; 3], NodeId) + 'a;
+
 /// The sample's description with `units` between the classification and
 /// the opacity correction: `units` adds its nodes and returns the colour
 /// and opacity the rest of the datapath reads ([`super::compose`] splices
 /// the shading unit and the volume-of-interest stage there).
-pub fn with_units(
-    cfg: &PipelineConfig,
-    units: &mut dyn FnMut(&mut Graph, &Classified) -> ([NodeId; 3], NodeId),
-) -> Graph {
+pub fn with_units(cfg: &PipelineConfig, units: &mut UnitsFn<'_>) -> Graph {
     let c = cfg;
     let mut g = Graph::new();
     let entries = u64::from(c.table_entries);
