@@ -11,8 +11,8 @@
 //! cycle-for-cycle comparison needs. Without the simulators the tests
 //! print one line and skip (`ERCUBE_REQUIRE_TOOLS=1` makes that a failure).
 //!
-//! `cargo test --release --test it -- cosim::` (about 60 s here, most of it
-//! Verilator's build; the property test's many cases: `-- --ignored
+//! `cargo test --release --test it -- cosim::` (about 5 minutes on the
+//! loaded shared machine, most of it the two Verilator builds; the property test's many cases: `-- --ignored
 //! cosim::many`).
 
 use std::path::{Path, PathBuf};
