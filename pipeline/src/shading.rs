@@ -241,6 +241,39 @@ impl ShadeUnit {
         }
     }
 
+    /// The unit's per-frame ports as its description names them
+    /// ([`crate::hw::shading::shading`]: `scale.*`, `light<i>.*`,
+    /// `halfv<i>.*`, `ka`, `kd`, `ks`, `inv_fade`, `inv_g`, `fade`,
+    /// `gopac`), raw words; a reciprocal left out is a zero word with its
+    /// flag low.
+    pub fn port_words(&self) -> Vec<(String, i64)> {
+        let mut v = Vec::new();
+        for (k, a) in ["x", "y", "z"].iter().enumerate() {
+            v.push((format!("scale.{a}"), self.scale[k].raw()));
+            for (i, (l, h)) in self.lights.iter().zip(&self.halves).enumerate() {
+                v.push((format!("light{i}.{a}"), l[k].raw()));
+                v.push((format!("halfv{i}.{a}"), h[k].raw()));
+            }
+        }
+        for (n, x) in ["ka", "kd", "ks"].iter().zip(self.k) {
+            v.push(((*n).to_owned(), x.raw()));
+        }
+        for (n, flag, x) in [
+            ("inv_fade", "fade", self.inv_fade),
+            ("inv_g", "gopac", self.inv_g),
+        ] {
+            v.push((n.to_owned(), x.map_or(0, |x| x.raw())));
+            v.push((flag.to_owned(), i64::from(x.is_some())));
+        }
+        v
+    }
+
+    /// The specular power table's raw words, entry by entry (the
+    /// description's `power_table`).
+    pub fn power_words(&self) -> Vec<i64> {
+        self.power.iter().map(|x| x.raw()).collect()
+    }
+
     /// Lights in the frame (the headlight counts one).
     pub fn light_count(&self) -> usize {
         self.lights.len()

@@ -165,6 +165,31 @@ impl VoiUnit {
         }
     }
 
+    /// The stage's per-frame ports as its description names them
+    /// ([`crate::hw::voi::voi`]: `centre.*`, `axis.*`, `half.*`,
+    /// `radius`, `radius2`, `gain`, `sphere`, `step`, `outside`), raw
+    /// words.
+    pub fn port_words(&self) -> Vec<(String, i64)> {
+        let mut v = Vec::new();
+        for (k, a) in ["x", "y", "z"].iter().enumerate() {
+            v.push((format!("centre.{a}"), self.centre[k].raw()));
+            v.push((format!("axis.{a}"), self.axis[k].raw()));
+            v.push((format!("half.{a}"), self.half[k].raw()));
+        }
+        let r = self.radius.raw();
+        v.push(("radius".into(), r));
+        v.push(("radius2".into(), r * r));
+        v.push(("gain".into(), self.gain.raw()));
+        for (n, b) in [
+            ("sphere", self.sphere),
+            ("step", self.step),
+            ("outside", self.outside),
+        ] {
+            v.push((n.into(), i64::from(b)));
+        }
+        v
+    }
+
     /// Steps 1 to 5: the opacity factor of a sample at view position
     /// `(x, y, z)` (`x`, `y` in `position`, `z` the slice).
     pub fn factor(

@@ -25,7 +25,8 @@ use pipeline::cosim::build::{build, run as run_sim, Simulator};
 use pipeline::cosim::outcome::{parse, Outcome};
 use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun, Tee};
 use pipeline::cosim::replay::{Replay, StreamFiles, TOP};
-use pipeline::hw::pipeline_rtl::{emit, PipelinedModule};
+use pipeline::hw::compose::Units;
+use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 use pipeline::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
 use pipeline::{FrameRun, Voxels};
 
@@ -94,8 +95,15 @@ pub struct Setup {
     pub skips: golden::skip::Skips,
     /// The volume's name.
     pub label: String,
-    /// The emitted datapath.
+    /// The emitted datapath (the plain sample's, or the sample composed
+    /// with the frame's units).
     pub module: PipelinedModule,
+    /// The frame's units beside the plain sample.
+    pub units: Units,
+    /// The frame's shading.
+    pub shade: Option<golden::shading::Shade>,
+    /// The frame's volume of interest.
+    pub voi: Option<golden::voi::Voi>,
 }
 
 impl Setup {
@@ -110,11 +118,13 @@ impl Setup {
             },
         )
         .skips(self.skips)
+        .shading(self.shade.as_ref())
+        .voi(self.voi.as_ref())
     }
 
     /// The model's write-back latency.
     pub fn latency(&self) -> u64 {
-        u64::from(pipeline::cost::datapath_latency(&self.cfg))
+        u64::from(pipeline::cost::sample_latency(&self.cfg, self.units))
     }
 }
 
@@ -132,19 +142,9 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
     }
     let opts = slice.options()?;
     chip::check_options(&opts)?;
-    let refused = [
-        (
-            opts.slice.shade.is_some(),
-            "shading (--shade, --light, ...)",
-        ),
-        (opts.slice.voi.is_some(), "a volume of interest (--voi)"),
-        (opts.slice.preintegrate, "pre-integration (--preintegrate)"),
-    ];
-    if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("{cmd}: {what} is not in the emitted datapath yet (only the plain sample is)");
+    if opts.slice.preintegrate {
+        bail!("{cmd}: pre-integration (--preintegrate) is not in the emitted datapath yet (the plain sample, shading and the volume of interest are)");
     }
-    let g = pipeline::hw::sample::plain(&cfg);
-    let module = emit(&g, MODULE).map_err(|e| anyhow!("{cmd}: {e}"))?;
     let spec = FrameSpec {
         technique: None,
         shade: false,
@@ -156,6 +156,24 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let bits = vol.kind().bits();
     let prep = slice.prepared_owning(vol, &cam)?;
+    // The shading unit is built for the frame's lights.
+    let lights = match &opts.slice.shade {
+        Some(shade) => {
+            let mut st = pipeline::fixed::QuantStats::default();
+            let unit = pipeline::shading::ShadeUnit::new(&cfg, shade, &prep.view, bits, &mut st)
+                .map_err(|e| anyhow!("{cmd}: {e}"))?;
+            Some(unit.light_count())
+        }
+        None => None,
+    };
+    let units = Units {
+        lights,
+        voi: opts.slice.voi.is_some(),
+    };
+    // The schedule the model's latency is read from.
+    let g = pipeline::hw::compose::sample(&cfg, units);
+    let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
+    let module = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("{cmd}: {e}"))?;
     Ok(Setup {
         cfg,
         lut,
@@ -164,6 +182,9 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
         skips: opts.slice.skips,
         label: a.view.source.label(),
         module,
+        units,
+        shade: opts.slice.shade,
+        voi: opts.slice.voi,
     })
 }
 

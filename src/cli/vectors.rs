@@ -72,7 +72,8 @@ pub fn run(a: &VectorsArgs) -> Result<()> {
     if rec.overflow {
         bail!("--cycles {first}-{last}: more than {MAX_SAMPLES} samples; give a narrower window");
     }
-    let replay = Replay::new(s.module.clone(), rec.latency)?;
+    let mut replay = Replay::new(s.module.clone(), rec.latency)?;
+    replay.frame = rec.frame.clone();
     let p = usize::from(s.cfg.pes);
     let rows = last - first + 1 + u64::from(s.module.depth);
     let words = rows * p as u64 * (replay.fields.len() as u64 + 2);

@@ -54,6 +54,47 @@ pub struct SampleIn {
     /// The cycle the accumulators are written back (issue plus the
     /// model's `datapath_latency`).
     pub land: u64,
+    /// The words the units take (zero without them).
+    pub units: UnitIn,
+}
+
+/// The words a sample's units take beside the plain sample's
+/// ([`crate::hw::compose`]): the shading unit's voxel taps other than the
+/// scalar's four and the volume-of-interest stage's row and slice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct UnitIn {
+    /// The gradient's taps in [`crate::hw::compose::SHADE_TAPS`]' order,
+    /// ports `shade_tx_0_0` ... (zero without shading).
+    pub taps: [u16; 16],
+    /// The row's y position (`position`), port `voi_y`.
+    pub y: i64,
+    /// The slice index, port `voi_z`.
+    pub z: i64,
+}
+
+impl UnitIn {
+    /// The gradient's taps of `t` in [`crate::hw::compose::SHADE_TAPS`]'
+    /// order.
+    pub fn shade_taps(t: &crate::shading::Taps) -> [u16; 16] {
+        [
+            t.x[0][0],
+            t.x[0][3],
+            t.x[1][0],
+            t.x[1][3],
+            t.y[0][0],
+            t.y[0][1],
+            t.y[1][0],
+            t.y[1][1],
+            t.z[0][0][0],
+            t.z[0][0][1],
+            t.z[0][1][0],
+            t.z[0][1][1],
+            t.z[1][0][0],
+            t.z[1][0][1],
+            t.z[1][1][0],
+            t.z[1][1][1],
+        ]
+    }
 }
 
 /// One issued sample: its cycle, its PE, what it took and what it wrote
@@ -195,6 +236,8 @@ pub struct Recorded {
     /// The frame's tables by name ([`crate::hw::sample::MEMORIES`]), raw
     /// words.
     pub tables: Vec<(String, Vec<i64>)>,
+    /// The units' per-frame ports ([`frame_words`]).
+    pub frame: Vec<(String, i64)>,
     /// The model's write-back latency.
     pub latency: u64,
     /// Issues seen in all (kept or not).
@@ -245,16 +288,47 @@ pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
         raw(&t.log_t),
         raw(&t.exp),
     ];
-    crate::hw::sample::MEMORIES
+    let mut v: Vec<(String, Vec<i64>)> = crate::hw::sample::MEMORIES
         .iter()
         .zip(cols)
         .map(|(n, w)| ((*n).to_owned(), w))
-        .collect()
+        .collect();
+    if let Some(unit) = &dp.shade {
+        v.push((
+            crate::hw::shading::POWER_TABLE.to_owned(),
+            unit.power_words(),
+        ));
+    }
+    v
+}
+
+/// The per-frame ports of `dp`'s units, named as the composed module's
+/// ([`crate::hw::compose`]: `shade_ka`, `voi_centre_x`, ...), raw words;
+/// none for the plain sample.
+pub fn frame_words(dp: &Datapath) -> Vec<(String, i64)> {
+    let mut v = Vec::new();
+    let name = |p: &str, n: &str| crate::hw::pipeline_rtl::verilog_name(&format!("{p}{n}"));
+    if let Some(unit) = &dp.voi {
+        v.extend(
+            unit.port_words()
+                .into_iter()
+                .map(|(n, w)| (name("voi.", &n), w)),
+        );
+    }
+    if let Some(unit) = &dp.shade {
+        v.extend(
+            unit.port_words()
+                .into_iter()
+                .map(|(n, w)| (name("shade.", &n), w)),
+        );
+    }
+    v
 }
 
 impl IssueSink for Recorded {
     fn begin(&mut self, dp: &Datapath) {
         self.tables = table_words(dp);
+        self.frame = frame_words(dp);
         self.latency = dp.latency;
     }
 

@@ -98,8 +98,29 @@ pub fn word_of(issue: &Issue, name: &str) -> Option<i64> {
         "acc_out_g" => issue.out.raw[1],
         "acc_out_b" => issue.out.raw[2],
         "acc_out_a" => issue.out.raw[3],
-        _ => return None,
+        "voi_y" => s.units.y,
+        "voi_z" => s.units.z,
+        _ => {
+            let tap = name.strip_prefix("shade_")?;
+            let k = crate::hw::compose::SHADE_TAPS
+                .iter()
+                .position(|t| t.replace('.', "_") == tap)?;
+            i64::from(s.units.taps[k])
+        }
     })
+}
+
+/// Whether port `name` is a unit's per-frame port (a broadcast register
+/// the host writes once a frame: `shade_ka`, `voi_centre_x`, ...), whose
+/// word is the frame's rather than a sample's.
+pub fn is_frame_port(name: &str) -> bool {
+    let probe = Issue {
+        cycle: 0,
+        pe: 0,
+        input: Default::default(),
+        out: Default::default(),
+    };
+    (name.starts_with("shade_") || name.starts_with("voi_")) && word_of(&probe, name).is_none()
 }
 
 /// `v`'s low `bits` bits as an unsigned word.
@@ -146,7 +167,7 @@ pub fn fields(m: &PipelinedModule) -> Result<Vec<Field>, ReplayError> {
         .iter()
         .filter(|p| !CONTROL.contains(&p.name.as_str()))
         .map(|p| {
-            if word_of(&probe, &p.name).is_none() {
+            if word_of(&probe, &p.name).is_none() && !(p.input && is_frame_port(&p.name)) {
                 return Err(ReplayError::UnknownPort(p.name.clone()));
             }
             let role = match (p.input, p.stage) {
@@ -209,6 +230,9 @@ pub struct Replay {
     /// Bits of the rings' index: `2^ring_bits` cycles exceed the longest
     /// wait (the pipeline's depth or the model's latency).
     pub ring_bits: u32,
+    /// The units' per-frame port words ([`super::capture::frame_words`]),
+    /// driven with every sample (the module takes its ports at issue).
+    pub frame: Vec<(String, i64)>,
 }
 
 impl Replay {
@@ -222,7 +246,16 @@ impl Replay {
             module,
             fields,
             ring_bits,
+            frame: Vec::new(),
         })
+    }
+
+    /// The word port `name` carries for `issue`: the sample's, or the
+    /// frame's for a unit's per-frame port (zero if not known).
+    pub fn word(&self, issue: &Issue, name: &str) -> i64 {
+        word_of(issue, name)
+            .or_else(|| self.frame.iter().find(|f| f.0 == name).map(|f| f.1))
+            .unwrap_or(0)
     }
 
     /// Rows the top writes through the host port (every word of every
@@ -235,7 +268,7 @@ impl Replay {
     pub fn line(&self, issue: &Issue, land: u64, out: &mut String) {
         let _ = write!(out, "{:x} {:x}", issue.cycle, land);
         for f in &self.fields {
-            let v = word_of(issue, &f.port.name).unwrap_or(0);
+            let v = self.word(issue, &f.port.name);
             let _ = write!(out, " {:x}", masked(v, f.port.word.bits));
         }
         out.push('\n');
@@ -564,6 +597,7 @@ impl StreamFiles {
 impl IssueSink for StreamFiles {
     fn begin(&mut self, dp: &Datapath) {
         self.latency = dp.latency;
+        self.replay.frame = super::capture::frame_words(dp);
         let (rows, _) = table_rows(&self.replay.module, &table_words(dp));
         if let Err(e) = std::fs::write(self.dir.join("tables.hex"), rows) {
             self.error.get_or_insert(e);

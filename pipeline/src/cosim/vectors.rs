@@ -20,7 +20,7 @@ use std::fmt::Write as _;
 use serde_json::{json, Value};
 
 use super::capture::Issue;
-use super::replay::{masked, word_of, Replay, Role};
+use super::replay::{masked, Replay, Role};
 
 /// A window's vectors, in memory: every file's relative path and text,
 /// and the manifest.
@@ -71,7 +71,7 @@ fn columns(replay: &Replay, issues: &[&Issue], first: u64, rows: u64) -> Vec<(St
                 Role::Result => depth,
             };
             if let Some(r) = row(after) {
-                col.1[r] = word_of(is, &f.port.name).unwrap_or(0);
+                col.1[r] = replay.word(is, &f.port.name);
             }
         }
     }

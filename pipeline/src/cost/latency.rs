@@ -9,14 +9,16 @@
 //! built on the same schedule ([`sample_schedule`]), so its depth is the
 //! model's latency.
 //!
-//! The shading unit, the volume-of-interest stage and the pre-integration
-//! unit are not described as graphs yet: each adds the extra depth the cost
-//! inventory's step schedule derives for it ([`shading_extra_depth`],
-//! [`voi_extra_depth`], [`preint_extra_depth`]), the difference between
-//! that schedule with and without the unit. When a unit's graph exists,
-//! its function returns the graph's scheduled depth over the plain one.
+//! With the gradient and shading unit or the volume-of-interest stage the
+//! latency is the depth of the composed sample ([`crate::hw::compose`],
+//! the units spliced between the classification and the opacity
+//! correction) on the same schedule rules: the module `ercube rtl` and
+//! `ercube cosim` emit for such a frame. The pre-integration unit is not
+//! composed into the sample's description yet: it adds the extra depth the
+//! cost inventory's step schedule derives for it ([`preint_extra_depth`]).
 
 use crate::config::PipelineConfig;
+use crate::hw::compose::Units;
 use crate::hw::schedule::Schedule;
 
 use super::inventory;
@@ -29,39 +31,45 @@ use super::inventory;
 /// an unvalidated configuration asking for one gets the one-operator
 /// schedule.
 pub fn sample_schedule(cfg: &PipelineConfig) -> Schedule {
-    let g = crate::hw::sample::plain(cfg);
+    graph_schedule(cfg, &crate::hw::sample::plain(cfg))
+}
+
+/// The schedule of `g`, a sample's description for `cfg`: the clock's
+/// when `target_mhz` is set and reachable, else one operator a stage.
+pub fn graph_schedule(cfg: &PipelineConfig, g: &crate::hw::Graph) -> Schedule {
     if cfg.target_mhz > 0 {
-        if let Ok(c) = super::fmax::clock_schedule(&g, cfg.target_family, f64::from(cfg.target_mhz))
+        if let Ok(c) = super::fmax::clock_schedule(g, cfg.target_family, f64::from(cfg.target_mhz))
         {
             return c.schedule;
         }
     }
-    crate::hw::schedule::schedule(&g)
+    crate::hw::schedule::schedule(g)
+}
+
+/// The depth of the sample's datapath with `units`
+/// ([`crate::hw::compose::sample`] on [`graph_schedule`]); the plain
+/// depth without units.
+pub fn units_depth(cfg: &PipelineConfig, units: Units) -> u32 {
+    if units.plain() {
+        return plain_depth(cfg);
+    }
+    graph_schedule(cfg, &crate::hw::compose::sample(cfg, units))
+        .depth
+        .max(1)
+}
+
+/// The write-back latency of a sample's datapath with `units`: the
+/// configured latency when set, else [`units_depth`].
+pub fn sample_latency(cfg: &PipelineConfig, units: Units) -> u32 {
+    if cfg.datapath_latency > 0 {
+        return u32::from(cfg.datapath_latency);
+    }
+    units_depth(cfg, units)
 }
 
 /// The plain sample datapath's depth: [`sample_schedule`]'s.
 pub fn plain_depth(cfg: &PipelineConfig) -> u32 {
     sample_schedule(cfg).depth.max(1)
-}
-
-/// The inventory schedule's depth with `units` (shading, VOI) over its
-/// plain one.
-fn inventory_extra(cfg: &PipelineConfig, units: (bool, bool)) -> u32 {
-    inventory::unit_schedule_depth(cfg, units).saturating_sub(inventory::schedule_depth(cfg))
-}
-
-/// The clocks the gradient and shading unit adds to the plain datapath:
-/// the cost inventory's step schedule's (its gradient, normalisation and
-/// shading steps between the classification and the opacity correction).
-pub fn shading_extra_depth(cfg: &PipelineConfig) -> u32 {
-    inventory_extra(cfg, (true, false))
-}
-
-/// The clocks the volume-of-interest stage adds to the plain datapath:
-/// the cost inventory's step schedule's (the distance's square root, then
-/// the weight and the opacity's scale before the opacity correction).
-pub fn voi_extra_depth(cfg: &PipelineConfig) -> u32 {
-    inventory_extra(cfg, (false, true))
 }
 
 /// The clocks the pre-integration unit adds to the plain datapath: the
@@ -71,36 +79,27 @@ pub fn preint_extra_depth(cfg: &PipelineConfig) -> u32 {
     inventory::preint_schedule_depth(cfg).saturating_sub(inventory::schedule_depth(cfg))
 }
 
-/// The clocks shading and the VOI add together: each unit's extra, or
-/// the inventory's joint figure when both are on (the VOI's scale then
-/// feeds the shading's gradient opacity, one path in series).
-fn units_extra_depth(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
-    match (shading, voi) {
-        (false, false) => 0,
-        (true, false) => shading_extra_depth(cfg),
-        (false, true) => voi_extra_depth(cfg),
-        (true, true) => inventory_extra(cfg, (true, true)),
-    }
-}
-
 /// The plain datapath's latency: [`PipelineConfig::datapath_latency`]
 /// when set, else [`plain_depth`].
 pub fn datapath_latency(cfg: &PipelineConfig) -> u32 {
     unit_latency(cfg, (false, false))
 }
 
-/// The latency of a datapath with the gradient and shading unit
-/// (`shading`) and the volume-of-interest stage (`voi`): the configured
-/// latency (the whole datapath's), or [`plain_depth`] plus the units'
-/// extra depth.
-pub fn unit_latency(cfg: &PipelineConfig, units: (bool, bool)) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    plain_depth(cfg) + units_extra_depth(cfg, units)
+/// The latency of a datapath with the gradient and shading unit built
+/// for one light (`shading`) and the volume-of-interest stage (`voi`):
+/// [`sample_latency`].
+pub fn unit_latency(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
+    sample_latency(
+        cfg,
+        Units {
+            lights: shading.then_some(1),
+            voi,
+        },
+    )
 }
 
-/// The latency of a datapath with the gradient and shading unit.
+/// The latency of a datapath with the gradient and shading unit (one
+/// light).
 pub fn shaded_latency(cfg: &PipelineConfig) -> u32 {
     unit_latency(cfg, (true, false))
 }
@@ -131,11 +130,12 @@ mod tests {
     use crate::config::Order;
     use crate::cost::Target;
 
-    /// Each unit's latency is the plain schedule's depth plus the extra
-    /// its inventory steps add, in both orders; the units only deepen it;
-    /// a stated latency is the whole datapath's.
+    /// The shading and VOI latencies are the composed sample's scheduled
+    /// depths, the pre-integration one the plain depth plus the inventory's
+    /// extra, in both orders; the units only deepen it; a stated latency
+    /// is the whole datapath's.
     #[test]
-    fn unit_latencies_add_the_inventory_extra_to_the_plain_depth() {
+    fn unit_latencies_are_the_composed_depths() {
         for order in [Order::BackToFront, Order::FrontToBack] {
             let cfg = PipelineConfig {
                 order,
@@ -143,6 +143,10 @@ mod tests {
             };
             let plain = crate::hw::schedule::schedule(&crate::hw::sample::plain(&cfg)).depth;
             let inv = inventory::schedule_depth(&cfg);
+            let composed = |lights: Option<usize>, voi: bool| {
+                let g = crate::hw::compose::sample(&cfg, Units { lights, voi });
+                crate::hw::schedule::schedule(&g).depth
+            };
             let row = [
                 datapath_latency(&cfg),
                 shaded_latency(&cfg),
@@ -150,19 +154,14 @@ mod tests {
                 unit_latency(&cfg, (true, true)),
                 preint_latency(&cfg),
             ];
-            eprintln!("{order:?}: plain {plain} (inventory {inv}); plain, shaded, voi, both, preint {row:?}");
+            eprintln!("{order:?}: plain {plain}; plain, shaded, voi, both, preint {row:?}");
             assert_eq!(row[0], plain);
-            assert_eq!(row[1] - plain, inventory::shaded_schedule_depth(&cfg) - inv);
-            assert_eq!(
-                row[2] - plain,
-                inventory::unit_schedule_depth(&cfg, (false, true)) - inv
-            );
-            assert_eq!(
-                row[3] - plain,
-                inventory::unit_schedule_depth(&cfg, (true, true)) - inv
-            );
+            assert_eq!(row[1], composed(Some(1), false));
+            assert_eq!(row[2], composed(None, true));
+            assert_eq!(row[3], composed(Some(1), true));
             assert_eq!(row[4] - plain, inventory::preint_schedule_depth(&cfg) - inv);
             assert!(row[1..].iter().all(|&d| d > plain), "{row:?}");
+            assert!(row[3] >= row[1].max(row[2]), "{row:?}");
             let stated = PipelineConfig {
                 datapath_latency: 40,
                 ..cfg
@@ -174,8 +173,8 @@ mod tests {
         }
     }
 
-    /// A clock's schedule sets the plain depth, and a unit still adds its
-    /// extra on top.
+    /// A clock's schedule sets the plain depth, and a unit still deepens
+    /// it.
     #[test]
     fn target_mhz_sets_the_plain_depth() {
         let d = PipelineConfig::default();
@@ -188,9 +187,6 @@ mod tests {
         let c = crate::cost::fmax::schedule_for(&d, Target::Ecp5, 40.0).unwrap();
         assert_eq!(datapath_latency(&slow), c.depth);
         assert!(c.depth < datapath_latency(&d));
-        assert_eq!(
-            shaded_latency(&slow) - datapath_latency(&slow),
-            shaded_latency(&d) - datapath_latency(&d)
-        );
+        assert!(shaded_latency(&slow) > datapath_latency(&slow));
     }
 }

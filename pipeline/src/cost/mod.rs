@@ -42,4 +42,4 @@ pub mod voi;
 
 pub use target::{Resources, Target};
 
-pub use latency::{datapath_latency, preint_latency, shaded_latency, unit_latency};
+pub use latency::{datapath_latency, preint_latency, sample_latency, shaded_latency, unit_latency};

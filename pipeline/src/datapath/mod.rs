@@ -140,34 +140,38 @@ impl Datapath {
         &self.tables
     }
 
+    /// The units beside the plain sample this datapath carries (shading
+    /// with its light count, the VOI), as [`crate::hw::compose`] composes
+    /// them; pre-integration is not among them.
+    pub fn units(&self) -> crate::hw::compose::Units {
+        crate::hw::compose::Units {
+            lights: self.shade.as_ref().map(|s| s.light_count()),
+            voi: self.voi.is_some(),
+        }
+    }
+
     /// This datapath with the volume-of-interest stage loaded with
     /// `unit`'s constants. A derived latency becomes the depth of the
-    /// schedule with the stage ([`crate::cost::unit_latency`]): its
-    /// distance and weight run beside interpolation and classification,
-    /// its multiply between classification and the opacity correction;
-    /// the distance's square root makes the datapath deeper (58 clocks
-    /// against 35 back to front at the default widths), which lengthens
-    /// only what waits for samples in flight. One the configuration states
-    /// is kept.
+    /// composed sample's schedule ([`crate::cost::sample_latency`]): the
+    /// stage's distance and weight run beside interpolation and
+    /// classification, its multiply between classification and the
+    /// opacity correction; the distance's square root makes the datapath
+    /// deeper, which lengthens only what waits for samples in flight. One
+    /// the configuration states is kept.
     pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
-        if self.cfg.datapath_latency == 0 {
-            let units = (self.shade.is_some(), true);
-            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
-        }
         self.voi = Some(unit);
+        self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
         self
     }
 
     /// This datapath with the gradient and shading unit loaded with
-    /// `unit`'s constants. A derived latency grows by what the unit adds
-    /// to the schedule ([`crate::cost::shaded_latency`]); one the
-    /// configuration states is kept.
+    /// `unit`'s constants. A derived latency becomes the depth of the
+    /// composed sample's schedule with the unit built for the frame's
+    /// lights ([`crate::cost::sample_latency`]); one the configuration
+    /// states is kept.
     pub fn with_shading(mut self, unit: crate::shading::ShadeUnit) -> Datapath {
-        if self.cfg.datapath_latency == 0 {
-            let units = (true, self.voi.is_some());
-            self.latency = u64::from(crate::cost::unit_latency(&self.cfg, units));
-        }
         self.shade = Some(unit);
+        self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
         self
     }
 

@@ -26,6 +26,7 @@
 //!   (ports, outputs, latency, one sample's words);
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
+pub mod compose;
 mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;

@@ -85,6 +85,36 @@ pub fn class_names(g: &Graph) -> [&'static str; 4] {
 /// The plain sample's description for `cfg` (a validated configuration:
 /// the formats read as unsigned words are unsigned).
 pub fn plain(cfg: &PipelineConfig) -> Graph {
+    with_units(cfg, &mut |_, c| (c.rgb, c.alpha))
+}
+
+/// The classified sample, where units between the classification and the
+/// opacity correction read it ([`with_units`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Classified {
+    /// The ray's x position (`position`).
+    pub x: NodeId,
+    /// The x interpolation weight.
+    pub wx: NodeId,
+    /// The y interpolation weight (the PE's copy of the row's).
+    pub wy: NodeId,
+    /// The voxel taps `v00`, `v01`, `v10`, `v11`.
+    pub taps: [NodeId; 4],
+    /// The classified colour (`color`).
+    pub rgb: [NodeId; 3],
+    /// The classified opacity (`alpha`).
+    pub alpha: NodeId,
+}
+
+/// What [`with_units`] calls between the classification and the opacity
+/// correction: adds the units' nodes, returns the colour and opacity.
+pub type UnitsFn<'a> = dyn FnMut(&mut Graph, &Classified) -> ([NodeId; 3], NodeId) + 'a;
+
+/// The sample's description with `units` between the classification and
+/// the opacity correction: `units` adds its nodes and returns the colour
+/// and opacity the rest of the datapath reads ([`super::compose`] splices
+/// the shading unit and the volume-of-interest stage there).
+pub fn with_units(cfg: &PipelineConfig, units: &mut UnitsFn<'_>) -> Graph {
     let c = cfg;
     let mut g = Graph::new();
     let entries = u64::from(c.table_entries);
@@ -225,6 +255,15 @@ pub fn plain(cfg: &PipelineConfig) -> Graph {
             (rgb, g.step_out(ends[3][0]))
         }
     };
+    let classified = Classified {
+        x,
+        wx,
+        wy,
+        taps: v,
+        rgb: [rgb[0], rgb[1], rgb[2]],
+        alpha,
+    };
+    let (rgb, alpha) = units(&mut g, &classified);
     g.item("classification", "opacity != 0", 0);
     let visible = g.push(
         "visible",

@@ -95,3 +95,123 @@ fn captured_issues_are_the_datapaths_words() {
     check(Order::BackToFront, 3, [40.0, 30.0, -40.0]);
     check(Order::FrontToBack, 2, [-10.0, 12.0, -30.0]);
 }
+
+/// The sample composed with its units (`hw::compose`: the shading unit,
+/// the volume-of-interest stage, both), evaluated by `hw::eval` on every
+/// captured bundle of a shaded, a VOI and a shaded VOI frame (with the
+/// units' taps, row words, per-frame words and the power table as
+/// captured), gives the accumulators the model wrote back and the tap
+/// column; the model writes back after the composed schedule's depth.
+#[test]
+fn captured_unit_issues_are_the_composed_datapaths_words() {
+    use golden::shading::Shade;
+    use golden::voi::{Shape, Voi};
+    use pipeline::hw::compose::{sample, Units};
+    use pipeline::hw::pipeline_rtl::verilog_name;
+    use pipeline::hw::Op;
+
+    let s = subject("ml:24");
+    let centre = glam::DVec3::from_array(s.vol.center_world());
+    let cam = Camera::new(
+        glam::DVec3::new(30.0, 20.0, -40.0),
+        centre,
+        glam::DVec3::Y,
+        60.0,
+        20,
+        20,
+    )
+    .unwrap();
+    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let shade = Shade::default();
+    let c = s.vol.center_world();
+    let voi = Voi {
+        shape: Shape::Sphere {
+            centre: c,
+            radius: 7.0,
+        },
+        scale: 3.0,
+        outside: false,
+        ramp: 2.0,
+    };
+    for (order, shading, with_voi) in [
+        (Order::BackToFront, true, false),
+        (Order::FrontToBack, false, true),
+        (Order::BackToFront, true, true),
+    ] {
+        let cfg = PipelineConfig {
+            pes: 3,
+            order,
+            ..PipelineConfig::default()
+        };
+        let run = || {
+            FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
+                .shading(shading.then_some(&shade))
+                .voi(with_voi.then_some(&voi))
+        };
+        let plain = run().run().unwrap();
+        let rec = Arc::new(Mutex::new(Recorded::new()));
+        let captured = run().capture(rec.clone()).run().unwrap();
+        assert_eq!(signature(&captured), signature(&plain));
+        let rec = rec.lock().unwrap();
+        assert_eq!(rec.issues.len() as u64, plain.samples);
+        let units = Units {
+            lights: shading.then_some(1),
+            voi: with_voi,
+        };
+        let g = sample(&cfg, units);
+        let depth = pipeline::hw::schedule::schedule(&g).depth;
+        assert_eq!(rec.latency, u64::from(depth), "{units:?}");
+        assert_eq!(
+            pipeline::cost::sample_latency(&cfg, units),
+            depth,
+            "{units:?}"
+        );
+        let tables: Vec<(String, Vec<i64>)> = rec.tables.clone();
+        let frame = rec.frame.clone();
+        assert!(!frame.is_empty());
+        let mut visible = 0;
+        for i in &rec.issues {
+            let replay_word = |name: &str| -> Option<i64> {
+                let v = verilog_name(name);
+                word_of(i, &v).or_else(|| frame.iter().find(|f| f.0 == v).map(|f| f.1))
+            };
+            let taps = ["v00", "v01", "v10", "v11"];
+            let read = |node: &str, m: pipeline::hw::MemId, addr: i128| -> Option<i64> {
+                let mem = &g.mems[m.0];
+                if mem.depth == 0 {
+                    let k = taps.iter().position(|t| *t == node)?;
+                    return Some(i64::from(i.input.taps[k]));
+                }
+                let words = &tables.iter().find(|t| t.0 == mem.name)?.1;
+                words.get(usize::try_from(addr).ok()?).copied()
+            };
+            let v = pipeline::hw::eval::eval(
+                &g,
+                &replay_word,
+                &read,
+                &mut pipeline::fixed::QuantStats::default(),
+            )
+            .unwrap_or_else(|e| panic!("{units:?}: cycle {}: {e}", i.cycle));
+            for (name, id) in &g.outputs {
+                assert_eq!(
+                    Some(v[id.0] as i64),
+                    word_of(i, name),
+                    "{units:?}: cycle {}, PE {}, {name}",
+                    i.cycle,
+                    i.pe
+                );
+            }
+            visible += usize::from(i.out != i.input.acc);
+        }
+        assert!(
+            visible > rec.issues.len() / 10,
+            "{units:?}: few visible samples: {visible}"
+        );
+        // Every input of the composed graph has a word.
+        for n in g.nodes.iter().filter(|n| matches!(n.op, Op::Input)) {
+            let v = verilog_name(&n.name);
+            let known = frame.iter().any(|f| f.0 == v) || word_of(&rec.issues[0], &v).is_some();
+            assert!(known, "{units:?}: no word for {}", n.name);
+        }
+    }
+}

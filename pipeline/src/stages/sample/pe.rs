@@ -285,6 +285,13 @@ impl Pe {
                     taps: [left[0], right[0], left[1], right[1]],
                     x0,
                     land,
+                    units: crate::cosim::capture::UnitIn {
+                        taps: taps
+                            .as_ref()
+                            .map_or([0; 16], crate::cosim::capture::UnitIn::shade_taps),
+                        y: if dp.voi.is_some() { bus.yp.raw() } else { 0 },
+                        z: if dp.voi.is_some() { s.z as i64 } else { 0 },
+                    },
                 },
             };
         }
