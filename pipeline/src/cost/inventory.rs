@@ -11,8 +11,9 @@
 //! unit and one per square-root bit; values that skip stages travel in
 //! delay lines, whose length the schedule gives.
 //!
-//! Memories, sized for the worst view (what the hardware must hold, not
-//! one frame's needs):
+//! Memories, sized for the geometry's view (the voxel memories for the
+//! volume, the ray memories for what that view's frames hold,
+//! [`crate::capacity`]):
 //!
 //! - **slice buffer**: the PE's `W = ceil(nx / P)` columns of one slice,
 //!   `W x ny` voxels, double-buffered (one slice is sampled while the next
@@ -22,8 +23,10 @@
 //! - **edge column**: a copy of the block's first column, which the left
 //!   neighbour reads every cycle (two rows), also double-buffered;
 //! - **compositing buffer**: the accumulators of every ray the PE holds,
-//!   at most `(2W + 1) (2 ny + 1)` (rays are between half a voxel and a
-//!   voxel apart in every slice of their region), in two banks by ray
+//!   the view's ray columns of its tallest region's rows (a middle PE
+//!   owns `2W + 1` columns, rays being between half a voxel and a voxel
+//!   apart in every slice of their region; the end PEs also hold the rays
+//!   beyond the volume's sides, and every PE is as deep), in two banks by ray
 //!   column parity so the merge reads both new parents of a child in one
 //!   cycle; children overwrite their centre parent's slot, which the y pass
 //!   no longer needs;

@@ -267,7 +267,7 @@ fn a_frame_past_the_declared_depths_is_refused_before_it_runs() {
         columns: need.columns - 1,
         ..need
     };
-    let err = run(short).err().expect("refused").to_string();
+    let err = run(short).expect_err("refused").to_string();
     assert!(
         !err.contains('\n') && err.contains("past the declared"),
         "{err}"

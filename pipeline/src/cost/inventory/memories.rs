@@ -1,4 +1,4 @@
-//! The PE's memories as cost items, sized for the worst view (see the
+//! The PE's memories as cost items, sized for the geometry's view (see the
 //! parent module): the PE's declared state ([`Pe::declaration`]: the
 //! slice buffer, the edge column, the compositing buffer and its column
 //! map, the line buffer, the link FIFOs, and its registers: ports, edge,
