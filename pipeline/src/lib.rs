@@ -27,6 +27,7 @@
 
 pub mod array;
 pub mod bound;
+pub mod capacity;
 pub mod config;
 pub mod cosim;
 pub mod cost;

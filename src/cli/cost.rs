@@ -195,14 +195,10 @@ fn run_at(
     Ok(RunSummary::new(
         &cfg,
         label,
-        Geometry {
-            dims: prep.view.dims,
-            pes,
-            regions: plan.regions.len() as u32,
-            shading: shade,
-            voi: voi.is_some(),
-            preint,
-        },
+        Geometry::for_view(&cfg, &prep.view)?
+            .with_shading(shade)
+            .with_voi(voi.is_some())
+            .with_preint(preint),
         (&frame, &plan),
     ))
 }

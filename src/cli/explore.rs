@@ -247,14 +247,7 @@ fn explore(a: &ExploreArgs) -> Result<()> {
                     .run()
                     .with_context(|| pipeline::cost::arch::label(c))?;
                 let plan = pipeline::host::plan(c, &prep.view)?;
-                let geo = Geometry {
-                    dims: prep.view.dims,
-                    pes: c.pes,
-                    regions: plan.regions.len() as u32,
-                    shading: a.shade,
-                    voi: false,
-                    preint: false,
-                };
+                let geo = Geometry::for_view(c, &prep.view)?.with_shading(a.shade);
                 let run = RunSummary::new(c, label.as_str(), geo, (&frame, &plan));
                 Ok(design(c, Target::Xc7, &run))
             })

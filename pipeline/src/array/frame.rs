@@ -138,6 +138,11 @@ pub struct Frame {
     /// same departures from its queues without stepping a FIFO and adds
     /// nothing. Not a stats field.
     pub link_fifo: LinkFifoProbe,
+    /// Per PE, the most its ray memories held at once
+    /// ([`crate::pe::Occupancy`]: columns, rows, children, line-buffer
+    /// row, kept finals), to set beside their declared depths. Not a
+    /// stats field.
+    pub occupancy: Vec<crate::pe::Occupancy>,
 }
 
 /// What a frame's link FIFOs held ([`Frame::link_fifo`]).
@@ -192,6 +197,9 @@ pub enum RunError {
     /// The frame cannot be pre-integrated as asked.
     #[error("{0}")]
     Preint(#[from] crate::preint::PreintError),
+    /// The view needs deeper ray memories than the chip declares.
+    #[error(transparent)]
+    Depths(#[from] crate::capacity::TooDeep),
 }
 
 #[cfg(test)]

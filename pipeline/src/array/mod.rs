@@ -547,6 +547,7 @@ impl Array {
             },
         );
         let p = pes.len();
+        let occupancy = pes.iter().map(Pe::occupancy).collect();
         if let Some(pr) = self.clock.take_probes() {
             if let Some(info) = pr.finish()? {
                 // A save file beside each dump, opening it.
@@ -566,6 +567,7 @@ impl Array {
             ray_buffer: self.channel.as_ref().map(|c| c.stats),
             voxel_load: self.voxel_load,
             link_fifo,
+            occupancy,
             cycles: self.clock.cycle(),
             stages: self.clock.stages(),
             samples,

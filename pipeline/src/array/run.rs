@@ -80,6 +80,7 @@ pub struct FrameRun<'a> {
     resident: Option<&'a mut Option<Resident>>,
     capture: Option<crate::cosim::capture::Capture>,
     tap: Option<crate::stepper::Tap>,
+    depths: Option<crate::capacity::RayDepths>,
 }
 
 impl<'a> FrameRun<'a> {
@@ -129,7 +130,18 @@ impl<'a> FrameRun<'a> {
             resident: None,
             capture: None,
             tap: None,
+            depths: None,
         }
+    }
+
+    /// Runs the frame on a chip whose ray memories are declared `depths`
+    /// deep ([`crate::cost::inventory::Geometry::rays`]): a frame whose
+    /// view needs more ([`crate::capacity::need`]) is refused before it
+    /// plans or loads anything. Without it the chip is taken as sized for
+    /// the view.
+    pub fn depths(mut self, depths: crate::capacity::RayDepths) -> Self {
+        self.depths = Some(depths);
+        self
     }
 
     /// What the controller of a prepared frame skips. A frame of a bare
@@ -211,11 +223,17 @@ impl<'a> FrameRun<'a> {
             resident,
             capture,
             tap,
+            depths,
         } = self;
         let view = match camera {
             Camera::View(view) => view,
             Camera::Prepared(prep) => &prep.view,
         };
+        if let Some(declared) = depths {
+            let need = crate::capacity::need(cfg, view)
+                .map_err(|e| RunError::Plan(crate::host::PlanError::Golden(e)))?;
+            crate::capacity::check(need, declared)?;
+        }
         let (source, data_bits) = match (voxels, camera) {
             (Voxels::Volume(vol), _) => (VoxelSource::Volume(vol, view), vol.kind().bits()),
             (Voxels::Stack { data_bits }, Camera::Prepared(prep)) => {

@@ -78,18 +78,23 @@ pub fn stored_columns(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
     }
 }
 
-/// Rays of one row a PE may hold: `2 C + 1` for `C` owned columns (rays
-/// are at least half a voxel apart, and the clamped rays past the volume's
-/// face sit in an edge column). The merges run on column blocks, where a
-/// PE holds `2 W + 1`; a round-robin PE owns at least `W` columns, so its
-/// figure covers both.
-pub fn rays_per_row(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
-    2 * owned_columns(cfg, geo).max(geo.block()) + 1
+/// Ray columns a PE may hold at once (the column map's slots): what the
+/// geometry's view needs ([`crate::capacity`]: `2 C + 1` for `C` owned
+/// columns in the middle PEs, and in the end PEs the rays beyond the
+/// volume's sides, clamped to them).
+pub fn rays_per_row(_cfg: &PipelineConfig, geo: &Geometry) -> u64 {
+    geo.rays.columns.max(1)
 }
 
-/// Rays a PE may hold in a frame: [`rays_per_row`] times `2 ny + 1` rows.
+/// Rows of a ray column: the tallest region grid's rows.
+pub fn ray_rows(geo: &Geometry) -> u64 {
+    geo.rays.rows.max(1)
+}
+
+/// Rays a PE may hold in a frame: [`rays_per_row`] slots of
+/// [`ray_rows`] rows.
 pub fn rays_per_pe(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
-    rays_per_row(cfg, geo) * (2 * geo.dims[1] as u64 + 1)
+    rays_per_row(cfg, geo) * ray_rows(geo)
 }
 
 /// Ray slots a PE addresses on chip: every ray it may hold, or with an
@@ -148,7 +153,7 @@ pub fn lane_ports(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
     if extra == 0 {
         return None;
     }
-    let row_bits = addr_bits(2 * geo.dims[1] as u64 + 2);
+    let row_bits = addr_bits(ray_rows(geo) + 1);
     Some(Item::new(
         "links",
         format!("ray port lanes 2..={} (left, right)", extra + 1),
@@ -173,7 +178,7 @@ pub fn valid_bits(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let row = rays_per_row(cfg, geo);
     // Every ray's bit stays on chip, also with the rays in DDR: a pass
     // reads from DDR only the rays its bits say are non-zero.
-    let rows = 2 * geo.dims[1] as u64 + 1;
+    let rows = ray_rows(geo);
     let mut items = vec![Item::new(
         "memories",
         "ray valid bits (a row per word, 2 banks)",
@@ -210,7 +215,7 @@ pub fn valid_bits(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
 /// valid), once per array.
 pub fn wrap_link(cfg: &PipelineConfig, geo: &Geometry) -> Option<Item> {
     round_robin_width(cfg)?;
-    let row_bits = addr_bits(2 * geo.dims[1] as u64 + 2);
+    let row_bits = addr_bits(ray_rows(geo) + 1);
     Some(Item::new(
         "links",
         "wrap link P-1 -> 0 (migrating rays)",
@@ -307,6 +312,9 @@ mod tests {
         cfg.mapping = Mapping::Cyclic;
         cfg.cyclic_width = 8;
         assert_eq!(owned_columns(&cfg, &geo), 8);
-        assert_eq!(rays_per_row(&cfg, &geo), 2 * 8 + 1);
+        // A row's slots are the view's ray columns: the middle PEs' 2C + 1
+        // and the end PEs' rays beyond the volume's sides.
+        assert_eq!(rays_per_row(&cfg, &geo), geo.rays.columns);
+        assert!(rays_per_row(&cfg, &geo) > 2 * 8 + 1);
     }
 }

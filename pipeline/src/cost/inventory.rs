@@ -11,8 +11,9 @@
 //! unit and one per square-root bit; values that skip stages travel in
 //! delay lines, whose length the schedule gives.
 //!
-//! Memories, sized for the worst view (what the hardware must hold, not
-//! one frame's needs):
+//! Memories, sized for the geometry's view (the voxel memories for the
+//! volume, the ray memories for what that view's frames hold,
+//! [`crate::capacity`]):
 //!
 //! - **slice buffer**: the PE's `W = ceil(nx / P)` columns of one slice,
 //!   `W x ny` voxels, double-buffered (one slice is sampled while the next
@@ -22,8 +23,10 @@
 //! - **edge column**: a copy of the block's first column, which the left
 //!   neighbour reads every cycle (two rows), also double-buffered;
 //! - **compositing buffer**: the accumulators of every ray the PE holds,
-//!   at most `(2W + 1) (2 ny + 1)` (rays are between half a voxel and a
-//!   voxel apart in every slice of their region), in two banks by ray
+//!   the view's ray columns of its tallest region's rows (a middle PE
+//!   owns `2W + 1` columns, rays being between half a voxel and a voxel
+//!   apart in every slice of their region; the end PEs also hold the rays
+//!   beyond the volume's sides, and every PE is as deep), in two banks by ray
 //!   column parity so the merge reads both new parents of a child in one
 //!   cycle; children overwrite their centre parent's slot, which the y pass
 //!   no longer needs;
@@ -55,7 +58,7 @@ use memories::memories;
 
 use super::arch;
 use super::memory::MemPorts;
-use super::shapes::{accum_word, MulAdd, Quantizer, Word, RAY_INDEX_BITS};
+use super::shapes::{MulAdd, Quantizer, Word, RAY_INDEX_BITS};
 use super::target::{Resources, Target};
 use super::units::{total, Unit};
 use crate::config::PipelineConfig;
@@ -152,13 +155,35 @@ pub struct Geometry {
     /// before.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub preint: bool,
+    /// What a PE's ray memories hold: columns, rows, a pass's children,
+    /// kept finals ([`crate::capacity`]), for the view the geometry was
+    /// made for.
+    pub rays: crate::capacity::RayDepths,
 }
 
 impl Geometry {
     /// The geometry of `pes` PEs for a volume of `dims` seen from half its
-    /// depth in front (the eye the report's tables assume).
+    /// depth in front of its centre (the eye the report's tables assume),
+    /// its ray memories sized for that view in both orders under every
+    /// mapping ([`crate::capacity::need`]).
     pub fn new(dims: [usize; 3], pes: u16) -> Geometry {
+        use crate::config::{Mapping, Order};
         let d = (dims[2] as f64 / 2.0).max(golden::geometry::MIN_D);
+        let view = default_view(dims);
+        let mut rays = crate::capacity::RayDepths::default();
+        for mapping in [Mapping::Blocks, Mapping::Interleave, Mapping::Cyclic] {
+            for order in [Order::BackToFront, Order::FrontToBack] {
+                let cfg = PipelineConfig {
+                    pes,
+                    mapping,
+                    order,
+                    ..PipelineConfig::default()
+                };
+                if let Some(v) = &view {
+                    rays = rays.max(crate::capacity::need(&cfg, v).unwrap_or_default());
+                }
+            }
+        }
         Geometry {
             dims,
             pes,
@@ -166,7 +191,32 @@ impl Geometry {
             shading: false,
             voi: false,
             preint: false,
+            rays,
         }
+    }
+
+    /// The geometry of `cfg`'s array for a frame of `view`: its
+    /// dimensions and regions, its ray memories sized for the view
+    /// ([`crate::capacity::need`]).
+    pub fn for_view(
+        cfg: &PipelineConfig,
+        view: &golden::geometry::View,
+    ) -> Result<Geometry, golden::Error> {
+        let layout = golden::methods::Method::Er.layout(view)?;
+        Ok(Geometry {
+            dims: view.dims,
+            pes: cfg.pes,
+            regions: layout.grids.len() as u32,
+            shading: false,
+            voi: false,
+            preint: false,
+            rays: crate::capacity::need_of(cfg, view, &layout),
+        })
+    }
+
+    /// This geometry with its ray memories sized for `rays`.
+    pub fn with_rays(self, rays: crate::capacity::RayDepths) -> Geometry {
+        Geometry { rays, ..self }
     }
 
     /// This geometry with (or without) the gradient and shading unit.
@@ -189,10 +239,35 @@ impl Geometry {
         (self.dims[0] as u64).div_ceil(u64::from(self.pes.max(1)))
     }
 
-    /// Rays a PE may hold: `(2W + 1) (2 ny + 1)`.
-    pub fn rays_per_pe(&self) -> u64 {
+    /// Rays a PE samples in a slice at most: `(2W + 1) (2 ny + 1)` (rays
+    /// are at least half a voxel apart in a slice, and only the rays
+    /// inside the volume sample it).
+    pub fn sampled_per_slice(&self) -> u64 {
         (2 * self.block() + 1) * (2 * self.dims[1] as u64 + 1)
     }
+
+    /// Rays a PE may hold: its ray columns times their rows
+    /// ([`crate::capacity::RayDepths`]).
+    pub fn rays_per_pe(&self) -> u64 {
+        self.rays.columns.max(1) * self.rays.rows.max(1)
+    }
+}
+
+/// The view [`Geometry::new`] assumes: the eye half the volume's depth in
+/// front of its centre.
+fn default_view(dims: [usize; 3]) -> Option<golden::geometry::View> {
+    let c = glam::DVec3::new(
+        (dims[0] as f64 - 1.0) / 2.0,
+        (dims[1] as f64 - 1.0) / 2.0,
+        (dims[2] as f64 - 1.0) / 2.0,
+    );
+    let eye = glam::DVec3::new(
+        c.x,
+        c.y,
+        -(dims[2] as f64 / 2.0).max(golden::geometry::MIN_D),
+    );
+    let cam = golden::camera::Camera::new(eye, c, glam::DVec3::Y, 90.0, 2, 2).ok()?;
+    golden::geometry::View::new(dims, [1.0; 3], &cam, 1.0).ok()
 }
 
 /// `ceil(log2(n))`, at least 1.
@@ -204,79 +279,32 @@ pub(super) fn fmt_bits(f: crate::fixed::Format) -> u32 {
     u32::from(f.bits())
 }
 
-/// Ports to the neighbours, the PE's copy of the broadcast bus, and the
-/// PE's counters.
+/// The PE's counters and the links' logic beside its declared port
+/// registers.
 fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
-    let acc = accum_word(cfg);
-    let ny = geo.dims[1] as u64;
-    let row_bits = addr_bits(2 * ny + 2);
-    let pn = fmt_bits(cfg.position);
-    let s = fmt_bits(cfg.step);
+    let row_bits = addr_bits(arch::ray_rows(geo) + 1);
     let col_bits = addr_bits(geo.block() + 1);
     let slot_bits = addr_bits(arch::slots(cfg, geo));
-    // A pre-integrating ray migrates with its previous sample (merges drop
-    // it: the merge ports stay).
-    let prev = super::preint::ray_bits(cfg, geo);
-    let mut items = vec![
-        Item::new(
-            "links",
-            if geo.preint {
-                "ray ports (left, right): accumulators, sample, m, row, valid"
-            } else {
-                "ray ports (left, right): accumulators, m, row, valid"
+    // The ports, the broadcast copy and the PE's other registers are
+    // declared state ([`crate::pe::Pe::register_state`]), charged with the
+    // memories.
+    let mut items = vec![Item::new(
+        "control",
+        "counters: column, row, slot",
+        1,
+        vec![
+            Unit::Inc { width: col_bits },
+            Unit::Inc { width: row_bits },
+            Unit::Inc { width: slot_bits },
+            Unit::Cmp { width: col_bits },
+            Unit::Cmp { width: row_bits },
+            Unit::Reg {
+                bits: col_bits + row_bits + slot_bits,
             },
-            2,
-            vec![Unit::Reg {
-                bits: acc + prev + RAY_INDEX_BITS + row_bits + 1,
-            }],
-        ),
-        Item::new(
-            "links",
-            "merge edge-ray ports (left, right)",
-            2,
-            vec![Unit::Reg { bits: acc }],
-        ),
-        Item::new(
-            "links",
-            "broadcast copy: A, t, b, k, sy, sz^2, rows",
-            1,
-            vec![Unit::Reg {
-                bits: 3 * pn + 2 * s + 2 * pn + 2 * row_bits,
-            }],
-        ),
-        Item::new(
-            "control",
-            "counters: column, row, slot",
-            1,
-            vec![
-                Unit::Inc { width: col_bits },
-                Unit::Inc { width: row_bits },
-                Unit::Inc { width: slot_bits },
-                Unit::Cmp { width: col_bits },
-                Unit::Cmp { width: row_bits },
-                Unit::Reg {
-                    bits: col_bits + row_bits + slot_bits,
-                },
-            ],
-        ),
-    ];
-    if arch::round_robin_width(cfg).is_none() {
-        // Column blocks read the right neighbour's first column while
-        // sampling (round-robin blocks carry their aprons instead).
-        items.insert(
-            1,
-            Item::new(
-                "links",
-                "edge voxel port (two rows)",
-                1,
-                vec![Unit::Reg {
-                    bits: 2 * fmt_bits(cfg.voxel),
-                }],
-            ),
-        );
-        if geo.shading {
-            items.push(super::shading::link(cfg));
-        }
+        ],
+    )];
+    if arch::round_robin_width(cfg).is_none() && geo.shading {
+        items.push(super::shading::link(cfg));
     }
     items.extend(arch::owner_logic(cfg));
     items.extend(arch::lane_ports(cfg, geo));
@@ -335,7 +363,7 @@ pub fn controller_inventory(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     let ypos = MulAdd::new(pos, m, cfg.step.into(), cfg.position);
     let pn = fmt_bits(cfg.position);
     let s = fmt_bits(cfg.step);
-    let row_bits = addr_bits(2 * geo.dims[1] as u64 + 2);
+    let row_bits = addr_bits(arch::ray_rows(geo) + 1);
     let int_bits = pos.int_bits().max(1) as u32;
     let mut u = ypos.units();
     u.push(Unit::Reg { bits: pn });

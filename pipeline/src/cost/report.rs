@@ -290,7 +290,7 @@ pub fn build(
             pe.voxel_memory_bits as f64 * pes as f64 / 1e6
         ),
         format!(
-            "Resources are sized for the worst view (compositing buffer (2W+1)(2ny+1) rays per PE); {} units are counted in {}.",
+            "Ray memories are sized for this view (every PE as deep as the end PEs, which hold the rays beyond the volume's sides); {} units are counted in {}.",
             target.bram_name(),
             if target == Target::Xc7 { "RAMB18 halves of a RAMB36" } else { "blocks" }
         ),

@@ -72,7 +72,7 @@ impl RunSummary {
 /// blocks). Migration, merges and readout come on top; in the runs
 /// measured they are a few percent.
 pub fn bound_cycles(geo: &Geometry) -> u64 {
-    geo.dims[2] as u64 * geo.rays_per_pe()
+    geo.dims[2] as u64 * geo.sampled_per_slice()
 }
 
 /// Rates at a clock.

@@ -128,7 +128,7 @@ impl ReadoutShape {
             buffer_width: buf.width,
             map_depth: map.depth.max(1),
             map_width: map.width,
-            max_rows: 2 * geo.dims[1] as u64 + 1,
+            max_rows: crate::cost::arch::ray_rows(geo),
             sparse: cfg.pass_skip_empty,
         })
     }
@@ -138,15 +138,8 @@ impl ReadoutShape {
         cfg: &PipelineConfig,
         view: &golden::geometry::View,
     ) -> Result<ReadoutShape, String> {
-        let plan = crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
-        let geo = Geometry {
-            dims: view.dims,
-            pes: cfg.pes,
-            regions: plan.regions.len() as u32,
-            shading: false,
-            voi: false,
-            preint: false,
-        };
+        crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
+        let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
         ReadoutShape::new(cfg, &geo)
     }
 

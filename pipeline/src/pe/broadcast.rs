@@ -247,5 +247,14 @@ impl Pe {
             Broadcast::PlanMoves { owner, route } => self.plan_moves(owner, route),
             Broadcast::BeginReadout => self.begin_readout(),
         }
+        // A pass's children take their slots at its start.
+        if matches!(
+            b,
+            Broadcast::BeginMerge { .. }
+                | Broadcast::BeginSplit { .. }
+                | Broadcast::BeginFold { .. }
+        ) {
+            self.note_occupancy();
+        }
     }
 }

@@ -14,11 +14,13 @@
 //! drives into its own port registers (which the clock hands it idle).
 
 mod broadcast;
+mod occupancy;
 mod state;
 #[cfg(test)]
 mod state_tests;
 
 pub use broadcast::{Broadcast, Command, EdgeRead, OwnerFn};
+pub use occupancy::Occupancy;
 
 use std::collections::VecDeque;
 
@@ -339,6 +341,8 @@ pub(crate) struct PeModel {
     /// received (with `drained_at`, a bound on every held ray's `land`,
     /// so the controller need not read every scoreboard).
     pub(crate) arrived_by: u64,
+    /// The most the ray memories have held ([`Occupancy`]).
+    pub(crate) occupancy: Occupancy,
 }
 
 impl Pe {
@@ -437,6 +441,7 @@ impl Pe {
         let first = self.rays.partition_point(|c| c.mx < lo);
         let end = self.rays.partition_point(|c| c.mx <= hi);
         self.active = (first, end.saturating_sub(first));
+        self.note_occupancy();
     }
 
     /// Hands this PE's voxel memory out, leaving it empty (the memory
@@ -453,6 +458,7 @@ impl Pe {
     /// Replaces the held columns.
     pub fn set_rays(&mut self, cols: Vec<RayColumn>) {
         self.rays = cols.into();
+        self.note_occupancy();
     }
 
     /// Whether every sample this PE issued has been written back by cycle

@@ -2,8 +2,10 @@
 //! memory, its compositing buffer (or, with the rays in external memory,
 //! its row buffers), the column map, the passes' line buffer, the link
 //! FIFOs and, front to back, the inherited states and the kept finals,
-//! each with the depth and width it has for the worst view of a
-//! configuration ([`Geometry`]). The cost model's memory inventory charges
+//! each with the depth and width it has for the geometry's view
+//! ([`Geometry`]: the ray memories sized by [`crate::capacity`] for the
+//! most any PE holds in that view's frames, the end PEs' rays beyond the
+//! volume's sides included). The cost model's memory inventory charges
 //! exactly these entries (`crate::cost::inventory`), so a depth changes
 //! in one place.
 
@@ -38,14 +40,107 @@ fn decl(
 
 const SDP: StateKind = StateKind::Memory(MemPorts::Sdp);
 const DUAL_READ: StateKind = StateKind::Memory(MemPorts::DualRead);
+const REG: StateKind = StateKind::Register;
 
 impl Pe {
-    /// Every state element of a PE of `cfg` for the worst view of `geo`:
-    /// [`Pe::voxel_state`], then [`Pe::ray_state`].
+    /// Every state element of a PE of `cfg` for the view of `geo`:
+    /// [`Pe::voxel_state`], [`Pe::ray_state`], then
+    /// [`Pe::register_state`].
     pub fn declaration(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
         let mut all = Pe::voxel_state(cfg, geo);
         all.extend(Pe::ray_state(cfg, geo));
+        all.extend(Pe::register_state(cfg, geo));
         all
+    }
+
+    /// The PE's registers: what it holds across cycles outside its
+    /// memories and FIFOs, each a [`StateKind::Register`] of its width
+    /// (copies per side or lane): the ray ports and merge edge-ray ports
+    /// to each neighbour, the edge voxel port and the edge register it is
+    /// driven from (column blocks), the host port of the readout, the
+    /// copy of the controller's broadcast, the current slice's active
+    /// columns, the readout's state and read register, and with
+    /// `pass_skip_empty` the pass's latched edge rays. The counters live
+    /// with their incrementers in the control logic and the datapath's
+    /// pipeline registers with its schedule
+    /// ([`crate::cost::inventory`]).
+    pub fn register_state(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
+        let acc = accum_word(cfg);
+        let prev = crate::cost::preint::ray_bits(cfg, geo);
+        let v = bits(cfg.voxel);
+        let row_bits = addr_bits(arch::ray_rows(geo) + 1);
+        let slot_bits = addr_bits(arch::rays_per_row(cfg, geo) + 1);
+        let (pn, s) = (bits(cfg.position), bits(cfg.step));
+        let reg = |name, what: &str, copies, width| decl(name, what, REG, (copies, 1, width));
+        let mut out = vec![
+            reg(
+                "ray_port",
+                if geo.preint {
+                    "ray ports (left, right): accumulators, sample, m, row, valid"
+                } else {
+                    "ray ports (left, right): accumulators, m, row, valid"
+                },
+                2,
+                acc + prev + RAY_INDEX_BITS + row_bits + 1,
+            ),
+            reg(
+                "merge_edge_port",
+                "merge edge-ray ports (left, right)",
+                2,
+                acc,
+            ),
+            reg(
+                "broadcast_copy",
+                "broadcast copy: A, t, b, k, sy, sz^2, rows",
+                1,
+                3 * pn + 2 * s + 2 * pn + 2 * row_bits,
+            ),
+            reg(
+                "host_port",
+                "host port: accumulators, m, row, valid",
+                1,
+                acc + RAY_INDEX_BITS + row_bits + 1,
+            ),
+            reg(
+                "active",
+                "active columns: first slot, count",
+                1,
+                2 * slot_bits,
+            ),
+            reg(
+                "readout",
+                "readout: start, valid row, row, columns read, read register",
+                1,
+                1 + 2 * (row_bits + 1) + slot_bits + (acc + RAY_INDEX_BITS + row_bits + 1),
+            ),
+        ];
+        if arch::round_robin_width(cfg).is_none() {
+            // Column blocks read the right neighbour's first column while
+            // sampling (round-robin blocks carry their aprons instead).
+            out.insert(
+                1,
+                reg("edge_voxel_port", "edge voxel port (two rows)", 1, 2 * v),
+            );
+            // The words driven next: the first column's two rows (and
+            // shading, the last column's and the first two columns'
+            // gradient words are the shading unit's), tagged with their
+            // rows.
+            out.push(reg(
+                "edge_register",
+                "edge register: first column, rows y0, y0 + 1, and their row",
+                1,
+                2 * v + addr_bits(geo.dims[1] as u64 + 1),
+            ));
+        }
+        if cfg.pass_skip_empty {
+            out.push(reg(
+                "pass_edges",
+                "sparse pass: latched edge rays (left, right) and their m",
+                2,
+                acc + RAY_INDEX_BITS + 1,
+            ));
+        }
+        out
     }
 
     /// The voxel memory: the slice buffer of the PE's stored columns in
@@ -96,18 +191,18 @@ impl Pe {
         out
     }
 
-    /// The rays' state: the compositing buffer in two column banks (or,
-    /// with the rays in external memory, the row buffers the controller
-    /// reads ahead into), the column map, the passes' line buffer
-    /// ([`LINE_ROWS`] rows of `W + 1` children), a link FIFO per side
+    /// The rays' state: the compositing buffer in two column banks of
+    /// the view's ray columns times their rows (or, with the rays in
+    /// external memory, the row buffers the controller reads ahead into),
+    /// the column map (a slot per ray column), the passes' line buffer
+    /// ([`LINE_ROWS`] rows of a pass's children on one PE), a link FIFO per side
     /// (`link_fifo_depth` rows) and, front to back on chip, the
     /// inherited states with their termination flags and the final states
-    /// kept at `K - 1` region boundaries for the fold. A pre-integrating
+    /// kept at the `K - 1` region boundaries for the fold (every split's
+    /// parents on the PE, stacked). A pre-integrating
     /// ray carries its previous sample beside its accumulators wherever
     /// they go.
     pub fn ray_state(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
-        let ny = geo.dims[1] as u64;
-        let w = geo.block();
         let acc = accum_word(cfg);
         let prev = crate::cost::preint::ray_bits(cfg, geo);
         let rays = arch::rays_per_pe(cfg, geo);
@@ -139,7 +234,11 @@ impl Pe {
             "line_buffer",
             format!("merge line buffer ({LINE_ROWS} rows)"),
             SDP,
-            (LINE_ROWS as u32, w + 1, 4 * bits(cfg.merge)),
+            (
+                LINE_ROWS as u32,
+                geo.rays.children.max(1),
+                4 * bits(cfg.merge),
+            ),
         ));
         // The FIFOs hold `link_fifo_depth` rows: a leaving column waits in
         // the compositing buffer (charged above) and is read into its FIFO
@@ -152,7 +251,7 @@ impl Pe {
             (
                 2,
                 u64::from(cfg.link_fifo_depth),
-                acc + prev + RAY_INDEX_BITS + addr_bits(2 * ny + 2),
+                acc + prev + RAY_INDEX_BITS + addr_bits(arch::ray_rows(geo) + 1),
             ),
         ));
         if cfg.order == Order::FrontToBack && cfg.ray_buffer == RayBuffer::OnChip {
@@ -168,11 +267,7 @@ impl Pe {
                 "kept_finals",
                 "kept final states, K - 1 boundaries (front to back)",
                 SDP,
-                (
-                    1,
-                    (w + 1) * (ny + 1) * u64::from(geo.regions.saturating_sub(1)),
-                    acc,
-                ),
+                (1, geo.rays.kept, acc),
             ));
         }
         out

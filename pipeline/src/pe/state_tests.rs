@@ -63,7 +63,32 @@ fn the_cost_inventory_charges_every_declared_state_element() {
         let decls = Pe::declaration(&cfg, &geo);
         let inv = pe_inventory(&cfg, &geo);
         let mems: Vec<_> = inv.items.iter().filter(|i| i.group == "memories").collect();
-        for d in decls.iter().filter(|d| d.depth > 0) {
+        let regs: Vec<_> = inv
+            .items
+            .iter()
+            .filter(|i| i.group == "registers")
+            .collect();
+        for d in decls.iter().filter(|d| d.kind == StateKind::Register) {
+            let item = regs
+                .iter()
+                .find(|i| i.name == d.what)
+                .unwrap_or_else(|| panic!("register {} is not charged", d.name));
+            assert_eq!(item.count, d.copies, "{}", d.name);
+            assert_eq!(item.units, vec![Unit::Reg { bits: d.width }], "{}", d.name);
+        }
+        for i in &regs {
+            assert!(
+                decls
+                    .iter()
+                    .any(|d| d.kind == StateKind::Register && d.what == i.name),
+                "register {} is charged but not declared",
+                i.name
+            );
+        }
+        for d in decls
+            .iter()
+            .filter(|d| d.depth > 0 && d.kind != StateKind::Register)
+        {
             let item = mems
                 .iter()
                 .find(|i| i.name == d.what)
@@ -110,14 +135,18 @@ fn the_default_declaration_has_the_documented_depths() {
     // voxels, and the neighbour's edge column.
     assert_eq!(shape("slice_buffer"), (4, 16 * 128, 12));
     assert_eq!(shape("edge_column"), (4, 128, 12));
-    // (2W + 1)(2 ny + 1) rays in two column banks, 4 x 16-bit
-    // accumulators each; a row's 2W + 1 slots map to 16-bit indices and a
+    // The view's ray columns (its end PEs hold the rays beyond the
+    // volume's sides, far more than a middle PE's 2W + 1 = 33) of its
+    // tallest region's rows (at most 2 ny + 1), in two column banks, 4 x
+    // 16-bit accumulators each; each slot maps to a 16-bit index and a
     // valid bit.
+    let r = geo.rays;
+    assert!(r.columns > 33 && r.rows <= 513, "{r:?}");
     assert_eq!(
         shape("compositing_buffer"),
-        (2, (33 * 513u64).div_ceil(2), 64)
+        (2, (r.columns * r.rows).div_ceil(2), 64)
     );
-    assert_eq!(shape("column_map"), (1, 33, 17));
+    assert_eq!(shape("column_map"), (1, r.columns, 17));
     // `link_fifo_depth` rows per side (default 2): the accumulators, the
     // ray index and a 10-bit row; and exactly the configured depth.
     assert_eq!(get("link_fifo").kind, StateKind::Fifo);
@@ -131,9 +160,14 @@ fn the_default_declaration_has_the_documented_depths() {
         let fifo = d.iter().find(|d| d.name == "link_fifo").expect("declared");
         assert_eq!(fifo.depth, u64::from(depth));
     }
-    // The passes' line buffer: LINE_ROWS rows of W + 1 children, four
-    // 20-bit merge words each.
-    assert_eq!(shape("line_buffer"), (3, 17, 80));
+    // The passes' line buffer: LINE_ROWS rows of a pass's children on
+    // one PE, four 20-bit merge words each.
+    assert_eq!(shape("line_buffer"), (3, r.children, 80));
+    // The registers: two ray ports of the accumulators, a 16-bit index, a
+    // row and a valid bit.
+    let row_bits = crate::cost::inventory::addr_bits(r.rows + 1);
+    assert_eq!(get("ray_port").kind, StateKind::Register);
+    assert_eq!(shape("ray_port"), (2, 1, 64 + 16 + row_bits + 1));
     assert_eq!(
         get("line_buffer").copies as usize,
         crate::stages::passes::LINE_ROWS

@@ -105,11 +105,12 @@ fn external_ray_buffer_removes_the_compositing_buffer() {
     let comp = item(&on.items, "compositing buffer");
     let row = item(&ext.items, "row buffer");
     assert!(!has(&ext.items, "compositing buffer"));
-    // (2W + 1)(2 ny + 1) = 33 x 513 rays in two banks; the row buffers
-    // hold `ray_buffer_rows` (8) rows of 33 in two banks.
-    assert_eq!(mem_depth(comp), (33 * 513u64).div_ceil(2));
+    // The view's ray columns times rows in two banks; the row buffers
+    // hold `ray_buffer_rows` (8) rows of those columns in two banks.
+    let r = geo.rays;
+    assert_eq!(mem_depth(comp), (r.columns * r.rows).div_ceil(2));
     assert_eq!(ext_cfg.ray_buffer_rows, 8);
-    assert_eq!(mem_depth(row), 8 * 33 / 2);
+    assert_eq!(mem_depth(row), (8 * r.columns).div_ceil(2));
     let t = Target::Xc7;
     let comp_bram = comp.cost(t).bram;
     assert!(
@@ -150,12 +151,16 @@ fn a_256_cubed_array_fits_ultrascale_plus() {
     for name in ["XCKU5P", "XCZU7EV", "XC7A200T"] {
         assert!(!fits(&on, 32, name).fits, "on chip, 32 PEs, {name}");
     }
-    assert!(fits(&on, 32, "XCKU15P").fits);
+    // Every PE's ray memories as deep as the end PEs': on chip, 32 PEs
+    // no longer fit the XCKU15P either.
+    assert!(!fits(&on, 32, "XCKU15P").fits);
     let f = fits(&ext, 32, "XCKU5P");
     assert!(f.fits, "external, 32 PEs, XCKU5P: {f:?}");
     let blocks = cfg(Mapping::Blocks, 4, RayBuffer::OnChip);
     let f = fits(&blocks, 16, "XCKU5P");
-    assert!(f.fits && f.uram > 0, "blocks on chip at 16 PEs: {f:?}");
+    // The end PEs' depth in every PE: column blocks on chip at 16 PEs
+    // fill the UltraRAM and still overflow the block RAM.
+    assert!(!f.fits && f.uram > 0, "blocks on chip at 16 PEs: {f:?}");
     // The same memories without UltraRAM overflow the block RAM.
     let no_uram = Part {
         uram: 0,
@@ -188,7 +193,7 @@ fn sparse_options_and_lanes_are_charged() {
     };
     let pe = pe_inventory(&sparse, &geo);
     let valid = item(&pe.items, "ray valid bits");
-    assert_eq!(mem_depth(valid), 2 * 256 + 1);
+    assert_eq!(mem_depth(valid), geo.rays.rows);
     assert_eq!(valid.count, 2);
     assert!(has(&pe.items, "work list"));
     let lanes = item(&pe.items, "ray port lanes");

@@ -150,6 +150,7 @@ pub(super) fn migrate_events(
             upto = upto.max(b);
         }
         pe.counters.waits += n;
+        pe.note_occupancy();
     }
     // The last row is received the cycle after it leaves; the clock stops
     // after that cycle.

@@ -1,7 +1,8 @@
-//! The PE's memories as cost items, sized for the worst view (see the
+//! The PE's memories as cost items, sized for the geometry's view (see the
 //! parent module): the PE's declared state ([`Pe::declaration`]: the
 //! slice buffer, the edge column, the compositing buffer and its column
-//! map, the line buffer, the link FIFOs) and the tables.
+//! map, the line buffer, the link FIFOs, and its registers: ports, edge,
+//! broadcast copy, readout, pass latches) and the tables.
 
 use super::{fmt_bits, Geometry, Item};
 use crate::config::PipelineConfig;
@@ -26,7 +27,11 @@ fn charge(d: StateDecl) -> Item {
             ports,
         },
     };
-    Item::new("memories", d.what, d.copies, vec![unit])
+    let group = match d.kind {
+        StateKind::Register => "registers",
+        _ => "memories",
+    };
+    Item::new(group, d.what, d.copies, vec![unit])
 }
 
 /// The PE's memories: its declared voxel and ray state
@@ -78,6 +83,7 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         )],
     ));
     items.extend(Pe::ray_state(cfg, geo).into_iter().map(charge));
+    items.extend(Pe::register_state(cfg, geo).into_iter().map(charge));
     items.retain(|i| {
         !i.units
             .iter()

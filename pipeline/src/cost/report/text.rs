@@ -197,7 +197,9 @@ impl CostReport {
         let [rc, rr] = self.run.largest_region;
         let _ = writeln!(
             o,
-            "  rays: buffers hold (2W+1)(2ny+1) = {} per PE ({} in all); this view's largest region has {rc} x {rr} = {} rays",
+            "  rays: buffers hold {} columns x {} rows = {} per PE ({} in all); this view's largest region has {rc} x {rr} = {} rays",
+            g.rays.columns,
+            g.rays.rows,
             g.rays_per_pe(),
             g.rays_per_pe() * u64::from(g.pes),
             rc * rr

@@ -104,6 +104,9 @@ impl Pe {
             // nothing and counts nothing (what the steps below would do).
             return;
         }
+        // A column's slot is taken when its first row arrives (what the
+        // occupancy probe notes).
+        let mut grew = false;
         for (incoming, from_left_side) in
             [(&links.from_left.ray, true), (&links.from_right.ray, false)]
         {
@@ -116,6 +119,7 @@ impl Pe {
                     // transparent, as the slot reads before any write.
                     let col = RayColumn::empty(m.mx, m.rows as usize, m.ftb.is_some());
                     self.incoming.push(col);
+                    grew = true;
                     self.incoming.len() - 1
                 }
             };
@@ -184,6 +188,9 @@ impl Pe {
         if last {
             self.counters.waits += u64::from(waited);
             self.counters.link_queue += queued as u64;
+        }
+        if grew {
+            self.note_occupancy();
         }
     }
 

@@ -40,6 +40,11 @@ pub struct LinkQueue {
     /// Cycles in which the feed had a row but the FIFO was full (the
     /// front waiting for its write-back).
     feed_stalls: u64,
+    /// Columns whose last row is still queued: they keep their slot in
+    /// the compositing buffer until it leaves (the occupancy probe).
+    columns: usize,
+    /// Their rows in all, and the most rows one had.
+    rows: (u64, u64),
 }
 
 impl LinkQueue {
@@ -50,12 +55,19 @@ impl LinkQueue {
             waiting: VecDeque::new(),
             peak: 0,
             feed_stalls: 0,
+            columns: 0,
+            rows: (0, 0),
         }
     }
 
     /// Queues a row of a leaving column (it stays in the compositing
     /// buffer until the feed reads it).
     pub(crate) fn enqueue(&mut self, row: Row) {
+        if row.0.row + 1 == row.0.rows {
+            self.columns += 1;
+            self.rows.0 += u64::from(row.0.rows);
+            self.rows.1 = self.rows.1.max(u64::from(row.0.rows));
+        }
         self.waiting.push_back(row);
     }
 
@@ -81,7 +93,23 @@ impl LinkQueue {
 
     /// Sends the FIFO's front row.
     pub(crate) fn pop(&mut self) -> Option<Row> {
-        self.fifo.pop()
+        let row = self.fifo.pop()?;
+        if row.0.row + 1 == row.0.rows {
+            self.columns -= 1;
+            self.rows.0 -= u64::from(row.0.rows);
+        }
+        Some(row)
+    }
+
+    /// Leaving columns whose last row has not left yet (each still holds
+    /// its slot in the compositing buffer).
+    pub fn columns(&self) -> usize {
+        self.columns
+    }
+
+    /// Rows of those columns in all, and the most rows one has had.
+    pub fn column_rows(&self) -> (u64, u64) {
+        self.rows
     }
 
     /// Rows queued: in the FIFO and still to feed.
