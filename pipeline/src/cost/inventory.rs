@@ -48,6 +48,8 @@ mod memories;
 
 use datapath::datapath;
 pub(super) use datapath::Step;
+pub use datapath::{in_module, PIPELINE_REGISTERS};
+pub use memories::is_datapath_table;
 pub use datapath::{
     preint_schedule_depth, schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule,
 };
@@ -72,6 +74,13 @@ pub struct Item {
     pub count: u32,
     /// The units of one copy.
     pub units: Vec<Unit>,
+    /// Its registers are the emitted sample datapath's, counted once in
+    /// that module's pipeline-register item (`datapath::emitted`): the
+    /// units price logic, multipliers and memories only (no flip-flops,
+    /// no shift-register LUTs; every emitted register resets, so none is
+    /// an SRL). Left out of the JSON when false.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub registers_declared: bool,
 }
 
 impl Item {
@@ -86,12 +95,19 @@ impl Item {
             name: name.into(),
             count,
             units,
+            registers_declared: false,
         }
     }
 
     /// Resources of all copies on `t`.
     pub fn cost(&self, t: Target) -> Resources {
-        total(t, &self.units) * u64::from(self.count)
+        let mut r = total(t, &self.units);
+        if self.registers_declared {
+            r.ff = 0;
+            r.lut -= r.lutram;
+            r.lutram = 0;
+        }
+        r * u64::from(self.count)
     }
 
     /// The widths, for the report: the memory or multiplier if there is
