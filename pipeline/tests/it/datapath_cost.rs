@@ -113,6 +113,7 @@ fn datapath_estimate_counts_what_the_module_declares() {
         assert_eq!(mems.len(), 6, "six tables: {mems:?}");
         for t in [Target::Ice40, Target::Ecp5, Target::Xc7] {
             let est = datapath_estimate(&cfg, t);
+            eprintln!("{} {t:?}: {est:?}", m.description);
             let (ff, bram) = from_text(&m.verilog, t);
             assert_eq!(
                 (est.ff, est.bram),
@@ -144,7 +145,10 @@ fn datapath_estimate_agrees_with_yosys_at_the_narrow_widths() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("dp.v"), &m.verilog).unwrap();
     let mut bad = Vec::new();
-    for (part, t) in [(Part::Ice40Up5k, Target::Ice40), (Part::Ecp5_25k, Target::Ecp5)] {
+    for (part, t) in [
+        (Part::Ice40Up5k, Target::Ice40),
+        (Part::Ecp5_25k, Target::Ecp5),
+    ] {
         let script = format!(
             "read_verilog dp.v; {}; tee -q -o stat.json stat -json",
             part.synth_command(&m.name)
@@ -154,7 +158,11 @@ fn datapath_estimate_agrees_with_yosys_at_the_narrow_widths() {
             .args(["-q", "-p", &script])
             .output()
             .expect("yosys runs");
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let stat: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.path().join("stat.json")).unwrap())
                 .unwrap();
