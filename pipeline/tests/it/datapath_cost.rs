@@ -107,7 +107,8 @@ fn narrow() -> PipelineConfig {
 
 #[test]
 fn datapath_estimate_counts_what_the_module_declares() {
-    for cfg in [narrow(), PipelineConfig::default()] {
+    let mid = PipelineConfig::from_toml_str(include_str!("../../data/widths/mid.toml")).unwrap();
+    for cfg in [narrow(), PipelineConfig::default(), mid] {
         let m = datapath(&cfg).expect("emitted");
         let mems = memories(&m.verilog);
         assert_eq!(mems.len(), 6, "six tables: {mems:?}");
