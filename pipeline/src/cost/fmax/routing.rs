@@ -32,7 +32,8 @@ pub struct DesignMeasured {
     pub mhz: f64,
 }
 
-/// The rows of [`DESIGNS`] (comment lines and the header skipped).
+/// The rows of `pipeline/data/measured/designs.csv` (comment lines and
+/// the header skipped).
 pub fn designs() -> Vec<DesignMeasured> {
     DESIGNS
         .lines()
