@@ -347,7 +347,13 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         yosys: version,
         synth_command: synth,
         synthesized,
-        estimated: family.map(|f| m.estimate(f)),
+        estimated: family.map(|f| {
+            if is_datapath {
+                pipeline::synth::datapath_estimate(&cfg, f)
+            } else {
+                m.estimate(f)
+            }
+        }),
         wrapper_bits: wrap::shifted_bits(&ports),
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),

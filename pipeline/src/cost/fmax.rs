@@ -38,6 +38,7 @@ use crate::config::PipelineConfig;
 mod fit;
 mod measured;
 mod pipelining;
+pub mod routing;
 
 pub use fit::{fit_rows, least_squares, FEATURES};
 pub use measured::{Measured, Role, Setting, MEASURED};
@@ -452,8 +453,15 @@ fn node_path(
 pub struct PePrediction {
     /// The family.
     pub target: Target,
-    /// Predicted clock, MHz.
+    /// Predicted clock of the whole datapath placed, MHz: the slowest
+    /// stage's period plus [`routing_ns`](Self::routing_ns).
     pub mhz: f64,
+    /// The slowest stage's clock alone (the delay model of units placed
+    /// alone), MHz.
+    pub stage_mhz: f64,
+    /// The routing a whole design adds ([`routing`]), ns; 0 where no
+    /// whole design of the family was placed (iCE40).
+    pub routing_ns: f64,
     /// The node ending the slowest stage (its probe name).
     pub critical: String,
     /// That stage's path.
@@ -464,13 +472,27 @@ pub struct PePrediction {
     pub model: DelayModel,
 }
 
+/// The clock of the whole sample datapath placed on `t`: the slowest
+/// stage ([`stage_prediction`]) and the routing a whole design adds
+/// ([`routing::routing_ns`]). `None` for xc7 (no model).
+pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
+    let p = stage_prediction(cfg, t)?;
+    let routing_ns = routing::routing_ns(cfg, t);
+    Some(PePrediction {
+        mhz: 1e3 / (1e3 / p.stage_mhz + routing_ns),
+        routing_ns,
+        ..p
+    })
+}
+
 /// The clock of [`crate::hw::sample::plain`]'s schedule on `t` (the
 /// configuration's, [`crate::cost::latency::sample_schedule`]: one
 /// operator a stage, or the stages `target_mhz` packs): each node's
 /// arrival within its stage (operands produced in the same stage chain
 /// on; a memory read or register starts a stage), the slowest arrival
-/// priced by [`model`]. `None` for xc7 (no model).
-pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
+/// priced by [`model`], without the routing of a whole design. `None`
+/// for xc7 (no model).
+pub fn stage_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
     use crate::hw::Op;
     let model = model(t)?;
     let g = crate::hw::sample::plain(cfg);
@@ -513,6 +535,8 @@ pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
     Some(PePrediction {
         target: t,
         mhz: 1e3 / best.1,
+        stage_mhz: 1e3 / best.1,
+        routing_ns: 0.0,
         critical: g.node(crate::hw::NodeId(best.0)).name.clone(),
         path: arrive[best.0],
         depth: s.depth,
@@ -582,7 +606,7 @@ mod tests {
     fn the_pipelined_pe_is_faster_than_the_unpipelined_units() {
         let cfg = PipelineConfig::default();
         for t in [Target::Ice40, Target::Ecp5] {
-            let pe = pe_prediction(&cfg, t).expect("prediction");
+            let pe = stage_prediction(&cfg, t).expect("prediction");
             for u in ["bilinear", "composite"] {
                 let meas = MEASURED
                     .iter()

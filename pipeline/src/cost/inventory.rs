@@ -51,9 +51,11 @@ mod memories;
 
 use datapath::datapath;
 pub(super) use datapath::Step;
+pub use datapath::{in_module, PIPELINE_REGISTERS};
 pub use datapath::{
     preint_schedule_depth, schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule,
 };
+pub use memories::is_datapath_table;
 use memories::memories;
 
 use super::arch;
@@ -75,6 +77,13 @@ pub struct Item {
     pub count: u32,
     /// The units of one copy.
     pub units: Vec<Unit>,
+    /// Its registers are the emitted sample datapath's, counted once in
+    /// that module's pipeline-register item (`datapath::emitted`): the
+    /// units price logic, multipliers and memories only (no flip-flops,
+    /// no shift-register LUTs; every emitted register resets, so none is
+    /// an SRL). Left out of the JSON when false.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub registers_declared: bool,
 }
 
 impl Item {
@@ -89,12 +98,19 @@ impl Item {
             name: name.into(),
             count,
             units,
+            registers_declared: false,
         }
     }
 
     /// Resources of all copies on `t`.
     pub fn cost(&self, t: Target) -> Resources {
-        total(t, &self.units) * u64::from(self.count)
+        let mut r = total(t, &self.units);
+        if self.registers_declared {
+            r.ff = 0;
+            r.lut -= r.lutram;
+            r.lutram = 0;
+        }
+        r * u64::from(self.count)
     }
 
     /// The widths, for the report: the memory or multiplier if there is
@@ -443,8 +459,8 @@ mod tests {
         let pe = pe_inventory(&cfg, &geo);
         let r = pe.cost(Target::Xc7);
         // 2 + 2 (ray and slope), 3 (bilinear), 4 (classification),
-        // 2 x 4 (squares), 1 (log x path), 1 (exp lerp), 4 (compositing).
-        assert_eq!(r.dsp, 25);
+        // 3 x 4 (squares), 1 (log x path), 1 (exp lerp), 4 (compositing).
+        assert_eq!(r.dsp, 29);
         assert!(r.bram > 0 && r.lut > 0 && r.ff > 0);
         assert!(pe.schedule.depth > 20, "{:?}", pe.schedule);
         assert_eq!(pe.voxel_memory_bits, 8 * 128 * 128 * 12);

@@ -21,6 +21,11 @@ pub enum MemPorts {
     /// Port A reads or writes (the host loads tables and slices through
     /// it), port B only reads: two reads per cycle while running.
     DualRead,
+    /// One write port (the host's) and two read ports at their own
+    /// addresses, as the emitted sample datapath declares its tables
+    /// (`hw::pipeline_rtl`): no block has three ports, so yosys keeps two
+    /// simple dual-port copies, one per read, on every family.
+    WriteTwoReads,
 }
 
 /// What a memory maps to.
@@ -177,7 +182,7 @@ fn block_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
     };
     let reads = match ports {
         MemPorts::Sdp => 1,
-        MemPorts::DualRead => 2,
+        MemPorts::DualRead | MemPorts::WriteTwoReads => 2,
     };
     let (units, cells, deep, geo_width) = best_block(t, depth, width, ports);
     // Each read port of a depth-tiled memory needs a mux per data bit and
@@ -217,7 +222,7 @@ fn block_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
 fn lutram_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> Option<(u64, MemMap)> {
     let reads = match ports {
         MemPorts::Sdp => 1,
-        MemPorts::DualRead => 2,
+        MemPorts::DualRead | MemPorts::WriteTwoReads => 2,
     };
     match t {
         Target::Xc7 => {
@@ -234,7 +239,7 @@ fn lutram_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> Option<(u64
                 }
                 // RAM32M in dual-port mode: 32 x 4; RAM64X1D: 64 x 1 in
                 // two LUTs; RAM128X1D: 128 x 1 in four.
-                MemPorts::DualRead => {
+                MemPorts::DualRead | MemPorts::WriteTwoReads => {
                     if depth <= 32 {
                         (32, 4, 4)
                     } else if depth <= 64 {
@@ -298,6 +303,14 @@ fn lutram_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> Option<(u64
 
 /// Maps a `depth x width` memory with `ports` onto `target`.
 pub fn map_memory(target: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
+    if ports == MemPorts::WriteTwoReads {
+        let one = map_memory(target, depth, width, MemPorts::Sdp);
+        return MemMap {
+            cells: 2 * one.cells,
+            res: one.res * 2,
+            ..one
+        };
+    }
     if depth == 0 || width == 0 {
         return MemMap {
             kind: MemKind::Registers,
@@ -320,7 +333,7 @@ pub fn map_memory(target: Target, depth: u64, width: u64, ports: MemPorts) -> Me
             // a read mux of LUT4s per read port.
             let reads = match ports {
                 MemPorts::Sdp => 1,
-                MemPorts::DualRead => 2,
+                MemPorts::DualRead | MemPorts::WriteTwoReads => 2,
             };
             return MemMap {
                 kind: MemKind::Registers,

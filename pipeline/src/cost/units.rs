@@ -542,6 +542,7 @@ impl Unit {
                 let p = match ports {
                     MemPorts::Sdp => "1W1R",
                     MemPorts::DualRead => "RW+R",
+                    MemPorts::WriteTwoReads => "1W2R",
                 };
                 format!("{depth} x {width} {p}")
             }

@@ -74,6 +74,8 @@ pub struct Table {
     pub depth: u64,
     /// Bits per word.
     pub bits: u32,
+    /// Read ports (each a synchronous read with its data register).
+    pub reads: u32,
 }
 
 /// The emitted module and what a testbench or a reader needs of it.
@@ -195,13 +197,19 @@ pub fn emit_scheduled(
     let tables: Vec<Table> = g
         .mems
         .iter()
-        .filter(|m| m.depth > 0)
         .enumerate()
-        .map(|(k, m)| Table {
+        .filter(|(_, m)| m.depth > 0)
+        .enumerate()
+        .map(|(k, (mi, m))| Table {
             name: m.name.clone(),
             sel: k as u32,
             depth: m.depth,
             bits: u32::from(m.fmt.bits()),
+            reads: g
+                .nodes
+                .iter()
+                .filter(|n| matches!(n.op, Op::Read(r, _) if r.0 == mi))
+                .count() as u32,
         })
         .collect();
     let sel_bits = addr_bits(tables.len().max(2) as u64);

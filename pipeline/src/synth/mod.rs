@@ -176,44 +176,45 @@ pub fn unit(cfg: &PipelineConfig, name: &str) -> Result<CalibrationModule, Strin
 /// writes (`ercube_sample.v`).
 pub const DATAPATH: &str = "ercube_sample";
 
-/// The PE's datapath items the emitted [`DATAPATH`] module holds, as
-/// `ercube cost` lists them: every group of the sample pipeline (position
-/// to compositing and its delay lines) and the three tables it reads
-/// (classification, `-log2(1 - a)`, `2^-f`); not the merge unit, the
-/// buffers, the links or the control the PE adds around it.
+/// The PE's inventory items the emitted [`DATAPATH`] module holds, as
+/// `ercube cost` lists them: its logic (the ray and slope positions,
+/// interpolation, classification, path length, opacity correction and
+/// compositing), its pipeline registers and its tables; not the PE's run
+/// compare and address clamps, the merge unit, the buffers, the links or
+/// the control the PE adds around it.
 pub fn datapath_item(item: &crate::cost::inventory::Item) -> bool {
-    const GROUPS: [&str; 7] = [
-        "position",
-        "interpolation",
-        "classification",
-        "path length",
-        "opacity",
-        "compositing",
-        "pipeline",
-    ];
-    const TABLES: [&str; 3] = ["classification table", "-log2(1 - a) table", "2^-f table"];
-    GROUPS.contains(&item.group)
-        || (item.group == "memories" && TABLES.contains(&item.name.as_str()))
+    crate::cost::inventory::in_module(item)
+        || (item.group == "pipeline" && item.name == crate::cost::inventory::PIPELINE_REGISTERS)
+        || (item.group == "memories" && crate::cost::inventory::is_datapath_table(&item.name))
+}
+
+/// [`datapath_item`]s of `ercube cost`'s PE inventory at `cfg`'s widths
+/// and schedule (256^3 over `cfg.pes` PEs sets the address widths).
+pub fn datapath_items(cfg: &PipelineConfig) -> Vec<crate::cost::inventory::Item> {
+    let geo = crate::cost::inventory::Geometry::new([256, 256, 256], cfg.pes.max(1));
+    crate::cost::inventory::pe_inventory(cfg, &geo)
+        .items
+        .into_iter()
+        .filter(datapath_item)
+        .collect()
+}
+
+/// The estimate of the emitted [`DATAPATH`] module on `t`: its
+/// [`datapath_items`]' resources.
+pub fn datapath_estimate(cfg: &PipelineConfig, t: Target) -> crate::cost::Resources {
+    datapath_items(cfg).iter().map(|it| it.cost(t)).sum()
 }
 
 /// The whole pipelined sample datapath at `cfg`'s widths and schedule, as
-/// one design: the Verilog `ercube rtl` writes (module [`DATAPATH`]), and as
-/// its units those of `ercube cost`'s PE inventory that the module holds
-/// ([`datapath_item`], each copy listed; 256^3 over `cfg.pes` PEs sets the
-/// address widths). It is the datapath only: the PE's control and stage
-/// state machines, buffers and links are not emitted yet.
+/// one design: the Verilog `ercube rtl` writes (module [`DATAPATH`]); its
+/// estimate is [`datapath_estimate`] (its `units` are left empty: the
+/// items' registers are priced once, as the module declares them). It is
+/// the datapath only: the PE's control and stage state machines, buffers
+/// and links are not emitted yet.
 pub fn datapath(cfg: &PipelineConfig) -> Result<CalibrationModule, String> {
     let g = crate::hw::sample::plain(cfg);
     let s = crate::cost::latency::sample_schedule(cfg);
     let m = crate::hw::pipeline_rtl::emit_scheduled(&g, &s, DATAPATH).map_err(|e| e.to_string())?;
-    let geo = crate::cost::inventory::Geometry::new([256, 256, 256], cfg.pes.max(1));
-    let inv = crate::cost::inventory::pe_inventory(cfg, &geo);
-    let mut units = Vec::new();
-    for it in inv.items.iter().filter(|it| datapath_item(it)) {
-        for _ in 0..it.count {
-            units.extend(it.units.iter().cloned());
-        }
-    }
     Ok(CalibrationModule {
         name: DATAPATH.to_owned(),
         description: format!(
@@ -221,7 +222,7 @@ pub fn datapath(cfg: &PipelineConfig) -> Result<CalibrationModule, String> {
             m.depth
         ),
         verilog: m.verilog,
-        units,
+        units: Vec::new(),
     })
 }
 

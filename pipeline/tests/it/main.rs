@@ -19,6 +19,7 @@ mod architecture;
 mod capture;
 mod clock;
 mod cost;
+mod datapath_cost;
 mod equivalence;
 mod ftb;
 mod kernel;

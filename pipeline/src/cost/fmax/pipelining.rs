@@ -161,7 +161,7 @@ pub fn schedule_for(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cost::fmax::pe_prediction;
+    use crate::cost::fmax::stage_prediction as pe_prediction;
 
     /// A slower clock packs more operators a stage: fewer stages and
     /// register bits; a clock no single operator reaches is refused.

@@ -132,12 +132,14 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         items.extend(derived("classification"));
     }
 
-    // Path length: sx^2 + sy^2 + sz^2 (sz^2 is a region constant from the
-    // controller), then an integer square root into `path`.
+    // Path length: sx^2 + sy^2 + sz^2, then an integer square root into
+    // `path`.
+    // The emitted module squares the slice's `sz` beside the ray's `sx`
+    // and the row's `sy` (`hw::sample::plain`).
     items.push(Item::new(
         "path length",
-        "slope squares sx^2, sy^2",
-        2,
+        "slope squares sx^2, sy^2, sz^2",
+        3,
         vec![Unit::Mul {
             a: pn,
             a_signed: true,
@@ -325,19 +327,38 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         start.push(((*name).to_owned(), s, s + lat));
     }
     let depth = start.last().map(|x| x.2).unwrap_or(0);
-    let delay_units: Vec<Unit> = delays
-        .iter()
-        .map(|(_, bits, cycles)| Unit::Delay {
-            bits: *bits,
-            cycles: *cycles,
-        })
-        .collect();
-    items.push(Item::new(
-        "pipeline",
-        "delay lines (schedule)",
-        1,
-        delay_units,
-    ));
+    match emitted(cfg, geo) {
+        Some(e) => {
+            // The plain datapath is the emitted module: its registers are
+            // the ones the module declares on its schedule.
+            for it in items.iter_mut().filter(|it| in_module(it)) {
+                it.registers_declared = true;
+            }
+            items.push(Item::new(
+                "pipeline",
+                PIPELINE_REGISTERS,
+                1,
+                vec![Unit::Reg {
+                    bits: (e.register_bits - e.read_bits()) as u32,
+                }],
+            ));
+        }
+        None => {
+            let delay_units: Vec<Unit> = delays
+                .iter()
+                .map(|(_, bits, cycles)| Unit::Delay {
+                    bits: *bits,
+                    cycles: *cycles,
+                })
+                .collect();
+            items.push(Item::new(
+                "pipeline",
+                "delay lines (schedule)",
+                1,
+                delay_units,
+            ));
+        }
+    }
     Datapath {
         items,
         schedule: Schedule {
@@ -346,6 +367,63 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             delays,
         },
     }
+}
+
+/// The name of the emitted datapath's register item.
+pub const PIPELINE_REGISTERS: &str =
+    "pipeline registers (emitted: stages, ports carried, valid bits, outputs)";
+
+/// The position items the emitted module holds (`x`, `sx`); the run
+/// compare and the address clamps are the PE's, outside it.
+const MODULE_POSITION: [&str; 2] = ["ray x: A + m t", "slope x: b + m k"];
+
+/// Whether an inventory item is logic of the emitted sample datapath
+/// (`hw::pipeline_rtl` of [`crate::hw::sample::plain`]).
+pub fn in_module(it: &Item) -> bool {
+    match it.group {
+        "position" => MODULE_POSITION.contains(&it.name.as_str()),
+        "interpolation" | "classification" | "path length" | "opacity" | "compositing" => true,
+        _ => false,
+    }
+}
+
+/// What the emitted sample datapath declares: its register bits and its
+/// tables.
+pub(crate) struct Emitted {
+    /// Every register bit the module declares
+    /// ([`crate::hw::pipeline_rtl::PipelinedModule::register_bits`]).
+    pub(crate) register_bits: u64,
+    /// The tables, with their read ports.
+    pub(crate) tables: Vec<crate::hw::pipeline_rtl::Table>,
+}
+
+impl Emitted {
+    /// Of the register bits, the tables' read-data registers (a block RAM
+    /// takes them in; the memory model charges those it does not).
+    pub(crate) fn read_bits(&self) -> u64 {
+        self.tables
+            .iter()
+            .map(|t| u64::from(t.reads) * u64::from(t.bits))
+            .sum()
+    }
+}
+
+/// The plain sample datapath as `ercube rtl` emits it on the
+/// configuration's schedule, for a PE without the shading unit, the VOI
+/// stage or the pre-integration unit (those PEs are priced by the
+/// inventory's steps and delay lines); `None` too for a configuration
+/// the Verilog refuses (a rounding mode it does not emit).
+pub(crate) fn emitted(cfg: &PipelineConfig, geo: &Geometry) -> Option<Emitted> {
+    if geo.preint || geo.shading || geo.voi {
+        return None;
+    }
+    let g = crate::hw::sample::plain(cfg);
+    let s = crate::cost::latency::sample_schedule(cfg);
+    let m = crate::hw::pipeline_rtl::emit_scheduled(&g, &s, crate::synth::DATAPATH).ok()?;
+    Some(Emitted {
+        register_bits: m.register_bits,
+        tables: m.tables,
+    })
 }
 
 /// The cost items of a unit's description ([`crate::hw::units::items`]).

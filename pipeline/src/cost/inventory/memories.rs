@@ -34,6 +34,44 @@ fn charge(d: StateDecl) -> Item {
     Item::new(group, d.what, d.copies, vec![unit])
 }
 
+/// What each table of the emitted sample datapath is, by its name there
+/// ([`crate::hw::sample::MEMORIES`]).
+pub(crate) fn table_name(name: &str) -> String {
+    match name {
+        "class_r" | "class_g" | "class_b" | "class_a" => {
+            format!("classification table ({name})")
+        }
+        "log_table" => "-log2(1 - a) table".to_owned(),
+        "exp_table" => "2^-f table".to_owned(),
+        other => format!("table {other}"),
+    }
+}
+
+/// Whether a memory item is one of the sample datapath's tables.
+pub fn is_datapath_table(name: &str) -> bool {
+    name.starts_with("classification table") || name == "-log2(1 - a) table" || name == "2^-f table"
+}
+
+/// A table of the emitted datapath as a memory: its depth and word, one
+/// host write port and its read ports (two reads keep two copies).
+fn table_item(t: &crate::hw::pipeline_rtl::Table) -> Item {
+    let ports = if t.reads >= 2 {
+        MemPorts::WriteTwoReads
+    } else {
+        MemPorts::Sdp
+    };
+    Item::new(
+        "memories",
+        table_name(&t.name),
+        1,
+        vec![Unit::Mem {
+            depth: t.depth,
+            width: t.bits,
+            ports,
+        }],
+    )
+}
+
 /// The PE's memories: its declared voxel and ray state
 /// ([`Pe::declaration`]) and the datapath's tables.
 pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
@@ -44,8 +82,12 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
     };
     let mut items: Vec<Item> = Pe::voxel_state(cfg, geo).into_iter().map(charge).collect();
     // A pre-integrating PE reads its own table instead of the
-    // classification and `-log2(1 - a)` tables.
-    let tables = if geo.preint {
+    // classification and `-log2(1 - a)` tables; a plain PE the tables its
+    // emitted datapath declares (`super::datapath::emitted`).
+    let emitted = super::datapath::emitted(cfg, geo);
+    let tables = if let Some(e) = &emitted {
+        e.tables.iter().map(table_item).collect()
+    } else if geo.preint {
         crate::cost::preint::memories(cfg)
     } else {
         vec![
@@ -72,16 +114,18 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         ]
     };
     items.extend(tables);
-    items.push(Item::new(
-        "memories",
-        "2^-f table",
-        1,
-        vec![mem(
-            (1u64 << cfg.exp_table_bits) + 1,
-            fmt_bits(cfg.opacity_corr),
-            MemPorts::DualRead,
-        )],
-    ));
+    if emitted.is_none() {
+        items.push(Item::new(
+            "memories",
+            "2^-f table",
+            1,
+            vec![mem(
+                (1u64 << cfg.exp_table_bits) + 1,
+                fmt_bits(cfg.opacity_corr),
+                MemPorts::DualRead,
+            )],
+        ));
+    }
     items.extend(Pe::ray_state(cfg, geo).into_iter().map(charge));
     items.extend(Pe::register_state(cfg, geo).into_iter().map(charge));
     items.retain(|i| {

@@ -84,11 +84,19 @@ impl CostReport {
         let predicted: Vec<String> = self
             .predicted_clocks
             .iter()
-            .map(|p| format!("{} {:.1} MHz", p.target.name(), p.mhz))
+            .map(|p| {
+                format!(
+                    "{} {:.1} MHz (stage {:.1}, routing +{:.2} ns)",
+                    p.target.name(),
+                    p.mhz,
+                    p.stage_mhz,
+                    p.routing_ns
+                )
+            })
             .collect();
         let _ = writeln!(
             o,
-            "  predicted clock (slowest scheduled stage, model fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
+            "  predicted clock (slowest scheduled stage plus a whole design's routing, models fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
             predicted.join(", ")
         );
         let c = &self.config;
