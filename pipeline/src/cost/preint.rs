@@ -325,7 +325,7 @@ mod tests {
         // datapath's registers and tables as the emitted module declares
         // them).
         let r = pe.cost(Target::Xc7);
-        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 2396, 8329, 51));
+        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 2151, 8343, 136));
         assert_eq!(pe.schedule.depth, 26);
         // A report's JSON leaves the flag out unless it is set.
         let json = serde_json::to_string(&geo).unwrap();
