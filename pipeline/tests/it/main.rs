@@ -26,6 +26,7 @@ mod links;
 mod load;
 mod mapping;
 mod model;
+mod pe_sample;
 mod preexact;
 mod preint;
 mod readout_rtl;
