@@ -63,6 +63,12 @@ pub struct CosimArgs {
     /// $XDG_CACHE_HOME/ercube/cosim or ~/.cache/ercube/cosim).
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,
+    /// What is emitted and compared: the datapath stage with the readout
+    /// (`datapath`), or each PE's sample stage with its control, voxel
+    /// memory and compositing buffer, then the readout from its buffers
+    /// (`pe`; back to front, column blocks).
+    #[arg(long, value_parser = ["datapath", "pe"], default_value = "datapath")]
+    pub stage: String,
 }
 
 /// The frame `cosim` and `vectors` capture: the view, the renderer's
@@ -202,7 +208,7 @@ impl std::error::Error for Mismatched {}
 
 /// The simulator named on the command line, refused in one line when it
 /// is not installed.
-fn simulator(name: &str) -> Result<Simulator> {
+pub(super) fn simulator(name: &str) -> Result<Simulator> {
     let sim = match name {
         "iverilog" => Simulator::Icarus,
         _ => Simulator::Verilator,
@@ -220,7 +226,7 @@ fn simulator(name: &str) -> Result<Simulator> {
 }
 
 /// The build cache's folder.
-fn cache_dir(given: Option<&Path>) -> PathBuf {
+pub(super) fn cache_dir(given: Option<&Path>) -> PathBuf {
     if let Some(d) = given {
         return d.to_owned();
     }
@@ -242,6 +248,9 @@ fn rate(n: u64, s: f64) -> f64 {
 
 /// Runs `ercube cosim`.
 pub fn run(a: &CosimArgs) -> Result<()> {
+    if a.stage == "pe" {
+        return super::cosim_pe::run(a);
+    }
     super::outputs::check_files(&[a.stats.as_deref(), a.vcd.as_deref()])?;
     if a.max_cycles == Some(0) {
         bail!("--max-cycles 0: give at least one cycle");

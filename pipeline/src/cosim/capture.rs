@@ -126,6 +126,12 @@ pub trait IssueSink: Send {
     /// One readout clock: every PE's host port in it and its
     /// `readout_done` report line after it.
     fn readout_tick(&mut self, _tick: &ReadoutTick) {}
+    /// A sampling clock's broadcast, before the clock runs
+    /// ([`crate::cosim::pe_sample`]).
+    fn sample_bus(&mut self, _bus: &crate::cosim::pe_sample::BusCycle) {}
+    /// A slice's start: every PE as `BeginSlice` left it, after clock
+    /// `cycle` ([`crate::cosim::pe_sample`]).
+    fn slice_begin(&mut self, _cycle: u64, _z: usize, _pes: &[Pe]) {}
 }
 
 /// One PE's rays at the readout's start: its held columns in order (the

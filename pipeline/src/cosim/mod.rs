@@ -24,6 +24,7 @@
 pub mod build;
 pub mod capture;
 pub mod outcome;
+pub mod pe_sample;
 pub mod readout;
 pub mod replay;
 pub mod vectors;

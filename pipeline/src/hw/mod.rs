@@ -30,6 +30,7 @@ pub mod compose;
 mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
+pub mod pe_sample_rtl;
 pub mod pipeline_rtl;
 pub mod preint;
 pub mod readout_rtl;

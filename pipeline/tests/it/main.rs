@@ -28,6 +28,7 @@ mod load;
 mod mapping;
 mod model;
 mod occupancy;
+mod pe_sample;
 mod preexact;
 mod preint;
 mod readout_rtl;

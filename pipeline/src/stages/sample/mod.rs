@@ -69,6 +69,9 @@ impl Array {
         }
         self.clock
             .broadcast(&Broadcast::BeginSlice { x: (xlo, xhi) });
+        if let Some(c) = self.clock.capture() {
+            crate::cosim::pe_sample::slice_begin(c, self.clock.cycle(), slice.z, self.clock.pes());
+        }
         let row_len = self
             .clock
             .reports()
@@ -329,6 +332,9 @@ impl Array {
                     next: Some((slice.z, y.0, y.1)),
                     now: self.clock.now(),
                 };
+                if let Some(c) = self.clock.capture() {
+                    crate::cosim::pe_sample::sample_bus(c, &bus);
+                }
                 self.clock
                     .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
                         pe.sample_step(&dp, &bus, links, nx, out)
@@ -356,6 +362,9 @@ impl Array {
                     next,
                     now: self.clock.now(),
                 };
+                if let Some(c) = self.clock.capture() {
+                    crate::cosim::pe_sample::sample_bus(c, &bus);
+                }
                 self.clock
                     .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
                         pe.sample_step(&dp, &bus, links, nx, out)

@@ -1,0 +1,469 @@
+//! The co-simulation of the PE's sample stage ([`crate::hw::pe_sample_rtl`]):
+//! every PE's control, voxel memory, compositing buffer and datapath in
+//! Verilog, driven by the controller's broadcast replayed from the model
+//! clock by clock, and compared with the model on every sample.
+//!
+//! The capture ([`PeCapture`], fed by the clocked sample path) writes:
+//!
+//! - `bus.txt`: the controller's broadcast of every sampling clock (the
+//!   prologue's too): whether the clock samples, the row's first clock,
+//!   the row, slice and voxel rows, the row's words, the slice's x range
+//!   and the next row's voxel rows the edge registers read;
+//! - per PE, what the model does to the PE outside the sample stage, at
+//!   each slice's start: the held range (`pe<K>.map`), the slice's voxels
+//!   to load (`pe<K>.ev`, kind 1) and every compositing buffer word that
+//!   migration, merges or splits changed (kind 3: the words that differ
+//!   from what the stage's own write-backs left);
+//! - per PE, the model's issues (`pe<K>.I`: cycle, ray, the accumulators
+//!   read), their taps (`pe<K>.T`) and write-backs (`pe<K>.W`: land cycle,
+//!   buffer address, the words), in the text the testbench prints for the
+//!   RTL's, so that [`compare`] reads the two side by side.
+//!
+//! At the readout's start the testbench dumps each PE's buffer, which
+//! [`compare::buffers`] checks against the model's rays and which the
+//! readout stage ([`super::readout`]) can then be fed.
+
+pub mod bench;
+pub mod compare;
+pub mod run;
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use super::capture::{Capture, Issue, IssueSink, ReadoutStart, ReadoutTick};
+use super::replay::masked;
+use crate::datapath::Datapath;
+use crate::hw::pe_sample_rtl::PeSampleShape;
+use crate::pe::Pe;
+use crate::stages::sample::SampleBus;
+
+/// A sampling clock's broadcast as the PE's control reads it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BusCycle {
+    /// The clock (the frame's numbering).
+    pub cycle: u64,
+    /// Whether the clock samples (not the prologue).
+    pub go: bool,
+    /// Whether it is the row's first sampling clock.
+    pub first: bool,
+    /// The row in the region's buffer.
+    pub row: usize,
+    /// The slice.
+    pub z: usize,
+    /// The row's clamped voxel rows.
+    pub y: (usize, usize),
+    /// The row's words, raw: `a`, `t`, `b`, `k`, `row_wy`, `sy`, `sz`.
+    pub words: [i64; 7],
+    /// The slice's x range of ray indices.
+    pub x: (i64, i64),
+    /// The row whose edge voxels the PEs drive: slice, voxel rows.
+    pub next: Option<(usize, usize, usize)>,
+}
+
+impl BusCycle {
+    fn of(b: &SampleBus) -> BusCycle {
+        BusCycle {
+            cycle: b.now,
+            go: b.cycle != usize::MAX,
+            first: b.cycle == 0,
+            row: b.row,
+            z: b.slice.z,
+            y: (b.y.0, b.y.1),
+            words: [
+                b.slice.a[0].raw(),
+                b.slice.t[0].raw(),
+                b.slope_x.0.raw(),
+                b.slope_x.1.raw(),
+                b.y.2.raw(),
+                b.slope_yz.0.raw(),
+                b.slope_yz.1.raw(),
+            ],
+            x: b.slice.range[0],
+            next: b.next,
+        }
+    }
+}
+
+/// Hands `capture` the broadcast of the clock `bus` is for.
+pub(crate) fn sample_bus(capture: &Capture, bus: &SampleBus) {
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .sample_bus(&BusCycle::of(bus));
+}
+
+/// Tells `capture` a slice starts after clock `cycle`.
+pub(crate) fn slice_begin(capture: &Capture, cycle: u64, z: usize, pes: &[Pe]) {
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .slice_begin(cycle, z, pes);
+}
+
+/// Widths of the words the streams carry.
+#[derive(Debug, Clone, Copy)]
+pub struct Widths {
+    /// The ray index (`slot_m`).
+    pub m: u32,
+    /// A colour accumulator.
+    pub color: u32,
+    /// The opacity accumulator.
+    pub alpha: u32,
+    /// A voxel.
+    pub voxel: u32,
+    /// A buffer address.
+    pub addr: u32,
+    /// Clocks from issue to the taps' line (the tap stage).
+    pub tap_stage: u64,
+}
+
+impl Widths {
+    fn acc(&self, i: usize) -> u32 {
+        if i == 3 {
+            self.alpha
+        } else {
+            self.color
+        }
+    }
+
+    /// A buffer word packed as the module stores it (`{a, b, g, r}`).
+    pub fn pack(&self, acc: &[i64; 4]) -> u128 {
+        let mut w = 0u128;
+        let mut at = 0;
+        for (i, &v) in acc.iter().enumerate() {
+            w |= masked(v, self.acc(i)) << at;
+            at += self.acc(i);
+        }
+        w
+    }
+
+    /// The accumulators of a packed word, sign-extended where `signed`.
+    pub fn unpack(&self, w: u128, signed: [bool; 2]) -> [i64; 4] {
+        let mut out = [0; 4];
+        let mut at = 0;
+        for (i, o) in out.iter_mut().enumerate() {
+            let bits = self.acc(i);
+            let raw = (w >> at) & ((1u128 << bits) - 1);
+            let s = if i == 3 { signed[1] } else { signed[0] };
+            *o = if s && (raw >> (bits - 1)) & 1 == 1 {
+                (raw as i128 - (1i128 << bits)) as i64
+            } else {
+                raw as i64
+            };
+            at += bits;
+        }
+        out
+    }
+}
+
+/// The capture of the sample stage's co-simulation: it writes the
+/// streams as the frame runs (see the module's text).
+pub struct PeCapture {
+    shape: PeSampleShape,
+    widths: Widths,
+    dir: PathBuf,
+    bus: BufWriter<File>,
+    /// Per PE: events, held range, issues, taps, write-backs.
+    ev: Vec<BufWriter<File>>,
+    map: Vec<BufWriter<File>>,
+    iss: Vec<BufWriter<File>>,
+    taps: Vec<BufWriter<File>>,
+    wbs: Vec<BufWriter<File>>,
+    /// Per PE, the buffer as the stage's own write-backs leave it.
+    shadow: Vec<Vec<Option<[i64; 4]>>>,
+    /// The last broadcast's clock and row.
+    row_at: (u64, usize),
+    volumes: bool,
+    /// Samples each PE issued.
+    pub issued: Vec<u64>,
+    /// Buffer words written outside the sample stage, over all PEs.
+    pub outside_words: u64,
+    /// Why the frame does not fit the emitted memories, if it does not.
+    pub unfit: Option<String>,
+    /// A file that could not be written.
+    pub error: Option<String>,
+    /// The datapath's tables, raw words.
+    pub tables: Vec<(String, Vec<i64>)>,
+    /// The readout's start and clocks.
+    pub readout: Option<ReadoutStart>,
+    /// The readout's clocks.
+    pub ticks: Vec<ReadoutTick>,
+    /// The last sampling clock.
+    pub last_cycle: u64,
+}
+
+fn create(dir: &Path, name: &str) -> std::io::Result<BufWriter<File>> {
+    Ok(BufWriter::new(File::create(dir.join(name))?))
+}
+
+impl PeCapture {
+    /// A capture writing into `dir` for `pes` PEs of `shape`.
+    pub fn create(
+        shape: PeSampleShape,
+        widths: Widths,
+        dir: &Path,
+        pes: usize,
+    ) -> std::io::Result<PeCapture> {
+        let per = |ext: &str| -> std::io::Result<Vec<BufWriter<File>>> {
+            (0..pes)
+                .map(|k| create(dir, &format!("pe{k}.{ext}")))
+                .collect()
+        };
+        let words = (2 * shape.rays.bank_depth) as usize;
+        Ok(PeCapture {
+            shape,
+            widths,
+            dir: dir.to_owned(),
+            bus: create(dir, "bus.txt")?,
+            ev: per("ev")?,
+            map: per("map")?,
+            iss: per("I")?,
+            taps: per("T")?,
+            wbs: per("W")?,
+            shadow: vec![vec![None; words]; pes],
+            row_at: (0, 0),
+            volumes: false,
+            issued: vec![0; pes],
+            outside_words: 0,
+            unfit: None,
+            error: None,
+            tables: Vec::new(),
+            readout: None,
+            ticks: Vec::new(),
+            last_cycle: 0,
+        })
+    }
+
+    /// Flushes every stream.
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        self.bus.flush()?;
+        for f in self
+            .ev
+            .iter_mut()
+            .chain(&mut self.map)
+            .chain(&mut self.iss)
+            .chain(&mut self.taps)
+            .chain(&mut self.wbs)
+        {
+            f.flush()?;
+        }
+        Ok(())
+    }
+
+    fn fail(&mut self, e: std::io::Error) {
+        if self.error.is_none() {
+            self.error = Some(e.to_string());
+        }
+    }
+
+    fn unfit(&mut self, why: String) {
+        if self.unfit.is_none() {
+            self.unfit = Some(why);
+        }
+    }
+
+    /// Each PE's voxels, `[z][y][l]`, and its columns, once.
+    fn volumes(&mut self, pes: &[Pe]) -> std::io::Result<()> {
+        for (k, pe) in pes.iter().enumerate() {
+            let mut f = create(&self.dir, &format!("pe{k}.vol"))?;
+            for i in 0..pe.mem.len() {
+                writeln!(f, "{:x}", pe.mem.get(i))?;
+            }
+            f.flush()?;
+            let w = pe.held_columns();
+            if w as u64 > self.shape.stored || pe.cols.len() != w {
+                self.unfit(format!(
+                    "PE {k} holds {w} voxel columns, past the declared {}",
+                    self.shape.stored
+                ));
+            }
+            std::fs::write(
+                self.dir.join(format!("pe{k}.cfg")),
+                format!(
+                    "{:x} {:x} {:x} {:x}\n",
+                    w,
+                    pe.cols.start,
+                    pe.cols.end,
+                    self.shape.nx - 1
+                ),
+            )?;
+        }
+        Ok(())
+    }
+
+    fn begin_slice(&mut self, cycle: u64, z: usize, pes: &[Pe]) -> std::io::Result<()> {
+        if !self.volumes {
+            self.volumes = true;
+            self.volumes(pes)?;
+        }
+        let s = self.shape;
+        for (k, pe) in pes.iter().enumerate() {
+            let n = pe.rays.len();
+            let lo = pe.rays.front().map_or(0, |c| c.mx);
+            let consecutive = pe
+                .rays
+                .iter()
+                .enumerate()
+                .all(|(i, c)| c.mx == lo + i as i64);
+            if n as u64 > s.slots() || !consecutive {
+                self.unfit(format!(
+                    "PE {k} holds {n} columns{} at slice {z}, past the declared {} slots",
+                    if consecutive {
+                        ""
+                    } else {
+                        " (not consecutive)"
+                    },
+                    s.slots()
+                ));
+                continue;
+            }
+            writeln!(self.map[k], "{:x} {:x} {:x}", cycle, lo as u64, n)?;
+            writeln!(self.ev[k], "{:x} 1 {:x} {:x} 0", cycle, z, z & 1)?;
+            for c in &pe.rays {
+                if c.acc.len() as u64 > s.rays.max_rows {
+                    self.unfit(format!(
+                        "PE {k}'s column {} has {} rows, past the declared {}",
+                        c.mx,
+                        c.acc.len(),
+                        s.rays.max_rows
+                    ));
+                    break;
+                }
+                for (row, a) in c.acc.iter().enumerate() {
+                    let addr = s.ray_addr(c.mx, row) as usize;
+                    if self.shadow[k][addr] != Some(a.raw) {
+                        self.shadow[k][addr] = Some(a.raw);
+                        self.outside_words += 1;
+                        writeln!(
+                            self.ev[k],
+                            "{:x} 3 {:x} 0 {:x}",
+                            cycle,
+                            addr,
+                            self.widths.pack(&a.raw)
+                        )?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The buffer words the stages after the last slice changed (the
+    /// last merges and folds), written before the readout starts.
+    fn before_readout(&mut self, start: &ReadoutStart) -> std::io::Result<()> {
+        let s = self.shape;
+        for (k, pe) in start.pes.iter().enumerate() {
+            let mut at = 0;
+            for (c, &mx) in pe.mx.iter().enumerate() {
+                for row in 0..pe.rows[c] {
+                    let word = pe.words[at];
+                    at += 1;
+                    let addr = s.ray_addr(mx, row) as usize;
+                    if row as u64 >= s.rays.max_rows || pe.mx.len() as u64 > s.slots() {
+                        continue;
+                    }
+                    if self.shadow[k][addr] != Some(word) {
+                        self.shadow[k][addr] = Some(word);
+                        self.outside_words += 1;
+                        writeln!(
+                            self.ev[k],
+                            "{:x} 3 {:x} 0 {:x}",
+                            start.cycle,
+                            addr,
+                            self.widths.pack(&word)
+                        )?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn record(&mut self, issue: &Issue) -> std::io::Result<()> {
+        let (k, s, w) = (issue.pe, &issue.input, self.widths);
+        if self.row_at.0 != issue.cycle {
+            return Err(std::io::Error::other(format!(
+                "an issue in cycle {} without a broadcast",
+                issue.cycle
+            )));
+        }
+        self.issued[k] += 1;
+        self.last_cycle = self.last_cycle.max(issue.cycle);
+        let mut l = format!("I {:x} {:x}", issue.cycle, masked(s.m, w.m));
+        for i in 0..4 {
+            let _ = write!(l, " {:x}", masked(s.acc.raw[i], w.acc(i)));
+        }
+        writeln!(self.iss[k], "{l}")?;
+        let mut l = format!("T {:x}", issue.cycle);
+        for t in s.taps {
+            let _ = write!(l, " {:x}", masked(i64::from(t), w.voxel));
+        }
+        writeln!(self.taps[k], "{l}")?;
+        let addr = self.shape.ray_addr(s.m, self.row_at.1);
+        let mut l = format!("W {:x} {:x}", s.land, addr);
+        for i in 0..4 {
+            let _ = write!(l, " {:x}", masked(issue.out.raw[i], w.acc(i)));
+        }
+        writeln!(self.wbs[k], "{l}")?;
+        if let Some(slot) = self.shadow[k].get_mut(addr as usize) {
+            *slot = Some(issue.out.raw);
+        }
+        Ok(())
+    }
+}
+
+impl IssueSink for PeCapture {
+    fn begin(&mut self, dp: &Datapath) {
+        self.tables = super::capture::table_words(dp);
+    }
+
+    fn issue(&mut self, issue: &Issue) {
+        if let Err(e) = self.record(issue) {
+            self.fail(e);
+        }
+    }
+
+    fn sample_bus(&mut self, b: &BusCycle) {
+        self.row_at = (b.cycle, b.row);
+        let (nv, nz, ny0, ny1) = match b.next {
+            Some((z, y0, y1)) => (1, z & 1, y0, y1),
+            None => (0, 0, 0, 0),
+        };
+        let mut l = format!(
+            "{:x} {:x} {:x} {:x} {:x} {:x} {:x}",
+            b.cycle,
+            u8::from(b.go),
+            u8::from(b.first),
+            b.row,
+            b.z & 1,
+            b.y.0,
+            b.y.1
+        );
+        for v in b.words.iter().chain([&b.x.0, &b.x.1]) {
+            let _ = write!(l, " {:x}", *v as u64);
+        }
+        let _ = write!(l, " {nv:x} {nz:x} {ny0:x} {ny1:x}");
+        if let Err(e) = writeln!(self.bus, "{l}") {
+            self.fail(e);
+        }
+    }
+
+    fn slice_begin(&mut self, cycle: u64, z: usize, pes: &[Pe]) {
+        if let Err(e) = self.begin_slice(cycle, z, pes) {
+            self.fail(e);
+        }
+    }
+
+    fn readout_begin(&mut self, start: &ReadoutStart) {
+        self.readout = Some(start.clone());
+        if let Err(e) = self.before_readout(start) {
+            self.fail(e);
+        }
+    }
+
+    fn readout_tick(&mut self, tick: &ReadoutTick) {
+        self.ticks.push(tick.clone());
+    }
+}

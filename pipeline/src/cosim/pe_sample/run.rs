@@ -1,0 +1,206 @@
+//! Running the sample stage's co-simulation on a frame: the model with
+//! the capture, the emitted PE and testbench built and run, the streams
+//! and the buffers compared, and the readout fed from the RTL's buffers.
+
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use super::bench::{testbench, TOP};
+use super::compare::{buffers, streams, Buffers, StageOutcome};
+use super::{PeCapture, Widths};
+use crate::cosim::build::{build, run, Built, Simulator};
+use crate::cosim::readout::StageRun;
+use crate::cosim::replay::table_rows;
+use crate::hw::pe_sample_rtl::{emit, PeSampleShape, MODULE};
+use crate::hw::pipeline_rtl::PipelinedModule;
+use crate::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
+use crate::FrameRun;
+
+/// What a run of the sample stage's co-simulation found.
+pub struct PeStageRun {
+    /// The streams compared.
+    pub outcome: StageOutcome,
+    /// The buffers at the readout's start (a frame reaching it).
+    pub buffers: Option<Buffers>,
+    /// The readout fed from the RTL's buffers.
+    pub readout: Option<StageRun>,
+    /// The clocks simulated (to the readout's start).
+    pub cycles: u64,
+    /// The frame's cycles in the model.
+    pub frame_cycles: u64,
+    /// Samples the model issued.
+    pub samples: u64,
+    /// Buffer words the model changed outside the sample stage (replayed).
+    pub outside_words: u64,
+    /// The build.
+    pub built: Built,
+    /// Seconds: the model capturing, the simulation.
+    pub seconds: [f64; 2],
+    /// Lines of Verilog: the PE module, the testbench.
+    pub lines: [usize; 2],
+    /// The PE module's memory and control register bits.
+    pub bits: [u64; 2],
+    /// Why the frame was not checked, if it was not.
+    pub unfit: Option<String>,
+    /// The most columns a PE held at a slice's start, and the column
+    /// map's declared slots (the emitted module has the larger).
+    pub slots: (u64, u64),
+}
+
+/// A capture noting the most columns any PE holds at a slice's start.
+#[derive(Default)]
+struct Peak(u64);
+
+impl crate::cosim::capture::IssueSink for Peak {
+    fn issue(&mut self, _: &crate::cosim::capture::Issue) {}
+    fn slice_begin(&mut self, _: u64, _: usize, pes: &[crate::pe::Pe]) {
+        for p in pes {
+            self.0 = self.0.max(p.rays.len() as u64);
+        }
+    }
+}
+
+impl PeStageRun {
+    /// Every way the run failed, most telling first.
+    pub fn problems(&self) -> Vec<String> {
+        let mut v = Vec::new();
+        let o = &self.outcome;
+        if let Some(m) = &o.first {
+            v.push(format!("{} mismatches; the first: {m}", o.mismatches));
+        }
+        if let Some(b) = &self.buffers {
+            if let Some((k, mx, row, m, r)) = &b.first {
+                v.push(format!(
+                    "buffer at the readout: {} of {} ray words differ; the first: PE {k}, ray ({mx}, {row}): model {m:?}, RTL {r:?}",
+                    b.differ, b.compared
+                ));
+            }
+        }
+        if let Some(r) = &self.readout {
+            v.extend(
+                r.problems()
+                    .into_iter()
+                    .map(|p| format!("readout from the RTL's buffers: {p}")),
+            );
+        }
+        if o.compared[0] != self.samples && self.unfit.is_none() {
+            v.push(format!(
+                "{} issues compared of the model's {}",
+                o.compared[0], self.samples
+            ));
+        }
+        v
+    }
+}
+
+/// Runs the frame `frame` makes with the capture (twice: first for the
+/// most columns a PE holds), then the sample stage of `cfg`'s PEs
+/// around datapath `dp` in `sim` (built under `cache`, run in `dir`);
+/// `mutate` edits the PE module's text first (a test's broken control).
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<'a>(
+    frame: &dyn Fn() -> FrameRun<'a>,
+    cfg: &crate::config::PipelineConfig,
+    view: &golden::geometry::View,
+    dp: &PipelinedModule,
+    sim: Simulator,
+    cache: &Path,
+    dir: &Path,
+    mutate: Option<&dyn Fn(&str) -> String>,
+) -> Result<PeStageRun, String> {
+    let declared = PeSampleShape::for_view(cfg, view)?;
+    let peak = Arc::new(Mutex::new(Peak::default()));
+    frame()
+        .capture(peak.clone())
+        .run()
+        .map_err(|e| e.to_string())?;
+    let held = peak.lock().map_err(|_| "capture poisoned".to_owned())?.0;
+    let shape = declared.with_slots(held);
+    let pe = emit(&shape, dp)?;
+    let verilog = mutate.map_or_else(|| pe.verilog.clone(), |f| f(&pe.verilog));
+    let port = |n: &str| dp.ports.iter().find(|p| p.name == n);
+    let tap_stage = u64::from(port("v00").map_or(0, |p| p.stage));
+    let widths = Widths {
+        m: port("slot_m").map_or(16, |p| p.word.bits),
+        color: shape.rays.color_bits,
+        alpha: shape.rays.alpha_bits,
+        voxel: shape.voxel_bits,
+        addr: shape.rays.ray_addr_bits(),
+        tap_stage,
+    };
+    let pes = usize::from(cfg.pes);
+    let capture = PeCapture::create(shape, widths, dir, pes).map_err(|e| e.to_string())?;
+    let capture = Arc::new(Mutex::new(capture));
+    let t = std::time::Instant::now();
+    let f = frame()
+        .capture(capture.clone())
+        .run()
+        .map_err(|e| e.to_string())?;
+    let capture_s = t.elapsed().as_secs_f64();
+    let mut c = capture.lock().map_err(|_| "capture poisoned".to_owned())?;
+    c.finish().map_err(|e| e.to_string())?;
+    if let Some(e) = &c.error {
+        return Err(format!("capture: {e}"));
+    }
+    let (rows, n) = table_rows(dp, &c.tables);
+    std::fs::write(dir.join("tables.hex"), rows).map_err(|e| e.to_string())?;
+    let start = c.readout.clone();
+    let cycles = start
+        .as_ref()
+        .map_or(f.cycles, |s| s.cycle)
+        .max(c.last_cycle + u64::from(dp.depth) + 1);
+    let tb = testbench(&shape, dp, pes, view.dims[2] as u64, tap_stage);
+    let sources = [
+        (format!("{}.v", dp.name), dp.verilog.as_str()),
+        (format!("{MODULE}.v"), verilog.as_str()),
+        (format!("{TOP}.v"), tb.as_str()),
+    ];
+    let sources: Vec<(&str, &str)> = sources.iter().map(|(n, t)| (n.as_str(), *t)).collect();
+    let mut out = PeStageRun {
+        outcome: StageOutcome::default(),
+        buffers: None,
+        readout: None,
+        cycles,
+        frame_cycles: f.cycles,
+        samples: c.issued.iter().sum(),
+        outside_words: c.outside_words,
+        built: Built {
+            exe: dir.to_owned(),
+            sim,
+            seconds: 0.0,
+            cached: false,
+        },
+        seconds: [capture_s, 0.0],
+        lines: [verilog.lines().count(), tb.lines().count()],
+        bits: [shape.memory_bits(), pe.register_bits],
+        unfit: c.unfit.clone(),
+        slots: (held, declared.slots()),
+    };
+    if out.unfit.is_some() {
+        return Ok(out);
+    }
+    out.built = build(sim, cache, &sources, TOP, false).map_err(|e| e.to_string())?;
+    let mut args = vec![format!("+cycles={cycles}"), format!("+tables={n}")];
+    if let Some(s) = &start {
+        args.push(format!("+dump={}", s.cycle));
+    }
+    let (_, run_s) = run(&out.built, dir, &args).map_err(|e| e.to_string())?;
+    out.seconds[1] = run_s;
+    out.outcome = streams(dir, pes)?;
+    if let Some(s) = &start {
+        let b = buffers(dir, &shape, &widths, s)?;
+        if let Ok(rs) = ReadoutShape::for_view(cfg, view) {
+            if crate::cosim::readout::counts(&rs, &b.start).is_ok() {
+                let rtl = emit_readout(&rs);
+                let rdir = dir.join("readout");
+                std::fs::create_dir_all(&rdir).map_err(|e| e.to_string())?;
+                let r = crate::cosim::readout::simulate(
+                    &rtl, &rtl.pe, &b.start, &c.ticks, &f.raw, sim, cache, &rdir, false,
+                )?;
+                out.readout = Some(r);
+            }
+        }
+        out.buffers = Some(b);
+    }
+    Ok(out)
+}

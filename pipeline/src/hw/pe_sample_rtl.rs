@@ -1,0 +1,696 @@
+//! The PE's sample stage in Verilog: its voxel memory (the slice buffer
+//! and the copy of its first column it drives to the left neighbour), its
+//! compositing buffer, the column map's held range, and the control that
+//! walks a row's rays one a clock into the pipelined datapath
+//! ([`super::pipeline_rtl`]'s `ercube_sample`), reads each ray's
+//! accumulators from the buffer before it issues and writes them back
+//! when the datapath returns them, and serves the voxel taps, the column
+//! right of the block from the right neighbour's edge register.
+//!
+//! Golden twin of the stage: [`crate::pe::Pe::sample_step`] (the model
+//! this module is checked against, clock for clock, by
+//! [`crate::cosim::pe_sample`]), whose golden twin is
+//! `golden::sampling::sample_region`.
+//!
+//! The depths and widths are the PE's declaration's
+//! ([`crate::pe::Pe::declaration`], through
+//! [`super::readout_rtl::ReadoutShape`] for the rays and
+//! [`crate::pe::Pe::voxel_state`] for the voxels): the slice buffer is two
+//! row banks (even and odd voxel rows) of two slices each, a bank
+//! `stored * ceil(ny / 2)` words a slice, read at two columns a clock (the
+//! declared dual read); the edge column, likewise banked, holds the
+//! block's first column; the compositing buffer is two banks interleaved
+//! by the ray address's low bit, ray `(slot, row)` at `row * slots +
+//! slot`, where a held column's slot is its `mx` modulo the slots (a held
+//! block is consecutive and at most `slots` wide, so slots never collide
+//! and a column keeps its slot while columns arrive and leave).
+//!
+//! The controller's broadcast comes one clock ahead (`bc_*`): in the clock
+//! before a sampling cycle the control finds the ray that issues in it
+//! (the row's `c`-th held column inside the slice's x range, `c` counting
+//! the row's sampling cycles) and reads its accumulators; a write-back
+//! to the same ray in that clock or the next is forwarded.
+
+use std::fmt::Write as _;
+
+use super::pipeline_rtl::PipelinedModule;
+use super::readout_rtl::ReadoutShape;
+use crate::config::{Mapping, Order, PipelineConfig};
+use crate::cost::inventory::{addr_bits, Geometry};
+use crate::pe::Pe;
+
+/// The module's name.
+pub const MODULE: &str = "ercube_pe_sample";
+
+/// The depths and widths of one PE's sample stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct PeSampleShape {
+    /// The rays' memories (compositing buffer, column map), as the
+    /// readout declares them.
+    pub rays: ReadoutShape,
+    /// Bits of a voxel word.
+    pub voxel_bits: u32,
+    /// Columns a slice buffer row holds (`stored`).
+    pub stored: u64,
+    /// Words of a slice in one row bank (`ceil(ny / 2)` rows).
+    pub half_rows: u64,
+    /// The volume's rows (`ny`).
+    pub ny: u64,
+    /// The volume's columns (`nx`).
+    pub nx: u64,
+    /// Bits of the ray index (`RAY_INDEX_BITS`).
+    pub index_bits: u32,
+}
+
+impl PeSampleShape {
+    /// The shape of `cfg`'s PE for a frame of `view`, refused in one line
+    /// where the stage's control is not emitted yet.
+    pub fn for_view(
+        cfg: &PipelineConfig,
+        view: &golden::geometry::View,
+    ) -> Result<PeSampleShape, String> {
+        if cfg.mapping != Mapping::Blocks {
+            return Err(format!(
+                "the sample stage's control under the {} mapping (aprons, several blocks a PE) is not emitted yet (only column blocks)",
+                cfg.mapping.name()
+            ));
+        }
+        if cfg.order == Order::FrontToBack {
+            return Err("the sample stage's control front to back (termination flags read by the row plan) is not emitted yet (only back to front)".into());
+        }
+        let rays = ReadoutShape::for_view(cfg, view)?;
+        let plan = crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
+        let geo = Geometry {
+            dims: view.dims,
+            pes: cfg.pes,
+            regions: plan.regions.len() as u32,
+            shading: false,
+            voi: false,
+            preint: false,
+        };
+        let decls = Pe::voxel_state(cfg, &geo);
+        let sb = decls
+            .iter()
+            .find(|d| d.name == "slice_buffer")
+            .ok_or("the PE declares no slice buffer")?;
+        let ny = view.dims[1] as u64;
+        let half_rows = ny.div_ceil(2);
+        if sb.copies != 4 || sb.depth % half_rows != 0 {
+            return Err(format!(
+                "the slice buffer is declared as {} copies of {} words; the sample stage reads 4 (2 slices x 2 row banks)",
+                sb.copies, sb.depth
+            ));
+        }
+        Ok(PeSampleShape {
+            rays,
+            voxel_bits: sb.width,
+            stored: sb.depth / half_rows,
+            half_rows,
+            ny,
+            nx: view.dims[0] as u64,
+            index_bits: crate::cost::shapes::RAY_INDEX_BITS,
+        })
+    }
+
+    /// The shape with `n` column slots where the declaration has fewer
+    /// (a frame whose PEs hold more columns than the declared `2 W + 1`):
+    /// the column map and the compositing buffer grow to match.
+    pub fn with_slots(mut self, n: u64) -> PeSampleShape {
+        if n > self.rays.map_depth {
+            self.rays.map_depth = n;
+            self.rays.bank_depth = (n * self.rays.max_rows).div_ceil(2);
+        }
+        self
+    }
+
+    /// Slots of the column map (`2 W + 1`).
+    pub fn slots(&self) -> u64 {
+        self.rays.map_depth
+    }
+
+    /// Added to a ray index before the slot's modulo: a multiple of the
+    /// slots that makes every index of `index_bits` non-negative.
+    pub fn slot_offset(&self) -> u64 {
+        let s = self.slots();
+        (1u64 << (self.index_bits - 1)).div_ceil(s) * s
+    }
+
+    /// The slot of ray index `mx`.
+    pub fn slot(&self, mx: i64) -> u64 {
+        (mx + self.slot_offset() as i64) as u64 % self.slots()
+    }
+
+    /// The buffer address of ray `(mx, row)`.
+    pub fn ray_addr(&self, mx: i64, row: usize) -> u64 {
+        row as u64 * self.slots() + self.slot(mx)
+    }
+
+    /// Words of one row bank of the slice buffer (two slices).
+    pub fn bank_words(&self) -> u64 {
+        2 * self.stored * self.half_rows
+    }
+
+    /// Memory bits one PE's module declares: the slice buffer, the edge
+    /// column, the compositing buffer (the datapath's tables are its own).
+    pub fn memory_bits(&self) -> u64 {
+        let v = u64::from(self.voxel_bits);
+        2 * self.bank_words() * v
+            + 2 * 2 * self.half_rows * v
+            + 2 * self.rays.bank_depth * u64::from(self.rays.buffer_width)
+    }
+
+    /// Bits of a voxel row index.
+    fn row_bits(&self) -> u32 {
+        addr_bits(self.ny)
+    }
+
+    /// Bits of a voxel column (`0 ..= nx`, signed room for the clamp).
+    fn col_bits(&self) -> u32 {
+        addr_bits(self.nx + 1) + 1
+    }
+}
+
+/// The emitted module and what it declares.
+#[derive(Debug, Clone)]
+pub struct PeSampleRtl {
+    /// The Verilog text.
+    pub verilog: String,
+    /// Register bits the control declares (the datapath's are its own).
+    pub register_bits: u64,
+}
+
+/// A port's `[w-1:0]`, signed when `signed`.
+fn range(bits: u32, signed: bool) -> String {
+    format!("{}[{}:0]", if signed { "signed " } else { "" }, bits - 1)
+}
+
+/// The PE's sample stage around `dp` (the emitted `ercube_sample`).
+pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, String> {
+    let port = |n: &str| {
+        dp.ports
+            .iter()
+            .find(|p| p.name == n)
+            .ok_or_else(|| format!("the datapath has no port {n}"))
+    };
+    let sx = port("x0")?.stage;
+    let sv = port("v00")?.stage;
+    if sv != sx + 1 {
+        return Err(format!(
+            "the datapath reads its taps {sv} clocks after issue and shows the tap column at {sx}: the voxel memory answers one clock after the column"
+        ));
+    }
+    let depth = dp.depth;
+    let v = s.voxel_bits;
+    let r = &s.rays;
+    let (cw, aw) = (r.color_bits, r.alpha_bits);
+    let bw = r.buffer_width;
+    let ab = r.ray_addr_bits();
+    let rb = r.row_bits();
+    let yb = s.row_bits();
+    let cb = s.col_bits();
+    let ib = s.index_bits;
+    let half = s.half_rows;
+    let (slots, off, stored) = (s.slots(), s.slot_offset(), s.stored);
+    let bank_words = s.bank_words();
+    let sbw = addr_bits(bank_words);
+    let ebw = addr_bits(2 * half);
+    let hb = addr_bits(half);
+    let lb = addr_bits(stored);
+    let mut t = String::new();
+    let w = &mut t;
+    let _ = writeln!(
+        w,
+        "// {MODULE}: one PE's sample stage (pipeline::hw::pe_sample_rtl), emitted by ercube.
+// Slice buffer: 2 row banks x 2 slices x {stored} columns x {half} rows of {v} bits;
+// edge column: 2 row banks x 2 slices x {half} words; compositing buffer: 2 banks x
+// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots}.
+// The broadcast bc_* is the next clock's; the datapath ({dp_name}) is {depth} clocks deep,
+// shows its tap column {sx} clocks after issue and reads the taps one clock later.
+// Lint waivers: WIDTH (indices and counters are computed in 32-bit integers and
+// cut to their memories' address widths), UNUSEDSIGNAL (a word's upper bits past
+// an address go nowhere).
+/* verilator lint_off WIDTH */
+/* verilator lint_off UNUSEDSIGNAL */
+module {MODULE} (
+  input wire clk,
+  input wire rst,",
+        bd = r.bank_depth,
+        dp_name = dp.name,
+    );
+    for n in ["tbl_we", "tbl_sel", "tbl_addr", "tbl_data"] {
+        let p = port(n)?;
+        let _ = writeln!(w, "  input wire {} {n},", range(p.word.bits, false));
+    }
+    let _ = writeln!(
+        w,
+        "  // The host's voxel load: slice parity, row bank, row / 2, local column.
+  input wire vld_we,
+  input wire vld_z,
+  input wire vld_bank,
+  input wire [{hb1}:0] vld_row,
+  input wire [{lb1}:0] vld_col,
+  input wire [{v1}:0] vld_data,
+  // The held columns (the column map's range: first mx, count), written by migration.
+  input wire map_we,
+  input wire signed [{ib1}:0] map_lo_in,
+  input wire [{sb1}:0] map_n_in,
+  // This PE's voxel columns: first, one past the last, the volume's last.
+  input wire [{cb1}:0] col_lo,
+  input wire [{cb1}:0] col_end,
+  input wire [{cb1}:0] nx_last,
+  // The controller's broadcast for the next clock.
+  input wire bc_go,
+  input wire bc_first,
+  input wire [{rb1}:0] bc_row,
+  input wire bc_z,
+  input wire [{yb1}:0] bc_y0,
+  input wire [{yb1}:0] bc_y1,
+  input wire signed [{ib1}:0] bc_xlo,
+  input wire signed [{ib1}:0] bc_xhi,
+  input wire bc_nv,
+  input wire bc_nz,
+  input wire [{yb1}:0] bc_ny0,
+  input wire [{yb1}:0] bc_ny1,",
+        hb1 = hb - 1,
+        lb1 = lb - 1,
+        v1 = v - 1,
+        ib1 = ib - 1,
+        sb1 = r.slot_bits() - 1,
+        cb1 = cb - 1,
+        rb1 = rb - 1,
+        yb1 = yb - 1,
+    );
+    let row_words = ["a", "t", "b", "k", "row_wy", "sy", "sz"];
+    for n in row_words {
+        let p = port(n)?;
+        let _ = writeln!(
+            w,
+            "  input wire {} bc_{n},",
+            range(p.word.bits, p.word.signed)
+        );
+    }
+    let accs = ["acc_r", "acc_g", "acc_b", "acc_a"];
+    let taps = ["v00", "v01", "v10", "v11"];
+    let m = port("slot_m")?;
+    let _ = writeln!(
+        w,
+        "  // The neighbours: the right one's first column at the row's two voxel rows, ours to the left.
+  input wire [{e1}:0] edge_in,
+  output wire [{e1}:0] edge_out,
+  // What the control issues into the datapath, the taps it serves, the write-back.
+  output reg iss_valid,
+  output reg {mr} iss_m,",
+        e1 = 2 * v - 1,
+        mr = range(m.word.bits, m.word.signed),
+    );
+    for n in accs {
+        let p = port(n)?;
+        let _ = writeln!(
+            w,
+            "  output wire {} iss_{n},",
+            range(p.word.bits, p.word.signed)
+        );
+    }
+    let _ = writeln!(w, "  output reg tap_valid,");
+    for n in taps {
+        let _ = writeln!(w, "  output wire [{}:0] tap_{n},", v - 1);
+    }
+    let _ = writeln!(
+        w,
+        "  output wire wb_valid,\n  output wire [{}:0] wb_addr,\n  output wire [{}:0] wb_data\n);",
+        ab - 1,
+        bw - 1
+    );
+    // Memories and the column map's range.
+    let _ = writeln!(
+        w,
+        "  reg [{v1}:0] sb0 [0:{bwm}];
+  reg [{v1}:0] sb1 [0:{bwm}];
+  reg [{v1}:0] ec0 [0:{ewm}];
+  reg [{v1}:0] ec1 [0:{ewm}];
+  reg [{bw1}:0] bank0 [0:{bdm}];
+  reg [{bw1}:0] bank1 [0:{bdm}];
+  reg signed [{ib1}:0] map_lo;
+  reg [{sb1}:0] map_n;
+  always @(posedge clk) begin
+    if (rst) begin
+      map_lo <= 0;
+      map_n <= 0;
+    end else if (map_we) begin
+      map_lo <= map_lo_in;
+      map_n <= map_n_in;
+    end
+  end
+  // The host's voxel load; column 0 also into the edge column.
+  wire [31:0] vld_word = ({{31'd0, vld_z}} * {half} + vld_row) * {stored} + vld_col;
+  wire [31:0] vld_edge = {{31'd0, vld_z}} * {half} + vld_row;
+  always @(posedge clk) begin
+    if (vld_we && !vld_bank) sb0[vld_word[{sbw1}:0]] <= vld_data;
+    if (vld_we && vld_bank) sb1[vld_word[{sbw1}:0]] <= vld_data;
+    if (vld_we && vld_col == 0 && !vld_bank) ec0[vld_edge[{ebw1}:0]] <= vld_data;
+    if (vld_we && vld_col == 0 && vld_bank) ec1[vld_edge[{ebw1}:0]] <= vld_data;
+  end",
+        v1 = v - 1,
+        bwm = bank_words - 1,
+        ewm = 2 * half - 1,
+        bw1 = bw - 1,
+        bdm = r.bank_depth - 1,
+        ib1 = ib - 1,
+        sb1 = r.slot_bits() - 1,
+        sbw1 = sbw - 1,
+        ebw1 = ebw - 1,
+    );
+    // The control, one clock ahead of issue.
+    let _ = writeln!(
+        w,
+        "  // The row's c-th held column inside the slice's range issues in the row's c-th cycle.
+  reg [{sb1}:0] cnt;
+  wire signed [31:0] lo_i = map_lo;
+  wire signed [31:0] hi_i = map_lo + $signed({{1'b0, map_n}}) - 1;
+  wire signed [31:0] base = (lo_i > bc_xlo) ? lo_i : bc_xlo;
+  wire signed [31:0] top = (hi_i < bc_xhi) ? hi_i : bc_xhi;
+  wire [{sb1}:0] idx = bc_first ? {{{sb}{{1'b0}}}} : cnt;
+  wire signed [31:0] mx = base + $signed({{1'b0, idx}});
+  wire go = bc_go && map_n != 0 && mx <= top;
+  wire [31:0] slot = (mx + {off}) % {slots};
+  wire [31:0] addr = bc_row * {slots} + slot;
+  always @(posedge clk) begin
+    if (rst) cnt <= 0;
+    else if (bc_go) cnt <= idx + 1'b1;
+  end
+  // The issuing ray's accumulators: both banks at its word, forwarded
+  // from a write-back in this clock or the issue's.
+  reg [{bw1}:0] rq0, rq1;
+  always @(posedge clk) begin
+    rq0 <= bank0[addr[{ab1}:1]];
+    rq1 <= bank1[addr[{ab1}:1]];
+  end
+  reg [{ab1}:0] s_addr;
+  reg s_z;
+  reg [{yb1}:0] s_y0, s_y1;
+  reg fw_v;
+  reg [{bw1}:0] fw_d;",
+        sb1 = r.slot_bits() - 1,
+        sb = r.slot_bits(),
+        bw1 = bw - 1,
+        ab1 = ab - 1,
+        yb1 = yb - 1,
+    );
+    for n in row_words {
+        let p = port(n)?;
+        let _ = writeln!(w, "  reg {} s_{n};", range(p.word.bits, p.word.signed));
+    }
+    let _ = writeln!(
+        w,
+        "  always @(posedge clk) begin
+    if (rst) begin
+      iss_valid <= 1'b0;
+      iss_m <= 0;
+      s_addr <= 0;
+      s_z <= 1'b0;
+      s_y0 <= 0;
+      s_y1 <= 0;
+      fw_v <= 1'b0;
+      fw_d <= 0;"
+    );
+    for n in row_words {
+        let _ = writeln!(w, "      s_{n} <= 0;");
+    }
+    let _ = writeln!(
+        w,
+        "    end else begin
+      iss_valid <= go;
+      iss_m <= go ? mx : 0;
+      s_addr <= addr[{ab1}:0];
+      s_z <= bc_z;
+      s_y0 <= bc_y0;
+      s_y1 <= bc_y1;
+      fw_v <= wb_valid && wb_addr == addr[{ab1}:0];
+      fw_d <= wb_data;",
+        ab1 = ab - 1
+    );
+    for n in row_words {
+        let _ = writeln!(w, "      s_{n} <= go ? bc_{n} : 0;");
+    }
+    let _ = writeln!(
+        w,
+        "    end
+  end
+  wire [{bw1}:0] acc_word = (wb_valid && wb_addr == s_addr) ? wb_data
+      : fw_v ? fw_d : (s_addr[0] ? rq1 : rq0);
+  wire [{bw1}:0] acc_in = iss_valid ? acc_word : {{{bw}{{1'b0}}}};",
+        bw1 = bw - 1,
+    );
+    let fields = [
+        ("acc_r", 0, cw),
+        ("acc_g", cw, cw),
+        ("acc_b", 2 * cw, cw),
+        ("acc_a", 3 * cw, aw),
+    ];
+    for (n, lo, bits) in fields {
+        let _ = writeln!(w, "  assign iss_{n} = acc_in[{}:{lo}];", lo + bits - 1);
+    }
+    // Delay lines to the tap stage and to the write-back.
+    let e1 = 2 * v - 1;
+    let lines: [(&str, String, &str); 5] = [
+        ("y0", format!("[{}:0]", yb - 1), "s_y0"),
+        ("y1", format!("[{}:0]", yb - 1), "s_y1"),
+        ("z", String::new(), "s_z"),
+        ("edge", format!("[{e1}:0]"), "edge_in"),
+        ("tv", String::new(), "iss_valid"),
+    ];
+    let _ = writeln!(
+        w,
+        "  // The row, the slice and the right neighbour's edge words at issue, carried to the tap stage."
+    );
+    let mut regs: u64 = 0;
+    for (n, rng, src) in &lines {
+        let width = if rng.is_empty() {
+            1
+        } else if *n == "edge" {
+            u64::from(2 * v)
+        } else {
+            u64::from(yb)
+        };
+        for i in 1..=sx {
+            let _ = writeln!(w, "  reg {rng} d_{n}_{i};");
+            regs += width;
+        }
+        let _ = writeln!(w, "  always @(posedge clk) begin");
+        let _ = writeln!(w, "    if (rst) begin");
+        for i in 1..=sx {
+            let _ = writeln!(w, "      d_{n}_{i} <= 0;");
+        }
+        let _ = writeln!(w, "    end else begin");
+        for i in 1..=sx {
+            let prev = if i == 1 {
+                (*src).to_owned()
+            } else {
+                format!("d_{n}_{}", i - 1)
+            };
+            let _ = writeln!(w, "      d_{n}_{i} <= {prev};");
+        }
+        let _ = writeln!(w, "    end\n  end");
+    }
+    let at = |n: &str| {
+        if sx == 0 {
+            match n {
+                "y0" => "s_y0".to_owned(),
+                "y1" => "s_y1".to_owned(),
+                "z" => "s_z".to_owned(),
+                "edge" => "edge_in".to_owned(),
+                _ => "iss_valid".to_owned(),
+            }
+        } else {
+            format!("d_{n}_{sx}")
+        }
+    };
+    let _ = writeln!(
+        w,
+        "  // The tap stage: the clamped columns, each row bank's row, both columns read.
+  wire {x0r} x0;
+  wire signed [31:0] x0_i = x0;
+  wire signed [31:0] last_i = $signed({{1'b0, nx_last}});
+  wire signed [31:0] c0 = x0_i < 0 ? 0 : (x0_i > last_i ? last_i : x0_i);
+  wire signed [31:0] c1 = x0_i + 1 < 0 ? 0 : (x0_i + 1 > last_i ? last_i : x0_i + 1);
+  wire [31:0] l0 = c0 - $signed({{1'b0, col_lo}});
+  wire [31:0] l1 = c1 - $signed({{1'b0, col_lo}});
+  wire held1 = c1 < $signed({{1'b0, col_end}});
+  wire [{yb1}:0] ty0 = {y0}, ty1 = {y1};
+  wire [{yb1}:0] r0 = ty0[0] ? ty1 : ty0;
+  wire [{yb1}:0] r1 = ty0[0] ? ty0 : ty1;
+  wire [31:0] zb = {{31'd0, {z}}} * {half};
+  wire [31:0] a00 = (zb + (r0 >> 1)) * {stored} + l0, a01 = (zb + (r0 >> 1)) * {stored} + l1;
+  wire [31:0] a10 = (zb + (r1 >> 1)) * {stored} + l0, a11 = (zb + (r1 >> 1)) * {stored} + l1;
+  reg [{v1}:0] q00, q01, q10, q11;
+  always @(posedge clk) begin
+    q00 <= sb0[a00[{sbw1}:0]];
+    q01 <= sb0[a01[{sbw1}:0]];
+    q10 <= sb1[a10[{sbw1}:0]];
+    q11 <= sb1[a11[{sbw1}:0]];
+  end
+  reg p0, p1, h1;
+  reg [{e1}:0] te;
+  always @(posedge clk) begin
+    if (rst) begin
+      p0 <= 1'b0;
+      p1 <= 1'b0;
+      h1 <= 1'b0;
+      te <= 0;
+      tap_valid <= 1'b0;
+    end else begin
+      p0 <= ty0[0];
+      p1 <= ty1[0];
+      h1 <= held1;
+      te <= {edge};
+      tap_valid <= {tv};
+    end
+  end
+  assign tap_v00 = p0 ? q10 : q00;
+  assign tap_v10 = p1 ? q10 : q00;
+  assign tap_v01 = h1 ? (p0 ? q11 : q01) : te[{v1}:0];
+  assign tap_v11 = h1 ? (p1 ? q11 : q01) : te[{e1}:{v}];",
+        x0r = range(port("x0")?.word.bits, true),
+        yb1 = yb - 1,
+        v1 = v - 1,
+        sbw1 = sbw - 1,
+        y0 = at("y0"),
+        y1 = at("y1"),
+        z = at("z"),
+        edge = at("edge"),
+        tv = at("tv"),
+    );
+    regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
+    // The edge register: the first column at the next row's voxel rows.
+    let _ = writeln!(
+        w,
+        "  // The edge register: this block's first column at the next row's two voxel
+  // rows, read when the broadcast names a next row and held otherwise.
+  reg e_v, e_z;
+  reg [{yb1}:0] e_y0, e_y1;
+  always @(posedge clk) begin
+    if (rst) begin
+      e_v <= 1'b0;
+      e_z <= 1'b0;
+      e_y0 <= 0;
+      e_y1 <= 0;
+    end else begin
+      e_v <= bc_nv;
+      e_z <= bc_nz;
+      e_y0 <= bc_ny0;
+      e_y1 <= bc_ny1;
+    end
+  end
+  wire [{yb1}:0] er0 = e_y0[0] ? e_y1 : e_y0;
+  wire [{yb1}:0] er1 = e_y0[0] ? e_y0 : e_y1;
+  wire [31:0] ea0 = {{31'd0, e_z}} * {half} + (er0 >> 1);
+  wire [31:0] ea1 = {{31'd0, e_z}} * {half} + (er1 >> 1);
+  reg [{v1}:0] eq0, eq1;
+  reg ep0, ep1;
+  always @(posedge clk) begin
+    if (rst) begin
+      eq0 <= 0;
+      eq1 <= 0;
+      ep0 <= 1'b0;
+      ep1 <= 1'b0;
+    end else if (e_v) begin
+      eq0 <= ec0[ea0[{ebw1}:0]];
+      eq1 <= ec1[ea1[{ebw1}:0]];
+      ep0 <= e_y0[0];
+      ep1 <= e_y1[0];
+    end
+  end
+  assign edge_out = {{ep1 ? eq1 : eq0, ep0 ? eq1 : eq0}};",
+        yb1 = yb - 1,
+        v1 = v - 1,
+        ebw1 = ebw - 1,
+    );
+    regs += 2 + 2 * u64::from(yb) + 2 * u64::from(v) + 2;
+    // The write-back address travels with the sample.
+    let _ = writeln!(w, "  // The ray's address, carried to its write-back.");
+    for i in 1..=depth {
+        let _ = writeln!(w, "  reg [{}:0] wa_{i};", ab - 1);
+    }
+    regs += u64::from(depth) * u64::from(ab);
+    let _ = writeln!(w, "  always @(posedge clk) begin\n    if (rst) begin");
+    for i in 1..=depth {
+        let _ = writeln!(w, "      wa_{i} <= 0;");
+    }
+    let _ = writeln!(w, "    end else begin");
+    for i in 1..=depth {
+        let prev = if i == 1 {
+            "s_addr".to_owned()
+        } else {
+            format!("wa_{}", i - 1)
+        };
+        let _ = writeln!(w, "      wa_{i} <= {prev};");
+    }
+    let _ = writeln!(w, "    end\n  end");
+    let out_fields: Vec<String> = ["acc_out_a", "acc_out_b", "acc_out_g", "acc_out_r"]
+        .iter()
+        .map(|n| format!("{n}_w"))
+        .collect();
+    for (n, bits) in [
+        ("acc_out_r", cw),
+        ("acc_out_g", cw),
+        ("acc_out_b", cw),
+        ("acc_out_a", aw),
+    ] {
+        let _ = writeln!(w, "  wire [{}:0] {n}_w;", bits - 1);
+    }
+    let _ = writeln!(
+        w,
+        "  wire dp_out_valid;
+  assign wb_valid = dp_out_valid;
+  assign wb_addr = wa_{depth};
+  assign wb_data = {{{}}};
+  always @(posedge clk) begin
+    if (wb_valid && !wb_addr[0]) bank0[wb_addr[{ab1}:1]] <= wb_data;
+    if (wb_valid && wb_addr[0]) bank1[wb_addr[{ab1}:1]] <= wb_data;
+  end",
+        out_fields.join(", "),
+        ab1 = ab - 1
+    );
+    regs += u64::from(r.slot_bits())
+        + 2 * u64::from(bw)
+        + 1
+        + u64::from(m.word.bits)
+        + u64::from(ab)
+        + 1
+        + 2 * u64::from(yb)
+        + 1
+        + u64::from(bw)
+        + u64::from(ib)
+        + u64::from(r.slot_bits());
+    for n in row_words {
+        regs += u64::from(port(n)?.word.bits);
+    }
+    // The datapath.
+    let mut conns = Vec::new();
+    for p in &dp.ports {
+        let n = p.name.as_str();
+        let c = match n {
+            "clk" | "rst" | "tbl_we" | "tbl_sel" | "tbl_addr" | "tbl_data" => n.to_owned(),
+            "in_valid" => "iss_valid".to_owned(),
+            "out_valid" => "dp_out_valid".to_owned(),
+            "slot_m" => "iss_m".to_owned(),
+            "x0" => "x0".to_owned(),
+            _ if row_words.contains(&n) => format!("s_{n}"),
+            _ if accs.contains(&n) => format!("iss_{n}"),
+            _ if taps.contains(&n) => format!("tap_{n}"),
+            _ if n.starts_with("acc_out_") => format!("{n}_w"),
+            _ => return Err(format!("the datapath's port {n} has no place in the PE")),
+        };
+        conns.push(format!(".{n}({c})"));
+    }
+    let _ = writeln!(
+        w,
+        "  {} u_dp ({});\nendmodule\n/* verilator lint_on UNUSEDSIGNAL */\n/* verilator lint_on WIDTH */",
+        dp.name,
+        conns.join(", ")
+    );
+    Ok(PeSampleRtl {
+        verilog: t,
+        register_bits: regs,
+    })
+}
