@@ -79,15 +79,7 @@ impl PeSampleShape {
             return Err("the sample stage's control front to back (termination flags read by the row plan) is not emitted yet (only back to front)".into());
         }
         let rays = ReadoutShape::for_view(cfg, view)?;
-        let plan = crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
-        let geo = Geometry {
-            dims: view.dims,
-            pes: cfg.pes,
-            regions: plan.regions.len() as u32,
-            shading: false,
-            voi: false,
-            preint: false,
-        };
+        let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
         let decls = Pe::voxel_state(cfg, &geo);
         let sb = decls
             .iter()
