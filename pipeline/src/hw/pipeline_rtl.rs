@@ -443,11 +443,20 @@ fn text(
 ) -> Result<String, RtlError> {
     let mut v = String::new();
     let w = &mut v;
+    // The header names the blocks the description holds (the plain
+    // sample's, or with the units composed into it), in inventory order.
+    let mut blocks: Vec<&str> = Vec::new();
+    for it in &g.items {
+        if !blocks.contains(&it.group) {
+            blocks.push(it.group);
+        }
+    }
     let _ = writeln!(
         w,
-        "// {}: the plain sample's datapath, pipelined, {} clocks from issue to the outputs.",
+        "// {}: a datapath pipelined from its description, {} clocks from issue to the outputs.",
         m.name, m.depth
     );
+    let _ = writeln!(w, "// Blocks: {}.", blocks.join(", "));
     let _ = writeln!(w, "// Emitted by ercube (pipeline::hw::pipeline_rtl) from the datapath's description and its schedule.");
     let _ = writeln!(
         w,
