@@ -79,7 +79,7 @@ pub trait BoundaryPass {
     ) -> Result<(), StepError>;
 
     /// The sparse slot's work list for the slot on `bus`
-    /// ([`Pe::set_work_list`]), with the edges latched in
+    /// (`Pe::set_work_list`), with the edges latched in
     /// [`PassState::edges`](super::passes::PassState::edges).
     fn work_list(&self, pe: &mut Pe, bus: &PassBus) -> Result<(), StepError>;
 
@@ -88,7 +88,7 @@ pub trait BoundaryPass {
 }
 
 impl Pe {
-    /// One clock of a dense boundary pass: [`Pe::pass_work`] with the
+    /// One clock of a dense boundary pass: `Pe::pass_work` with the
     /// edges on the ports, then the drive the bus names.
     pub fn pass_step<P: BoundaryPass>(
         &mut self,
