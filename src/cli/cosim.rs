@@ -359,14 +359,20 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         }
         Ok(())
     })?;
+    report_out(&lines, &problems)
+}
+
+/// Prints a run's report `lines`, then the problems after the first, and
+/// fails with the first one (exit 1): what every cosim stage ends with.
+pub(super) fn report_out(lines: &[String], problems: &[String]) -> Result<()> {
     for l in lines {
-        super::say(&l);
+        super::say(l);
     }
-    if !problems.is_empty() {
-        for l in &problems[1..] {
+    if let Some((first, rest)) = problems.split_first() {
+        for l in rest {
             super::say(&format!("  {l}"));
         }
-        return Err(Mismatched(problems[0].clone()).into());
+        return Err(Mismatched(first.clone()).into());
     }
     Ok(())
 }

@@ -13,7 +13,7 @@ use serde_json::json;
 
 use pipeline::cosim::pe_sample::run::simulate;
 
-use super::cosim::{cache_dir, setup, simulator, CosimArgs, Mismatched};
+use super::cosim::{cache_dir, setup, simulator, CosimArgs};
 
 /// Runs the sample stage's co-simulation.
 pub fn run(a: &CosimArgs) -> Result<()> {
@@ -142,14 +142,5 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         }
         Ok(())
     })?;
-    for l in lines {
-        super::say(&l);
-    }
-    if !problems.is_empty() {
-        for l in &problems[1..] {
-            super::say(&format!("  {l}"));
-        }
-        return Err(Mismatched(problems[0].clone()).into());
-    }
-    Ok(())
+    super::cosim::report_out(&lines, &problems)
 }
