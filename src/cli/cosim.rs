@@ -1,10 +1,10 @@
 //! `ercube cosim`: the frame in the model and, replayed from it, in the
 //! emitted Verilog of every PE's datapath, compared on every cycle
-//! (`pipeline::cosim`). This is the datapath stage of the co-simulation:
-//! the PE's control, the array and the controller are not emitted yet, so
-//! each PE's datapath is fed the issue stream the model's PE gave its own,
-//! bubbles included, and its outputs are checked against the model's
-//! write-backs. Then the readout stage (`pipeline::cosim::readout`): the
+//! (`pipeline::cosim`). By default the datapath stage of the
+//! co-simulation: each PE's datapath is fed the issue stream the model's
+//! PE gave its own, bubbles included, and its outputs are checked against
+//! the model's write-backs (`--stage pe` runs the PE's sample stage
+//! instead, [`super::cosim_pe`]). Then the readout stage (`pipeline::cosim::readout`): the
 //! emitted readout array loaded with the PEs' buffers as the model held
 //! them at `BeginReadout`, every PE's host port compared on every readout
 //! cycle, and the host's baseplane from the RTL's stream compared with the
@@ -18,22 +18,13 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use serde_json::json;
 
-use golden::render::Prepared;
-use golden::tf::Lut;
-use pipeline::config::{Order, PipelineConfig};
+use pipeline::config::Order;
 use pipeline::cosim::build::{build, run as run_sim, Simulator};
 use pipeline::cosim::outcome::{parse, Outcome};
 use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun, Tee};
 use pipeline::cosim::replay::{Replay, StreamFiles, TOP};
-use pipeline::hw::compose::Units;
-use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 use pipeline::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
-use pipeline::{FrameRun, Voxels};
 
-use super::args::{SliceArgs, ViewArgs};
-use super::chip::{self, ConfigArgs};
-use super::memory::FrameSpec;
-use super::method::MethodArg;
 use super::rtl::MODULE;
 
 /// Arguments of `ercube cosim`.
@@ -71,128 +62,7 @@ pub struct CosimArgs {
     pub stage: String,
 }
 
-/// The frame `cosim` and `vectors` capture: the view, the renderer's
-/// options, the pipeline configuration and the order.
-#[derive(Debug, Args)]
-pub struct FrameArgs {
-    #[command(flatten)]
-    pub view: ViewArgs,
-    #[command(flatten)]
-    pub slice: SliceArgs,
-    #[command(flatten)]
-    pub cfg: ConfigArgs,
-    /// Compositing order (overrides the configuration): btf or ftb (front
-    /// to back with --terminate's threshold).
-    #[arg(long, value_parser = ["btf", "ftb"])]
-    pub order: Option<String>,
-}
-
-/// A frame ready to run with a capture.
-pub struct Setup {
-    /// The configuration.
-    pub cfg: PipelineConfig,
-    /// The classification table.
-    pub lut: Lut,
-    /// The prepared view, holding the voxels.
-    pub prep: Prepared,
-    /// Bits of the volume's scalars.
-    pub bits: u32,
-    /// What the controller skips.
-    pub skips: golden::skip::Skips,
-    /// The volume's name.
-    pub label: String,
-    /// The emitted datapath (the plain sample's, or the sample composed
-    /// with the frame's units).
-    pub module: PipelinedModule,
-    /// The frame's units beside the plain sample.
-    pub units: Units,
-    /// The frame's shading.
-    pub shade: Option<golden::shading::Shade>,
-    /// The frame's volume of interest.
-    pub voi: Option<golden::voi::Voi>,
-}
-
-impl Setup {
-    /// The frame, to run with or without a capture.
-    pub fn frame(&self) -> FrameRun<'_> {
-        FrameRun::prepared(
-            &self.cfg,
-            &self.lut,
-            &self.prep,
-            Voxels::Stack {
-                data_bits: self.bits,
-            },
-        )
-        .skips(self.skips)
-        .shading(self.shade.as_ref())
-        .voi(self.voi.as_ref())
-    }
-
-    /// The model's write-back latency.
-    pub fn latency(&self) -> u64 {
-        u64::from(pipeline::cost::sample_latency(&self.cfg, self.units))
-    }
-}
-
-/// Loads the frame `a` describes, refusing in one line (as `cmd`) what the
-/// datapath's stream does not cover yet.
-pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
-    let method = match a.order.as_deref() {
-        Some("ftb") => MethodArg::PipelineFtb,
-        _ => MethodArg::Pipeline,
-    };
-    let (mut cfg, slice) = chip::configure(&a.cfg, method, &a.slice)?;
-    if a.order.as_deref() == Some("btf") {
-        cfg.order = Order::BackToFront;
-        cfg.validate()?;
-    }
-    let opts = slice.options()?;
-    chip::check_options(&opts)?;
-    if opts.slice.preintegrate {
-        bail!("{cmd}: pre-integration (--preintegrate) is not in the emitted datapath yet (the plain sample, shading and the volume of interest are)");
-    }
-    let spec = FrameSpec {
-        technique: None,
-        shade: false,
-        size: a.view.camera.size,
-    };
-    let (vol, tf, cam) = a.view.load_for(cmd, &spec)?;
-    let mut opts = opts;
-    slice.apply_tf(&mut opts, &tf)?;
-    let lut = chip::pipeline_lut(&cfg, &vol, &tf);
-    let bits = vol.kind().bits();
-    let prep = slice.prepared_owning(vol, &cam)?;
-    // The shading unit is built for the frame's lights.
-    let lights = match &opts.slice.shade {
-        Some(shade) => {
-            let mut st = pipeline::fixed::QuantStats::default();
-            let unit = pipeline::shading::ShadeUnit::new(&cfg, shade, &prep.view, bits, &mut st)
-                .map_err(|e| anyhow!("{cmd}: {e}"))?;
-            Some(unit.light_count())
-        }
-        None => None,
-    };
-    let units = Units {
-        lights,
-        voi: opts.slice.voi.is_some(),
-    };
-    // The schedule the model's latency is read from.
-    let g = pipeline::hw::compose::sample(&cfg, units);
-    let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
-    let module = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("{cmd}: {e}"))?;
-    Ok(Setup {
-        cfg,
-        lut,
-        prep,
-        bits,
-        skips: opts.slice.skips,
-        label: a.view.source.label(),
-        module,
-        units,
-        shade: opts.slice.shade,
-        voi: opts.slice.voi,
-    })
-}
+pub use super::cosim_frame::{setup, FrameArgs, Setup};
 
 /// A failed comparison: the report is printed, the exit status is 1.
 #[derive(Debug)]

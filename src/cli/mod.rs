@@ -9,6 +9,7 @@ mod bound;
 mod chip;
 mod compare;
 mod cosim;
+mod cosim_frame;
 mod cosim_pe;
 mod cost;
 mod explore;

@@ -1,0 +1,141 @@
+//! The frame `ercube cosim` and `ercube vectors` capture: its options,
+//! and the frame loaded with the emitted datapath it runs through.
+
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+
+use golden::render::Prepared;
+use golden::tf::Lut;
+use pipeline::config::{Order, PipelineConfig};
+use pipeline::hw::compose::Units;
+use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
+use pipeline::{FrameRun, Voxels};
+
+use super::args::{SliceArgs, ViewArgs};
+use super::chip::{self, ConfigArgs};
+use super::memory::FrameSpec;
+use super::method::MethodArg;
+use super::rtl::MODULE;
+
+/// The frame `cosim` and `vectors` capture: the view, the renderer's
+/// options, the pipeline configuration and the order.
+#[derive(Debug, Args)]
+pub struct FrameArgs {
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub slice: SliceArgs,
+    #[command(flatten)]
+    pub cfg: ConfigArgs,
+    /// Compositing order (overrides the configuration): btf or ftb (front
+    /// to back with --terminate's threshold).
+    #[arg(long, value_parser = ["btf", "ftb"])]
+    pub order: Option<String>,
+}
+
+/// A frame ready to run with a capture.
+pub struct Setup {
+    /// The configuration.
+    pub cfg: PipelineConfig,
+    /// The classification table.
+    pub lut: Lut,
+    /// The prepared view, holding the voxels.
+    pub prep: Prepared,
+    /// Bits of the volume's scalars.
+    pub bits: u32,
+    /// What the controller skips.
+    pub skips: golden::skip::Skips,
+    /// The volume's name.
+    pub label: String,
+    /// The emitted datapath (the plain sample's, or the sample composed
+    /// with the frame's units).
+    pub module: PipelinedModule,
+    /// The frame's units beside the plain sample.
+    pub units: Units,
+    /// The frame's shading.
+    pub shade: Option<golden::shading::Shade>,
+    /// The frame's volume of interest.
+    pub voi: Option<golden::voi::Voi>,
+}
+
+impl Setup {
+    /// The frame, to run with or without a capture.
+    pub fn frame(&self) -> FrameRun<'_> {
+        FrameRun::prepared(
+            &self.cfg,
+            &self.lut,
+            &self.prep,
+            Voxels::Stack {
+                data_bits: self.bits,
+            },
+        )
+        .skips(self.skips)
+        .shading(self.shade.as_ref())
+        .voi(self.voi.as_ref())
+    }
+
+    /// The model's write-back latency.
+    pub fn latency(&self) -> u64 {
+        u64::from(pipeline::cost::sample_latency(&self.cfg, self.units))
+    }
+}
+
+/// Loads the frame `a` describes, refusing in one line (as `cmd`) what the
+/// datapath's stream does not cover yet.
+pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
+    let method = match a.order.as_deref() {
+        Some("ftb") => MethodArg::PipelineFtb,
+        _ => MethodArg::Pipeline,
+    };
+    let (mut cfg, slice) = chip::configure(&a.cfg, method, &a.slice)?;
+    if a.order.as_deref() == Some("btf") {
+        cfg.order = Order::BackToFront;
+        cfg.validate()?;
+    }
+    let opts = slice.options()?;
+    chip::check_options(&opts)?;
+    if opts.slice.preintegrate {
+        bail!("{cmd}: pre-integration (--preintegrate) is not in the emitted datapath yet (the plain sample, shading and the volume of interest are)");
+    }
+    let spec = FrameSpec {
+        technique: None,
+        shade: false,
+        size: a.view.camera.size,
+    };
+    let (vol, tf, cam) = a.view.load_for(cmd, &spec)?;
+    let mut opts = opts;
+    slice.apply_tf(&mut opts, &tf)?;
+    let lut = chip::pipeline_lut(&cfg, &vol, &tf);
+    let bits = vol.kind().bits();
+    let prep = slice.prepared_owning(vol, &cam)?;
+    // The shading unit is built for the frame's lights.
+    let lights = match &opts.slice.shade {
+        Some(shade) => {
+            let mut st = pipeline::fixed::QuantStats::default();
+            let unit = pipeline::shading::ShadeUnit::new(&cfg, shade, &prep.view, bits, &mut st)
+                .map_err(|e| anyhow!("{cmd}: {e}"))?;
+            Some(unit.light_count())
+        }
+        None => None,
+    };
+    let units = Units {
+        lights,
+        voi: opts.slice.voi.is_some(),
+    };
+    // The schedule the model's latency is read from.
+    let g = pipeline::hw::compose::sample(&cfg, units);
+    let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
+    let module = emit_scheduled(&g, &sch, MODULE).map_err(|e| anyhow!("{cmd}: {e}"))?;
+    Ok(Setup {
+        cfg,
+        lut,
+        prep,
+        bits,
+        skips: opts.slice.skips,
+        label: a.view.source.label(),
+        module,
+        units,
+        shade: opts.slice.shade,
+        voi: opts.slice.voi,
+    })
+}
