@@ -70,7 +70,16 @@ fn declared(cfg: &PipelineConfig, geo: &Geometry) -> Declared {
         columns: map.depth,
         rows: geo.rays.rows,
         line: line.depth,
-        kept: find("kept_finals").map_or(0, |k| k.depth),
+        // With an external ray buffer the kept finals live in DDR (no
+        // on-chip memory to overflow); on chip, back to front keeps none.
+        kept: find("kept_finals").map_or(
+            if cfg.ray_buffer == RayBuffer::External {
+                u64::MAX
+            } else {
+                0
+            },
+            |k| k.depth,
+        ),
     }
 }
 
