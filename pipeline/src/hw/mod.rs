@@ -23,10 +23,12 @@
 //! - [`pipeline_rtl`]: the whole graph as one pipelined module on that
 //!   schedule, which [`testbench`] and [`sim`] stream samples through;
 //! - [`unit`](mod@unit): the whole sample or a named cut as a verification model
-//!   (ports, outputs, latency, one sample's words);
+//!   (ports, outputs, latency, one sample's words), cut from the graph by
+//!   [`cut`];
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
 pub mod compose;
+pub mod cut;
 mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
