@@ -1,8 +1,8 @@
 //! Cuts of a datapath description: the named cuts' port lists
 //! ([`spec`], what [`super::unit::Unit`] and [`crate::rtl`]'s calibration
 //! modules are cut with), the cone of a cut's outputs made a graph of its
-//! own ([`subgraph`]), and the registers on a cut's paths
-//! ([`cut_latency`]).
+//! own (`subgraph`), and the registers on a cut's paths
+//! (`cut_latency`).
 
 use super::sample::class_names;
 use super::unit::UnitError;
