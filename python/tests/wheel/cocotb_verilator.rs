@@ -64,7 +64,14 @@ fn the_cocotb_testbenches_pass_in_verilator_and_fail_broken_copies() {
     let file = d.join("broken_composite.v");
     std::fs::write(&file, broken).unwrap();
     let f = file.to_str().unwrap();
-    let args = ["--unit", "composite", "--verilog", f, "--top", "ercube_composite"];
+    let args = [
+        "--unit",
+        "composite",
+        "--verilog",
+        f,
+        "--top",
+        "ercube_composite",
+    ];
     let (ok, t) = verilator(&py, &d.join("broken_composite"), &args);
     assert!(!ok, "the broken copy ({line}) passed:\n{t}");
     assert!(
@@ -82,7 +89,16 @@ fn the_cocotb_testbenches_pass_in_verilator_and_fail_broken_copies() {
     let m = module.to_str().unwrap();
     fn random(file: &str) -> [&str; 8] {
         let top = "ercube_sample";
-        ["--unit", "sample", "--samples", "1000", "--verilog", file, "--top", top]
+        [
+            "--unit",
+            "sample",
+            "--samples",
+            "1000",
+            "--verilog",
+            file,
+            "--top",
+            top,
+        ]
     }
     let sample = d.join("sample");
     let (ok, t) = verilator(&py, &sample, &random(m));
