@@ -7,7 +7,8 @@ Interleaves, ROUNDS times (default 15): `ercube render --volume VOLUME
 time), ercube.render of the same voxels (the wall-clock time of the call,
 converting the arrays in and out, and the frame time it reports), and the
 same call after ercube.clear_cache() (the volume prepared again, as a first
-call does). Prints the medians and the ratios of the Python calls to the
+call does), the two calls taking turns at following the command line.
+Prints the medians and the ratios of the Python calls to the
 command line's frame time.
 """
 
@@ -44,20 +45,23 @@ def main() -> None:
     cli, wall, call, inner, cold = [], [], [], [], []
     with tempfile.TemporaryDirectory() as d:
         stats, png = os.path.join(d, "s.json"), os.path.join(d, "r.png")
-        for _ in range(rounds):
+        for r in range(rounds):
             t = time.perf_counter()
             subprocess.run([binary, "render", "--volume", volume, "--stats", stats,
                             "--out", png, *flags], check=True, stdout=subprocess.DEVNULL)
             wall.append(time.perf_counter() - t)
             cli.append(json.load(open(stats))["time_s"])
-            t = time.perf_counter()
-            _, st = ercube.render(voxels, spacing=spacing, **kw)
-            call.append(time.perf_counter() - t)
-            inner.append(st["time_s"])
-            ercube.clear_cache()
-            t = time.perf_counter()
-            ercube.render(voxels, spacing=spacing, **kw)
-            cold.append(time.perf_counter() - t)
+            # A call made right after the command line's process measures
+            # slower than one after another call, so the two calls take
+            # turns at that place.
+            for kept in (True, False) if r % 2 == 0 else (False, True):
+                if not kept:
+                    ercube.clear_cache()
+                t = time.perf_counter()
+                _, st = ercube.render(voxels, spacing=spacing, **kw)
+                (call if kept else cold).append(time.perf_counter() - t)
+                if kept:
+                    inner.append(st["time_s"])
     m = statistics.median
     print(f"rounds {rounds}: cli frame {m(cli) * 1e3:.1f} ms (process {m(wall) * 1e3:.1f} ms), python call {m(call) * 1e3:.1f} ms "
           f"(its frame {m(inner) * 1e3:.1f} ms); python call / cli frame = {m(call) / m(cli):.3f}, "

@@ -9,17 +9,17 @@
 //! `ERCUBE_REQUIRE_TOOLS=1`.
 
 use std::path::Path;
-use std::process::{Command, ExitCode, Output};
+use std::process::{Command, Output};
 
 use ercube_ffi::sample_testbench::sample_testbench;
 use ercube_ffi::testbench::{MAIN, PACKAGE};
 use pipeline::hw::unit::Unit;
 
 use super::dpi::mutate;
+use super::window::{self, FIRST};
 use super::{lib_dir, root, tools, BRAIN};
 
-/// The captured window: cycles of a 64x64 brainsmall frame on 4 PEs.
-const FIRST: u64 = 300_001;
+/// The captured window's last cycle (`tests/support/window.rs`).
 const LAST: u64 = 306_000;
 
 /// Builds the testbench of `verilog` (module `ercube_sample`) in `dir`
@@ -77,29 +77,7 @@ fn the_dpi_testbench_passes_ercube_sample_on_a_frame_and_fails_a_broken_copy() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let vec = d.join("vec");
-    let status = ercube::cli::run_with([
-        "ercube",
-        "vectors",
-        "--volume",
-        root().join(BRAIN).to_str().unwrap(),
-        "--pes",
-        "4",
-        "--size",
-        "64x64",
-        "--cycles",
-        &format!("{FIRST}-{LAST}"),
-        "--out-dir",
-        vec.to_str().unwrap(),
-    ]);
-    assert_eq!(status, ExitCode::SUCCESS);
-    // The samples each PE issued in the window.
-    let issued = |pe: usize| {
-        std::fs::read_to_string(vec.join(format!("pe{pe}_in_valid.hex")))
-            .unwrap()
-            .lines()
-            .filter(|l| l.trim() == "1")
-            .count()
-    };
+    window::capture(&root().join(BRAIN), LAST, &vec);
 
     let unit = Unit::from_toml(None, None, "sample").unwrap();
     let m = unit.pipelined("ercube_sample").unwrap();
@@ -119,7 +97,7 @@ fn the_dpi_testbench_passes_ercube_sample_on_a_frame_and_fails_a_broken_copy() {
     assert!(ok, "random:\n{t}");
     assert!(t.contains("ercube: 5000 samples match the model"), "{t}");
     for pe in [0, 3] {
-        let n = issued(pe);
+        let n = window::issued(&vec, pe);
         assert!(n > 1000, "pe {pe} issued {n} samples in the window");
         let (ok, t) = run(&exe, &frame(pe));
         assert!(ok, "pe {pe}:\n{t}");

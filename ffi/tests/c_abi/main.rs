@@ -18,6 +18,8 @@ mod dpi_sample;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
+#[path = "../../../tests/support/window.rs"]
+mod window;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};

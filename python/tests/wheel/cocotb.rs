@@ -16,33 +16,38 @@
 //! unless `ERCUBE_REQUIRE_TOOLS=1`.
 
 #[path = "../../../tests/support/mutate.rs"]
-mod mutate;
+pub(super) mod mutate;
 
-use std::path::Path;
-use std::process::{Command, ExitCode, Output};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 use pipeline::hw::unit::Unit;
 
+use super::window::{self, FIRST};
 use super::{installed, ok, root, skip, tools, with_bin, BRAIN};
 
-/// The captured window: cycles of a 64x64 brainsmall frame on 4 PEs (the
-/// DPI-C testbench's frame, `ffi/tests/c_abi/dpi_sample.rs`).
-const FIRST: u64 = 300_001;
-const LAST: u64 = 302_000;
+/// The captured window's last cycle (`tests/support/window.rs`: the DPI-C
+/// testbench's frame, `ffi/tests/c_abi/dpi_sample.rs`).
+pub(super) const LAST: u64 = 302_000;
 
-/// `run.py ARGS` in `dir`.
+/// `run.py ARGS` in `dir`, in Icarus.
 fn run(py: &Path, dir: &Path, args: &[&str]) -> Output {
+    run_in(py, dir, "icarus", args)
+}
+
+/// `run.py ARGS --simulator SIM` in `dir`.
+pub(super) fn run_in(py: &Path, dir: &Path, sim: &str, args: &[&str]) -> Output {
     Command::new(py)
         .env("PATH", with_bin(py.parent().unwrap()))
         .arg(root().join("python/cocotb/run.py"))
         .args(args)
-        .arg("--build-dir")
+        .args(["--simulator", sim, "--build-dir"])
         .arg(dir)
         .output()
         .unwrap()
 }
 
-fn text(o: &Output) -> String {
+pub(super) fn text(o: &Output) -> String {
     format!(
         "{}{}",
         String::from_utf8_lossy(&o.stdout),
@@ -52,10 +57,16 @@ fn text(o: &Output) -> String {
 
 /// The environment's Python with the module and cocotb, or `None`
 /// (skipped) without `iverilog` or cocotb.
-fn cocotb_python(what: &str) -> Option<std::path::PathBuf> {
+fn cocotb_python(what: &str) -> Option<PathBuf> {
     if !tools::have("iverilog", "iverilog", what) {
         return None;
     }
+    with_cocotb()
+}
+
+/// The environment's Python with the module and cocotb (installed into
+/// it when PyPI is reachable), or `None` (skipped).
+pub(super) fn with_cocotb() -> Option<PathBuf> {
     let py = installed()?;
     let has = |py: &Path| ok(Command::new(py).args(["-c", "import cocotb_tools.runner"]));
     if !has(&py) {
@@ -198,29 +209,8 @@ fn the_cocotb_testbench_replays_a_brainsmall_frame_and_fails_a_broken_copy() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let vec = d.join("vec");
-    let status = ercube::cli::run_with([
-        "ercube",
-        "vectors",
-        "--volume",
-        root().join(BRAIN).to_str().unwrap(),
-        "--pes",
-        "4",
-        "--size",
-        "64x64",
-        "--cycles",
-        &format!("{FIRST}-{LAST}"),
-        "--out-dir",
-        vec.to_str().unwrap(),
-    ]);
-    assert_eq!(status, ExitCode::SUCCESS);
-    let issued = |pe: usize| {
-        std::fs::read_to_string(vec.join(format!("pe{pe}_in_valid.hex")))
-            .unwrap()
-            .lines()
-            .filter(|l| l.trim() == "1")
-            .count()
-    };
-    let (n0, n3) = (issued(0), issued(3));
+    window::capture(&root().join(BRAIN), LAST, &vec);
+    let (n0, n3) = (window::issued(&vec, 0), window::issued(&vec, 3));
     assert!(n0 > 500 && n3 > 500, "PEs 0 and 3 issued {n0} and {n3}");
     let v = vec.to_str().unwrap();
     let o = run(&py, &d.join("pass"), &["--vectors", v, "--pes", "0,3"]);
@@ -249,7 +239,13 @@ fn the_cocotb_testbench_replays_a_brainsmall_frame_and_fails_a_broken_copy() {
     let o = run(&py, &d.join("broken"), &args);
     let t = text(&o);
     assert!(!o.status.success(), "the broken copy ({line}) passed:\n{t}");
-    // The first mismatch is a write-back of PE 0's inside the window.
+    frame_mismatch_at_a_write_back(&t);
+}
+
+/// `t` (a run of the broken copy on the window's PEs 0 and 3) names its
+/// first mismatch at a write-back of PE 0's inside the window: `acc_out_r`
+/// at the issue cycle plus the depth.
+pub(super) fn frame_mismatch_at_a_write_back(t: &str) {
     let key = "first mismatch at cycle ";
     let at = t
         .find(key)

@@ -14,10 +14,13 @@
 
 mod chip;
 mod cocotb;
+mod cocotb_verilator;
 mod datapath;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
+#[path = "../../../tests/support/window.rs"]
+mod window;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
