@@ -89,10 +89,15 @@ fn assert_matches(r: &PeStageRun, what: &str) {
     assert_eq!(r.outcome.compared, [r.samples; 3], "{what}");
     let b = r.buffers.as_ref().expect("the frame reached its readout");
     assert!(b.compared > 0, "{what}");
+    assert_eq!(b.differ, 0, "{what}: buffer at the readout: {:?}", b.first);
+    assert!(r.problems().is_empty(), "{what}: {:?}", r.problems());
 }
 
 /// Icarus: two frames on 2 PEs and one on a lone PE (no prologue, no
-/// neighbour).
+/// neighbour). Every buffer word at the readout equals the model's ray,
+/// and the readout fed from them matches: on `ml:24` the readout starts
+/// while the last row's write-backs are still in the datapath, which the
+/// buffers must hold when they are read.
 #[test]
 fn sample_stage_matches_the_model_in_icarus() {
     if !have("iverilog", "iverilog", "the sample stage cosim in Icarus") {
@@ -105,6 +110,13 @@ fn sample_stage_matches_the_model_in_icarus() {
     ] {
         let r = run(&cfg(p), frame, Simulator::Icarus, None);
         assert_matches(&r, &format!("{p} PEs {frame:?}"));
+        if p == 2 && frame.0 == "ml:24" {
+            let (start, dump) = r.dump.expect("a readout");
+            assert!(
+                dump > start,
+                "the write-backs land by the readout's start ({start})"
+            );
+        }
     }
 }
 

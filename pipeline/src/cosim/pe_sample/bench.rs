@@ -12,7 +12,8 @@
 //! `map` port (`pe<K>.map`), and the broadcast of clock `c + 1` (`bus.txt`;
 //! nothing where the model did not sample). At the end of each clock it
 //! prints each PE's issue, taps and write-back (`rtl<K>.I`, `.T`, `.W`,
-//! the model's text); in clock `+dump` it writes each PE's buffer
+//! the model's text); in the middle of clock `+dump` (after that clock's
+//! events) it writes each PE's buffer
 //! (`buf<K>.hex`: both banks' word at each address, a line each).
 //! Nothing in the text depends on the frame beyond the shape.
 
