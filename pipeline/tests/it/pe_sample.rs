@@ -120,6 +120,24 @@ fn sample_stage_matches_the_model_in_icarus() {
     }
 }
 
+/// Verilator: the same testbench built by Verilator 5.006 (two-state,
+/// its own scheduler) on `ml:24` at 2 PEs, the frame whose last
+/// write-backs land after the readout's start: 0 mismatches, every
+/// sample compared, the buffers and the readout clean.
+#[test]
+fn sample_stage_matches_the_model_in_verilator() {
+    if !have(
+        "verilator",
+        "verilator",
+        "the sample stage cosim in Verilator",
+    ) {
+        return;
+    }
+    let frame = ("ml:24", [16.0, 10.0, -60.0], 16);
+    let r = run(&cfg(2), frame, Simulator::Verilator, None);
+    assert_matches(&r, &format!("Verilator, 2 PEs {frame:?}"));
+}
+
 /// A control whose row counter steps by two (every other ray skipped) is
 /// caught at the row's second clock, naming the PE and the ray index.
 #[test]
