@@ -46,6 +46,14 @@ impl PeSampleShape {
         cfg: &PipelineConfig,
         view: &golden::geometry::View,
     ) -> Result<PeSampleShape, String> {
+        Self::emitted(cfg)?;
+        crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
+        let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
+        PeSampleShape::new(cfg, &geo)
+    }
+
+    /// Refuses in one line what the stage's control does not emit.
+    fn emitted(cfg: &PipelineConfig) -> Result<(), String> {
         if cfg.mapping != Mapping::Blocks {
             return Err(format!(
                 "the sample stage's control under the {} mapping (aprons, several blocks a PE) is not emitted yet (only column blocks)",
@@ -55,14 +63,21 @@ impl PeSampleShape {
         if cfg.order == Order::FrontToBack {
             return Err("the sample stage's control front to back (termination flags read by the row plan) is not emitted yet (only back to front)".into());
         }
-        let rays = ReadoutShape::for_view(cfg, view)?;
-        let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
-        let decls = Pe::voxel_state(cfg, &geo);
+        Ok(())
+    }
+
+    /// The shape of `cfg`'s PE at the depths it declares for `geo` (a
+    /// frame's, or [`Geometry::new`]'s for a volume), refused in one
+    /// line where the stage's control is not emitted yet.
+    pub fn new(cfg: &PipelineConfig, geo: &Geometry) -> Result<PeSampleShape, String> {
+        Self::emitted(cfg)?;
+        let rays = ReadoutShape::new(cfg, geo)?;
+        let decls = Pe::voxel_state(cfg, geo);
         let sb = decls
             .iter()
             .find(|d| d.name == "slice_buffer")
             .ok_or("the PE declares no slice buffer")?;
-        let ny = view.dims[1] as u64;
+        let ny = geo.dims[1] as u64;
         let half_rows = ny.div_ceil(2);
         if sb.copies != 4 || sb.depth % half_rows != 0 {
             return Err(format!(
@@ -76,7 +91,7 @@ impl PeSampleShape {
             stored: sb.depth / half_rows,
             half_rows,
             ny,
-            nx: view.dims[0] as u64,
+            nx: geo.dims[0] as u64,
             index_bits: crate::cost::shapes::RAY_INDEX_BITS,
         })
     }
