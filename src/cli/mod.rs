@@ -23,6 +23,7 @@ mod progress;
 mod refine;
 pub(crate) mod render;
 mod rtl;
+mod rtl_pe;
 mod skipbench;
 mod stats;
 mod synth;

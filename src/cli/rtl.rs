@@ -5,9 +5,14 @@
 //! units, each its own pipelined module from its description
 //! (`pipeline::hw::shading`, `voi`, `preint`); and the readout stage (the
 //! PE's compositing buffer, column map and readout state machine, and the
-//! array of P of them with their host ports, `pipeline::hw::readout_rtl`).
-//! What is not emitted yet (the other stages' state machines, the array's
-//! links, the controller) is refused in one line naming it.
+//! array of P of them with their host ports, `pipeline::hw::readout_rtl`);
+//! the PE's sample stage around the datapath (its control, voxel memory,
+//! edge register and compositing buffer, `pipeline::hw::pe_sample_rtl`);
+//! with `--shading` or `--voi`, the sample's datapath with those units
+//! composed into one module, as the model's PE runs them
+//! (`pipeline::hw::compose`). What is not emitted yet (the other stages'
+//! state machines, the array's links, the controller) is refused in one
+//! line naming it.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -17,6 +22,8 @@ use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cost::inventory::Geometry;
+use pipeline::hw::compose::Units;
+use pipeline::hw::pe_sample_rtl::{emit as emit_pe_sample, PeSampleShape, MODULE as PE_SAMPLE};
 use pipeline::hw::pipeline_rtl::{emit, emit_scheduled, PipelinedModule};
 use pipeline::hw::readout_rtl::{
     emit as emit_readout, ReadoutRtl, ReadoutShape, ARRAY_MODULE, PE_MODULE,
@@ -24,6 +31,10 @@ use pipeline::hw::readout_rtl::{
 
 /// The emitted module's name.
 pub const MODULE: &str = "ercube_sample";
+
+/// The composed datapath's module name (the sample with `--shading`,
+/// `--voi` spliced in).
+pub const COMPOSED: &str = "ercube_sample_composed";
 
 /// A unit's description from the configuration.
 type Builder = fn(&PipelineConfig) -> pipeline::hw::Graph;
@@ -76,13 +87,13 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let refused = [
         (
             a.pe,
-            "the PE's control and stage state machines other than the readout are",
+            "the PE's control and stage state machines other than the sample stage and the readout are",
         ),
         (a.array, "the PE array with its links is"),
         (a.controller, "the controller is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the datapath's units and the readout stage are)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage and the readout stage are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -122,6 +133,21 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             units.push(u);
         }
     }
+    if a.shading || a.voi {
+        let with = Units {
+            lights: a.shading.then_some(1),
+            voi: a.voi,
+        };
+        let g = pipeline::hw::compose::sample(&cfg, with);
+        let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
+        let u = emit_scheduled(&g, &sch, COMPOSED).map_err(|e| anyhow!("rtl: {COMPOSED}: {e}"))?;
+        units.push(u);
+    }
+    // The sample stage around the plain datapath, at the depths the PE
+    // declares for `--dims`.
+    let pe_sample = PeSampleShape::new(&cfg, &Geometry::new(dims, cfg.pes))
+        .and_then(|shape| emit_pe_sample(&shape, &m).map(|r| (shape, r)))
+        .map_err(|e| format!("rtl: {PE_SAMPLE} not written: {e}"));
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
@@ -129,6 +155,12 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         for u in std::iter::once(&m).chain(&units) {
             let v = format!("{}.v", u.name);
             write(&a.out_dir.join(&v), &u.verilog)?;
+            list.push_str(&v);
+            list.push('\n');
+        }
+        if let Ok((_, r)) = &pe_sample {
+            let v = format!("{PE_SAMPLE}.v");
+            write(&a.out_dir.join(&v), &r.verilog)?;
             list.push_str(&v);
             list.push('\n');
         }
@@ -144,6 +176,9 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         let mut text = readme(&cfg, &m);
         for u in &units {
             text.push_str(&unit_section(u));
+        }
+        if let Ok((shape, r)) = &pe_sample {
+            text.push_str(&super::rtl_pe::section(shape, r, dims));
         }
         if let Ok(r) = &readout {
             text.push_str(&readout_section(r, dims));
@@ -162,6 +197,16 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             u.schedule_register_bits,
             u.memory_bits
         ));
+    }
+    match &pe_sample {
+        Ok((shape, r)) => super::say(&format!(
+            "{}: {PE_SAMPLE}.v ({} lines), {} memory bits and {} control register bits a PE",
+            a.out_dir.display(),
+            r.verilog.lines().count(),
+            shape.memory_bits(),
+            r.register_bits
+        )),
+        Err(e) => super::say(e),
     }
     match &readout {
         Ok(r) => super::say(&format!(
@@ -240,10 +285,11 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(w, "\n## Not emitted yet\n");
     let _ = writeln!(
         w,
-        "The PE's control and stage state machines other than the readout (migrate, sample, \
-         merge, split, fold), its voxel memory, line buffer and FIFOs, the array's links and \
+        "The PE's control and stage state machines other than the sample stage and the readout \
+         (migrate, merge, split, fold), its line buffer and FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
-         pre-integration unit are written with `--shading`, `--voi`, `--preint`.\n"
+         pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \
+         `--shading` or `--voi` the datapath with them composed (`{COMPOSED}`).\n"
     );
     let _ = writeln!(w, "## Checking it\n");
     let _ = writeln!(
@@ -289,17 +335,24 @@ fn unit_section(m: &PipelinedModule) -> String {
     let mut s = String::new();
     let w = &mut s;
     let _ = writeln!(w, "\n## {}\n", m.name);
+    let from = if m.name == COMPOSED {
+        "the sample's description with the units given (`--shading`, built for one \
+         light; `--voi`) spliced in as the model's PE runs them \
+         (`pipeline::hw::compose`; `ercube cosim` checks it on frames with `--shade`, `--voi`)"
+            .to_owned()
+    } else {
+        format!(
+            "its description (`pipeline::hw::{}`; its rustdoc names every port; `cargo test \
+             --release -p pipeline --test it -- rtl_units::` checks it in Verilator and Icarus \
+             against the evaluator)",
+            m.name.trim_start_matches("ercube_")
+        )
+    };
     let _ = writeln!(
         w,
-        "From its description (`pipeline::hw::{}`; its rustdoc names every port), on the same \
-         schedule rules: **{} clocks** from `in_valid` to `out_valid`; {} register bits ({} \
-         the schedule's), {} table bits. `cargo test --release -p pipeline --test it -- \
-         rtl_units::` checks it in Verilator and Icarus against the evaluator.\n",
-        m.name.trim_start_matches("ercube_"),
-        m.depth,
-        m.register_bits,
-        m.schedule_register_bits,
-        m.memory_bits
+        "From {from}, on the same schedule rules: **{} clocks** from `in_valid` to \
+         `out_valid`; {} register bits ({} the schedule's), {} table bits.\n",
+        m.depth, m.register_bits, m.schedule_register_bits, m.memory_bits
     );
     ports_table(w, m);
     if !m.tables.is_empty() {

@@ -33,6 +33,7 @@ mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
 pub mod pe_sample_rtl;
+mod pe_sample_shape;
 pub mod pipeline_rtl;
 pub mod preint;
 pub mod readout_rtl;

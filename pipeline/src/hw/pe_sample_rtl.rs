@@ -12,18 +12,8 @@
 //! [`crate::cosim::pe_sample`]), whose golden twin is
 //! `golden::sampling::sample_region`.
 //!
-//! The depths and widths are the PE's declaration's
-//! ([`crate::pe::Pe::declaration`], through
-//! [`super::readout_rtl::ReadoutShape`] for the rays and
-//! [`crate::pe::Pe::voxel_state`] for the voxels): the slice buffer is two
-//! row banks (even and odd voxel rows) of two slices each, a bank
-//! `stored * ceil(ny / 2)` words a slice, read at two columns a clock (the
-//! declared dual read); the edge column, likewise banked, holds the
-//! block's first column; the compositing buffer is two banks interleaved
-//! by the ray address's low bit, ray `(slot, row)` at `row * slots +
-//! slot`, where a held column's slot is its `mx` modulo the slots (a held
-//! block is consecutive and at most `slots` wide, so slots never collide
-//! and a column keeps its slot while columns arrive and leave).
+//! The depths, widths and addresses are [`PeSampleShape`]'s (from the
+//! PE's declaration).
 //!
 //! The controller's broadcast comes one clock ahead (`bc_*`): in the clock
 //! before a sampling cycle the control finds the ray that issues in it
@@ -33,134 +23,12 @@
 
 use std::fmt::Write as _;
 
+pub use super::pe_sample_shape::PeSampleShape;
 use super::pipeline_rtl::PipelinedModule;
-use super::readout_rtl::ReadoutShape;
-use crate::config::{Mapping, Order, PipelineConfig};
-use crate::cost::inventory::{addr_bits, Geometry};
-use crate::pe::Pe;
+use crate::cost::inventory::addr_bits;
 
 /// The module's name.
 pub const MODULE: &str = "ercube_pe_sample";
-
-/// The depths and widths of one PE's sample stage.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub struct PeSampleShape {
-    /// The rays' memories (compositing buffer, column map), as the
-    /// readout declares them.
-    pub rays: ReadoutShape,
-    /// Bits of a voxel word.
-    pub voxel_bits: u32,
-    /// Columns a slice buffer row holds (`stored`).
-    pub stored: u64,
-    /// Words of a slice in one row bank (`ceil(ny / 2)` rows).
-    pub half_rows: u64,
-    /// The volume's rows (`ny`).
-    pub ny: u64,
-    /// The volume's columns (`nx`).
-    pub nx: u64,
-    /// Bits of the ray index (`RAY_INDEX_BITS`).
-    pub index_bits: u32,
-}
-
-impl PeSampleShape {
-    /// The shape of `cfg`'s PE for a frame of `view`, refused in one line
-    /// where the stage's control is not emitted yet.
-    pub fn for_view(
-        cfg: &PipelineConfig,
-        view: &golden::geometry::View,
-    ) -> Result<PeSampleShape, String> {
-        if cfg.mapping != Mapping::Blocks {
-            return Err(format!(
-                "the sample stage's control under the {} mapping (aprons, several blocks a PE) is not emitted yet (only column blocks)",
-                cfg.mapping.name()
-            ));
-        }
-        if cfg.order == Order::FrontToBack {
-            return Err("the sample stage's control front to back (termination flags read by the row plan) is not emitted yet (only back to front)".into());
-        }
-        let rays = ReadoutShape::for_view(cfg, view)?;
-        let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
-        let decls = Pe::voxel_state(cfg, &geo);
-        let sb = decls
-            .iter()
-            .find(|d| d.name == "slice_buffer")
-            .ok_or("the PE declares no slice buffer")?;
-        let ny = view.dims[1] as u64;
-        let half_rows = ny.div_ceil(2);
-        if sb.copies != 4 || sb.depth % half_rows != 0 {
-            return Err(format!(
-                "the slice buffer is declared as {} copies of {} words; the sample stage reads 4 (2 slices x 2 row banks)",
-                sb.copies, sb.depth
-            ));
-        }
-        Ok(PeSampleShape {
-            rays,
-            voxel_bits: sb.width,
-            stored: sb.depth / half_rows,
-            half_rows,
-            ny,
-            nx: view.dims[0] as u64,
-            index_bits: crate::cost::shapes::RAY_INDEX_BITS,
-        })
-    }
-
-    /// The shape with `n` column slots where the declaration has fewer
-    /// (a frame whose PEs hold more columns than the declared `2 W + 1`):
-    /// the column map and the compositing buffer grow to match.
-    pub fn with_slots(mut self, n: u64) -> PeSampleShape {
-        if n > self.rays.map_depth {
-            self.rays.map_depth = n;
-            self.rays.bank_depth = (n * self.rays.max_rows).div_ceil(2);
-        }
-        self
-    }
-
-    /// Slots of the column map (`2 W + 1`).
-    pub fn slots(&self) -> u64 {
-        self.rays.map_depth
-    }
-
-    /// Added to a ray index before the slot's modulo: a multiple of the
-    /// slots that makes every index of `index_bits` non-negative.
-    pub fn slot_offset(&self) -> u64 {
-        let s = self.slots();
-        (1u64 << (self.index_bits - 1)).div_ceil(s) * s
-    }
-
-    /// The slot of ray index `mx`.
-    pub fn slot(&self, mx: i64) -> u64 {
-        (mx + self.slot_offset() as i64) as u64 % self.slots()
-    }
-
-    /// The buffer address of ray `(mx, row)`.
-    pub fn ray_addr(&self, mx: i64, row: usize) -> u64 {
-        row as u64 * self.slots() + self.slot(mx)
-    }
-
-    /// Words of one row bank of the slice buffer (two slices).
-    pub fn bank_words(&self) -> u64 {
-        2 * self.stored * self.half_rows
-    }
-
-    /// Memory bits one PE's module declares: the slice buffer, the edge
-    /// column, the compositing buffer (the datapath's tables are its own).
-    pub fn memory_bits(&self) -> u64 {
-        let v = u64::from(self.voxel_bits);
-        2 * self.bank_words() * v
-            + 2 * 2 * self.half_rows * v
-            + 2 * self.rays.bank_depth * u64::from(self.rays.buffer_width)
-    }
-
-    /// Bits of a voxel row index.
-    fn row_bits(&self) -> u32 {
-        addr_bits(self.ny)
-    }
-
-    /// Bits of a voxel column (`0 ..= nx`, signed room for the clamp).
-    fn col_bits(&self) -> u32 {
-        addr_bits(self.nx + 1) + 1
-    }
-}
 
 /// The emitted module and what it declares.
 #[derive(Debug, Clone)]

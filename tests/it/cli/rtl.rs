@@ -21,8 +21,10 @@ fn declared_ports(v: &str) -> Vec<String> {
         .collect()
 }
 
-/// Both orders: the three files, the README's port table lists every
-/// declared port with its width, and states the depth the run printed.
+/// Both orders: the files, the README's port table lists every declared
+/// port with its width, and states the depth the run printed; back to
+/// front the PE's sample stage too (its README section naming every port
+/// it declares), front to back it is left out in one line.
 #[test]
 fn rtl_writes_the_module_filelist_and_readme() {
     let dir = tempdir();
@@ -36,21 +38,35 @@ fn rtl_writes_the_module_filelist_and_readme() {
             run.describe()
         );
         let o = d.join(&out);
-        assert_eq!(
-            entries(&o),
-            [
-                "README.md",
-                "ercube_pe_readout.v",
-                "ercube_readout_array.v",
-                "ercube_sample.v",
-                "filelist.f"
-            ]
-        );
+        let btf = order == "btf";
+        let mut want = vec![
+            "README.md",
+            "ercube_pe_readout.v",
+            "ercube_readout_array.v",
+            "ercube_sample.v",
+            "filelist.f",
+        ];
+        if btf {
+            want.insert(2, "ercube_pe_sample.v");
+        } else {
+            assert!(
+                run.stdout().contains(
+                    "ercube_pe_sample not written: the sample stage's control front to back"
+                ),
+                "{}",
+                run.describe()
+            );
+        }
+        assert_eq!(entries(&o), want);
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
         let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
         assert_eq!(
             std::fs::read_to_string(o.join("filelist.f")).unwrap(),
-            "ercube_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+            if btf {
+                "ercube_sample.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+            } else {
+                "ercube_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+            }
         );
         for m in ["ercube_pe_readout", "ercube_readout_array"] {
             let text = std::fs::read_to_string(o.join(format!("{m}.v"))).unwrap();
@@ -60,6 +76,41 @@ fn rtl_writes_the_module_filelist_and_readme() {
                     "{order}: README does not name {m}'s {p}"
                 );
             }
+        }
+        if btf {
+            let text = std::fs::read_to_string(o.join("ercube_pe_sample.v")).unwrap();
+            assert!(
+                text.contains("ercube_sample u_dp ("),
+                "the PE instantiates the datapath"
+            );
+            let section = readme
+                .split("## ercube_pe_sample: the PE's sample stage\n")
+                .nth(1)
+                .expect("README has the sample stage's section");
+            let ports = declared_ports(&text);
+            for p in [
+                "clk",
+                "bc_go",
+                "edge_in",
+                "edge_out",
+                "iss_valid",
+                "wb_data",
+                "vld_data",
+                "map_n_in",
+            ] {
+                assert!(ports.iter().any(|q| q == p), "no port {p} in {ports:?}");
+            }
+            for p in &ports {
+                assert!(
+                    section.contains(&format!("| `{p}` |")),
+                    "README does not name ercube_pe_sample's {p}"
+                );
+            }
+            assert!(
+                run.stdout().contains("ercube_pe_sample.v ("),
+                "{}",
+                run.describe()
+            );
         }
         let ports = declared_ports(&v);
         for p in [
@@ -94,19 +145,26 @@ fn rtl_writes_the_module_filelist_and_readme() {
     }
 }
 
-/// `--shading --voi --preint`: the three units' modules beside the
-/// sample's, in the file list, each with its section in the README naming
-/// every port it declares.
+/// `--shading --voi --preint`: the three units' modules and the sample
+/// composed with shading and the VOI beside the sample's, in the file
+/// list, each with its section in the README naming every port it
+/// declares.
 #[test]
 fn rtl_writes_the_units() {
     let dir = tempdir();
     let d = dir.path();
     let run = ercube(d, "rtl --out-dir out --shading --voi --preint").ok();
     let o = d.join("out");
-    let units = ["ercube_preint", "ercube_shading", "ercube_voi"];
+    let units = [
+        "ercube_preint",
+        "ercube_sample_composed",
+        "ercube_shading",
+        "ercube_voi",
+    ];
     let mut want: Vec<String> = [
         "README.md",
         "ercube_pe_readout.v",
+        "ercube_pe_sample.v",
         "ercube_readout_array.v",
         "ercube_sample.v",
         "filelist.f",
@@ -120,7 +178,7 @@ fn rtl_writes_the_units() {
     let list = std::fs::read_to_string(o.join("filelist.f")).unwrap();
     assert_eq!(
         list,
-        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_sample_composed.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
     );
     let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
     for u in units {

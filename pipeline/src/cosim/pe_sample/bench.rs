@@ -12,7 +12,8 @@
 //! `map` port (`pe<K>.map`), and the broadcast of clock `c + 1` (`bus.txt`;
 //! nothing where the model did not sample). At the end of each clock it
 //! prints each PE's issue, taps and write-back (`rtl<K>.I`, `.T`, `.W`,
-//! the model's text); in clock `+dump` it writes each PE's buffer
+//! the model's text); in the middle of clock `+dump` (after that clock's
+//! events) it writes each PE's buffer
 //! (`buf<K>.hex`: both banks' word at each address, a line each).
 //! Nothing in the text depends on the frame beyond the shape.
 
@@ -61,8 +62,12 @@ module {TOP};
   reg [{sb1}:0] tbl_sel;
   reg [{ab1}:0] tbl_addr;
   reg [{db1}:0] tbl_data;
+  // The files the clocked blocks read with $fscanf are public: Verilator
+  // 5.006 takes $fscanf's descriptor for a variable it writes, so it
+  // copies a descriptor set in the initial block into each always block
+  // as a local left at 0, and every read there fails.
   // The broadcast (one clock ahead) and the next line of bus.txt.
-  integer fbus;
+  integer fbus /* verilator public_flat */;
   reg [63:0] b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17, b_18, b_19;
   reg b_ok;
   reg bc_go, bc_first, bc_z, bc_nv, bc_nz;
@@ -81,7 +86,8 @@ module {TOP};
             "  // PE {k}
   reg [{v1}:0] vol{k} [0:{volm}];
   reg [63:0] cw{k}, clo{k}, cend{k}, nxl{k};
-  integer fev{k}, fmap{k}, fi{k}, ft{k}, fw{k};
+  integer fev{k} /* verilator public_flat */, fmap{k} /* verilator public_flat */;
+  integer fi{k}, ft{k}, fw{k};
   reg [63:0] ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4;
   reg ev_ok{k};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;

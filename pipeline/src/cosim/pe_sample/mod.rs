@@ -19,9 +19,15 @@
 //!   buffer address, the words), in the text the testbench prints for the
 //!   RTL's, so that [`compare`] reads the two side by side.
 //!
-//! At the readout's start the testbench dumps each PE's buffer, which
+//! The model starts the readout while the datapath still carries the
+//! last row's samples (the buffer's write port is free of the readout's
+//! read port); the readout reads that row last, long after they land.
+//! So the testbench dumps each PE's buffer once the readout has started
+//! and the last write-back has landed ([`PeCapture::dump_cycle`]), which
 //! [`compare::buffers`] checks against the model's rays and which the
-//! readout stage ([`super::readout`]) can then be fed.
+//! readout stage ([`super::readout`]) can then be fed; the capture checks
+//! that the readout reads no ray before its write-back lands
+//! ([`PeCapture::early_read`]).
 
 pub mod bench;
 pub mod compare;
@@ -173,6 +179,8 @@ pub struct PeCapture {
     wbs: Vec<BufWriter<File>>,
     /// Per PE, the buffer as the stage's own write-backs leave it.
     shadow: Vec<Vec<Option<[i64; 4]>>>,
+    /// Per PE, the clock each buffer word's last write-back lands in.
+    lands: Vec<Vec<Option<u64>>>,
     /// The last broadcast's clock and row.
     row_at: (u64, usize),
     volumes: bool,
@@ -192,6 +200,12 @@ pub struct PeCapture {
     pub ticks: Vec<ReadoutTick>,
     /// The last sampling clock.
     pub last_cycle: u64,
+    /// The clock the last write-back lands in.
+    pub last_land: u64,
+    /// The first readout read of a ray whose write-back had not landed
+    /// (a buffer read through the readout's one clock of read latency
+    /// before the write): PE, ray, the read's clock, the land's.
+    pub early_read: Option<String>,
 }
 
 fn create(dir: &Path, name: &str) -> std::io::Result<BufWriter<File>> {
@@ -223,6 +237,7 @@ impl PeCapture {
             taps: per("T")?,
             wbs: per("W")?,
             shadow: vec![vec![None; words]; pes],
+            lands: vec![vec![None; words]; pes],
             row_at: (0, 0),
             volumes: false,
             issued: vec![0; pes],
@@ -233,6 +248,8 @@ impl PeCapture {
             readout: None,
             ticks: Vec::new(),
             last_cycle: 0,
+            last_land: 0,
+            early_read: None,
         })
     }
 
@@ -410,7 +427,45 @@ impl PeCapture {
         if let Some(slot) = self.shadow[k].get_mut(addr as usize) {
             *slot = Some(issue.out.raw);
         }
+        if let Some(l) = self.lands[k].get_mut(addr as usize) {
+            *l = Some(s.land);
+        }
+        self.last_land = self.last_land.max(s.land);
         Ok(())
+    }
+
+    /// The clock whose middle the testbench dumps the buffers in: the
+    /// readout's start, or past it the clock after the last write-back
+    /// lands (a write-back landing in clock `c` is in the memory from
+    /// clock `c + 1`).
+    pub fn dump_cycle(&self, start: &ReadoutStart) -> u64 {
+        start.cycle.max(self.last_land + 1)
+    }
+
+    /// Notes a readout read of a ray before its write-back landed: the
+    /// host word of clock `t` is the buffer read in clock `t - 1`, which
+    /// sees the write-backs that landed up to clock `t - 2`.
+    fn check_read(&mut self, tick: &ReadoutTick) {
+        for (k, o) in tick.host.iter().enumerate() {
+            let Some(o) = o else { continue };
+            let addr = self.shape.ray_addr(o.mx, o.row as usize) as usize;
+            let land = self
+                .lands
+                .get(k)
+                .and_then(|l| l.get(addr))
+                .copied()
+                .flatten();
+            if let Some(land) = land.filter(|&l| l + 2 > tick.cycle) {
+                if self.early_read.is_none() {
+                    self.early_read = Some(format!(
+                        "PE {k} reads ray ({}, {}) in clock {} and its write-back lands in clock {land}",
+                        o.mx,
+                        o.row,
+                        tick.cycle - 1
+                    ));
+                }
+            }
+        }
     }
 }
 
@@ -464,6 +519,7 @@ impl IssueSink for PeCapture {
     }
 
     fn readout_tick(&mut self, tick: &ReadoutTick) {
+        self.check_read(tick);
         self.ticks.push(tick.clone());
     }
 }

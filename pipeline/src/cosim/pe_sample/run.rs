@@ -24,8 +24,11 @@ pub struct PeStageRun {
     pub buffers: Option<Buffers>,
     /// The readout fed from the RTL's buffers.
     pub readout: Option<StageRun>,
-    /// The clocks simulated (to the readout's start).
+    /// The clocks simulated (to the readout's start, or past it to the
+    /// last write-back).
     pub cycles: u64,
+    /// The readout's start and the clock the buffers were dumped in.
+    pub dump: Option<(u64, u64)>,
     /// The frame's cycles in the model.
     pub frame_cycles: u64,
     /// Samples the model issued.
@@ -42,6 +45,9 @@ pub struct PeStageRun {
     pub bits: [u64; 2],
     /// Why the frame was not checked, if it was not.
     pub unfit: Option<String>,
+    /// A readout read the model made before the ray's write-back landed
+    /// ([`super::PeCapture::early_read`]).
+    pub early_read: Option<String>,
     /// The most columns a PE held at a slice's start, and the column
     /// map's declared slots (the emitted module has the larger).
     pub slots: (u64, u64),
@@ -65,6 +71,11 @@ impl PeStageRun {
     pub fn problems(&self) -> Vec<String> {
         let mut v = Vec::new();
         let o = &self.outcome;
+        if let Some(e) = &self.early_read {
+            v.push(format!(
+                "the model's readout reads a ray before it lands: {e}"
+            ));
+        }
         if let Some(m) = &o.first {
             v.push(format!("{} mismatches; the first: {m}", o.mismatches));
         }
@@ -145,9 +156,9 @@ pub fn simulate<'a>(
     let (rows, n) = table_rows(dp, &c.tables);
     std::fs::write(dir.join("tables.hex"), rows).map_err(|e| e.to_string())?;
     let start = c.readout.clone();
-    let cycles = start
-        .as_ref()
-        .map_or(f.cycles, |s| s.cycle)
+    let dump = start.as_ref().map(|s| c.dump_cycle(s));
+    let cycles = dump
+        .unwrap_or(f.cycles)
         .max(c.last_cycle + u64::from(dp.depth) + 1);
     let tb = testbench(&shape, dp, pes, view.dims[2] as u64, tap_stage);
     let sources = [
@@ -161,6 +172,7 @@ pub fn simulate<'a>(
         buffers: None,
         readout: None,
         cycles,
+        dump: start.as_ref().zip(dump).map(|(s, d)| (s.cycle, d)),
         frame_cycles: f.cycles,
         samples: c.issued.iter().sum(),
         outside_words: c.outside_words,
@@ -174,6 +186,7 @@ pub fn simulate<'a>(
         lines: [verilog.lines().count(), tb.lines().count()],
         bits: [shape.memory_bits(), pe.register_bits],
         unfit: c.unfit.clone(),
+        early_read: c.early_read.clone(),
         slots: (held, declared.slots()),
     };
     if out.unfit.is_some() {
@@ -181,8 +194,8 @@ pub fn simulate<'a>(
     }
     out.built = build(sim, cache, &sources, TOP, false).map_err(|e| e.to_string())?;
     let mut args = vec![format!("+cycles={cycles}"), format!("+tables={n}")];
-    if let Some(s) = &start {
-        args.push(format!("+dump={}", s.cycle));
+    if let Some(d) = dump {
+        args.push(format!("+dump={d}"));
     }
     let (_, run_s) = run(&out.built, dir, &args).map_err(|e| e.to_string())?;
     out.seconds[1] = run_s;

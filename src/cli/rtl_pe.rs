@@ -1,0 +1,117 @@
+//! `ercube rtl`'s README section on the PE's sample stage
+//! (`pipeline::hw::pe_sample_rtl`): what it holds and every port it
+//! declares, read from the emitted port list so the table names exactly
+//! what the module has.
+
+use std::fmt::Write as _;
+
+use pipeline::hw::pe_sample_rtl::{PeSampleRtl, PeSampleShape, MODULE};
+
+/// A declared port: direction, width, signedness, name.
+struct Port {
+    input: bool,
+    bits: u32,
+    signed: bool,
+    name: String,
+}
+
+/// The ports in the module's port list (`input`/`output` lines up to
+/// the list's `);`).
+fn ports(v: &str) -> Vec<Port> {
+    let list = v
+        .split(&format!("module {MODULE} ("))
+        .nth(1)
+        .and_then(|t| t.split(");").next())
+        .unwrap_or("");
+    list.lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("input") || l.starts_with("output"))
+        .filter_map(|l| {
+            let l = l.trim_end_matches(',');
+            let name = l.rsplit(' ').next()?.to_owned();
+            let bits = l
+                .split('[')
+                .nth(1)
+                .and_then(|r| r.split(':').next())
+                .and_then(|h| h.parse::<u32>().ok())
+                .map_or(1, |h| h + 1);
+            Some(Port {
+                input: l.starts_with("input"),
+                bits,
+                signed: l.contains(" signed "),
+                name,
+            })
+        })
+        .collect()
+}
+
+/// What a port is, by its group.
+fn meaning(name: &str) -> &'static str {
+    match name {
+        "clk" => "clock",
+        "rst" => "synchronous reset of every register",
+        "col_lo" => "this PE's first voxel column",
+        "col_end" => "one past this PE's last voxel column",
+        "nx_last" => "the volume's last voxel column (the taps' clamp)",
+        "edge_in" => "the right neighbour's first column at the row's two voxel rows",
+        "edge_out" => "this block's first column at the next row's voxel rows, to the left neighbour",
+        "tap_valid" => "the taps below belong to the sample issued the datapath's tap stage ago",
+        "wb_valid" | "wb_addr" | "wb_data" => {
+            "the write-back into the compositing buffer (valid, ray address, {a, b, g, r})"
+        }
+        n if n.starts_with("tbl_") => "the datapath's table write port (host)",
+        n if n.starts_with("vld_") => {
+            "the host's voxel load: write, slice parity, row bank, row / 2, local column, word"
+        }
+        n if n.starts_with("map_") => {
+            "the column map's held range (write, first ray index, count), written by migration"
+        }
+        n if n.starts_with("bc_") => {
+            "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, x range, next row)"
+        }
+        n if n.starts_with("iss_") => "what the control issues into the datapath: valid, ray index, the ray's accumulators",
+        n if n.starts_with("tap_") => "the voxel taps served to the datapath",
+        _ => "",
+    }
+}
+
+/// The README section for `r`, emitted for a volume of `dims`.
+pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
+    let mut t = String::new();
+    let w = &mut t;
+    let _ = writeln!(w, "\n## {MODULE}: the PE's sample stage\n");
+    let _ = writeln!(
+        w,
+        "From `pipeline::hw::pe_sample_rtl`, for a view-space volume of {}x{}x{} (`--dims`), \
+         back to front, column blocks: one PE's control walking a row's held rays one a clock \
+         into `ercube_sample` (instantiated inside), its slice buffer (2 row banks x 2 slices x \
+         {} columns x {} rows of {} bits) and edge column, its compositing buffer (2 banks x {} \
+         words of {} bits, ray (slot, row) at row * {} + slot) read before issue and written \
+         back. {} memory bits and {} control register bits (the datapath's are its own). \
+         `ercube cosim --stage pe` checks it clock for clock against the model (docs/rtl.md).\n",
+        dims[0],
+        dims[1],
+        dims[2],
+        s.stored,
+        s.half_rows,
+        s.voxel_bits,
+        s.rays.bank_depth,
+        s.rays.buffer_width,
+        s.slots(),
+        s.memory_bits(),
+        r.register_bits
+    );
+    let _ = writeln!(w, "| port | dir | width | meaning |\n|---|---|---|---|");
+    for p in ports(&r.verilog) {
+        let _ = writeln!(
+            w,
+            "| `{}` | {} | {}{} | {} |",
+            p.name,
+            if p.input { "in" } else { "out" },
+            if p.signed { "s" } else { "u" },
+            p.bits,
+            meaning(&p.name)
+        );
+    }
+    t
+}
