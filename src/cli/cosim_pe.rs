@@ -29,6 +29,11 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     }
     let sim = simulator(&a.simulator)?;
     let s = setup(&a.frame, "cosim")?;
+    // The emitted control issues every held column of a row; the model's
+    // empty-space skipping drops runs of rays the RTL does not know of.
+    if s.skips.empty {
+        bail!("cosim --stage pe: the sample stage's RTL does not skip empty space; pass --no-skip-empty");
+    }
     let t = Instant::now();
     let plain = s.frame().run()?;
     let untraced_s = t.elapsed().as_secs_f64();
