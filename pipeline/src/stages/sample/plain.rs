@@ -164,6 +164,7 @@ impl ColumnJob<'_> {
             width: self.width,
         };
         let rows = self.rows;
+        let mut lanes = LaneTally::default();
         for chunk in items.chunks(LANES) {
             b.n = chunk.len();
             match mem {
@@ -183,12 +184,9 @@ impl ColumnJob<'_> {
                 }
             }
             b.pad();
-            let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
-            self.kernel.sample_lanes(&mut b, &mut base, &mut shown);
+            self.kernel.sample_lanes(&mut b, &mut lanes);
             for (l, &(r, _)) in chunk.iter().enumerate() {
-                base.add_lane(l, total);
                 if b.visible[l] {
-                    shown.add_lane(l, total);
                     let row = rows[r as usize].row;
                     for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
                         *a = w[l];
@@ -201,6 +199,7 @@ impl ColumnJob<'_> {
                 }
             }
         }
+        lanes.add_to(total);
     }
 }
 
