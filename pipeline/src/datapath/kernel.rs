@@ -25,7 +25,7 @@ mod lanes;
 mod step;
 mod tent;
 
-pub(crate) use lanes::{Batch, LaneTally, LANES};
+pub(crate) use lanes::{Batch, LANES};
 pub(crate) use step::Tally;
 use step::SLOTS;
 pub(crate) use tent::Tents;
@@ -64,8 +64,15 @@ fn exact(m: i64, a: i64, t: i64) -> Option<i64> {
 #[derive(Debug, Clone, Copy)]
 struct Class {
     rgba: [u16; 4],
-    ev: [[u8; 3]; 3],
+    /// The nine counts (slot by slot, then assignments, overflows,
+    /// inexact), each at most 3, in 7-bit fields ([`EV_BITS`]): a batch
+    /// adds its lanes' words and unpacks the sums once.
+    ev: u64,
 }
+
+/// Width of a packed classification count: eight lanes of at most 3
+/// each stay below 2^7.
+const EV_BITS: u32 = 7;
 
 /// The tally slots of the classification's formats (`weight`, `color`,
 /// `alpha`, the order of [`super::classes::CLASS_FORMATS`]).
@@ -230,9 +237,15 @@ impl Kernel {
             .iter()
             .map(|(w, ev)| {
                 let rgba = w.map(|r| u16::try_from(r).ok());
+                let mut packed = 0u64;
+                for (i, &n) in ev.iter().flatten().enumerate() {
+                    // Each count is at most 3 (three colour channels).
+                    (n <= 3).then_some(())?;
+                    packed |= u64::from(n) << (EV_BITS * i as u32);
+                }
                 Some(Class {
                     rgba: [rgba[0]?, rgba[1]?, rgba[2]?, rgba[3]?],
-                    ev: *ev,
+                    ev: packed,
                 })
             })
             .collect::<Option<Vec<Class>>>()?;
@@ -447,7 +460,7 @@ mod tests {
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         /// A batch through the kernel's lanes gives, lane by lane, the
-        /// general datapath's words and quantisation counts: one column's
+        /// general datapath's words and quantisation counts (per format): one column's
         /// address and weight (random broadcast words and ray index), and
         /// in each of up to eight lanes a row with its own y weight, y
         /// slope, voxel taps and accumulators, the accumulators after
@@ -505,8 +518,18 @@ mod tests {
                 }
             }
             batch.pad();
-            let mut lanes = LaneTally::default();
-            kernel.sample_lanes(&mut batch, &mut lanes);
+            // The events of the first `k` lanes: a batch counts only the
+            // lanes it uses, so lane `l`'s are those of `l + 1` lanes
+            // less those of `l`.
+            let loaded = batch;
+            let first = |k: usize| {
+                let (mut part, mut t) = (loaded, Tally::default());
+                part.n = k;
+                kernel.sample_lanes(&mut part, &mut t);
+                t
+            };
+            kernel.sample_lanes(&mut batch, &mut Tally::default());
+            let mut want_first = QuantStats::default();
 
             for l in 0..n {
                 // The general path, as `Pe::sample_datapath` runs it.
@@ -537,11 +560,12 @@ mod tests {
                 if visible {
                     prop_assert_eq!(batch.done[l], flag, "lane {}", l);
                 }
-                let mut tally = addressing;
-                lanes.add_lane(l, &mut tally);
+                want_first.merge(&st);
+                let mut tally = first(l + 1);
+                tally.add_times(&addressing, l as u64 + 1);
                 let mut counted = QuantStats::default();
                 tally.add_to(&mut counted);
-                prop_assert_eq!(counted, st, "lane {}", l);
+                prop_assert_eq!(counted, want_first, "lanes up to {}", l);
             }
         }
     }

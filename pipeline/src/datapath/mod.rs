@@ -16,7 +16,7 @@ mod passes;
 
 use classes::Classes;
 use kernel::Tents;
-pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
+pub(crate) use kernel::{Batch, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
 #[cfg(test)]
 pub(crate) use ops::isqrt;

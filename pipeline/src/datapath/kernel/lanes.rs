@@ -15,8 +15,7 @@
 //! counts). Lanes at and above [`Batch::n`] are padding copied from lane
 //! 0, computed and dropped likewise.
 
-use super::step::NSLOTS;
-use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS};
+use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS, EV_BITS};
 #[cfg(doc)]
 use crate::datapath::Datapath;
 
@@ -25,45 +24,8 @@ pub(crate) const LANES: usize = 8;
 
 type Lanes = [i64; LANES];
 
-/// Which lanes count their events: 1 or 0 per lane.
-type Mask = [u64; LANES];
-
-/// Quantisation events per lane and tally slot ([`super::step::SLOTS`]):
-/// assignments, overflows, inexact. A batch counts only its lanes in use
-/// and, for what only a visible sample assigns, its visible lanes.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct LaneTally {
-    counts: [[[u64; LANES]; 3]; NSLOTS],
-}
-
-impl Default for LaneTally {
-    fn default() -> Self {
-        LaneTally {
-            counts: [[[0; LANES]; 3]; NSLOTS],
-        }
-    }
-}
-
-impl LaneTally {
-    /// Adds lane `l`'s events to `t`.
-    #[cfg(test)]
-    pub(crate) fn add_lane(&self, l: usize, t: &mut Tally) {
-        for (to, from) in t.counts.iter_mut().zip(&self.counts) {
-            for (x, y) in to.iter_mut().zip(from) {
-                *x += y[l];
-            }
-        }
-    }
-
-    /// Adds every lane's events to `t`.
-    pub(crate) fn add_to(&self, t: &mut Tally) {
-        for (to, from) in t.counts.iter_mut().zip(&self.counts) {
-            for (x, y) in to.iter_mut().zip(from) {
-                *x += y.iter().sum::<u64>();
-            }
-        }
-    }
-}
+/// Which lanes count their events: bit `l` for lane `l`.
+type Mask = u8;
 
 /// Up to [`LANES`] plain samples of one ray column (one `mx`, so one x
 /// address and slope), each lane a row of the slice.
@@ -104,19 +66,22 @@ impl Batch {
 }
 
 impl Step {
-    /// [`Step::apply`] in every lane, counting the lanes `on` marks (1).
+    /// [`Step::apply`] in every lane, counting the events of the lanes
+    /// `on` marks: each lane's overflow and inexact flags gathered into
+    /// a bit mask, the marked ones counted (a compare mask and a
+    /// population count per step, not a counter per lane).
     #[inline(always)]
-    fn lanes(&self, raw: &Lanes, t: &mut LaneTally, on: &Mask) -> Lanes {
+    fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let mut out = [0; LANES];
-        let [a, o, i] = &mut t.counts[self.slot];
+        let (mut over, mut inexact) = (0u8, 0u8);
         for l in 0..LANES {
             let q = (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2;
             let c = q.max(self.min).min(self.max);
-            a[l] += on[l];
-            o[l] += on[l] & u64::from(c != q);
-            i[l] += on[l] & u64::from(raw[l] & self.mask != 0);
+            over |= u8::from(c != q) << l;
+            inexact |= u8::from(raw[l] & self.mask != 0) << l;
             out[l] = c;
         }
+        t.count(self.slot, on, over, inexact);
         out
     }
 }
@@ -164,39 +129,40 @@ impl Kernel {
     /// [`Batch::visible`] and [`Batch::done`] and replaces the visible
     /// lanes' accumulators.
     #[inline(always)]
-    pub(crate) fn sample_lanes(&self, b: &mut Batch, t: &mut LaneTally) {
+    pub(crate) fn sample_lanes(&self, b: &mut Batch, t: &mut Tally) {
         let fw = u32::from(self.weight.frac());
         let wx = [b.wx; LANES];
-        let mut used: Mask = [0; LANES];
-        for (l, u) in used.iter_mut().enumerate() {
-            *u = u64::from(l < b.n);
-        }
+        // `n <= LANES = 8`, so the shift stays below 16.
+        let used = ((1u16 << b.n) - 1) as Mask;
         let top = self
             .lerp_x
-            .lanes(&lerps(&b.v[0], &b.v[1], &wx, fw), t, &used);
+            .lanes(&lerps(&b.v[0], &b.v[1], &wx, fw), t, used);
         let bot = self
             .lerp_x
-            .lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), t, &used);
-        let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), t, &used);
+            .lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), t, used);
+        let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), t, used);
         let mut rgba = [[0; LANES]; 4];
-        let mut shown: Mask = [0; LANES];
+        let mut shown: Mask = 0;
+        let mut events = 0u64;
         for l in 0..LANES {
             let class = &self.classes[s[l] as usize];
-            for (&slot, ev) in CLASS_SLOTS.iter().zip(&class.ev) {
-                for (n, &e) in t.counts[slot].iter_mut().zip(ev) {
-                    n[l] += used[l] * u64::from(e);
-                }
-            }
+            events += u64::from((used >> l) & 1) * class.ev;
             for (w, &c) in rgba.iter_mut().zip(&class.rgba) {
                 w[l] = i64::from(c);
             }
             b.visible[l] = class.rgba[3] != 0;
-            shown[l] = used[l] & u64::from(b.visible[l]);
+            shown |= u8::from(b.visible[l]) << l;
         }
+        for (i, &slot) in CLASS_SLOTS.iter().enumerate() {
+            for (k, n) in t.counts[slot].iter_mut().enumerate() {
+                *n += (events >> (EV_BITS * (3 * i + k) as u32)) & ((1 << EV_BITS) - 1);
+            }
+        }
+        let shown = shown & used;
         if !b.visible[..b.n].iter().any(|&v| v) {
             return;
         }
-        let sx = self.line.lanes(&[b.slope; LANES], t, &shown);
+        let sx = self.line.lanes(&[b.slope; LANES], t, shown);
         let rs = self.rad_shift;
         let rad: Lanes = each(|l| {
             let sum = sx[l] * sx[l] + b.yz[l];
@@ -206,12 +172,12 @@ impl Kernel {
                 sum >> -rs
             }
         });
-        let ds = self.root.lanes(&isqrts(&rad), t, &shown);
-        let a = self.correct_lanes(&rgba[3], &ds, t, &shown);
+        let ds = self.root.lanes(&isqrts(&rad), t, shown);
+        let a = self.correct_lanes(&rgba[3], &ds, t, shown);
         let new = if self.ftb {
-            self.composite_ftb_lanes(&b.acc, &rgba, &a, t, &shown)
+            self.composite_ftb_lanes(&b.acc, &rgba, &a, t, shown)
         } else {
-            self.composite_btf_lanes(&b.acc, &rgba, &a, t, &shown)
+            self.composite_btf_lanes(&b.acc, &rgba, &a, t, shown)
         };
         for l in 0..LANES {
             if b.visible[l] {
@@ -226,7 +192,7 @@ impl Kernel {
     /// [`Datapath::correct`] and [`Datapath::transmit`] in every lane: the
     /// corrected opacity words.
     #[inline(always)]
-    fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut LaneTally, on: &Mask) -> Lanes {
+    fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let last = self.log_t.len() - 1;
         let prod: Lanes = each(|l| self.log_t[(alpha[l].max(0) as usize).min(last)] * ds[l]);
         let p = self.log_p.lanes(&prod, t, on);
@@ -249,6 +215,7 @@ impl Kernel {
         let (min, max) = (self.oc.min_raw(), self.oc.max_raw());
         let foc = u32::from(self.oc.frac());
         let mut diff = [0; LANES];
+        let (mut shifts, mut over, mut inexact) = (0u8, 0u8, 0u8);
         for l in 0..LANES {
             // `tf >> int` into `opacity_corr` (no assignment at all when
             // `int >= 64`: the transmittance is zero).
@@ -257,12 +224,12 @@ impl Kernel {
             let r = u32::from(self.oc_rnd && k > 0);
             let q = ((tf[l] >> (k - r)) + i64::from(r)) >> r;
             let c = q.max(min).min(max);
-            let [na, no, ni] = &mut t.counts[self.one_minus.slot];
-            na[l] += on[l] & u64::from(shifted);
-            no[l] += on[l] & u64::from(shifted && c != q);
-            ni[l] += on[l] & u64::from(shifted && tf[l] & ((1i64 << k) - 1) != 0);
+            shifts |= u8::from(shifted) << l;
+            over |= u8::from(shifted && c != q) << l;
+            inexact |= u8::from(shifted && tf[l] & ((1i64 << k) - 1) != 0) << l;
             diff[l] = (1i64 << foc) - if shifted { c } else { 0 };
         }
+        t.count(self.one_minus.slot, on & shifts, over, inexact);
         self.one_minus.lanes(&diff, t, on)
     }
 
@@ -273,8 +240,8 @@ impl Kernel {
         acc: &[Lanes; 4],
         c: &[Lanes; 4],
         a: &Lanes,
-        t: &mut LaneTally,
-        on: &Mask,
+        t: &mut Tally,
+        on: Mask,
     ) -> [Lanes; 4] {
         let foc = u32::from(self.oc.frac());
         let k: Lanes = each(|l| (1i64 << foc) - a[l]);
@@ -296,8 +263,8 @@ impl Kernel {
         acc: &[Lanes; 4],
         c: &[Lanes; 4],
         a: &Lanes,
-        t: &mut LaneTally,
-        on: &Mask,
+        t: &mut Tally,
+        on: Mask,
     ) -> [Lanes; 4] {
         let k: Lanes = each(|l| ((1i64 << self.alpha_frac) - acc[3][l]) * a[l]);
         let [so, sc] = self.comp_shift;

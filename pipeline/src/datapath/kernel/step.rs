@@ -71,6 +71,17 @@ impl Tally {
     pub(crate) fn add(&mut self, o: &Tally) {
         self.add_times(o, 1);
     }
+
+    /// Counts one assignment into `slot` in each lane `on` marks (bit
+    /// `l` for lane `l`), of which those `over` marks overflowed and
+    /// those `inexact` marks dropped nonzero bits.
+    #[inline(always)]
+    pub(crate) fn count(&mut self, slot: usize, on: u8, over: u8, inexact: u8) {
+        let n = &mut self.counts[slot];
+        n[0] += u64::from(on.count_ones());
+        n[1] += u64::from((over & on).count_ones());
+        n[2] += u64::from((inexact & on).count_ones());
+    }
 }
 
 /// One assignment of exact words with a fixed number of fraction bits

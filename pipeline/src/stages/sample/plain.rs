@@ -8,7 +8,7 @@
 
 use super::edges::EdgeWords;
 use super::pe::RowBus;
-use crate::datapath::{Batch, Kernel, LaneTally, Ray, Tally, LANES};
+use crate::datapath::{Batch, Kernel, Ray, Tally, LANES};
 use rayon::prelude::*;
 
 use crate::pe::{Pe, RayColumn, VoxelMem};
@@ -164,7 +164,6 @@ impl ColumnJob<'_> {
             width: self.width,
         };
         let rows = self.rows;
-        let mut lanes = LaneTally::default();
         for chunk in items.chunks(LANES) {
             b.n = chunk.len();
             match mem {
@@ -184,7 +183,7 @@ impl ColumnJob<'_> {
                 }
             }
             b.pad();
-            self.kernel.sample_lanes(&mut b, &mut lanes);
+            self.kernel.sample_lanes(&mut b, total);
             for (l, &(r, _)) in chunk.iter().enumerate() {
                 if b.visible[l] {
                     let row = rows[r as usize].row;
@@ -199,7 +198,6 @@ impl ColumnJob<'_> {
                 }
             }
         }
-        lanes.add_to(total);
     }
 }
 
