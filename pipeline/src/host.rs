@@ -231,16 +231,22 @@ fn depth_plan(
     depth: f64,
     st: &mut QuantStats,
 ) -> Result<SlicePlan, FxError> {
-    let q = |f: crate::fixed::Format, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
+    let q = |f: crate::config::Reg, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
         let r = f.from_f64(v)?;
-        st.record(&r);
+        st.record_as(f.id, &r);
         Ok(r.value)
     };
     let p = |k| grid.at(view.eye, view.d, depth, k);
     Ok(SlicePlan {
         z: (depth.ceil() as usize).min(view.dims[2].saturating_sub(1)),
-        a: [q(cfg.position, p(0).a, st)?, q(cfg.position, p(1).a, st)?],
-        t: [q(cfg.step, p(0).t, st)?, q(cfg.step, p(1).t, st)?],
+        a: [
+            q(crate::reg!(cfg, position), p(0).a, st)?,
+            q(crate::reg!(cfg, position), p(1).a, st)?,
+        ],
+        t: [
+            q(crate::reg!(cfg, step), p(0).t, st)?,
+            q(crate::reg!(cfg, step), p(1).t, st)?,
+        ],
         range: NONE,
         pre: None,
     })
@@ -255,30 +261,41 @@ pub fn plan(cfg: &PipelineConfig, view: &View) -> Result<FramePlan, PlanError> {
         let inv = 1.0 / (grid.z_ref + view.d);
         let e = view.eye;
         let sp = view.spacing;
-        let q = |f: crate::fixed::Format, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
+        let q = |f: crate::config::Reg, v: f64, st: &mut QuantStats| -> Result<Fx, FxError> {
             let r = f.from_f64(v)?;
-            st.record(&r);
+            st.record_as(f.id, &r);
             Ok(r.value)
         };
         let slope_b = [
-            q(cfg.position, (grid.phi[0] - e.x) * inv * sp[0], &mut st)?,
-            q(cfg.position, (grid.phi[1] - e.y) * inv * sp[1], &mut st)?,
+            q(
+                crate::reg!(cfg, position),
+                (grid.phi[0] - e.x) * inv * sp[0],
+                &mut st,
+            )?,
+            q(
+                crate::reg!(cfg, position),
+                (grid.phi[1] - e.y) * inv * sp[1],
+                &mut st,
+            )?,
         ];
         let slope_k = [
-            q(cfg.step, inv * sp[0], &mut st)?,
-            q(cfg.step, inv * sp[1], &mut st)?,
+            q(crate::reg!(cfg, step), inv * sp[0], &mut st)?,
+            q(crate::reg!(cfg, step), inv * sp[1], &mut st)?,
         ];
-        let slope_z = q(cfg.position, sp[2], &mut st)?;
+        let slope_z = q(crate::reg!(cfg, position), sp[2], &mut st)?;
         let mut slices = Vec::with_capacity(grid.slices.len());
         for z in grid.slices.clone().rev() {
             let (p, range) = slice_rays(view, grid, z);
             slices.push(SlicePlan {
                 z,
                 a: [
-                    q(cfg.position, p[0].a, &mut st)?,
-                    q(cfg.position, p[1].a, &mut st)?,
+                    q(crate::reg!(cfg, position), p[0].a, &mut st)?,
+                    q(crate::reg!(cfg, position), p[1].a, &mut st)?,
                 ],
-                t: [q(cfg.step, p[0].t, &mut st)?, q(cfg.step, p[1].t, &mut st)?],
+                t: [
+                    q(crate::reg!(cfg, step), p[0].t, &mut st)?,
+                    q(crate::reg!(cfg, step), p[1].t, &mut st)?,
+                ],
                 range,
                 pre: None,
             });

@@ -71,7 +71,7 @@ use golden::preint::{Colouring, PreTable, LAYERS, LAYER_MAX_EXP, LAYER_MIN_EXP};
 
 use crate::config::PipelineConfig;
 use crate::datapath::{lerp, Datapath};
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::fixed::{Fx, FxError, QuantStats, Wide};
 
 /// Guard bits of the colour divider's quotient below `color`'s LSB.
 pub const GUARD_BITS: i32 = 8;
@@ -164,13 +164,13 @@ impl PreintUnit {
                 cfg.table_entries
             )));
         }
-        let mut q = |f: Format, v: f64| -> Result<Fx, FxError> {
+        let mut q = |f: crate::config::Reg, v: f64| -> Result<Fx, FxError> {
             let r = f.from_f64(v)?;
-            st.record(&r);
+            st.record_as(f.id, &r);
             Ok(r.value)
         };
         let k = 2f64.powi(cfg.table_shift()) * (bins - 1) as f64 / (entries - 1) as f64;
-        let scale = q(cfg.step, k)?;
+        let scale = q(crate::reg!(cfg, step), k)?;
         let ln2 = std::f64::consts::LN_2;
         let n = bins + 1;
         let mut table = Vec::with_capacity(n * n);
@@ -178,10 +178,10 @@ impl PreintUnit {
             for j in 0..n {
                 let e = pt.entry(i.min(bins - 1), j.min(bins - 1));
                 table.push([
-                    q(cfg.preint_color, f64::from(e[0]) / ln2)?,
-                    q(cfg.preint_color, f64::from(e[1]) / ln2)?,
-                    q(cfg.preint_color, f64::from(e[2]) / ln2)?,
-                    q(cfg.preint_tau, f64::from(e[3]) / ln2)?,
+                    q(crate::reg!(cfg, preint_color), f64::from(e[0]) / ln2)?,
+                    q(crate::reg!(cfg, preint_color), f64::from(e[1]) / ln2)?,
+                    q(crate::reg!(cfg, preint_color), f64::from(e[2]) / ln2)?,
+                    q(crate::reg!(cfg, preint_tau), f64::from(e[3]) / ln2)?,
                 ]);
             }
         }
@@ -193,9 +193,9 @@ impl PreintUnit {
                     for j in 0..n {
                         let e = pt.layer_entry(l, i.min(bins - 1), j.min(bins - 1));
                         layers.push([
-                            q(cfg.preint_color, f64::from(e[0]) / ln2)?,
-                            q(cfg.preint_color, f64::from(e[1]) / ln2)?,
-                            q(cfg.preint_color, f64::from(e[2]) / ln2)?,
+                            q(crate::reg!(cfg, preint_color), f64::from(e[0]) / ln2)?,
+                            q(crate::reg!(cfg, preint_color), f64::from(e[1]) / ln2)?,
+                            q(crate::reg!(cfg, preint_color), f64::from(e[2]) / ln2)?,
                         ]);
                     }
                 }
@@ -222,7 +222,10 @@ impl PreintUnit {
         let frac = i32::from(p.format().frac());
         let first = frac + LAYER_MIN_EXP;
         if r < 1i64 << first {
-            return (0, cfg.weight.assign(Wide::new(i128::from(r), first), st));
+            return (
+                0,
+                crate::reg!(cfg, weight).assign(Wide::new(i128::from(r), first), st),
+            );
         }
         let b = 63 - r.leading_zeros() as i32;
         let e = b - frac;
@@ -232,7 +235,10 @@ impl PreintUnit {
         let m = ((r >> (b - 1)) & 1) as usize;
         let rem = r & ((1i64 << (b - 1)) - 1);
         let l = 1 + 2 * (e - LAYER_MIN_EXP) as usize + m;
-        (l, cfg.weight.assign(Wide::new(i128::from(rem), b - 1), st))
+        (
+            l,
+            crate::reg!(cfg, weight).assign(Wide::new(i128::from(rem), b - 1), st),
+        )
     }
 
     /// Step 4c: the colour words of layer `l` (at least 1) at the step's
@@ -249,7 +255,7 @@ impl PreintUnit {
         let base = &self.layers[(l - 1) * n * n..l * n * n];
         let r = i * n + j;
         let (a, b, c, d) = (base[r], base[r + 1], base[r + n], base[r + n + 1]);
-        let f = cfg.preint_color;
+        let f = crate::reg!(cfg, preint_color);
         let mut out = [f.zero(); 3];
         for k in 0..3 {
             let top = lerp(a[k], b[k], wj, f, st)?;
@@ -293,7 +299,10 @@ impl PreintUnit {
             return (self.bins - 1, cfg.weight.zero());
         }
         let rem = f.raw & ((1i128 << frac) - 1);
-        (int as usize, cfg.weight.assign(Wide::new(rem, f.frac), st))
+        (
+            int as usize,
+            crate::reg!(cfg, weight).assign(Wide::new(rem, f.frac), st),
+        )
     }
 
     /// The bin sample `s` interpolates from (its table position's
@@ -327,9 +336,9 @@ impl PreintUnit {
         let mut out = [cfg.preint_tau.zero(); 4];
         for k in 0..4 {
             let f = if k < 3 {
-                cfg.preint_color
+                crate::reg!(cfg, preint_color)
             } else {
-                cfg.preint_tau
+                crate::reg!(cfg, preint_tau)
             };
             let top = lerp(a[k], b[k], wj, f, st)?;
             let bot = lerp(c[k], d[k], wj, f, st)?;
@@ -361,7 +370,7 @@ impl PreintUnit {
         if half {
             p.frac += 1;
         }
-        let p = cfg.log_transmittance.assign(p, st);
+        let p = crate::reg!(cfg, log_transmittance).assign(p, st);
         let a = dp.transmit(p, st)?;
         let mut colour = [e[0], e[1], e[2]];
         if let Some(unit) = dp.preint.as_ref().filter(|u| u.exact()) {
@@ -372,11 +381,11 @@ impl PreintUnit {
             if w.raw() > 0 {
                 let hi = unit.layer_words(cfg, l + 1, e.at, st)?;
                 for (lo, hi) in colour.iter_mut().zip(hi) {
-                    *lo = lerp(*lo, hi, w, cfg.preint_color, st)?;
+                    *lo = lerp(*lo, hi, w, crate::reg!(cfg, preint_color), st)?;
                 }
             }
         }
-        let c = cfg.color;
+        let c = crate::reg!(cfg, color);
         let one = Wide::new(1, 0);
         let mut rgb = [c.zero(); 3];
         for (out, &wc) in rgb.iter_mut().zip(&colour) {

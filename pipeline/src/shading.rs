@@ -46,7 +46,7 @@ use golden::shading::{GradientMode, Lighting, Shade};
 
 use crate::config::PipelineConfig;
 use crate::datapath::{isqrt_into, lerp};
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::fixed::{Fx, FxError, QuantStats, Wide};
 
 /// Words the right neighbour drives beside its edge voxels while the
 /// array shades, for the row announced next: its first column at rows
@@ -151,19 +151,19 @@ impl ShadeUnit {
                 "the pipeline's gradient unit takes differences on voxels; --gradient samples is golden only".into(),
             ));
         }
-        let mut q = |f: Format, v: f64| -> Result<Fx, FxError> {
+        let mut q = |f: crate::config::Reg, v: f64| -> Result<Fx, FxError> {
             let r = f.from_f64(v)?;
-            st.record(&r);
+            st.record_as(f.id, &r);
             Ok(r.value)
         };
         let lit = Lighting::new(view, shade);
-        let vec = |q: &mut dyn FnMut(Format, f64) -> Result<Fx, FxError>,
+        let vec = |q: &mut dyn FnMut(crate::config::Reg, f64) -> Result<Fx, FxError>,
                    v: &[f64; 3]|
          -> Result<[Fx; 3], FxError> {
             Ok([
-                q(cfg.light, v[0])?,
-                q(cfg.light, v[1])?,
-                q(cfg.light, v[2])?,
+                q(crate::reg!(cfg, light), v[0])?,
+                q(crate::reg!(cfg, light), v[1])?,
+                q(crate::reg!(cfg, light), v[2])?,
             ])
         };
         let lights = lit
@@ -178,24 +178,24 @@ impl ShadeUnit {
             .collect::<Result<Vec<_>, _>>()?;
         let m = shade.material;
         let k = [
-            q(cfg.material, m.ambient)?,
-            q(cfg.material, m.diffuse)?,
-            q(cfg.material, m.specular)?,
+            q(crate::reg!(cfg, material), m.ambient)?,
+            q(crate::reg!(cfg, material), m.diffuse)?,
+            q(crate::reg!(cfg, material), m.specular)?,
         ];
         let s_min = view.spacing.iter().copied().fold(f64::INFINITY, f64::min);
         let scale = [
-            q(cfg.grad_scale, s_min / view.spacing[0])?,
-            q(cfg.grad_scale, s_min / view.spacing[1])?,
-            q(cfg.grad_scale, s_min / view.spacing[2])?,
+            q(crate::reg!(cfg, grad_scale), s_min / view.spacing[0])?,
+            q(crate::reg!(cfg, grad_scale), s_min / view.spacing[1])?,
+            q(crate::reg!(cfg, grad_scale), s_min / view.spacing[2])?,
         ];
         // One golden gradient unit (scalar units per world unit) in
         // `gradient` codes: the voxel word's scale times `2 s_min`.
         let unit = 2.0 * s_min * f64::powi(2.0, i32::from(cfg.voxel.bits()) - data_bits as i32);
-        let recip = |q: &mut dyn FnMut(Format, f64) -> Result<Fx, FxError>,
+        let recip = |q: &mut dyn FnMut(crate::config::Reg, f64) -> Result<Fx, FxError>,
                      g: f64|
          -> Result<Option<Fx>, FxError> {
             if g > 0.0 {
-                q(cfg.grad_recip, 1.0 / (g * unit)).map(Some)
+                q(crate::reg!(cfg, grad_recip), 1.0 / (g * unit)).map(Some)
             } else {
                 Ok(None)
             }
@@ -204,7 +204,12 @@ impl ShadeUnit {
         let inv_g = recip(&mut q, shade.gradient_opacity)?;
         let n = 1usize << cfg.shade_table_bits;
         let power = (0..=n)
-            .map(|j| q(cfg.specular, (j as f64 / n as f64).powf(m.shininess)))
+            .map(|j| {
+                q(
+                    crate::reg!(cfg, specular),
+                    (j as f64 / n as f64).powf(m.shininess),
+                )
+            })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(ShadeUnit {
             lights,
@@ -295,7 +300,7 @@ impl ShadeUnit {
             d.raw * i128::from(self.scale[axis].raw()),
             i32::from(cfg.grad_scale.frac()),
         );
-        cfg.gradient.assign(v, st)
+        crate::reg!(cfg, gradient).assign(v, st)
     }
 
     /// Steps 1 and 2: the gradient at the sample, each component's four
@@ -308,7 +313,7 @@ impl ShadeUnit {
         (wx, wy): (Fx, Fx),
         st: &mut QuantStats,
     ) -> Result<[Fx; 3], FxError> {
-        let g = cfg.gradient;
+        let g = crate::reg!(cfg, gradient);
         let mut out = [g.zero(); 3];
         for (axis, o) in out.iter_mut().enumerate() {
             // corner[row][col], col 0 = x0, 1 = x0 + 1.
@@ -355,10 +360,14 @@ impl ShadeUnit {
             return Ok(self.power[last]);
         }
         let rem = raw & ((1i64 << (fo - b)) - 1);
-        let w = cfg
-            .weight
-            .assign(Wide::new(i128::from(rem), (fo - b) as i32), st);
-        lerp(self.power[idx], self.power[idx + 1], w, cfg.specular, st)
+        let w = crate::reg!(cfg, weight).assign(Wide::new(i128::from(rem), (fo - b) as i32), st);
+        lerp(
+            self.power[idx],
+            self.power[idx + 1],
+            w,
+            crate::reg!(cfg, specular),
+            st,
+        )
     }
 
     /// Steps 3 to 6: shades classified colour `rgb` and opacity `a` with
@@ -371,11 +380,11 @@ impl ShadeUnit {
         g: &[Fx; 3],
         st: &mut QuantStats,
     ) -> Result<([Fx; 3], Fx, ShadeTrace), FxError> {
-        let nd = cfg.normal_dot;
+        let nd = crate::reg!(cfg, normal_dot);
         let sum = (g[0] * g[0])
             .checked_add(g[1] * g[1])?
             .checked_add(g[2] * g[2])?;
-        let norm = isqrt_into(sum, cfg.grad_norm, "gradient norm", st)?;
+        let norm = isqrt_into(sum, crate::reg!(cfg, grad_norm), "gradient norm", st)?;
         let one = Wide::new(1, 0);
         let r = match self.inv_fade {
             Some(inv) if norm.raw() > 0 => nd.assign(min(norm * inv, one), st),
@@ -408,12 +417,12 @@ impl ShadeUnit {
         let mut out = [cfg.color.zero(); 3];
         for (o, &c) in out.iter_mut().zip(&rgb) {
             let v = Wide::from(c).checked_mul(gain)?.checked_add(high)?;
-            *o = cfg.color.assign(min(v, one), st);
+            *o = crate::reg!(cfg, color).assign(min(v, one), st);
         }
         let alpha = match self.inv_g {
             Some(inv) => {
                 let f = min(norm * inv, one);
-                cfg.alpha.assign(Wide::from(a).checked_mul(f)?, st)
+                crate::reg!(cfg, alpha).assign(Wide::from(a).checked_mul(f)?, st)
             }
             None => a,
         };

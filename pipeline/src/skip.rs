@@ -128,7 +128,9 @@ impl OccupancyMemory {
 /// `[min, max]` maps onto the words of its voxels' range.
 pub fn voxel_word(cfg: &PipelineConfig, v: u16, data_bits: u32, st: &mut QuantStats) -> u16 {
     let shift = i32::from(cfg.voxel.bits()) - data_bits as i32;
-    cfg.voxel.assign(Wide::new(i128::from(v), -shift), st).raw() as u16
+    crate::reg!(cfg, voxel)
+        .assign(Wide::new(i128::from(v), -shift), st)
+        .raw() as u16
 }
 
 /// The table entry a sample equal to voxel word `w` looks up first: bilinear
@@ -147,7 +149,7 @@ fn table_index(dp: &Datapath, w: u16, st: &mut QuantStats) -> usize {
 /// (a block's ends, whose samples stay between them).
 fn sample_of(cfg: &PipelineConfig, w: u16, st: &mut QuantStats) -> Fx {
     let vox = Fx::from_raw_unchecked(i64::from(w), cfg.voxel);
-    cfg.sample.assign(Wide::from(vox), st)
+    crate::reg!(cfg, sample).assign(Wide::from(vox), st)
 }
 
 /// Margin (voxels) by which empty-space runs are widened: twice the

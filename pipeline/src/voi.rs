@@ -42,7 +42,7 @@ use golden::voi::{Shape, ViewVoi, Voi};
 
 use crate::config::PipelineConfig;
 use crate::datapath::isqrt_into;
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::fixed::{Fx, FxError, QuantStats, Wide};
 
 /// Why a frame's volume of interest cannot be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -98,12 +98,13 @@ impl VoiUnit {
         let unit = if ramp > 0.0 { ramp } else { 1.0 };
         // A constant that does not fit its format would make every sample
         // wrong: refused, naming the field.
-        let mut q = |f: Format, x: f64, field: &str| -> Result<Fx, VoiError> {
+        let mut q = |f: crate::config::Reg, x: f64, field: &str| -> Result<Fx, VoiError> {
             let r = f.from_f64(x)?;
-            st.record(&r);
+            st.record_as(f.id, &r);
             if r.overflow {
                 return Err(VoiError::Unsupported(format!(
-                    "volume of interest: {x} does not fit {field} = {f}; widen {field} (or the ramp)"
+                    "volume of interest: {x} does not fit {field} = {}; widen {field} (or the ramp)",
+                    f.format
                 )));
             }
             Ok(r.value)
@@ -112,22 +113,22 @@ impl VoiUnit {
         let s = spacing.to_array();
         let h = half.to_array();
         let centre = [
-            q(cfg.position, c[0], "position")?,
-            q(cfg.position, c[1], "position")?,
-            q(cfg.position, c[2], "position")?,
+            q(crate::reg!(cfg, position), c[0], "position")?,
+            q(crate::reg!(cfg, position), c[1], "position")?,
+            q(crate::reg!(cfg, position), c[2], "position")?,
         ];
         let axis = [
-            q(cfg.voi_axis, s[0] / unit, "voi_axis")?,
-            q(cfg.voi_axis, s[1] / unit, "voi_axis")?,
-            q(cfg.voi_axis, s[2] / unit, "voi_axis")?,
+            q(crate::reg!(cfg, voi_axis), s[0] / unit, "voi_axis")?,
+            q(crate::reg!(cfg, voi_axis), s[1] / unit, "voi_axis")?,
+            q(crate::reg!(cfg, voi_axis), s[2] / unit, "voi_axis")?,
         ];
         let half = [
-            q(cfg.voi_dist, h[0] * s[0] / unit, "voi_dist")?,
-            q(cfg.voi_dist, h[1] * s[1] / unit, "voi_dist")?,
-            q(cfg.voi_dist, h[2] * s[2] / unit, "voi_dist")?,
+            q(crate::reg!(cfg, voi_dist), h[0] * s[0] / unit, "voi_dist")?,
+            q(crate::reg!(cfg, voi_dist), h[1] * s[1] / unit, "voi_dist")?,
+            q(crate::reg!(cfg, voi_dist), h[2] * s[2] / unit, "voi_dist")?,
         ];
-        let radius = q(cfg.voi_dist, radius / unit, "voi_dist")?;
-        let gain = q(cfg.voi_gain, scale - 1.0, "voi_gain")?;
+        let radius = q(crate::reg!(cfg, voi_dist), radius / unit, "voi_dist")?;
+        let gain = q(crate::reg!(cfg, voi_gain), scale - 1.0, "voi_gain")?;
         debug_assert_eq!(sphere, matches!(voi.shape, Shape::Sphere { .. }));
         Ok(VoiUnit {
             centre,
@@ -198,7 +199,7 @@ impl VoiUnit {
         (x, y, z): (Fx, Fx, usize),
         st: &mut QuantStats,
     ) -> Result<(Fx, VoiTrace), FxError> {
-        let dist = cfg.voi_dist;
+        let dist = crate::reg!(cfg, voi_dist);
         let pz = Wide::new(z as i128, 0);
         let p = [Wide::from(x), Wide::from(y), pz];
         let mut qk = [dist.zero(); 3];
@@ -208,7 +209,7 @@ impl VoiUnit {
             qk[k] = dist.assign(mag.checked_mul(self.axis[k])?, st);
         }
         let one = Wide::new(1, 0);
-        let wf = cfg.voi_weight;
+        let wf = crate::reg!(cfg, voi_weight);
         let w = if self.sphere {
             let sq = (qk[0] * qk[0])
                 .checked_add(qk[1] * qk[1])?
@@ -254,7 +255,7 @@ impl VoiUnit {
         } else {
             w
         };
-        let f = cfg.voi_factor.assign(one.checked_add(self.gain * w)?, st);
+        let f = crate::reg!(cfg, voi_factor).assign(one.checked_add(self.gain * w)?, st);
         Ok((
             f,
             VoiTrace {
@@ -267,12 +268,12 @@ impl VoiUnit {
     /// Step 6: opacity `a` scaled by factor `f`, into `alpha`.
     #[inline]
     pub fn scale(cfg: &PipelineConfig, a: Fx, f: Fx, st: &mut QuantStats) -> Fx {
-        cfg.alpha.assign(a * f, st)
+        crate::reg!(cfg, alpha).assign(a * f, st)
     }
 }
 
 /// `clamp(1/2 - d, 0, 1)` into `wf` (the `1/2` is exact in `d`'s grid).
-fn ramp_weight(wf: Format, d: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
+fn ramp_weight(wf: crate::config::Reg, d: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
     let v = Wide::new(1, 1).checked_sub(d)?;
     Ok(if v.raw <= 0 {
         wf.zero()

@@ -9,7 +9,9 @@
 //! to a face) saturates `ds` and so under-corrects the opacity of its
 //! steepest rays, a difference no width of the other formats covers. Such
 //! a frame gets no bound, a one-line warning, and the `path` format that
-//! would hold it.
+//! would hold it. So does a frame in which any format overflowed beyond a
+//! designed clamp ([`pipeline::bound::range_violations`]): `why_none`
+//! names each such format with its overflow count.
 
 use serde_json::{json, Value};
 
@@ -21,7 +23,7 @@ use golden::tf::Lut;
 use golden::voi::Voi;
 use pipeline::bound::{self, BoundInputs, PreintInputs, ShadeInputs, VoiInputs};
 use pipeline::config::{Order, PipelineConfig};
-use pipeline::fixed::Format;
+use pipeline::fixed::{Format, QuantStats};
 
 /// A frame's derived bound against its measured difference.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,6 +45,10 @@ pub struct FrameBound {
     pub path_needed: Option<Format>,
     /// Why no bound is derived, when `value` is `None`.
     pub why: Option<String>,
+    /// The formats whose overflows are range violations rather than
+    /// designed clamps ([`pipeline::config::FormatId::clamps`]), with
+    /// their overflow counts: no bound covers them.
+    pub harmful: Vec<(&'static str, u64)>,
 }
 
 impl FrameBound {
@@ -66,6 +72,11 @@ impl FrameBound {
             "path_max": self.path_max,
             "path_saturates": self.path_needed.is_some(),
             "path_needed": self.path_needed.map(|f| f.to_string()),
+            "harmful_overflows": self
+                .harmful
+                .iter()
+                .map(|&(name, n)| (name.to_string(), json!(n)))
+                .collect::<serde_json::Map<String, Value>>(),
         })
     }
 
@@ -119,29 +130,18 @@ pub struct FrameOptions<'a> {
     pub preint: Option<&'a PreTable>,
 }
 
-/// The narrowest `path` format with `path`'s fraction bits, rounding and
-/// overflow that holds `ds` (`None` past 48 bits).
-pub fn path_holding(path: Format, ds: f64) -> Option<Format> {
-    (path.int_bits()..=48 - path.frac()).find_map(|i| {
-        let f = Format::new(
-            i + path.frac(),
-            path.frac(),
-            false,
-            path.quant(),
-            path.overflow(),
-        );
-        f.ok().filter(|f| f.max_value().to_f64() > ds)
-    })
-}
+pub use pipeline::bound::path_holding;
 
 /// The derived bound of a frame of `prep` under `cfg` with table `lut` on
-/// `data_bits`-bit data, against a measured difference `measured`.
+/// `data_bits`-bit data, against a measured difference `measured`; the
+/// frame's quantisation counts `quant` say whether a format overflowed
+/// beyond what the bound covers.
 pub fn frame_bound(
     cfg: &PipelineConfig,
     prep: &Prepared,
     lut: &Lut,
     data_bits: u32,
-    opts: FrameOptions<'_>,
+    (opts, quant): (FrameOptions<'_>, &QuantStats),
     measured: f64,
 ) -> anyhow::Result<FrameBound> {
     let view = &prep.view;
@@ -156,14 +156,25 @@ pub fn frame_bound(
         path_max,
         path_needed: None,
         why: None,
+        harmful: bound::range_violations(quant),
     };
     if saturates {
         out.path_needed = path_holding(cfg.path, d.ds_max);
-        out.why = Some(format!(
-            "path length {} saturates the path format (max {})",
-            sig3(d.ds_max),
-            sig3(path_max)
-        ));
+    }
+    if saturates || !out.harmful.is_empty() {
+        let mut parts: Vec<String> = out
+            .harmful
+            .iter()
+            .map(|(name, n)| format!("{name} overflowed {n} times"))
+            .collect();
+        if saturates {
+            parts.push(format!(
+                "path length {} saturates the path format (max {})",
+                sig3(d.ds_max),
+                sig3(path_max)
+            ));
+        }
+        out.why = Some(parts.join("; "));
         return Ok(out);
     }
     if cfg.order == Order::FrontToBack && cfg.terminate < 1.0 {
@@ -255,6 +266,7 @@ mod tests {
             path_max: 8.0,
             path_needed: None,
             why: None,
+            harmful: Vec::new(),
         };
         assert_eq!(b.held(), Some(true));
         assert!(b.summary().ends_with("held"));

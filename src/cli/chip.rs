@@ -15,7 +15,8 @@ use golden::render::{render, Prepared, RenderOptions, Technique};
 use golden::tf::Lut;
 use golden::volume::Volume;
 use golden::warp::warp;
-use pipeline::config::{Order, PipelineConfig};
+use pipeline::config::{FormatId, Order, PipelineConfig};
+use pipeline::fixed::QuantStats;
 use pipeline::{FrameRun, Voxels};
 use waves::{parse_cycle_window, PeFilter, TraceConfig, Tracer};
 
@@ -373,6 +374,61 @@ pub fn write_raw_npy(path: &Path, f: &pipeline::Frame) -> Result<()> {
     .with_context(|| format!("writing {}", path.display()))
 }
 
+/// The stats' `quantization` object: the totals, the overflows that are
+/// range violations (`harmful_overflows`), and per register format its
+/// counts and whether its overflow is a designed clamp (`clamp`).
+pub fn quant_json(q: &QuantStats) -> Value {
+    let by_format: serde_json::Map<String, Value> = q
+        .by_format
+        .iter()
+        .filter(|(id, c)| *id != FormatId::OTHER || c.assignments > 0)
+        .map(|(id, c)| {
+            let v = json!({
+                "assignments": c.assignments,
+                "inexact": c.inexact,
+                "overflows": c.overflows,
+                "clamp": id.clamps(),
+            });
+            (id.name().to_string(), v)
+        })
+        .collect();
+    json!({
+        "assignments": q.assignments,
+        "inexact": q.inexact,
+        "overflows": q.overflows,
+        "harmful_overflows": q.harmful_overflows(),
+        "by_format": by_format,
+    })
+}
+
+/// The render summary's quantisation note when anything overflowed: the
+/// total and each overflowing format's count, marked `clamp` or `range`
+/// (a range violation), most overflows first.
+pub fn overflow_line(q: &QuantStats) -> Option<String> {
+    if q.overflows == 0 {
+        return None;
+    }
+    let mut formats: Vec<_> = q
+        .by_format
+        .iter()
+        .filter(|(_, c)| c.overflows > 0)
+        .collect();
+    formats.sort_by_key(|(id, c)| (std::cmp::Reverse(c.overflows), *id));
+    let parts: Vec<String> = formats
+        .iter()
+        .map(|(id, c)| {
+            let kind = if id.clamps() { "clamp" } else { "range" };
+            format!("{} {} ({kind})", id.name(), c.overflows)
+        })
+        .collect();
+    Some(format!(
+        "quantization: {} overflows, {} of them range violations: {}",
+        q.overflows,
+        q.harmful_overflows(),
+        parts.join(", ")
+    ))
+}
+
 /// The pipeline's part of the stats JSON, and its error against the golden
 /// method it mirrors (`error_vs_golden`, naming the method; back to front
 /// also as `error_vs_golden_er`).
@@ -402,7 +458,7 @@ pub fn stats_json(cfg: &PipelineConfig, run: &PipelineRun, vs_golden: Option<Val
         "mapping": cfg.mapping.name(),
         "ray_buffer": f.ray_buffer,
         "voxel_load": f.voxel_load,
-        "quantization": f.quant,
+        "quantization": quant_json(&f.quant),
         "pe_cycles_per_second": f.cycles as f64 * f64::from(cfg.pes) / run.time_s.max(1e-12),
         "config": serde_json::to_value(cfg).unwrap_or(Value::Null),
         "error_vs_golden_er": if btf { vs_golden } else { None },

@@ -522,11 +522,14 @@ fn frame_pipeline(
             &prep,
             &lut,
             bits,
-            super::bound::FrameOptions {
-                shade: shade.as_ref(),
-                voi: voi.as_ref(),
-                preint: preint.as_ref(),
-            },
+            (
+                super::bound::FrameOptions {
+                    shade: shade.as_ref(),
+                    voi: voi.as_ref(),
+                    preint: preint.as_ref(),
+                },
+                &run.frame.quant,
+            ),
             max_abs,
         )?;
         if let Some(w) = bound.warning() {
@@ -586,10 +589,13 @@ fn frame_pipeline(
             None => "golden twin skipped".to_string(),
         },
     );
-    let notes = vec![format!(
+    let mut notes = vec![format!(
         "  frame: {}",
         pipeline::cost::clock::rate_line(f.cycles, clock, ClockSource::Assumed)
     )];
+    if let Some(line) = chip::overflow_line(&f.quant) {
+        notes.push(format!("  {line}"));
+    }
     Ok(Rendered {
         image: frame.image,
         baseplane: None,

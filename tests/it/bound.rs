@@ -2,13 +2,16 @@
 //! `bound` says whether the measured difference from golden stayed within
 //! it, and a view whose path lengths saturate the `path` format gets no
 //! bound, a warning and the format that holds it, with which the frame
-//! comes back within 1/255 of golden in both orders.
+//! comes back within 1/255 of golden in both orders. The stats'
+//! `quantization` counts per format, and name the path as the format
+//! whose overflows are no designed clamp.
 
 use serde_json::Value;
 
 use crate::bin::{describe, ercube};
 
-/// Renders `args` with `--stats`, returning the stats and stderr.
+/// Renders `args` with `--stats`, returning the stats and the program's
+/// stderr followed by its stdout (the summary and its notes).
 fn stats(dir: &std::path::Path, args: &[&str]) -> (Value, String) {
     let mut all: Vec<&str> = args.to_vec();
     all.extend(["--out", "b.png", "--stats", "b.json"]);
@@ -16,7 +19,12 @@ fn stats(dir: &std::path::Path, args: &[&str]) -> (Value, String) {
     assert!(out.status.success(), "{}", describe(&all, &out));
     let text = std::fs::read_to_string(dir.join("b.json")).expect("stats written");
     let v: Value = serde_json::from_str(&text).expect("stats are JSON");
-    (v, String::from_utf8_lossy(&out.stderr).into_owned())
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
+    );
+    (v, text)
 }
 
 /// An ordinary view: a finite bound, the measured float difference under
@@ -53,7 +61,27 @@ fn an_ordinary_frame_reports_its_bound_as_held() {
             "{method}: {vs} vs {measured}"
         );
         assert!(!err.contains("warning"), "{method}: {err}");
+        let q = &v["quantization"];
+        assert_eq!(q["harmful_overflows"], 0, "{method}: {q}");
+        assert_formats_sum_to_totals(q);
     }
+}
+
+/// The per-format counts of a stats' `quantization` add up to its totals,
+/// and every format says whether its overflow is a clamp.
+fn assert_formats_sum_to_totals(q: &Value) {
+    let by = q["by_format"].as_object().expect("by_format");
+    for key in ["assignments", "inexact", "overflows"] {
+        let sum: u64 = by.values().map(|c| c[key].as_u64().unwrap()).sum();
+        assert_eq!(Some(sum), q[key].as_u64(), "{key}: {q}");
+    }
+    assert!(by.values().all(|c| c["clamp"].is_boolean()), "{q}");
+    let harmful: u64 = by
+        .values()
+        .filter(|c| c["clamp"] == false)
+        .map(|c| c["overflows"].as_u64().unwrap())
+        .sum();
+    assert_eq!(Some(harmful), q["harmful_overflows"].as_u64(), "{q}");
 }
 
 /// Front to back with early ray termination is not what the bound is
@@ -104,6 +132,29 @@ fn a_saturating_path_is_reported_and_the_named_format_fixes_it() {
         assert_eq!(b["path_saturates"], Value::Bool(true), "{method}: {b}");
         assert_eq!(b["value"], Value::Null, "{method}: {b}");
         assert!(b["ds_max"].as_f64().unwrap() > 16.0, "{method}: {b}");
+        // The counts name the path as the one format overflowing beyond a
+        // designed clamp, and why_none names it by its count.
+        let q = &v["quantization"];
+        assert_formats_sum_to_totals(q);
+        let path = &q["by_format"]["path"];
+        let n = path["overflows"].as_u64().unwrap();
+        assert!(n > 0, "{method}: {q}");
+        assert_eq!(path["clamp"], false, "{method}: {q}");
+        assert_eq!(q["harmful_overflows"].as_u64(), Some(n), "{method}: {q}");
+        assert_eq!(
+            b["harmful_overflows"]["path"].as_u64(),
+            Some(n),
+            "{method}: {b}"
+        );
+        let why = b["why_none"].as_str().unwrap();
+        assert!(
+            why.contains(&format!("path overflowed {n} times")),
+            "{method}: {why}"
+        );
+        assert!(
+            err.contains(&format!("path {n} (range)")),
+            "{method}: {err}"
+        );
         let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning")).collect();
         assert_eq!(warn.len(), 1, "{method}: {err}");
         // The warning's TOML line, written as a configuration, is accepted
@@ -119,6 +170,8 @@ fn a_saturating_path_is_reported_and_the_named_format_fixes_it() {
         assert_eq!(b["path_saturates"], Value::Bool(false), "{method}: {b}");
         assert_eq!(b["held"], Value::Bool(true), "{method}: {b}");
         assert!(!err.contains("warning"), "{method}: {err}");
+        assert_eq!(v["quantization"]["harmful_overflows"], 0, "{method}");
+        assert_eq!(v["quantization"]["by_format"]["path"]["overflows"], 0);
         let vs = v["error_vs_golden"]["max_abs_255"].as_f64().unwrap();
         assert!(
             vs <= 1.0,

@@ -288,11 +288,7 @@ pub(super) fn load_memories(
             count[0] = (nx * ny * nz) as u64;
         }
         for ((_, one), &n) in coded.iter().zip(&count) {
-            st.merge(&QuantStats {
-                assignments: one.assignments * n,
-                overflows: one.overflows * n,
-                inexact: one.inexact * n,
-            });
+            st.merge(&one.times(n));
         }
         return codes
             .into_iter()

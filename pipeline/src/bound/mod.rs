@@ -260,6 +260,36 @@ pub fn region_slices(view: &View) -> golden::Result<Vec<usize>> {
         .collect())
 }
 
+/// The narrowest `path` format with `path`'s fraction bits, rounding and
+/// overflow that holds path length `ds` (`None` past 48 bits): what a
+/// view whose largest path length saturates `path` needs for a bound.
+pub fn path_holding(path: Format, ds: f64) -> Option<Format> {
+    (path.int_bits()..=48 - path.frac()).find_map(|i| {
+        let f = Format::new(
+            i + path.frac(),
+            path.frac(),
+            false,
+            path.quant(),
+            path.overflow(),
+        );
+        f.ok().filter(|f| f.max_value().to_f64() > ds)
+    })
+}
+
+/// The formats whose overflows in `quant` are range violations rather
+/// than designed clamps ([`crate::config::FormatId::clamps`]), with their
+/// overflow counts, in table order. The bounds assume none: a frame with
+/// any has no derived bound (a saturated `path` under-corrects its
+/// steepest rays' opacity, which no width of the other formats covers).
+pub fn range_violations(quant: &crate::fixed::QuantStats) -> Vec<(&'static str, u64)> {
+    quant
+        .by_format
+        .iter()
+        .filter(|(id, c)| !id.clamps() && c.overflows > 0)
+        .map(|(id, c)| (id.name(), c.overflows))
+        .collect()
+}
+
 /// Assignment error of a format: one LSB when it truncates, half otherwise.
 pub fn r(f: Format) -> f64 {
     match f.quant() {

@@ -36,7 +36,8 @@
 //! The rest of the module: `rules.rs` holds [`PipelineConfig::validate`],
 //! `text.rs` the TOML reading and writing, `derived.rs` the quantities the
 //! datapath derives from a config, `error.rs` [`ConfigError`] and
-//! `order.rs` [`Order`], `mapping.rs` [`Mapping`] and [`RayBuffer`].
+//! `order.rs` [`Order`], `mapping.rs` [`Mapping`] and [`RayBuffer`],
+//! `named.rs` [`FormatId`] and [`Reg`] (which format an assignment writes).
 //!
 //! [`Format`]: crate::fixed::Format
 
@@ -44,6 +45,7 @@ mod derived;
 mod error;
 mod fields;
 mod mapping;
+mod named;
 mod order;
 mod rules;
 mod schema;
@@ -52,6 +54,7 @@ mod text;
 pub use error::ConfigError;
 pub use fields::PipelineConfig;
 pub use mapping::{Mapping, Migration, RayBuffer};
+pub use named::{FormatId, Reg};
 pub use order::Order;
 
 /// Largest supported PE count. The array is 1D and each PE owns a column of

@@ -291,6 +291,11 @@ macro_rules! config_fields {
         pub(super) const FIELD_DOCS: [(&str, &str); FIELD_COUNT] =
             [$((stringify!($field), $toml)),*];
 
+        /// Every field's name and whether it is a register format, in
+        /// table order ([`super::FormatId`] numbers the formats by it).
+        pub(super) const FIELD_KINDS: [(&str, bool); FIELD_COUNT] =
+            [$((stringify!($field), <$ty as $crate::config::schema::FieldValue>::IS_FORMAT)),*];
+
         impl PipelineConfig {
             /// Every register format with its field name, in declaration order.
             pub fn formats(&self) -> [(&'static str, $crate::fixed::Format); FORMAT_COUNT] {

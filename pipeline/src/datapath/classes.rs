@@ -2,7 +2,8 @@
 //! a sample with one read.
 
 use super::Datapath;
-use crate::fixed::{Format, Fx, QuantStats};
+use crate::config::FormatId;
+use crate::fixed::{Counts, Format, Fx, QuantStats};
 
 /// The classification unit's truth table: its output and the
 /// quantisation events it records for every word of the sample format,
@@ -16,11 +17,21 @@ use crate::fixed::{Format, Fx, QuantStats};
 #[derive(Debug, Clone)]
 pub(super) struct Classes {
     /// Per sample word: raw R, G, B (`color`) and opacity (`alpha`), and
-    /// the quantisation events classifying it records.
-    pub(super) words: Vec<([i64; 4], QuantStats)>,
+    /// the quantisation events classifying it records, per format of
+    /// [`CLASS_FORMATS`]: assignments, overflows, inexact (at most 3
+    /// each).
+    pub(super) words: Vec<([i64; 4], [[u8; 3]; 3])>,
     color: Format,
     alpha: Format,
 }
+
+/// The formats classification assigns: the interpolation weight, the
+/// colour channels and the opacity.
+pub(super) const CLASS_FORMATS: [FormatId; 3] = [
+    FormatId::named("weight"),
+    FormatId::named("color"),
+    FormatId::named("alpha"),
+];
 
 impl Classes {
     /// Widest sample format listed (64 Ki words).
@@ -39,7 +50,16 @@ impl Classes {
             // The unit's words are in the table's formats (its entries and
             // its interpolations are assigned into them).
             debug_assert!(rgb.iter().all(|c| c.format() == color) && a.format() == alpha);
-            words.push(([rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()], st));
+            let ev = CLASS_FORMATS.map(|id| {
+                let c = st.by_format.get(id);
+                [c.assignments, c.overflows, c.inexact].map(|n| u8::try_from(n).unwrap_or(u8::MAX))
+            });
+            // Every event is in one of those formats.
+            let listed: u64 = ev.iter().map(|e| u64::from(e[0])).sum();
+            if listed != st.assignments {
+                return None;
+            }
+            words.push(([rgb[0].raw(), rgb[1].raw(), rgb[2].raw(), a.raw()], ev));
         }
         Some(Classes {
             words,
@@ -51,7 +71,18 @@ impl Classes {
     #[inline(always)]
     pub(super) fn get(&self, s: Fx, st: &mut QuantStats) -> ([Fx; 3], Fx) {
         let (raw, events) = &self.words[s.raw() as usize];
-        st.merge(events);
+        for (&id, e) in CLASS_FORMATS.iter().zip(events) {
+            if e[0] > 0 {
+                st.add_as(
+                    id,
+                    &Counts {
+                        assignments: u64::from(e[0]),
+                        overflows: u64::from(e[1]),
+                        inexact: u64::from(e[2]),
+                    },
+                );
+            }
+        }
         let c = |r: i64| Fx::from_raw_unchecked(r, self.color);
         (
             [c(raw[0]), c(raw[1]), c(raw[2])],

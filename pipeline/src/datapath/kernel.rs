@@ -25,13 +25,15 @@ mod lanes;
 mod step;
 mod tent;
 
-pub(crate) use lanes::{Batch, LaneTally, LANES};
+pub(crate) use lanes::{Batch, LANES};
 pub(crate) use step::Tally;
+use step::SLOTS;
 pub(crate) use tent::Tents;
 
 use super::{Classes, Datapath};
 use crate::config::Order;
 use crate::fixed::{Format, Fx};
+use crate::reg;
 use step::{rnd, Step};
 
 /// `a + w (b - a)` of words `a`, `b` with fraction `fa` and weight `w`
@@ -57,12 +59,37 @@ fn exact(m: i64, a: i64, t: i64) -> Option<i64> {
 
 /// The classification unit's output for one sample word ([`Classes`]):
 /// raw R, G, B (`color`) and A (`alpha`), and the quantisation events
-/// (assignments, overflows, inexact) classifying it records.
+/// (assignments, overflows, inexact) classifying it records in each of
+/// the formats it assigns ([`CLASS_SLOTS`]).
 #[derive(Debug, Clone, Copy)]
 struct Class {
     rgba: [u16; 4],
-    ev: [u8; 4],
+    /// The nine counts (slot by slot, then assignments, overflows,
+    /// inexact), each at most 3, in 7-bit fields ([`EV_BITS`]): a batch
+    /// adds its lanes' words and unpacks the sums once.
+    ev: u64,
 }
+
+/// Width of a packed classification count: eight lanes of at most 3
+/// each stay below 2^7.
+const EV_BITS: u32 = 7;
+
+/// The tally slots of the classification's formats (`weight`, `color`,
+/// `alpha`, the order of [`super::classes::CLASS_FORMATS`]).
+const CLASS_SLOTS: [usize; 3] = {
+    let f = super::classes::CLASS_FORMATS;
+    let mut out = [0; 3];
+    let mut k = 0;
+    while k < 3 {
+        let mut i = 0;
+        while SLOTS[i].index() != f[k].index() {
+            i += 1;
+        }
+        out[k] = i;
+        k += 1;
+    }
+    out
+};
 
 /// What [`Kernel::address`] finds for one ray.
 #[derive(Debug, Clone, Copy)]
@@ -172,17 +199,17 @@ impl Kernel {
         let t = &dp.tables;
         let fw = u32::from(c.weight.frac());
         let fpos = u32::from(c.position.frac());
-        let address_w = Step::new(fpos as i32, fpos, c.weight)?;
+        let address_w = Step::new(fpos as i32, fpos, reg!(c, weight))?;
         let fstep = u32::from(c.step.frac());
         let fline = fpos.max(fstep);
         // The exact `a + m t` is checked below 2^62 per sample.
-        let line = Step::new(fline as i32, 62, c.position)?;
+        let line = Step::new(fline as i32, 62, reg!(c, position))?;
         let line_shift = [fline - fpos, fline - fstep];
         let fs = u32::from(c.sample.frac());
         let lerp_y = Step::new(
             (fs + fw) as i32,
             mag(c.sample) + mag(c.weight) + 2,
-            c.sample,
+            reg!(c, sample),
         )?;
         // Three squares of `position` words: below 2^(2 bits + 2).
         let rad_bits = 2 * mag(c.position) + 2;
@@ -191,11 +218,15 @@ impl Kernel {
         if rad_bits as i32 + rad_shift.max(0) > 62 || c.path.is_signed() {
             return None;
         }
-        let root = Step::new(pf, 62, c.path)?;
+        let root = Step::new(pf, 62, reg!(c, path))?;
         let voxel_frac = u32::from(c.voxel.frac());
         // A lerp's words stay below 2^(B + bw + 2) (see `super::lerp64`).
         let lerp_bits = |ab: Format| mag(ab) + mag(c.weight) + 2;
-        let lerp_x = Step::new((voxel_frac + fw) as i32, lerp_bits(c.voxel), c.sample)?;
+        let lerp_x = Step::new(
+            (voxel_frac + fw) as i32,
+            lerp_bits(c.voxel),
+            reg!(c, sample),
+        )?;
         if c.voxel.is_signed() || c.sample.is_signed() || c.weight.is_signed() {
             return None;
         }
@@ -204,12 +235,17 @@ impl Kernel {
         let classes = classes
             .words
             .iter()
-            .map(|(w, q)| {
+            .map(|(w, ev)| {
                 let rgba = w.map(|r| u16::try_from(r).ok());
-                let ev = [q.assignments, q.overflows, q.inexact].map(|n| u8::try_from(n).ok());
+                let mut packed = 0u64;
+                for (i, &n) in ev.iter().flatten().enumerate() {
+                    // Each count is at most 3 (three colour channels).
+                    (n <= 3).then_some(())?;
+                    packed |= u64::from(n) << (EV_BITS * i as u32);
+                }
                 Some(Class {
                     rgba: [rgba[0]?, rgba[1]?, rgba[2]?, rgba[3]?],
-                    ev: [ev[0]?, ev[1]?, ev[2]?, 0],
+                    ev: packed,
                 })
             })
             .collect::<Option<Vec<Class>>>()?;
@@ -230,15 +266,15 @@ impl Kernel {
         let log_p = Step::new(
             (log_frac + u32::from(path.frac())) as i32,
             log_bits + mag(path),
-            lf,
+            reg!(c, log_transmittance),
         )?;
         let p_frac = u32::from(lf.frac());
         let exp_bits = u32::from(c.exp_table_bits);
         let rem = p_frac.checked_sub(exp_bits)?;
-        let exp_w = Step::new(rem as i32, rem, c.weight)?;
+        let exp_w = Step::new(rem as i32, rem, reg!(c, weight))?;
         let exp_frac = u32::from(ef.frac());
         let oc = c.opacity_corr;
-        let exp_lerp = Step::new((exp_frac + fw) as i32, lerp_bits(ef), oc)?;
+        let exp_lerp = Step::new((exp_frac + fw) as i32, lerp_bits(ef), reg!(c, opacity_corr))?;
         let oc_rnd = rnd(oc)?;
         // The transmittance's shift is taken up to 62 bits: an `oc` word
         // below 2^61 shifted 62 or more is 0 either way.
@@ -246,7 +282,7 @@ impl Kernel {
             return None;
         }
         let foc = u32::from(oc.frac());
-        let one_minus = Step::new(foc as i32, mag(oc).max(foc + 1) + 1, oc)?;
+        let one_minus = Step::new(foc as i32, mag(oc).max(foc + 1) + 1, reg!(c, opacity_corr))?;
         let (fc, fac, faa) = (
             u32::from(c.color.frac()),
             u32::from(c.accum_color.frac()),
@@ -264,8 +300,8 @@ impl Kernel {
             let fa = faa + foc;
             let abits = (mag(c.accum_alpha) + foc).max(kb) + 1;
             (
-                Step::new(f as i32, bits, c.accum_color)?,
-                Step::new(fa as i32, abits, c.accum_alpha)?,
+                Step::new(f as i32, bits, reg!(c, accum_color))?,
+                Step::new(fa as i32, abits, reg!(c, accum_alpha))?,
                 sh,
             )
         } else {
@@ -275,8 +311,8 @@ impl Kernel {
             let fa = foc + faa;
             let abits = (mag(oc) + faa).max(kb + mag(c.accum_alpha)) + 1;
             (
-                Step::new(f as i32, bits, c.accum_color)?,
-                Step::new(fa as i32, abits, c.accum_alpha)?,
+                Step::new(f as i32, bits, reg!(c, accum_color))?,
+                Step::new(fa as i32, abits, reg!(c, accum_alpha))?,
                 sh,
             )
         };
@@ -424,7 +460,7 @@ mod tests {
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         /// A batch through the kernel's lanes gives, lane by lane, the
-        /// general datapath's words and quantisation counts: one column's
+        /// general datapath's words and quantisation counts (per format): one column's
         /// address and weight (random broadcast words and ray index), and
         /// in each of up to eight lanes a row with its own y weight, y
         /// slope, voxel taps and accumulators, the accumulators after
@@ -482,8 +518,18 @@ mod tests {
                 }
             }
             batch.pad();
-            let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
-            kernel.sample_lanes(&mut batch, &mut base, &mut shown);
+            // The events of the first `k` lanes: a batch counts only the
+            // lanes it uses, so lane `l`'s are those of `l + 1` lanes
+            // less those of `l`.
+            let loaded = batch;
+            let first = |k: usize| {
+                let (mut part, mut t) = (loaded, Tally::default());
+                part.n = k;
+                kernel.sample_lanes(&mut part, &mut t);
+                t
+            };
+            kernel.sample_lanes(&mut batch, &mut Tally::default());
+            let mut want_first = QuantStats::default();
 
             for l in 0..n {
                 // The general path, as `Pe::sample_datapath` runs it.
@@ -514,14 +560,12 @@ mod tests {
                 if visible {
                     prop_assert_eq!(batch.done[l], flag, "lane {}", l);
                 }
-                let mut tally = addressing;
-                base.add_lane(l, &mut tally);
-                if visible {
-                    shown.add_lane(l, &mut tally);
-                }
+                want_first.merge(&st);
+                let mut tally = first(l + 1);
+                tally.add_times(&addressing, l as u64 + 1);
                 let mut counted = QuantStats::default();
                 tally.add_to(&mut counted);
-                prop_assert_eq!(counted, st, "lane {}", l);
+                prop_assert_eq!(counted, want_first, "lanes up to {}", l);
             }
         }
     }

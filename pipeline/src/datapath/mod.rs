@@ -16,7 +16,7 @@ mod passes;
 
 use classes::Classes;
 use kernel::Tents;
-pub(crate) use kernel::{Batch, LaneTally, Ray, Tally, LANES};
+pub(crate) use kernel::{Batch, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
 #[cfg(test)]
 pub(crate) use ops::isqrt;
@@ -209,7 +209,7 @@ impl Datapath {
                 Wide::from(a).checked_add(mt)?
             }
         };
-        Ok(self.cfg.position.assign(v, st))
+        Ok(crate::reg!(self.cfg, position).assign(v, st))
     }
 
     /// Voxel address and interpolation weight of a position:
@@ -221,9 +221,7 @@ impl Datapath {
         let (i, r) = split(x.raw(), f);
         (
             i,
-            self.cfg
-                .weight
-                .assign(Wide::new(i128::from(r), f as i32), st),
+            crate::reg!(self.cfg, weight).assign(Wide::new(i128::from(r), f as i32), st),
         )
     }
 
@@ -240,7 +238,7 @@ impl Datapath {
     ) -> Result<Fx, FxError> {
         let vf = self.cfg.voxel;
         let vox = |c: u16| Fx::from_raw_unchecked(i64::from(c), vf);
-        let s = self.cfg.sample;
+        let s = crate::reg!(self.cfg, sample);
         let top = lerp(vox(v[0][0]), vox(v[0][1]), wx, s, st)?;
         let bot = lerp(vox(v[1][0]), vox(v[1][1]), wx, s, st)?;
         lerp(top, bot, wy, s, st)
@@ -267,7 +265,10 @@ impl Datapath {
         let f = i32::from(self.cfg.sample.frac()) - shift;
         let (i, w) = if f > 0 {
             let (i, r) = split(s.raw(), f as u32);
-            (i, self.cfg.weight.assign(Wide::new(i128::from(r), f), st))
+            (
+                i,
+                crate::reg!(self.cfg, weight).assign(Wide::new(i128::from(r), f), st),
+            )
         } else {
             (s.raw() << (-f) as u32, self.cfg.weight.zero())
         };
@@ -275,13 +276,19 @@ impl Datapath {
         if i >= last {
             return Ok((t.color[last], t.alpha[last]));
         }
-        let c = self.cfg.color;
+        let c = crate::reg!(self.cfg, color);
         let rgb = [
             lerp(t.color[i][0], t.color[i + 1][0], w, c, st)?,
             lerp(t.color[i][1], t.color[i + 1][1], w, c, st)?,
             lerp(t.color[i][2], t.color[i + 1][2], w, c, st)?,
         ];
-        let a = lerp(t.alpha[i], t.alpha[i + 1], w, self.cfg.alpha, st)?;
+        let a = lerp(
+            t.alpha[i],
+            t.alpha[i + 1],
+            w,
+            crate::reg!(self.cfg, alpha),
+            st,
+        )?;
         Ok((rgb, a))
     }
 
@@ -291,7 +298,7 @@ impl Datapath {
     #[inline(always)]
     pub fn correct(&self, a: Fx, ds: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let t = &self.tables;
-        let lf = self.cfg.log_transmittance;
+        let lf = crate::reg!(self.cfg, log_transmittance);
         let code = (a.raw().max(0) as usize).min(t.log_t.len() - 1);
         let p = lf.assign(t.log_t[code] * ds, st);
         self.transmit(p, st)
@@ -306,14 +313,12 @@ impl Datapath {
     pub fn transmit(&self, p: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let t = &self.tables;
         let lf = self.cfg.log_transmittance;
-        let oc = self.cfg.opacity_corr;
+        let oc = crate::reg!(self.cfg, opacity_corr);
         let fbits = u32::from(lf.frac());
         let (int, frac) = split(p.raw(), fbits);
         let e = u32::from(self.cfg.exp_table_bits);
         let (idx, rem) = split(frac, fbits - e);
-        let w = self
-            .cfg
-            .weight
+        let w = crate::reg!(self.cfg, weight)
             .assign(Wide::new(i128::from(rem), (fbits - e) as i32), st);
         let idx = idx as usize;
         let tf = lerp(t.exp[idx], t.exp[idx + 1], w, oc, st)?;
@@ -336,12 +341,15 @@ impl Datapath {
         a: Fx,
         st: &mut QuantStats,
     ) -> Result<(), FxError> {
-        let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
+        let (fc, fa) = (
+            crate::reg!(self.cfg, accum_color),
+            crate::reg!(self.cfg, accum_alpha),
+        );
         let k = Wide::new(1, 0).checked_sub(a)?;
         // The same expressions in 64-bit words where they fit.
         let (a64, k64) = (Word64::of(a), Word64::int(1).checked_sub(Word64::of(a)));
         for (word, &colour) in acc.raw.iter_mut().zip(&c) {
-            let old = Fx::from_raw_unchecked(*word, fc);
+            let old = Fx::from_raw_unchecked(*word, *fc);
             let fast = k64.and_then(|k| {
                 a64.checked_mul(Word64::of(colour))?
                     .checked_add(k.checked_mul(Word64::of(old))?)
@@ -352,7 +360,7 @@ impl Datapath {
             };
             *word = fc.assign(v, st).raw();
         }
-        let old = Fx::from_raw_unchecked(acc.raw[3], fa);
+        let old = Fx::from_raw_unchecked(acc.raw[3], *fa);
         let fast = k64.and_then(|k| a64.checked_add(k.checked_mul(Word64::of(old))?));
         let v = match fast {
             Some(v) => Wide::from(v),
@@ -377,15 +385,18 @@ impl Datapath {
         a: Fx,
         st: &mut QuantStats,
     ) -> Result<(), FxError> {
-        let (fc, fa) = (self.cfg.accum_color, self.cfg.accum_alpha);
-        let old_a = Fx::from_raw_unchecked(acc.raw[3], fa);
+        let (fc, fa) = (
+            crate::reg!(self.cfg, accum_color),
+            crate::reg!(self.cfg, accum_alpha),
+        );
+        let old_a = Fx::from_raw_unchecked(acc.raw[3], *fa);
         let k = Wide::new(1, 0).checked_sub(old_a)?.checked_mul(a)?;
         // The same expressions in 64-bit words where they fit.
         let k64 = Word64::int(1)
             .checked_sub(Word64::of(old_a))
             .and_then(|d| d.checked_mul(Word64::of(a)));
         for (word, &colour) in acc.raw.iter_mut().zip(&c) {
-            let old = Fx::from_raw_unchecked(*word, fc);
+            let old = Fx::from_raw_unchecked(*word, *fc);
             let fast =
                 k64.and_then(|k| Word64::of(old).checked_add(k.checked_mul(Word64::of(colour))?));
             let v = match fast {
@@ -409,7 +420,7 @@ impl Datapath {
     #[inline(always)]
     pub fn path(&self, sx: Fx, sy: Fx, sz: Fx, st: &mut QuantStats) -> Result<Fx, FxError> {
         let sum = (sx * sx).checked_add(sy * sy)?.checked_add(sz * sz)?;
-        isqrt_into(sum, self.cfg.path, "path length", st)
+        isqrt_into(sum, crate::reg!(self.cfg, path), "path length", st)
     }
 }
 

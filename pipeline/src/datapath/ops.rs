@@ -3,11 +3,12 @@
 //! fits) and the exact integer square root of the path length and the
 //! gradient norm, each assigned into a declared [`Format`].
 
-use crate::fixed::{Format, Fx, FxError, QuantStats, Wide};
+use crate::config::Reg;
+use crate::fixed::{Fx, FxError, QuantStats, Wide};
 
-/// `a + w (b - a)`, exactly, assigned into `out`.
+/// `a + w (b - a)`, exactly, assigned into register `out`.
 #[inline(always)]
-pub fn lerp(a: Fx, b: Fx, w: Fx, out: Format, st: &mut QuantStats) -> Result<Fx, FxError> {
+pub fn lerp(a: Fx, b: Fx, w: Fx, out: Reg, st: &mut QuantStats) -> Result<Fx, FxError> {
     if let Some(v) = lerp64(a, b, w) {
         return Ok(out.assign(v, st));
     }
@@ -43,12 +44,7 @@ pub(super) fn lerp64(a: Fx, b: Fx, w: Fx) -> Option<Wide> {
 /// the radicand aligned to `2 f.frac` fraction bits (the path length's and
 /// the gradient norm's unit). `op` names it in an overflow error.
 #[inline(always)]
-pub fn isqrt_into(
-    v: Wide,
-    f: Format,
-    op: &'static str,
-    st: &mut QuantStats,
-) -> Result<Fx, FxError> {
+pub fn isqrt_into(v: Wide, f: Reg, op: &'static str, st: &mut QuantStats) -> Result<Fx, FxError> {
     let pf = i32::from(f.frac());
     // sqrt(raw 2^-k) 2^pf = sqrt(raw 2^(2 pf - k)).
     let shift = 2 * pf - v.frac;

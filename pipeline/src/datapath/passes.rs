@@ -4,6 +4,7 @@
 //! each assigned into a declared [`Format`].
 
 use super::{Datapath, Tally};
+use crate::config::Reg;
 use crate::fixed::{Format, Fx, QuantStats, Wide};
 
 impl Datapath {
@@ -13,7 +14,7 @@ impl Datapath {
     /// its parent's line passes `p[0] = p[1]`, which is exact whenever
     /// `to` holds `from`'s grid.
     #[inline]
-    pub fn halve(&self, p: [i64; 2], from: Format, to: Format, st: &mut QuantStats) -> Fx {
+    pub fn halve(&self, p: [i64; 2], from: Format, to: Reg, st: &mut QuantStats) -> Fx {
         // Two words of at most 63 bits: the sum fits i128 trivially.
         let sum = i128::from(p[0]) + i128::from(p[1]);
         to.assign(Wide::new(sum, i32::from(from.frac()) + 1), st)
@@ -29,7 +30,7 @@ impl Datapath {
     #[inline]
     pub fn fold_diff(&self, r: i64, rf: Format, inh: i64, inf: Format, st: &mut QuantStats) -> Fx {
         let d = Fx::from_raw_unchecked(r, rf) - Fx::from_raw_unchecked(inh, inf);
-        self.cfg.merge.assign(d, st)
+        crate::reg!(self.cfg, merge).assign(d, st)
     }
 
     /// The fold's add `final + merged`: a ray's own final accumulator word
@@ -39,8 +40,8 @@ impl Datapath {
     /// saturates (counted).
     #[inline]
     pub fn fold_add(&self, f: i64, ff: Format, merged: i64, st: &mut QuantStats) -> Fx {
-        let m = self.cfg.merge;
-        let s = Fx::from_raw_unchecked(f, ff) + Fx::from_raw_unchecked(merged, m);
+        let m = crate::reg!(self.cfg, merge);
+        let s = Fx::from_raw_unchecked(f, ff) + Fx::from_raw_unchecked(merged, m.format);
         m.assign(s, st)
     }
 
@@ -48,7 +49,7 @@ impl Datapath {
     /// format `from`, assigned into `to` (the x pass goes from an
     /// accumulator into `merge`, the y pass from `merge` back).
     #[inline]
-    pub fn tent(&self, p: [i64; 3], from: Format, to: Format, st: &mut QuantStats) -> Fx {
+    pub fn tent(&self, p: [i64; 3], from: Format, to: Reg, st: &mut QuantStats) -> Fx {
         // Three words of at most 63 bits: the sum fits i128 trivially.
         let sum = i128::from(p[0]) + 2 * i128::from(p[1]) + i128::from(p[2]);
         to.assign(Wide::new(sum, i32::from(from.frac()) + 2), st)
@@ -71,9 +72,14 @@ impl Datapath {
         } else {
             let c = &self.cfg;
             for (ch, o) in out.iter_mut().enumerate() {
-                let acc = if ch < 3 { c.accum_color } else { c.accum_alpha };
-                let (from, to) = if y { (c.merge, acc) } else { (acc, c.merge) };
-                *o = self.tent(tap(ch), from, to, st).raw();
+                let acc = if ch < 3 {
+                    crate::reg!(c, accum_color)
+                } else {
+                    crate::reg!(c, accum_alpha)
+                };
+                let merge = crate::reg!(c, merge);
+                let (from, to) = if y { (merge, acc) } else { (acc, merge) };
+                *o = self.tent(tap(ch), from.format, to, st).raw();
             }
         }
         out

@@ -51,6 +51,6 @@ mod tests;
 pub use error::{FormatError, FxError};
 pub use format::{Format, FormatSpec, Overflow, Quant, MAX_BITS};
 pub use pack::{pack, unpack, Bits};
-pub use quantize::{QuantStats, Quantized};
+pub use quantize::{Counts, FormatCounts, QuantStats, Quantized};
 pub use value::{Fx, Wide};
 pub use word::Word64;

@@ -3,6 +3,7 @@
 
 use super::format::{Format, Overflow, Quant};
 use super::value::{Fx, Wide};
+use crate::config::FormatId;
 use serde::{Deserialize, Serialize};
 
 /// The result of assigning a [`Wide`] into a [`Format`].
@@ -22,6 +23,10 @@ pub struct Quantized {
 /// Counters of assignment events, so the pipeline can report how often a
 /// register saturated or rounded. Counters saturate at `u64::MAX` instead
 /// of wrapping, so a report can never show fewer events than happened.
+///
+/// The totals are serialised; the per-format breakdown
+/// ([`QuantStats::by_format`]) is reported by its users beside the
+/// configuration's names.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct QuantStats {
     /// Number of assignments recorded.
@@ -30,15 +35,84 @@ pub struct QuantStats {
     pub overflows: u64,
     /// Assignments that dropped nonzero fraction bits.
     pub inexact: u64,
+    /// The same counts per register format, indexed by [`FormatId`].
+    #[serde(skip)]
+    pub by_format: FormatCounts,
+}
+
+/// One format's assignment events.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Counts {
+    /// Number of assignments.
+    pub assignments: u64,
+    /// Assignments whose value overflowed.
+    pub overflows: u64,
+    /// Assignments that dropped nonzero fraction bits.
+    pub inexact: u64,
+}
+
+impl Counts {
+    /// Adds another set of counts, saturating.
+    #[inline(always)]
+    pub fn add(&mut self, o: &Counts) {
+        self.assignments = self.assignments.saturating_add(o.assignments);
+        self.overflows = self.overflows.saturating_add(o.overflows);
+        self.inexact = self.inexact.saturating_add(o.inexact);
+    }
+}
+
+/// [`Counts`] per register format, indexed by [`FormatId::index`]: a
+/// fixed-size array, so counting allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FormatCounts(pub [Counts; FormatId::COUNT]);
+
+impl Default for FormatCounts {
+    fn default() -> Self {
+        FormatCounts([Counts::default(); FormatId::COUNT])
+    }
+}
+
+impl FormatCounts {
+    /// The counts of format `id`.
+    pub fn get(&self, id: FormatId) -> &Counts {
+        &self.0[id.index()]
+    }
+
+    /// Every format with its counts, in table order.
+    pub fn iter(&self) -> impl Iterator<Item = (FormatId, &Counts)> {
+        FormatId::all().zip(self.0.iter())
+    }
 }
 
 impl QuantStats {
-    /// Counts one assignment.
+    /// Counts one assignment into a format that is no field of its own
+    /// ([`FormatId::OTHER`]); the datapath's registers count through
+    /// [`QuantStats::record_as`].
     #[inline]
     pub fn record(&mut self, q: &Quantized) {
-        self.assignments = self.assignments.saturating_add(1);
-        self.overflows = self.overflows.saturating_add(u64::from(q.overflow));
-        self.inexact = self.inexact.saturating_add(u64::from(q.inexact));
+        self.record_as(FormatId::OTHER, q);
+    }
+
+    /// Counts one assignment into register format `id`.
+    #[inline(always)]
+    pub fn record_as(&mut self, id: FormatId, q: &Quantized) {
+        self.add_as(
+            id,
+            &Counts {
+                assignments: 1,
+                overflows: u64::from(q.overflow),
+                inexact: u64::from(q.inexact),
+            },
+        );
+    }
+
+    /// Adds `c` to the totals and to format `id`'s counts.
+    #[inline(always)]
+    pub fn add_as(&mut self, id: FormatId, c: &Counts) {
+        self.assignments = self.assignments.saturating_add(c.assignments);
+        self.overflows = self.overflows.saturating_add(c.overflows);
+        self.inexact = self.inexact.saturating_add(c.inexact);
+        self.by_format.0[id.index()].add(c);
     }
 
     /// Adds another set of counters, e.g. from a worker thread.
@@ -46,6 +120,40 @@ impl QuantStats {
         self.assignments = self.assignments.saturating_add(other.assignments);
         self.overflows = self.overflows.saturating_add(other.overflows);
         self.inexact = self.inexact.saturating_add(other.inexact);
+        for (a, b) in self.by_format.0.iter_mut().zip(&other.by_format.0) {
+            a.add(b);
+        }
+    }
+
+    /// `k` times these counters (the events of `k` identical
+    /// assignments), saturating.
+    pub fn times(&self, k: u64) -> QuantStats {
+        let m = |c: &Counts| Counts {
+            assignments: c.assignments.saturating_mul(k),
+            overflows: c.overflows.saturating_mul(k),
+            inexact: c.inexact.saturating_mul(k),
+        };
+        let t = m(&Counts {
+            assignments: self.assignments,
+            overflows: self.overflows,
+            inexact: self.inexact,
+        });
+        QuantStats {
+            assignments: t.assignments,
+            overflows: t.overflows,
+            inexact: t.inexact,
+            by_format: FormatCounts(self.by_format.0.map(|c| m(&c))),
+        }
+    }
+
+    /// Overflows of formats whose overflow is no designed clamp
+    /// ([`FormatId::clamps`]): range violations.
+    pub fn harmful_overflows(&self) -> u64 {
+        self.by_format
+            .iter()
+            .filter(|(id, _)| !id.clamps())
+            .map(|(_, c)| c.overflows)
+            .fold(0, u64::saturating_add)
     }
 }
 

@@ -77,10 +77,18 @@ pub fn eval(
                 let fmt = n.fmt.expect("an assignment has a format");
                 let w = Wide::new(v[x.0], g.word(x).frac);
                 match n.op {
-                    Op::Isqrt(_) => crate::datapath::isqrt_into(w, fmt, "hw isqrt", st)
-                        .map_err(|e| EvalError::Fixed(n.name.clone(), e))?
-                        .raw()
-                        .into(),
+                    Op::Isqrt(_) => crate::datapath::isqrt_into(
+                        w,
+                        crate::config::Reg {
+                            id: crate::config::FormatId::OTHER,
+                            format: fmt,
+                        },
+                        "hw isqrt",
+                        st,
+                    )
+                    .map_err(|e| EvalError::Fixed(n.name.clone(), e))?
+                    .raw()
+                    .into(),
                     Op::ShrQuantize(_, s) if v[s.0] >= 64 => 0,
                     Op::ShrQuantize(_, s) => i128::from(
                         fmt.assign(Wide::new(w.raw, w.frac + v[s.0] as i32), st)

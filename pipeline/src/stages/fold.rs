@@ -171,12 +171,12 @@ impl BoundaryPass for FoldGrids<'_> {
         q: usize,
         edges: Edges,
     ) -> Result<(), StepError> {
-        let fm = dp.cfg.merge;
+        let fm = crate::reg!(dp.cfg, merge);
         let p = pe.fold_taps(c, (self.back.lo[0], self.back.hi[0]), edges.left)?;
         let mut out = [0i64; 4];
         for (ch, o) in out.iter_mut().enumerate() {
             *o = dp
-                .tent([p[0][ch], p[1][ch], p[2][ch]], fm, fm, &mut pe.model.stats)
+                .tent([p[0][ch], p[1][ch], p[2][ch]], *fm, fm, &mut pe.model.stats)
                 .raw();
         }
         pe.pass.line.write(q, c, out);
@@ -193,7 +193,8 @@ impl BoundaryPass for FoldGrids<'_> {
         i: usize,
         sparse: bool,
     ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let (fc, fa) = (dp.cfg.accum_color, dp.cfg.accum_alpha);
+        let fm = crate::reg!(dp.cfg, merge);
         let prows = self.back.counts()[1] as i64;
         let my = self.front.lo[1] + i as i64;
         let rows = [2 * my - 1, 2 * my, 2 * my + 1].map(|py| py - self.back.lo[1]);
@@ -203,7 +204,7 @@ impl BoundaryPass for FoldGrids<'_> {
         for (ch, o) in out.iter_mut().enumerate() {
             let merged = dp.tent(
                 [taps[0][ch], taps[1][ch], taps[2][ch]],
-                fm,
+                *fm,
                 fm,
                 &mut pe.model.stats,
             );

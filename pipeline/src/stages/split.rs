@@ -127,7 +127,8 @@ impl BoundaryPass for SplitPass<'_> {
         q: usize,
         edges: Edges,
     ) -> Result<(), StepError> {
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let (fc, fa) = (dp.cfg.accum_color, dp.cfg.accum_alpha);
+        let fm = crate::reg!(dp.cfg, merge);
         let fg = self.fg;
         let (a, b) = pe.split_parents(c, q, (fg.lo[0], fg.hi[0]), edges.right)?;
         let mut out = [0i64; 4];
@@ -153,7 +154,11 @@ impl BoundaryPass for SplitPass<'_> {
         sparse: bool,
     ) -> Result<(), StepError> {
         let (fg, bg) = (self.fg, self.bg);
-        let (fc, fa, fm) = (dp.cfg.accum_color, dp.cfg.accum_alpha, dp.cfg.merge);
+        let (fc, fa) = (
+            crate::reg!(dp.cfg, accum_color),
+            crate::reg!(dp.cfg, accum_alpha),
+        );
+        let fm = dp.cfg.merge;
         let prows = fg.counts()[1] as i64;
         let my = bg.lo[1] + i as i64;
         let py = my.div_euclid(2);

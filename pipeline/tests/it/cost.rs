@@ -443,7 +443,7 @@ fn shading_verilog_matches_the_model() {
             };
             let y = pipeline::datapath::isqrt_into(
                 Wide::new(i128::from(x), 2 * pf),
-                cfg.grad_norm,
+                pipeline::reg!(cfg, grad_norm),
                 "test",
                 &mut st,
             )

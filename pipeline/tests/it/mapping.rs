@@ -243,6 +243,9 @@ fn check(c: &Case) -> Result<(), TestCaseError> {
         prop_assert!(quant.assignments <= blocks.quant.assignments);
         if cfg.pass_skip_empty {
             quant.assignments = blocks.quant.assignments;
+            for (q, b) in quant.by_format.0.iter_mut().zip(&blocks.quant.by_format.0) {
+                q.assignments = b.assignments;
+            }
         }
         prop_assert!(
             (

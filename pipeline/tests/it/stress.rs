@@ -8,7 +8,14 @@
 //! 3. the pipeline's ray positions `A + m t` against the exact `f64`
 //!    positions and their documented bound;
 //! 4. the pipeline's error against golden as one width at a time grows;
-//! 5. a property test: golden never produces NaN or infinity.
+//! 5. a property test: golden never produces NaN or infinity;
+//! 6. saturation at 150 to 175 degrees with the eye 2 voxels before and
+//!    within a voxel of a face, both orders: a frame has a derived bound
+//!    only without range violations, and it holds; otherwise the
+//!    quantisation counts name `path` as the violating format, and
+//!    widening it to the format that holds the view bounds the frame
+//!    (`saturation`; the `checker:64` sweep is ignored:
+//!    `cargo test --release -p pipeline --test it -- --ignored saturation`).
 //!
 //! Measured numbers are printed with `eprintln!` (`-- --nocapture`). The
 //! heavy variants are `#[ignore]`d; run them with
@@ -17,6 +24,7 @@
 mod accumulation;
 mod eyes;
 mod positions;
+mod saturation;
 mod widths;
 mod wild;
 

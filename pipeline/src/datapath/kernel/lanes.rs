@@ -15,7 +15,7 @@
 //! counts). Lanes at and above [`Batch::n`] are padding copied from lane
 //! 0, computed and dropped likewise.
 
-use super::{lerp, Kernel, Step, Tally};
+use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS, EV_BITS};
 #[cfg(doc)]
 use crate::datapath::Datapath;
 
@@ -24,23 +24,8 @@ pub(crate) const LANES: usize = 8;
 
 type Lanes = [i64; LANES];
 
-/// Quantisation events per lane.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct LaneTally {
-    assignments: [u64; LANES],
-    overflows: [u64; LANES],
-    inexact: [u64; LANES],
-}
-
-impl LaneTally {
-    /// Adds lane `l`'s events to `t`.
-    #[inline(always)]
-    pub(crate) fn add_lane(&self, l: usize, t: &mut Tally) {
-        t.assignments += self.assignments[l];
-        t.overflows += self.overflows[l];
-        t.inexact += self.inexact[l];
-    }
-}
+/// Which lanes count their events: bit `l` for lane `l`.
+type Mask = u8;
 
 /// Up to [`LANES`] plain samples of one ray column (one `mx`, so one x
 /// address and slope), each lane a row of the slice.
@@ -81,18 +66,22 @@ impl Batch {
 }
 
 impl Step {
-    /// [`Step::apply`] in every lane.
+    /// [`Step::apply`] in every lane, counting the events of the lanes
+    /// `on` marks: each lane's overflow and inexact flags gathered into
+    /// a bit mask, the marked ones counted (a compare mask and a
+    /// population count per step, not a counter per lane).
     #[inline(always)]
-    fn lanes(&self, raw: &Lanes, t: &mut LaneTally) -> Lanes {
+    fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let mut out = [0; LANES];
+        let (mut over, mut inexact) = (0u8, 0u8);
         for l in 0..LANES {
             let q = (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2;
             let c = q.max(self.min).min(self.max);
-            t.assignments[l] += 1;
-            t.overflows[l] += u64::from(c != q);
-            t.inexact[l] += u64::from(raw[l] & self.mask != 0);
+            over |= u8::from(c != q) << l;
+            inexact |= u8::from(raw[l] & self.mask != 0) << l;
             out[l] = c;
         }
+        t.count(self.slot, on, over, inexact);
         out
     }
 }
@@ -134,32 +123,46 @@ impl Kernel {
     /// The sample after its address ([`Kernel::address`]) in every lane
     /// of `b` (padded, taps and accumulators loaded): the bilinear
     /// interpolation, the classification, and for a visible sample the
-    /// path length, the opacity correction and the compositing. `base` counts what every sample assigns (the
-    /// interpolation and classification), `shown` what only a visible one
-    /// does. Sets [`Batch::visible`] and [`Batch::done`] and replaces the
-    /// visible lanes' accumulators.
+    /// path length, the opacity correction and the compositing. `t` counts
+    /// what every lane in use assigns (the interpolation and
+    /// classification) and what only a visible one does (the rest). Sets
+    /// [`Batch::visible`] and [`Batch::done`] and replaces the visible
+    /// lanes' accumulators.
     #[inline(always)]
-    pub(crate) fn sample_lanes(&self, b: &mut Batch, base: &mut LaneTally, shown: &mut LaneTally) {
+    pub(crate) fn sample_lanes(&self, b: &mut Batch, t: &mut Tally) {
         let fw = u32::from(self.weight.frac());
         let wx = [b.wx; LANES];
-        let top = self.lerp_x.lanes(&lerps(&b.v[0], &b.v[1], &wx, fw), base);
-        let bot = self.lerp_x.lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), base);
-        let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), base);
+        // `n <= LANES = 8`, so the shift stays below 16.
+        let used = ((1u16 << b.n) - 1) as Mask;
+        let top = self
+            .lerp_x
+            .lanes(&lerps(&b.v[0], &b.v[1], &wx, fw), t, used);
+        let bot = self
+            .lerp_x
+            .lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), t, used);
+        let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), t, used);
         let mut rgba = [[0; LANES]; 4];
+        let mut shown: Mask = 0;
+        let mut events = 0u64;
         for l in 0..LANES {
             let class = &self.classes[s[l] as usize];
-            base.assignments[l] += u64::from(class.ev[0]);
-            base.overflows[l] += u64::from(class.ev[1]);
-            base.inexact[l] += u64::from(class.ev[2]);
+            events += u64::from((used >> l) & 1) * class.ev;
             for (w, &c) in rgba.iter_mut().zip(&class.rgba) {
                 w[l] = i64::from(c);
             }
             b.visible[l] = class.rgba[3] != 0;
+            shown |= u8::from(b.visible[l]) << l;
         }
+        for (i, &slot) in CLASS_SLOTS.iter().enumerate() {
+            for (k, n) in t.counts[slot].iter_mut().enumerate() {
+                *n += (events >> (EV_BITS * (3 * i + k) as u32)) & ((1 << EV_BITS) - 1);
+            }
+        }
+        let shown = shown & used;
         if !b.visible[..b.n].iter().any(|&v| v) {
             return;
         }
-        let sx = self.line.lanes(&[b.slope; LANES], shown);
+        let sx = self.line.lanes(&[b.slope; LANES], t, shown);
         let rs = self.rad_shift;
         let rad: Lanes = each(|l| {
             let sum = sx[l] * sx[l] + b.yz[l];
@@ -169,12 +172,12 @@ impl Kernel {
                 sum >> -rs
             }
         });
-        let ds = self.root.lanes(&isqrts(&rad), shown);
-        let a = self.correct_lanes(&rgba[3], &ds, shown);
+        let ds = self.root.lanes(&isqrts(&rad), t, shown);
+        let a = self.correct_lanes(&rgba[3], &ds, t, shown);
         let new = if self.ftb {
-            self.composite_ftb_lanes(&b.acc, &rgba, &a, shown)
+            self.composite_ftb_lanes(&b.acc, &rgba, &a, t, shown)
         } else {
-            self.composite_btf_lanes(&b.acc, &rgba, &a, shown)
+            self.composite_btf_lanes(&b.acc, &rgba, &a, t, shown)
         };
         for l in 0..LANES {
             if b.visible[l] {
@@ -189,10 +192,10 @@ impl Kernel {
     /// [`Datapath::correct`] and [`Datapath::transmit`] in every lane: the
     /// corrected opacity words.
     #[inline(always)]
-    fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut LaneTally) -> Lanes {
+    fn correct_lanes(&self, alpha: &Lanes, ds: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let last = self.log_t.len() - 1;
         let prod: Lanes = each(|l| self.log_t[(alpha[l].max(0) as usize).min(last)] * ds[l]);
-        let p = self.log_p.lanes(&prod, t);
+        let p = self.log_p.lanes(&prod, t, on);
         let fb = self.p_frac;
         let rb = fb - self.exp_bits;
         let mut int = [0; LANES];
@@ -204,14 +207,15 @@ impl Kernel {
             idx[l] = frac >> rb;
             rem[l] = frac & ((1i64 << rb) - 1);
         }
-        let w = self.exp_w.lanes(&rem, t);
+        let w = self.exp_w.lanes(&rem, t, on);
         let lo: Lanes = each(|l| self.exp[idx[l] as usize]);
         let hi: Lanes = each(|l| self.exp[idx[l] as usize + 1]);
         let fw = u32::from(self.weight.frac());
-        let tf = self.exp_lerp.lanes(&lerps(&lo, &hi, &w, fw), t);
+        let tf = self.exp_lerp.lanes(&lerps(&lo, &hi, &w, fw), t, on);
         let (min, max) = (self.oc.min_raw(), self.oc.max_raw());
         let foc = u32::from(self.oc.frac());
         let mut diff = [0; LANES];
+        let (mut shifts, mut over, mut inexact) = (0u8, 0u8, 0u8);
         for l in 0..LANES {
             // `tf >> int` into `opacity_corr` (no assignment at all when
             // `int >= 64`: the transmittance is zero).
@@ -220,12 +224,13 @@ impl Kernel {
             let r = u32::from(self.oc_rnd && k > 0);
             let q = ((tf[l] >> (k - r)) + i64::from(r)) >> r;
             let c = q.max(min).min(max);
-            t.assignments[l] += u64::from(shifted);
-            t.overflows[l] += u64::from(shifted && c != q);
-            t.inexact[l] += u64::from(shifted && tf[l] & ((1i64 << k) - 1) != 0);
+            shifts |= u8::from(shifted) << l;
+            over |= u8::from(shifted && c != q) << l;
+            inexact |= u8::from(shifted && tf[l] & ((1i64 << k) - 1) != 0) << l;
             diff[l] = (1i64 << foc) - if shifted { c } else { 0 };
         }
-        self.one_minus.lanes(&diff, t)
+        t.count(self.one_minus.slot, on & shifts, over, inexact);
+        self.one_minus.lanes(&diff, t, on)
     }
 
     /// [`Datapath::composite_btf`] in every lane: the new accumulators.
@@ -235,7 +240,8 @@ impl Kernel {
         acc: &[Lanes; 4],
         c: &[Lanes; 4],
         a: &Lanes,
-        t: &mut LaneTally,
+        t: &mut Tally,
+        on: Mask,
     ) -> [Lanes; 4] {
         let foc = u32::from(self.oc.frac());
         let k: Lanes = each(|l| (1i64 << foc) - a[l]);
@@ -243,10 +249,10 @@ impl Kernel {
         let mut new = [[0; LANES]; 4];
         for ch in 0..3 {
             let v: Lanes = each(|l| ((a[l] * c[ch][l]) << sc) + ((k[l] * acc[ch][l]) << so));
-            new[ch] = self.comp_c.lanes(&v, t);
+            new[ch] = self.comp_c.lanes(&v, t, on);
         }
         let v: Lanes = each(|l| (a[l] << self.alpha_frac) + k[l] * acc[3][l]);
-        new[3] = self.comp_a.lanes(&v, t);
+        new[3] = self.comp_a.lanes(&v, t, on);
         new
     }
 
@@ -257,18 +263,19 @@ impl Kernel {
         acc: &[Lanes; 4],
         c: &[Lanes; 4],
         a: &Lanes,
-        t: &mut LaneTally,
+        t: &mut Tally,
+        on: Mask,
     ) -> [Lanes; 4] {
         let k: Lanes = each(|l| ((1i64 << self.alpha_frac) - acc[3][l]) * a[l]);
         let [so, sc] = self.comp_shift;
         let mut new = [[0; LANES]; 4];
         for ch in 0..3 {
             let v: Lanes = each(|l| (acc[ch][l] << so) + ((k[l] * c[ch][l]) << sc));
-            new[ch] = self.comp_c.lanes(&v, t);
+            new[ch] = self.comp_c.lanes(&v, t, on);
         }
         let foc = u32::from(self.oc.frac());
         let v: Lanes = each(|l| (acc[3][l] << foc) + k[l]);
-        new[3] = self.comp_a.lanes(&v, t);
+        new[3] = self.comp_a.lanes(&v, t, on);
         new
     }
 }

@@ -2,44 +2,85 @@
 //! frame ([`Step`]), and the quantisation events the kernel counts
 //! ([`Tally`]).
 
-use crate::fixed::{Format, Overflow, Quant, QuantStats};
+use crate::config::{FormatId, Reg};
+use crate::fixed::{Counts, Format, Overflow, Quant, QuantStats};
+
+/// The register formats the kernel assigns: the slots of its tallies.
+pub(crate) const SLOTS: [FormatId; 11] = [
+    FormatId::named("position"),
+    FormatId::named("weight"),
+    FormatId::named("sample"),
+    FormatId::named("color"),
+    FormatId::named("alpha"),
+    FormatId::named("path"),
+    FormatId::named("log_transmittance"),
+    FormatId::named("opacity_corr"),
+    FormatId::named("accum_color"),
+    FormatId::named("accum_alpha"),
+    FormatId::named("merge"),
+];
+
+/// How many slots a tally has.
+pub(crate) const NSLOTS: usize = SLOTS.len();
+
+/// The slot of format `id`, `None` when the kernel does not assign it.
+pub(crate) fn slot(id: FormatId) -> Option<usize> {
+    SLOTS.iter().position(|&s| s == id)
+}
 
 /// Quantisation events counted while a PE samples a slice on the fast
-/// path, added to its [`QuantStats`] afterwards: sums commute, and no
-/// slice's counts come near `u64::MAX`, so the saturating totals are the
-/// general path's.
+/// path, per format the kernel assigns ([`SLOTS`]): assignments,
+/// overflows and inexact assignments. Added to its [`QuantStats`]
+/// afterwards: sums commute, and no slice's counts come near `u64::MAX`,
+/// so the saturating totals are the general path's.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Tally {
-    pub(super) assignments: u64,
-    pub(super) overflows: u64,
-    pub(super) inexact: u64,
+    pub(super) counts: [[u64; 3]; NSLOTS],
 }
 
 impl Tally {
-    /// Adds these counts to `st`.
+    /// Adds these counts to `st`, each under its format.
     pub(crate) fn add_to(&self, st: &mut QuantStats) {
-        st.merge(&QuantStats {
-            assignments: self.assignments,
-            overflows: self.overflows,
-            inexact: self.inexact,
-        });
+        for (&id, c) in SLOTS.iter().zip(&self.counts) {
+            if c[0] > 0 {
+                st.add_as(
+                    id,
+                    &Counts {
+                        assignments: c[0],
+                        overflows: c[1],
+                        inexact: c[2],
+                    },
+                );
+            }
+        }
     }
 
     /// Adds `k` times another tally (the events of `k` samples that
     /// assign the same words).
     #[inline(always)]
     pub(crate) fn add_times(&mut self, o: &Tally, k: u64) {
-        self.assignments += k * o.assignments;
-        self.overflows += k * o.overflows;
-        self.inexact += k * o.inexact;
+        for (a, b) in self.counts.iter_mut().zip(&o.counts) {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += k * y;
+            }
+        }
     }
 
     /// Adds another tally.
     #[inline(always)]
     pub(crate) fn add(&mut self, o: &Tally) {
-        self.assignments += o.assignments;
-        self.overflows += o.overflows;
-        self.inexact += o.inexact;
+        self.add_times(o, 1);
+    }
+
+    /// Counts one assignment into `slot` in each lane `on` marks (bit
+    /// `l` for lane `l`), of which those `over` marks overflowed and
+    /// those `inexact` marks dropped nonzero bits.
+    #[inline(always)]
+    pub(crate) fn count(&mut self, slot: usize, on: u8, over: u8, inexact: u8) {
+        let n = &mut self.counts[slot];
+        n[0] += u64::from(on.count_ones());
+        n[1] += u64::from((over & on).count_ones());
+        n[2] += u64::from((inexact & on).count_ones());
     }
 }
 
@@ -59,6 +100,8 @@ pub(super) struct Step {
     pub(super) mask: i64,
     pub(super) min: i64,
     pub(super) max: i64,
+    /// The destination's tally slot ([`SLOTS`]).
+    pub(super) slot: usize,
 }
 
 /// The rounding of a format the kernel models: whether it is `RND` (else
@@ -78,10 +121,13 @@ pub(super) fn rnd(dst: Format) -> Option<bool> {
 }
 
 impl Step {
-    /// The assignment into `dst` of words with `src` fraction bits and
-    /// magnitude below `2^src_bits`; `None` unless `dst` is modelled
-    /// ([`rnd`]) and every shifted word stays below `2^62`.
-    pub(super) fn new(src: i32, src_bits: u32, dst: Format) -> Option<Step> {
+    /// The assignment into register `dst` of words with `src` fraction
+    /// bits and magnitude below `2^src_bits`; `None` unless `dst` is
+    /// modelled ([`rnd`]), one of the kernel's [`SLOTS`], and every shifted
+    /// word stays below `2^62`.
+    pub(super) fn new(src: i32, src_bits: u32, dst: Reg) -> Option<Step> {
+        let slot = slot(dst.id)?;
+        let dst = dst.format;
         let r = rnd(dst)?;
         let k = src - i32::from(dst.frac());
         let (left, sh1, add, sh2, mask) = match k {
@@ -100,6 +146,7 @@ impl Step {
             mask,
             min: dst.min_raw(),
             max: dst.max_raw(),
+            slot,
         })
     }
 
@@ -109,9 +156,10 @@ impl Step {
         // `max` then `min`, not `clamp`: the range is valid by
         // construction, and `clamp` would check it at every assignment.
         let c = q.max(self.min).min(self.max);
-        t.assignments += 1;
-        t.overflows += u64::from(c != q);
-        t.inexact += u64::from(raw & self.mask != 0);
+        let n = &mut t.counts[self.slot];
+        n[0] += 1;
+        n[1] += u64::from(c != q);
+        n[2] += u64::from(raw & self.mask != 0);
         c
     }
 }

@@ -4,9 +4,9 @@
 //! formats).
 
 use super::{mag, Step, Tally};
+use crate::config::Reg;
 #[cfg(doc)]
 use crate::datapath::Datapath;
-use crate::fixed::Format;
 
 /// The Bartlett merge's four assignments ([`Datapath::tent`]): the x
 /// pass's tent of accumulator words (colour, opacity) into `merge`, and
@@ -22,9 +22,12 @@ pub(crate) struct Tents {
 impl Tents {
     /// The configuration's tents, or `None` when one is not modelled.
     pub(super) fn new(c: &crate::config::PipelineConfig) -> Option<Tents> {
-        let tent =
-            |from: Format, to: Format| Step::new(i32::from(from.frac()) + 2, mag(from) + 2, to);
-        let (fc, fa, fm) = (c.accum_color, c.accum_alpha, c.merge);
+        let tent = |from: Reg, to: Reg| Step::new(i32::from(from.frac()) + 2, mag(*from) + 2, to);
+        let (fc, fa, fm) = (
+            crate::reg!(c, accum_color),
+            crate::reg!(c, accum_alpha),
+            crate::reg!(c, merge),
+        );
         Some(Tents {
             x: [tent(fc, fm)?, tent(fa, fm)?],
             y: [tent(fm, fc)?, tent(fm, fa)?],
@@ -45,7 +48,7 @@ impl Tents {
 mod tests {
     use super::*;
     use crate::datapath::Datapath;
-    use crate::fixed::{Overflow, Quant, QuantStats};
+    use crate::fixed::{Format, Overflow, Quant, QuantStats};
     use proptest::prelude::*;
 
     proptest! {
@@ -81,8 +84,14 @@ mod tests {
             let Some(tents) = Tents::new(&cfg) else {
                 return Err(TestCaseError::reject("a width the tents do not model"));
             };
-            let acc = if ch == 3 { accum_alpha } else { accum_color };
+            let acc = if ch == 3 {
+                crate::reg!(cfg, accum_alpha)
+            } else {
+                crate::reg!(cfg, accum_color)
+            };
+            let merge = crate::reg!(cfg, merge);
             let (from, to) = if y { (merge, acc) } else { (acc, merge) };
+            let from = from.format;
             // Any three words of the source format.
             let span = (from.max_raw() - from.min_raw()) as u64 + 1;
             let p = words.map(|w| from.min_raw() + (w % span) as i64);

@@ -1,6 +1,7 @@
 //! Unit tests of edges the generators do not reach.
 
 use super::*;
+use crate::config::{FormatId, PipelineConfig};
 use std::cmp::Ordering;
 
 fn f(bits: u8, frac: u8, signed: bool, q: Quant, o: Overflow) -> Format {
@@ -295,28 +296,34 @@ fn stats_count_events() {
     assert_eq!(b.to_f64(), 0.0);
     assert_eq!(c, fmt.max_value());
     assert!(d.is_zero());
+    let totals = |s: &QuantStats| (s.assignments, s.overflows, s.inexact);
+    assert_eq!(totals(&stats), (4, 1, 1));
+    // A bare format counts under `other`; a register under its field.
+    let other = *stats.by_format.get(FormatId::OTHER);
     assert_eq!(
-        stats,
-        QuantStats {
-            assignments: 4,
-            overflows: 1,
-            inexact: 1
-        }
+        (other.assignments, other.overflows, other.inexact),
+        (4, 1, 1)
     );
     let mut total = stats;
     total.merge(&stats);
-    assert_eq!(
-        total,
-        QuantStats {
-            assignments: 8,
-            overflows: 2,
-            inexact: 2
-        }
-    );
+    assert_eq!(totals(&total), (8, 2, 2));
+    assert_eq!(total.by_format.get(FormatId::OTHER).overflows, 2);
+    assert_eq!(total.harmful_overflows(), 2);
+    let cfg = PipelineConfig {
+        accum_alpha: fmt,
+        ..PipelineConfig::default()
+    };
+    let mut named = QuantStats::default();
+    crate::reg!(cfg, accum_alpha).assign(Wide::new(100, 0), &mut named);
+    let id = FormatId::named("accum_alpha");
+    assert_eq!(named.by_format.get(id).overflows, 1);
+    assert_eq!(named.by_format.get(FormatId::OTHER).assignments, 0);
+    // The accumulator's saturation is a designed clamp.
+    assert_eq!((named.overflows, named.harmful_overflows()), (1, 0));
+    assert_eq!(named.times(3).by_format.get(id).overflows, 3);
     let mut full = QuantStats {
         assignments: u64::MAX,
-        overflows: 0,
-        inexact: 0,
+        ..QuantStats::default()
     };
     full.merge(&stats);
     assert_eq!(full.assignments, u64::MAX);

@@ -256,9 +256,7 @@ impl Array {
             let (y0, wy) = dp.address(y, st);
             let last = ny as i64 - 1;
             let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
-            let sy = dp
-                .cfg
-                .position
+            let sy = crate::reg!(dp.cfg, position)
                 .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, st);
             rows.push((
                 my,

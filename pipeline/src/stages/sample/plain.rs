@@ -8,7 +8,7 @@
 
 use super::edges::EdgeWords;
 use super::pe::RowBus;
-use crate::datapath::{Batch, Kernel, LaneTally, Ray, Tally, LANES};
+use crate::datapath::{Batch, Kernel, Ray, Tally, LANES};
 use rayon::prelude::*;
 
 use crate::pe::{Pe, RayColumn, VoxelMem};
@@ -183,12 +183,9 @@ impl ColumnJob<'_> {
                 }
             }
             b.pad();
-            let (mut base, mut shown) = (LaneTally::default(), LaneTally::default());
-            self.kernel.sample_lanes(&mut b, &mut base, &mut shown);
+            self.kernel.sample_lanes(&mut b, total);
             for (l, &(r, _)) in chunk.iter().enumerate() {
-                base.add_lane(l, total);
                 if b.visible[l] {
-                    shown.add_lane(l, total);
                     let row = rows[r as usize].row;
                     for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
                         *a = w[l];
