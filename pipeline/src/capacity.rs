@@ -42,7 +42,7 @@
 use golden::geometry::{Layout, RayGrid, View};
 use golden::methods::Method;
 
-use crate::config::{Order, PipelineConfig};
+use crate::config::{Mapping, Migration, Order, PipelineConfig};
 use crate::mapping::ColumnMap;
 
 /// Columns a migration may keep in a PE beyond those it owns on either
@@ -50,8 +50,7 @@ use crate::mapping::ColumnMap;
 /// yet sent on) per link side and lane.
 pub const IN_FLIGHT: u64 = 2;
 
-/// What one PE's ray memories must hold for a frame (the most over its
-/// PEs).
+/// What one PE's ray memories must hold for a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct RayDepths {
     /// Ray columns at once: the column map's slots.
@@ -84,37 +83,128 @@ impl RayDepths {
     }
 }
 
-/// Why a frame cannot run on a chip of given depths.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error(
-    "the view needs {} ray columns of {} rows, {} children a pass and {} kept final rays a PE, past the declared {}, {}, {} and {}",
-    need.columns, need.rows, need.children, need.kept,
-    declared.columns, declared.rows, declared.children, declared.kept
-)]
-pub struct TooDeep {
-    /// What the frame needs.
-    pub need: RayDepths,
-    /// What the chip declares.
-    pub declared: RayDepths,
-}
+/// Every PE's ray depths, by PE index: what each PE's own ray memories
+/// must hold (a need) or hold (a declaration).
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(transparent)]
+pub struct PeDepths(pub Vec<RayDepths>);
 
-/// Refuses a frame whose `need` passes `declared` (one line naming both).
-pub fn check(need: RayDepths, declared: RayDepths) -> Result<(), TooDeep> {
-    if need.fits(&declared) {
-        Ok(())
-    } else {
-        Err(TooDeep { need, declared })
+impl PeDepths {
+    /// `pes` PEs of the same depths.
+    pub fn uniform(pes: usize, d: RayDepths) -> PeDepths {
+        PeDepths(vec![d; pes])
+    }
+
+    /// PEs.
+    pub fn pes(&self) -> usize {
+        self.0.len()
+    }
+
+    /// PE `k`'s depths (none past the last PE).
+    pub fn pe(&self, k: usize) -> RayDepths {
+        self.0.get(k).copied().unwrap_or_default()
+    }
+
+    /// The deepest PE's, field by field: what a declaration as deep in
+    /// every PE would hold.
+    pub fn max(&self) -> RayDepths {
+        self.0.iter().fold(RayDepths::default(), |a, d| a.max(*d))
+    }
+
+    /// Each PE's larger of `self`'s and `o`'s: a chip for the views of
+    /// both (PE by PE; a PE only one of them has keeps its own).
+    pub fn cover(&self, o: &PeDepths) -> PeDepths {
+        let n = self.pes().max(o.pes());
+        PeDepths((0..n).map(|k| self.pe(k).max(o.pe(k))).collect())
+    }
+
+    /// The distinct depths and the PEs declaring each, in order of their
+    /// first PE.
+    pub fn groups(&self) -> Vec<(RayDepths, Vec<usize>)> {
+        let mut out: Vec<(RayDepths, Vec<usize>)> = Vec::new();
+        for (k, d) in self.0.iter().enumerate() {
+            match out.iter_mut().find(|(g, _)| g == d) {
+                Some((_, pes)) => pes.push(k),
+                None => out.push((*d, vec![k])),
+            }
+        }
+        out
     }
 }
 
-/// The ray depths a frame of `view` needs on `cfg`'s array.
-pub fn need(cfg: &PipelineConfig, view: &View) -> Result<RayDepths, golden::Error> {
+/// Why a frame cannot run on a chip of given depths.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum TooDeep {
+    /// A PE needs more than it declares.
+    #[error(
+        "the view needs {} ray columns of {} rows, {} children a pass and {} kept final rays in PE {pe}, past its declared {}, {}, {} and {}",
+        need.columns, need.rows, need.children, need.kept,
+        declared.columns, declared.rows, declared.children, declared.kept
+    )]
+    Pe {
+        /// The PE.
+        pe: usize,
+        /// What the frame needs there.
+        need: RayDepths,
+        /// What that PE declares.
+        declared: RayDepths,
+    },
+    /// The declaration is for another PE count.
+    #[error("the chip declares ray memories for {declared} PEs, the array has {pes}")]
+    Pes {
+        /// PEs declared.
+        declared: usize,
+        /// PEs of the array.
+        pes: usize,
+    },
+}
+
+/// Refuses a frame whose `need` passes `declared` in some PE (one line
+/// naming the first such PE and both depths).
+pub fn check(need: &PeDepths, declared: &PeDepths) -> Result<(), TooDeep> {
+    if need.pes() != declared.pes() {
+        return Err(TooDeep::Pes {
+            declared: declared.pes(),
+            pes: need.pes(),
+        });
+    }
+    for (pe, (n, d)) in need.0.iter().zip(&declared.0).enumerate() {
+        if !n.fits(d) {
+            return Err(TooDeep::Pe {
+                pe,
+                need: *n,
+                declared: *d,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Whether each PE's columns are its own (its rays on the planes they are
+/// owned on, a pass's children, and those in flight) or the deepest PE's:
+/// its own only under column blocks migrating between slices on dense
+/// links, where every column moves whole along the line one ray a cycle
+/// each way, so a PE's columns leave as fast as others arrive. An
+/// overlapped migration holds a leaving row until its sample is written
+/// back while rays arrive, sparse links send short columns past long
+/// ones, and the round-robin mappings move columns both ways around the
+/// ring between the sampling and the passes' owners: there a middle PE
+/// was seen holding more than its own (`occupancy` proptest cases), so
+/// every PE keeps the deepest PE's columns.
+pub fn own_columns(cfg: &PipelineConfig) -> bool {
+    cfg.mapping == Mapping::Blocks
+        && cfg.migration == Migration::BetweenSlices
+        && !cfg.link_skip_empty
+}
+
+/// The ray depths each PE of `cfg`'s array needs for a frame of `view`.
+pub fn need(cfg: &PipelineConfig, view: &View) -> Result<PeDepths, golden::Error> {
     let layout = Method::Er.layout(view)?;
     Ok(need_of(cfg, view, &layout))
 }
 
 /// [`need`] for a planned layout.
-pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> RayDepths {
+pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> PeDepths {
     let nx = view.dims[0];
     let pes = usize::from(cfg.pes.max(1));
     let maps = [ColumnMap::of(cfg, nx), ColumnMap::blocks(pes, nx)];
@@ -123,22 +213,29 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> RayDepths 
         pes,
         slack: cfg.position.lsb() + cfg.step.lsb(),
     };
-    let mut out = RayDepths::default();
+    let mut out = vec![RayDepths::default(); pes];
+    // Every PE's columns are as tall as the tallest region's: a column of
+    // any region may pass through any PE on a migration.
+    let rows = layout
+        .grids
+        .iter()
+        .filter(|g| !g.is_empty())
+        .map(|g| g.counts()[1] as u64)
+        .max()
+        .unwrap_or(0);
     let mut kept = vec![0u64; pes];
     for (i, g) in layout.grids.iter().enumerate() {
         if g.is_empty() {
             continue;
         }
-        out.rows = out.rows.max(g.counts()[1] as u64);
         let (b0, b1) = (layout.bounds[i], layout.bounds[i + 1]);
         let mut zs: Vec<f64> = g.slices.clone().map(|z| z as f64).collect();
         zs.extend([b0, b1, g.slices.end as f64, view.dims[2] as f64 - 0.5]);
         for &z in &zs {
             for map in &maps {
                 let held = plane.owned(g, z, map);
-                out.columns = out
-                    .columns
-                    .max(held.iter().map(|s| s.count).max().unwrap_or(0));
+                let counts: Vec<u64> = held.iter().map(|s| s.count).collect();
+                raise(&mut out, &counts, columns);
             }
         }
         // Back to front: this region's rays merge into the front
@@ -152,19 +249,20 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> RayDepths 
         if cfg.order == Order::BackToFront {
             let spans = plane.owned(g, b0, blocks);
             let kids = children(&spans, front, |m| (2 * m).clamp(g.lo[0], g.hi[0]));
-            out.children = out.children.max(kids);
+            raise(&mut out, &kids, children_of);
         } else {
             let parents = plane.owned(front, b0, blocks);
             let kids = children(&parents, g, |n| {
                 n.div_euclid(2).clamp(front.lo[0], front.hi[0])
             });
-            out.children = out.children.max(kids);
-            let rows = front.counts()[1] as u64;
-            for (k, s) in parents.iter().enumerate() {
-                kept[k] += s.count * rows;
-                // The fold computes one child per kept parent.
-                out.children = out.children.max(s.count);
+            raise(&mut out, &kids, children_of);
+            let front_rows = front.counts()[1] as u64;
+            let held: Vec<u64> = parents.iter().map(|s| s.count).collect();
+            for (k, n) in held.iter().enumerate() {
+                kept[k] += n * front_rows;
             }
+            // The fold computes one child per kept parent.
+            raise(&mut out, &held, children_of);
             // The fold gathers each back ray at its split parent's PE.
             let mut back = vec![0u64; pes];
             for n in g.lo[0]..=g.hi[0] {
@@ -175,12 +273,43 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> RayDepths 
                     }
                 }
             }
-            out.columns = out.columns.max(back.into_iter().max().unwrap_or(0));
+            raise(&mut out, &back, columns);
         }
     }
-    out.columns += IN_FLIGHT * u64::from(cfg.link_lanes.max(1));
-    out.kept = kept.into_iter().max().unwrap_or(0);
-    out
+    let in_flight = IN_FLIGHT * u64::from(cfg.link_lanes.max(1));
+    // A PE's own columns bound what it holds only where [`own_columns`].
+    let own = own_columns(cfg);
+    // A pass's children take their centre parents' slots and stay there,
+    // held columns, until the next migration.
+    for d in out.iter_mut() {
+        d.columns = d.columns.max(d.children);
+    }
+    let deepest = out.iter().map(|d| d.columns).max().unwrap_or(0);
+    for (d, k) in out.iter_mut().zip(kept) {
+        if !own {
+            d.columns = deepest;
+        }
+        d.columns += in_flight;
+        d.rows = rows;
+        d.kept = k;
+    }
+    PeDepths(out)
+}
+
+/// Raises each PE's `field` to at least its entry of `each`.
+fn raise(out: &mut [RayDepths], each: &[u64], field: fn(&mut RayDepths) -> &mut u64) {
+    for (d, &n) in out.iter_mut().zip(each) {
+        let v = field(d);
+        *v = (*v).max(n);
+    }
+}
+
+fn columns(d: &mut RayDepths) -> &mut u64 {
+    &mut d.columns
+}
+
+fn children_of(d: &mut RayDepths) -> &mut u64 {
+    &mut d.children
 }
 
 /// The rays one PE owns on a plane: how many, and the span of their
@@ -198,9 +327,9 @@ impl Span {
     }
 }
 
-/// How many of `kids`' rays have their centre parent (`centre`) in a
-/// PE's span, the most over the PEs.
-fn children(spans: &[Span], kids: &RayGrid, centre: impl Fn(i64) -> i64) -> u64 {
+/// How many of `kids`' rays have their centre parent (`centre`) in each
+/// PE's span.
+fn children(spans: &[Span], kids: &RayGrid, centre: impl Fn(i64) -> i64) -> Vec<u64> {
     spans
         .iter()
         .map(|s| {
@@ -208,8 +337,7 @@ fn children(spans: &[Span], kids: &RayGrid, centre: impl Fn(i64) -> i64) -> u64 
                 .filter(|&m| s.contains(centre(m)))
                 .count() as u64
         })
-        .max()
-        .unwrap_or(0)
+        .collect()
 }
 
 /// Ray positions on a plane of a view, with the slack of the fixed-point

@@ -396,12 +396,32 @@ fn cost_command_reports_a_real_run() {
     }
     let n = |x: &serde_json::Value| x.as_u64().expect("count");
     let items = v["pe_items"].as_array().expect("items");
+    // The array is every PE at its own ray depths: the groups of PEs
+    // declaring the same depths cover the 4 PEs once, and none takes more
+    // block RAM than the deepest PE the items list.
+    let groups = v["pe_groups"].as_array().expect("PE groups");
+    let mut pes: Vec<u64> = groups
+        .iter()
+        .flat_map(|g| g["pes"].as_array().expect("PEs").iter().map(n))
+        .collect();
+    pes.sort_unstable();
+    assert_eq!(pes, [0, 1, 2, 3]);
     for key in ["dsp", "lut", "ff", "bram"] {
         let sum: u64 = items.iter().map(|i| n(&i["resources"][key])).sum();
         assert_eq!(sum, n(&v["pe"][key]), "PE {key} is the sum of its units");
+        let each: u64 = groups
+            .iter()
+            .map(|g| {
+                let one = n(&g["resources"][key]);
+                if key == "bram" {
+                    assert!(one <= n(&v["pe"][key]), "{key}: {g}");
+                }
+                one * g["pes"].as_array().map_or(0, |p| p.len() as u64)
+            })
+            .sum();
         assert_eq!(
             n(&v["array"][key]),
-            4 * n(&v["pe"][key]) + n(&v["controller"][key]),
+            each + n(&v["controller"][key]),
             "array {key}"
         );
     }

@@ -80,7 +80,7 @@ pub struct FrameRun<'a> {
     resident: Option<&'a mut Option<Resident>>,
     capture: Option<crate::cosim::capture::Capture>,
     tap: Option<crate::stepper::Tap>,
-    depths: Option<crate::capacity::RayDepths>,
+    depths: Option<crate::capacity::PeDepths>,
 }
 
 impl<'a> FrameRun<'a> {
@@ -134,12 +134,13 @@ impl<'a> FrameRun<'a> {
         }
     }
 
-    /// Runs the frame on a chip whose ray memories are declared `depths`
-    /// deep ([`crate::cost::inventory::Geometry::rays`]): a frame whose
-    /// view needs more ([`crate::capacity::need`]) is refused before it
-    /// plans or loads anything. Without it the chip is taken as sized for
-    /// the view.
-    pub fn depths(mut self, depths: crate::capacity::RayDepths) -> Self {
+    /// Runs the frame on a chip whose PEs declare their ray memories
+    /// `depths` deep, each its own
+    /// ([`crate::cost::inventory::Geometry::pe_rays`]): a frame whose view
+    /// needs more in some PE ([`crate::capacity::need`]), or a declaration
+    /// for another PE count, is refused before it plans or loads anything.
+    /// Without it the chip is taken as sized for the view.
+    pub fn depths(mut self, depths: crate::capacity::PeDepths) -> Self {
         self.depths = Some(depths);
         self
     }
@@ -232,7 +233,7 @@ impl<'a> FrameRun<'a> {
         if let Some(declared) = depths {
             let need = crate::capacity::need(cfg, view)
                 .map_err(|e| RunError::Plan(crate::host::PlanError::Golden(e)))?;
-            crate::capacity::check(need, declared)?;
+            crate::capacity::check(&need, &declared)?;
         }
         let (source, data_bits) = match (voxels, camera) {
             (Voxels::Volume(vol), _) => (VoxelSource::Volume(vol, view), vol.kind().bits()),

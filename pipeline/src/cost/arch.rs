@@ -79,9 +79,9 @@ pub fn stored_columns(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
 }
 
 /// Ray columns a PE may hold at once (the column map's slots): what the
-/// geometry's view needs ([`crate::capacity`]: `2 C + 1` for `C` owned
-/// columns in the middle PEs, and in the end PEs the rays beyond the
-/// volume's sides, clamped to them).
+/// geometry's view needs in the PE it describes ([`crate::capacity`]:
+/// about `2 C + 1` for `C` owned columns in a middle PE; in an end PE also
+/// the rays beyond the volume's sides, clamped to it).
 pub fn rays_per_row(_cfg: &PipelineConfig, geo: &Geometry) -> u64 {
     geo.rays.columns.max(1)
 }
@@ -304,7 +304,7 @@ mod tests {
         // 64 blocks of 4 over 16 PEs: 4 blocks, 16 columns, 20 stored.
         assert_eq!(owned_columns(&cfg, &geo), 16);
         assert_eq!(stored_columns(&cfg, &geo), 20);
-        assert_eq!(stored_columns(&cfg, &geo.with_shading(true)), 28);
+        assert_eq!(stored_columns(&cfg, &geo.clone().with_shading(true)), 28);
         cfg.mapping = Mapping::Interleave;
         assert_eq!(stored_columns(&cfg, &geo), 32);
         // 100 columns over 16 PEs in blocks of 8: 13 blocks, 1 each.

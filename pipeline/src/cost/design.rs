@@ -3,7 +3,7 @@
 //! runs) on each listed part of the family.
 
 use super::arch;
-use super::inventory::{controller_inventory, pe_inventory, Geometry, Item};
+use super::inventory::{controller_inventory, pe_inventory, Geometry, Item, PeInventory};
 use super::memory::{map_memory, MemKind};
 use super::parts::{fit_memories, parts, uram_blocks, MemDemand, Part};
 use super::target::{Resources, Target};
@@ -137,15 +137,34 @@ fn item_demands(t: Target, items: &[Item], copies: u64) -> Vec<MemDemand> {
     out
 }
 
+/// The PEs of `geo`'s array grouped by their ray depths: each distinct
+/// PE's inventory (at its own depths, [`Geometry::pe`]) and how many PEs
+/// declare it.
+pub fn pe_groups(cfg: &PipelineConfig, geo: &Geometry) -> Vec<(PeInventory, u64)> {
+    let pes = usize::from(geo.pes.max(1));
+    let depths = geo.pe_rays.groups();
+    // Without per-PE depths (a bare geometry) every PE is the one described.
+    if depths.is_empty() || geo.pe_rays.pes() != pes {
+        return vec![(pe_inventory(cfg, geo), pes as u64)];
+    }
+    depths
+        .into_iter()
+        .map(|(_, ks)| (pe_inventory(cfg, &geo.pe(ks[0])), ks.len() as u64))
+        .collect()
+}
+
 /// Array resources, on-chip memory bits and block-RAM memories of `cfg`
-/// on `geo`.
+/// on `geo`: every PE at its own ray depths, summed, and the controller.
 pub fn array(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> (Resources, u64, Vec<MemDemand>) {
-    let pe = pe_inventory(cfg, geo);
     let ctrl = controller_inventory(cfg, geo);
-    let p = u64::from(geo.pes);
-    let res = pe.cost(t) * p + ctrl.iter().map(|i| i.cost(t)).sum::<Resources>();
-    let bits = item_bits(&pe.items, p) + item_bits(&ctrl, 1);
-    let mut mems = item_demands(t, &pe.items, p);
+    let mut res = ctrl.iter().map(|i| i.cost(t)).sum::<Resources>();
+    let mut bits = item_bits(&ctrl, 1);
+    let mut mems = Vec::new();
+    for (pe, n) in pe_groups(cfg, geo) {
+        res += pe.cost(t) * n;
+        bits += item_bits(&pe.items, n);
+        mems.extend(item_demands(t, &pe.items, n));
+    }
     mems.extend(item_demands(t, &ctrl, 1));
     (res, bits, mems)
 }
@@ -153,9 +172,9 @@ pub fn array(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> (Resources, u64
 /// The design point of `cfg` (at `run.geometry`'s `P`) measured by `run`,
 /// on every part of `t`'s family.
 pub fn design(cfg: &PipelineConfig, t: Target, run: &RunSummary) -> Design {
-    let geo = run.geometry;
-    let (resources, on_chip_bits, mems) = array(cfg, &geo, t);
-    let vbytes = voxel_bytes(&geo, u32::from(cfg.voxel.bits()));
+    let geo = &run.geometry;
+    let (resources, on_chip_bits, mems) = array(cfg, geo, t);
+    let vbytes = voxel_bytes(geo, u32::from(cfg.voxel.bits()));
     let rbytes = run.ray_buffer_bytes as f64;
     let fit_on = |part: &Part| {
         let f = fit_memories(part, &resources, &mems);

@@ -26,8 +26,8 @@
 //!   the view's ray columns of its tallest region's rows (a middle PE
 //!   owns `2W + 1` columns, rays being between half a voxel and a voxel
 //!   apart in every slice of their region; the end PEs also hold the rays
-//!   beyond the volume's sides, and every PE is as deep), in two banks by ray
-//!   column parity so the merge reads both new parents of a child in one
+//!   beyond the volume's sides, and only they are that deep: each PE is
+//!   declared at its own depths), in two banks by ray column parity so the merge reads both new parents of a child in one
 //!   cycle; children overwrite their centre parent's slot, which the y pass
 //!   no longer needs;
 //! - **occupancy memory**: per column slot of the compositing buffer,
@@ -146,9 +146,9 @@ impl Item {
     }
 }
 
-/// The array's geometry: view-space volume dimensions, PE count and the
-/// view's regions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// The array's geometry: view-space volume dimensions, PE count, the
+/// view's regions and each PE's ray depths.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Geometry {
     /// View-space dimensions `[nx, ny, nz]` (x across the PEs, z along
     /// the principal axis).
@@ -171,22 +171,30 @@ pub struct Geometry {
     /// before.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub preint: bool,
-    /// What a PE's ray memories hold: columns, rows, a pass's children,
-    /// kept finals ([`crate::capacity`]), for the view the geometry was
-    /// made for.
+    /// What the PE this geometry describes declares in its ray memories:
+    /// columns, rows, a pass's children, kept finals
+    /// ([`crate::capacity`]). For the whole array (as made) the deepest
+    /// PE's, field by field; [`Geometry::pe`] gives each PE's own.
     pub rays: crate::capacity::RayDepths,
+    /// Each PE's own ray depths, by PE index, for the views the geometry
+    /// was made for: each PE declares its ray memories at these
+    /// ([`Geometry::pe`]) and the array's cost sums them
+    /// ([`super::design::array`]).
+    pub pe_rays: crate::capacity::PeDepths,
 }
 
 impl Geometry {
     /// The geometry of `pes` PEs for a volume of `dims` seen from half its
     /// depth in front of its centre (the eye the report's tables assume),
-    /// its ray memories sized for that view in both orders under every
-    /// mapping ([`crate::capacity::need`]).
+    /// each PE's ray memories sized for that view in both orders under
+    /// every mapping (PE by PE, the most over them:
+    /// [`crate::capacity::PeDepths::cover`]).
     pub fn new(dims: [usize; 3], pes: u16) -> Geometry {
         use crate::config::{Mapping, Order};
         let d = (dims[2] as f64 / 2.0).max(golden::geometry::MIN_D);
         let view = default_view(dims);
-        let mut rays = crate::capacity::RayDepths::default();
+        let mut pe_rays =
+            crate::capacity::PeDepths::uniform(usize::from(pes.max(1)), Default::default());
         for mapping in [Mapping::Blocks, Mapping::Interleave, Mapping::Cyclic] {
             for order in [Order::BackToFront, Order::FrontToBack] {
                 let cfg = PipelineConfig {
@@ -196,7 +204,9 @@ impl Geometry {
                     ..PipelineConfig::default()
                 };
                 if let Some(v) = &view {
-                    rays = rays.max(crate::capacity::need(&cfg, v).unwrap_or_default());
+                    if let Ok(need) = crate::capacity::need(&cfg, v) {
+                        pe_rays = pe_rays.cover(&need);
+                    }
                 }
             }
         }
@@ -207,18 +217,20 @@ impl Geometry {
             shading: false,
             voi: false,
             preint: false,
-            rays,
+            rays: pe_rays.max(),
+            pe_rays,
         }
     }
 
     /// The geometry of `cfg`'s array for a frame of `view`: its
-    /// dimensions and regions, its ray memories sized for the view
+    /// dimensions and regions, each PE's ray memories sized for the view
     /// ([`crate::capacity::need`]).
     pub fn for_view(
         cfg: &PipelineConfig,
         view: &golden::geometry::View,
     ) -> Result<Geometry, golden::Error> {
         let layout = golden::methods::Method::Er.layout(view)?;
+        let pe_rays = crate::capacity::need_of(cfg, view, &layout);
         Ok(Geometry {
             dims: view.dims,
             pes: cfg.pes,
@@ -226,13 +238,58 @@ impl Geometry {
             shading: false,
             voi: false,
             preint: false,
-            rays: crate::capacity::need_of(cfg, view, &layout),
+            rays: pe_rays.max(),
+            pe_rays,
         })
     }
 
-    /// This geometry with its ray memories sized for `rays`.
+    /// This geometry with every PE's ray memories sized for `rays` (a
+    /// uniform declaration).
     pub fn with_rays(self, rays: crate::capacity::RayDepths) -> Geometry {
-        Geometry { rays, ..self }
+        let pe_rays = crate::capacity::PeDepths::uniform(usize::from(self.pes.max(1)), rays);
+        Geometry {
+            rays,
+            pe_rays,
+            ..self
+        }
+    }
+
+    /// This geometry with each PE's ray memories sized for `pe_rays`
+    /// (one entry per PE).
+    pub fn with_pe_rays(self, pe_rays: crate::capacity::PeDepths) -> Geometry {
+        Geometry {
+            rays: pe_rays.max(),
+            pe_rays,
+            ..self
+        }
+    }
+
+    /// This geometry as `cfg`'s array declares it: each PE's columns its
+    /// own where `cfg`'s migration allows ([`crate::capacity::own_columns`]),
+    /// else every PE's the deepest PE's. [`Geometry::new`] sizes for the
+    /// migration between slices on dense links.
+    pub fn declared_by(self, cfg: &PipelineConfig) -> Geometry {
+        if crate::capacity::own_columns(cfg) {
+            return self;
+        }
+        let columns = self.rays.columns;
+        let pe_rays = crate::capacity::PeDepths(
+            self.pe_rays
+                .0
+                .iter()
+                .map(|r| crate::capacity::RayDepths { columns, ..*r })
+                .collect(),
+        );
+        Geometry { pe_rays, ..self }
+    }
+
+    /// PE `k`'s geometry: the array's, its ray memories at PE `k`'s own
+    /// depths.
+    pub fn pe(&self, k: usize) -> Geometry {
+        Geometry {
+            rays: self.pe_rays.pe(k),
+            ..self.clone()
+        }
     }
 
     /// This geometry with (or without) the gradient and shading unit.
@@ -262,10 +319,20 @@ impl Geometry {
         (2 * self.block() + 1) * (2 * self.dims[1] as u64 + 1)
     }
 
-    /// Rays a PE may hold: its ray columns times their rows
-    /// ([`crate::capacity::RayDepths`]).
+    /// Rays the PE this geometry describes may hold: its ray columns times
+    /// their rows ([`crate::capacity::RayDepths`]).
     pub fn rays_per_pe(&self) -> u64 {
         self.rays.columns.max(1) * self.rays.rows.max(1)
+    }
+
+    /// Rays all the PEs may hold: each PE's own ray columns times their
+    /// rows, summed.
+    pub fn rays_in_array(&self) -> u64 {
+        self.pe_rays
+            .0
+            .iter()
+            .map(|r| r.columns.max(1) * r.rows.max(1))
+            .sum()
     }
 }
 
@@ -360,7 +427,7 @@ pub fn pe_inventory(cfg: &PipelineConfig, geo: &Geometry) -> PeInventory {
     items.extend(links(cfg, geo));
     let [_, ny, nz] = geo.dims;
     PeInventory {
-        geometry: *geo,
+        geometry: geo.clone(),
         items,
         schedule: dp.schedule,
         voxel_memory_bits: arch::stored_columns(cfg, geo)

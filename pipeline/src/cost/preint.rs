@@ -246,7 +246,7 @@ mod tests {
         let cfg = PipelineConfig::default();
         let geo = Geometry::new([128, 128, 128], 16);
         let plain = pe_inventory(&cfg, &geo);
-        let pre = pe_inventory(&cfg, &geo.with_preint(true));
+        let pre = pe_inventory(&cfg, &geo.clone().with_preint(true));
         let unit = |items: &[Item]| items.iter().filter(|i| i.group == "preint").count();
         assert_eq!(unit(&plain.items), 0);
         assert!(table_item(&plain.items).is_none());
@@ -316,9 +316,9 @@ mod tests {
     fn plain_cost_unchanged_without_the_flag() {
         let cfg = PipelineConfig::default();
         let geo = Geometry::new([128, 128, 128], 16);
-        assert_eq!(geo.with_preint(false), geo);
+        assert_eq!(geo.clone().with_preint(false), geo);
         assert_eq!(ray_bits(&cfg, &geo), 0);
-        let pe = pe_inventory(&cfg, &geo.with_preint(true).with_preint(false));
+        let pe = pe_inventory(&cfg, &geo.clone().with_preint(true).with_preint(false));
         // The default PE as `ercube cost` prices it without the unit (its
         // link FIFOs two rows deep in LUT-RAM, its ray memories sized for
         // the default view's end PEs, its declared registers; its sample
@@ -344,7 +344,9 @@ mod tests {
         // inventory's schedule.
         let geo = Geometry::new([128, 128, 128], 16);
         let (with, without) = (
-            pe_inventory(&cfg, &geo.with_preint(true)).schedule.depth,
+            pe_inventory(&cfg, &geo.clone().with_preint(true))
+                .schedule
+                .depth,
             pe_inventory(&cfg, &geo).schedule.depth,
         );
         assert_eq!(pre - plain, with - without);

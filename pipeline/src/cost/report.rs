@@ -58,6 +58,17 @@ pub struct MaxPes {
     pub limit: &'static str,
 }
 
+/// PEs declaring the same ray depths.
+#[derive(Debug, Clone, Serialize)]
+pub struct PeGroup {
+    /// Their indices.
+    pub pes: Vec<usize>,
+    /// Their ray depths.
+    pub rays: crate::capacity::RayDepths,
+    /// One of them.
+    pub resources: Resources,
+}
+
 /// One run of the `P` sweep.
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepRow {
@@ -112,10 +123,14 @@ pub struct CostReport {
     pub config: PipelineConfig,
     /// Volume and PEs of the main run.
     pub geometry: Geometry,
-    /// One PE's units.
+    /// The deepest PE's units (every ray depth at the most any PE
+    /// declares: [`Geometry::rays`]).
     pub pe_items: Vec<ItemRow>,
-    /// One PE.
+    /// The deepest PE.
     pub pe: Resources,
+    /// The PEs by their own ray depths: each distinct declaration, the PEs
+    /// declaring it and one such PE's resources.
+    pub pe_groups: Vec<PeGroup>,
     /// Sample pipeline depth in clocks: the latency the cycle model runs
     /// ([`super::latency::geometry_latency`]).
     pub pipeline_depth: u32,
@@ -125,7 +140,7 @@ pub struct CostReport {
     pub controller_items: Vec<ItemRow>,
     /// The controller.
     pub controller: Resources,
-    /// `P` PEs plus the controller.
+    /// Every PE at its own depths plus the controller.
     pub array: Resources,
     /// The array on each part of the family.
     pub fits: Vec<Fit>,
@@ -177,6 +192,7 @@ pub fn max_pes(cfg: &PipelineConfig, geo: &Geometry, part: &Part) -> MaxPes {
     let top = (MAX_PES as usize).min(dims[0].max(1)) as u16;
     let fit_at = |p: u16| {
         let g = Geometry::new(dims, p)
+            .declared_by(cfg)
             .with_shading(geo.shading)
             .with_voi(geo.voi)
             .with_preint(geo.preint);
@@ -207,15 +223,24 @@ pub fn build(
     archs: &[(PipelineConfig, RunSummary)],
 ) -> CostReport {
     let clock = clock_mhz * 1e6;
-    let geo = run.geometry;
+    let geo = run.geometry.clone();
     let vb = u32::from(cfg.voxel.bits());
     let pe: PeInventory = pe_inventory(cfg, &geo);
     let pe_res = pe.cost(target);
     let ctrl_items = controller_inventory(cfg, &geo);
     let ctrl: Resources = ctrl_items.iter().map(|i| i.cost(target)).sum();
-    let array = pe_res * u64::from(geo.pes) + ctrl;
     let family = parts(target);
-    let (_, _, mems) = design::array(cfg, &geo, target);
+    let (array, _, mems) = design::array(cfg, &geo, target);
+    let groups = geo
+        .pe_rays
+        .groups()
+        .into_iter()
+        .map(|(rays, pes)| PeGroup {
+            resources: pe_inventory(cfg, &geo.pe(pes[0])).cost(target),
+            pes,
+            rays,
+        })
+        .collect();
     let fits = family
         .iter()
         .map(|p| fit_memories(p, &array, &mems))
@@ -247,6 +272,7 @@ pub fn build(
     for n in SCALE_N {
         for p in SCALE_P {
             let g = Geometry::new([n, n, n], p)
+                .declared_by(cfg)
                 .with_shading(geo.shading)
                 .with_voi(geo.voi)
                 .with_preint(geo.preint);
@@ -290,7 +316,7 @@ pub fn build(
             pe.voxel_memory_bits as f64 * pes as f64 / 1e6
         ),
         format!(
-            "Ray memories are sized for this view (every PE as deep as the end PEs, which hold the rays beyond the volume's sides); {} units are counted in {}.",
+            "Ray memories are sized for this view, each PE at its own depths (the end PEs hold the rays beyond the volume's sides; 'PE total' is the deepest PE, the array sums every PE's own); {} units are counted in {}.",
             target.bram_name(),
             if target == Target::Xc7 { "RAMB18 halves of a RAMB36" } else { "blocks" }
         ),
@@ -310,6 +336,7 @@ pub fn build(
         geometry: geo,
         pe_items: rows(&pe.items, target),
         pe: pe_res,
+        pe_groups: groups,
         pipeline_depth: depth,
         voxel_memory_bits_per_pe: pe.voxel_memory_bits,
         controller_items: rows(&ctrl_items, target),

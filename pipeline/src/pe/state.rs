@@ -3,11 +3,13 @@
 //! its row buffers), the column map, the passes' line buffer, the link
 //! FIFOs and, front to back, the inherited states and the kept finals,
 //! each with the depth and width it has for the geometry's view
-//! ([`Geometry`]: the ray memories sized by [`crate::capacity`] for the
-//! most any PE holds in that view's frames, the end PEs' rays beyond the
-//! volume's sides included). The cost model's memory inventory charges
-//! exactly these entries (`crate::cost::inventory`), so a depth changes
-//! in one place.
+//! ([`Geometry`]: the ray memories at the depths [`Geometry::rays`] gives,
+//! which for PE `k` of an array, [`Geometry::pe`], are what
+//! [`crate::capacity`] finds PE `k` itself holds in that view's frames:
+//! the end PEs' rays beyond the volume's sides in the end PEs only). The
+//! cost model's memory inventory charges exactly these entries, PE by PE
+//! (`crate::cost::inventory`, `crate::cost::design::array`), so a depth
+//! changes in one place.
 
 use super::Pe;
 use crate::config::{Order, PipelineConfig, RayBuffer};
@@ -43,7 +45,8 @@ const DUAL_READ: StateKind = StateKind::Memory(MemPorts::DualRead);
 const REG: StateKind = StateKind::Register;
 
 impl Pe {
-    /// Every state element of a PE of `cfg` for the view of `geo`:
+    /// Every state element of a PE of `cfg` for the view of `geo` (PE
+    /// `k`'s own: `geo.pe(k)`):
     /// [`Pe::voxel_state`], [`Pe::ray_state`], then
     /// [`Pe::register_state`].
     pub fn declaration(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {

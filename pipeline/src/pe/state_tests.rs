@@ -19,29 +19,29 @@ fn cases() -> Vec<(PipelineConfig, Geometry)> {
         c
     };
     vec![
-        (base, geo),
-        (with(&|c| c.order = Order::FrontToBack), geo),
-        (with(&|c| c.ray_buffer = RayBuffer::External), geo),
+        (base, geo.clone()),
+        (with(&|c| c.order = Order::FrontToBack), geo.clone()),
+        (with(&|c| c.ray_buffer = RayBuffer::External), geo.clone()),
         (
             with(&|c| {
                 c.order = Order::FrontToBack;
                 c.ray_buffer = RayBuffer::External;
             }),
-            geo,
+            geo.clone(),
         ),
-        (with(&|c| c.mapping = Mapping::Interleave), geo),
+        (with(&|c| c.mapping = Mapping::Interleave), geo.clone()),
         (
             with(&|c| {
                 c.mapping = Mapping::Cyclic;
                 c.cyclic_width = 4;
             }),
-            geo.with_shading(true),
+            geo.clone().with_shading(true),
         ),
-        (base, geo.with_shading(true)),
-        (base, geo.with_preint(true)),
+        (base, geo.clone().with_shading(true)),
+        (base, geo.clone().with_preint(true)),
         (base, Geometry::new([100, 64, 64], 8)),
-        (with(&|c| c.link_fifo_depth = 1), geo),
-        (with(&|c| c.link_fifo_depth = 300), geo),
+        (with(&|c| c.link_fifo_depth = 1), geo.clone()),
+        (with(&|c| c.link_fifo_depth = 300), geo.clone()),
     ]
 }
 

@@ -1,11 +1,11 @@
-//! The PE's ray memories hold what their declaration says: on clocked
+//! Each PE's ray memories hold what its own declaration says: on clocked
 //! frames (every migration cycle noted), the most ray columns, rows,
-//! children, line-buffer entries and kept final states any PE held stay
-//! at or under the depths [`Pe::declaration`] gives for the frame's
-//! geometry ([`Geometry::for_view`], sized from the frame's plan by
-//! `pipeline::capacity`), over scenes, eyes beside and outside the
-//! volume, wide fields of view, 1 to 16 PEs, both orders and the
-//! architectures.
+//! children, line-buffer entries and kept final states PE `k` held stay
+//! at or under the depths [`Pe::declaration`] gives for PE `k` of the
+//! frame's geometry ([`Geometry::for_view`], each PE sized from the
+//! frame's plan by `pipeline::capacity`, [`Geometry::pe`]), over scenes,
+//! eyes beside and outside the volume, wide fields of view, 1 to 16 PEs,
+//! both orders and the architectures.
 //!
 //! `cargo test --release -p pipeline --test it -- occupancy::`
 
@@ -83,9 +83,20 @@ fn declared(cfg: &PipelineConfig, geo: &Geometry) -> Declared {
     }
 }
 
-/// Every PE's peak against the declaration; the first PE past a depth.
-fn check(o: &[Occupancy], d: Declared) -> Result<(), String> {
-    for (k, p) in o.iter().enumerate() {
+/// Each PE's declared depths: PE `k` of `geo` ([`Geometry::pe`]).
+fn declared_each(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Declared> {
+    (0..usize::from(cfg.pes))
+        .map(|k| declared(cfg, &geo.pe(k)))
+        .collect()
+}
+
+/// Every PE's peak against its own declaration; the first PE past a
+/// depth.
+fn check(o: &[Occupancy], declared: &[Declared]) -> Result<(), String> {
+    if o.len() != declared.len() {
+        return Err(format!("{} PEs ran, {} declared", o.len(), declared.len()));
+    }
+    for (k, (p, &d)) in o.iter().zip(declared).enumerate() {
         if p.columns > d.columns
             || p.children > d.columns
             || p.rows > d.rows
@@ -202,8 +213,8 @@ proptest! {
         let lut = lut(&cfg);
         let frame = clocked(&cfg, &vol, &lut, &prep);
         let geo = Geometry::for_view(&cfg, &prep.view).expect("geometry");
-        let d = declared(&cfg, &geo);
-        prop_assert!(check(&frame.occupancy, d).is_ok(), "{}", check(&frame.occupancy, d).unwrap_err());
+        let d = declared_each(&cfg, &geo);
+        prop_assert!(check(&frame.occupancy, &d).is_ok(), "{}", check(&frame.occupancy, &d).unwrap_err());
     }
 }
 
@@ -234,22 +245,33 @@ fn measured_frames_fit_their_declaration() {
             let cfg = config(ARCHS[0], *pes, ftb);
             let frame = clocked(&cfg, vol, &lut(&cfg), &prep);
             let geo = Geometry::for_view(&cfg, &prep.view).expect("geometry");
-            let d = declared(&cfg, &geo);
+            let d = declared_each(&cfg, &geo);
             let peak = frame
                 .occupancy
                 .iter()
                 .fold(Occupancy::default(), |a, o| a.max(*o));
-            let ends = frame.occupancy[0].max(frame.occupancy[frame.occupancy.len() - 1]);
-            let mid = frame.occupancy[1..frame.occupancy.len() - 1]
+            let last = frame.occupancy.len() - 1;
+            let ends = frame.occupancy[0].max(frame.occupancy[last]);
+            let mid = frame.occupancy[1..last]
                 .iter()
                 .fold(Occupancy::default(), |a, o| a.max(*o));
+            let mid_declared = d[1..last].iter().fold((0, 0, 0, 0), |a, x| {
+                (
+                    a.0.max(x.columns),
+                    a.1.max(x.rows),
+                    a.2.max(x.line),
+                    a.3.max(x.kept),
+                )
+            });
             eprintln!(
-                "{name}, {} PEs, {}: peak {peak:?}\n  end PEs {ends:?}\n  middle PEs {mid:?}\n  declared {d:?} (view dims {:?})",
+                "{name}, {} PEs, {}: peak {peak:?}\n  end PEs {ends:?}\n  middle PEs {mid:?}\n  declared: PE 0 {:?}, PE {last} {:?}, middle PEs at most (columns, rows, line, kept) {mid_declared:?} (view dims {:?})",
                 pes,
                 if ftb { "front to back" } else { "back to front" },
+                d[0],
+                d[last],
                 prep.view.dims
             );
-            check(&frame.occupancy, d).unwrap();
+            check(&frame.occupancy, &d).unwrap();
         }
     }
 }
@@ -272,16 +294,27 @@ fn a_frame_past_the_declared_depths_is_refused_before_it_runs() {
             .depths(depths)
             .run()
     };
-    let short = pipeline::capacity::RayDepths {
-        columns: need.columns - 1,
-        ..need
-    };
+    // One PE a column short: refused, naming that PE and its depths.
+    let mut short = need.clone();
+    short.0[1].columns -= 1;
     let err = run(short).expect_err("refused").to_string();
     assert!(
-        !err.contains('\n') && err.contains("past the declared"),
+        !err.contains('\n') && err.contains("in PE 1, past its declared"),
         "{err}"
     );
-    assert!(err.contains(&need.columns.to_string()), "{err}");
+    assert!(err.contains(&need.pe(1).columns.to_string()), "{err}");
+    // Every PE as deep as the middle one: the end PEs' rays beyond the
+    // volume's sides do not fit.
+    assert!(need.pe(0).columns > need.pe(1).columns, "{need:?}");
+    let err = run(pipeline::capacity::PeDepths::uniform(3, need.pe(1)))
+        .expect_err("refused")
+        .to_string();
+    assert!(err.contains("in PE 0"), "{err}");
+    // A declaration for another PE count.
+    let err = run(pipeline::capacity::PeDepths::uniform(4, need.max()))
+        .expect_err("refused")
+        .to_string();
+    assert!(err.contains("for 4 PEs, the array has 3"), "{err}");
     let fits = run(need).expect("a chip sized for the view runs it");
     let free =
         pipeline::FrameRun::prepared(&cfg, &lut, &prep, pipeline::array::Voxels::Volume(&vol))

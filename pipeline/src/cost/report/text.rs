@@ -27,6 +27,27 @@ fn res_cells(t: Target, r: &Resources) -> [String; 4] {
     [r.dsp.to_string(), lut, r.ff.to_string(), r.bram.to_string()]
 }
 
+/// PE indices as runs: `0, 2-13, 15`.
+fn pe_list(pes: &[usize]) -> String {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for &k in pes {
+        match runs.last_mut() {
+            Some((_, hi)) if *hi + 1 == k => *hi = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    runs.iter()
+        .map(|&(lo, hi)| {
+            if lo == hi {
+                lo.to_string()
+            } else {
+                format!("{lo}-{hi}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Renders rows as a text table with aligned columns.
 pub(in crate::cost) fn table(out: &mut String, head: &[&str], rows: &[Vec<String>]) {
     let n = head.len();
@@ -165,7 +186,7 @@ impl CostReport {
         }
         let [d, l, f, b] = res_cells(t, &self.pe);
         rows_txt.push(vec![
-            "PE total".into(),
+            "PE total (the deepest)".into(),
             format!("pipeline {} clocks", self.pipeline_depth),
             String::new(),
             d,
@@ -205,12 +226,48 @@ impl CostReport {
         let [rc, rr] = self.run.largest_region;
         let _ = writeln!(
             o,
-            "  rays: buffers hold {} columns x {} rows = {} per PE ({} in all); this view's largest region has {rc} x {rr} = {} rays",
+            "  rays: the deepest PE's buffers hold {} columns x {} rows = {} rays, all PEs' {} in all (each PE at its own depths); this view's largest region has {rc} x {rr} = {} rays",
             g.rays.columns,
             g.rays.rows,
             g.rays_per_pe(),
-            g.rays_per_pe() * u64::from(g.pes),
+            g.rays_in_array(),
             rc * rr
+        );
+        let groups: Vec<Vec<String>> = self
+            .pe_groups
+            .iter()
+            .map(|p| {
+                let [d, l, f, b] = res_cells(t, &p.resources);
+                vec![
+                    pe_list(&p.pes),
+                    format!(
+                        "{} x {}, {} children, {} kept",
+                        p.rays.columns, p.rays.rows, p.rays.children, p.rays.kept
+                    ),
+                    p.pes.len().to_string(),
+                    d,
+                    l,
+                    f,
+                    b,
+                ]
+            })
+            .collect();
+        let _ = writeln!(
+            o,
+            "\nPEs by their own ray depths (columns x rows, a pass's children, kept final rays)"
+        );
+        table(
+            &mut o,
+            &[
+                "PEs",
+                "ray depths",
+                "n",
+                t.dsp_name(),
+                t.lut_name(),
+                "FF",
+                t.bram_name(),
+            ],
+            &groups,
         );
 
         let _ = writeln!(o, "\nFit ({} PEs)", g.pes);
