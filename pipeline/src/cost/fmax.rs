@@ -203,7 +203,9 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
             brams: 1.0,
             ..Path::default()
         },
-        Unit::Reg { .. } | Unit::Delay { .. } | Unit::Ip { .. } => Path::default(),
+        Unit::Reg { .. } | Unit::Delay { .. } | Unit::Ip { .. } | Unit::ReadReset { .. } => {
+            Path::default()
+        }
     }
 }
 
