@@ -119,6 +119,7 @@ pub fn model(t: Target) -> Option<DelayModel> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::PipelineConfig;
 
     /// The fitted models against every measurement, calibration and
     /// holdout (`--nocapture` prints the table docs/cost.md shows).
