@@ -3,7 +3,7 @@
 //! register-to-register path, priced by a linear delay model per family
 //! fitted to units placed and routed by `ercube synth`.
 //!
-//! A stage's path is read off its units ([`Unit`]): an adder, subtractor,
+//! A stage's path is read off its units ([`Unit`](crate::cost::units::Unit)): an adder, subtractor,
 //! incrementer or comparator is a carry chain of its width entered through
 //! a LUT; a multiplexer or reduction a LUT level; a saturation clamp a LUT
 //! level and a wide-fanout net (its overflow select drives every output

@@ -30,7 +30,7 @@ pub struct Path {
 
 impl Path {
     /// The fit's features: a constant, then the counts in
-    /// [`DelayModel`]'s coefficient order.
+    /// [`DelayModel`](super::DelayModel)'s coefficient order.
     pub fn features(&self) -> [f64; FEATURES] {
         [
             1.0,
