@@ -365,7 +365,7 @@ fn unit_section(m: &PipelinedModule) -> String {
 }
 
 /// `NX,NY,NZ`, each at least 1, refused in one line otherwise.
-fn parse_dims(s: &str) -> Result<[usize; 3]> {
+pub(crate) fn parse_dims(s: &str) -> Result<[usize; 3]> {
     let v: Vec<usize> = s
         .split(',')
         .map(|w| {

@@ -44,6 +44,16 @@ pub struct SynthArgs {
     /// PE, whose control is not emitted yet.
     #[arg(long, conflicts_with = "unit")]
     pub datapath: bool,
+    /// The PE's readout stage as `ercube rtl` writes it
+    /// (`ercube_pe_readout`: its compositing buffer and column map at the
+    /// depths `--dims` and the configuration's PEs declare, and the
+    /// readout's state machine); measured, not estimated.
+    #[arg(long, conflicts_with_all = ["unit", "datapath"])]
+    pub readout: bool,
+    /// With --readout: the view-space volume the PE's memories are
+    /// declared for, NX,NY,NZ (as `ercube rtl --dims`).
+    #[arg(long, default_value = "256,256,256", requires = "readout")]
+    pub dims: String,
     /// The whole PE (refused: its control and stage state machines are not
     /// emitted yet; --datapath places its sample datapath).
     #[arg(long)]
@@ -68,7 +78,8 @@ pub struct SynthArgs {
 /// What `ercube synth` measured.
 #[derive(Debug, Serialize)]
 pub struct SynthReport {
-    /// The unit's name (`datapath` for the whole sample datapath).
+    /// The unit's name (`datapath` for the whole sample datapath,
+    /// `readout` for the PE's readout stage).
     pub unit: String,
     /// The Verilog module synthesized.
     pub module: String,
@@ -232,8 +243,8 @@ pub fn run(a: &SynthArgs) -> Result<()> {
             if a.pe { "PE" } else { "array" }
         );
     }
-    if a.unit.is_none() && !a.datapath {
-        bail!("synth: give --unit NAME or --datapath (--pe and --array need the PE's control, not emitted yet)");
+    if a.unit.is_none() && !a.datapath && !a.readout {
+        bail!("synth: give --unit NAME, --datapath or --readout (--pe and --array need the PE's control, not emitted yet)");
     }
     if let Some(c) = a.clock_mhz {
         if !c.is_finite() || c <= 0.0 || c > 2000.0 {
@@ -243,6 +254,10 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     let cfg = a.cfg.load()?;
     let m = match a.unit.as_deref() {
         Some(name) => unit(&cfg, name).map_err(anyhow::Error::msg)?,
+        None if a.readout => {
+            let dims = super::rtl::parse_dims(&a.dims)?;
+            pipeline::synth::readout(&cfg, dims).map_err(anyhow::Error::msg)?
+        }
         None => pipeline::synth::datapath(&cfg).map_err(anyhow::Error::msg)?,
     };
     let ports = wrap::ports(&m.verilog, &m.name).map_err(anyhow::Error::msg)?;
@@ -333,10 +348,12 @@ pub fn run(a: &SynthArgs) -> Result<()> {
             "no open place and route for Xilinx parts: synthesis counts only, no timing".to_owned(),
         ),
     };
-    let is_datapath = a.unit.is_none();
+    let is_datapath = a.unit.is_none() && !a.readout;
     let report = SynthReport {
         unit: if is_datapath {
             "datapath".to_owned()
+        } else if a.readout {
+            "readout".to_owned()
         } else {
             pipeline::synth::unit_name(&m).to_owned()
         },
@@ -347,7 +364,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         yosys: version,
         synth_command: synth,
         synthesized,
-        estimated: family.map(|f| {
+        estimated: family.filter(|_| !a.readout).map(|f| {
             if is_datapath {
                 pipeline::synth::datapath_estimate(&cfg, f)
             } else {
@@ -357,7 +374,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         wrapper_bits: wrap::shifted_bits(&ports),
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),
-        predicted_mhz: family.and_then(|f| {
+        predicted_mhz: family.filter(|_| !a.readout).and_then(|f| {
             if is_datapath {
                 // The schedule's slowest stage, as `ercube cost` predicts it.
                 Some(pipeline::cost::fmax::pe_prediction(&cfg, f)?.mhz)
@@ -426,6 +443,12 @@ fn text(r: &SynthReport, part: Part) -> String {
                 versus(e.ff, g.ff),
                 e.dsp,
                 e.bram
+            );
+        }
+        None if r.unit == "readout" => {
+            let _ = writeln!(
+                s,
+                "  estimated: not modelled (ercube cost prices the readout's memories and registers among the PE's, not as this module)"
             );
         }
         None => {

@@ -302,6 +302,37 @@ fn lutram_map(t: Target, depth: u64, width: u64, ports: MemPorts) -> Option<(u64
 }
 
 /// Maps a `depth x width` memory with `ports` onto `target`.
+/// The synchronous reset of a memory's read-data registers, as the
+/// emitted datapath declares its tables (`if (rst) q <= 0; else q <=
+/// mem[a];` at every read port). DP16KD and RAMB18 reset their output
+/// latch and LUT-RAM's read register is a fabric flip-flop with a reset:
+/// nothing on ECP5 and xc7. SB_RAM40_4K has none, so yosys ANDs each read
+/// bit with the reset (registered once for the module): a LUT4 a bit,
+/// unless the memory is depth-tiled, where the reset takes the spare
+/// input of the tile-select multiplexer's LUT4 (measured: a 256 x 9 table
+/// 9 LUT4s, the 4096-entry tables of the default widths none).
+pub fn read_reset(target: Target, depth: u64, width: u64, ports: MemPorts) -> Resources {
+    let m = map_memory(target, depth, width, ports);
+    if target != Target::Ice40 || m.kind != MemKind::Block {
+        return Resources::default();
+    }
+    let reads = match ports {
+        MemPorts::Sdp => 1,
+        MemPorts::DualRead | MemPorts::WriteTwoReads => 2,
+    };
+    let one = if ports == MemPorts::WriteTwoReads {
+        MemPorts::Sdp
+    } else {
+        ports
+    };
+    let (_, _, deep, _) = best_block(target, depth, width, one);
+    if deep > 1 {
+        Resources::default()
+    } else {
+        Resources::luts(reads * width)
+    }
+}
+
 pub fn map_memory(target: Target, depth: u64, width: u64, ports: MemPorts) -> MemMap {
     if ports == MemPorts::WriteTwoReads {
         let one = map_memory(target, depth, width, MemPorts::Sdp);

@@ -8,7 +8,7 @@
 //! `pipeline/tests/it/cost.rs` re-synthesises the PE's units and checks the sums.
 
 use super::dsp::{decompose, DspLimits, MulNode};
-use super::memory::{map_memory, MemPorts};
+use super::memory::{map_memory, read_reset, MemPorts};
 use super::target::{Resources, Target};
 use serde::Serialize;
 
@@ -128,6 +128,16 @@ pub enum Unit {
         ff: u32,
         /// Block-RAM units.
         bram: u32,
+    },
+    /// The synchronous reset of a table's read-data registers, every read
+    /// port ([`super::memory::read_reset`]).
+    ReadReset {
+        /// Words.
+        depth: u64,
+        /// Bits per word.
+        width: u32,
+        /// Ports.
+        ports: MemPorts,
     },
     /// A memory.
     Mem {
@@ -499,6 +509,11 @@ impl Unit {
                 bram: u64::from(bram),
                 ..Resources::default()
             },
+            Unit::ReadReset {
+                depth,
+                width,
+                ports,
+            } => read_reset(t, depth, u64::from(width), ports),
             Unit::Mem {
                 depth,
                 width,
@@ -534,6 +549,7 @@ impl Unit {
             Unit::Reg { bits } => format!("{bits} FF"),
             Unit::Delay { bits, cycles } => format!("{bits}b x {cycles} cycles"),
             Unit::Ip { lut, ff, bram } => format!("IP {lut} LUT, {ff} FF, {bram} BRAM"),
+            Unit::ReadReset { depth, width, .. } => format!("{depth} x {width} read reset"),
             Unit::Mem {
                 depth,
                 width,

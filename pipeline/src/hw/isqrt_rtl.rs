@@ -9,7 +9,8 @@
 //!
 //! Each stage `j` (result bit `i = M - 1 - j`) shifts the next two
 //! radicand bits into the remainder `R` and adds `4Q + 3` if `R` is
-//! negative, else subtracts `4Q + 1`; the new bit of `Q` is `R >= 0`.
+//! negative, else subtracts `4Q + 1` (one adder: `R + {~Q, 11}` is
+//! `R - {Q, 01}`); the new bit of `Q` is `R >= 0`.
 //! The remainder is never restored, and `M + 2` bits hold it (its sign and
 //! its magnitude below `2Q + 2`); the shifted bits it loses are copies of
 //! its sign, so the sum modulo `2^(M+2)` is exact.
@@ -106,8 +107,12 @@ pub(crate) fn isqrt(
             dbits - 1,
             dbits - 2
         ));
+        // `sh - {q, 01}` is `sh + {~q, 11}` modulo 2^rw: one adder whose
+        // operand is `q` or its complement by the remainder's sign (yosys
+        // builds an adder, a subtractor and a multiplexer from the
+        // two-armed form, about three times the LUTs).
         b.line(&format!(
-            "wire {} {rn} = {r}[{}] ? {sh} + {{{q}, 2'b11}} : {sh} - {{{q}, 2'b01}};",
+            "wire {} {rn} = {sh} + {{({r}[{}] ? {q} : ~{q}), 2'b11}};",
             range(rw),
             rw - 1
         ));

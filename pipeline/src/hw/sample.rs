@@ -335,9 +335,14 @@ pub fn with_units(cfg: &PipelineConfig, units: &mut UnitsFn<'_>) -> Graph {
         let s = g.add("comp.a.s", acc[3], kk, sw);
         out.push(g.quantize("comp.a", s, fa));
     }
-    // An invisible sample leaves the accumulators as they were.
-    g.no_item();
+    // An invisible sample leaves the accumulators as they were: a select
+    // per accumulator bit.
     for (i, ch) in ["r", "g", "b", "a"].iter().enumerate() {
+        g.item(
+            "compositing",
+            "accumulator select (invisible sample)",
+            i as u32,
+        );
         let w = g.word(acc[i]);
         let kept = g.push(
             &format!("acc_out.{ch}"),
@@ -351,6 +356,7 @@ pub fn with_units(cfg: &PipelineConfig, units: &mut UnitsFn<'_>) -> Graph {
         );
         g.output(&format!("acc_out_{ch}"), kept);
     }
+    g.no_item();
     g.output("x0", x0);
     g
 }

@@ -226,6 +226,35 @@ pub fn datapath(cfg: &PipelineConfig) -> Result<CalibrationModule, String> {
     })
 }
 
+/// The PE's readout stage as `ercube rtl` writes it
+/// ([`crate::hw::readout_rtl::PE_MODULE`]): its compositing buffer and
+/// column map declared for a view-space volume of `dims` over `cfg.pes`
+/// PEs, and the readout's state machine. Not estimated as a module (`ercube
+/// cost` prices its memories and registers among the PE's).
+pub fn readout(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<CalibrationModule, String> {
+    use crate::hw::readout_rtl::{emit, ReadoutShape, PE_MODULE};
+    let geo = crate::cost::inventory::Geometry::new(dims, cfg.pes.max(1));
+    let shape = ReadoutShape::new(cfg, &geo)?;
+    let r = emit(&shape);
+    Ok(CalibrationModule {
+        name: PE_MODULE.to_owned(),
+        description: format!(
+            "the PE's readout stage for a {}x{}x{} volume over {} PEs: 2 x {} x {} bit buffer, {} x {} bit column map, {} memory bits",
+            dims[0],
+            dims[1],
+            dims[2],
+            shape.pes,
+            shape.bank_depth,
+            shape.buffer_width,
+            shape.map_depth,
+            shape.map_width,
+            shape.memory_bits()
+        ),
+        verilog: r.pe,
+        units: Vec::new(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

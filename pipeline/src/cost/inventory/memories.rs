@@ -53,7 +53,8 @@ pub fn is_datapath_table(name: &str) -> bool {
 }
 
 /// A table of the emitted datapath as a memory: its depth and word, one
-/// host write port and its read ports (two reads keep two copies).
+/// host write port and its read ports (two reads keep two copies), each
+/// read's data register reset as the module resets it.
 fn table_item(t: &crate::hw::pipeline_rtl::Table) -> Item {
     let ports = if t.reads >= 2 {
         MemPorts::WriteTwoReads
@@ -64,11 +65,17 @@ fn table_item(t: &crate::hw::pipeline_rtl::Table) -> Item {
         "memories",
         table_name(&t.name),
         1,
-        vec![Unit::Mem {
+        std::iter::once(Unit::Mem {
             depth: t.depth,
             width: t.bits,
             ports,
-        }],
+        })
+        .chain(std::iter::once(Unit::ReadReset {
+            depth: t.depth,
+            width: t.bits,
+            ports,
+        }))
+        .collect(),
     )
 }
 

@@ -141,7 +141,17 @@ pub(super) fn text(
             .expect("a table");
         let (ab, bits) = (addr_bits(mem.depth), t.bits);
         let arr = format!("mem_{}", verilog_name(&mem.name));
-        let _ = writeln!(w, "  reg {} {arr} [0:{}];", range(bits), mem.depth - 1);
+        // The host writes the tables between frames, never while the
+        // datapath reads them: `no_rw_check` tells yosys a read and a write
+        // of one address in one clock need no defined result, so it adds
+        // no bypass registers and compares around the block (as the
+        // calibration `class_table` declares its memory).
+        let _ = writeln!(
+            w,
+            "  (* no_rw_check *) reg {} {arr} [0:{}];",
+            range(bits),
+            mem.depth - 1
+        );
         let addr = if ab == ta {
             "tbl_addr".to_owned()
         } else {
