@@ -294,8 +294,12 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(w, "## Checking it\n");
     let _ = writeln!(
         w,
-        "```\nverilator --lint-only -Wall -f filelist.f\niverilog -g2005 -o /dev/null -c filelist.f\n\
-         yosys -p 'read_verilog {MODULE}.v; synth -top {MODULE}'\n```\n"
+        "```\nverilator --lint-only -Wall --top-module TOP -f filelist.f\n\
+         iverilog -g2005 -o /dev/null -c filelist.f\n\
+         yosys -p 'read_verilog {MODULE}.v; synth -top {MODULE}'\n```\n\n\
+         The file list holds several top-level modules (the PE's sample stage or the datapath \
+         alone, the readout array, each unit written on its own), so Verilator lints one \
+         `TOP` at a time (without `--top-module` it warns `MULTITOP`).\n"
     );
     let _ = writeln!(
         w,
