@@ -165,17 +165,46 @@ pub fn prepare_levels(
     }
     let base = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
     (1..=levels)
-        .map(|l| {
-            let v = coarse_volume(volume, l)?;
-            let mut p = Prepared::with(&v, camera, &coarse_prepare(opts, l))?;
-            // The base view's rays, whatever the image plane (a front one
-            // would lie on the level's face, which may end up to 2^l - 1
-            // base voxels beyond the base's); nothing prepared depends on
-            // them.
-            [p.view.rays.a, p.view.rays.b, p.view.rays.c] = rays_into(&base, &p.view);
-            Ok(p)
-        })
+        .map(|l| level_prepared(volume, camera, opts, &base, l))
         .collect()
+}
+
+/// Level `l` alone of [`prepare_levels`] (`1 <= l <=`
+/// [`crate::gaze::MAX_LEVEL`]): what a frame of one level reads, such as
+/// `--rays footprint` ([`footprint_level`]) in golden and in the
+/// pipeline's host, which loads the PEs with this level's voxels.
+pub fn prepare_level(
+    volume: &Volume,
+    camera: &Camera,
+    opts: &PrepareOptions,
+    l: u32,
+) -> Result<Prepared> {
+    if !(1..=crate::gaze::MAX_LEVEL).contains(&l) {
+        return Err(input(format!(
+            "level {l} must be from 1 to {}",
+            crate::gaze::MAX_LEVEL
+        )));
+    }
+    let base = View::new(volume.dims(), volume.spacing(), camera, opts.near)?;
+    level_prepared(volume, camera, opts, &base, l)
+}
+
+/// Level `l` of `volume` prepared, its rays the `base` view's.
+fn level_prepared(
+    volume: &Volume,
+    camera: &Camera,
+    opts: &PrepareOptions,
+    base: &View,
+    l: u32,
+) -> Result<Prepared> {
+    let v = coarse_volume(volume, l)?;
+    let mut p = Prepared::with(&v, camera, &coarse_prepare(opts, l))?;
+    // The base view's rays, whatever the image plane (a front one
+    // would lie on the level's face, which may end up to 2^l - 1
+    // base voxels beyond the base's); nothing prepared depends on
+    // them.
+    [p.view.rays.a, p.view.rays.b, p.view.rays.c] = rays_into(base, &p.view);
+    Ok(p)
 }
 
 /// Rays per pixel, across, that [`footprint_level`] keeps: two, so the

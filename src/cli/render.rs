@@ -19,7 +19,7 @@ use pipeline::cost::clock::ClockSource;
 mod versus;
 pub use versus::refine_of;
 pub use versus::Rays;
-use versus::{footprint_of, gaze_of, versus_full, versus_reference};
+use versus::{footprint_level_of, footprint_of, gaze_of, versus_full, versus_reference};
 
 /// Arguments of `ercube render`.
 #[derive(Debug, Args)]
@@ -55,11 +55,12 @@ pub struct RenderArgs {
     pub repeat: usize,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
-    /// er and er-ftb: how many rays. `voxels` (default) casts the paper's
-    /// one to two rays per voxel whatever the image; `footprint` casts no
-    /// more than the image needs: the frame at the coarsest prefiltered
-    /// level whose rays still give every pixel one
-    /// (docs/golden.md#rays-matched-to-the-image).
+    /// er, er-ftb and the pipeline: how many rays. `voxels` (default)
+    /// casts the paper's one to two rays per voxel whatever the image;
+    /// `footprint` casts no more than the image needs: the frame at the
+    /// coarsest prefiltered level whose rays still give every pixel two
+    /// across (docs/golden.md#rays-matched-to-the-image; the pipeline's
+    /// host loads the PEs with that level, docs/pipeline.md).
     #[arg(long, value_enum, default_value_t = Rays::Voxels)]
     pub rays: Rays,
     /// Reference, mipmap, er and er-ftb: gaze-directed variable resolution
@@ -456,6 +457,13 @@ fn frame_pipeline(
     tap: Option<pipeline::stepper::Tap>,
 ) -> Result<Rendered> {
     let clock = a.pipeline.clock()?;
+    // The golden-only ways of choosing rays, refused rather than ignored.
+    if a.gaze.is_some() || a.refine.is_some() || a.compare_full {
+        anyhow::bail!(
+            "--gaze, --refine and --compare-full apply to the golden methods, not {} (--rays footprint matches the pipeline's rays to the image)",
+            a.method.name()
+        );
+    }
     let (cfg, slice) = chip::configure(&a.pipeline.cfg, a.method, &a.slice)?;
     let opts = slice.options()?;
     chip::check_options(&opts)?;
@@ -471,9 +479,23 @@ fn frame_pipeline(
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let shape = (vol.dims(), vol.spacing());
     let bits = vol.kind().bits();
-    // The PEs load from golden's stack, which takes the volume's voxels:
-    // the frame holds them once.
-    let prep = prepare_for(&slice, vol, &cam, reuse)?;
+    // `--rays footprint`: the host prefilters the volume to the coarsest
+    // level whose rays still give every pixel two across and loads the
+    // PEs with that level's voxels; golden's `--rays footprint` frame
+    // renders the same level, so it stays the twin. Level 0 is the plain
+    // frame.
+    let level = match a.rays {
+        Rays::Voxels => 0,
+        Rays::Footprint => footprint_level_of(&slice, &vol, &cam)?,
+    };
+    let prep = if level > 0 {
+        let _s = Stage::start(format!("prefiltering the volume to level {level}"));
+        golden::ergaze::prepare_level(&vol, &cam, &slice.prepare()?, level)?
+    } else {
+        // The PEs load from golden's stack, which takes the volume's
+        // voxels: the frame holds them once.
+        prepare_for(&slice, vol, &cam, reuse)?
+    };
     // Golden's own table from the same classification table: the unit
     // quantises it, and the comparison below renders golden with it.
     let preint = opts
@@ -562,6 +584,13 @@ fn frame_pipeline(
         }
     }
     v["regions"] = serde_json::json!(prep.view.regions().bounds);
+    if a.rays == Rays::Footprint {
+        // What the PEs loaded: the prefiltered level's voxels.
+        v["footprint"] = serde_json::json!({
+            "level": level,
+            "volume": prep.stack.dims,
+        });
+    }
     v["clock_mhz"] = serde_json::json!(clock);
     v["clock_source"] = serde_json::json!(ClockSource::Assumed);
     v["frames_per_s"] = serde_json::json!(pipeline::cost::clock::fps(run.frame.cycles, clock));

@@ -9,7 +9,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::bin::{describe, ercube};
+use crate::bin::{describe, ercube, read_npy};
 
 fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/vtk.py")
@@ -35,30 +35,6 @@ fn vtk_python(what: &str) -> Option<PathBuf> {
         "skipped {what}: no Python with vtk and numpy (python3 bench/peers/vtk.py --self-test makes bench/peers/.venv; ERCUBE_REQUIRE_VTK=1 makes this a failure)"
     );
     None
-}
-
-/// An `H x W x 4` float32 `.npy` as written by ercube and the script.
-fn read_npy(path: &Path) -> (usize, usize, Vec<f32>) {
-    let b = std::fs::read(path).unwrap();
-    assert_eq!(&b[..6], b"\x93NUMPY");
-    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
-    let header = std::str::from_utf8(&b[10..10 + hlen]).unwrap();
-    assert!(header.contains("'<f4'"), "{header}");
-    let shape = header.split("'shape': (").nth(1).unwrap();
-    let dims: Vec<usize> = shape
-        .split(')')
-        .next()
-        .unwrap()
-        .split(',')
-        .filter_map(|t| t.trim().parse().ok())
-        .collect();
-    assert_eq!(dims.len(), 3);
-    assert_eq!(dims[2], 4);
-    let v = b[10 + hlen..]
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-        .collect();
-    (dims[0], dims[1], v)
 }
 
 /// Brightness-weighted centre (column, row) of an image.

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use crate::bin::{assert_refused, describe, ercube};
+use crate::bin::{assert_refused, describe, ercube, read_npy};
 
 const POINTS: &str = "[[point]]\nvalue = 0\nrgba = [1, 0.8, 0.6, 0]\n\n\
                       [[point]]\nvalue = 120\nrgba = [1, 0.8, 0.6, 0.3]\n\n\
@@ -308,11 +308,96 @@ fn rays_footprint_follows_the_image() {
         ),
         (
             "render --scene ml:24 --size 32x32 --method reference --rays footprint --out o.png",
-            "--rays footprint applies to --method er or er-ftb",
+            "--rays footprint applies to --method er, er-ftb, pipeline",
         ),
     ];
     for (line, needle) in cases {
         let args: Vec<&str> = line.split_whitespace().collect();
         assert_refused(&args, &ercube(d, &args), needle);
     }
+}
+
+/// `--rays footprint` in the pipeline: the host loads the PEs with the
+/// prefiltered level golden's `--rays footprint` frame renders. Near, the
+/// level is 0 and the frame is the plain one word for word; far, the PEs
+/// clock a coarse level (in the stats) in at most a third of the cycles,
+/// and the image stays within the frame's derived bound of golden er's own
+/// `--rays footprint` image, in both orders. `--gaze` is refused rather
+/// than ignored.
+#[test]
+fn pipeline_rays_footprint_loads_the_prefiltered_level() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let d = dir.path();
+    let run = |line: &str| {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let out = ercube(d, &args);
+        assert!(
+            out.status.success(),
+            "{}",
+            crate::bin::describe(&args, &out)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
+                .expect("json");
+        v
+    };
+    let read = |name: &str| std::fs::read(d.join(name)).expect(name);
+    // Front to back without early termination: the bound is derived
+    // for that (`--terminate 1`).
+    for (m, twin, opts) in [
+        ("pipeline", "er", ""),
+        ("pipeline-ftb", "er-ftb", "--terminate 1"),
+    ] {
+        let near = format!(
+            "render --scene ml:24 --size 96x96 --method {m} --pes 4 --stats s.json --out o.png"
+        );
+        run(&format!("{near} --raw-npy voxels.npy"));
+        let v = run(&format!("{near} --rays footprint --raw-npy footprint.npy"));
+        assert_eq!(v["footprint"]["level"], 0, "{m}: {}", v["footprint"]);
+        assert_eq!(read("voxels.npy"), read("footprint.npy"), "{m}");
+
+        let far = format!(
+            "--scene ml:24 --size 32x32 --eye 12,12,-300 --fov 20 --stats s.json --out o.png {opts}"
+        );
+        let full = run(&format!("render {far} --method {m} --pes 4"));
+        let v = run(&format!(
+            "render {far} --method {m} --pes 4 --rays footprint --npy chip.npy"
+        ));
+        assert!(
+            v["footprint"]["level"].as_u64().unwrap() >= 1,
+            "{m}: {}",
+            v["footprint"]
+        );
+        let (c, c_full) = (
+            v["cycles"].as_u64().unwrap(),
+            full["cycles"].as_u64().unwrap(),
+        );
+        assert!(3 * c <= c_full, "{m}: {c} cycles against {c_full}");
+        let bound = v["bound"]["value_255"].as_f64().expect("a derived bound");
+        run(&format!(
+            "render {far} --method {twin} --rays footprint --npy golden.npy"
+        ));
+        let (chip, gold) = (
+            read_npy(&d.join("chip.npy")),
+            read_npy(&d.join("golden.npy")),
+        );
+        assert_eq!((chip.0, chip.1), (gold.0, gold.1), "{m}");
+        let (chip, gold) = (chip.2, gold.2);
+        let max = chip
+            .iter()
+            .zip(&gold)
+            .map(|(a, b)| f64::from((a - b).abs()) * 255.0)
+            .fold(0.0, f64::max);
+        assert!(
+            max <= bound,
+            "{m}: {max} /255 from golden {twin}'s footprint frame, bound {bound}"
+        );
+    }
+    let line = "render --scene ml:24 --size 32x32 --method pipeline --gaze 4,4 --out o.png";
+    let args: Vec<&str> = line.split_whitespace().collect();
+    assert_refused(
+        &args,
+        &ercube(d, &args),
+        "--gaze, --refine and --compare-full apply to the golden methods",
+    );
 }

@@ -44,3 +44,28 @@ pub fn assert_refused<S: AsRef<str>>(args: &[S], out: &Output, needle: &str) {
         describe(args, out)
     );
 }
+
+/// An `H x W x 4` float32 `.npy` as ercube (`--npy`) and the peer
+/// script write it: height, width and the values.
+pub fn read_npy(path: &Path) -> (usize, usize, Vec<f32>) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(&b[..6], b"\x93NUMPY");
+    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let header = std::str::from_utf8(&b[10..10 + hlen]).unwrap();
+    assert!(header.contains("'<f4'"), "{header}");
+    let shape = header.split("'shape': (").nth(1).unwrap();
+    let dims: Vec<usize> = shape
+        .split(')')
+        .next()
+        .unwrap()
+        .split(',')
+        .filter_map(|t| t.trim().parse().ok())
+        .collect();
+    assert_eq!(dims.len(), 3);
+    assert_eq!(dims[2], 4);
+    let v = b[10 + hlen..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    (dims[0], dims[1], v)
+}

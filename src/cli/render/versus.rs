@@ -8,7 +8,7 @@ use anyhow::Result;
 use golden::metrics::compare;
 use golden::render::{render, Prepared, RenderOptions, Technique};
 
-use super::{timed_frames, RenderArgs};
+use super::{timed_frames, RenderArgs, SliceArgs};
 use crate::cli::progress::Stage;
 use crate::cli::stats::median;
 
@@ -174,15 +174,25 @@ pub(super) fn footprint_of(
         tech,
         Technique::Slice(golden::methods::Method::Er | golden::methods::Method::ErFtb)
     ) {
-        anyhow::bail!("--rays footprint applies to --method er or er-ftb only");
+        anyhow::bail!("--rays footprint applies to --method er, er-ftb, pipeline or pipeline-ftb");
     }
     if a.gaze.is_some() {
         anyhow::bail!("--rays footprint and --gaze both choose the rays: drop one of them");
     }
-    let near = a.slice.prepare()?.near;
-    let view = golden::geometry::View::new(vol.dims(), vol.spacing(), cam, near)?;
-    let level = golden::ergaze::footprint_level(&view);
+    let level = footprint_level_of(&a.slice, vol, cam)?;
     Ok((level > 0).then(|| golden::gaze::Gaze::uniform(level)))
+}
+
+/// The level `--rays footprint` renders `vol` at for `cam`
+/// ([`golden::ergaze::footprint_level`]; 0: the voxels' own rays).
+pub(super) fn footprint_level_of(
+    slice: &SliceArgs,
+    vol: &golden::volume::Volume,
+    cam: &golden::camera::Camera,
+) -> Result<u32> {
+    let near = slice.prepare()?.near;
+    let view = golden::geometry::View::new(vol.dims(), vol.spacing(), cam, near)?;
+    Ok(golden::ergaze::footprint_level(&view))
 }
 
 /// With `--compare-reference`, `image`'s error against the reference.
