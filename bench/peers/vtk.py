@@ -97,6 +97,16 @@ def parse_vec3(s):
     return p
 
 
+def parse_material(s):
+    try:
+        v = [float(t) for t in s.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 4 or any(not (x >= 0.0) for x in v):
+        raise argparse.ArgumentTypeError(f"'{s}' is not ka,kd,ks,shininess (four numbers >= 0)")
+    return tuple(v)
+
+
 def parse_size(s):
     w, h = s.lower().split("x")
     return int(w), int(h)
@@ -197,7 +207,18 @@ def render(a, vol, spacing, tf):
     prop.SetScalarOpacity(opacity)
     prop.SetScalarOpacityUnitDistance(1.0)
     prop.SetInterpolationTypeToLinear()
-    prop.ShadeOff()
+    if a.shade:
+        # ercube's Blinn-Phong material (golden::shading): VTK's volume
+        # shading adds the specular term uncoloured and lights both sides,
+        # as ercube does.
+        ka, kd, ks, p = a.material
+        prop.ShadeOn()
+        prop.SetAmbient(ka)
+        prop.SetDiffuse(kd)
+        prop.SetSpecular(ks)
+        prop.SetSpecularPower(p)
+    else:
+        prop.ShadeOff()
 
     mapper = vtkFixedPointVolumeRayCastMapper()
     mapper.SetInputData(img)
@@ -236,6 +257,23 @@ def render(a, vol, spacing, tf):
     cam.SetViewAngle(a.fov)
     cam.UseHorizontalViewAngleOff()
     ren.ResetCameraClippingRange()
+    if a.shade and a.light:
+        # Directional lights towards the given world directions; without
+        # them VTK's automatic headlight (from the focal point towards the
+        # eye) is ercube's headlight when the camera looks at the volume's
+        # centre.
+        from vtkmodules.vtkRenderingCore import vtkLight
+        ren.AutomaticLightCreationOff()
+        ren.RemoveAllLights()
+        for d in a.light:
+            light = vtkLight()
+            light.SetLightTypeToSceneLight()
+            light.SetPositional(False)
+            light.SetFocalPoint(*a.look_at)
+            light.SetPosition(*[f + v for f, v in zip(a.look_at, d)])
+            light.SetColor(1.0, 1.0, 1.0)
+            light.SetIntensity(1.0)
+            ren.AddLight(light)
 
     win.Render()  # warm-up (also builds the mapper's tables)
     # Two clocks per frame: the mapper's own GetTimeToDraw (its ray casting
@@ -363,6 +401,12 @@ def main(argv):
     p.add_argument("--png", help="write the image as 8-bit RGB PNG")
     p.add_argument("--ref", help="ercube reference .npy to report RMSE against")
     p.add_argument("--self-test", action="store_true")
+    p.add_argument("--shade", action="store_true",
+                   help="Blinn-Phong shading (ShadeOn) with --material and --light")
+    p.add_argument("--material", type=parse_material, default=(0.1, 0.7, 0.2, 10.0),
+                   help="ka,kd,ks,shininess (default VTK's and ercube's 0.1,0.7,0.2,10)")
+    p.add_argument("--light", type=parse_vec3, action="append", default=[],
+                   help="directional light towards world dx,dy,dz (repeatable; default: headlight)")
     a = p.parse_args(argv)
     ensure_vtk(argv)
     import numpy as np

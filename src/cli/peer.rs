@@ -84,6 +84,47 @@ pub struct PeerArgs {
     /// The peer's ray step in world units.
     #[arg(long, default_value_t = 0.5)]
     pub sample_distance: f64,
+    /// Shade every method, the reference and the peer with gradients and
+    /// Blinn-Phong (VTK's `ShadeOn` with the same material and lights; a
+    /// headlight unless --light is given).
+    #[arg(long)]
+    pub shade: bool,
+    /// A directional light towards world direction dx,dy,dz, for ercube
+    /// and the peer alike (repeat for up to 4; implies --shade).
+    #[arg(long, value_parser = super::args::parse_vec3, allow_hyphen_values = true)]
+    pub light: Vec<glam::DVec3>,
+    /// Material ka,kd,ks,shininess for ercube and the peer (default VTK's
+    /// 0.1,0.7,0.2,10; implies --shade).
+    #[arg(long)]
+    pub material: Option<String>,
+}
+
+/// The shading `--shade`, `--light` and `--material` ask for, or `None`.
+/// The rest of ercube's shading options keep their defaults: gradients on
+/// voxels (VTK's too), no gradient opacity (VTK's default function is 1),
+/// the default normal fade.
+fn peer_shade(a: &PeerArgs) -> Result<Option<golden::shading::Shade>> {
+    if !(a.shade || !a.light.is_empty() || a.material.is_some()) {
+        return Ok(None);
+    }
+    let mut sh = golden::shading::Shade::default();
+    for &l in &a.light {
+        sh.add_light(l)?;
+    }
+    if let Some(m) = &a.material {
+        sh.material = golden::shading::Material::parse(m)?;
+    }
+    sh.validate()?;
+    Ok(Some(sh))
+}
+
+/// Default options with the comparison's shading (reference and slice
+/// methods alike).
+fn shaded(a: &PeerArgs) -> Result<RenderOptions> {
+    let mut o = RenderOptions::default();
+    o.slice.shade = peer_shade(a)?;
+    o.reference.shade = o.slice.shade;
+    Ok(o)
 }
 
 /// One golden method of the comparison: a technique and its substeps.
@@ -292,6 +333,16 @@ fn run_peer(
         .arg(&npy)
         .arg("--png")
         .arg(out_dir.join("vtk.png"));
+    if let Some(sh) = peer_shade(a)? {
+        let m = sh.material;
+        cmd.arg("--shade").arg(format!(
+            "--material={},{},{},{}",
+            m.ambient, m.diffuse, m.specular, m.shininess
+        ));
+        for l in sh.lights() {
+            cmd.arg(format!("--light={}", vec3(*l)));
+        }
+    }
     let out = cmd.output().with_context(|| {
         format!(
             "peer vtk: cannot run {} (give --python)",
@@ -337,6 +388,7 @@ pub fn run(a: &PeerArgs) -> Result<()> {
         );
     }
     let methods = parse_peer_methods(&a.methods)?;
+    peer_shade(a)?;
     let views = views::parse_views(&a.views)?;
     super::outputs::check_dirs(&[Some(&a.out_dir)])?;
     with_threads(a.threads, || compare_with_peer(a, &methods, &views))
@@ -384,7 +436,7 @@ fn compare_view(
     let (reference, ref_time) = {
         let _s = Stage::start("rendering the reference");
         let t = Instant::now();
-        let f = render(&prep, &lut, Technique::Reference, &RenderOptions::default())?;
+        let f = render(&prep, &lut, Technique::Reference, &shaded(a)?)?;
         (f.image, t.elapsed().as_secs_f64())
     };
     reference.write_png(&out.join("reference.png"))?;
@@ -393,7 +445,7 @@ fn compare_view(
     let mut images: Vec<(String, Image)> = Vec::new();
     for m in methods.iter().filter(|m| m.tech != Technique::Reference) {
         let _s = Stage::start(format!("rendering with {}", m.label()));
-        let mut opts = RenderOptions::default();
+        let mut opts = shaded(a)?;
         opts.slice.substeps = m.substeps;
         opts.slice.preintegrate = m.preintegrate.is_some();
         opts.slice.pre_colouring = m.preintegrate.unwrap_or_default();
@@ -495,6 +547,21 @@ fn write_outputs(
         if report.timer.is_empty() { "the wall clock" } else { &report.timer },
         report.time_s,
     );
+    let shading = match peer_shade(a)? {
+        None => "not shaded".to_string(),
+        Some(sh) => {
+            let m = sh.material;
+            let lights = match sh.lights().len() {
+                0 => "the headlight".to_string(),
+                n => format!("{n} directional lights"),
+            };
+            format!(
+                "shaded alike: Blinn-Phong ka {} kd {} ks {} power {}, {lights}",
+                m.ambient, m.diffuse, m.specular, m.shininess
+            )
+        }
+    };
+    let peer = format!("{peer}; {shading}");
     let mut csv =
         String::from("method,time_s,x_vtk_mapper,x_vtk_wall,frames,rmse,max_abs_255,psnr\n");
     let num = |x: Option<f64>| x.map_or_else(String::new, |x| format!("{x:.4}"));
@@ -521,6 +588,7 @@ fn write_outputs(
                  "time_s": report.time_s, "times_s": report.times_s,
                  "wall_time_s": report.wall_time_s, "wall_times_s": report.wall_times_s},
         "ercube_threads": threads,
+        "shading": shading,
         "rows": rows.iter().map(|r| serde_json::json!({
             "method": r.method, "time_s": r.time_s, "frames": r.frames,
             "x_vtk_mapper": r.speedup[0], "x_vtk_wall": r.speedup[1],

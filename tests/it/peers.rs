@@ -224,6 +224,70 @@ fn peer_vtk_renders_every_view() {
     }
 }
 
+/// `--shade`: VTK shades with ercube's material and headlight, and its
+/// image is an independent check of ercube's shading: much nearer
+/// ercube's shaded reference than its unshaded one (on ml:32 about 0.06
+/// against 0.44 RMSE), and the report says the run was shaded.
+#[test]
+fn peer_vtk_shades_like_ercube() {
+    let Some(py) = vtk_python("ercube peer vtk --shade") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &str, shade: bool| {
+        let mut args: Vec<String> = [
+            "peer",
+            "vtk",
+            "--scene",
+            "ml:32",
+            "--size",
+            "64x64",
+            "--methods",
+            "reference,er-ftb",
+            "--frames",
+            "1",
+            "--threads",
+            "2",
+            "--out-dir",
+            out,
+            "--python",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        args.push(py.to_string_lossy().into_owned());
+        args.push("--script".into());
+        args.push(script().to_string_lossy().into_owned());
+        if shade {
+            args.push("--shade".into());
+        }
+        let o = ercube(dir.path(), &args);
+        assert!(o.status.success(), "{}", describe(&args, &o));
+        dir.path().join(out)
+    };
+    let (shaded, flat) = (run("shaded", true), run("flat", false));
+    let json = std::fs::read_to_string(shaded.join("peer.json")).unwrap();
+    assert!(json.contains("shaded alike: Blinn-Phong"), "{json}");
+    let rgb_rmse = |a: &[f32], b: &[f32]| {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for (pa, pb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+            for c in 0..3 {
+                sum += f64::from(pa[c] - pb[c]).powi(2);
+                n += 1;
+            }
+        }
+        (sum / n as f64).sqrt()
+    };
+    let vtk = read_npy(&shaded.join("vtk.npy")).2;
+    let ours = read_npy(&shaded.join("reference.npy")).2;
+    let unshaded = read_npy(&flat.join("reference.npy")).2;
+    let (near, far) = (rgb_rmse(&vtk, &ours), rgb_rmse(&vtk, &unshaded));
+    assert!(
+        near < 0.5 * far,
+        "VTK's shaded image is {near} RMSE from ercube's shaded reference and {far} from its unshaded one"
+    );
+}
+
 #[test]
 fn a_missing_python_is_one_line() {
     let dir = tempfile::tempdir().unwrap();
