@@ -52,8 +52,9 @@ pub struct PeerArgs {
     /// Comma-separated golden methods, each NAME, NAME:SUBSTEPS
     /// (e.g. er-ftb:2 is er-ftb with --substeps 2), NAME:pre (with
     /// --preintegrate), NAME:pre-att or NAME:pre-exact (with
-    /// --preintegrate --pre-colouring attenuated or exact); the
-    /// reference is always rendered for the errors.
+    /// --preintegrate --pre-colouring attenuated or exact), er:fp or
+    /// er-ftb:fp (with --rays footprint); the reference is always
+    /// rendered for the errors.
     #[arg(
         long,
         default_value = "reference,er,er-ftb,er-ftb:2,er-ftb:pre,er-ftb:pre-att,er-ftb:pre-exact,over"
@@ -137,12 +138,16 @@ pub struct MethodSpec {
     /// Pre-integrated classification (slice-order methods) and its
     /// colouring.
     pub preintegrate: Option<Colouring>,
+    /// Rays matched to the image (`--rays footprint`; er and er-ftb).
+    pub footprint: bool,
 }
 
 impl MethodSpec {
     /// Name in tables and plots: the method, with `:S` for substeps S > 1.
     pub fn label(&self) -> String {
-        if let Some(c) = self.preintegrate {
+        if self.footprint {
+            format!("{}:fp", self.tech.name())
+        } else if let Some(c) = self.preintegrate {
             let tail = match c {
                 Colouring::Fast => "",
                 Colouring::Attenuated => "-att",
@@ -161,7 +166,9 @@ impl MethodSpec {
 pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
     let mut out: Vec<MethodSpec> = Vec::new();
     for tok in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+        let footprint = tok.ends_with(":fp");
         let (name, sub, pre) = match tok.split_once(':') {
+            Some((n, "fp")) => (n, 1, None),
             Some((n, "pre")) => (n, 1, Some(Colouring::Fast)),
             Some((n, "pre-att")) => (n, 1, Some(Colouring::Attenuated)),
             Some((n, "pre-exact")) => (n, 1, Some(Colouring::Exact)),
@@ -179,9 +186,17 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
         };
         let Some(tech) = MethodArg::parse(name).and_then(MethodArg::technique) else {
             bail!(
-                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS, :pre, :pre-att or :pre-exact"
+                "unknown method '{tok}' in --methods: use reference, er, er-ftb, under, over or box, optionally :SUBSTEPS, :pre, :pre-att, :pre-exact or (er, er-ftb) :fp"
             );
         };
+        if footprint
+            && !matches!(
+                tech,
+                Technique::Slice(golden::methods::Method::Er | golden::methods::Method::ErFtb)
+            )
+        {
+            bail!("--methods '{tok}': :fp (--rays footprint) applies to er and er-ftb");
+        }
         if tech == Technique::Reference && tok.contains(':') {
             bail!("--methods '{tok}': the reference takes no substeps");
         }
@@ -189,6 +204,7 @@ pub fn parse_peer_methods(s: &str) -> Result<Vec<MethodSpec>> {
             tech,
             substeps: sub,
             preintegrate: pre,
+            footprint,
         };
         if out.iter().any(|o| o.label() == m.label()) {
             bail!("method '{}' is listed twice in --methods", m.label());
@@ -441,6 +457,20 @@ fn compare_view(
     };
     reference.write_png(&out.join("reference.png"))?;
     reference.write_npy(&out.join("reference.npy"))?;
+    // `:fp`: the frame at the view's footprint level, as `ercube render
+    // --rays footprint` draws it; its levels are prepared once, untimed.
+    let level = golden::ergaze::footprint_level(&prep.view);
+    let coarse = if level > 0 && methods.iter().any(|m| m.footprint) {
+        let _s = Stage::start(format!("preparing footprint level {level}"));
+        Some(prep.clone().with_gaze_levels(
+            vol,
+            &cam,
+            &golden::render::PrepareOptions::default(),
+            level,
+        )?)
+    } else {
+        None
+    };
     let mut rows = Vec::new();
     let mut images: Vec<(String, Image)> = Vec::new();
     for m in methods.iter().filter(|m| m.tech != Technique::Reference) {
@@ -450,12 +480,19 @@ fn compare_view(
         opts.slice.preintegrate = m.preintegrate.is_some();
         opts.slice.pre_colouring = m.preintegrate.unwrap_or_default();
         opts.slice.validate()?;
-        render(&prep, &lut, m.tech, &opts)?.recycle(); // warm-up
+        let prep = match &coarse {
+            Some(c) if m.footprint => {
+                opts.reference.gaze = Some(golden::gaze::Gaze::uniform(level));
+                c
+            }
+            _ => &prep,
+        };
+        render(prep, &lut, m.tech, &opts)?.recycle(); // warm-up
         let mut times = Vec::with_capacity(a.frames);
         let mut last = None;
         for _ in 0..a.frames {
             let t = Instant::now();
-            let f = render(&prep, &lut, m.tech, &opts)?;
+            let f = render(prep, &lut, m.tech, &opts)?;
             times.push(t.elapsed().as_secs_f64());
             if let Some(old) = last.replace(f) {
                 old.recycle();

@@ -26,6 +26,11 @@ fn method_tokens() {
     assert_eq!(x[0].label(), "er-ftb:pre-exact");
     assert!(parse_peer_methods("er:pre-x").is_err());
     assert!(parse_peer_methods("").is_err());
+    let f = parse_peer_methods("er-ftb,er-ftb:fp").unwrap();
+    assert_eq!((f[0].footprint, f[1].footprint), (false, true));
+    assert_eq!(f[1].label(), "er-ftb:fp");
+    assert!(parse_peer_methods("over:fp").is_err());
+    assert!(parse_peer_methods("reference:fp").is_err());
 }
 
 #[test]
