@@ -61,10 +61,14 @@ def render(
     bound; no_golden_twin=True skips it (the image and cycles are the same).
 
     The module keeps the last call's volume and its preparation (the slice
-    stack, the empty-space blocks and occupancy map): a call on the same
-    voxels and spacing, by any camera or method, reuses them and prepares
-    only what the camera changes. Images are the same either way;
-    clear_cache() gives the memory back.
+    stack, the empty-space blocks and occupancy map). A call compares the
+    array's voxels with the kept ones, value for value: the same voxels and
+    spacing, by any camera or method, render from the kept volume without
+    copying and prepare only what the camera changes; an array changed in
+    place since is copied once and prepared again, so a frame is never
+    stale. Images are the same either way; clear_cache() gives the memory
+    back. The array is read with the GIL released: another thread must not
+    change it while the call runs.
     """
 
 STAGES: List[str]

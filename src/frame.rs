@@ -16,7 +16,7 @@ use std::fmt;
 use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser};
 
-use golden::volume::Volume;
+use golden::volume::{Volume, Voxels};
 
 use crate::cli::args::SourceArgs;
 use crate::cli::render::{self, RenderArgs};
@@ -127,7 +127,72 @@ pub fn render_reusing<S: AsRef<str>>(
 ) -> Result<Rendered, Error> {
     let mut a = parse(args)?;
     a.pipeline.cfg.toml = config.map(str::to_string);
+    reuse.end_loan();
     render::frame_reusing(&a, volume, Some(reuse)).map_err(|e| Error::run(&e))
+}
+
+/// Voxels a caller holds (a numpy array's buffer), borrowed: x fastest,
+/// then y, then z.
+#[derive(Debug, Clone, Copy)]
+pub enum VoxelsRef<'a> {
+    /// 8-bit voxels.
+    U8(&'a [u8]),
+    /// 16-bit voxels.
+    U16(&'a [u16]),
+}
+
+impl VoxelsRef<'_> {
+    /// Whether `v` holds these voxels, value for value and of the same type.
+    fn equals(self, v: &Voxels) -> bool {
+        match (self, v) {
+            (VoxelsRef::U8(a), Voxels::U8(b)) => a == b.as_slice(),
+            (VoxelsRef::U16(a), Voxels::U16(b)) => a == b.as_slice(),
+            _ => false,
+        }
+    }
+
+    /// An owned copy.
+    pub fn to_voxels(self) -> Voxels {
+        match self {
+            VoxelsRef::U8(a) => Voxels::U8(a.to_vec()),
+            VoxelsRef::U16(a) => Voxels::U16(a.to_vec()),
+        }
+    }
+}
+
+/// [`render_reusing`] of a volume the caller holds: `dims` (x, y, z),
+/// `spacing` (x, y, z) and the borrowed `voxels`. When `reuse` keeps a
+/// volume with the same dimensions, spacing and voxels (compared value for
+/// value, so a caller that changed its array in place gets a frame of what
+/// it holds now) and the arguments render a given volume as it is
+/// ([`crate::cli::args::ViewArgs::keeps_given`]), the kept volume and its
+/// preparation render the frame and nothing is copied; otherwise the
+/// voxels are copied once into a new volume.
+pub fn render_borrowed<S: AsRef<str>>(
+    args: &[S],
+    (dims, spacing, voxels): ([usize; 3], [f64; 3], VoxelsRef<'_>),
+    config: Option<&str>,
+    reuse: &mut Reuse,
+) -> Result<Rendered, Error> {
+    let mut a = parse(args)?;
+    a.pipeline.cfg.toml = config.map(str::to_string);
+    let kept = if a.view.keeps_given() {
+        reuse.lend_if(|v| v.dims() == dims && v.spacing() == spacing && voxels.equals(v.voxels()))
+    } else {
+        None
+    };
+    let vol = match kept {
+        Some(v) => v,
+        None => Volume::from_voxels(dims, voxels.to_voxels())
+            .and_then(|v| v.with_spacing(spacing))
+            .map_err(|e| Error {
+                usage: false,
+                message: e.to_string(),
+            })?,
+    };
+    let r = render::frame_reusing(&a, Some(vol), Some(reuse));
+    reuse.end_loan();
+    r.map_err(|e| Error::run(&e))
 }
 
 /// A pipeline frame stepped one clock at a time: what the stepper's

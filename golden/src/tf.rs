@@ -190,21 +190,32 @@ impl TransferFunction {
 
     /// Whether this table shows none, some or all of `vol`: the opacity
     /// of each voxel value present, evaluated on the function itself.
+    /// Each value's opacity is evaluated the first time the scan meets it,
+    /// and the scan stops at the first pair of a visible and a clear voxel
+    /// (in a volume with a clear background, within its first rows): only
+    /// a volume shown wholly or not at all is read to its end.
     pub fn coverage(&self, vol: &Volume) -> Coverage {
-        let mut present = vec![false; usize::from(vol.kind().max_value()) + 1];
+        const UNSEEN: u8 = 0;
+        const VISIBLE: u8 = 1;
+        const CLEAR: u8 = 2;
+        let mut state = vec![UNSEEN; usize::from(vol.kind().max_value()) + 1];
+        let (mut seen, mut clear) = (false, false);
         crate::with_voxels!(vol.voxels(), d => {
             for &v in d {
-                present[usize::from(crate::volume::Voxel::value(v))] = true;
+                let i = usize::from(crate::volume::Voxel::value(v));
+                if state[i] == UNSEEN {
+                    state[i] = if self.eval(i as f64)[3] > 0.0 { VISIBLE } else { CLEAR };
+                }
+                if state[i] == VISIBLE {
+                    seen = true;
+                } else {
+                    clear = true;
+                }
+                if seen && clear {
+                    return Coverage::Some;
+                }
             }
         });
-        let (mut seen, mut clear) = (false, false);
-        for (v, _) in present.iter().enumerate().filter(|(_, &p)| p) {
-            if self.eval(v as f64)[3] > 0.0 {
-                seen = true;
-            } else {
-                clear = true;
-            }
-        }
         match (seen, clear) {
             (false, _) => Coverage::None,
             (true, true) => Coverage::Some,
@@ -510,6 +521,22 @@ mod tests {
         assert_eq!(ramp().coverage(&high), Coverage::All);
         let low = Volume::new([2, 1, 1], VoxelType::U8, vec![0, 30]).unwrap();
         assert_eq!(ramp().coverage(&low), Coverage::None);
+    }
+
+    proptest::proptest! {
+        /// The scan that stops early tells what reading every voxel tells.
+        #[test]
+        fn coverage_is_the_whole_volumes(values in proptest::collection::vec(0u16..=300, 1..64)) {
+            let tf = ramp();
+            let vol = Volume::new([values.len(), 1, 1], VoxelType::U16, values.clone()).unwrap();
+            let visible: Vec<bool> = values.iter().map(|&v| tf.eval(f64::from(v))[3] > 0.0).collect();
+            let want = match (visible.iter().any(|&s| s), visible.iter().all(|&s| s)) {
+                (false, _) => Coverage::None,
+                (true, false) => Coverage::Some,
+                (true, true) => Coverage::All,
+            };
+            proptest::prop_assert_eq!(tf.coverage(&vol), want);
+        }
     }
 
     #[test]

@@ -15,7 +15,7 @@ use pipeline::probes::SignalSet;
 use pipeline::stepper::Cycle;
 
 use crate::records::{self, Layout};
-use crate::{error, outputs, run, trace, volume_of, Error, View};
+use crate::{error, outputs, run, trace, volume_of, voxels_ref, Error, View};
 
 /// A frame being stepped: the stepper while it runs, then its render.
 #[derive(Default)]
@@ -198,10 +198,11 @@ impl Chip {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let view = view_of((eye, look_at, up, fov), size, method, tf)?;
-        let Some(volume) = self.volume.clone() else {
+        let Some(volume) = &self.volume else {
             return Err(Error::new_err("no volume: call Chip.load(voxels) first"));
         };
-        let out = run(py, view.args(options)?, volume, self.config.clone())?;
+        let source = (volume.dims(), volume.spacing(), voxels_ref(volume));
+        let out = run(py, view.args(options)?, source, self.config.clone(), true)?;
         let raw = out
             .raw
             .ok_or_else(|| Error::new_err("the frame has no raw words"))?;
@@ -396,7 +397,7 @@ impl Chip {
             (None, Some(s)) => py.detach(|| finished(s)),
             (None, None) => return Err(Error::new_err("no frame: call Chip.begin first")),
         }?;
-        let out = outputs(py, &r)?;
+        let out = outputs(py, &r, true)?;
         let raw = out
             .raw
             .ok_or_else(|| Error::new_err("the frame has no raw words"))?;

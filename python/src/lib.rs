@@ -10,11 +10,11 @@
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
+use pyo3::types::{PyByteArray, PyDict, PyList, PyTuple};
 
 use std::sync::Mutex;
 
-use ercube::frame::Reuse;
+use ercube::frame::{Reuse, VoxelsRef};
 use golden::volume::{Volume, Voxels};
 
 mod chip;
@@ -89,35 +89,111 @@ fn voxels_array<'py>(py: Python<'py>, v: &Volume) -> PyResult<Bound<'py, PyAny>>
     }
 }
 
-/// A volume from a numpy array `(z, y, x)` of uint8 or uint16 (copied).
-fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
-    let py = voxels.py();
-    let np = py.import("numpy")?;
-    let a = np.call_method1("asarray", (voxels,))?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    let dtype: String = a.getattr("dtype")?.str()?.to_string();
-    if shape.len() != 3 {
-        return Err(Error::new_err(format!(
-            "voxels must be a 3-D array (z, y, x); got {} dimensions",
-            shape.len()
-        )));
-    }
-    let dims = [shape[2], shape[1], shape[0]];
-    // C order, native byte order.
-    let bytes = a.call_method0("tobytes")?;
-    let bytes = bytes.cast::<PyBytes>()?.as_bytes();
-    let data = match dtype.as_str() {
-        "uint8" => Voxels::U8(bytes.to_vec()),
-        "uint16" => Voxels::U16(bytemuck::pod_collect_to_vec(bytes)),
-        other => {
+/// A numpy array's voxels, borrowed: the array, C-contiguous and aligned
+/// (`numpy.require`; an array that already is one is not copied), held so
+/// its buffer stays alive while the voxels are read, and where that buffer
+/// is.
+struct Input<'py> {
+    _array: Bound<'py, PyAny>,
+    /// (x, y, z).
+    dims: [usize; 3],
+    u16: bool,
+    address: usize,
+    count: usize,
+}
+
+impl<'py> Input<'py> {
+    /// `voxels` (an array-like `(z, y, x)` of uint8 or uint16).
+    fn of(voxels: &Bound<'py, PyAny>) -> PyResult<Input<'py>> {
+        let py = voxels.py();
+        let a = py
+            .import("numpy")?
+            .call_method1("require", (voxels, py.None(), "CA"))?;
+        let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+        if shape.len() != 3 {
             return Err(Error::new_err(format!(
-                "voxels must be uint8 or uint16; got {other}"
-            )))
+                "voxels must be a 3-D array (z, y, x); got {} dimensions",
+                shape.len()
+            )));
         }
-    };
-    let v = Volume::from_voxels(dims, data).map_err(|e| Error::new_err(e.to_string()))?;
+        // `str(dtype)` names a byte order only when it is not the
+        // machine's: ">u2" is refused.
+        let u16 = match a.getattr("dtype")?.str()?.to_string().as_str() {
+            "uint8" => false,
+            "uint16" => true,
+            other => {
+                return Err(Error::new_err(format!(
+                    "voxels must be uint8 or uint16; got {other}"
+                )))
+            }
+        };
+        let (address, _readonly): (usize, bool) = a
+            .getattr("__array_interface__")?
+            .get_item("data")?
+            .extract()?;
+        let align = if u16 { 2 } else { 1 };
+        if address % align != 0 {
+            return Err(Error::new_err("voxels: the array's buffer is not aligned"));
+        }
+        Ok(Input {
+            _array: a,
+            dims: [shape[2], shape[1], shape[0]],
+            u16,
+            address,
+            count: shape.iter().product(),
+        })
+    }
+
+    /// The voxels, x fastest.
+    ///
+    /// They are read with the GIL released; the array must not be resized
+    /// or written by another thread meanwhile (as for numpy's own
+    /// functions, which release it too).
+    fn voxels(&self) -> VoxelsRef<'_> {
+        if self.count == 0 {
+            return if self.u16 {
+                VoxelsRef::U16(&[])
+            } else {
+                VoxelsRef::U8(&[])
+            };
+        }
+        // SAFETY: `_array` is a C-contiguous, aligned numpy array of
+        // `count` elements of this type, alive as long as `self`, whose
+        // buffer starts at `address` (`__array_interface__`); numpy does
+        // not resize an array while another reference to it (this one)
+        // exists.
+        unsafe {
+            if self.u16 {
+                VoxelsRef::U16(std::slice::from_raw_parts(
+                    self.address as *const u16,
+                    self.count,
+                ))
+            } else {
+                VoxelsRef::U8(std::slice::from_raw_parts(
+                    self.address as *const u8,
+                    self.count,
+                ))
+            }
+        }
+    }
+}
+
+/// A volume from a numpy array `(z, y, x)` of uint8 or uint16 (copied
+/// once).
+fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
+    let input = Input::of(voxels)?;
+    let v = Volume::from_voxels(input.dims, input.voxels().to_voxels())
+        .map_err(|e| Error::new_err(e.to_string()))?;
     v.with_spacing(spacing)
         .map_err(|e| Error::new_err(e.to_string()))
+}
+
+/// A volume's voxels, borrowed.
+fn voxels_ref(v: &Volume) -> VoxelsRef<'_> {
+    match v.voxels() {
+        Voxels::U8(d) => VoxelsRef::U8(d),
+        Voxels::U16(d) => VoxelsRef::U16(d),
+    }
 }
 
 /// The camera and method flags of [`render`] and [`Chip::run_frame`].
@@ -164,33 +240,41 @@ struct Out<'py> {
 
 /// The last frame's volume and preparation (the slice stack, the
 /// empty-space blocks and occupancy map), kept between calls: rendering
-/// the same voxels again, by any camera or method, prepares only what the
-/// camera changes (`ercube::frame::Reuse`). `clear_cache` drops it.
+/// the same voxels again (compared value for value), by any camera or
+/// method, copies nothing and prepares only what the camera changes
+/// (`ercube::frame::render_borrowed`). `clear_cache` drops it.
 static REUSE: Mutex<Reuse> = Mutex::new(Reuse::new());
 
-/// Renders with the GIL released and converts the results. A call made
-/// while another thread's call holds the kept preparation renders without
-/// it.
+/// Renders `voxels` with `spacing` with the GIL released and converts the
+/// results. A call made while another thread's call holds the kept
+/// preparation renders without it.
 fn run<'py>(
     py: Python<'py>,
     args: Vec<String>,
-    volume: Volume,
+    source: ([usize; 3], [f64; 3], VoxelsRef<'_>),
     config: Option<String>,
+    with_raw: bool,
 ) -> PyResult<Out<'py>> {
     let r = py
-        .detach(|| match REUSE.try_lock() {
-            Ok(mut reuse) => {
-                ercube::frame::render_reusing(&args, Some(volume), config.as_deref(), &mut reuse)
+        .detach(|| {
+            let config = config.as_deref();
+            match REUSE.try_lock() {
+                Ok(mut reuse) => ercube::frame::render_borrowed(&args, source, config, &mut reuse),
+                Err(_) => ercube::frame::render_borrowed(&args, source, config, &mut Reuse::new()),
             }
-            Err(_) => ercube::frame::render(&args, Some(volume), config.as_deref()),
         })
         .map_err(error)?;
-    outputs(py, &r)
+    outputs(py, &r, with_raw)
 }
 
-/// A render's image, raw words (pipeline only) and statistics as numpy
-/// arrays and a dict.
-fn outputs<'py>(py: Python<'py>, r: &ercube::frame::Rendered) -> PyResult<Out<'py>> {
+/// A render's image, raw words (pipeline only, when `with_raw`) and
+/// statistics as numpy arrays and a dict (built from the statistics'
+/// values, as `json.loads` of `--stats` would).
+fn outputs<'py>(
+    py: Python<'py>,
+    r: &ercube::frame::Rendered,
+    with_raw: bool,
+) -> PyResult<Out<'py>> {
     let im = &r.image;
     let image = array(
         py,
@@ -198,13 +282,12 @@ fn outputs<'py>(py: Python<'py>, r: &ercube::frame::Rendered) -> PyResult<Out<'p
         &[im.height, im.width, 4],
         "float32",
     )?;
-    let raw = match ercube::frame::raw_words(r) {
+    let raw = match ercube::frame::raw_words(r).filter(|_| with_raw) {
         Some((w, h, words)) => Some(array(py, words.as_flattened(), &[h, w, 4], "int64")?),
         None => None,
     };
-    let stats = py
-        .import("json")?
-        .call_method1("loads", (r.stats.to_string(),))?;
+    let stats = pythonize::pythonize(py, &r.stats)
+        .map_err(|e| Error::new_err(format!("the statistics: {e}")))?;
     Ok(Out { image, raw, stats })
 }
 
@@ -263,7 +346,7 @@ fn render<'py>(
     config: Option<String>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    let volume = volume_of(voxels, spacing)?;
+    let input = Input::of(voxels)?;
     let view = View {
         eye,
         look_at,
@@ -273,7 +356,8 @@ fn render<'py>(
         method: method.to_string(),
         tf: tf.map(str::to_string),
     };
-    let out = run(py, view.args(options)?, volume, config)?;
+    let source = (input.dims, spacing, input.voxels());
+    let out = run(py, view.args(options)?, source, config, false)?;
     Ok((out.image, out.stats))
 }
 

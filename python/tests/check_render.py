@@ -50,6 +50,7 @@ def main() -> int:
                 if stats.get(k) != cli.get(k):
                     print(f"  {k}: python {stats.get(k)!r} cli {cli.get(k)!r}")
         bad += (not same) + (not same_stats)
+    bad += check_kept(brain, spacing)
     # An error is an ercube.Error carrying the command line's message.
     try:
         ercube.render(scene, size=(0, 0))
@@ -59,6 +60,39 @@ def main() -> int:
         print(f"error: {e}")
         bad += "each side must be 1 to 16384" not in str(e)
     return 1 if bad else 0
+
+
+def check_kept(brain, spacing) -> int:
+    """The kept volume never gives a stale frame: an array changed in place
+    renders as a fresh copy of it does; a strided view as its contiguous
+    copy; a windowed render (which renders a new volume) twice the same."""
+    bad = 0
+
+    def same(a, b):
+        return np.array_equal(a.view(np.uint32), b.view(np.uint32))
+
+    def fresh(voxels, **kw):
+        ercube.clear_cache()
+        return ercube.render(voxels.copy(), spacing=spacing, **kw)[0]
+
+    v = brain.copy()
+    before = ercube.render(v, spacing=spacing, size=(64, 64))[0]
+    v[30:50] = 255 - v[30:50]
+    after = ercube.render(v, spacing=spacing, size=(64, 64))[0]
+    ok = same(after, fresh(v, size=(64, 64))) and not same(after, before)
+    print(f"changed in place: {'fresh' if ok else 'STALE'}")
+    bad += not ok
+    flipped = brain[:, ::-1, :]
+    got = ercube.render(flipped, spacing=spacing, size=(64, 64))[0]
+    ok = same(got, fresh(np.ascontiguousarray(flipped), size=(64, 64)))
+    print(f"strided view: {'same' if ok else 'DIFFERENT'}")
+    bad += not ok
+    w = ercube.render(brain, spacing=spacing, size=(64, 64), window=(20, 200))[0]
+    w2 = ercube.render(brain, spacing=spacing, size=(64, 64), window=(20, 200))[0]
+    ok = same(w, w2) and same(w, fresh(brain, size=(64, 64), window=(20, 200)))
+    print(f"windowed twice: {'same' if ok else 'DIFFERENT'}")
+    bad += not ok
+    return bad
 
 
 if __name__ == "__main__":

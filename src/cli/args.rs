@@ -329,6 +329,16 @@ impl ViewArgs {
         Ok((vol, tf, cam))
     }
 
+    /// Whether a volume given in memory ([`ViewArgs::load_given`]) is
+    /// rendered as it is: no `--spacing` or `--window` replacing it
+    /// ([`SourceArgs::given_placed`]) and no `--space world` regridding it
+    /// ([`ViewArgs::place`]).
+    pub fn keeps_given(&self) -> bool {
+        self.source.spacing.is_none()
+            && self.source.window.is_none()
+            && self.camera.space == SpaceArg::Voxel
+    }
+
     /// [`ViewArgs::load`], and with `--space world` the volume put on the
     /// world axes ([`to_world_grid`]) and its frame (the camera is already
     /// moved into the volume's frame; the frame converts further world

@@ -255,9 +255,15 @@ pub fn frame_tapped(
 /// the empty-space blocks and occupancy map while the block size does,
 /// instead of building them again. Frames are the same as without it; the
 /// cost is that the last volume and its stack stay in memory.
+///
+/// A caller holding the voxels elsewhere (a numpy array) can have the
+/// kept volume lent back for the next frame ([`Reuse::lend_if`]) instead
+/// of copying its voxels into a new one.
 #[derive(Default)]
 pub struct Reuse {
-    last: Option<(golden::volume::Volume, Prepared)>,
+    /// The kept volume (`None` while it is lent to a frame) and its
+    /// preparation.
+    last: Option<(Option<golden::volume::Volume>, Prepared)>,
 }
 
 impl Reuse {
@@ -271,8 +277,36 @@ impl Reuse {
         self.last = None;
     }
 
+    /// The kept volume, lent for the next frame when `same` says it is
+    /// the one wanted; otherwise `None` and the kept volume is dropped.
+    /// The next frame given the lent volume, unchanged, gives it back with
+    /// its preparation; [`Reuse::end_loan`] after that frame drops a
+    /// preparation whose volume did not come back (the frame failed or
+    /// prepared without the kept one).
+    pub fn lend_if(
+        &mut self,
+        same: impl FnOnce(&golden::volume::Volume) -> bool,
+    ) -> Option<golden::volume::Volume> {
+        match &mut self.last {
+            Some((kept @ Some(_), _)) if kept.as_ref().is_some_and(same) => kept.take(),
+            _ => {
+                self.last = None;
+                None
+            }
+        }
+    }
+
+    /// Ends a loan of [`Reuse::lend_if`]: a preparation whose volume was
+    /// not given back is dropped.
+    pub fn end_loan(&mut self) {
+        if matches!(self.last, Some((None, _))) {
+            self.last = None;
+        }
+    }
+
     /// `vol` prepared for `cam` with `slice`'s options, from the last
-    /// frame's preparation when `vol` holds the same voxels and spacing.
+    /// frame's preparation when `vol` holds the same voxels and spacing
+    /// (or is the volume [`Reuse::lend_if`] lent).
     fn prepared(
         &mut self,
         vol: golden::volume::Volume,
@@ -284,14 +318,15 @@ impl Reuse {
             v.dims() == vol.dims() && v.spacing() == vol.spacing() && v.voxels() == vol.voxels()
         };
         let prep = match &self.last {
-            Some((v, p)) if same(v) => p.moved(v, cam, &opts)?,
+            Some((None, p)) => p.moved(&vol, cam, &opts)?,
+            Some((Some(v), p)) if same(v) => p.moved(v, cam, &opts)?,
             _ => {
                 // The old volume goes before the new one is prepared.
                 self.last = None;
                 Prepared::with(&vol, cam, &opts)?
             }
         };
-        self.last = Some((vol, prep.clone()));
+        self.last = Some((Some(vol), prep.clone()));
         Ok(prep)
     }
 }
