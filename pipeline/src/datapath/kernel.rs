@@ -57,17 +57,75 @@ fn exact(m: i64, a: i64, t: i64) -> Option<i64> {
     (v.unsigned_abs() < 1 << 62).then_some(v)
 }
 
-/// The classification unit's output for one sample word ([`Classes`]):
-/// raw R, G, B (`color`) and A (`alpha`), and the quantisation events
-/// (assignments, overflows, inexact) classifying it records in each of
-/// the formats it assigns ([`CLASS_SLOTS`]).
-#[derive(Debug, Clone, Copy)]
-struct Class {
-    rgba: [u16; 4],
-    /// The nine counts (slot by slot, then assignments, overflows,
-    /// inexact), each at most 3, in 7-bit fields ([`EV_BITS`]): a batch
-    /// adds its lanes' words and unpacks the sums once.
-    ev: u64,
+/// The classification unit's output for every sample word ([`Classes`]),
+/// one 64-bit word each: raw R, G, B (`color`, `color_bits` each) and A
+/// (`alpha`, `alpha_bits`) side by side from bit 0, and above them the
+/// index of the word's quantisation events in [`ClassTable::events`].
+/// Eight bytes a sample word (half of the words with their events
+/// inline): the table is read at every sample, at scattered words, and
+/// at 2^16 sample words it is what decides whether it stays in the cache.
+#[derive(Debug, Clone)]
+struct ClassTable {
+    words: Vec<u64>,
+    /// The distinct event sets: the nine counts (slot by slot of
+    /// [`CLASS_SLOTS`], then assignments, overflows, inexact), each at
+    /// most 3, in 7-bit fields ([`EV_BITS`]): a batch adds its lanes'
+    /// sets and unpacks the sums once.
+    events: Vec<u64>,
+    /// Bits of a colour channel's field.
+    color_bits: u32,
+    /// Bits of the opacity's field.
+    alpha_bits: u32,
+}
+
+impl ClassTable {
+    /// The table of `classes`, or `None` when a word or the events'
+    /// index does not fit its field (or a count exceeds 3).
+    fn new(classes: &Classes, color: Format, alpha: Format) -> Option<ClassTable> {
+        let (cb, ab) = (mag(color), mag(alpha));
+        let mut events: Vec<u64> = Vec::new();
+        let mut index = std::collections::HashMap::new();
+        let mut ids = Vec::with_capacity(classes.words.len());
+        for (_, ev) in &classes.words {
+            let mut packed = 0u64;
+            for (i, &n) in ev.iter().flatten().enumerate() {
+                // Each count is at most 3 (three colour channels).
+                (n <= 3).then_some(())?;
+                packed |= u64::from(n) << (EV_BITS * i as u32);
+            }
+            let id = *index.entry(packed).or_insert_with(|| {
+                events.push(packed);
+                events.len() as u64 - 1
+            });
+            ids.push(id);
+        }
+        // The index sits above the four fields and must fit the word.
+        let id_shift = 3 * cb + ab;
+        let id_bits = u64::BITS - (events.len() as u64).saturating_sub(1).leading_zeros();
+        if id_shift >= 64 || id_shift + id_bits > 64 {
+            return None;
+        }
+        let words = classes
+            .words
+            .iter()
+            .zip(&ids)
+            .map(|((w, _), &id)| {
+                let field = |v: i64, bits: u32| u64::try_from(v).ok().filter(|&v| v >> bits == 0);
+                let mut word = id << id_shift;
+                for (ch, &v) in w.iter().enumerate() {
+                    let ch = ch as u32;
+                    word |= field(v, if ch < 3 { cb } else { ab })? << (ch * cb);
+                }
+                Some(word)
+            })
+            .collect::<Option<Vec<u64>>>()?;
+        Some(ClassTable {
+            words,
+            events,
+            color_bits: cb,
+            alpha_bits: ab,
+        })
+    }
 }
 
 /// Width of a packed classification count: eight lanes of at most 3
@@ -139,7 +197,7 @@ pub struct Kernel {
     /// The x interpolations: voxel words times an address weight.
     lerp_x: Step,
     /// Classification per sample word.
-    classes: Vec<Class>,
+    classes: ClassTable,
     /// `log_t` raw words.
     log_t: Vec<i64>,
     /// `log_t * ds` into `log_transmittance`.
@@ -230,25 +288,7 @@ impl Kernel {
         if c.voxel.is_signed() || c.sample.is_signed() || c.weight.is_signed() {
             return None;
         }
-        // 12 bytes a word instead of the listing's 56: the table is read
-        // at every sample, at scattered words.
-        let classes = classes
-            .words
-            .iter()
-            .map(|(w, ev)| {
-                let rgba = w.map(|r| u16::try_from(r).ok());
-                let mut packed = 0u64;
-                for (i, &n) in ev.iter().flatten().enumerate() {
-                    // Each count is at most 3 (three colour channels).
-                    (n <= 3).then_some(())?;
-                    packed |= u64::from(n) << (EV_BITS * i as u32);
-                }
-                Some(Class {
-                    rgba: [rgba[0]?, rgba[1]?, rgba[2]?, rgba[3]?],
-                    ev: packed,
-                })
-            })
-            .collect::<Option<Vec<Class>>>()?;
+        let classes = ClassTable::new(classes, c.color, c.alpha)?;
         let raw_of = |v: &[Fx]| -> Option<(Vec<i64>, Format)> {
             let f = v.first()?.format();
             v.iter()

@@ -144,13 +144,18 @@ impl Kernel {
         let mut rgba = [[0; LANES]; 4];
         let mut shown: Mask = 0;
         let mut events = 0u64;
+        let table = &self.classes;
+        let (cb, ab) = (table.color_bits, table.alpha_bits);
+        let (cm, am) = ((1u64 << cb) - 1, (1u64 << ab) - 1);
         for l in 0..LANES {
-            let class = &self.classes[s[l] as usize];
-            events += u64::from((used >> l) & 1) * class.ev;
-            for (w, &c) in rgba.iter_mut().zip(&class.rgba) {
-                w[l] = i64::from(c);
+            let word = table.words[s[l] as usize];
+            let a = (word >> (3 * cb)) & am;
+            events += u64::from((used >> l) & 1) * table.events[(word >> (3 * cb + ab)) as usize];
+            for (ch, w) in rgba[..3].iter_mut().enumerate() {
+                w[l] = ((word >> (ch as u32 * cb)) & cm) as i64;
             }
-            b.visible[l] = class.rgba[3] != 0;
+            rgba[3][l] = a as i64;
+            b.visible[l] = a != 0;
             shown |= u8::from(b.visible[l]) << l;
         }
         for (i, &slot) in CLASS_SLOTS.iter().enumerate() {
