@@ -3,7 +3,9 @@
 //! events as [`Datapath::tent`] (a proptest compares them over many
 //! formats).
 
-use super::{mag, Step, Tally, SLOTS};
+use super::{mag, Step, SLOTS};
+#[cfg(test)]
+use super::Tally;
 use crate::config::Reg;
 use crate::fixed::{Counts, QuantStats};
 #[cfg(doc)]
