@@ -9,14 +9,17 @@ if given, BIN2), runs `BIN render VIEW --method M --threads T` under
 `perf stat -e task-clock` once with `--repeat N` and once with
 `--repeat 1`; the difference divided by N - 1 is the CPU time of one
 frame without the process's set-up (loading or building the volume,
-preparing the view, writing the image). The pipeline runs with
-`--no-golden-twin`. Runs are interleaved round by round, so that a
+preparing the view, writing the image); the `--repeat N` run's stats
+give the median wall time of a frame (`time_s`) beside it. The
+pipeline runs with `--pes 16 --no-golden-twin`. At two threads the CPU
+time counts both threads, waiting ones included. Runs are interleaved round by round, so that a
 busy machine slows every method alike; CPU time (task-clock), not wall
 time, is what is compared, since the machine may be shared. Prints
 each round's per-frame milliseconds and, per view and thread count,
 the median over the rounds and the ratio pipeline / golden.
 """
 import argparse
+import json
 import statistics
 import subprocess
 import sys
@@ -27,7 +30,7 @@ VIEWS = {
     "checker:256 skip": ["--scene", "checker:256", "--eye", "128,128,-128", "--fov", "90", "--size", "256x256"],
     "checker:256 no skip": ["--scene", "checker:256", "--eye", "128,128,-128", "--fov", "90",
                             "--size", "256x256", "--no-skip-empty", "--no-cull"],
-    "brainsmall": ["--volume", BRAIN, "--eye", "64,64,-64", "--fov", "90", "--size", "256x256", "--pes", "16"],
+    "brainsmall": ["--volume", BRAIN, "--eye", "64,64,-64", "--fov", "90", "--size", "256x256"],
 }
 
 
@@ -47,10 +50,12 @@ def task_clock_ms(cmd):
 def frame_ms(binary, view, method, threads, frames, png):
     cmd = [binary, "render"] + VIEWS[view] + ["--method", method, "--threads", str(threads), "--out", png]
     if method.startswith("pipeline"):
-        cmd.append("--no-golden-twin")
-    many = task_clock_ms(cmd + ["--repeat", str(frames)])
+        cmd += ["--pes", "16", "--no-golden-twin"]
+    stats = png + ".json"
+    many = task_clock_ms(cmd + ["--repeat", str(frames), "--stats", stats])
+    wall = json.load(open(stats))["time_s"] * 1e3
     one = task_clock_ms(cmd + ["--repeat", "1"])
-    return (many - one) / (frames - 1)
+    return (many - one) / (frames - 1), wall
 
 
 def main():
@@ -61,7 +66,7 @@ def main():
     ap.add_argument("--views", default=",".join(VIEWS), help="comma-separated subset of the views")
     a = ap.parse_args()
     views = a.views.split(",")
-    times = {}
+    times, walls = {}, {}
     with tempfile.TemporaryDirectory() as d:
         png = f"{d}/f.png"
         for r in range(a.rounds):
@@ -70,21 +75,25 @@ def main():
                     runs = [("er", a.bins[0])] + [(f"pipeline[{i}]", b) for i, b in enumerate(a.bins)]
                     for name, b in runs:
                         m = "er" if name == "er" else "pipeline"
-                        ms = frame_ms(b, view, m, t, a.frames, png)
+                        ms, wall = frame_ms(b, view, m, t, a.frames, png)
                         times.setdefault((view, t, name), []).append(ms)
-                        print(f"round {r} {view} T={t} {name}: {ms:.1f} ms", flush=True)
+                        walls.setdefault((view, t, name), []).append(wall)
+                        print(f"round {r} {view} T={t} {name}: {ms:.1f} ms CPU, {wall:.1f} ms wall", flush=True)
     print()
-    print("| view | threads | golden er (ms) | " + " | ".join(
-        f"pipeline[{i}] (ms) | ratio[{i}]" for i in range(len(a.bins))) + " |")
-    print("| --- " * (3 + 2 * len(a.bins)) + "|")
-    for view in views:
-        for t in (1, 2):
-            g = statistics.median(times[(view, t, "er")])
-            cells = [view, str(t), f"{g:.1f}"]
-            for i in range(len(a.bins)):
-                p = statistics.median(times[(view, t, f"pipeline[{i}]")])
-                cells += [f"{p:.1f}", f"{p / g:.2f}x"]
-            print("| " + " | ".join(cells) + " |")
+    for label, table in (("CPU ms per frame (task-clock)", times), ("wall ms per frame (stats time_s)", walls)):
+        print(f"{label}, medians over the rounds:")
+        print("| view | threads | golden er | " + " | ".join(
+            f"pipeline[{i}] | ratio[{i}]" for i in range(len(a.bins))) + " |")
+        print("| --- " * (3 + 2 * len(a.bins)) + "|")
+        for view in views:
+            for t in (1, 2):
+                g = statistics.median(table[(view, t, "er")])
+                cells = [view, str(t), f"{g:.1f}"]
+                for i in range(len(a.bins)):
+                    p = statistics.median(table[(view, t, f"pipeline[{i}]")])
+                    cells += [f"{p:.1f}", f"{p / g:.2f}x"]
+                print("| " + " | ".join(cells) + " |")
+        print()
 
 
 if __name__ == "__main__":

@@ -3,13 +3,13 @@
 //! events as [`Datapath::tent`] (a proptest compares them over many
 //! formats).
 
-use super::{mag, Step, SLOTS};
 #[cfg(test)]
 use super::Tally;
+use super::{mag, Step, SLOTS};
 use crate::config::Reg;
-use crate::fixed::{Counts, QuantStats};
 #[cfg(doc)]
 use crate::datapath::Datapath;
+use crate::fixed::{Counts, QuantStats};
 
 /// The Bartlett merge's four assignments ([`Datapath::tent`]): the x
 /// pass's tent of accumulator words (colour, opacity) into `merge`, and
