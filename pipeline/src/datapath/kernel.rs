@@ -57,22 +57,74 @@ fn exact(m: i64, a: i64, t: i64) -> Option<i64> {
     (v.unsigned_abs() < 1 << 62).then_some(v)
 }
 
-/// The classification unit's output for one sample word ([`Classes`]):
-/// raw R, G, B (`color`) and A (`alpha`), and the quantisation events
-/// (assignments, overflows, inexact) classifying it records in each of
-/// the formats it assigns ([`CLASS_SLOTS`]).
-#[derive(Debug, Clone, Copy)]
-struct Class {
-    rgba: [u16; 4],
-    /// The nine counts (slot by slot, then assignments, overflows,
-    /// inexact), each at most 3, in 7-bit fields ([`EV_BITS`]): a batch
-    /// adds its lanes' words and unpacks the sums once.
-    ev: u64,
+/// The classification unit's output for every sample word ([`Classes`]),
+/// one 64-bit word each: raw R, G, B (`color_bits` each) and A
+/// (`alpha_bits`) side by side from bit 0, and above them
+/// ([`ClassTable::events_at`]) the quantisation events classifying the
+/// word records: nine counts (slot by slot of [`CLASS_SLOTS`], then
+/// assignments, overflows, inexact), each at most 3, in 2-bit fields.
+/// Eight bytes a sample word and no second read: the table is read at
+/// every sample, at scattered words.
+#[derive(Debug, Clone)]
+struct ClassTable {
+    words: Vec<u64>,
+    /// Bits of a colour channel's field.
+    color_bits: u32,
+    /// Bits of the opacity's field.
+    alpha_bits: u32,
+    /// Where the event counts start.
+    events_at: u32,
 }
 
-/// Width of a packed classification count: eight lanes of at most 3
-/// each stay below 2^7.
-const EV_BITS: u32 = 7;
+/// Event counts in a class word.
+const EVENTS: u32 = 9;
+
+/// Every third 2-bit event field of a class word's events, spread 6
+/// bits apart: a batch adds its lanes' fields `k`, `k + 3`, `k + 6`
+/// ([`ClassTable::event_group`]) in one word each, eight lanes of at most
+/// 3 staying below 2^6.
+const GROUP: u64 = 0b11 | 0b11 << 6 | 0b11 << 12;
+
+impl ClassTable {
+    /// The table of `classes`, or `None` when a word does not fit its
+    /// field, a count exceeds 3 or the fields do not fit 64 bits.
+    fn new(classes: &Classes, color: Format, alpha: Format) -> Option<ClassTable> {
+        let (cb, ab) = (mag(color), mag(alpha));
+        let events_at = 3 * cb + ab;
+        if events_at + 2 * EVENTS > 64 {
+            return None;
+        }
+        let field = |v: i64, bits: u32| u64::try_from(v).ok().filter(|&v| v >> bits == 0);
+        let words = classes
+            .words
+            .iter()
+            .map(|(w, ev)| {
+                let mut word = 0;
+                for (ch, &v) in w.iter().enumerate() {
+                    let ch = ch as u32;
+                    word |= field(v, if ch < 3 { cb } else { ab })? << (ch * cb);
+                }
+                for (i, &n) in ev.iter().flatten().enumerate() {
+                    word |= field(i64::from(n), 2)? << (events_at + 2 * i as u32);
+                }
+                Some(word)
+            })
+            .collect::<Option<Vec<u64>>>()?;
+        Some(ClassTable {
+            words,
+            color_bits: cb,
+            alpha_bits: ab,
+            events_at,
+        })
+    }
+
+    /// Group `k` (0..3) of a class word's event fields, each in its own
+    /// 6-bit field ([`GROUP`]): counts `k`, `k + 3`, `k + 6`.
+    #[inline(always)]
+    fn event_group(&self, word: u64, k: u32) -> u64 {
+        (word >> (self.events_at + 2 * k)) & GROUP
+    }
+}
 
 /// The tally slots of the classification's formats (`weight`, `color`,
 /// `alpha`, the order of [`super::classes::CLASS_FORMATS`]).
@@ -139,7 +191,7 @@ pub struct Kernel {
     /// The x interpolations: voxel words times an address weight.
     lerp_x: Step,
     /// Classification per sample word.
-    classes: Vec<Class>,
+    classes: ClassTable,
     /// `log_t` raw words.
     log_t: Vec<i64>,
     /// `log_t * ds` into `log_transmittance`.
@@ -230,25 +282,7 @@ impl Kernel {
         if c.voxel.is_signed() || c.sample.is_signed() || c.weight.is_signed() {
             return None;
         }
-        // 12 bytes a word instead of the listing's 56: the table is read
-        // at every sample, at scattered words.
-        let classes = classes
-            .words
-            .iter()
-            .map(|(w, ev)| {
-                let rgba = w.map(|r| u16::try_from(r).ok());
-                let mut packed = 0u64;
-                for (i, &n) in ev.iter().flatten().enumerate() {
-                    // Each count is at most 3 (three colour channels).
-                    (n <= 3).then_some(())?;
-                    packed |= u64::from(n) << (EV_BITS * i as u32);
-                }
-                Some(Class {
-                    rgba: [rgba[0]?, rgba[1]?, rgba[2]?, rgba[3]?],
-                    ev: packed,
-                })
-            })
-            .collect::<Option<Vec<Class>>>()?;
+        let classes = ClassTable::new(classes, c.color, c.alpha)?;
         let raw_of = |v: &[Fx]| -> Option<(Vec<i64>, Format)> {
             let f = v.first()?.format();
             v.iter()

@@ -3,7 +3,7 @@
 //! the assignments worked out once per frame when the formats allow),
 //! each assigned into a declared [`Format`].
 
-use super::{Datapath, Tally};
+use super::Datapath;
 use crate::config::Reg;
 use crate::fixed::{Format, Fx, QuantStats, Wide};
 
@@ -61,26 +61,21 @@ impl Datapath {
     /// assignments worked out once ([`Datapath::tents`]) when the formats
     /// are modelled.
     pub(crate) fn tent_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
+        if let Some(tents) = self.tents() {
+            return tents.apply_rgba(y, p, st);
+        }
         let tap = |ch: usize| [p[0][ch], p[1][ch], p[2][ch]];
         let mut out = [0; 4];
-        if let Some(tents) = self.tents() {
-            let mut t = Tally::default();
-            for (ch, o) in out.iter_mut().enumerate() {
-                *o = tents.apply(y, ch, tap(ch), &mut t);
-            }
-            t.add_to(st);
-        } else {
-            let c = &self.cfg;
-            for (ch, o) in out.iter_mut().enumerate() {
-                let acc = if ch < 3 {
-                    crate::reg!(c, accum_color)
-                } else {
-                    crate::reg!(c, accum_alpha)
-                };
-                let merge = crate::reg!(c, merge);
-                let (from, to) = if y { (merge, acc) } else { (acc, merge) };
-                *o = self.tent(tap(ch), from.format, to, st).raw();
-            }
+        let c = &self.cfg;
+        for (ch, o) in out.iter_mut().enumerate() {
+            let acc = if ch < 3 {
+                crate::reg!(c, accum_color)
+            } else {
+                crate::reg!(c, accum_alpha)
+            };
+            let merge = crate::reg!(c, merge);
+            let (from, to) = if y { (merge, acc) } else { (acc, merge) };
+            *o = self.tent(tap(ch), from.format, to, st).raw();
         }
         out
     }

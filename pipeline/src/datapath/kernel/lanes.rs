@@ -15,7 +15,7 @@
 //! counts). Lanes at and above [`Batch::n`] are padding copied from lane
 //! 0, computed and dropped likewise.
 
-use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS, EV_BITS};
+use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS};
 #[cfg(doc)]
 use crate::datapath::Datapath;
 
@@ -143,19 +143,30 @@ impl Kernel {
         let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), t, used);
         let mut rgba = [[0; LANES]; 4];
         let mut shown: Mask = 0;
-        let mut events = 0u64;
+        let table = &self.classes;
+        let (cb, ab) = (table.color_bits, table.alpha_bits);
+        let (cm, am) = ((1u64 << cb) - 1, (1u64 << ab) - 1);
+        let mut groups = [0u64; 3];
         for l in 0..LANES {
-            let class = &self.classes[s[l] as usize];
-            events += u64::from((used >> l) & 1) * class.ev;
-            for (w, &c) in rgba.iter_mut().zip(&class.rgba) {
-                w[l] = i64::from(c);
+            let word = table.words[s[l] as usize];
+            let a = (word >> (3 * cb)) & am;
+            let on = u64::from((used >> l) & 1);
+            for (k, g) in groups.iter_mut().enumerate() {
+                *g += on * table.event_group(word, k as u32);
             }
-            b.visible[l] = class.rgba[3] != 0;
+            for (ch, w) in rgba[..3].iter_mut().enumerate() {
+                w[l] = ((word >> (ch as u32 * cb)) & cm) as i64;
+            }
+            rgba[3][l] = a as i64;
+            b.visible[l] = a != 0;
             shown |= u8::from(b.visible[l]) << l;
         }
-        for (i, &slot) in CLASS_SLOTS.iter().enumerate() {
+        // Count `i` (format `i / 3`, kind `i % 3`) is field `i / 3` of
+        // group `i % 3`.
+        for (f, &slot) in CLASS_SLOTS.iter().enumerate() {
             for (k, n) in t.counts[slot].iter_mut().enumerate() {
-                *n += (events >> (EV_BITS * (3 * i + k) as u32)) & ((1 << EV_BITS) - 1);
+                let i = 3 * f + k;
+                *n += (groups[i % 3] >> (6 * (i / 3))) & 63;
             }
         }
         let shown = shown & used;

@@ -150,16 +150,24 @@ impl Step {
         })
     }
 
+    /// The assigned word of `raw`, whether it overflowed and whether it
+    /// dropped nonzero bits.
     #[inline(always)]
-    pub(super) fn apply(&self, raw: i64, t: &mut Tally) -> i64 {
+    pub(super) fn eval(&self, raw: i64) -> (i64, bool, bool) {
         let q = (((raw << self.left) >> self.sh1) + self.add) >> self.sh2;
         // `max` then `min`, not `clamp`: the range is valid by
         // construction, and `clamp` would check it at every assignment.
         let c = q.max(self.min).min(self.max);
+        (c, c != q, raw & self.mask != 0)
+    }
+
+    #[inline(always)]
+    pub(super) fn apply(&self, raw: i64, t: &mut Tally) -> i64 {
+        let (c, over, inexact) = self.eval(raw);
         let n = &mut t.counts[self.slot];
         n[0] += 1;
-        n[1] += u64::from(c != q);
-        n[2] += u64::from(raw & self.mask != 0);
+        n[1] += u64::from(over);
+        n[2] += u64::from(inexact);
         c
     }
 }

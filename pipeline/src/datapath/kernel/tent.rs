@@ -3,10 +3,13 @@
 //! events as [`Datapath::tent`] (a proptest compares them over many
 //! formats).
 
-use super::{mag, Step, Tally};
+#[cfg(test)]
+use super::Tally;
+use super::{mag, Step, SLOTS};
 use crate::config::Reg;
 #[cfg(doc)]
 use crate::datapath::Datapath;
+use crate::fixed::{Counts, QuantStats};
 
 /// The Bartlett merge's four assignments ([`Datapath::tent`]): the x
 /// pass's tent of accumulator words (colour, opacity) into `merge`, and
@@ -34,10 +37,43 @@ impl Tents {
         })
     }
 
-    /// [`Datapath::tent`] of channel `ch` (R, G, B, A) of parents `p`:
+    /// [`Datapath::tent`] of every channel (R, G, B, A) of parents `p`:
+    /// the x pass's (`y` false) or the y pass's, its events counted in
+    /// `st` under each destination's format. The counts are kept in
+    /// locals and added once per ray, two formats at most (a whole
+    /// [`Tally`] per ray cost more than the tents).
+    #[inline(always)]
+    pub(crate) fn apply_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
+        let steps = if y { &self.y } else { &self.x };
+        let mut out = [0; 4];
+        // Colour channels, then opacity: each pair's events.
+        let mut n = [[0u64; 3]; 2];
+        for (ch, o) in out.iter_mut().enumerate() {
+            let i = usize::from(ch == 3);
+            let (c, over, inexact) = steps[i].eval(p[0][ch] + 2 * p[1][ch] + p[2][ch]);
+            *o = c;
+            n[i][0] += 1;
+            n[i][1] += u64::from(over);
+            n[i][2] += u64::from(inexact);
+        }
+        for (s, n) in steps.iter().zip(&n) {
+            st.add_as(
+                SLOTS[s.slot],
+                &Counts {
+                    assignments: n[0],
+                    overflows: n[1],
+                    inexact: n[2],
+                },
+            );
+        }
+        out
+    }
+
+    /// [`Datapath::tent`] of channel `ch` (R, G, B, A) of parents `p`
+    /// (the tests' reference for [`Tents::apply_rgba`]):
     /// the x pass's (`y` false) or the y pass's, its events counted in
     /// `t`.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn apply(&self, y: bool, ch: usize, p: [i64; 3], t: &mut Tally) -> i64 {
         let steps = if y { &self.y } else { &self.x };
         steps[usize::from(ch == 3)].apply(p[0] + 2 * p[1] + p[2], t)
@@ -112,5 +148,71 @@ mod tests {
             prop_assert_eq!(got, want);
             prop_assert_eq!(got_st, want_st);
         }
+
+        /// A whole ray's tents at once ([`Tents::apply_rgba`], the merge's
+        /// path) give the general [`Datapath::tent`]'s words channel by
+        /// channel and the same quantisation counts, per format, for
+        /// either pass.
+        #[test]
+        fn a_ray_of_tents_is_the_general_tent(
+            widths in proptest::array::uniform3((2u8..=40, 0u8..=40)),
+            rounds in any::<[bool; 3]>(),
+            signed in any::<bool>(),
+            y in any::<bool>(),
+            words in any::<[[u64; 4]; 3]>(),
+        ) {
+            let q = |r: bool| if r { Quant::Rnd } else { Quant::Trn };
+            let f = |i: usize, s: bool| {
+                let (b, fr) = widths[i];
+                Format::new(b, fr.min(b), s, q(rounds[i]), Overflow::Sat)
+            };
+            let (Ok(accum_color), Ok(accum_alpha), Ok(merge)) = (f(0, false), f(1, false), f(2, signed))
+            else {
+                return Err(TestCaseError::reject("no such format"));
+            };
+            let cfg = crate::config::PipelineConfig {
+                accum_color,
+                accum_alpha,
+                merge,
+                ..crate::config::PipelineConfig::default()
+            };
+            let Some(tents) = Tents::new(&cfg) else {
+                return Err(TestCaseError::reject("a width the tents do not model"));
+            };
+            let merge = crate::reg!(cfg, merge);
+            let mut p = [[0i64; 4]; 3];
+            let mut want = [0i64; 4];
+            let mut want_st = QuantStats::default();
+            for ch in 0..4 {
+                let acc = if ch == 3 {
+                    crate::reg!(cfg, accum_alpha)
+                } else {
+                    crate::reg!(cfg, accum_color)
+                };
+                let (from, to) = if y { (merge, acc) } else { (acc, merge) };
+                let from = from.format;
+                let span = (from.max_raw() - from.min_raw()) as u64 + 1;
+                for (i, row) in p.iter_mut().enumerate() {
+                    row[ch] = from.min_raw() + (words[i][ch] % span) as i64;
+                }
+                want[ch] = general().tent([p[0][ch], p[1][ch], p[2][ch]], from, to, &mut want_st).raw();
+            }
+            let mut got_st = QuantStats::default();
+            let got = tents.apply_rgba(y, p, &mut got_st);
+            prop_assert_eq!(got, want);
+            prop_assert_eq!(got_st, want_st);
+        }
+    }
+
+    /// A datapath for the general tent, which reads only the formats it
+    /// is given, not the datapath's.
+    fn general() -> &'static Datapath {
+        static DP: std::sync::OnceLock<Datapath> = std::sync::OnceLock::new();
+        DP.get_or_init(|| {
+            let cfg = crate::config::PipelineConfig::default();
+            let tf = golden::scenes::tf_preset("ml").unwrap();
+            let lut = golden::tf::Lut::for_bits(&tf, cfg.table_entries as usize, 8);
+            Datapath::new(cfg, crate::tables::Tables::new(&cfg, &lut).unwrap())
+        })
     }
 }
