@@ -117,15 +117,9 @@ pub fn subject(spec: &str) -> Subject {
 /// co-simulation and capture tests.
 pub fn view_from(vol: &Volume, eye: [f64; 3], size: u32) -> golden::render::Prepared {
     let centre = DVec3::from_array(vol.center_world());
-    let cam = golden::camera::Camera::new(
-        DVec3::from_array(eye),
-        centre,
-        DVec3::Y,
-        60.0,
-        size,
-        size,
-    )
-    .expect("camera");
+    let cam =
+        golden::camera::Camera::new(DVec3::from_array(eye), centre, DVec3::Y, 60.0, size, size)
+            .expect("camera");
     golden::render::Prepared::new(vol, &cam).expect("prepared view")
 }
 
