@@ -95,7 +95,8 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
         "// {MODULE}: one PE's sample stage (pipeline::hw::pe_sample_rtl), emitted by ercube.
 // Slice buffer: 2 row banks x 2 slices x {stored} columns x {half} rows of {v} bits;
 // edge column: 2 row banks x 2 slices x {half} words; compositing buffer: 2 banks x
-// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots}.
+// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots};
+// row plan: {rows} words of {slots} bits, bit i of row r set when held column map_lo + i samples in it.
 // The broadcast bc_* is the next clock's; the datapath ({dp_name}) is {depth} clocks deep,
 // shows its tap column {sx} clocks after issue and reads the taps one clock later.
 // Lint waivers: WIDTH (indices and counters are computed in 32-bit integers and
@@ -107,6 +108,7 @@ module {MODULE} (
   input wire clk,
   input wire rst,",
         bd = r.bank_depth,
+        rows = r.max_rows,
         dp_name = dp.name,
     );
     for n in ["tbl_we", "tbl_sel", "tbl_addr", "tbl_data"] {
