@@ -29,11 +29,6 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     }
     let sim = simulator(&a.simulator)?;
     let s = setup(&a.frame, "cosim")?;
-    // The emitted control issues every held column of a row; the model's
-    // empty-space skipping drops runs of rays the RTL does not know of.
-    if s.skips.empty {
-        bail!("cosim --stage pe: the sample stage's RTL does not skip empty space; pass --no-skip-empty");
-    }
     let t = Instant::now();
     let plain = s.frame().run()?;
     let untraced_s = t.elapsed().as_secs_f64();
@@ -70,7 +65,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         o.mismatches
     )];
     lines.push(format!(
-        "  rtl: {} {} lines x {} + testbench {} lines; {} memory bits and {} control register bits a PE; {}; ran in {:.2} s ({:.0} clocks/s); {} buffer words replayed from outside the stage",
+        "  rtl: {} {} lines x {} + testbench {} lines; {} memory bits and {} control register bits a PE; {}; ran in {:.2} s ({:.0} clocks/s); {} buffer words replayed from outside the stage; {} row plan words written, {} held columns inside the slices' x ranges left out of sampled rows",
         pipeline::hw::pe_sample_rtl::MODULE,
         r.lines[0],
         s.cfg.pes,
@@ -80,7 +75,9 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         if r.built.cached { "build cached".to_owned() } else { format!("built in {:.1} s", r.built.seconds) },
         r.seconds[1],
         r.cycles as f64 / r.seconds[1].max(1e-9),
-        r.outside_words
+        r.outside_words,
+        r.plan_words,
+        r.skipped_in_rows
     ));
     if r.slots.0 > r.slots.1 {
         lines.push(format!(
@@ -128,6 +125,8 @@ pub fn run(a: &CosimArgs) -> Result<()> {
                 "readout_raw_compared": r.readout.as_ref().map(|x| x.raw.0),
                 "readout_raw_differing": r.readout.as_ref().map(|x| x.raw.1),
                 "outside_words": r.outside_words,
+                "plan_words": r.plan_words,
+                "skipped_in_rows": r.skipped_in_rows,
                 "columns_held_peak": r.slots.0,
                 "column_map_declared_slots": r.slots.1,
                 "memory_bits_per_pe": r.bits[0],

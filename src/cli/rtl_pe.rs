@@ -67,7 +67,10 @@ fn meaning(name: &str) -> &'static str {
             "the column map's held range (write, first ray index, count), written by migration"
         }
         n if n.starts_with("bc_") => {
-            "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, x range, next row)"
+            "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, next row)"
+        }
+        n if n.starts_with("pl_") => {
+            "the row plan's write port (write, ray row, word: bit i set when held column map_lo + i samples in the row), from the PlanRows broadcast's runs"
         }
         n if n.starts_with("iss_") => "what the control issues into the datapath: valid, ray index, the ray's accumulators",
         n if n.starts_with("tap_") => "the voxel taps served to the datapath",
@@ -83,8 +86,9 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
     let _ = writeln!(
         w,
         "From `pipeline::hw::pe_sample_rtl`, for a view-space volume of {}x{}x{} (`--dims`), \
-         back to front, column blocks: one PE's control walking a row's held rays one a clock \
-         into `ercube_sample` (instantiated inside), its slice buffer (2 row banks x 2 slices x \
+         back to front, column blocks: one PE's control walking a row plan's rays one a clock \
+         into `ercube_sample` (instantiated inside), its row plan ({} words of {} bits: the \
+         held columns each ray row samples, where empty-space skipping reaches the PE), its slice buffer (2 row banks x 2 slices x \
          {} columns x {} rows of {} bits) and edge column, its compositing buffer (2 banks x {} \
          words of {} bits, ray (slot, row) at row * {} + slot) read before issue and written \
          back. {} memory bits and {} control register bits (the datapath's are its own). \
@@ -92,6 +96,8 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
         dims[0],
         dims[1],
         dims[2],
+        s.rays.max_rows,
+        s.slots(),
         s.stored,
         s.half_rows,
         s.voxel_bits,

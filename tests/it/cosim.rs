@@ -347,14 +347,14 @@ fn cosim_refuses_what_is_not_emitted() {
         }
     }
     assert!(!d.join("v").exists(), "a refused run leaves nothing");
-    // The sample stage's RTL issues every held column: a frame that skips
-    // empty space is refused (and runs with --no-skip-empty).
+    // The sample stage's control is emitted back to front only.
     if have("iverilog", "iverilog", "a cosim refusal") {
-        let args: Vec<String> = "cosim --stage pe --simulator iverilog --scene sphere:24 --pes 2"
-            .split_whitespace()
-            .map(String::from)
-            .collect();
-        assert_refused(&args, &ercube(d, &args), "--no-skip-empty");
+        let args: Vec<String> =
+            "cosim --stage pe --simulator iverilog --scene sphere:24 --pes 2 --order ftb"
+                .split_whitespace()
+                .map(String::from)
+                .collect();
+        assert_refused(&args, &ercube(d, &args), "front to back");
     }
     let args: Vec<String> = "vectors --scene ml:16 --cycles 5-2 --out-dir v"
         .split_whitespace()

@@ -112,6 +112,17 @@ pub fn subject(spec: &str) -> Subject {
     }
 }
 
+/// Golden's prepared view of `vol` from `eye`, looking at the volume's
+/// centre (up +y, 60 degrees), `size` pixels square: the camera of the
+/// co-simulation and capture tests.
+pub fn view_from(vol: &Volume, eye: [f64; 3], size: u32) -> golden::render::Prepared {
+    let centre = DVec3::from_array(vol.center_world());
+    let cam =
+        golden::camera::Camera::new(DVec3::from_array(eye), centre, DVec3::Y, 60.0, size, size)
+            .expect("camera");
+    golden::render::Prepared::new(vol, &cam).expect("prepared view")
+}
+
 /// Everything a pipeline frame reports that the sampling path, the PE
 /// step order or tracing could conceivably change (fields named after the
 /// frame's).

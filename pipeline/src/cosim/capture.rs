@@ -132,6 +132,10 @@ pub trait IssueSink: Send {
     /// A slice's start: every PE as `BeginSlice` left it, after clock
     /// `cycle` ([`crate::cosim::pe_sample`]).
     fn slice_begin(&mut self, _cycle: u64, _z: usize, _pes: &[Pe]) {}
+    /// The slice's rows are planned: every PE as `PlanRows` left it (its
+    /// row `r` the region's `first_row + r`), after clock `cycle`
+    /// ([`crate::cosim::pe_sample`]).
+    fn rows_planned(&mut self, _cycle: u64, _first_row: usize, _pes: &[Pe]) {}
 }
 
 /// One PE's rays at the readout's start: its held columns in order (the

@@ -17,9 +17,21 @@
 //!
 //! The controller's broadcast comes one clock ahead (`bc_*`): in the clock
 //! before a sampling cycle the control finds the ray that issues in it
-//! (the row's `c`-th held column inside the slice's x range, `c` counting
-//! the row's sampling cycles) and reads its accumulators; a write-back
-//! to the same ray in that clock or the next is forwarded.
+//! (the row's `c`-th planned column, `c` counting the row's sampling
+//! cycles) and reads its accumulators; a write-back to the same ray in
+//! that clock or the next is forwarded.
+//!
+//! Which columns a row samples is the PE's **row plan** (`plan`, one word
+//! of `slots` bits a ray row, bit `i` for held column `map_lo + i`): what
+//! [`crate::pe::Pe::plan_rows`] computes from the controller's `PlanRows`
+//! broadcast at the slice's start, the held columns inside the slice's x
+//! range and inside the row's runs. The runs are the controller's: its
+//! occupancy memory and clip planes decide them
+//! ([`crate::skip::plan_mask`], golden's planner), so empty-space skipping
+//! and culling reach the PE as cleared bits, and the control issues a
+//! row's set bits lowest first, one a clock (a priority encoder over the
+//! bits not yet issued). The plan is written through its port (`pl_*`)
+//! before the slice's first sampling clock.
 
 use std::fmt::Write as _;
 
@@ -83,7 +95,8 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
         "// {MODULE}: one PE's sample stage (pipeline::hw::pe_sample_rtl), emitted by ercube.
 // Slice buffer: 2 row banks x 2 slices x {stored} columns x {half} rows of {v} bits;
 // edge column: 2 row banks x 2 slices x {half} words; compositing buffer: 2 banks x
-// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots}.
+// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots};
+// row plan: {rows} words of {slots} bits, bit i of row r set when held column map_lo + i samples in it.
 // The broadcast bc_* is the next clock's; the datapath ({dp_name}) is {depth} clocks deep,
 // shows its tap column {sx} clocks after issue and reads the taps one clock later.
 // Lint waivers: WIDTH (indices and counters are computed in 32-bit integers and
@@ -95,6 +108,7 @@ module {MODULE} (
   input wire clk,
   input wire rst,",
         bd = r.bank_depth,
+        rows = r.max_rows,
         dp_name = dp.name,
     );
     for n in ["tbl_we", "tbl_sel", "tbl_addr", "tbl_data"] {
@@ -114,6 +128,11 @@ module {MODULE} (
   input wire map_we,
   input wire signed [{ib1}:0] map_lo_in,
   input wire [{sb1}:0] map_n_in,
+  // The row plan: row pl_row's word, bit i set when held column map_lo + i samples
+  // in it (the PlanRows broadcast's runs through the column comparators).
+  input wire pl_we,
+  input wire [{rb1}:0] pl_row,
+  input wire [{s1}:0] pl_word,
   // This PE's voxel columns: first, one past the last, the volume's last.
   input wire [{cb1}:0] col_lo,
   input wire [{cb1}:0] col_end,
@@ -125,8 +144,6 @@ module {MODULE} (
   input wire bc_z,
   input wire [{yb1}:0] bc_y0,
   input wire [{yb1}:0] bc_y1,
-  input wire signed [{ib1}:0] bc_xlo,
-  input wire signed [{ib1}:0] bc_xhi,
   input wire bc_nv,
   input wire bc_nz,
   input wire [{yb1}:0] bc_ny0,
@@ -139,6 +156,7 @@ module {MODULE} (
         cb1 = cb - 1,
         rb1 = rb - 1,
         yb1 = yb - 1,
+        s1 = slots - 1,
     );
     let row_words = ["a", "t", "b", "k", "row_wy", "sy", "sz"];
     for n in row_words {
@@ -190,6 +208,7 @@ module {MODULE} (
   reg [{v1}:0] ec1 [0:{ewm}];
   reg [{bw1}:0] bank0 [0:{bdm}];
   reg [{bw1}:0] bank1 [0:{bdm}];
+  reg [{s1}:0] plan [0:{rm}];
   reg signed [{ib1}:0] map_lo;
   reg [{sb1}:0] map_n;
   always @(posedge clk) begin
@@ -201,6 +220,7 @@ module {MODULE} (
       map_n <= map_n_in;
     end
   end
+  always @(posedge clk) if (pl_we) plan[pl_row] <= pl_word;
   // The host's voxel load; column 0 also into the edge column.
   wire [31:0] vld_word = ({{31'd0, vld_z}} * {half} + vld_row) * {stored} + vld_col;
   wire [31:0] vld_edge = {{31'd0, vld_z}} * {half} + vld_row;
@@ -219,24 +239,32 @@ module {MODULE} (
         sb1 = r.slot_bits() - 1,
         sbw1 = sbw - 1,
         ebw1 = ebw - 1,
+        s1 = slots - 1,
+        rm = r.max_rows - 1,
     );
     // The control, one clock ahead of issue.
     let _ = writeln!(
         w,
-        "  // The row's c-th held column inside the slice's range issues in the row's c-th cycle.
-  reg [{sb1}:0] cnt;
-  wire signed [31:0] lo_i = map_lo;
-  wire signed [31:0] hi_i = map_lo + $signed({{1'b0, map_n}}) - 1;
-  wire signed [31:0] base = (lo_i > bc_xlo) ? lo_i : bc_xlo;
-  wire signed [31:0] top = (hi_i < bc_xhi) ? hi_i : bc_xhi;
-  wire [{sb1}:0] idx = bc_first ? {{{sb}{{1'b0}}}} : cnt;
-  wire signed [31:0] mx = base + $signed({{1'b0, idx}});
-  wire go = bc_go && map_n != 0 && mx <= top;
+        "  // The row's c-th planned column issues in the row's c-th cycle: the
+  // lowest of the row's bits not issued yet (rem holds them after the first).
+  function [{sb1}:0] lowest;
+    input [{s1}:0] bits;
+    integer i;
+    begin
+      lowest = 0;
+      for (i = {s1}; i >= 0; i = i - 1) if (bits[i]) lowest = i;
+    end
+  endfunction
+  reg [{s1}:0] rem;
+  wire [{s1}:0] row_bits = bc_first ? plan[bc_row] : rem;
+  wire [{sb1}:0] idx = lowest(row_bits);
+  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});
+  wire go = bc_go && row_bits != 0;
   wire [31:0] slot = (mx + {off}) % {slots};
   wire [31:0] addr = bc_row * {slots} + slot;
   always @(posedge clk) begin
-    if (rst) cnt <= 0;
-    else if (bc_go) cnt <= idx + 1'b1;
+    if (rst) rem <= 0;
+    else if (bc_go) rem <= row_bits & ~({slots}'d1 << idx);
   end
   // The issuing ray's accumulators: both banks at its word, forwarded
   // from a write-back in this clock or the issue's.
@@ -251,7 +279,7 @@ module {MODULE} (
   reg fw_v;
   reg [{bw1}:0] fw_d;",
         sb1 = r.slot_bits() - 1,
-        sb = r.slot_bits(),
+        s1 = slots - 1,
         bw1 = bw - 1,
         ab1 = ab - 1,
         yb1 = yb - 1,
@@ -511,7 +539,7 @@ module {MODULE} (
         out_fields.join(", "),
         ab1 = ab - 1
     );
-    regs += u64::from(r.slot_bits())
+    regs += slots
         + 2 * u64::from(bw)
         + 1
         + u64::from(m.word.bits)

@@ -135,12 +135,20 @@ impl PeSampleShape {
     }
 
     /// Memory bits one PE's module declares: the slice buffer, the edge
-    /// column, the compositing buffer (the datapath's tables are its own).
+    /// column, the compositing buffer and the row plan (a bit a ray: a
+    /// word of `slots` bits a row; the datapath's tables are its own).
     pub fn memory_bits(&self) -> u64 {
         let v = u64::from(self.voxel_bits);
         2 * self.bank_words() * v
             + 2 * 2 * self.half_rows * v
             + 2 * self.rays.bank_depth * u64::from(self.rays.buffer_width)
+            + self.plan_bits()
+    }
+
+    /// Bits of the row plan: one word of `slots` bits for each of the
+    /// region's ray rows ([`super::pe_sample_rtl`]).
+    pub fn plan_bits(&self) -> u64 {
+        self.rays.max_rows * self.slots()
     }
 
     /// Bits of a voxel row index.

@@ -10,15 +10,13 @@
 
 use std::sync::{Arc, Mutex};
 
-use golden::camera::Camera;
-use golden::render::Prepared;
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cosim::capture::Recorded;
 use pipeline::cosim::replay::word_of;
 use pipeline::hw::unit::Unit;
 use pipeline::FrameRun;
 
-use crate::chip::{signature, subject};
+use crate::chip::{signature, subject, view_from};
 
 fn check(order: Order, pes: u16, eye: [f64; 3]) {
     let s = subject("ml:24");
@@ -27,17 +25,7 @@ fn check(order: Order, pes: u16, eye: [f64; 3]) {
         order,
         ..PipelineConfig::default()
     };
-    let centre = glam::DVec3::from_array(s.vol.center_world());
-    let cam = Camera::new(
-        glam::DVec3::from_array(eye),
-        centre,
-        glam::DVec3::Y,
-        60.0,
-        24,
-        24,
-    )
-    .unwrap();
-    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let prep = view_from(&s.vol, eye, 24);
     let plain = FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
         .run()
         .unwrap();
@@ -111,17 +99,7 @@ fn captured_unit_issues_are_the_composed_datapaths_words() {
     use pipeline::hw::Op;
 
     let s = subject("ml:24");
-    let centre = glam::DVec3::from_array(s.vol.center_world());
-    let cam = Camera::new(
-        glam::DVec3::new(30.0, 20.0, -40.0),
-        centre,
-        glam::DVec3::Y,
-        60.0,
-        20,
-        20,
-    )
-    .unwrap();
-    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let prep = view_from(&s.vol, [30.0, 20.0, -40.0], 20);
     let shade = Shade::default();
     let c = s.vol.center_world();
     let voi = Voi {

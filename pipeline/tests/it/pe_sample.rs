@@ -1,28 +1,30 @@
 //! The emitted sample stage (`pipeline::hw::pe_sample_rtl`: each PE's
-//! control walking its rays one a clock into the pipelined datapath, its
-//! voxel memory and edge register, its compositing buffer read before
-//! issue and written back) against the model, clock for clock, driven by
-//! the controller's broadcast replayed from the model: every PE's issues
-//! (ray, accumulators read), taps and write-backs compared, the buffers at
-//! the readout's start compared with the model's rays, and the readout fed
-//! from the RTL's buffers. A control that skips a ray is caught; the
-//! module lints clean and synthesizes without a latch. Without the tools
-//! the tests print one line and skip (`ERCUBE_REQUIRE_TOOLS=1` fails).
+//! control walking its row plan one ray a clock into the pipelined
+//! datapath, its voxel memory and edge register, its compositing buffer
+//! read before issue and written back) against the model, clock for
+//! clock, driven by the controller's broadcast replayed from the model:
+//! every PE's issues (ray, accumulators read), taps and write-backs
+//! compared, the buffers at the readout's start compared with the model's
+//! rays, and the readout fed from the RTL's buffers; with and without the
+//! controller's empty-space skipping, whose runs reach each PE's row plan.
+//! A control that skips a ray, or one that ignores the row plan, is
+//! caught; the module lints clean and synthesizes without a latch.
+//! Without the tools the tests print one line and skip
+//! (`ERCUBE_REQUIRE_TOOLS=1` fails).
 //!
 //! `cargo test --release -p pipeline --test it -- pe_sample::`
 
 use std::path::PathBuf;
 
-use golden::camera::Camera;
-use golden::render::Prepared;
+use golden::skip::Skips;
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cosim::build::Simulator;
 use pipeline::cosim::pe_sample::run::{simulate, PeStageRun};
 use pipeline::hw::pe_sample_rtl::{emit, PeSampleShape, MODULE};
 use pipeline::hw::pipeline_rtl::{emit as emit_dp, PipelinedModule};
-use pipeline::FrameRun;
+use pipeline::{FrameRun, Voxels};
 
-use crate::chip::subject;
+use crate::chip::{subject, view_from};
 use crate::tools::have;
 
 fn cache() -> PathBuf {
@@ -41,28 +43,26 @@ fn cfg(pes: u16) -> PipelineConfig {
     }
 }
 
-/// The frame of `scene` seen from `eye`, `size` square, through the
-/// sample stage in `sim`.
+/// A frame: scene, eye, image size (square).
+type Shot = (&'static str, [f64; 3], u32);
+
+/// The frame `shot` through the sample stage in `sim`: a bare view
+/// (nothing skipped) without `skips`, with them a prepared frame whose
+/// controller skips them (its occupancy memory from the volume's blocks).
 fn run(
     c: &PipelineConfig,
-    (scene, eye, size): (&str, [f64; 3], u32),
+    (scene, eye, size): Shot,
+    skips: Option<Skips>,
     sim: Simulator,
     mutate: Option<&dyn Fn(&str) -> String>,
 ) -> PeStageRun {
     let s = subject(scene);
-    let centre = glam::DVec3::from_array(s.vol.center_world());
-    let cam = Camera::new(
-        glam::DVec3::from_array(eye),
-        centre,
-        glam::DVec3::Y,
-        60.0,
-        size,
-        size,
-    )
-    .unwrap();
-    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let prep = view_from(&s.vol, eye, size);
     let dir = tempfile::tempdir().unwrap();
-    let frame = || FrameRun::new(c, &s.lut, &s.vol, &prep.view);
+    let frame = || match skips {
+        Some(k) => FrameRun::prepared(c, &s.lut, &prep, Voxels::Volume(&s.vol)).skips(k),
+        None => FrameRun::new(c, &s.lut, &s.vol, &prep.view),
+    };
     simulate(
         &frame,
         c,
@@ -108,7 +108,7 @@ fn sample_stage_matches_the_model_in_icarus() {
         (2, ("ml:24", [16.0, 10.0, -60.0], 16)),
         (1, ("ml:24", [12.0, -60.0, 12.0], 12)),
     ] {
-        let r = run(&cfg(p), frame, Simulator::Icarus, None);
+        let r = run(&cfg(p), frame, None, Simulator::Icarus, None);
         assert_matches(&r, &format!("{p} PEs {frame:?}"));
         if p == 2 && frame.0 == "ml:24" {
             let (start, dump) = r.dump.expect("a readout");
@@ -134,12 +134,92 @@ fn sample_stage_matches_the_model_in_verilator() {
         return;
     }
     let frame = ("ml:24", [16.0, 10.0, -60.0], 16);
-    let r = run(&cfg(2), frame, Simulator::Verilator, None);
+    let r = run(&cfg(2), frame, None, Simulator::Verilator, None);
     assert_matches(&r, &format!("Verilator, 2 PEs {frame:?}"));
 }
 
-/// A control whose row counter steps by two (every other ray skipped) is
-/// caught at the row's second clock, naming the PE and the ray index.
+/// A frame whose controller skips empty space inside its rows:
+/// `checker:24`, whose empty cells leave gaps in the runs of most rows.
+const SKIPPING: Shot = ("checker:24", [16.0, 10.0, -60.0], 16);
+
+/// The skipping frame takes fewer samples than the same frame without
+/// skipping, and its sampled rows leave held columns of the slices' x
+/// ranges out (the runs' gaps, which only the row plan knows of).
+fn assert_skips_inside_rows(r: &PeStageRun, what: &str) {
+    let c = cfg(2);
+    let s = subject(SKIPPING.0);
+    let prep = view_from(&s.vol, SKIPPING.1, SKIPPING.2);
+    let whole = FrameRun::prepared(&c, &s.lut, &prep, Voxels::Volume(&s.vol))
+        .skips(Skips::NONE)
+        .run()
+        .unwrap();
+    assert!(
+        r.samples < whole.samples,
+        "{what}: {} samples skipping, {} without",
+        r.samples,
+        whole.samples
+    );
+    assert!(
+        r.skipped_in_rows > 1000,
+        "{what}: {} held columns left out inside sampled rows",
+        r.skipped_in_rows
+    );
+}
+
+/// Empty-space skipping (and culling) on `checker:24` at 2 PEs, in
+/// Icarus and in Verilator: every PE issues exactly its row plan's rays,
+/// 0 mismatches, every sample compared, the buffers and readout clean.
+#[test]
+fn a_skipping_frame_matches_the_model() {
+    for (sim, tool) in [
+        (Simulator::Icarus, "iverilog"),
+        (Simulator::Verilator, "verilator"),
+    ] {
+        if !have(tool, tool, "the skipping sample stage cosim") {
+            continue;
+        }
+        let r = run(&cfg(2), SKIPPING, Some(Skips::default()), sim, None);
+        let what = format!("{tool}, 2 PEs {SKIPPING:?}, skipping");
+        assert_matches(&r, &what);
+        assert_skips_inside_rows(&r, &what);
+    }
+}
+
+/// A control that ignores the row plan (issuing every held column of a
+/// row, as one that knows only the held range would) is caught on the
+/// skipping frame: a ray the model skipped issues.
+#[test]
+fn a_control_that_ignores_the_row_plan_is_caught() {
+    if !have(
+        "iverilog",
+        "iverilog",
+        "the sample stage row plan mutation in Icarus",
+    ) {
+        return;
+    }
+    let broken = |v: &str| {
+        let from = "bc_first ? plan[bc_row] : rem;";
+        assert!(v.contains(from));
+        v.replace(from, "bc_first ? ~0 : rem;")
+    };
+    let r = run(
+        &cfg(2),
+        SKIPPING,
+        Some(Skips::default()),
+        Simulator::Icarus,
+        Some(&broken),
+    );
+    let m = r.outcome.first.as_ref().expect("a mismatch");
+    assert!(
+        m.signal == "slot_m" || m.signal == "in_valid",
+        "the first mismatch is an issued ray: {m}"
+    );
+    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
+}
+
+/// A control that steps past two of the row plan's rays at each clock
+/// (every other ray skipped) is caught at the row's second clock, naming
+/// the PE and the ray index.
 #[test]
 fn a_control_that_skips_a_ray_is_caught() {
     if !have(
@@ -150,12 +230,15 @@ fn a_control_that_skips_a_ray_is_caught() {
         return;
     }
     let broken = |v: &str| {
-        assert!(v.contains("cnt <= idx + 1'b1;"));
-        v.replace("cnt <= idx + 1'b1;", "cnt <= idx + 2'd2;")
+        // Each clock clears the issued bit and the one above it.
+        let (from, to) = ("'d1 << idx);", "'d3 << idx);");
+        assert!(v.contains(from));
+        v.replace(from, to)
     };
     let r = run(
         &cfg(2),
         ("sphere:24", [16.0, 10.0, -60.0], 16),
+        None,
         Simulator::Icarus,
         Some(&broken),
     );
@@ -174,17 +257,7 @@ fn pe_sample_module_lints_and_synthesizes_without_latches() {
     let c = cfg(3);
     let dp = datapath(&c);
     let s = subject("ml:24");
-    let centre = glam::DVec3::from_array(s.vol.center_world());
-    let cam = Camera::new(
-        glam::DVec3::new(16.0, 10.0, -36.0),
-        centre,
-        glam::DVec3::Y,
-        60.0,
-        24,
-        24,
-    )
-    .unwrap();
-    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let prep = view_from(&s.vol, [16.0, 10.0, -36.0], 24);
     let shape = PeSampleShape::for_view(&c, &prep.view).unwrap();
     let pe = emit(&shape, &dp).unwrap();
     let dir = tempfile::tempdir().unwrap();

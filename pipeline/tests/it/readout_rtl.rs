@@ -17,8 +17,6 @@
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use golden::camera::Camera;
-use golden::render::Prepared;
 use pipeline::config::{Mapping, Migration, Order, PipelineConfig};
 use pipeline::cosim::build::Simulator;
 use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun};
@@ -26,7 +24,7 @@ use pipeline::cost::inventory::Geometry;
 use pipeline::hw::readout_rtl::{emit, ReadoutRtl, ReadoutShape, PE_MODULE};
 use pipeline::FrameRun;
 
-use crate::chip::subject;
+use crate::chip::{subject, view_from};
 use crate::tools::have;
 
 /// A frame's readout as the model ran it, and the emitted stage for it.
@@ -40,17 +38,7 @@ struct Readout {
 
 fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Readout {
     let s = subject(scene);
-    let centre = glam::DVec3::from_array(s.vol.center_world());
-    let cam = Camera::new(
-        glam::DVec3::from_array(eye),
-        centre,
-        glam::DVec3::Y,
-        60.0,
-        size,
-        size,
-    )
-    .unwrap();
-    let prep = Prepared::new(&s.vol, &cam).unwrap();
+    let prep = view_from(&s.vol, eye, size);
     let rec = Arc::new(Mutex::new(ReadoutRecord::default()));
     let f = FrameRun::new(cfg, &s.lut, &s.vol, &prep.view)
         .capture(rec.clone())

@@ -7,13 +7,16 @@
 //!
 //! - `bus.txt`: the controller's broadcast of every sampling clock (the
 //!   prologue's too): whether the clock samples, the row's first clock,
-//!   the row, slice and voxel rows, the row's words, the slice's x range
-//!   and the next row's voxel rows the edge registers read;
+//!   the row, slice and voxel rows, the row's words and the next row's
+//!   voxel rows the edge registers read;
 //! - per PE, what the model does to the PE outside the sample stage, at
 //!   each slice's start: the held range (`pe<K>.map`), the slice's voxels
-//!   to load (`pe<K>.ev`, kind 1) and every compositing buffer word that
+//!   to load (`pe<K>.ev`, kind 1), every compositing buffer word that
 //!   migration, merges or splits changed (kind 3: the words that differ
-//!   from what the stage's own write-backs left);
+//!   from what the stage's own write-backs left) and every word of the
+//!   row plan that the slice's `PlanRows` broadcast changed (kind 4: bit
+//!   `i` of row `r` set when the PE samples held column `lo + i` in it,
+//!   [`PeCapture::rows_planned`]);
 //! - per PE, the model's issues (`pe<K>.I`: cycle, ray, the accumulators
 //!   read), their taps (`pe<K>.T`) and write-backs (`pe<K>.W`: land cycle,
 //!   buffer address, the words), in the text the testbench prints for the
@@ -62,8 +65,6 @@ pub struct BusCycle {
     pub y: (usize, usize),
     /// The row's words, raw: `a`, `t`, `b`, `k`, `row_wy`, `sy`, `sz`.
     pub words: [i64; 7],
-    /// The slice's x range of ray indices.
-    pub x: (i64, i64),
     /// The row whose edge voxels the PEs drive: slice, voxel rows.
     pub next: Option<(usize, usize, usize)>,
 }
@@ -86,7 +87,6 @@ impl BusCycle {
                 b.slope_yz.0.raw(),
                 b.slope_yz.1.raw(),
             ],
-            x: b.slice.range[0],
             next: b.next,
         }
     }
@@ -98,6 +98,15 @@ pub(crate) fn sample_bus(capture: &Capture, bus: &SampleBus) {
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .sample_bus(&BusCycle::of(bus));
+}
+
+/// Tells `capture` the PEs planned the slice's rows from `first_row` on
+/// after clock `cycle`.
+pub(crate) fn rows_planned(capture: &Capture, cycle: u64, first_row: usize, pes: &[Pe]) {
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .rows_planned(cycle, first_row, pes);
 }
 
 /// Tells `capture` a slice starts after clock `cycle`.
@@ -181,6 +190,11 @@ pub struct PeCapture {
     shadow: Vec<Vec<Option<[i64; 4]>>>,
     /// Per PE, the clock each buffer word's last write-back lands in.
     lands: Vec<Vec<Option<u64>>>,
+    /// Per PE, each row plan word as last written, in 32-bit pieces.
+    plans: Vec<Vec<Option<Vec<u32>>>>,
+    /// Per PE, the first held column and the held columns in the slice's
+    /// x range at the slice's start.
+    held: Vec<(i64, usize)>,
     /// The last broadcast's clock and row.
     row_at: (u64, usize),
     volumes: bool,
@@ -188,6 +202,12 @@ pub struct PeCapture {
     pub issued: Vec<u64>,
     /// Buffer words written outside the sample stage, over all PEs.
     pub outside_words: u64,
+    /// Row plan words written, over all PEs.
+    pub plan_words: u64,
+    /// Held columns inside a slice's x range that a sampled row leaves
+    /// out (the runs' gaps: empty space and culling inside the row),
+    /// summed over PEs and rows.
+    pub skipped_in_rows: u64,
     /// Why the frame does not fit the emitted memories, if it does not.
     pub unfit: Option<String>,
     /// A file that could not be written.
@@ -238,10 +258,14 @@ impl PeCapture {
             wbs: per("W")?,
             shadow: vec![vec![None; words]; pes],
             lands: vec![vec![None; words]; pes],
+            plans: vec![vec![None; shape.rays.max_rows as usize]; pes],
+            held: vec![(0, 0); pes],
             row_at: (0, 0),
             volumes: false,
             issued: vec![0; pes],
             outside_words: 0,
+            plan_words: 0,
+            skipped_in_rows: 0,
             unfit: None,
             error: None,
             tables: Vec::new(),
@@ -336,6 +360,7 @@ impl PeCapture {
                 ));
                 continue;
             }
+            self.held[k] = (lo, pe.active.1);
             writeln!(self.map[k], "{:x} {:x} {:x}", cycle, lo as u64, n)?;
             writeln!(self.ev[k], "{:x} 1 {:x} {:x} 0", cycle, z, z & 1)?;
             for c in &pe.rays {
@@ -362,6 +387,54 @@ impl PeCapture {
                         )?;
                     }
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// The slice's row plans as the PEs made them from the `PlanRows`
+    /// broadcast: each PE's words that changed, written as kind 4 events
+    /// of clock `cycle` (the model counts no clock for planning).
+    fn plan(&mut self, cycle: u64, first_row: usize, pes: &[Pe]) -> std::io::Result<()> {
+        let s = self.shape;
+        let pieces = s.slots().div_ceil(32) as usize;
+        let rows = pes.iter().map(Pe::planned_rows).max().unwrap_or(0);
+        for r in 0..rows {
+            let row = first_row + r;
+            let sampled = pes.iter().any(|p| p.planned(r).next().is_some());
+            for (k, pe) in pes.iter().enumerate() {
+                let (lo, active) = self.held[k];
+                let mut word = vec![0u32; pieces];
+                let mut n = 0;
+                for mx in pe.planned(r) {
+                    let i = mx - lo;
+                    if i < 0 || i as u64 >= s.slots() {
+                        self.unfit(format!(
+                            "PE {k} plans column {mx} outside its held columns from {lo}"
+                        ));
+                        return Ok(());
+                    }
+                    word[i as usize / 32] |= 1 << (i % 32);
+                    n += 1;
+                }
+                if sampled {
+                    self.skipped_in_rows += (active - n) as u64;
+                }
+                let Some(slot) = self.plans[k].get_mut(row) else {
+                    self.unfit(format!(
+                        "PE {k} plans row {row}, past the declared {} rows",
+                        s.rays.max_rows
+                    ));
+                    return Ok(());
+                };
+                if slot.as_ref() == Some(&word) {
+                    continue;
+                }
+                for (j, w) in word.iter().enumerate() {
+                    writeln!(self.ev[k], "{cycle:x} 4 {row:x} {j:x} {w:x}")?;
+                }
+                *slot = Some(word);
+                self.plan_words += 1;
             }
         }
         Ok(())
@@ -496,7 +569,7 @@ impl IssueSink for PeCapture {
             b.y.0,
             b.y.1
         );
-        for v in b.words.iter().chain([&b.x.0, &b.x.1]) {
+        for v in &b.words {
             let _ = write!(l, " {:x}", *v as u64);
         }
         let _ = write!(l, " {nv:x} {nz:x} {ny0:x} {ny1:x}");
@@ -507,6 +580,12 @@ impl IssueSink for PeCapture {
 
     fn slice_begin(&mut self, cycle: u64, z: usize, pes: &[Pe]) {
         if let Err(e) = self.begin_slice(cycle, z, pes) {
+            self.fail(e);
+        }
+    }
+
+    fn rows_planned(&mut self, cycle: u64, first_row: usize, pes: &[Pe]) {
+        if let Err(e) = self.plan(cycle, first_row, pes) {
             self.fail(e);
         }
     }

@@ -137,6 +137,14 @@ impl Array {
                 shade,
             }),
         });
+        if let Some(c) = self.clock.capture() {
+            crate::cosim::pe_sample::rows_planned(
+                c,
+                self.clock.cycle(),
+                first_row,
+                self.clock.pes(),
+            );
+        }
         // Each row's cycles: as many as the busiest PE has scheduled rays
         // (in the runs, and front to back live); and the earliest start the
         // PEs' scoreboards allow.

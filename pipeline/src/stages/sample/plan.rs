@@ -213,6 +213,18 @@ impl Pe {
         self.row_plan = plan;
     }
 
+    /// The ray indices this PE samples in the slice's `r`-th row, in
+    /// issue order, as [`Pe::plan_rows`] planned them (none past the
+    /// planned rows).
+    pub fn planned(&self, r: usize) -> impl Iterator<Item = i64> + '_ {
+        self.row_plan.live(r).iter().map(|&j| self.rays[j].mx)
+    }
+
+    /// Rows the last [`Pe::plan_rows`] planned.
+    pub fn planned_rows(&self) -> usize {
+        self.row_plan.ends.len()
+    }
+
     /// What this PE reported for each of the slice's rows
     /// ([`Pe::plan_rows`]), in row order: the columns it samples there
     /// and the earliest start.
