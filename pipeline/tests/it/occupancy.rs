@@ -70,16 +70,9 @@ fn declared(cfg: &PipelineConfig, geo: &Geometry) -> Declared {
         columns: map.depth,
         rows: geo.rays.rows,
         line: line.depth,
-        // With an external ray buffer the kept finals live in DDR (no
-        // on-chip memory to overflow); on chip, back to front keeps none.
-        kept: find("kept_finals").map_or(
-            if cfg.ray_buffer == RayBuffer::External {
-                u64::MAX
-            } else {
-                0
-            },
-            |k| k.depth,
-        ),
+        // On chip or, with an external ray buffer, off chip in DDR at the
+        // same depth; back to front keeps none.
+        kept: find("kept_finals").map_or(0, |k| k.depth),
     }
 }
 
@@ -321,4 +314,45 @@ fn a_frame_past_the_declared_depths_is_refused_before_it_runs() {
             .run()
             .expect("frame");
     assert_eq!((fits.raw, fits.cycles), (free.raw, free.cycles));
+}
+
+/// With the rays in external memory, front to back, each PE's kept final
+/// states are declared off chip (`kept_finals`, in DDR) at the depth the
+/// view needs in that PE, and no PE ever keeps more: checked on clocked
+/// frames of `ml:24` from an eye near the volume and beside it (three
+/// regions; the end PEs keep the most) on 3 and 5 PEs, every PE against
+/// its own declaration.
+#[test]
+fn an_external_buffers_kept_finals_fit_their_off_chip_declaration() {
+    let vol = crate::scenes::scene("ml:24");
+    let c = DVec3::from_array(vol.center_world());
+    let cam =
+        Camera::new(DVec3::new(30.0, 20.0, -6.0), c, DVec3::Y, 110.0, 32, 32).expect("camera");
+    let prep = Prepared::new(&vol, &cam).expect("view");
+    for pes in [3, 5] {
+        let cfg = config(ARCHS[4], pes, true);
+        assert_eq!(cfg.ray_buffer, RayBuffer::External);
+        let frame = clocked(&cfg, &vol, &lut(&cfg), &prep);
+        let geo = Geometry::for_view(&cfg, &prep.view).expect("geometry");
+        for k in 0..usize::from(pes) {
+            let decl = Pe::declaration(&cfg, &geo.pe(k));
+            let kept = decl
+                .iter()
+                .find(|d| d.name == "kept_finals")
+                .expect("kept finals declared");
+            assert_eq!(kept.kind, pipeline::hw::state::StateKind::OffChip);
+            assert_eq!(kept.depth, geo.pe(k).rays.kept);
+            assert!(
+                frame.occupancy[k].kept <= kept.depth,
+                "PE {k} kept {}, declared {}",
+                frame.occupancy[k].kept,
+                kept.depth
+            );
+        }
+        // The frame kept finals at all, so the check bit somewhere.
+        assert!(geo.regions >= 3, "{} regions", geo.regions);
+        assert!(frame.occupancy.iter().any(|o| o.kept > 0), "{pes} PEs");
+        let d = declared_each(&cfg, &geo);
+        check(&frame.occupancy, &d).unwrap();
+    }
 }
