@@ -204,6 +204,16 @@ pub fn need(cfg: &PipelineConfig, view: &View) -> Result<PeDepths, golden::Error
 }
 
 /// [`need`] for a planned layout.
+///
+/// A region without rays (`RayGrid::is_empty`) adds nothing: no columns,
+/// no pass across its boundaries, no kept finals; a layout of none gives
+/// rows, children and kept finals of 0 and only the columns in flight,
+/// declarations the cost model and the emitted shapes take (a memory of
+/// depth 0 is not charged; the shapes' depths are at least 1). Golden's
+/// `er` layouts have none (every region with a slice has rays, and a
+/// region without one is fed by the region behind it; a proptest in this
+/// module's tests checks it over many views), but a layout built by hand
+/// may.
 pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> PeDepths {
     let nx = view.dims[0];
     let pes = usize::from(cfg.pes.max(1));
@@ -242,7 +252,14 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> PeDepths {
         // region's on plane b0; front to back: the front region's rays
         // split into this one's on the same plane, and this region's rays
         // fold into the front one's there.
-        let Some(front) = i.checked_sub(1).map(|f| &layout.grids[f]) else {
+        // A ray-less front region has no parents to split from or
+        // children to merge into: no pass on this boundary (the clamps
+        // below need a non-empty front).
+        let Some(front) = i
+            .checked_sub(1)
+            .map(|f| &layout.grids[f])
+            .filter(|f| !f.is_empty())
+        else {
             continue;
         };
         let blocks = &maps[1];
@@ -382,5 +399,130 @@ impl Plane<'_> {
             }
         }
         spans
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::inventory::{pe_inventory, Geometry};
+    use crate::cost::target::Target;
+    use crate::hw::readout_rtl::{self, ReadoutShape};
+    use crate::pe::Pe;
+    use glam::DVec3;
+    use golden::camera::Camera;
+    use proptest::prelude::*;
+
+    fn view(dims: [usize; 3], eye: DVec3, fov: f64) -> Option<View> {
+        let c = DVec3::from_array(dims.map(|n| (n as f64 - 1.0) / 2.0));
+        let cam = Camera::new(eye, c, DVec3::Y, fov, 4, 4).ok()?;
+        View::new(dims, [1.0; 3], &cam, 1.0).ok()
+    }
+
+    fn cfg(pes: u16, order: Order) -> PipelineConfig {
+        PipelineConfig {
+            pes,
+            order,
+            ..PipelineConfig::default()
+        }
+    }
+
+    /// Depths of a ray-less layout, declared: the PE's declaration, its
+    /// cost (no memory of depth 0 charged) and the readout's emitted
+    /// shape accept them.
+    fn accepted(cfg: &PipelineConfig, dims: [usize; 3], need: &PeDepths) {
+        let mut geo = Geometry::new(dims, cfg.pes);
+        geo.pe_rays = need.clone();
+        geo.rays = need.max();
+        for k in 0..need.pes() {
+            let g = geo.pe(k);
+            for d in Pe::declaration(cfg, &g) {
+                assert!(d.copies > 0, "{}", d.name);
+            }
+            let inv = pe_inventory(cfg, &g);
+            for i in &inv.items {
+                for u in &i.units {
+                    assert!(
+                        !matches!(u, crate::cost::units::Unit::Mem { depth: 0, .. }),
+                        "{} charged at depth 0",
+                        i.name
+                    );
+                }
+            }
+            assert!(inv.cost(Target::Xc7).lut > 0);
+        }
+        let shape = ReadoutShape::new(cfg, &geo).expect("readout shape");
+        assert!(shape.bank_depth >= 1 && shape.map_depth >= 1 && shape.max_rows >= 1);
+        let rtl = readout_rtl::emit(&shape);
+        assert!(rtl.pe.contains("module") && rtl.array.contains("module"));
+    }
+
+    /// A region without rays, built by emptying a real layout's regions:
+    /// the front one (front to back there is then no split or fold to
+    /// count on its boundary, where the clamps to the front's rays would
+    /// panic), a middle one, and every one (rows, children and kept
+    /// finals 0, only the columns in flight). Each gives depths at most
+    /// the full layout's, and the declarations, the cost and the readout's
+    /// Verilog shape accept them.
+    #[test]
+    fn ray_less_regions_give_depths_the_cost_and_the_shapes_accept() {
+        let dims = [24, 20, 40];
+        let v = view(dims, DVec3::new(11.5, 9.5, -6.0), 90.0).expect("view");
+        let layout = Method::Er.layout(&v).expect("layout");
+        assert!(layout.grids.len() >= 3, "{} regions", layout.grids.len());
+        let empty = |g: &mut golden::geometry::RayGrid| {
+            g.lo = [0; 2];
+            g.hi = [-1; 2];
+        };
+        for order in [Order::BackToFront, Order::FrontToBack] {
+            let c = cfg(4, order);
+            let full = need_of(&c, &v, &layout);
+            for emptied in [vec![0], vec![1], (0..layout.grids.len()).collect()] {
+                let mut l = layout.clone();
+                for &i in &emptied {
+                    empty(&mut l.grids[i]);
+                }
+                let need = need_of(&c, &v, &l);
+                assert_eq!(need.pes(), 4);
+                for k in 0..4 {
+                    assert!(need.pe(k).fits(&full.pe(k)), "{order:?} {emptied:?} PE {k}");
+                }
+                if emptied.len() == layout.grids.len() {
+                    let in_flight = RayDepths {
+                        columns: IN_FLIGHT,
+                        ..RayDepths::default()
+                    };
+                    assert_eq!(need, PeDepths::uniform(4, in_flight), "{order:?}");
+                }
+                if order == Order::FrontToBack && emptied == [0] {
+                    // Region 0 keeps no finals: its boundary has no split.
+                    assert!(need.max().kept < full.max().kept);
+                }
+                accepted(&c, dims, &need);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+        /// Golden's `er` layouts have a ray in every region, over volume
+        /// sizes, eyes near and far, in front, beside and outside the
+        /// volume's sides, and fields of view up to 170 degrees: a
+        /// ray-less region comes only from a layout built by hand.
+        #[test]
+        fn no_view_has_a_ray_less_region(
+            dims in prop::array::uniform3(1usize..80),
+            eye in (-2.0..3.0f64, -2.0..3.0f64, 0.001..4.0f64),
+            fov in 5.0..170.0f64,
+        ) {
+            let d = dims.map(|n| n as f64);
+            let e = DVec3::new(eye.0 * d[0], eye.1 * d[1], -eye.2 * d[2]);
+            let Some(v) = view(dims, e, fov) else { return Ok(()) };
+            let Ok(layout) = Method::Er.layout(&v) else { return Ok(()) };
+            for (i, g) in layout.grids.iter().enumerate() {
+                prop_assert!(!g.is_empty(), "region {i} of {} has no rays: {:?}", layout.grids.len(), v.dims);
+            }
+        }
     }
 }

@@ -55,8 +55,8 @@ pub use datapath::{in_module, PIPELINE_REGISTERS};
 pub use datapath::{
     preint_schedule_depth, schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule,
 };
-pub use memories::is_datapath_table;
 use memories::memories;
+pub use memories::{is_datapath_table, off_chip_bits};
 
 use super::arch;
 use super::memory::MemPorts;
@@ -406,6 +406,10 @@ pub struct PeInventory {
     pub schedule: Schedule,
     /// Bits of external voxel memory behind this PE: `W x ny x nz` voxels.
     pub voxel_memory_bits: u64,
+    /// Bits of external ray memory behind this PE: its declared off-chip
+    /// memories (with an external ray buffer its rays and, front to back,
+    /// its kept finals; 0 with the rays on chip).
+    pub ray_memory_bits: u64,
 }
 
 impl PeInventory {
@@ -434,6 +438,7 @@ pub fn pe_inventory(cfg: &PipelineConfig, geo: &Geometry) -> PeInventory {
             * ny as u64
             * nz as u64
             * u64::from(cfg.voxel.bits()),
+        ray_memory_bits: memories::off_chip_bits(cfg, geo),
     }
 }
 

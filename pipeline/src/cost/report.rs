@@ -136,6 +136,13 @@ pub struct CostReport {
     pub pipeline_depth: u32,
     /// External voxel memory per PE (bits).
     pub voxel_memory_bits_per_pe: u64,
+    /// External ray memory of the deepest PE (bits): its declared off-chip
+    /// memories, with an external ray buffer its rays and, front to back,
+    /// its kept finals (0 with the rays on chip).
+    pub ray_memory_bits_per_pe: u64,
+    /// External ray memory of the array (bits): every PE's at its own
+    /// depths.
+    pub ray_memory_bits: u64,
     /// The controller's units.
     pub controller_items: Vec<ItemRow>,
     /// The controller.
@@ -289,6 +296,9 @@ pub fn build(
         }
     }
     let pes = u64::from(geo.pes.max(1));
+    let ray_memory_bits: u64 = (0..usize::from(geo.pes.max(1)))
+        .map(|k| super::inventory::off_chip_bits(cfg, &geo.pe(k)))
+        .sum();
     let depth = super::latency::geometry_latency(cfg, &geo);
     let staging = if cfg.target_mhz > 0 {
         format!(
@@ -299,7 +309,7 @@ pub fn build(
     } else {
         format!("pipelined one multiplier or carry chain a stage ({depth} clocks deep)")
     };
-    let notes = vec![
+    let mut notes = vec![
         if source == super::clock::ClockSource::Predicted {
             format!(
                 "Clock {clock_mhz} MHz is predicted from the slowest stage of the sample datapath's schedule by a delay model fitted to units placed and routed with ercube synth; the PE is not placed and routed. The datapath is {staging}."
@@ -323,6 +333,14 @@ pub fn build(
         "Worst-case cycles count sampling only (every slice at (2W+1)(2ny+1) rays per PE); migration, merges and readout add a few percent in measured runs. 'Scaled' rows multiply the bound by this run's ratio of measured to bound cycles.".to_owned(),
         "Resource models are calibrated against yosys 0.23 (synth_xilinx, synth_ice40 -dsp) on the PE's units at three width settings (pipeline/tests/it/cost.rs); vendor tools differ in packing, and place-and-route needs headroom (plan for 70-80% LUT use).".to_owned(),
     ];
+    if ray_memory_bits > 0 {
+        notes.push(format!(
+            "Ray memory is external: the PEs' rays{} live in DRAM, {:.2} Mbit for the deepest PE ({:.1} Mbit for the array), none of it in block RAM; on chip each PE keeps its row buffers.",
+            if cfg.order == crate::config::Order::FrontToBack { " and kept final states" } else { "" },
+            pe.ray_memory_bits as f64 / 1e6,
+            ray_memory_bits as f64 / 1e6
+        ));
+    }
     CostReport {
         target,
         target_description: target.describe(),
@@ -339,6 +357,8 @@ pub fn build(
         pe_groups: groups,
         pipeline_depth: depth,
         voxel_memory_bits_per_pe: pe.voxel_memory_bits,
+        ray_memory_bits_per_pe: pe.ray_memory_bits,
+        ray_memory_bits,
         controller_items: rows(&ctrl_items, target),
         controller: ctrl,
         array,

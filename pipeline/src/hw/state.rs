@@ -4,7 +4,7 @@
 //!
 //! A unit lists its state once as [`StateDecl`]s (the PE's in
 //! [`crate::pe::Pe::declaration`]); the cost model's memory inventory
-//! charges those entries, and the model's FIFOs are [`Fifo`]s built with
+//! charges those entries (the off-chip ones as external memory), and the model's FIFOs are [`Fifo`]s built with
 //! the declared depth.
 
 use std::collections::VecDeque;
@@ -22,6 +22,11 @@ pub enum StateKind {
     /// A first-in first-out queue of `depth` words of `width` bits (one
     /// write port, one read port).
     Fifo,
+    /// A memory of `depth` words of `width` bits in external DRAM: the
+    /// unit's region of a memory the array reaches through its memory
+    /// channel ([`crate::stages::raybuf`]), no on-chip RAM. The cost model
+    /// counts its bits as external memory, never as block RAM.
+    OffChip,
 }
 
 /// One declared state element.
@@ -32,7 +37,7 @@ pub struct StateDecl {
     pub name: &'static str,
     /// What it holds and how it is banked (the cost report's line).
     pub what: String,
-    /// Register, memory or FIFO.
+    /// Register, memory, FIFO or off-chip memory.
     pub kind: StateKind,
     /// Copies (banks, sides, rows of a line buffer).
     pub copies: u32,
@@ -46,6 +51,11 @@ impl StateDecl {
     /// Bits of one copy.
     pub fn bits(&self) -> u64 {
         self.depth * u64::from(self.width)
+    }
+
+    /// Whether it lives on the chip (everything but [`StateKind::OffChip`]).
+    pub fn on_chip(&self) -> bool {
+        self.kind != StateKind::OffChip
     }
 }
 

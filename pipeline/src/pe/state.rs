@@ -6,8 +6,11 @@
 //! ([`Geometry`]: the ray memories at the depths [`Geometry::rays`] gives,
 //! which for PE `k` of an array, [`Geometry::pe`], are what
 //! [`crate::capacity`] finds PE `k` itself holds in that view's frames:
-//! the end PEs' rays beyond the volume's sides in the end PEs only). The
-//! cost model's memory inventory charges exactly these entries, PE by PE
+//! the end PEs' rays beyond the volume's sides in the end PEs only). With
+//! the rays in external memory, the PE's share of it (its rays and kept
+//! finals) is declared too, as off-chip memories. The cost model's memory
+//! inventory charges exactly these entries, PE by PE, the on-chip ones as
+//! block RAM, FIFOs and registers and the off-chip ones as external bits
 //! (`crate::cost::inventory`, `crate::cost::design::array`), so a depth
 //! changes in one place.
 
@@ -43,6 +46,7 @@ fn decl(
 const SDP: StateKind = StateKind::Memory(MemPorts::Sdp);
 const DUAL_READ: StateKind = StateKind::Memory(MemPorts::DualRead);
 const REG: StateKind = StateKind::Register;
+const OFF_CHIP: StateKind = StateKind::OffChip;
 
 impl Pe {
     /// Every state element of a PE of `cfg` for the view of `geo` (PE
@@ -199,10 +203,13 @@ impl Pe {
     /// external memory, the row buffers the controller reads ahead into),
     /// the column map (a slot per ray column), the passes' line buffer
     /// ([`LINE_ROWS`] rows of a pass's children on one PE), a link FIFO per side
-    /// (`link_fifo_depth` rows) and, front to back on chip, the
-    /// inherited states with their termination flags and the final states
-    /// kept at the `K - 1` region boundaries for the fold (every split's
-    /// parents on the PE, stacked). A pre-integrating
+    /// (`link_fifo_depth` rows) and, front to back, the inherited states
+    /// with their termination flags and the final states kept at the
+    /// `K - 1` region boundaries for the fold (every split's parents on
+    /// the PE, stacked). With the rays in external memory the PE's rays
+    /// (`ray_store`, with their inherited states) and its kept finals are
+    /// declared [`StateKind::OffChip`], at the depths they would have on
+    /// chip. A pre-integrating
     /// ray carries its previous sample beside its accumulators wherever
     /// they go.
     pub fn ray_state(cfg: &PipelineConfig, geo: &Geometry) -> Vec<StateDecl> {
@@ -218,6 +225,16 @@ impl Pe {
                 format!("row buffers ({rows} rows x 2 column banks; rays in DDR)"),
                 SDP,
                 (2, (rows * row).div_ceil(2), arch::ray_bits(cfg) + prev),
+            ));
+            // The rays the row buffers read ahead from and write back to:
+            // this PE's share of the external memory, every ray it may
+            // hold (front to back with its inherited state and flag,
+            // `arch::ray_bits`).
+            out.push(decl(
+                "ray_store",
+                "rays in external memory (DDR)",
+                OFF_CHIP,
+                (1, rays, arch::ray_bits(cfg) + prev),
             ));
         } else {
             out.push(decl(
@@ -257,21 +274,27 @@ impl Pe {
                 acc + prev + RAY_INDEX_BITS + addr_bits(arch::ray_rows(geo) + 1),
             ),
         ));
-        if cfg.order == Order::FrontToBack && cfg.ray_buffer == RayBuffer::OnChip {
-            // With an external buffer both live in DDR (the row buffer
-            // carries the inherited state and the flag: `arch::ray_bits`).
-            out.push(decl(
-                "inherited",
-                "inherited state + termination flag (front to back)",
-                SDP,
-                (2, rays.div_ceil(2), acc + 1),
-            ));
-            out.push(decl(
-                "kept_finals",
-                "kept final states, K - 1 boundaries (front to back)",
-                SDP,
-                (1, geo.rays.kept, acc),
-            ));
+        if cfg.order == Order::FrontToBack {
+            if cfg.ray_buffer == RayBuffer::OnChip {
+                // With an external buffer the inherited state and the
+                // flag travel with the ray (`ray_store` above).
+                out.push(decl(
+                    "inherited",
+                    "inherited state + termination flag (front to back)",
+                    SDP,
+                    (2, rays.div_ceil(2), acc + 1),
+                ));
+            }
+            // On chip, or with the rays in DDR beside them: the same
+            // depth either way, what this PE keeps at the splits.
+            let (what, kind) = match cfg.ray_buffer {
+                RayBuffer::OnChip => ("kept final states, K - 1 boundaries (front to back)", SDP),
+                RayBuffer::External => (
+                    "kept final states, K - 1 boundaries (front to back, in DDR)",
+                    OFF_CHIP,
+                ),
+            };
+            out.push(decl("kept_finals", what, kind, (1, geo.rays.kept, acc)));
         }
         out
     }

@@ -50,7 +50,7 @@ fn cases() -> Vec<(PipelineConfig, Geometry)> {
 fn ports(d: &StateDecl) -> MemPorts {
     match d.kind {
         StateKind::Memory(p) => p,
-        StateKind::Fifo | StateKind::Register => MemPorts::Sdp,
+        StateKind::Fifo | StateKind::Register | StateKind::OffChip => MemPorts::Sdp,
     }
 }
 
@@ -87,7 +87,7 @@ fn the_cost_inventory_charges_every_declared_state_element() {
         }
         for d in decls
             .iter()
-            .filter(|d| d.depth > 0 && d.kind != StateKind::Register)
+            .filter(|d| d.depth > 0 && d.kind != StateKind::Register && d.on_chip())
         {
             let item = mems
                 .iter()
@@ -107,10 +107,80 @@ fn the_cost_inventory_charges_every_declared_state_element() {
         }
         for i in &mems {
             assert!(
-                i.name.contains("table") || decls.iter().any(|d| d.what == i.name),
-                "{} is charged but not declared",
+                i.name.contains("table") || decls.iter().any(|d| d.what == i.name && d.on_chip()),
+                "{} is charged but not declared on chip",
                 i.name
             );
+        }
+        // The off-chip memories are external bits, never block RAM.
+        let off: Vec<_> = decls.iter().filter(|d| !d.on_chip()).collect();
+        assert_eq!(
+            inv.ray_memory_bits,
+            off.iter()
+                .map(|d| u64::from(d.copies) * d.bits())
+                .sum::<u64>()
+        );
+        assert_eq!(
+            off.is_empty(),
+            cfg.ray_buffer == RayBuffer::OnChip,
+            "{cfg:?}"
+        );
+    }
+}
+
+/// With the rays in external memory the PE declares its share of it as
+/// off-chip memories at the depths they have on chip: its rays (with
+/// their inherited states front to back) and, front to back, its kept
+/// finals at the view's kept depth; the cost model prices them as
+/// external bits and charges no block RAM for them.
+#[test]
+fn an_external_ray_buffer_declares_the_rays_and_kept_finals_off_chip() {
+    let geo = Geometry::new([256, 256, 256], 16);
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let on = PipelineConfig {
+            order,
+            ..PipelineConfig::default()
+        };
+        let ext = PipelineConfig {
+            ray_buffer: RayBuffer::External,
+            ..on
+        };
+        let decls = Pe::declaration(&ext, &geo);
+        let get = |n: &str| decls.iter().find(|d| d.name == n);
+        let store = get("ray_store").expect("ray store declared");
+        assert_eq!(store.kind, StateKind::OffChip);
+        assert_eq!(store.depth, geo.rays.columns * geo.rays.rows);
+        assert_eq!(
+            store.width,
+            crate::cost::arch::ray_bits(&ext) + crate::cost::preint::ray_bits(&ext, &geo)
+        );
+        let on_decls = Pe::declaration(&on, &geo);
+        let on_kept = on_decls.iter().find(|d| d.name == "kept_finals");
+        match order {
+            Order::BackToFront => assert!(get("kept_finals").is_none() && on_kept.is_none()),
+            Order::FrontToBack => {
+                let kept = get("kept_finals").expect("kept finals declared");
+                let on_kept = on_kept.expect("on chip too");
+                assert_eq!(kept.kind, StateKind::OffChip);
+                assert!(geo.rays.kept > 0);
+                assert_eq!(
+                    (kept.copies, kept.depth, kept.width),
+                    (on_kept.copies, geo.rays.kept, on_kept.width)
+                );
+                assert!(get("inherited").is_none());
+            }
+        }
+        let inv = pe_inventory(&ext, &geo);
+        let off: u64 = decls
+            .iter()
+            .filter(|d| d.kind == StateKind::OffChip)
+            .map(|d| u64::from(d.copies) * d.bits())
+            .sum();
+        assert!(off > 0 && inv.ray_memory_bits == off);
+        assert_eq!(pe_inventory(&on, &geo).ray_memory_bits, 0);
+        // None of it is an item (block RAM).
+        for d in decls.iter().filter(|d| d.kind == StateKind::OffChip) {
+            assert!(inv.items.iter().all(|i| i.name != d.what), "{}", d.name);
         }
     }
 }

@@ -11,138 +11,55 @@
 
 use glam::DVec3;
 use golden::camera::Camera;
-use golden::methods::Method;
 use golden::render::Prepared;
 use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
-use pipeline::array::{Array, Frame, FrameRun, Voxels};
-use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
+use pipeline::array::Frame;
+use pipeline::config::{PipelineConfig, RayBuffer};
 use proptest::prelude::*;
-use waves::Tracer;
 
 use crate::chip::signature;
-use crate::scenes::{eye_and_look, sparse, tf};
-
-fn lut(cfg: &PipelineConfig, threshold: f64) -> Lut {
-    let t = tf(&[
-        (0.0, [0.0; 4]),
-        (threshold, [0.2, 0.4, 0.9, 0.0]),
-        (threshold + 50.0, [1.0, 0.7, 0.3, 0.6]),
-        (255.0, [1.0, 1.0, 1.0, 0.95]),
-    ]);
-    Lut::for_bits(&t, cfg.table_entries as usize, 8)
-}
+use crate::scenes::{eye_and_look, sparse};
+use crate::support::{frame, lut, Arch};
 
 fn camera(eye: DVec3, look: DVec3, fov: f64, size: u32) -> Camera {
-    let f = (look - eye).normalize();
-    let up = if f.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
-    Camera::new(eye, look, up, fov, size, size).expect("camera")
+    crate::support::camera(eye, look, fov, size, size).expect("camera")
 }
 
 /// The frame of `cfg`, skipping on; `clocked` ticks every stage cycle by
 /// cycle (the migrations step the link FIFOs).
 fn run(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared, clocked: bool) -> Frame {
-    if !clocked {
-        return FrameRun::prepared(cfg, lut, prep, Voxels::Volume(vol))
-            .skips(Skips::default())
-            .run()
-            .expect("frame");
+    if clocked {
+        crate::support::clocked(cfg, vol, lut, prep, false)
+    } else {
+        frame(cfg, vol, lut, prep, Skips::default()).expect("frame")
     }
-    let layout = Method::Er.layout(&prep.view).expect("layout");
-    let mm = golden::occupancy::MinMax::new(vol, usize::from(cfg.occupancy_block)).expect("blocks");
-    let dp = pipeline::datapath::Datapath::new(
-        *cfg,
-        pipeline::tables::Tables::new(cfg, lut).expect("tables"),
-    );
-    let (mask, counts) = pipeline::skip::plan_mask(&dp, &mm, 8, prep, &layout, Skips::default());
-    let mut a = Array::new(cfg, vol, lut, &prep.view, Tracer::disabled()).expect("array");
-    a.set_skipping(mask, counts, &prep.view);
-    a.set_clocked(true);
-    a.run(&prep.view).expect("clocked frame")
 }
 
-/// The architectures: mapping, cyclic width, migration, ray buffer,
-/// sparse links, sparse passes, lanes.
-type Arch = (Mapping, u16, Migration, RayBuffer, bool, bool, u16);
-
+/// The architectures: column blocks; the interleave, sparse links; cyclic
+/// blocks of 3, overlapped, sparse passes; the interleave, overlapped,
+/// sparse links and passes, three lanes; column blocks, overlapped, two
+/// lanes; the interleave with its rays in external memory, sparse links.
 const ARCHS: [Arch; 6] = [
-    (
-        Mapping::Blocks,
-        1,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-        false,
-        false,
-        1,
-    ),
-    (
-        Mapping::Interleave,
-        1,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-        true,
-        false,
-        1,
-    ),
-    (
-        Mapping::Cyclic,
-        3,
-        Migration::Overlapped,
-        RayBuffer::OnChip,
-        false,
-        true,
-        1,
-    ),
-    (
-        Mapping::Interleave,
-        1,
-        Migration::Overlapped,
-        RayBuffer::OnChip,
-        true,
-        true,
-        3,
-    ),
-    (
-        Mapping::Blocks,
-        1,
-        Migration::Overlapped,
-        RayBuffer::OnChip,
-        false,
-        false,
-        2,
-    ),
-    (
-        Mapping::Interleave,
-        1,
-        Migration::BetweenSlices,
-        RayBuffer::External,
-        true,
-        false,
-        1,
-    ),
+    Arch::BLOCKS,
+    Arch::BLOCKS.interleave().sparse_links(true),
+    Arch::BLOCKS.cyclic(3).overlapped().sparse_passes(true),
+    Arch::BLOCKS
+        .interleave()
+        .overlapped()
+        .sparse_links(true)
+        .sparse_passes(true)
+        .lanes(3),
+    Arch::BLOCKS.overlapped().lanes(2),
+    Arch::BLOCKS.interleave().external().sparse_links(true),
 ];
 
+/// `arch`'s configuration with link FIFOs of `depth` rows.
 fn config(arch: Arch, pes: u16, ftb: bool, depth: u16) -> PipelineConfig {
-    let (mapping, cyclic_width, migration, ray_buffer, links, passes, lanes) = arch;
     PipelineConfig {
-        pes,
-        order: if ftb {
-            Order::FrontToBack
-        } else {
-            Order::BackToFront
-        },
-        terminate: if ftb { 0.9 } else { 1.0 },
-        occupancy_block: 4,
-        mapping,
-        cyclic_width,
-        migration,
-        ray_buffer,
-        link_skip_empty: links,
-        pass_skip_empty: passes,
-        link_lanes: lanes,
         link_fifo_depth: depth,
-        ..PipelineConfig::default()
+        ..arch.config(pes, ftb)
     }
 }
 
@@ -180,7 +97,7 @@ fn one_row_fifos_change_no_word_counter_or_cycle() {
                     "{name}: {:?}",
                     shallow.link_fifo
                 );
-                if arch.3 == RayBuffer::External {
+                if arch.ray_buffer == RayBuffer::External {
                     assert_eq!(sent(&shallow), 0, "{name}");
                     continue;
                 }
@@ -260,9 +177,7 @@ proptest! {
         let lut = lut(&default, 50.0);
         // Views the model refuses (too few columns per PE): nothing to
         // compare.
-        let reference = FrameRun::prepared(&default, &lut, &prep, Voxels::Volume(&vol))
-            .skips(Skips::default())
-            .run()
+        let reference = frame(&default, &vol, &lut, &prep, Skips::default())
             .map_err(|e| TestCaseError::reject(e.to_string()))?;
         let f = run(&config(arch, c.pes, c.ftb, c.depth), &vol, &lut, &prep, true);
         prop_assert!(u64::from(c.depth) >= f.link_fifo.peak, "{:?}", f.link_fifo);

@@ -1,7 +1,7 @@
 //! The pipeline model's integration tests, one binary (it links once):
 //! the array's structure, cycle accounting and waveforms (`model`), the
 //! clock, latency and step shapes (`clock`), front
-//! to back (`ftb`), ownership mappings (`mapping`), skipping (`skip`), equivalence with golden within the
+//! to back (`ftb`), ownership mappings (`mapping`), how rays move and where they live (`migration`), skipping (`skip`), equivalence with golden within the
 //! derived bound (`equivalence`), numerical stress (`stress`) and the cost
 //! estimator against yosys (`cost`), what the mappings and ray-buffer
 //! placements cost (`architecture`), the waveforms beyond the default set (`traces`), and the gradient and
@@ -26,6 +26,7 @@ mod kernel;
 mod links;
 mod load;
 mod mapping;
+mod migration;
 mod model;
 mod occupancy;
 mod pe_sample;
@@ -38,5 +39,6 @@ mod shading;
 mod skip;
 mod stepper;
 mod stress;
+mod support;
 mod traces;
 mod voi;

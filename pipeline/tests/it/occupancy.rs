@@ -11,44 +11,26 @@
 
 use glam::DVec3;
 use golden::camera::Camera;
-use golden::methods::Method;
 use golden::render::Prepared;
-use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
-use pipeline::array::{Array, Frame};
-use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
+use pipeline::array::Frame;
+use pipeline::config::{PipelineConfig, RayBuffer};
 use pipeline::cost::inventory::Geometry;
 use pipeline::pe::{Occupancy, Pe};
 use proptest::prelude::*;
-use waves::Tracer;
 
-use crate::scenes::{sparse, tf};
+use crate::scenes::sparse;
+use crate::support::{camera, Arch};
 
 fn lut(cfg: &PipelineConfig) -> Lut {
-    let t = tf(&[
-        (0.0, [0.0; 4]),
-        (40.0, [0.2, 0.4, 0.9, 0.0]),
-        (90.0, [1.0, 0.7, 0.3, 0.6]),
-        (255.0, [1.0, 1.0, 1.0, 0.95]),
-    ]);
-    Lut::for_bits(&t, cfg.table_entries as usize, 8)
+    crate::support::lut(cfg, 40.0)
 }
 
 /// The clocked frame of `cfg` (skipping on): every stage ticks, so the
 /// probe notes every migration cycle.
 fn clocked(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared) -> Frame {
-    let layout = Method::Er.layout(&prep.view).expect("layout");
-    let mm = golden::occupancy::MinMax::new(vol, usize::from(cfg.occupancy_block)).expect("blocks");
-    let dp = pipeline::datapath::Datapath::new(
-        *cfg,
-        pipeline::tables::Tables::new(cfg, lut).expect("tables"),
-    );
-    let (mask, counts) = pipeline::skip::plan_mask(&dp, &mm, 8, prep, &layout, Skips::default());
-    let mut a = Array::new(cfg, vol, lut, &prep.view, Tracer::disabled()).expect("array");
-    a.set_skipping(mask, counts, &prep.view);
-    a.set_clocked(true);
-    a.run(&prep.view).expect("clocked frame")
+    crate::support::clocked(cfg, vol, lut, prep, false)
 }
 
 /// The declared depths the probe's fields answer to: ray columns (the
@@ -70,16 +52,9 @@ fn declared(cfg: &PipelineConfig, geo: &Geometry) -> Declared {
         columns: map.depth,
         rows: geo.rays.rows,
         line: line.depth,
-        // With an external ray buffer the kept finals live in DDR (no
-        // on-chip memory to overflow); on chip, back to front keeps none.
-        kept: find("kept_finals").map_or(
-            if cfg.ray_buffer == RayBuffer::External {
-                u64::MAX
-            } else {
-                0
-            },
-            |k| k.depth,
-        ),
+        // On chip or, with an external ray buffer, off chip in DDR at the
+        // same depth; back to front keeps none.
+        kept: find("kept_finals").map_or(0, |k| k.depth),
     }
 }
 
@@ -109,79 +84,21 @@ fn check(o: &[Occupancy], declared: &[Declared]) -> Result<(), String> {
     Ok(())
 }
 
-fn camera(eye: DVec3, look: DVec3, fov: f64, size: u32) -> Option<Camera> {
-    let f = (look - eye).normalize();
-    let up = if f.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
-    Camera::new(eye, look, up, fov, size, size).ok()
-}
-
-/// Mapping, migration, ray buffer, sparse links, sparse passes, lanes.
-type Arch = (Mapping, Migration, RayBuffer, bool, bool, u16);
-
+/// Column blocks; the interleave, overlapped, sparse links and passes,
+/// two lanes; cyclic blocks of 2, sparse passes; column blocks
+/// overlapped, sparse links; the rays in external memory.
 const ARCHS: [Arch; 5] = [
-    (
-        Mapping::Blocks,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-        false,
-        false,
-        1,
-    ),
-    (
-        Mapping::Interleave,
-        Migration::Overlapped,
-        RayBuffer::OnChip,
-        true,
-        true,
-        2,
-    ),
-    (
-        Mapping::Cyclic,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-        false,
-        true,
-        1,
-    ),
-    (
-        Mapping::Blocks,
-        Migration::Overlapped,
-        RayBuffer::OnChip,
-        true,
-        false,
-        1,
-    ),
-    (
-        Mapping::Blocks,
-        Migration::BetweenSlices,
-        RayBuffer::External,
-        false,
-        false,
-        1,
-    ),
+    Arch::BLOCKS,
+    Arch::BLOCKS
+        .interleave()
+        .overlapped()
+        .sparse_links(true)
+        .sparse_passes(true)
+        .lanes(2),
+    Arch::BLOCKS.cyclic(2).sparse_passes(true),
+    Arch::BLOCKS.overlapped().sparse_links(true),
+    Arch::BLOCKS.external(),
 ];
-
-fn config(arch: Arch, pes: u16, ftb: bool) -> PipelineConfig {
-    let (mapping, migration, ray_buffer, links, passes, lanes) = arch;
-    PipelineConfig {
-        pes,
-        order: if ftb {
-            Order::FrontToBack
-        } else {
-            Order::BackToFront
-        },
-        terminate: if ftb { 0.9 } else { 1.0 },
-        occupancy_block: 4,
-        mapping,
-        cyclic_width: 2,
-        migration,
-        ray_buffer,
-        link_skip_empty: links,
-        pass_skip_empty: passes,
-        link_lanes: lanes,
-        ..PipelineConfig::default()
-    }
-}
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
@@ -204,9 +121,9 @@ proptest! {
         let d = dims.map(|n| n as f64);
         let eye = DVec3::new(eye.0 * d[0], eye.1 * d[1], -eye.2 * d[2]);
         let look = DVec3::new(look.0 * d[0], look.1 * d[1], 0.5 * d[2]);
-        let Some(cam) = camera(eye, look, fov, 24) else { return Ok(()) };
+        let Some(cam) = camera(eye, look, fov, 24, 24) else { return Ok(()) };
         let Ok(prep) = Prepared::new(&vol, &cam) else { return Ok(()) };
-        let cfg = config(ARCHS[arch], pes, ftb);
+        let cfg = ARCHS[arch].config(pes, ftb);
         if cfg.validate().is_err() || usize::from(pes) > prep.view.dims[0] {
             return Ok(());
         }
@@ -242,7 +159,7 @@ fn measured_frames_fit_their_declaration() {
     for (name, vol, cam, pes) in &cases {
         let prep = Prepared::new(vol, cam).expect("view");
         for ftb in [false, true] {
-            let cfg = config(ARCHS[0], *pes, ftb);
+            let cfg = ARCHS[0].config(*pes, ftb);
             let frame = clocked(&cfg, vol, &lut(&cfg), &prep);
             let geo = Geometry::for_view(&cfg, &prep.view).expect("geometry");
             let d = declared_each(&cfg, &geo);
@@ -286,7 +203,7 @@ fn a_frame_past_the_declared_depths_is_refused_before_it_runs() {
     let cam =
         Camera::new(DVec3::new(30.0, 20.0, -40.0), c, DVec3::Y, 90.0, 32, 32).expect("camera");
     let prep = Prepared::new(&vol, &cam).expect("view");
-    let cfg = config(ARCHS[0], 3, false);
+    let cfg = ARCHS[0].config(3, false);
     let lut = lut(&cfg);
     let need = pipeline::capacity::need(&cfg, &prep.view).expect("need");
     let run = |depths| {
@@ -321,4 +238,45 @@ fn a_frame_past_the_declared_depths_is_refused_before_it_runs() {
             .run()
             .expect("frame");
     assert_eq!((fits.raw, fits.cycles), (free.raw, free.cycles));
+}
+
+/// With the rays in external memory, front to back, each PE's kept final
+/// states are declared off chip (`kept_finals`, in DDR) at the depth the
+/// view needs in that PE, and no PE ever keeps more: checked on clocked
+/// frames of `ml:24` from an eye near the volume and beside it (three
+/// regions; the end PEs keep the most) on 3 and 5 PEs, every PE against
+/// its own declaration.
+#[test]
+fn an_external_buffers_kept_finals_fit_their_off_chip_declaration() {
+    let vol = crate::scenes::scene("ml:24");
+    let c = DVec3::from_array(vol.center_world());
+    let cam =
+        Camera::new(DVec3::new(30.0, 20.0, -6.0), c, DVec3::Y, 110.0, 32, 32).expect("camera");
+    let prep = Prepared::new(&vol, &cam).expect("view");
+    for pes in [3, 5] {
+        let cfg = ARCHS[4].config(pes, true);
+        assert_eq!(cfg.ray_buffer, RayBuffer::External);
+        let frame = clocked(&cfg, &vol, &lut(&cfg), &prep);
+        let geo = Geometry::for_view(&cfg, &prep.view).expect("geometry");
+        for k in 0..usize::from(pes) {
+            let decl = Pe::declaration(&cfg, &geo.pe(k));
+            let kept = decl
+                .iter()
+                .find(|d| d.name == "kept_finals")
+                .expect("kept finals declared");
+            assert_eq!(kept.kind, pipeline::hw::state::StateKind::OffChip);
+            assert_eq!(kept.depth, geo.pe(k).rays.kept);
+            assert!(
+                frame.occupancy[k].kept <= kept.depth,
+                "PE {k} kept {}, declared {}",
+                frame.occupancy[k].kept,
+                kept.depth
+            );
+        }
+        // The frame kept finals at all, so the check bit somewhere.
+        assert!(geo.regions >= 3, "{} regions", geo.regions);
+        assert!(frame.occupancy.iter().any(|o| o.kept > 0), "{pes} PEs");
+        let d = declared_each(&cfg, &geo);
+        check(&frame.occupancy, &d).unwrap();
+    }
 }

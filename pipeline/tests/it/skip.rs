@@ -18,31 +18,20 @@ use golden::skip::Skips;
 use golden::tf::Lut;
 use golden::volume::Volume;
 use pipeline::array::{Array, Frame, FrameRun, Voxels};
-use pipeline::config::{Mapping, Migration, Order, PipelineConfig, RayBuffer};
+use pipeline::config::{Order, PipelineConfig};
 use pipeline::fixed::{Format, Overflow, Quant};
 use proptest::prelude::*;
 use waves::Tracer;
 
 use crate::chip::signature;
-use crate::scenes::{eye_and_look, sparse, tf};
+use crate::scenes::{eye_and_look, sparse};
+use crate::support::{lut, Arch};
 
 const OFF: Skips = Skips::NONE;
 const EMPTY: Skips = Skips::EMPTY;
 
-fn lut(cfg: &PipelineConfig, threshold: f64) -> Lut {
-    let t = tf(&[
-        (0.0, [0.0; 4]),
-        (threshold, [0.2, 0.4, 0.9, 0.0]),
-        (threshold + 50.0, [1.0, 0.7, 0.3, 0.6]),
-        (255.0, [1.0, 1.0, 1.0, 0.95]),
-    ]);
-    Lut::for_bits(&t, cfg.table_entries as usize, 8)
-}
-
 fn camera(eye: DVec3, look: DVec3, fov: f64) -> Camera {
-    let f = (look - eye).normalize();
-    let up = if f.y.abs() > 0.9 { DVec3::Z } else { DVec3::Y };
-    Camera::new(eye, look, up, fov, 36, 30).expect("camera")
+    crate::support::camera(eye, look, fov, 36, 30).expect("camera")
 }
 
 fn run(cfg: &PipelineConfig, vol: &Volume, lut: &Lut, prep: &Prepared, skips: Skips) -> Frame {
@@ -78,35 +67,21 @@ struct Case {
     arch: usize,
 }
 
-/// The architectures every skipping identity runs on: mapping, cyclic
-/// width, migration and ray buffer placement.
-const ARCHS: [(Mapping, u16, Migration, RayBuffer); 4] = [
-    (
-        Mapping::Blocks,
-        4,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-    ),
-    (
-        Mapping::Interleave,
-        1,
-        Migration::BetweenSlices,
-        RayBuffer::OnChip,
-    ),
-    (Mapping::Cyclic, 2, Migration::Overlapped, RayBuffer::OnChip),
-    (
-        Mapping::Cyclic,
-        3,
-        Migration::Overlapped,
-        RayBuffer::External,
-    ),
+/// The architectures every skipping identity runs on: column blocks, the
+/// interleave, cyclic blocks of 2 overlapped with transparent rows off the
+/// links and transparent rays out of the passes on two lanes, and cyclic
+/// blocks of 3 overlapped with the rays in external memory.
+const ARCHS: [Arch; 4] = [
+    Arch::BLOCKS,
+    Arch::BLOCKS.interleave(),
+    Arch::BLOCKS
+        .cyclic(2)
+        .overlapped()
+        .sparse_links(true)
+        .sparse_passes(true)
+        .lanes(2),
+    Arch::BLOCKS.cyclic(3).overlapped().external(),
 ];
-
-/// Whether architecture `arch` also leaves transparent rows off the links
-/// (and transparent rays out of the merge and the readout, with two lanes).
-fn sparse_links(arch: usize) -> bool {
-    arch == 2
-}
 
 fn cases() -> impl Strategy<Value = Case> {
     (
@@ -165,18 +140,8 @@ fn config(c: &Case) -> PipelineConfig {
         Overflow::Sat,
     )
     .unwrap_or(d.position);
-    let (mapping, cyclic_width, migration, ray_buffer) = ARCHS[c.arch];
-    PipelineConfig {
+    ARCHS[c.arch].on(PipelineConfig {
         pes: c.pes,
-        mapping,
-        cyclic_width,
-        migration,
-        ray_buffer,
-        link_skip_empty: sparse_links(c.arch),
-        // The sparse architecture also skips transparent rays in the
-        // merge and the readout, on two lanes.
-        pass_skip_empty: sparse_links(c.arch),
-        link_lanes: if sparse_links(c.arch) { 2 } else { 1 },
         occupancy_block: c.block,
         position,
         order: if c.ftb {
@@ -185,7 +150,7 @@ fn config(c: &Case) -> PipelineConfig {
             Order::BackToFront
         },
         ..d
-    }
+    })
 }
 
 /// A VOI drawn for a case: sphere or box, outside or not, ramp, scale.

@@ -12,12 +12,13 @@ use crate::cost::units::Unit;
 use crate::hw::state::{StateDecl, StateKind};
 use crate::pe::Pe;
 
-/// A declared state element as a cost item: a memory (a FIFO is a simple
-/// dual-port memory) of its depth and width, once per copy.
+/// A declared on-chip state element as a cost item: a memory (a FIFO is
+/// a simple dual-port memory) of its depth and width, once per copy.
+/// Off-chip elements are not items: [`off_chip_bits`] counts them.
 fn charge(d: StateDecl) -> Item {
     let ports = match d.kind {
         StateKind::Memory(p) => p,
-        StateKind::Fifo | StateKind::Register => MemPorts::Sdp,
+        StateKind::Fifo | StateKind::Register | StateKind::OffChip => MemPorts::Sdp,
     };
     let unit = match d.kind {
         StateKind::Register => Unit::Reg { bits: d.width },
@@ -133,7 +134,12 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             )],
         ));
     }
-    items.extend(Pe::ray_state(cfg, geo).into_iter().map(charge));
+    items.extend(
+        Pe::ray_state(cfg, geo)
+            .into_iter()
+            .filter(StateDecl::on_chip)
+            .map(charge),
+    );
     items.extend(Pe::register_state(cfg, geo).into_iter().map(charge));
     items.retain(|i| {
         !i.units
@@ -141,4 +147,16 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             .any(|u| matches!(u, Unit::Mem { depth: 0, .. }))
     });
     items
+}
+
+/// Bits of the PE's declared off-chip memories ([`StateKind::OffChip`]:
+/// with the rays in external memory, its rays and kept finals), every
+/// copy: external memory, priced as bits beside the voxel memory, never as
+/// block RAM.
+pub fn off_chip_bits(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
+    Pe::declaration(cfg, geo)
+        .iter()
+        .filter(|d| !d.on_chip())
+        .map(|d| u64::from(d.copies) * d.bits())
+        .sum()
 }

@@ -223,6 +223,14 @@ impl CostReport {
             self.pe.carry,
             self.voxel_memory_bits_per_pe as f64 / 1e6
         );
+        if self.ray_memory_bits > 0 {
+            let _ = writeln!(
+                o,
+                "  external ray memory: {:.2} Mbit for the deepest PE, {:.1} Mbit for the array (no block RAM)",
+                self.ray_memory_bits_per_pe as f64 / 1e6,
+                self.ray_memory_bits as f64 / 1e6
+            );
+        }
         let [rc, rr] = self.run.largest_region;
         let _ = writeln!(
             o,
