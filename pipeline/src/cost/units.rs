@@ -57,6 +57,30 @@ pub enum Unit {
         /// Number of inputs.
         inputs: u32,
     },
+    /// Priority encoder: the index of the lowest set bit of a `width`-bit
+    /// word.
+    Encode {
+        /// Input bits.
+        width: u32,
+    },
+    /// Decoder of a small index into `width` output bits, each a function
+    /// of the index alone (a one-hot or thermometer code).
+    Decode {
+        /// Output bits.
+        width: u32,
+    },
+    /// `a x k + c` for a constant `k`, into `y` bits: a multiplier block
+    /// where the family's block takes the product (as for
+    /// [`Unit::Mul`]), else one adder per further set bit of `k` (shift
+    /// and add); the `+ c` is an adder either way.
+    ConstMulAdd {
+        /// Variable operand bits (unsigned).
+        a: u32,
+        /// The constant.
+        k: u64,
+        /// Result bits.
+        y: u32,
+    },
     /// Barrel shifter of a `width`-bit word by an `amount`-bit count.
     Shift {
         /// Word width.
@@ -110,6 +134,17 @@ pub enum Unit {
     Reg {
         /// Bits.
         bits: u32,
+    },
+    /// Pipeline registers of `bits` flip-flops, `dsp` of which are the
+    /// operand, product and post-adder registers of multipliers that a
+    /// DSP48E1 takes in (its A/B, M and P registers; yosys's
+    /// `xilinx_dsp`): no flip-flops of the fabric on xc7. SB_MAC16 and
+    /// MULT18X18D are not modelled as taking them.
+    PipeReg {
+        /// Bits.
+        bits: u32,
+        /// Of them, the bits the DSP48E1s take in.
+        dsp: u32,
     },
     /// A delay line of `bits` wires over `cycles` clocks (on xc7, SRL32
     /// shift registers from three cycles on, as `xilinx_srl -minlen 3`).
@@ -405,6 +440,26 @@ impl Unit {
                 };
                 Resources::luts(w * per_bit)
             }
+            // Measured with yosys 0.23 on the readout's encoder at 12, 26,
+            // 38 and 64 bits: a LUT per input bit (its "lowest set" term)
+            // and one per four inputs to fold the index bits (iCE40 13,
+            // 33, 50, 90 LUT4s; xc7 32 LUTs at 26).
+            Unit::Encode { width } => {
+                let w = u64::from(width);
+                Resources::luts(w + ceil_div(w, 4))
+            }
+            // One LUT per output bit, the index's decode shared.
+            Unit::Decode { width } => Resources::luts(u64::from(width)),
+            Unit::ConstMulAdd { a, k, y } => {
+                let kb = (64 - k.leading_zeros()).max(1);
+                let node = decompose(&DspLimits::of(t), a, false, kb, false, y);
+                if node.blocks() > 0 {
+                    multiplier(t, a, false, kb, false, y, Some(y), false, 0)
+                } else {
+                    // popcount(k) - 1 shift-adds and the `+ c`.
+                    adder(t, y, false) * u64::from(k.count_ones().max(1))
+                }
+            }
             Unit::Shift { width, amount } => {
                 let (w, s) = (u64::from(width), u64::from(amount));
                 match t {
@@ -490,6 +545,11 @@ impl Unit {
                 res
             }
             Unit::Reg { bits } => Resources::ffs(u64::from(bits)),
+            Unit::PipeReg { bits, dsp } => Resources::ffs(u64::from(if t == Target::Xc7 {
+                bits.saturating_sub(dsp)
+            } else {
+                bits
+            })),
             Unit::Delay { bits, cycles } => {
                 let (b, c) = (u64::from(bits), u64::from(cycles));
                 if t == Target::Xc7 && c >= 3 {
@@ -532,6 +592,9 @@ impl Unit {
             Unit::Cmp { width } => format!("{width}b cmp"),
             Unit::Reduce { width } => format!("{width}b reduce"),
             Unit::Mux { width, inputs } => format!("{inputs}:1 mux {width}b"),
+            Unit::Encode { width } => format!("{width}b encode"),
+            Unit::Decode { width } => format!("decode {width}b"),
+            Unit::ConstMulAdd { a, k, y } => format!("{a}u x {k} + c -> {y}"),
             Unit::Shift { width, amount } => format!("{width}b >> {amount}b"),
             Unit::Mul {
                 a,
@@ -547,6 +610,7 @@ impl Unit {
             Unit::Sqrt { root } => format!("sqrt -> {root}b"),
             Unit::Div { quotient, divisor } => format!("div / {divisor}b -> {quotient}b"),
             Unit::Reg { bits } => format!("{bits} FF"),
+            Unit::PipeReg { bits, dsp } => format!("{bits} FF ({dsp} in DSP48E1)"),
             Unit::Delay { bits, cycles } => format!("{bits}b x {cycles} cycles"),
             Unit::Ip { lut, ff, bram } => format!("IP {lut} LUT, {ff} FF, {bram} BRAM"),
             Unit::ReadReset { depth, width, .. } => format!("{depth} x {width} read reset"),
