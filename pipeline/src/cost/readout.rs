@@ -104,8 +104,10 @@ mod tests {
     /// registers the blocks take in; the memories hold the declared bits.
     #[test]
     fn readout_units_follow_the_shape() {
-        let mut cfg = PipelineConfig::default();
-        cfg.pes = 2;
+        let cfg = PipelineConfig {
+            pes: 2,
+            ..PipelineConfig::default()
+        };
         let s = ReadoutShape::new(&cfg, &Geometry::new([16, 16, 16], 2)).unwrap();
         let u = readout_units(&s);
         let ff: u64 = u
