@@ -47,7 +47,8 @@ pub struct SynthArgs {
     /// The PE's readout stage as `ercube rtl` writes it
     /// (`ercube_pe_readout`: its compositing buffer and column map at the
     /// depths `--dims` and the configuration's PEs declare, and the
-    /// readout's state machine); measured, not estimated.
+    /// readout's state machine), against its estimate
+    /// (`pipeline::cost::readout`).
     #[arg(long, conflicts_with_all = ["unit", "datapath"])]
     pub readout: bool,
     /// With --readout: the view-space volume the PE's memories are
@@ -364,7 +365,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         yosys: version,
         synth_command: synth,
         synthesized,
-        estimated: family.filter(|_| !a.readout).map(|f| {
+        estimated: family.map(|f| {
             if is_datapath {
                 pipeline::synth::datapath_estimate(&cfg, f)
             } else {
@@ -443,12 +444,6 @@ fn text(r: &SynthReport, part: Part) -> String {
                 versus(e.ff, g.ff),
                 e.dsp,
                 e.bram
-            );
-        }
-        None if r.unit == "readout" => {
-            let _ = writeln!(
-                s,
-                "  estimated: not modelled (ercube cost prices the readout's memories and registers among the PE's, not as this module)"
             );
         }
         None => {

@@ -47,6 +47,7 @@
 //! throughput model charges its bandwidth instead.
 
 mod datapath;
+mod dsp_regs;
 mod memories;
 
 use datapath::datapath;

@@ -32,6 +32,7 @@ pub mod latency;
 pub mod memory;
 pub mod parts;
 pub mod preint;
+pub mod readout;
 pub mod report;
 pub mod shading;
 pub mod shapes;

@@ -249,7 +249,11 @@ fn pe_module(s: &ReadoutShape) -> String {
     let n = m;
     let (valid_decl, valid_port, valid_doc) = if s.sparse {
         (
-            format!("  reg [{n1}:0] ray_valid [0:{rm1}];\n", n1 = n - 1, rm1 = rm - 1),
+            format!(
+                "  (* no_rw_check *) reg [{n1}:0] ray_valid [0:{rm1}];\n",
+                n1 = n - 1,
+                rm1 = rm - 1
+            ),
             format!(
                 "    if (ld_we && ld_sel == 2'd{SEL_VALID}) ray_valid[ld_addr[{vb1}:0]] <= ld_data[{n1}:0];\n    if (rst) vq <= {n}'d0;\n    else if (issue_v) vq <= ray_valid[v_addr[{vb1}:0]];\n",
                 vb1 = vb - 1,
@@ -276,7 +280,10 @@ fn pe_module(s: &ReadoutShape) -> String {
 //
 // Memories as declared by Pe::declaration (and, for the valid bits, the
 // cost model's ray valid bits), each a synchronous-read RAM with one write
-// port (the host load) and one read port (the readout):
+// port (the host load) and one read port (the readout), declared no_rw_check:
+// the host loads them before begin_readout, never while the readout reads,
+// so a read and a write of one address in one clock need no defined result
+// (yosys then builds no bypass registers around the blocks):
 //   compositing_buffer: 2 banks x {d} words x {w} bits ({{a, b, g, r}}: r at bit 0,
 //     {cw}-bit colour words, a {aw}-bit opacity word), ray (slot c, row r) at the
 //     linear address r * {m} + c, bank = its low bit;
@@ -316,9 +323,9 @@ module {PE_MODULE} (
   output wire [{aw1}:0] host_a,
   output wire done
 );
-  reg [{w1}:0] bank0 [0:{d1}];
-  reg [{w1}:0] bank1 [0:{d1}];
-  reg [{mw1}:0] column_map [0:{m1}];
+  (* no_rw_check *) reg [{w1}:0] bank0 [0:{d1}];
+  (* no_rw_check *) reg [{w1}:0] bank1 [0:{d1}];
+  (* no_rw_check *) reg [{mw1}:0] column_map [0:{m1}];
 {valid_decl}  reg [{sb1}:0] ncols;
   reg [{rb1}:0] rows;
   reg vv;

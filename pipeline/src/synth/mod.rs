@@ -229,8 +229,8 @@ pub fn datapath(cfg: &PipelineConfig) -> Result<CalibrationModule, String> {
 /// The PE's readout stage as `ercube rtl` writes it
 /// ([`crate::hw::readout_rtl::PE_MODULE`]): its compositing buffer and
 /// column map declared for a view-space volume of `dims` over `cfg.pes`
-/// PEs, and the readout's state machine. Not estimated as a module (`ercube
-/// cost` prices its memories and registers among the PE's).
+/// PEs, and the readout's state machine; its units (the estimate) are
+/// [`crate::cost::readout::readout_units`] of the same shape.
 pub fn readout(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<CalibrationModule, String> {
     use crate::hw::readout_rtl::{emit, ReadoutShape, PE_MODULE};
     let geo = crate::cost::inventory::Geometry::new(dims, cfg.pes.max(1));
@@ -251,7 +251,7 @@ pub fn readout(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<CalibrationModu
             shape.memory_bits()
         ),
         verilog: r.pe,
-        units: Vec::new(),
+        units: crate::cost::readout::readout_units(&shape),
     })
 }
 

@@ -122,7 +122,10 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
             })
             .then(Path::fanout())
         }
-        Unit::Reduce { .. } | Unit::Mux { .. } => Path::luts(1),
+        Unit::Reduce { .. } | Unit::Mux { .. } | Unit::Decode { .. } => Path::luts(1),
+        // A LUT level for the lowest set bit, one to fold the index.
+        Unit::Encode { .. } => Path::luts(2),
+        Unit::ConstMulAdd { y, .. } => Path::chain(y),
         Unit::Shift { amount, .. } => Path::luts(amount),
         Unit::Mul {
             a,
@@ -168,9 +171,11 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
             brams: 1.0,
             ..Path::default()
         },
-        Unit::Reg { .. } | Unit::Delay { .. } | Unit::Ip { .. } | Unit::ReadReset { .. } => {
-            Path::default()
-        }
+        Unit::Reg { .. }
+        | Unit::PipeReg { .. }
+        | Unit::Delay { .. }
+        | Unit::Ip { .. }
+        | Unit::ReadReset { .. } => Path::default(),
     }
 }
 

@@ -338,8 +338,9 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
                 "pipeline",
                 PIPELINE_REGISTERS,
                 1,
-                vec![Unit::Reg {
+                vec![Unit::PipeReg {
                     bits: (e.register_bits - e.read_bits()) as u32,
+                    dsp: e.dsp_bits as u32,
                 }],
             ));
         }
@@ -395,6 +396,9 @@ pub(crate) struct Emitted {
     pub(crate) register_bits: u64,
     /// The tables, with their read ports.
     pub(crate) tables: Vec<crate::hw::pipeline_rtl::Table>,
+    /// Of the register bits, those DSP48E1s take in
+    /// ([`super::dsp_regs::dsp_register_bits`]).
+    pub(crate) dsp_bits: u64,
 }
 
 impl Emitted {
@@ -423,6 +427,7 @@ pub(crate) fn emitted(cfg: &PipelineConfig, geo: &Geometry) -> Option<Emitted> {
     Some(Emitted {
         register_bits: m.register_bits,
         tables: m.tables,
+        dsp_bits: super::dsp_regs::dsp_register_bits(&g, &s),
     })
 }
 
