@@ -15,6 +15,17 @@ fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/vtk.py")
 }
 
+/// `ercube` arguments `head`, then the peer's Python `py` and this
+/// repository's script.
+fn peer_args(head: &[&str], py: &Path) -> Vec<String> {
+    let mut args: Vec<String> = head.iter().map(|s| s.to_string()).collect();
+    args.push("--python".into());
+    args.push(py.to_string_lossy().into_owned());
+    args.push("--script".into());
+    args.push(script().to_string_lossy().into_owned());
+    args
+}
+
 /// A Python that imports vtk and numpy, or `None` (said on stderr) to skip.
 fn vtk_python(what: &str) -> Option<PathBuf> {
     let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/.venv/bin/python");
@@ -82,33 +93,31 @@ fn peer_vtk_renders_the_same_view_on_a_tiny_volume() {
     let mut vox = vec![0u8; n * n * n];
     vox[(12 * n + 7) * n + 17] = 255;
     std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
-    let args = [
-        "peer",
-        "vtk",
-        "--volume",
-        "v.raw",
-        "--raw-dims",
-        "24,24,24",
-        "--eye",
-        "11.5,11.5,-24",
-        "--fov",
-        "60",
-        "--size",
-        "64x64",
-        "--methods",
-        "reference,er,er-ftb:2",
-        "--frames",
-        "1",
-        "--threads",
-        "2",
-        "--out-dir",
-        "out",
-        "--python",
-    ];
-    let mut args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
-    args.push(py.to_string_lossy().into_owned());
-    args.push("--script".into());
-    args.push(script().to_string_lossy().into_owned());
+    let args = peer_args(
+        &[
+            "peer",
+            "vtk",
+            "--volume",
+            "v.raw",
+            "--raw-dims",
+            "24,24,24",
+            "--eye",
+            "11.5,11.5,-24",
+            "--fov",
+            "60",
+            "--size",
+            "64x64",
+            "--methods",
+            "reference,er,er-ftb:2",
+            "--frames",
+            "1",
+            "--threads",
+            "2",
+            "--out-dir",
+            "out",
+        ],
+        &py,
+    );
     let out = ercube(dir.path(), &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     let o = dir.path().join("out");
@@ -167,37 +176,33 @@ fn peer_vtk_renders_every_view() {
     let mut vox = vec![0u8; n * n * n];
     vox[(12 * n + 7) * n + 17] = 255;
     std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
-    let mut args: Vec<String> = [
-        "peer",
-        "vtk",
-        "--volume",
-        "v.raw",
-        "--raw-dims",
-        "24,24,24",
-        "--eye",
-        "11.5,11.5,-24",
-        "--fov",
-        "60",
-        "--size",
-        "48x48",
-        "--methods",
-        "reference,er-ftb",
-        "--views",
-        "all",
-        "--frames",
-        "1",
-        "--threads",
-        "2",
-        "--out-dir",
-        "out",
-        "--python",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    args.push(py.to_string_lossy().into_owned());
-    args.push("--script".into());
-    args.push(script().to_string_lossy().into_owned());
+    let args = peer_args(
+        &[
+            "peer",
+            "vtk",
+            "--volume",
+            "v.raw",
+            "--raw-dims",
+            "24,24,24",
+            "--eye",
+            "11.5,11.5,-24",
+            "--fov",
+            "60",
+            "--size",
+            "48x48",
+            "--methods",
+            "reference,er-ftb",
+            "--views",
+            "all",
+            "--frames",
+            "1",
+            "--threads",
+            "2",
+            "--out-dir",
+            "out",
+        ],
+        &py,
+    );
     let out = ercube(dir.path(), &args);
     assert!(out.status.success(), "{}", describe(&args, &out));
     let o = dir.path().join("out");
@@ -235,29 +240,25 @@ fn peer_vtk_shades_like_ercube() {
     };
     let dir = tempfile::tempdir().unwrap();
     let run = |out: &str, shade: bool| {
-        let mut args: Vec<String> = [
-            "peer",
-            "vtk",
-            "--scene",
-            "ml:32",
-            "--size",
-            "64x64",
-            "--methods",
-            "reference,er-ftb",
-            "--frames",
-            "1",
-            "--threads",
-            "2",
-            "--out-dir",
-            out,
-            "--python",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        args.push(py.to_string_lossy().into_owned());
-        args.push("--script".into());
-        args.push(script().to_string_lossy().into_owned());
+        let mut args = peer_args(
+            &[
+                "peer",
+                "vtk",
+                "--scene",
+                "ml:32",
+                "--size",
+                "64x64",
+                "--methods",
+                "reference,er-ftb",
+                "--frames",
+                "1",
+                "--threads",
+                "2",
+                "--out-dir",
+                out,
+            ],
+            &py,
+        );
         if shade {
             args.push("--shade".into());
         }

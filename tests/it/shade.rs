@@ -255,6 +255,16 @@ fn compare_and_bench_take_er_gaze() {
     }
 }
 
+/// Runs `ercube` on the words of `line` in `dir`, which must succeed and
+/// write its stats to `s.json`; returns them.
+fn stats_of(dir: &Path, line: &str) -> serde_json::Value {
+    let args: Vec<&str> = line.split_whitespace().collect();
+    let out = ercube(dir, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    serde_json::from_str(&std::fs::read_to_string(dir.join("s.json")).expect("stats"))
+        .expect("json")
+}
+
 /// `--rays footprint`: a view as fine as the voxels renders ER's own frame
 /// byte for byte; a far one renders one coarse level (in the stats) with
 /// at most a quarter of the samples; the flag is refused beside `--gaze`
@@ -263,19 +273,7 @@ fn compare_and_bench_take_er_gaze() {
 fn rays_footprint_follows_the_image() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let d = dir.path();
-    let run = |line: &str| {
-        let args: Vec<&str> = line.split_whitespace().collect();
-        let out = ercube(d, &args);
-        assert!(
-            out.status.success(),
-            "{}",
-            crate::bin::describe(&args, &out)
-        );
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
-                .expect("json");
-        v
-    };
+    let run = |line: &str| stats_of(d, line);
     for m in ["er", "er-ftb"] {
         let near = format!("render --scene ml:24 --size 96x96 --method {m} --stats s.json");
         run(&format!("{near} --out voxels.png"));
@@ -328,19 +326,7 @@ fn rays_footprint_follows_the_image() {
 fn pipeline_rays_footprint_loads_the_prefiltered_level() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let d = dir.path();
-    let run = |line: &str| {
-        let args: Vec<&str> = line.split_whitespace().collect();
-        let out = ercube(d, &args);
-        assert!(
-            out.status.success(),
-            "{}",
-            crate::bin::describe(&args, &out)
-        );
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).expect("stats"))
-                .expect("json");
-        v
-    };
+    let run = |line: &str| stats_of(d, line);
     let read = |name: &str| std::fs::read(d.join(name)).expect(name);
     // Front to back without early termination: the bound is derived
     // for that (`--terminate 1`).

@@ -87,6 +87,37 @@ mod tests {
     use crate::fixed::{Format, Overflow, Quant, QuantStats};
     use proptest::prelude::*;
 
+    /// The configuration of accumulator colour, alpha and merge formats
+    /// `widths` (bits, fraction), each `RND` or `TRN` by `rounds`, the
+    /// merge word signed by `signed`, and its tents; a rejection when the
+    /// formats or the tents do not exist.
+    fn tent_case(
+        widths: [(u8, u8); 3],
+        rounds: [bool; 3],
+        signed: bool,
+    ) -> Result<(crate::config::PipelineConfig, Tents), TestCaseError> {
+        let q = |r: bool| if r { Quant::Rnd } else { Quant::Trn };
+        let f = |i: usize, s: bool| {
+            let (b, fr) = widths[i];
+            Format::new(b, fr.min(b), s, q(rounds[i]), Overflow::Sat)
+        };
+        let (Ok(accum_color), Ok(accum_alpha), Ok(merge)) =
+            (f(0, false), f(1, false), f(2, signed))
+        else {
+            return Err(TestCaseError::reject("no such format"));
+        };
+        let cfg = crate::config::PipelineConfig {
+            accum_color,
+            accum_alpha,
+            merge,
+            ..crate::config::PipelineConfig::default()
+        };
+        let Some(tents) = Tents::new(&cfg) else {
+            return Err(TestCaseError::reject("a width the tents do not model"));
+        };
+        Ok((cfg, tents))
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(3000))]
         /// A tent worked out once is the general path's [`Datapath::tent`],
@@ -102,24 +133,7 @@ mod tests {
             ch in 0usize..4,
             words in any::<[u64; 3]>(),
         ) {
-            let q = |r: bool| if r { Quant::Rnd } else { Quant::Trn };
-            let f = |i: usize, s: bool| {
-                let (b, fr) = widths[i];
-                Format::new(b, fr.min(b), s, q(rounds[i]), Overflow::Sat)
-            };
-            let (Ok(accum_color), Ok(accum_alpha), Ok(merge)) = (f(0, false), f(1, false), f(2, signed))
-            else {
-                return Err(TestCaseError::reject("no such format"));
-            };
-            let cfg = crate::config::PipelineConfig {
-                accum_color,
-                accum_alpha,
-                merge,
-                ..crate::config::PipelineConfig::default()
-            };
-            let Some(tents) = Tents::new(&cfg) else {
-                return Err(TestCaseError::reject("a width the tents do not model"));
-            };
+            let (cfg, tents) = tent_case(widths, rounds, signed)?;
             let acc = if ch == 3 {
                 crate::reg!(cfg, accum_alpha)
             } else {
@@ -161,24 +175,7 @@ mod tests {
             y in any::<bool>(),
             words in any::<[[u64; 4]; 3]>(),
         ) {
-            let q = |r: bool| if r { Quant::Rnd } else { Quant::Trn };
-            let f = |i: usize, s: bool| {
-                let (b, fr) = widths[i];
-                Format::new(b, fr.min(b), s, q(rounds[i]), Overflow::Sat)
-            };
-            let (Ok(accum_color), Ok(accum_alpha), Ok(merge)) = (f(0, false), f(1, false), f(2, signed))
-            else {
-                return Err(TestCaseError::reject("no such format"));
-            };
-            let cfg = crate::config::PipelineConfig {
-                accum_color,
-                accum_alpha,
-                merge,
-                ..crate::config::PipelineConfig::default()
-            };
-            let Some(tents) = Tents::new(&cfg) else {
-                return Err(TestCaseError::reject("a width the tents do not model"));
-            };
+            let (cfg, tents) = tent_case(widths, rounds, signed)?;
             let merge = crate::reg!(cfg, merge);
             let mut p = [[0i64; 4]; 3];
             let mut want = [0i64; 4];
