@@ -15,6 +15,28 @@ fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/peers/vtk.py")
 }
 
+/// Writes the 24^3 volume holding one bright voxel at high x, low y
+/// (left of centre, low in the image) as `dir/v.raw`; returns the
+/// arguments that read it and the camera that sees it.
+fn one_voxel_view(dir: &Path) -> [&'static str; 10] {
+    let n = 24;
+    let mut vox = vec![0u8; n * n * n];
+    vox[(12 * n + 7) * n + 17] = 255;
+    std::fs::write(dir.join("v.raw"), &vox).unwrap();
+    [
+        "peer",
+        "vtk",
+        "--volume",
+        "v.raw",
+        "--raw-dims",
+        "24,24,24",
+        "--eye",
+        "11.5,11.5,-24",
+        "--fov",
+        "60",
+    ]
+}
+
 /// `ercube` arguments `head`, then the peer's Python `py` and this
 /// repository's script.
 fn peer_args(head: &[&str], py: &Path) -> Vec<String> {
@@ -88,34 +110,24 @@ fn peer_vtk_renders_the_same_view_on_a_tiny_volume() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    // One bright voxel at high x, low y: left of centre, low in the image.
-    let n = 24;
-    let mut vox = vec![0u8; n * n * n];
-    vox[(12 * n + 7) * n + 17] = 255;
-    std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
+    let view = one_voxel_view(dir.path());
     let args = peer_args(
         &[
-            "peer",
-            "vtk",
-            "--volume",
-            "v.raw",
-            "--raw-dims",
-            "24,24,24",
-            "--eye",
-            "11.5,11.5,-24",
-            "--fov",
-            "60",
-            "--size",
-            "64x64",
-            "--methods",
-            "reference,er,er-ftb:2",
-            "--frames",
-            "1",
-            "--threads",
-            "2",
-            "--out-dir",
-            "out",
-        ],
+            &view[..],
+            &[
+                "--size",
+                "64x64",
+                "--methods",
+                "reference,er,er-ftb:2",
+                "--frames",
+                "1",
+                "--threads",
+                "2",
+                "--out-dir",
+                "out",
+            ],
+        ]
+        .concat(),
         &py,
     );
     let out = ercube(dir.path(), &args);
@@ -172,35 +184,26 @@ fn peer_vtk_renders_every_view() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let n = 24;
-    let mut vox = vec![0u8; n * n * n];
-    vox[(12 * n + 7) * n + 17] = 255;
-    std::fs::write(dir.path().join("v.raw"), &vox).unwrap();
+    let view = one_voxel_view(dir.path());
     let args = peer_args(
         &[
-            "peer",
-            "vtk",
-            "--volume",
-            "v.raw",
-            "--raw-dims",
-            "24,24,24",
-            "--eye",
-            "11.5,11.5,-24",
-            "--fov",
-            "60",
-            "--size",
-            "48x48",
-            "--methods",
-            "reference,er-ftb",
-            "--views",
-            "all",
-            "--frames",
-            "1",
-            "--threads",
-            "2",
-            "--out-dir",
-            "out",
-        ],
+            &view[..],
+            &[
+                "--size",
+                "48x48",
+                "--methods",
+                "reference,er-ftb",
+                "--views",
+                "all",
+                "--frames",
+                "1",
+                "--threads",
+                "2",
+                "--out-dir",
+                "out",
+            ],
+        ]
+        .concat(),
         &py,
     );
     let out = ercube(dir.path(), &args);
