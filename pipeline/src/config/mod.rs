@@ -17,7 +17,8 @@
 //!
 //! # Adding a field
 //!
-//! Every field is one entry of the table in `config/fields.rs`: its
+//! Every field is one entry of the table in `config/fields.rs` (its
+//! entries in four groups, `config/fields/*.rs`, by what they configure): its
 //! rustdoc (what it holds, and why its default), type, default, the
 //! one-line comment written above its key in a TOML dump, for an integer
 //! the range named when a TOML value does not fit its type, and the rule

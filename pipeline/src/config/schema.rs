@@ -247,6 +247,18 @@ impl FieldValue for RayBuffer {
 /// signature `fn(&PipelineConfig, &str, Type) -> Result<(), ConfigError>`
 /// (the whole config for cross-field rules, the field's name, its value).
 macro_rules! config_fields {
+    // The table gathered from its groups (`fields/*.rs`): each group's
+    // macro appends its entries to the list in brackets and hands it back
+    // with the groups still to come; the last expands the whole table.
+    (@gather [$($entries:tt)*] [$group:ident $(, $rest:ident)*] $($head:tt)*) => {
+        $group! { @gather [$($entries)*] [$($rest),*] $($head)* }
+    };
+    (@gather [$($entries:tt)*] [] $(#[$struct_meta:meta])* pub struct PipelineConfig;) => {
+        $crate::config::schema::config_fields! {
+            $(#[$struct_meta])*
+            pub struct PipelineConfig { $($entries)* }
+        }
+    };
     (
         $(#[$struct_meta:meta])*
         pub struct PipelineConfig {
