@@ -118,8 +118,8 @@ impl Item {
     /// one, a summary of delay lines, or the first unit and how many more.
     pub fn shape(&self) -> String {
         let find = |f: fn(&Unit) -> bool| self.units.iter().find(|u| f(u));
-        if let Some(u) = find(|u| matches!(u, Unit::Mem { .. }))
-            .or_else(|| find(|u| matches!(u, Unit::Mul { .. })))
+        if let Some(u) =
+            find(|u| matches!(u, Unit::Mem { .. })).or_else(|| find(|u| matches!(u, Unit::Mul(_))))
         {
             return u.shape();
         }

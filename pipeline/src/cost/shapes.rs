@@ -8,7 +8,7 @@
 //! overflow (`SAT`: clamp). The widths below are the exact widths of those
 //! full-precision intermediates, so nothing is lost before the assignment.
 
-use super::units::Unit;
+use super::units::{MulShape, Unit};
 use crate::config::PipelineConfig;
 use crate::fixed::{Format, Overflow, Quant};
 use serde::Serialize;
@@ -209,7 +209,7 @@ impl Lerp {
             Unit::Sub {
                 width: self.d.bits - 1,
             },
-            Unit::Mul {
+            Unit::Mul(MulShape {
                 a: self.w.bits,
                 a_signed: false,
                 b: self.d.bits,
@@ -219,7 +219,7 @@ impl Lerp {
                 post_add: Some(self.s.bits - self.a_shift.max(0) as u32),
                 registered: false,
                 operand_reg: 0,
-            },
+            }),
         ];
         u.extend(self.quant.units());
         u
@@ -230,7 +230,7 @@ impl Lerp {
     pub fn units_with_weight_register(&self) -> Vec<Unit> {
         let mut u = self.units();
         for unit in &mut u {
-            if let Unit::Mul { operand_reg, .. } = unit {
+            if let Unit::Mul(MulShape { operand_reg, .. }) = unit {
                 *operand_reg = self.w.bits;
             }
         }
@@ -288,7 +288,7 @@ impl MulAdd {
     /// Units: the multiply-add and the assignment.
     pub fn units(&self) -> Vec<Unit> {
         let low = self.c_shift.min(self.p_shift).max(0) as u32;
-        let mut u = vec![Unit::Mul {
+        let mut u = vec![Unit::Mul(MulShape {
             a: self.m.bits,
             a_signed: true,
             b: self.k.bits,
@@ -297,7 +297,7 @@ impl MulAdd {
             post_add: Some(self.s.bits - low),
             registered: false,
             operand_reg: 0,
-        }];
+        })];
         u.extend(self.quant.units());
         u
     }

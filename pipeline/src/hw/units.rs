@@ -11,7 +11,7 @@
 use super::{Graph, NodeId, Op, Word};
 use crate::cost::inventory::addr_bits;
 use crate::cost::shapes::Quantizer;
-use crate::cost::units::Unit;
+use crate::cost::units::{MulShape, Unit};
 
 /// One cost item of a graph: group, name, copies and one copy's units.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -75,7 +75,7 @@ pub fn node_units(g: &Graph, id: NodeId, consumers: &[Vec<NodeId>]) -> Vec<Unit>
                 .map(|&o| g.word(o).bits)
                 .sum();
             let (wa, wb) = (g.word(a), g.word(b));
-            vec![Unit::Mul {
+            vec![Unit::Mul(MulShape {
                 a: wa.bits,
                 a_signed: wa.signed,
                 b: wb.bits,
@@ -84,7 +84,7 @@ pub fn node_units(g: &Graph, id: NodeId, consumers: &[Vec<NodeId>]) -> Vec<Unit>
                 post_add,
                 registered: false,
                 operand_reg,
-            }]
+            })]
         }
         Op::Quantize(x) => Quantizer::new(g.word(x), n.fmt.expect("format")).units(),
         Op::ShrQuantize(x, s) => {

@@ -27,7 +27,7 @@ pub use shading::{dividend_bits, divider, sqrt_norm};
 
 use crate::config::PipelineConfig;
 use crate::cost::shapes::{table_word, Quantizer, Word, RAY_INDEX_BITS};
-use crate::cost::units::Unit;
+use crate::cost::units::{MulShape, Unit};
 use crate::cost::{memory::MemPorts, Resources, Target};
 use crate::fixed::{Overflow, Quant};
 
@@ -303,7 +303,7 @@ pub fn mul_ray(cfg: &PipelineConfig) -> CalibrationModule {
         name,
         description: format!("m x t ({}s x {}u)", m.bits, t.bits),
         verilog,
-        units: vec![Unit::Mul {
+        units: vec![Unit::Mul(MulShape {
             a: m.bits,
             a_signed: true,
             b: t.bits,
@@ -312,7 +312,7 @@ pub fn mul_ray(cfg: &PipelineConfig) -> CalibrationModule {
             post_add: None,
             registered: true,
             operand_reg: 0,
-        }],
+        })],
     }
 }
 
@@ -336,7 +336,7 @@ pub fn mul_square(cfg: &PipelineConfig) -> CalibrationModule {
         name,
         description: format!("sx^2 ({0} x {0})", x.bits),
         verilog,
-        units: vec![Unit::Mul {
+        units: vec![Unit::Mul(MulShape {
             a: x.bits,
             a_signed: x.signed,
             b: x.bits,
@@ -345,7 +345,7 @@ pub fn mul_square(cfg: &PipelineConfig) -> CalibrationModule {
             post_add: None,
             registered: true,
             operand_reg: 0,
-        }],
+        })],
     }
 }
 

@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use super::FEATURES;
 use crate::cost::dsp::{decompose, DspLimits, MulNode};
-use crate::cost::units::Unit;
+use crate::cost::units::{MulShape, Unit};
 use crate::cost::Target;
 
 /// What lies on a stage's longest path.
@@ -127,7 +127,7 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
         Unit::Encode { .. } => Path::luts(2),
         Unit::ConstMulAdd { y, .. } => Path::chain(y),
         Unit::Shift { amount, .. } => Path::luts(amount),
-        Unit::Mul {
+        Unit::Mul(MulShape {
             a,
             a_signed,
             b,
@@ -136,7 +136,7 @@ pub fn unit_path(t: Target, u: &Unit) -> Path {
             post_add,
             registered,
             ..
-        } => {
+        }) => {
             let node = decompose(&DspLimits::of(t), a, a_signed, b, b_signed, y);
             let block = if node.blocks() == 0 { 0.0 } else { 1.0 };
             let mut p = if registered && post_add.is_none() {
@@ -198,7 +198,7 @@ pub fn module_paths(t: Target, units: &[Unit]) -> Vec<Path> {
     let mut after_div = false;
     for u in units {
         match *u {
-            Unit::Mul {
+            Unit::Mul(MulShape {
                 a,
                 a_signed,
                 b,
@@ -207,7 +207,7 @@ pub fn module_paths(t: Target, units: &[Unit]) -> Vec<Path> {
                 post_add,
                 registered,
                 ..
-            } if t == Target::Ice40 && !registered => {
+            }) if t == Target::Ice40 && !registered => {
                 let node = decompose(&DspLimits::of(t), a, a_signed, b, b_signed, y);
                 let mut after = fabric(t, &node);
                 if let Some(w) = post_add {

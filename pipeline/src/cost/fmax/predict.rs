@@ -8,7 +8,7 @@ use super::path::{fabric, module_paths, unit_path, Path};
 use super::{fit, model, routing, DelayModel, Measured, MEASURED};
 use crate::config::PipelineConfig;
 use crate::cost::dsp::{decompose, DspLimits};
-use crate::cost::units::Unit;
+use crate::cost::units::{MulShape, Unit};
 use crate::cost::Target;
 
 /// The clock `model` predicts for a calibration unit's units on `t`: its
@@ -82,14 +82,14 @@ pub(super) fn node_path(
         Op::Mul(..) => units
             .iter()
             .map(|u| match *u {
-                Unit::Mul {
+                Unit::Mul(MulShape {
                     a,
                     a_signed,
                     b,
                     b_signed,
                     y,
                     ..
-                } => {
+                }) => {
                     let d = decompose(&DspLimits::of(t), a, a_signed, b, b_signed, y);
                     Path {
                         blocks_reg: if d.blocks() == 0 { 0.0 } else { 1.0 },

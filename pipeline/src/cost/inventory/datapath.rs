@@ -9,7 +9,7 @@ use crate::cost::arch;
 use crate::cost::shapes::{
     class_weight, exp_weight, table_word, MulAdd, Quantizer, Word, RAY_INDEX_BITS,
 };
-use crate::cost::units::Unit;
+use crate::cost::units::{MulShape, Unit};
 use serde::Serialize;
 
 /// An ASAP schedule of the sample pipeline: when each step starts, and
@@ -140,7 +140,7 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
         "path length",
         "slope squares sx^2, sy^2, sz^2",
         3,
-        vec![Unit::Mul {
+        vec![Unit::Mul(MulShape {
             a: pn,
             a_signed: true,
             b: pn,
@@ -149,7 +149,7 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
             post_add: None,
             registered: true,
             operand_reg: 0,
-        }],
+        })],
     ));
     let sum_bits = 2 * pn + 2;
     items.push(Item::new(

@@ -17,7 +17,7 @@ use fabric::adder;
 use serde::Serialize;
 
 pub(crate) use mul::absorbed;
-pub use mul::mul_tree;
+pub use mul::{mul_tree, MulShape};
 
 /// One hardware unit of a datapath.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -95,33 +95,9 @@ pub enum Unit {
         /// Shift-count bits.
         amount: u32,
     },
-    /// `a x b` multiplier with a `y`-bit product. `post_add` is the width of
-    /// an adder right behind it (`c + a b`), which a DSP48E1 or SB_MAC16
-    /// takes in when the product fits one block; `registered` says the
-    /// product goes straight into a register, which the block can hold.
-    Mul {
-        /// A operand width (its true width: an unsigned operand multiplied
-        /// with a signed one gets its zero sign bit from the decomposition).
-        a: u32,
-        /// A is two's complement.
-        a_signed: bool,
-        /// B operand width.
-        b: u32,
-        /// B is two's complement.
-        b_signed: bool,
-        /// Product width.
-        y: u32,
-        /// Width of the adder fed by the product, if any.
-        post_add: Option<u32>,
-        /// The product is registered directly.
-        registered: bool,
-        /// Bits of a pipeline register feeding an operand and nothing
-        /// else: the block's input register (DSP48E1 AREG/BREG, SB_MAC16
-        /// A/B hold registers) takes it when the product is one block (on
-        /// iCE40 also a chain of blocks, and only a register filling the
-        /// 16-bit port), otherwise it stays in the fabric.
-        operand_reg: u32,
-    },
+    /// `a x b` multiplier with a `y`-bit product, and the adder and
+    /// registers around it ([`MulShape`]).
+    Mul(MulShape),
     /// Pipelined integer square root with a `root`-bit result: one
     /// add/subtract stage per result bit (non-restoring).
     Sqrt {
@@ -207,26 +183,7 @@ impl Unit {
             Unit::Decode { width } => fabric::decode(width),
             Unit::ConstMulAdd { a, k, y } => mul::const_mul_add(t, a, k, y),
             Unit::Shift { width, amount } => fabric::shift(t, width, amount),
-            Unit::Mul {
-                a,
-                a_signed,
-                b,
-                b_signed,
-                y,
-                post_add,
-                registered,
-                operand_reg,
-            } => mul::multiplier(
-                t,
-                a,
-                a_signed,
-                b,
-                b_signed,
-                y,
-                post_add,
-                registered,
-                operand_reg,
-            ),
+            Unit::Mul(ref m) => mul::multiplier(t, m),
             Unit::Sqrt { root } => staged::sqrt(t, root),
             Unit::Div { quotient, divisor } => staged::div(t, quotient, divisor),
             Unit::Reg { bits } => Resources::ffs(u64::from(bits)),
@@ -269,14 +226,14 @@ impl Unit {
             Unit::Decode { width } => format!("decode {width}b"),
             Unit::ConstMulAdd { a, k, y } => format!("{a}u x {k} + c -> {y}"),
             Unit::Shift { width, amount } => format!("{width}b >> {amount}b"),
-            Unit::Mul {
+            Unit::Mul(MulShape {
                 a,
                 a_signed,
                 b,
                 b_signed,
                 y,
                 ..
-            } => {
+            }) => {
                 let s = |x: bool| if x { "s" } else { "u" };
                 format!("{a}{} x {b}{} -> {y}", s(a_signed), s(b_signed))
             }
@@ -317,15 +274,17 @@ mod tests {
     fn known_yosys_figures() {
         let add = Unit::Add { width: 16 }.cost(Target::Xc7);
         assert_eq!((add.lut, add.carry), (16, 5));
-        let mul = |a, b| Unit::Mul {
-            a,
-            a_signed: false,
-            b,
-            b_signed: false,
-            y: a + b,
-            post_add: None,
-            registered: true,
-            operand_reg: 0,
+        let mul = |a, b| {
+            Unit::Mul(MulShape {
+                a,
+                a_signed: false,
+                b,
+                b_signed: false,
+                y: a + b,
+                post_add: None,
+                registered: true,
+                operand_reg: 0,
+            })
         };
         assert_eq!(mul(8, 8).cost(Target::Xc7).dsp, 1);
         assert_eq!(mul(16, 16).cost(Target::Xc7).dsp, 1);

@@ -5,6 +5,36 @@
 use super::super::dsp::{decompose, DspLimits, MulNode};
 use super::super::target::{Resources, Target};
 use super::fabric::{adder, ceil_div};
+use serde::Serialize;
+
+/// A multiplier's shape: `a x b` with a `y`-bit product. `post_add` is
+/// the width of an adder right behind it (`c + a b`), which a DSP48E1 or
+/// SB_MAC16 takes in when the product fits one block; `registered` says
+/// the product goes straight into a register, which the block can hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct MulShape {
+    /// A operand width (its true width: an unsigned operand multiplied
+    /// with a signed one gets its zero sign bit from the decomposition).
+    pub a: u32,
+    /// A is two's complement.
+    pub a_signed: bool,
+    /// B operand width.
+    pub b: u32,
+    /// B is two's complement.
+    pub b_signed: bool,
+    /// Product width.
+    pub y: u32,
+    /// Width of the adder fed by the product, if any.
+    pub post_add: Option<u32>,
+    /// The product is registered directly.
+    pub registered: bool,
+    /// Bits of a pipeline register feeding an operand and nothing
+    /// else: the block's input register (DSP48E1 AREG/BREG, SB_MAC16
+    /// A/B hold registers) takes it when the product is one block (on
+    /// iCE40 also a chain of blocks, and only a register filling the
+    /// 16-bit port), otherwise it stays in the fabric.
+    pub operand_reg: u32,
+}
 
 /// A soft (LUT) multiplier.
 fn soft_mul(t: Target, a: u32, b: u32) -> Resources {
@@ -91,18 +121,17 @@ fn mul_register(t: Target, node: &MulNode, y: u32) -> u64 {
 }
 
 /// A multiplier's resources.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn multiplier(
-    t: Target,
-    a: u32,
-    a_signed: bool,
-    b: u32,
-    b_signed: bool,
-    y: u32,
-    post_add: Option<u32>,
-    registered: bool,
-    operand_reg: u32,
-) -> Resources {
+pub(super) fn multiplier(t: Target, m: &MulShape) -> Resources {
+    let MulShape {
+        a,
+        a_signed,
+        b,
+        b_signed,
+        y,
+        post_add,
+        registered,
+        operand_reg,
+    } = *m;
     let node = decompose(&DspLimits::of(t), a, a_signed, b, b_signed, y);
     let single = node.is_single_block();
     let takes_input_reg = match t {
@@ -144,7 +173,17 @@ pub(super) fn const_mul_add(t: Target, a: u32, k: u64, y: u32) -> Resources {
     let kb = (64 - k.leading_zeros()).max(1);
     let node = decompose(&DspLimits::of(t), a, false, kb, false, y);
     if node.blocks() > 0 {
-        multiplier(t, a, false, kb, false, y, Some(y), false, 0)
+        let shape = MulShape {
+            a,
+            a_signed: false,
+            b: kb,
+            b_signed: false,
+            y,
+            post_add: Some(y),
+            registered: false,
+            operand_reg: 0,
+        };
+        multiplier(t, &shape)
     } else {
         // popcount(k) - 1 shift-adds and the `+ c`.
         adder(t, y, false) * u64::from(k.count_ones().max(1))
