@@ -10,8 +10,8 @@
 //! The controller knows runs of ray indices, not which PE holds which
 //! column, so it broadcasts every row's runs to every PE, one run a clock
 //! (`pl_valid`), the slice's rows in order, `pl_first` on a row's first
-//! run; a row without runs is not sent (no PE samples it, so its word is
-//! never read). The runs are inside the slice's x range (the controller's
+//! run; a row no PE samples (no runs, or none over a held column: the
+//! PEs' row reports) is not sent, as its word is never read. The runs are inside the slice's x range (the controller's
 //! planner clips them to it), so a held column is planned when it is one
 //! of the `map_n` held ones and inside the run: a comparator pair per
 //! column map slot over `map_lo + i`. The row's word is the OR of its

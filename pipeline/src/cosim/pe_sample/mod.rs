@@ -111,12 +111,19 @@ pub(crate) fn rows_planned(capture: &Capture, cycle: u64, first_row: usize, pes:
 }
 
 /// Tells `capture` the controller sends the slice's `runs` (of rows from
-/// `first_row` on) to the PEs' plan ports, one a clock from clock `from`.
-pub(crate) fn plan_runs(capture: &Capture, from: u64, first_row: usize, runs: &RowRuns) {
+/// `first_row` on) of the rows that take clocks (`lens`) to the PEs' plan
+/// ports, one a clock from clock `from`.
+pub(crate) fn plan_runs(
+    capture: &Capture,
+    from: u64,
+    first_row: usize,
+    runs: &RowRuns,
+    lens: &[usize],
+) {
     capture
         .lock()
         .unwrap_or_else(|e| e.into_inner())
-        .plan_runs(from, first_row, runs);
+        .plan_runs(from, first_row, runs, lens);
 }
 
 /// Tells `capture` a slice starts after clock `cycle`.
@@ -438,13 +445,19 @@ impl PeCapture {
         }
     }
 
-    /// The slice's runs on the plan port, one a clock from clock `from`
-    /// (clock, first run of its row, row, lo, hi): a row without runs is
-    /// not sent.
-    fn write_runs(&mut self, from: u64, first_row: usize, runs: &RowRuns) -> std::io::Result<()> {
+    /// The runs of the slice's sampled rows (`lens[r] > 0`) on the plan
+    /// port, one a clock from clock `from` (clock, first run of its row,
+    /// row, lo, hi).
+    fn write_runs(
+        &mut self,
+        from: u64,
+        first_row: usize,
+        runs: &RowRuns,
+        lens: &[usize],
+    ) -> std::io::Result<()> {
         let half = 1i64 << (self.shape.index_bits - 1);
         let mut clock = from;
-        for r in 0..runs.rows() {
+        for r in (0..runs.rows()).filter(|&r| lens.get(r).is_some_and(|&n| n > 0)) {
             let row = first_row + r;
             for (i, &(lo, hi)) in runs.row(r).iter().enumerate() {
                 if lo < -half || hi >= half {
@@ -616,8 +629,8 @@ impl IssueSink for PeCapture {
         self.plan(first_row, pes);
     }
 
-    fn plan_runs(&mut self, from: u64, first_row: usize, runs: &RowRuns) {
-        if let Err(e) = self.write_runs(from, first_row, runs) {
+    fn plan_runs(&mut self, from: u64, first_row: usize, runs: &RowRuns, lens: &[usize]) {
+        if let Err(e) = self.write_runs(from, first_row, runs, lens) {
             self.fail(e);
         }
     }

@@ -188,10 +188,11 @@ impl Array {
             self.pre_runs = pre_runs;
             return Ok(());
         }
-        if let Some(c) = self.clock.capture() {
-            crate::cosim::pe_sample::plan_runs(c, self.clock.now(), first_row, &runs);
-        }
         let times = self.row_times(&reports, &runs);
+        if let Some(c) = self.clock.capture() {
+            let from = self.clock.now();
+            crate::cosim::pe_sample::plan_runs(c, from, first_row, &runs, &times.lens);
+        }
         // The next slice's rays may start moving from here.
         self.links_from = self.clock.now();
         let rows = rows?;
@@ -208,9 +209,10 @@ impl Array {
 
     /// Each row's start: after the previous row (and the prologue before
     /// the first, with several PEs), held back until the row's plan is
-    /// written (the controller sends the slice's runs to the PEs' plan
-    /// ports one a clock, row after row, from the slice's first clock:
-    /// the row's last run's beat [`PLAN_TO_ISSUE`] clocks before), to the
+    /// written (the controller sends the runs of the slice's sampled rows
+    /// to the PEs' plan ports one a clock, row after row, from the slice's
+    /// first clock: the row's last run's beat [`PLAN_TO_ISSUE`] clocks
+    /// before; a row no PE samples is not sent, its word never read), to the
     /// latest start the PEs reported and, with the rays' buffer external,
     /// until the row's rays have arrived (read while the row before
     /// samples; written back after its last sample has).
@@ -234,8 +236,8 @@ impl Array {
         };
         for (r, &(len, ready, rays)) in reports.iter().enumerate() {
             let (mut start, mut stall, mut memory, mut plan) = (0, 0, 0, 0);
-            beat += runs.row(r).len() as u64;
             if len > 0 {
+                beat += runs.row(r).len() as u64;
                 let mut earliest = next + if first { prologue } else { 0 };
                 plan = (beat - 1 + PLAN_TO_ISSUE).saturating_sub(earliest);
                 earliest += plan;
