@@ -186,13 +186,6 @@ fn a_skipping_frame_matches_the_model() {
         let what = format!("{tool}, 2 PEs {SKIPPING:?}, skipping");
         assert_matches(&r, &what);
         assert_skips_inside_rows(&r, &what);
-        // More runs than rows: the runs' gaps reach the PEs through the
-        // port, not as words.
-        assert!(
-            r.plan_runs > 1000,
-            "{what}: {} runs on the plan port",
-            r.plan_runs
-        );
     }
 }
 
