@@ -66,8 +66,9 @@ impl Pe {
     /// to each neighbour, the edge voxel port and the edge register it is
     /// driven from (column blocks), the host port of the readout, the
     /// copy of the controller's broadcast, the current slice's active
-    /// columns, the readout's state and read register, and with
-    /// `pass_skip_empty` the pass's latched edge rays. The counters live
+    /// columns, the row plan's word being gathered, the readout's state
+    /// and read register, and with `pass_skip_empty` the pass's latched
+    /// edge rays. The counters live
     /// with their incrementers in the control logic and the datapath's
     /// pipeline registers with its schedule
     /// ([`crate::cost::inventory`]).
@@ -113,6 +114,14 @@ impl Pe {
                 "active columns: first slot, count",
                 1,
                 2 * slot_bits,
+            ),
+            // The row plan's word gathered from the row's runs, a bit a
+            // column map slot (`crate::hw::pe_plan_rtl`).
+            reg(
+                "plan_word",
+                "row plan: the row's word gathered from its runs",
+                1,
+                arch::rays_per_row(cfg, geo) as u32,
             ),
             reg(
                 "readout",

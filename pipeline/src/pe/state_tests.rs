@@ -251,8 +251,9 @@ fn the_default_declaration_has_the_documented_depths() {
 /// The row plan the emitted sample stage reads
 /// (`PeSampleShape::plan_bits`) is what the cost inventory charges: one
 /// simple dual-port memory of a word of `slots` bits for each ray row,
-/// at the declared depths, on the default 16 PEs over 256^3 and on a
-/// small 2-PE volume.
+/// at the declared depths, and a register of `slots` bits for the word
+/// being gathered, on the default 16 PEs over 256^3 and on a small 2-PE
+/// volume.
 #[test]
 fn the_row_plan_is_charged_as_the_sample_stage_reads_it() {
     let cfg = PipelineConfig::default();
@@ -278,5 +279,17 @@ fn the_row_plan_is_charged_as_the_sample_stage_reads_it() {
         );
         assert_eq!(shape.plan_bits(), geo.rays.rows * geo.rays.columns);
         assert!(shape.plan_bits() > 0);
+        // And the row's word the comparators gather, a flip-flop a slot.
+        let word = inv
+            .items
+            .iter()
+            .find(|i| i.group == "registers" && i.name.starts_with("row plan"))
+            .expect("the row plan's word is charged");
+        assert_eq!(
+            word.units,
+            vec![Unit::Reg {
+                bits: shape.slots() as u32
+            }]
+        );
     }
 }
