@@ -65,7 +65,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         o.mismatches
     )];
     lines.push(format!(
-        "  rtl: {} {} lines x {} + testbench {} lines; {} memory bits and {} control register bits a PE; {}; ran in {:.2} s ({:.0} clocks/s); {} buffer words replayed from outside the stage; {} row plan words written, {} held columns inside the slices' x ranges left out of sampled rows",
+        "  rtl: {} {} lines x {} + testbench {} lines; {} memory bits and {} control register bits a PE; {}; ran in {:.2} s ({:.0} clocks/s); {} buffer words replayed from outside the stage; {} runs driven on the plan port, {} held columns inside the slices' x ranges left out of sampled rows",
         pipeline::hw::pe_sample_rtl::MODULE,
         r.lines[0],
         s.cfg.pes,
@@ -76,7 +76,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         r.seconds[1],
         r.cycles as f64 / r.seconds[1].max(1e-9),
         r.outside_words,
-        r.plan_words,
+        r.plan_runs,
         r.skipped_in_rows
     ));
     if r.slots.0 > r.slots.1 {
@@ -125,7 +125,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
                 "readout_raw_compared": r.readout.as_ref().map(|x| x.raw.0),
                 "readout_raw_differing": r.readout.as_ref().map(|x| x.raw.1),
                 "outside_words": r.outside_words,
-                "plan_words": r.plan_words,
+                "plan_runs": r.plan_runs,
                 "skipped_in_rows": r.skipped_in_rows,
                 "columns_held_peak": r.slots.0,
                 "column_map_declared_slots": r.slots.1,

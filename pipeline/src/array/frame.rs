@@ -47,6 +47,11 @@ pub struct StageCycles {
     /// zero, as it is with the buffer on chip).
     #[serde(skip_serializing_if = "is_zero")]
     pub memory: u64,
+    /// Row starts held back until the row's plan is written (the
+    /// controller's runs reach the PEs' plan ports one a clock; left out
+    /// of the JSON when zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub plan: u64,
 }
 
 impl StageCycles {
@@ -63,6 +68,7 @@ impl StageCycles {
             Stage::Drain => &mut self.drain,
             Stage::Stall => &mut self.stall,
             Stage::Memory => &mut self.memory,
+            Stage::Plan => &mut self.plan,
         };
         *c += n;
     }
@@ -79,6 +85,7 @@ impl StageCycles {
             + self.drain
             + self.stall
             + self.memory
+            + self.plan
     }
 }
 

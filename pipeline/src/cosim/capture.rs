@@ -136,6 +136,17 @@ pub trait IssueSink: Send {
     /// row `r` the region's `first_row + r`), after clock `cycle`
     /// ([`crate::cosim::pe_sample`]).
     fn rows_planned(&mut self, _cycle: u64, _first_row: usize, _pes: &[Pe]) {}
+    /// A sampled slice's runs (its row `r` the region's `first_row + r`)
+    /// of the rows that take clocks (`lens[r] > 0`) on the PEs' plan
+    /// port, one a clock from clock `from` ([`crate::cosim::pe_sample`]).
+    fn plan_runs(
+        &mut self,
+        _from: u64,
+        _first_row: usize,
+        _runs: &crate::stages::sample::RowRuns,
+        _lens: &[usize],
+    ) {
+    }
 }
 
 /// One PE's rays at the readout's start: its held columns in order (the

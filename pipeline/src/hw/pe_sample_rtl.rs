@@ -30,8 +30,9 @@
 //! ([`crate::skip::plan_mask`], golden's planner), so empty-space skipping
 //! and culling reach the PE as cleared bits, and the control issues a
 //! row's set bits lowest first, one a clock (a priority encoder over the
-//! bits not yet issued). The plan is written through its port (`pl_*`)
-//! before the slice's first sampling clock.
+//! bits not yet issued). The plan is written through its port (`pl_*`,
+//! [`super::pe_plan_rtl`]: the controller's runs, one a clock, through a
+//! comparator pair a column map slot) before the row's first issue.
 
 use std::fmt::Write as _;
 
@@ -128,11 +129,7 @@ module {MODULE} (
   input wire map_we,
   input wire signed [{ib1}:0] map_lo_in,
   input wire [{sb1}:0] map_n_in,
-  // The row plan: row pl_row's word, bit i set when held column map_lo + i samples
-  // in it (the PlanRows broadcast's runs through the column comparators).
-  input wire pl_we,
-  input wire [{rb1}:0] pl_row,
-  input wire [{s1}:0] pl_word,
+{plan_ports}
   // This PE's voxel columns: first, one past the last, the volume's last.
   input wire [{cb1}:0] col_lo,
   input wire [{cb1}:0] col_end,
@@ -156,7 +153,7 @@ module {MODULE} (
         cb1 = cb - 1,
         rb1 = rb - 1,
         yb1 = yb - 1,
-        s1 = slots - 1,
+        plan_ports = super::pe_plan_rtl::ports(s),
     );
     let row_words = ["a", "t", "b", "k", "row_wy", "sy", "sz"];
     for n in row_words {
@@ -200,6 +197,7 @@ module {MODULE} (
         bw - 1
     );
     // Memories and the column map's range.
+    let (plan_write, plan_regs) = super::pe_plan_rtl::write_side(s);
     let _ = writeln!(
         w,
         "  reg [{v1}:0] sb0 [0:{bwm}];
@@ -220,8 +218,7 @@ module {MODULE} (
       map_n <= map_n_in;
     end
   end
-  always @(posedge clk) if (pl_we) plan[pl_row] <= pl_word;
-  // The host's voxel load; column 0 also into the edge column.
+{plan_write}  // The host's voxel load; column 0 also into the edge column.
   wire [31:0] vld_word = ({{31'd0, vld_z}} * {half} + vld_row) * {stored} + vld_col;
   wire [31:0] vld_edge = {{31'd0, vld_z}} * {half} + vld_row;
   always @(posedge clk) begin
@@ -579,6 +576,6 @@ module {MODULE} (
     );
     Ok(PeSampleRtl {
         verilog: t,
-        register_bits: regs,
+        register_bits: regs + plan_regs,
     })
 }

@@ -77,6 +77,21 @@ impl PeSampleShape {
             .iter()
             .find(|d| d.name == "slice_buffer")
             .ok_or("the PE declares no slice buffer")?;
+        // The row plan the control reads is the declared one, a bit a
+        // column map slot for each ray row.
+        let plan = Pe::ray_state(cfg, geo)
+            .into_iter()
+            .find(|d| d.name == "row_plan")
+            .ok_or("the PE declares no row plan")?;
+        if plan.copies != 1
+            || plan.depth != rays.max_rows
+            || u64::from(plan.width) != rays.map_depth
+        {
+            return Err(format!(
+                "the row plan is declared as {} copies of {} words of {} bits; the sample stage reads one word of {} bits for each of {} rows",
+                plan.copies, plan.depth, plan.width, rays.map_depth, rays.max_rows
+            ));
+        }
         let ny = geo.dims[1] as u64;
         let half_rows = ny.div_ceil(2);
         if sb.copies != 4 || sb.depth % half_rows != 0 {
@@ -146,7 +161,9 @@ impl PeSampleShape {
     }
 
     /// Bits of the row plan: one word of `slots` bits for each of the
-    /// region's ray rows ([`super::pe_sample_rtl`]).
+    /// region's ray rows ([`super::pe_sample_rtl`]); the PE's declared
+    /// `row_plan` ([`Pe::ray_state`]), which [`PeSampleShape::new`]
+    /// checks, unless [`PeSampleShape::with_slots`] widened the slots.
     pub fn plan_bits(&self) -> u64 {
         self.rays.max_rows * self.slots()
     }

@@ -1,6 +1,6 @@
 //! The PE's state declared as hardware ([`crate::hw::state`]): its voxel
 //! memory, its compositing buffer (or, with the rays in external memory,
-//! its row buffers), the column map, the passes' line buffer, the link
+//! its row buffers), the column map, the row plan, the passes' line buffer, the link
 //! FIFOs and, front to back, the inherited states and the kept finals,
 //! each with the depth and width it has for the geometry's view
 //! ([`Geometry`]: the ray memories at the depths [`Geometry::rays`] gives,
@@ -66,8 +66,9 @@ impl Pe {
     /// to each neighbour, the edge voxel port and the edge register it is
     /// driven from (column blocks), the host port of the readout, the
     /// copy of the controller's broadcast, the current slice's active
-    /// columns, the readout's state and read register, and with
-    /// `pass_skip_empty` the pass's latched edge rays. The counters live
+    /// columns, the row plan's word being gathered, the readout's state
+    /// and read register, and with `pass_skip_empty` the pass's latched
+    /// edge rays. The counters live
     /// with their incrementers in the control logic and the datapath's
     /// pipeline registers with its schedule
     /// ([`crate::cost::inventory`]).
@@ -113,6 +114,14 @@ impl Pe {
                 "active columns: first slot, count",
                 1,
                 2 * slot_bits,
+            ),
+            // The row plan's word gathered from the row's runs, a bit a
+            // column map slot (`crate::hw::pe_plan_rtl`).
+            reg(
+                "plan_word",
+                "row plan: the row's word gathered from its runs",
+                1,
+                arch::rays_per_row(cfg, geo) as u32,
             ),
             reg(
                 "readout",
@@ -201,7 +210,8 @@ impl Pe {
     /// The rays' state: the compositing buffer in two column banks of
     /// the view's ray columns times their rows (or, with the rays in
     /// external memory, the row buffers the controller reads ahead into),
-    /// the column map (a slot per ray column), the passes' line buffer
+    /// the column map (a slot per ray column), the row plan (a bit a slot
+    /// for each ray row), the passes' line buffer
     /// ([`LINE_ROWS`] rows of a pass's children on one PE), a link FIFO per side
     /// (`link_fifo_depth` rows) and, front to back, the inherited states
     /// with their termination flags and the final states kept at the
@@ -249,6 +259,16 @@ impl Pe {
             "column map (slot -> ray column)",
             SDP,
             (1, row, RAY_INDEX_BITS + 1),
+        ));
+        // The row plan: a bit a held column (a column map slot) for each
+        // ray row of the slice, written from the controller's runs by the
+        // PE's comparators before the row samples and read by the issue
+        // control (`crate::hw::pe_sample_rtl`).
+        out.push(decl(
+            "row_plan",
+            "row plan (a bit a held column, a word a ray row)",
+            SDP,
+            (1, arch::ray_rows(geo), row as u32),
         ));
         out.push(decl(
             "line_buffer",

@@ -217,6 +217,8 @@ fn the_default_declaration_has_the_documented_depths() {
         (2, (r.columns * r.rows).div_ceil(2), 64)
     );
     assert_eq!(shape("column_map"), (1, r.columns, 17));
+    // The row plan: a bit a column map slot for each ray row.
+    assert_eq!(shape("row_plan"), (1, r.rows, r.columns as u32));
     // `link_fifo_depth` rows per side (default 2): the accumulators, the
     // ray index and a 10-bit row; and exactly the configured depth.
     assert_eq!(get("link_fifo").kind, StateKind::Fifo);
@@ -244,4 +246,50 @@ fn the_default_declaration_has_the_documented_depths() {
     );
     // Back to front keeps no finals.
     assert!(decls.iter().all(|d| d.name != "kept_finals"));
+}
+
+/// The row plan the emitted sample stage reads
+/// (`PeSampleShape::plan_bits`) is what the cost inventory charges: one
+/// simple dual-port memory of a word of `slots` bits for each ray row,
+/// at the declared depths, and a register of `slots` bits for the word
+/// being gathered, on the default 16 PEs over 256^3 and on a small 2-PE
+/// volume.
+#[test]
+fn the_row_plan_is_charged_as_the_sample_stage_reads_it() {
+    let cfg = PipelineConfig::default();
+    for geo in [
+        Geometry::new([256, 256, 256], 16),
+        Geometry::new([24, 24, 24], 2),
+    ] {
+        let shape = crate::hw::pe_sample_rtl::PeSampleShape::new(&cfg, &geo).expect("emitted");
+        let inv = pe_inventory(&cfg, &geo);
+        let item = inv
+            .items
+            .iter()
+            .find(|i| i.group == "memories" && i.name.starts_with("row plan"))
+            .expect("the row plan is charged");
+        assert_eq!(item.count, 1);
+        assert_eq!(
+            item.units,
+            vec![Unit::Mem {
+                depth: shape.rays.max_rows,
+                width: shape.slots() as u32,
+                ports: MemPorts::Sdp,
+            }]
+        );
+        assert_eq!(shape.plan_bits(), geo.rays.rows * geo.rays.columns);
+        assert!(shape.plan_bits() > 0);
+        // And the row's word the comparators gather, a flip-flop a slot.
+        let word = inv
+            .items
+            .iter()
+            .find(|i| i.group == "registers" && i.name.starts_with("row plan"))
+            .expect("the row plan's word is charged");
+        assert_eq!(
+            word.units,
+            vec![Unit::Reg {
+                bits: shape.slots() as u32
+            }]
+        );
+    }
 }

@@ -44,8 +44,8 @@ use crate::fixed::Format;
 use crate::stages::passes::PassBus;
 
 /// The stages' codes and names, for the translate filter.
-const STAGE_NAMES: [(u64, &str); 10] = {
-    let mut names = [(0, ""); 10];
+const STAGE_NAMES: [(u64, &str); Stage::ALL.len()] = {
+    let mut names = [(0, ""); Stage::ALL.len()];
     let mut i = 0;
     while i < names.len() {
         names[i] = (Stage::ALL[i] as u64, Stage::ALL[i].name());

@@ -27,11 +27,15 @@ pub enum Stage {
     /// Waiting for the external ray buffer: a row's rays still arriving,
     /// a pass's traffic, or the write-backs before a drain completes.
     Memory = 9,
+    /// A row start held back until the row's plan is written: the
+    /// controller streams the slice's runs to the PEs' plan ports one a
+    /// clock from the slice's start.
+    Plan = 10,
 }
 
 impl Stage {
     /// Every stage, in code order.
-    pub const ALL: [Stage; 10] = [
+    pub const ALL: [Stage; 11] = [
         Stage::Sample,
         Stage::Migrate,
         Stage::Merge,
@@ -42,6 +46,7 @@ impl Stage {
         Stage::Drain,
         Stage::Stall,
         Stage::Memory,
+        Stage::Plan,
     ];
 
     /// The code on `top.ctrl.stage`.
@@ -62,6 +67,7 @@ impl Stage {
             Stage::Drain => "drain",
             Stage::Stall => "stall",
             Stage::Memory => "memory",
+            Stage::Plan => "plan",
         }
     }
 }

@@ -479,7 +479,14 @@ fn ftb_array_takes_goldens_samples() {
             let st = f.stages;
             assert_eq!(
                 f.cycles,
-                st.migrate + st.sample + st.split + st.fold + st.readout + st.drain + st.stall,
+                st.migrate
+                    + st.sample
+                    + st.split
+                    + st.fold
+                    + st.readout
+                    + st.drain
+                    + st.stall
+                    + st.plan,
                 "{eye}, P = {p}: {st:?}"
             );
             assert_eq!(st.merge, 0);

@@ -6,9 +6,11 @@
 //! every PE's issues (ray, accumulators read), taps and write-backs
 //! compared, the buffers at the readout's start compared with the model's
 //! rays, and the readout fed from the RTL's buffers; with and without the
-//! controller's empty-space skipping, whose runs reach each PE's row plan.
-//! A control that skips a ray, or one that ignores the row plan, is
-//! caught; the module lints clean and synthesizes without a latch.
+//! controller's empty-space skipping, whose runs reach each PE's row plan
+//! through its plan port and comparators. A control that skips a ray, one
+//! that ignores the row plan, and comparators that drop a run's last
+//! column are caught; the module lints clean and synthesizes without a
+//! latch.
 //! Without the tools the tests print one line and skip
 //! (`ERCUBE_REQUIRE_TOOLS=1` fails).
 //!
@@ -167,8 +169,10 @@ fn assert_skips_inside_rows(r: &PeStageRun, what: &str) {
 }
 
 /// Empty-space skipping (and culling) on `checker:24` at 2 PEs, in
-/// Icarus and in Verilator: every PE issues exactly its row plan's rays,
-/// 0 mismatches, every sample compared, the buffers and readout clean.
+/// Icarus and in Verilator: the controller's runs driven through the plan
+/// port, one a clock, and every PE issues exactly the rays its
+/// comparators planned from them: 0 mismatches, every sample compared,
+/// the buffers and readout clean.
 #[test]
 fn a_skipping_frame_matches_the_model() {
     for (sim, tool) in [
@@ -183,6 +187,41 @@ fn a_skipping_frame_matches_the_model() {
         assert_matches(&r, &what);
         assert_skips_inside_rows(&r, &what);
     }
+}
+
+/// Comparators that leave out a run's last column (`<` for `<=` on the
+/// run's end) are caught on the skipping frame: the first mismatch is an
+/// issued ray, named with its clock, PE, model and RTL values.
+#[test]
+fn a_comparator_that_drops_a_run_end_is_caught() {
+    if !have(
+        "iverilog",
+        "iverilog",
+        "the row plan comparator mutation in Icarus",
+    ) {
+        return;
+    }
+    let broken = |v: &str| {
+        let from = "pl_mx <= pl_hi;";
+        assert!(v.contains(from));
+        v.replace(from, "pl_mx < pl_hi;")
+    };
+    let r = run(
+        &cfg(2),
+        SKIPPING,
+        Some(Skips::default()),
+        Simulator::Icarus,
+        Some(&broken),
+    );
+    let m = r.outcome.first.as_ref().expect("a mismatch");
+    println!("first mismatch: {m}");
+    assert!(
+        m.signal == "slot_m" || m.signal == "in_valid",
+        "the first mismatch is an issued ray: {m}"
+    );
+    assert!(m.pe < 2, "{m}");
+    assert_ne!(m.model, m.rtl, "{m}");
+    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
 }
 
 /// A control that ignores the row plan (issuing every held column of a

@@ -326,7 +326,8 @@ fn voi_scale_one_is_none_and_only_the_drains_grow() {
                         (a.sample, a.merge, a.readout, a.split, a.fold),
                         (b.sample, b.merge, b.readout, b.split, b.fold)
                     );
-                    let waits = |s: pipeline::array::StageCycles| s.drain + s.stall + s.migrate;
+                    let waits =
+                        |s: pipeline::array::StageCycles| s.drain + s.stall + s.migrate + s.plan;
                     assert!(two.cycles >= none.cycles);
                     assert_eq!(two.cycles - none.cycles, waits(a) - waits(b));
                     let clocked = pipe_voi(&cfg, &vol, &lut, prep, Some(&v2), true).unwrap();

@@ -25,7 +25,7 @@ impl Clock {
     /// samples its rays with its neighbours' edge words (read with the row
     /// plans, [`crate::pe::EdgeRead`]) at the issue cycles the
     /// controller's row plan gives ([`WholeSlice`]); then counts the
-    /// memory, stall and sampling cycles the clocked path ticks.
+    /// plan, memory, stall and sampling cycles the clocked path ticks.
     pub(crate) fn sample_untraced(&mut self, w: &WholeSlice<'_>) -> Result<(), StepError> {
         let p = self.pes.len();
         let edges = std::mem::take(&mut self.edge_rows);
@@ -53,6 +53,7 @@ impl Clock {
             r?;
         }
         let cycles = u64::from(p > 1) + lens.iter().sum::<usize>() as u64;
+        self.ran_untraced(Stage::Plan, times.plan.iter().sum());
         self.ran_untraced(Stage::Memory, times.memory.iter().sum());
         self.ran_untraced(Stage::Stall, stalls);
         self.ran_untraced(Stage::Sample, cycles);

@@ -8,10 +8,11 @@
 //! clock `c` outside the sample stage (`pe<K>.ev`: a slice's voxels into
 //! the half of the slice buffer and the edge column its parity names, a
 //! buffer word; written straight into the memories, as the model counts no
-//! clock for them; kind 4, a word of the row plan, in 32-bit pieces
-//! lowest first), drives the held range one clock ahead through the
-//! `map` port (`pe<K>.map`), and the broadcast of clock `c + 1` (`bus.txt`;
-//! nothing where the model did not sample). At the end of each clock it
+//! clock for them), drives the held range one clock ahead through the
+//! `map` port (`pe<K>.map`), the controller's run of clock `c` on every
+//! PE's plan port (`plan.txt`; none where the controller sends none) and
+//! the broadcast of clock `c + 1` (`bus.txt`; nothing where the model did
+//! not sample). At the end of each clock it
 //! prints each PE's issue, taps and write-back (`rtl<K>.I`, `.T`, `.W`,
 //! the model's text); in the middle of clock `+dump` (after that clock's
 //! events) it writes each PE's buffer
@@ -48,9 +49,6 @@ pub fn testbench(
     let (ny, half, stored) = (shape.ny, shape.half_rows, shape.stored);
     let vol = nz * ny * stored;
     let bd = r.bank_depth;
-    // The row plan's words, and the 32-bit pieces the events carry them in.
-    let s1 = shape.slots() - 1;
-    let plan_words = shape.slots().div_ceil(32);
     let mut v = String::new();
     let w = &mut v;
     let _ = writeln!(
@@ -77,7 +75,12 @@ module {TOP};
   reg bc_go, bc_first, bc_z, bc_nv, bc_nz;
   reg [63:0] bc_row, bc_y0, bc_y1, bc_ny0, bc_ny1;
   reg [63:0] bc_w [0:6];
-  reg [63:0] word;",
+  reg [63:0] word;
+  // The plan port (this clock's run) and the next line of plan.txt.
+  integer fplan /* verilator public_flat */;
+  reg [63:0] q_0, q_1, q_2, q_3, q_4;
+  reg q_ok, pl_valid, pl_first;
+  reg [63:0] pl_row, pl_lo, pl_hi;",
         tw1 = tw - 1,
         sb1 = sb - 1,
         ab1 = ab - 1,
@@ -97,11 +100,9 @@ module {TOP};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;
   reg mp_ok{k}, map_we{k};
   reg [63:0] map_lo{k}, map_n{k};
-  reg [{pw1}:0] pw{k};
   wire [{e1}:0] edge_out{k};",
             v1 = shape.voxel_bits - 1,
             volm = vol.max(1) - 1,
-            pw1 = plan_words * 32 - 1,
         );
     }
     for k in 0..pes {
@@ -115,7 +116,7 @@ module {TOP};
             "  {MODULE} pe{k} (.clk(clk), .rst(rst), .tbl_we(tbl_we), .tbl_sel(tbl_sel), .tbl_addr(tbl_addr), .tbl_data(tbl_data),
     .vld_we(1'b0), .vld_z(1'b0), .vld_bank(1'b0), .vld_row(0), .vld_col(0), .vld_data(0),
     .map_we(map_we{k}), .map_lo_in(map_lo{k}), .map_n_in(map_n{k}),
-    .pl_we(1'b0), .pl_row(0), .pl_word(0),
+    .pl_valid(pl_valid), .pl_first(pl_first), .pl_row(pl_row), .pl_lo(pl_lo), .pl_hi(pl_hi),
     .col_lo(clo{k}), .col_end(cend{k}), .nx_last(nxl{k}),
     .bc_go(bc_go), .bc_first(bc_first), .bc_row(bc_row), .bc_z(bc_z), .bc_y0(bc_y0), .bc_y1(bc_y1),
     .bc_nv(bc_nv), .bc_nz(bc_nz), .bc_ny0(bc_ny0), .bc_ny1(bc_ny1),
@@ -136,6 +137,7 @@ module {TOP};
     bc_go = 0; bc_first = 0; bc_z = 0; bc_nv = 0; bc_nz = 0;
     bc_row = 0; bc_y0 = 0; bc_y1 = 0; bc_ny0 = 0; bc_ny1 = 0;
     for (i = 0; i < 7; i = i + 1) bc_w[i] = 0;
+    pl_valid = 0; pl_first = 0; pl_row = 0; pl_lo = 0; pl_hi = 0;
     if (!$value$plusargs(\"cycles=%d\", cycles)) cycles = 0;
     if (!$value$plusargs(\"dump=%d\", dump_at)) dump_at = 64'hffffffffffffffff;
     if (!$value$plusargs(\"tables=%d\", ntables)) ntables = 0;
@@ -167,6 +169,9 @@ module {TOP};
     got = $fscanf(fbus, \"%h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h\\n\",
         b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17);
     b_ok = (got == 18);
+    fplan = $fopen(\"plan.txt\", \"r\");
+    got = $fscanf(fplan, \"%h %h %h %h %h\\n\", q_0, q_1, q_2, q_3, q_4);
+    q_ok = (got == 5);
 `ifdef ERCUBE_VCD
     if ($test$plusargs(\"vcd\")) begin $dumpfile(\"rtl.vcd\"); $dumpvars(0, {TOP}); end
 `endif
@@ -214,10 +219,6 @@ module {TOP};
             if (ll == 0 && yy % 2 == 0) pe{k}.ec0[zp * {half} + yy / 2] = word;
             if (ll == 0 && yy % 2 == 1) pe{k}.ec1[zp * {half} + yy / 2] = word;
           end
-      end else if (ev{k}_1 == 4) begin
-        if (ev{k}_3 == 0) pw{k} = 0;
-        pw{k}[ev{k}_3 * 32 +: 32] = ev{k}_4[31:0];
-        pe{k}.plan[ev{k}_2] = pw{k}[{s1}:0];
       end else begin
         if (ev{k}_2 % 2 == 0) pe{k}.bank0[ev{k}_2 / 2] = ev{k}_4;
         else pe{k}.bank1[ev{k}_2 / 2] = ev{k}_4;
@@ -235,7 +236,14 @@ module {TOP};
     }
     let _ = writeln!(
         w,
-        "    if (b_ok && b_0 == cyc + 1) begin
+        "    if (q_ok && q_0 == cyc) begin
+      pl_valid = 1; pl_first = q_1; pl_row = q_2; pl_lo = q_3; pl_hi = q_4;
+      got = $fscanf(fplan, \"%h %h %h %h %h\\n\", q_0, q_1, q_2, q_3, q_4);
+      q_ok = (got == 5);
+    end else begin
+      pl_valid = 0;
+    end
+    if (b_ok && b_0 == cyc + 1) begin
       bc_go = b_1; bc_first = b_2; bc_row = b_3; bc_z = b_4; bc_y0 = b_5; bc_y1 = b_6;
       bc_w[0] = b_7; bc_w[1] = b_8; bc_w[2] = b_9; bc_w[3] = b_10; bc_w[4] = b_11; bc_w[5] = b_12; bc_w[6] = b_13;
       bc_nv = b_14; bc_nz = b_15; bc_ny0 = b_16; bc_ny1 = b_17;

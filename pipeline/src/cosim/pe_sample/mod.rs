@@ -11,12 +11,13 @@
 //!   voxel rows the edge registers read;
 //! - per PE, what the model does to the PE outside the sample stage, at
 //!   each slice's start: the held range (`pe<K>.map`), the slice's voxels
-//!   to load (`pe<K>.ev`, kind 1), every compositing buffer word that
+//!   to load (`pe<K>.ev`, kind 1) and every compositing buffer word that
 //!   migration, merges or splits changed (kind 3: the words that differ
-//!   from what the stage's own write-backs left) and every word of the
-//!   row plan that the slice's `PlanRows` broadcast changed (kind 4: bit
-//!   `i` of row `r` set when the PE samples held column `lo + i` in it,
-//!   [`PeCapture::rows_planned`]);
+//!   from what the stage's own write-backs left);
+//! - `plan.txt`: the controller's runs on the PEs' plan port, one a clock
+//!   from each sampled slice's first clock (clock, first run of its row,
+//!   row, lo, hi: [`PeCapture::plan_runs`]), which each PE's comparators
+//!   turn into its row plan's words;
 //! - per PE, the model's issues (`pe<K>.I`: cycle, ray, the accumulators
 //!   read), their taps (`pe<K>.T`) and write-backs (`pe<K>.W`: land cycle,
 //!   buffer address, the words), in the text the testbench prints for the
@@ -46,7 +47,7 @@ use super::replay::masked;
 use crate::datapath::Datapath;
 use crate::hw::pe_sample_rtl::PeSampleShape;
 use crate::pe::Pe;
-use crate::stages::sample::SampleBus;
+use crate::stages::sample::{RowRuns, SampleBus};
 
 /// A sampling clock's broadcast as the PE's control reads it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,6 +108,22 @@ pub(crate) fn rows_planned(capture: &Capture, cycle: u64, first_row: usize, pes:
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .rows_planned(cycle, first_row, pes);
+}
+
+/// Tells `capture` the controller sends the slice's `runs` (of rows from
+/// `first_row` on) of the rows that take clocks (`lens`) to the PEs' plan
+/// ports, one a clock from clock `from`.
+pub(crate) fn plan_runs(
+    capture: &Capture,
+    from: u64,
+    first_row: usize,
+    runs: &RowRuns,
+    lens: &[usize],
+) {
+    capture
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .plan_runs(from, first_row, runs, lens);
 }
 
 /// Tells `capture` a slice starts after clock `cycle`.
@@ -180,6 +197,7 @@ pub struct PeCapture {
     widths: Widths,
     dir: PathBuf,
     bus: BufWriter<File>,
+    plan_port: BufWriter<File>,
     /// Per PE: events, held range, issues, taps, write-backs.
     ev: Vec<BufWriter<File>>,
     map: Vec<BufWriter<File>>,
@@ -190,8 +208,6 @@ pub struct PeCapture {
     shadow: Vec<Vec<Option<[i64; 4]>>>,
     /// Per PE, the clock each buffer word's last write-back lands in.
     lands: Vec<Vec<Option<u64>>>,
-    /// Per PE, each row plan word as last written, in 32-bit pieces.
-    plans: Vec<Vec<Option<Vec<u32>>>>,
     /// Per PE, the first held column and the held columns in the slice's
     /// x range at the slice's start.
     held: Vec<(i64, usize)>,
@@ -202,8 +218,8 @@ pub struct PeCapture {
     pub issued: Vec<u64>,
     /// Buffer words written outside the sample stage, over all PEs.
     pub outside_words: u64,
-    /// Row plan words written, over all PEs.
-    pub plan_words: u64,
+    /// Runs the controller drove on the plan port (each to every PE).
+    pub plan_runs: u64,
     /// Held columns inside a slice's x range that a sampled row leaves
     /// out (the runs' gaps: empty space and culling inside the row),
     /// summed over PEs and rows.
@@ -251,6 +267,7 @@ impl PeCapture {
             widths,
             dir: dir.to_owned(),
             bus: create(dir, "bus.txt")?,
+            plan_port: create(dir, "plan.txt")?,
             ev: per("ev")?,
             map: per("map")?,
             iss: per("I")?,
@@ -258,13 +275,12 @@ impl PeCapture {
             wbs: per("W")?,
             shadow: vec![vec![None; words]; pes],
             lands: vec![vec![None; words]; pes],
-            plans: vec![vec![None; shape.rays.max_rows as usize]; pes],
             held: vec![(0, 0); pes],
             row_at: (0, 0),
             volumes: false,
             issued: vec![0; pes],
             outside_words: 0,
-            plan_words: 0,
+            plan_runs: 0,
             skipped_in_rows: 0,
             unfit: None,
             error: None,
@@ -280,6 +296,7 @@ impl PeCapture {
     /// Flushes every stream.
     pub fn finish(&mut self) -> std::io::Result<()> {
         self.bus.flush()?;
+        self.plan_port.flush()?;
         for f in self
             .ev
             .iter_mut()
@@ -393,18 +410,16 @@ impl PeCapture {
     }
 
     /// The slice's row plans as the PEs made them from the `PlanRows`
-    /// broadcast: each PE's words that changed, written as kind 4 events
-    /// of clock `cycle` (the model counts no clock for planning).
-    fn plan(&mut self, cycle: u64, first_row: usize, pes: &[Pe]) -> std::io::Result<()> {
+    /// broadcast, checked against the declared memories and counted (the
+    /// RTL makes its own from the runs on its plan port).
+    fn plan(&mut self, first_row: usize, pes: &[Pe]) {
         let s = self.shape;
-        let pieces = s.slots().div_ceil(32) as usize;
         let rows = pes.iter().map(Pe::planned_rows).max().unwrap_or(0);
         for r in 0..rows {
             let row = first_row + r;
             let sampled = pes.iter().any(|p| p.planned(r).next().is_some());
             for (k, pe) in pes.iter().enumerate() {
                 let (lo, active) = self.held[k];
-                let mut word = vec![0u32; pieces];
                 let mut n = 0;
                 for mx in pe.planned(r) {
                     let i = mx - lo;
@@ -412,29 +427,55 @@ impl PeCapture {
                         self.unfit(format!(
                             "PE {k} plans column {mx} outside its held columns from {lo}"
                         ));
-                        return Ok(());
+                        return;
                     }
-                    word[i as usize / 32] |= 1 << (i % 32);
                     n += 1;
                 }
                 if sampled {
                     self.skipped_in_rows += (active - n) as u64;
                 }
-                let Some(slot) = self.plans[k].get_mut(row) else {
+                if row as u64 >= s.rays.max_rows {
                     self.unfit(format!(
                         "PE {k} plans row {row}, past the declared {} rows",
                         s.rays.max_rows
                     ));
+                    return;
+                }
+            }
+        }
+    }
+
+    /// The runs of the slice's sampled rows (`lens[r] > 0`) on the plan
+    /// port, one a clock from clock `from` (clock, first run of its row,
+    /// row, lo, hi).
+    fn write_runs(
+        &mut self,
+        from: u64,
+        first_row: usize,
+        runs: &RowRuns,
+        lens: &[usize],
+    ) -> std::io::Result<()> {
+        let half = 1i64 << (self.shape.index_bits - 1);
+        let mut clock = from;
+        for r in (0..runs.rows()).filter(|&r| lens.get(r).is_some_and(|&n| n > 0)) {
+            let row = first_row + r;
+            for (i, &(lo, hi)) in runs.row(r).iter().enumerate() {
+                if lo < -half || hi >= half {
+                    self.unfit(format!(
+                        "row {row}'s run {lo} ..= {hi} is past the plan port's {}-bit ray indices",
+                        self.shape.index_bits
+                    ));
                     return Ok(());
-                };
-                if slot.as_ref() == Some(&word) {
-                    continue;
                 }
-                for (j, w) in word.iter().enumerate() {
-                    writeln!(self.ev[k], "{cycle:x} 4 {row:x} {j:x} {w:x}")?;
-                }
-                *slot = Some(word);
-                self.plan_words += 1;
+                writeln!(
+                    self.plan_port,
+                    "{clock:x} {:x} {row:x} {:x} {:x}",
+                    u8::from(i == 0),
+                    lo as u64,
+                    hi as u64
+                )?;
+                clock += 1;
+                self.plan_runs += 1;
             }
         }
         Ok(())
@@ -584,8 +625,12 @@ impl IssueSink for PeCapture {
         }
     }
 
-    fn rows_planned(&mut self, cycle: u64, first_row: usize, pes: &[Pe]) {
-        if let Err(e) = self.plan(cycle, first_row, pes) {
+    fn rows_planned(&mut self, _cycle: u64, first_row: usize, pes: &[Pe]) {
+        self.plan(first_row, pes);
+    }
+
+    fn plan_runs(&mut self, from: u64, first_row: usize, runs: &RowRuns, lens: &[usize]) {
+        if let Err(e) = self.write_runs(from, first_row, runs, lens) {
             self.fail(e);
         }
     }

@@ -35,8 +35,9 @@ pub struct PeStageRun {
     pub samples: u64,
     /// Buffer words the model changed outside the sample stage (replayed).
     pub outside_words: u64,
-    /// Row plan words written (replayed at each slice's start).
-    pub plan_words: u64,
+    /// Runs the controller drove on the PEs' plan port (from each sampled
+    /// slice's first clock, one a clock).
+    pub plan_runs: u64,
     /// Held columns inside a slice's x range that sampled rows left out
     /// (the runs' gaps; [`super::PeCapture::skipped_in_rows`]).
     pub skipped_in_rows: u64,
@@ -181,7 +182,7 @@ pub fn simulate<'a>(
         frame_cycles: f.cycles,
         samples: c.issued.iter().sum(),
         outside_words: c.outside_words,
-        plan_words: c.plan_words,
+        plan_runs: c.plan_runs,
         skipped_in_rows: c.skipped_in_rows,
         built: Built {
             exe: dir.to_owned(),

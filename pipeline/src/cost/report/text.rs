@@ -311,7 +311,7 @@ impl CostReport {
         );
         let _ = writeln!(
             o,
-            "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}, drain {}, stall {}), utilization {:.3}, {:.1} frames/s",
+            "  run: {} cycles/frame (sample {}, migrate {}, merge {}, readout {}, drain {}, stall {}, plan {}), utilization {:.3}, {:.1} frames/s",
             r.cycles,
             r.stages.sample,
             r.stages.migrate,
@@ -319,6 +319,7 @@ impl CostReport {
             r.stages.readout,
             r.stages.drain,
             r.stages.stall,
+            r.stages.plan,
             r.utilization,
             self.run_rate.fps
         );

@@ -42,14 +42,23 @@ pub type Row = (i64, (usize, usize, Fx), Fx, Fx);
 
 /// The controller's plan of a slice's rows: each row's cycles (the
 /// busiest PE's count), the cycle its first sample issues, and the stall
-/// cycles before it: waiting for the external ray buffer (`memory`), then
-/// for rays still in the datapath (`stalls`).
+/// cycles before it: waiting for the row's plan to be written (`plan`),
+/// for the external ray buffer (`memory`), then for rays still in the
+/// datapath (`stalls`).
 pub(crate) struct RowTimes {
     pub lens: Vec<usize>,
     pub starts: Vec<u64>,
     pub stalls: Vec<u64>,
     pub memory: Vec<u64>,
+    pub plan: Vec<u64>,
 }
+
+/// Clocks from a run's beat on the PEs' plan ports to the first sampling
+/// clock that may issue from the word it completes: the plan memory is
+/// written at the end of the beat's clock, and the control reads a row's
+/// word in the clock before the row's first issue
+/// ([`crate::hw::pe_sample_rtl`]).
+pub const PLAN_TO_ISSUE: u64 = 2;
 
 /// A row's report to the controller: the busiest PE's scheduled rays, the
 /// latest start the scoreboards allow, and the rays of every PE.
@@ -179,7 +188,11 @@ impl Array {
             self.pre_runs = pre_runs;
             return Ok(());
         }
-        let times = self.row_times(&reports);
+        let times = self.row_times(&reports, &runs);
+        if let Some(c) = self.clock.capture() {
+            let from = self.clock.now();
+            crate::cosim::pe_sample::plan_runs(c, from, first_row, &runs, &times.lens);
+        }
         // The next slice's rays may start moving from here.
         self.links_from = self.clock.now();
         let rows = rows?;
@@ -195,14 +208,20 @@ impl Array {
     }
 
     /// Each row's start: after the previous row (and the prologue before
-    /// the first, with several PEs), held back to the latest start the
-    /// PEs reported and, with the rays' buffer external, until the row's
-    /// rays have arrived (read while the row before samples; written back
-    /// after its last sample has).
-    fn row_times(&mut self, reports: &[RowReport]) -> RowTimes {
+    /// the first, with several PEs), held back until the row's plan is
+    /// written (the controller sends the runs of the slice's sampled rows
+    /// to the PEs' plan ports one a clock, row after row, from the slice's
+    /// first clock: the row's last run's beat [`PLAN_TO_ISSUE`] clocks
+    /// before; a row no PE samples is not sent, its word never read), to the
+    /// latest start the PEs reported and, with the rays' buffer external,
+    /// until the row's rays have arrived (read while the row before
+    /// samples; written back after its last sample has).
+    fn row_times(&mut self, reports: &[RowReport], runs: &RowRuns) -> RowTimes {
         let prologue = u64::from(self.clock.pes().len() > 1);
         let latency = self.dp.latency;
         let mut next = self.clock.now();
+        // The beat after the last run sent so far.
+        let mut beat = self.clock.now();
         // Row `r`'s read issues when row `r - (rows - 1)` starts (the
         // slice's start for the first rows): its buffer is free then.
         let ahead = usize::from(self.dp.cfg.ray_buffer_rows) - 1;
@@ -213,11 +232,15 @@ impl Array {
             starts: Vec::with_capacity(reports.len()),
             stalls: Vec::with_capacity(reports.len()),
             memory: Vec::with_capacity(reports.len()),
+            plan: Vec::with_capacity(reports.len()),
         };
-        for &(len, ready, rays) in reports {
-            let (mut start, mut stall, mut memory) = (0, 0, 0);
+        for (r, &(len, ready, rays)) in reports.iter().enumerate() {
+            let (mut start, mut stall, mut memory, mut plan) = (0, 0, 0, 0);
             if len > 0 {
-                let earliest = next + if first { prologue } else { 0 };
+                beat += runs.row(r).len() as u64;
+                let mut earliest = next + if first { prologue } else { 0 };
+                plan = (beat - 1 + PLAN_TO_ISSUE).saturating_sub(earliest);
+                earliest += plan;
                 stall = ready.saturating_sub(earliest);
                 start = earliest + stall;
                 if let Some(ch) = self.channel.as_mut() {
@@ -242,6 +265,7 @@ impl Array {
             times.starts.push(start);
             times.stalls.push(stall);
             times.memory.push(memory);
+            times.plan.push(plan);
         }
         times
     }
@@ -307,6 +331,13 @@ impl Array {
             let len = lens[r];
             if len == 0 {
                 continue;
+            }
+            for _ in 0..times.plan[r] {
+                self.clock
+                    .tick(Ctrl::at(Stage::Plan, slice.z, row), |pe, _, out| {
+                        pe.hold_step(&dp, out);
+                        Ok(())
+                    })?;
             }
             for _ in 0..times.memory[r] {
                 self.clock

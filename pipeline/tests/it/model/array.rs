@@ -253,7 +253,7 @@ fn cycle_accounting_adds_up() {
             let ctx = format!("{e:?}, P = {p}");
             assert_eq!(
                 f.cycles,
-                st.migrate + st.sample + st.merge + st.readout + st.drain + st.stall,
+                st.migrate + st.sample + st.merge + st.readout + st.drain + st.stall + st.plan,
                 "{ctx}: stages {st:?}"
             );
             for (k, c) in f.pes.iter().enumerate() {
