@@ -282,7 +282,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                             k += 1;
                             i = if links { find(next, i + 1) } else { i + 1 };
                         }
-                        ray_row.sample_batch(kind, row, taps, &batch[..k]);
+                        ray_row.sample_batch(kind, row, &batch[..k]);
                         taken += k as u64;
                         if links {
                             for &j in &batch[..k] {
