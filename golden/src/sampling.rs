@@ -206,6 +206,9 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
     };
     let links = terminate.is_finite();
     let at = |m: i64| (m - grid.lo[0]) as usize;
+    let x_terms: Vec<f32> = (0..w)
+        .map(|c| RayRow::path_x_term(pass, grid, grid.lo[0] + c as i64))
+        .collect();
     let row_pass = |acc: &mut RowScratch, r: usize, row: &mut [Rgba]| {
         let RowScratch {
             counts,
@@ -262,7 +265,9 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
             }
             if ds.is_empty() {
                 // A ray's path length per slice is constant over a region.
-                ds.extend((0..w).map(|c| RayRow::path(pass, grid, grid.lo[0] + c as i64, my)));
+                // Its column's term is shared by every row of the region.
+                let y_term = RayRow::path_y_term(pass, grid, my);
+                ds.extend(x_terms.iter().map(|&x| RayRow::path(x, y_term)));
             }
             let ray_row = RayRow::new(pass, grid, g, my, yf, ds);
             let mut taken = 0u64;
@@ -282,7 +287,7 @@ pub fn sample_region(pass: &Pass, region: usize, grid: &RayGrid, buf: &mut [Rgba
                             k += 1;
                             i = if links { find(next, i + 1) } else { i + 1 };
                         }
-                        ray_row.sample_batch(kind, row, taps, &batch[..k]);
+                        ray_row.sample_batch(kind, row, &batch[..k]);
                         taken += k as u64;
                         if links {
                             for &j in &batch[..k] {
@@ -421,15 +426,30 @@ impl<'a> RayRow<'a> {
         }
     }
 
-    /// Ray `(mx, my)`'s world path length per slice step (its slopes are
-    /// constant over the region).
-    fn path(pass: &Pass, grid: &RayGrid, mx: i64, my: i64) -> f32 {
+    /// A ray's world path length per slice step (its slopes are constant
+    /// over the region) from its column's and its row's terms
+    /// ([`RayRow::path_x_term`], [`RayRow::path_y_term`]):
+    /// `sqrt((slope_x sx)^2 + ((slope_y sy)^2 + sz^2))`.
+    #[inline(always)]
+    fn path(x_term: f32, y_term: f32) -> f32 {
+        (x_term + y_term).sqrt()
+    }
+
+    /// Column `mx`'s term of [`RayRow::path`], `(slope_x sx)^2`.
+    fn path_x_term(pass: &Pass, grid: &RayGrid, mx: i64) -> f32 {
         let view = pass.view;
         let inv = 1.0 / (grid.z_ref + view.d);
-        let [sx, sy, sz] = view.spacing.map(|s| s as f32);
         let slope_x = ((grid.phi[0] + mx as f64 - view.eye.x) * inv) as f32;
+        (slope_x * view.spacing[0] as f32).powi(2)
+    }
+
+    /// Row `my`'s term of [`RayRow::path`], `(slope_y sy)^2 + sz^2`.
+    fn path_y_term(pass: &Pass, grid: &RayGrid, my: i64) -> f32 {
+        let view = pass.view;
+        let inv = 1.0 / (grid.z_ref + view.d);
+        let [sy, sz] = [view.spacing[1] as f32, view.spacing[2] as f32];
         let slope_y = ((grid.phi[1] + my as f64 - view.eye.y) * inv) as f32;
-        ((slope_x * sx).powi(2) + ((slope_y * sy).powi(2) + sz * sz)).sqrt()
+        (slope_y * sy).powi(2) + sz * sz
     }
 
     /// Ray `mx`'s samples in this slice, composited into `ray` (`slot`:

@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 use crate::geometry::AxisMap;
 use crate::volume::{Volume, Voxels};
 
+mod gather;
 mod permute;
+pub(crate) use gather::bilinear_x8;
 use permute::{pad_in_place, permute_consuming, permute_into, Permute};
 
 /// Memory the permuted stack may take (bytes).

@@ -332,6 +332,30 @@ impl Lut {
         ]
     }
 
+    /// [`Lut::lookup`] for eight scalars: the table positions, indices
+    /// and weights in `f32x8` vectors, each lane's two entries read and
+    /// blended as one `f32x4` (the same operations, so the same bits).
+    #[inline(always)]
+    pub(crate) fn lookup_x8(&self, s: &[f32; 8]) -> [[f32; 4]; 8] {
+        use wide::{f32x4, f32x8, i32x8};
+        let last = self.rgba.len() - 1;
+        // Within `0..=last` (at most 2^24) a compare-and-select clamp is
+        // `f32::clamp`, and truncation through `i32` is through `u32`.
+        let f = (f32x8::from(*s) * f32x8::splat(self.per_scalar))
+            .max(f32x8::splat(0.0))
+            .min(f32x8::splat(last as f32));
+        let i = f.fast_trunc_int().min(i32x8::splat(last as i32 - 1));
+        let t = (f - f32x8::from_i32x8(i)).to_array();
+        let i = i.to_array();
+        let mut out = [[0f32; 4]; 8];
+        for l in 0..8 {
+            let k = i[l] as usize;
+            let (a, b) = (f32x4::from(self.rgba[k]), f32x4::from(self.rgba[k + 1]));
+            out[l] = (a + f32x4::splat(t[l]) * (b - a)).to_array();
+        }
+        out
+    }
+
     /// [`Lut::lookup`] in `f64`, for the reference renderer.
     #[inline]
     pub fn lookup_f64(&self, s: f64) -> [f64; 4] {

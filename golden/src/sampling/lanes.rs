@@ -13,13 +13,13 @@
 //! the same order, so the bits do not change (`golden/tests/it/lanes.rs`
 //! checks frames against the one-ray path).
 
-use super::{composite_alpha, preint_span, Order, RayRow, TapCache};
+use super::{composite_alpha, preint_span, Order, RayRow};
 use crate::merge::Rgba;
 use crate::opacity::{
     correct_opacity_lanes, segment_attenuation_lanes, segment_exact_lanes, segment_opacity_lanes,
 };
 use crate::preint::Colouring;
-use crate::slices::{bilinear_lanes, Plane};
+use crate::slices::{bilinear_x8, Plane};
 
 /// Rays per batch.
 pub(super) const LANES: usize = 8;
@@ -59,16 +59,10 @@ impl RayRow<'_> {
     /// pre-integrated frames 17 % slower); a call per batch of eight rays
     /// costs nothing measurable.
     #[inline(always)]
-    pub(super) fn sample_batch(
-        &self,
-        kind: Batch,
-        row: &mut [Rgba],
-        taps: &mut [TapCache],
-        idx: &[usize],
-    ) {
+    pub(super) fn sample_batch(&self, kind: Batch, row: &mut [Rgba], idx: &[usize]) {
         match kind {
             Batch::Plain => self.sample_lanes(row, idx),
-            Batch::Preint => self.preint_lanes(row, taps, idx),
+            Batch::Preint => self.preint_lanes(row, idx),
             Batch::Substeps => self.substep_lanes(row, idx),
         }
     }
@@ -106,18 +100,14 @@ impl RayRow<'_> {
             for l in 0..LANES {
                 at_o[l] = x[l] + o * slope_x[l];
             }
-            let s = stack.trilinear_lanes(&at_o, py, pz);
+            let s = stack.trilinear_x8(&at_o, py, pz);
             // Every lane transparent: the batch skips this substep's table
             // and compositing (see `sample_lanes`).
             if s.iter().all(|&v| v * lut.per_scalar < clear) {
                 continue;
             }
-            let mut c = [[0f32; 4]; LANES];
-            let mut alpha = [0f32; LANES];
-            for l in 0..LANES {
-                c[l] = lut.lookup(s[l]);
-                alpha[l] = c[l][3];
-            }
+            let c = lut.lookup_x8(&s);
+            let alpha = c.map(|c| c[3]);
             let a = correct_opacity_lanes(&alpha, &ds);
             // A transparent lane composites `a = 0`: no bit changes (see
             // `sample_lanes`).
@@ -131,28 +121,15 @@ impl RayRow<'_> {
     /// offsets `idx` (one to [`LANES`]): the step from the ray's scalar on
     /// this slice to its scalar on the next, through the 2D table.
     #[inline(never)]
-    fn preint_lanes(&self, row: &mut [Rgba], taps: &mut [TapCache], idx: &[usize]) {
+    fn preint_lanes(&self, row: &mut [Rgba], idx: &[usize]) {
         let view = self.pass.view;
         let pt = self.pass.preint.expect("a pre-integrated pass");
         let (n, at) = spread(idx);
         let back = preint_span(self.z, view.dims[2])[1] as f32;
-        let mut steps = [(0f32, 0f32); LANES];
-        for (l, s) in steps.iter_mut().enumerate() {
-            let mx = self.grid.lo[0] + at[l] as i64;
-            let x = (self.px.a + mx as f64 * self.px.t) as f32;
-            let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
-            // Spare lanes repeat the last ray: they read its cache without
-            // writing it (their results are not stored).
-            *s = if l < n {
-                self.step_scalars(mx, (x, slope_x), Some(&mut taps[at[l]]))
-            } else {
-                let mut spare = taps[at[l]];
-                self.step_scalars(mx, (x, slope_x), Some(&mut spare))
-            };
-        }
+        let steps = self.step_scalars_x8(&at);
         // Every lane's step lies in the table's transparent corner: each
         // has zero extinction and composites nothing (`a > 0` below), so
-        // the batch stops after its taps (which the next step reuses).
+        // the batch stops after its taps.
         let (ps, clear) = (pt.per_scalar(), pt.clear_below());
         if steps.iter().all(|&(f, b)| f * ps < clear && b * ps < clear) {
             return;
@@ -203,8 +180,8 @@ impl RayRow<'_> {
             ds[l] = self.ds[at[l]];
         }
         let s = match self.data {
-            Plane::U8(p) => bilinear_lanes(p, self.pass.stack.row, &x, self.y),
-            Plane::U16(p) => bilinear_lanes(p, self.pass.stack.row, &x, self.y),
+            Plane::U8(p) => bilinear_x8(p, self.pass.stack.row, &x, self.y),
+            Plane::U16(p) => bilinear_x8(p, self.pass.stack.row, &x, self.y),
         };
         let lut = self.pass.lut;
         // Every lane classifies to zero opacity (air, most of a head's
@@ -215,12 +192,8 @@ impl RayRow<'_> {
         {
             return;
         }
-        let mut c = [[0f32; 4]; LANES];
-        let mut alpha = [0f32; LANES];
-        for l in 0..LANES {
-            c[l] = lut.lookup(s[l]);
-            alpha[l] = c[l][3];
-        }
+        let c = lut.lookup_x8(&s);
+        let alpha = c.map(|c| c[3]);
         let a = correct_opacity_lanes(&alpha, &ds);
         // The one-ray path composites only opacities above zero. Here a
         // transparent lane composites `a = 0`, which leaves every channel's

@@ -4,6 +4,7 @@
 //! them reused from the ray's neighbour step ([`TapCache`]).
 
 use super::{Order, RayRow};
+use crate::slices::{bilinear_x8, Plane};
 
 /// A ray's last scalar taken where it crosses a slice, and the slice
 /// (`u32::MAX`: none yet). A pre-integrated step reads the scalars at
@@ -101,5 +102,39 @@ impl RayRow<'_> {
                 (sf, sb)
             }
         }
+    }
+
+    /// [`RayRow::step_scalars`] without a cache for the eight rays at row
+    /// offsets `at`: both taps of every step, eight at a time
+    /// ([`bilinear_x8`]), at the one-ray form's positions with its
+    /// arithmetic (the front tap where the ray crosses slice `z`, the back
+    /// one where it crosses slice `z + 1` or the volume's face, clamped
+    /// into the padding), so the same bits as the cached taps.
+    #[inline(always)]
+    pub(crate) fn step_scalars_x8(&self, at: &[usize; 8]) -> [(f32, f32); 8] {
+        let (view, stack) = (self.pass.view, self.pass.stack);
+        let clamp = |v: f32, n: usize| v.clamp(-1.0, n as f32 - 1e-3);
+        let (mut x, mut xb) = ([0f32; 8], [0f32; 8]);
+        for l in 0..8 {
+            let mx = self.grid.lo[0] + at[l] as i64;
+            x[l] = (self.px.a + mx as f64 * self.px.t) as f32;
+            xb[l] = match self.back {
+                Some((bx, _)) => clamp((bx.a + mx as f64 * bx.t) as f32, stack.dims[0]),
+                None => {
+                    let slope_x = ((self.grid.phi[0] + mx as f64 - view.eye.x) * self.inv) as f32;
+                    clamp(x[l] + 0.5 * slope_x, stack.dims[0])
+                }
+            };
+        }
+        let (plane, yb) = match self.back {
+            Some((_, by)) => (self.next, by),
+            None => (self.data, clamp(self.y + 0.5 * self.slope_y, stack.dims[1])),
+        };
+        let taps = |p: Plane, x: &[f32; 8], y: f32| match p {
+            Plane::U8(p) => bilinear_x8(p, stack.row, x, y),
+            Plane::U16(p) => bilinear_x8(p, stack.row, x, y),
+        };
+        let (f, b) = (taps(self.data, &x, self.y), taps(plane, &xb, yb));
+        std::array::from_fn(|l| (f[l], b[l]))
     }
 }
