@@ -212,8 +212,8 @@ impl Kernel {
                 w[l] = if b.visible[l] { n[l] } else { w[l] };
             }
         }
-        for l in 0..LANES {
-            b.done[l] = self.ftb && self.threshold.is_some_and(|th| new[3][l] >= th);
+        for (d, &a) in b.done.iter_mut().zip(&new[3]) {
+            *d = self.ftb && self.threshold.is_some_and(|th| a >= th);
         }
     }
 
