@@ -2,7 +2,8 @@
 //! at once (the column's rays in consecutive rows of a slice, whose
 //! accumulators lie side by side in memory), each operation a loop over
 //! the lanes, which the compiler turns into vector instructions (one
-//! 512-bit register holds the eight 64-bit words). Lane by lane the same
+//! 512-bit register holds the eight 64-bit words); the per-lane event
+//! flags are vector compares into bit masks ([`wide::i64x8`]). Lane by lane the same
 //! words and the same quantisation events as the general datapath's
 //! [`Datapath::bilinear`], [`Datapath::classify`], [`Datapath::path`],
 //! [`Datapath::correct`] and compositing (a proptest compares them); the
@@ -18,8 +19,9 @@
 use super::{lerp, Kernel, Step, Tally, CLASS_SLOTS};
 #[cfg(doc)]
 use crate::datapath::Datapath;
+use wide::i64x8;
 
-/// Lanes of a batch: eight 64-bit words.
+/// Lanes of a batch: eight 64-bit words (an [`i64x8`]).
 pub(crate) const LANES: usize = 8;
 
 type Lanes = [i64; LANES];
@@ -72,18 +74,27 @@ impl Step {
     /// population count per step, not a counter per lane).
     #[inline(always)]
     fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
-        let mut out = [0; LANES];
-        let (mut over, mut inexact) = (0u8, 0u8);
-        for l in 0..LANES {
-            let q = (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2;
-            let c = q.max(self.min).min(self.max);
-            over |= u8::from(c != q) << l;
-            inexact |= u8::from(raw[l] & self.mask != 0) << l;
-            out[l] = c;
-        }
+        let q = each(|l| (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2);
+        let out = each(|l| q[l].max(self.min).min(self.max));
+        let over = ne_mask(&out, &q);
+        let inexact = nonzero_mask(&each(|l| raw[l] & self.mask));
         t.count(self.slot, on, over, inexact);
         out
     }
+}
+
+/// The lanes where `a` and `b` differ, bit `l` for lane `l`: one vector
+/// compare into a mask register (a loop gathering the flags bit by bit
+/// compiles to a scalar chain of shifts and ors).
+#[inline(always)]
+fn ne_mask(a: &Lanes, b: &Lanes) -> Mask {
+    i64x8::new(*a).simd_ne(i64x8::new(*b)).to_bitmask() as Mask
+}
+
+/// The lanes whose word is not zero, bit `l` for lane `l`.
+#[inline(always)]
+fn nonzero_mask(a: &Lanes) -> Mask {
+    ne_mask(a, &[0; LANES])
 }
 
 /// `f` of every lane (a plain loop, which vectorises; `array::from_fn`'s
@@ -141,25 +152,31 @@ impl Kernel {
             .lerp_x
             .lanes(&lerps(&b.v[2], &b.v[3], &wx, fw), t, used);
         let s = self.lerp_y.lanes(&lerps(&top, &bot, &b.wy, fw), t, used);
-        let mut rgba = [[0; LANES]; 4];
-        let mut shown: Mask = 0;
         let table = &self.classes;
         let (cb, ab) = (table.color_bits, table.alpha_bits);
         let (cm, am) = ((1u64 << cb) - 1, (1u64 << ab) - 1);
+        // The table's words first (eight loads), then each field of every
+        // lane in its own loop, each a few vector operations.
+        let mut words = [0u64; LANES];
+        for (w, &s) in words.iter_mut().zip(&s) {
+            *w = table.words[s as usize];
+        }
+        let mut rgba = [[0; LANES]; 4];
+        for (ch, w) in rgba[..3].iter_mut().enumerate() {
+            *w = each(|l| ((words[l] >> (ch as u32 * cb)) & cm) as i64);
+        }
+        rgba[3] = each(|l| ((words[l] >> (3 * cb)) & am) as i64);
+        // The lanes in use as all-ones words, the rest zero.
+        let in_use = each(|l| -i64::from((used >> l) & 1));
         let mut groups = [0u64; 3];
-        for l in 0..LANES {
-            let word = table.words[s[l] as usize];
-            let a = (word >> (3 * cb)) & am;
-            let on = u64::from((used >> l) & 1);
-            for (k, g) in groups.iter_mut().enumerate() {
-                *g += on * table.event_group(word, k as u32);
+        for (k, g) in groups.iter_mut().enumerate() {
+            for l in 0..LANES {
+                *g += table.event_group(words[l], k as u32) & in_use[l] as u64;
             }
-            for (ch, w) in rgba[..3].iter_mut().enumerate() {
-                w[l] = ((word >> (ch as u32 * cb)) & cm) as i64;
-            }
-            rgba[3][l] = a as i64;
-            b.visible[l] = a != 0;
-            shown |= u8::from(b.visible[l]) << l;
+        }
+        let shown = nonzero_mask(&rgba[3]);
+        for (l, v) in b.visible.iter_mut().enumerate() {
+            *v = (shown >> l) & 1 != 0;
         }
         // Count `i` (format `i / 3`, kind `i % 3`) is field `i / 3` of
         // group `i % 3`.
@@ -170,7 +187,7 @@ impl Kernel {
             }
         }
         let shown = shown & used;
-        if !b.visible[..b.n].iter().any(|&v| v) {
+        if shown == 0 {
             return;
         }
         let sx = self.line.lanes(&[b.slope; LANES], t, shown);
@@ -190,13 +207,13 @@ impl Kernel {
         } else {
             self.composite_btf_lanes(&b.acc, &rgba, &a, t, shown)
         };
-        for l in 0..LANES {
-            if b.visible[l] {
-                for (w, n) in b.acc.iter_mut().zip(&new) {
-                    w[l] = n[l];
-                }
+        for (w, n) in b.acc.iter_mut().zip(&new) {
+            for l in 0..LANES {
+                w[l] = if b.visible[l] { n[l] } else { w[l] };
             }
-            b.done[l] = self.ftb && self.threshold.is_some_and(|th| new[3][l] >= th);
+        }
+        for (d, &a) in b.done.iter_mut().zip(&new[3]) {
+            *d = self.ftb && self.threshold.is_some_and(|th| a >= th);
         }
     }
 
@@ -225,21 +242,16 @@ impl Kernel {
         let tf = self.exp_lerp.lanes(&lerps(&lo, &hi, &w, fw), t, on);
         let (min, max) = (self.oc.min_raw(), self.oc.max_raw());
         let foc = u32::from(self.oc.frac());
-        let mut diff = [0; LANES];
-        let (mut shifts, mut over, mut inexact) = (0u8, 0u8, 0u8);
-        for l in 0..LANES {
-            // `tf >> int` into `opacity_corr` (no assignment at all when
-            // `int >= 64`: the transmittance is zero).
-            let shifted = int[l] < 64;
-            let k = int[l].clamp(0, 62) as u32;
-            let r = u32::from(self.oc_rnd && k > 0);
-            let q = ((tf[l] >> (k - r)) + i64::from(r)) >> r;
-            let c = q.max(min).min(max);
-            shifts |= u8::from(shifted) << l;
-            over |= u8::from(shifted && c != q) << l;
-            inexact |= u8::from(shifted && tf[l] & ((1i64 << k) - 1) != 0) << l;
-            diff[l] = (1i64 << foc) - if shifted { c } else { 0 };
-        }
+        // `tf >> int` into `opacity_corr` (no assignment at all when
+        // `int >= 64`: the transmittance is zero).
+        let shifts = ne_mask(&each(|l| i64::from(int[l] < 64)), &[0; LANES]);
+        let k = each(|l| int[l].clamp(0, 62));
+        let r = each(|l| i64::from(self.oc_rnd && k[l] > 0));
+        let q = each(|l| ((tf[l] >> (k[l] - r[l])) + r[l]) >> r[l]);
+        let c = each(|l| q[l].max(min).min(max));
+        let over = shifts & ne_mask(&c, &q);
+        let inexact = shifts & nonzero_mask(&each(|l| tf[l] & ((1i64 << k[l]) - 1)));
+        let diff = each(|l| (1i64 << foc) - if int[l] < 64 { c[l] } else { 0 });
         t.count(self.one_minus.slot, on & shifts, over, inexact);
         self.one_minus.lanes(&diff, t, on)
     }
