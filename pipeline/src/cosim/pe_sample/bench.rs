@@ -9,7 +9,7 @@
 //! the half of the slice buffer and the edge column its parity names, a
 //! buffer word; written straight into the memories, as the model counts no
 //! clock for them; kind 4, a word of the row plan, in 32-bit pieces
-//! lowest first), drives the held range one clock ahead through the
+//! lowest first; kind 5, front to back, a ray's termination bit), drives the held range one clock ahead through the
 //! `map` port (`pe<K>.map`), and the broadcast of clock `c + 1` (`bus.txt`;
 //! nothing where the model did not sample). At the end of each clock it
 //! prints each PE's issue, taps and write-back (`rtl<K>.I`, `.T`, `.W`,
@@ -97,8 +97,13 @@ module {TOP};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;
   reg mp_ok{k}, map_we{k};
   reg [63:0] map_lo{k}, map_n{k};
-  reg [{pw1}:0] pw{k};
+  reg [{pw1}:0] pw{k};{tw}
   wire [{e1}:0] edge_out{k};",
+            tw = if shape.termination.is_some() {
+                format!("\n  reg [{s1}:0] tw{k};")
+            } else {
+                String::new()
+            },
             v1 = shape.voxel_bits - 1,
             volm = vol.max(1) - 1,
             pw1 = plan_words * 32 - 1,
@@ -201,6 +206,18 @@ module {TOP};
     // The middle of each clock: events, the held range, the broadcast.
     let _ = writeln!(w, "  always @(negedge clk) if (phase == 2) begin");
     for k in 0..pes {
+        // Kind 5, front to back with termination: a ray's termination bit.
+        let kind5 = if shape.termination.is_some() {
+            format!(
+                "
+      end else if (ev{k}_1 == 5) begin
+        tw{k} = pe{k}.term[ev{k}_2];
+        tw{k}[ev{k}_3] = ev{k}_4[0];
+        pe{k}.term[ev{k}_2] = tw{k};"
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             w,
             "    while (ev_ok{k} && ev{k}_0 == cyc) begin
@@ -217,7 +234,7 @@ module {TOP};
       end else if (ev{k}_1 == 4) begin
         if (ev{k}_3 == 0) pw{k} = 0;
         pw{k}[ev{k}_3 * 32 +: 32] = ev{k}_4[31:0];
-        pe{k}.plan[ev{k}_2] = pw{k}[{s1}:0];
+        pe{k}.plan[ev{k}_2] = pw{k}[{s1}:0];{kind5}
       end else begin
         if (ev{k}_2 % 2 == 0) pe{k}.bank0[ev{k}_2 / 2] = ev{k}_4;
         else pe{k}.bank1[ev{k}_2 / 2] = ev{k}_4;
