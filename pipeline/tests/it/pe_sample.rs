@@ -6,9 +6,11 @@
 //! every PE's issues (ray, accumulators read), taps and write-backs
 //! compared, the buffers at the readout's start compared with the model's
 //! rays, and the readout fed from the RTL's buffers; with and without the
-//! controller's empty-space skipping, whose runs reach each PE's row plan.
-//! A control that skips a ray, or one that ignores the row plan, is
-//! caught; the module lints clean and synthesizes without a latch.
+//! controller's empty-space skipping, whose runs reach each PE's row plan,
+//! and front to back with early ray termination, whose termination bits
+//! leave terminated rays out of each row. A control that skips a ray, or
+//! one that ignores the row plan or the termination bits, is caught; the
+//! module lints clean and synthesizes without a latch.
 //! Without the tools the tests print one line and skip
 //! (`ERCUBE_REQUIRE_TOOLS=1` fails).
 //!
