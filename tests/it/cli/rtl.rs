@@ -81,7 +81,8 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "wb_data",
             "vld_data",
             "map_n_in",
-            "pl_word",
+            "pl_valid",
+            "pl_hi",
         ] {
             assert!(ports.iter().any(|q| q == p), "no port {p} in {ports:?}");
         }
