@@ -57,7 +57,7 @@ pub struct CosimArgs {
     /// What is emitted and compared: the datapath stage with the readout
     /// (`datapath`), or each PE's sample stage with its control, voxel
     /// memory and compositing buffer, then the readout from its buffers
-    /// (`pe`; back to front, column blocks).
+    /// (`pe`; either order, column blocks).
     #[arg(long, value_parser = ["datapath", "pe"], default_value = "datapath")]
     pub stage: String,
 }

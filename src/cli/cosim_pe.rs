@@ -79,6 +79,12 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         r.plan_runs,
         r.skipped_in_rows
     ));
+    if s.cfg.termination_raw().is_some() {
+        lines.push(format!(
+            "  termination: {} terminated rays left out of sampled rows by the termination bits; {} bits replayed from outside the stage",
+            r.terminated_in_rows, r.outside_flags
+        ));
+    }
     if r.slots.0 > r.slots.1 {
         lines.push(format!(
             "  a PE holds up to {} columns at a slice's start, past the column map's declared {} slots: the column map and the compositing buffer are emitted {} slots wide",
@@ -127,6 +133,8 @@ pub fn run(a: &CosimArgs) -> Result<()> {
                 "outside_words": r.outside_words,
                 "plan_runs": r.plan_runs,
                 "skipped_in_rows": r.skipped_in_rows,
+                "terminated_in_rows": r.terminated_in_rows,
+                "outside_flags": r.outside_flags,
                 "columns_held_peak": r.slots.0,
                 "column_map_declared_slots": r.slots.1,
                 "memory_bits_per_pe": r.bits[0],

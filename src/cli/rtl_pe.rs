@@ -70,7 +70,7 @@ fn meaning(name: &str) -> &'static str {
             "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, next row)"
         }
         n if n.starts_with("pl_") => {
-            "the row plan's write port (write, ray row, word: bit i set when held column map_lo + i samples in the row), from the PlanRows broadcast's runs"
+            "the plan port: the controller's runs of the PlanRows broadcast, one a clock (valid, first run of its row, ray row, first and last ray index), which a comparator pair a column map slot turns into the row plan's word (bit i set when held column map_lo + i lies in a run)"
         }
         n if n.starts_with("iss_") => "what the control issues into the datapath: valid, ray index, the ray's accumulators",
         n if n.starts_with("tap_") => "the voxel taps served to the datapath",
@@ -86,7 +86,7 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
     let _ = writeln!(
         w,
         "From `pipeline::hw::pe_sample_rtl`, for a view-space volume of {}x{}x{} (`--dims`), \
-         back to front, column blocks: one PE's control walking a row plan's rays one a clock \
+         {}, column blocks: one PE's control walking a row plan's rays one a clock \
          into `ercube_sample` (instantiated inside), its row plan ({} words of {} bits: the \
          held columns each ray row samples, where empty-space skipping reaches the PE), its slice buffer (2 row banks x 2 slices x \
          {} columns x {} rows of {} bits) and edge column, its compositing buffer (2 banks x {} \
@@ -96,6 +96,16 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
         dims[0],
         dims[1],
         dims[2],
+        match s.termination {
+            Some(t) => format!(
+                "front to back with early ray termination (termination bits, {} words of {} bits, \
+                 a ray's set by its write-back once its opacity word reaches {t}; a row issues \
+                 its planned rays whose bit is clear)",
+                s.rays.max_rows,
+                s.slots()
+            ),
+            None => "without early ray termination (the datapath composites in its order)".to_owned(),
+        },
         s.rays.max_rows,
         s.slots(),
         s.stored,

@@ -347,14 +347,16 @@ fn cosim_refuses_what_is_not_emitted() {
         }
     }
     assert!(!d.join("v").exists(), "a refused run leaves nothing");
-    // The sample stage's control is emitted back to front only.
+    // The sample stage's control is emitted under column blocks only.
     if have("iverilog", "iverilog", "a cosim refusal") {
-        let args: Vec<String> =
-            "cosim --stage pe --simulator iverilog --scene sphere:24 --pes 2 --order ftb"
-                .split_whitespace()
-                .map(String::from)
-                .collect();
-        assert_refused(&args, &ercube(d, &args), "front to back");
+        let il = config(d, "interleave", 35, "mapping = \"interleave\"\n");
+        let args: Vec<String> = format!(
+            "cosim --stage pe --simulator iverilog --scene sphere:24 --pes 2 --config {il}"
+        )
+        .split_whitespace()
+        .map(String::from)
+        .collect();
+        assert_refused(&args, &ercube(d, &args), "interleave mapping");
     }
     let args: Vec<String> = "vectors --scene ml:16 --cycles 5-2 --out-dir v"
         .split_whitespace()

@@ -133,9 +133,16 @@ pub trait IssueSink: Send {
     /// `cycle` ([`crate::cosim::pe_sample`]).
     fn slice_begin(&mut self, _cycle: u64, _z: usize, _pes: &[Pe]) {}
     /// The slice's rows are planned: every PE as `PlanRows` left it (its
-    /// row `r` the region's `first_row + r`), after clock `cycle`
-    /// ([`crate::cosim::pe_sample`]).
-    fn rows_planned(&mut self, _cycle: u64, _first_row: usize, _pes: &[Pe]) {}
+    /// row `r` the region's `first_row + r`, sampling inside `runs.row(r)`),
+    /// after clock `cycle` ([`crate::cosim::pe_sample`]).
+    fn rows_planned(
+        &mut self,
+        _cycle: u64,
+        _first_row: usize,
+        _pes: &[Pe],
+        _runs: &crate::stages::sample::RowRuns,
+    ) {
+    }
     /// A sampled slice's runs (its row `r` the region's `first_row + r`)
     /// of the rows that take clocks (`lens[r] > 0`) on the PEs' plan
     /// port, one a clock from clock `from` ([`crate::cosim::pe_sample`]).

@@ -15,7 +15,7 @@
 //! and a column keeps its slot while columns arrive and leave).
 
 use super::readout_rtl::ReadoutShape;
-use crate::config::{Mapping, Order, PipelineConfig};
+use crate::config::{Mapping, PipelineConfig};
 use crate::cost::inventory::{addr_bits, Geometry};
 use crate::pe::Pe;
 
@@ -37,6 +37,11 @@ pub struct PeSampleShape {
     pub nx: u64,
     /// Bits of the ray index (`RAY_INDEX_BITS`).
     pub index_bits: u32,
+    /// Front to back with early ray termination: the threshold, a raw
+    /// `accum_alpha` word ([`PipelineConfig::termination_raw`]) the
+    /// termination bits compare the written-back opacity with; `None`
+    /// otherwise (no termination bits).
+    pub termination: Option<i64>,
 }
 
 impl PeSampleShape {
@@ -59,9 +64,6 @@ impl PeSampleShape {
                 "the sample stage's control under the {} mapping (aprons, several blocks a PE) is not emitted yet (only column blocks)",
                 cfg.mapping.name()
             ));
-        }
-        if cfg.order == Order::FrontToBack {
-            return Err("the sample stage's control front to back (termination flags read by the row plan) is not emitted yet (only back to front)".into());
         }
         Ok(())
     }
@@ -108,6 +110,7 @@ impl PeSampleShape {
             ny,
             nx: geo.dims[0] as u64,
             index_bits: crate::cost::shapes::RAY_INDEX_BITS,
+            termination: cfg.termination_raw(),
         })
     }
 
@@ -158,6 +161,19 @@ impl PeSampleShape {
             + 2 * 2 * self.half_rows * v
             + 2 * self.rays.bank_depth * u64::from(self.rays.buffer_width)
             + self.plan_bits()
+            + self.termination_bits()
+    }
+
+    /// Bits of the termination bits front to back with termination: like
+    /// the row plan, one word of `slots` bits a ray row, a bit a ray (the
+    /// flag the declaration charges beside each ray's inherited state);
+    /// none otherwise.
+    pub fn termination_bits(&self) -> u64 {
+        if self.termination.is_some() {
+            self.plan_bits()
+        } else {
+            0
+        }
     }
 
     /// Bits of the row plan: one word of `slots` bits for each of the

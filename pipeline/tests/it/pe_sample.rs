@@ -7,10 +7,11 @@
 //! compared, the buffers at the readout's start compared with the model's
 //! rays, and the readout fed from the RTL's buffers; with and without the
 //! controller's empty-space skipping, whose runs reach each PE's row plan
-//! through its plan port and comparators. A control that skips a ray, one
-//! that ignores the row plan, and comparators that drop a run's last
-//! column are caught; the module lints clean and synthesizes without a
-//! latch.
+//! through its plan port and comparators, and front to back with early
+//! ray termination, whose termination bits leave terminated rays out of
+//! each row. A control that skips a ray, one that ignores the row plan or
+//! the termination bits, and comparators that drop a run's last column
+//! are caught; the module lints clean and synthesizes without a latch.
 //! Without the tools the tests print one line and skip
 //! (`ERCUBE_REQUIRE_TOOLS=1` fails).
 //!
@@ -288,16 +289,102 @@ fn a_control_that_skips_a_ray_is_caught() {
     assert!(!r.problems().is_empty());
 }
 
+/// Front to back with early ray termination at 0.9 (the comparator's
+/// raw threshold in the PE's termination bits).
+fn ftb_cfg(pes: u16) -> PipelineConfig {
+    PipelineConfig {
+        order: Order::FrontToBack,
+        terminate: 0.9,
+        ..cfg(pes)
+    }
+}
+
+/// 0 mismatches front to back, with rays terminated: the termination bits
+/// left terminated rays out of sampled rows.
+fn assert_terminates(r: &PeStageRun, what: &str) {
+    assert_matches(r, what);
+    assert!(
+        r.terminated_in_rows > 100,
+        "{what}: {} terminated rays left out of sampled rows",
+        r.terminated_in_rows
+    );
+}
+
+/// Front to back on 2 PEs: `ml:24`, whose rays terminate inside the
+/// volume, in Icarus, and the skipping frame (`checker:24`, gaps in the
+/// rows' runs besides the terminated rays) in Icarus and in Verilator:
+/// every PE issues its row plan's rays less those its termination bits
+/// mark, 0 mismatches, every sample compared, the buffers and the readout
+/// clean.
+#[test]
+fn front_to_back_frames_match_the_model() {
+    if have(
+        "iverilog",
+        "iverilog",
+        "the front-to-back sample stage cosim",
+    ) {
+        let frame = ("ml:24", [16.0, 10.0, -60.0], 16);
+        let r = run(&ftb_cfg(2), frame, None, Simulator::Icarus, None);
+        assert_terminates(&r, &format!("iverilog, front to back, 2 PEs {frame:?}"));
+    }
+    for (sim, tool) in [
+        (Simulator::Icarus, "iverilog"),
+        (Simulator::Verilator, "verilator"),
+    ] {
+        if !have(tool, tool, "the front-to-back skipping sample stage cosim") {
+            continue;
+        }
+        let r = run(&ftb_cfg(2), SKIPPING, Some(Skips::default()), sim, None);
+        let what = format!("{tool}, front to back, 2 PEs {SKIPPING:?}, skipping");
+        assert_terminates(&r, &what);
+        assert!(r.skipped_in_rows > 1000, "{what}: {}", r.skipped_in_rows);
+    }
+}
+
+/// A control that ignores the termination bits (issuing every planned
+/// column, terminated or not) is caught: a ray the model left out issues.
+#[test]
+fn a_control_that_ignores_the_termination_bits_is_caught() {
+    if !have(
+        "iverilog",
+        "iverilog",
+        "the sample stage termination mutation in Icarus",
+    ) {
+        return;
+    }
+    let broken = |v: &str| {
+        let from = "bc_first ? plan[bc_row] & ~dead : rem;";
+        assert!(v.contains(from));
+        v.replace(from, "bc_first ? plan[bc_row] : rem;")
+    };
+    let frame = ("ml:24", [16.0, 10.0, -60.0], 16);
+    let r = run(&ftb_cfg(2), frame, None, Simulator::Icarus, Some(&broken));
+    let m = r.outcome.first.as_ref().expect("a mismatch");
+    assert!(
+        m.signal == "slot_m" || m.signal == "in_valid",
+        "the first mismatch is an issued ray: {m}"
+    );
+    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
+}
+
 /// `verilator --lint-only -Wall` and `iverilog -Wall` print nothing on the
 /// PE module (with its datapath); yosys's coarse synthesis (`proc`, where
 /// latches are inferred, and the memories) leaves no latch cell.
 #[test]
 fn pe_sample_module_lints_and_synthesizes_without_latches() {
-    let c = cfg(3);
-    let dp = datapath(&c);
+    for c in [cfg(3), ftb_cfg(3)] {
+        lints_and_synthesizes(&c);
+    }
+}
+
+/// [`pe_sample_module_lints_and_synthesizes_without_latches`] for `c`'s
+/// PE (front to back with its termination bits).
+fn lints_and_synthesizes(c: &PipelineConfig) {
+    let dp = datapath(c);
     let s = subject("ml:24");
     let prep = view_from(&s.vol, [16.0, 10.0, -36.0], 24);
-    let shape = PeSampleShape::for_view(&c, &prep.view).unwrap();
+    let shape = PeSampleShape::for_view(c, &prep.view).unwrap();
+    assert_eq!(shape.termination.is_some(), c.order == Order::FrontToBack);
     let pe = emit(&shape, &dp).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("ercube_sample.v");

@@ -22,9 +22,9 @@ fn declared_ports(v: &str) -> Vec<String> {
 }
 
 /// Both orders: the files, the README's port table lists every declared
-/// port with its width, and states the depth the run printed; back to
-/// front the PE's sample stage too (its README section naming every port
-/// it declares), front to back it is left out in one line.
+/// port with its width, and states the depth the run printed; in both
+/// orders the PE's sample stage too (its README section naming every port
+/// it declares).
 #[test]
 fn rtl_writes_the_module_filelist_and_readme() {
     let dir = tempdir();
@@ -38,35 +38,20 @@ fn rtl_writes_the_module_filelist_and_readme() {
             run.describe()
         );
         let o = d.join(&out);
-        let btf = order == "btf";
-        let mut want = vec![
+        let want = vec![
             "README.md",
             "ercube_pe_readout.v",
+            "ercube_pe_sample.v",
             "ercube_readout_array.v",
             "ercube_sample.v",
             "filelist.f",
         ];
-        if btf {
-            want.insert(2, "ercube_pe_sample.v");
-        } else {
-            assert!(
-                run.stdout().contains(
-                    "ercube_pe_sample not written: the sample stage's control front to back"
-                ),
-                "{}",
-                run.describe()
-            );
-        }
         assert_eq!(entries(&o), want);
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
         let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
         assert_eq!(
             std::fs::read_to_string(o.join("filelist.f")).unwrap(),
-            if btf {
-                "ercube_sample.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
-            } else {
-                "ercube_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
-            }
+            "ercube_sample.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
         );
         for m in ["ercube_pe_readout", "ercube_readout_array"] {
             let text = std::fs::read_to_string(o.join(format!("{m}.v"))).unwrap();
@@ -77,42 +62,41 @@ fn rtl_writes_the_module_filelist_and_readme() {
                 );
             }
         }
-        if btf {
-            let text = std::fs::read_to_string(o.join("ercube_pe_sample.v")).unwrap();
+        let text = std::fs::read_to_string(o.join("ercube_pe_sample.v")).unwrap();
+        assert!(
+            text.contains("ercube_sample u_dp ("),
+            "the PE instantiates the datapath"
+        );
+        let section = readme
+            .split("## ercube_pe_sample: the PE's sample stage\n")
+            .nth(1)
+            .expect("README has the sample stage's section");
+        let ports = declared_ports(&text);
+        for p in [
+            "clk",
+            "bc_go",
+            "edge_in",
+            "edge_out",
+            "iss_valid",
+            "wb_data",
+            "vld_data",
+            "map_n_in",
+            "pl_valid",
+            "pl_hi",
+        ] {
+            assert!(ports.iter().any(|q| q == p), "no port {p} in {ports:?}");
+        }
+        for p in &ports {
             assert!(
-                text.contains("ercube_sample u_dp ("),
-                "the PE instantiates the datapath"
-            );
-            let section = readme
-                .split("## ercube_pe_sample: the PE's sample stage\n")
-                .nth(1)
-                .expect("README has the sample stage's section");
-            let ports = declared_ports(&text);
-            for p in [
-                "clk",
-                "bc_go",
-                "edge_in",
-                "edge_out",
-                "iss_valid",
-                "wb_data",
-                "vld_data",
-                "map_n_in",
-                "pl_word",
-            ] {
-                assert!(ports.iter().any(|q| q == p), "no port {p} in {ports:?}");
-            }
-            for p in &ports {
-                assert!(
-                    section.contains(&format!("| `{p}` |")),
-                    "README does not name ercube_pe_sample's {p}"
-                );
-            }
-            assert!(
-                run.stdout().contains("ercube_pe_sample.v ("),
-                "{}",
-                run.describe()
+                section.contains(&format!("| `{p}` |")),
+                "README does not name ercube_pe_sample's {p}"
             );
         }
+        assert!(
+            run.stdout().contains("ercube_pe_sample.v ("),
+            "{}",
+            run.describe()
+        );
         let ports = declared_ports(&v);
         for p in [
             "clk",

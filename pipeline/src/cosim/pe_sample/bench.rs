@@ -8,7 +8,8 @@
 //! clock `c` outside the sample stage (`pe<K>.ev`: a slice's voxels into
 //! the half of the slice buffer and the edge column its parity names, a
 //! buffer word; written straight into the memories, as the model counts no
-//! clock for them), drives the held range one clock ahead through the
+//! clock for them; kind 5, front to back with termination, a ray's
+//! termination bit), drives the held range one clock ahead through the
 //! `map` port (`pe<K>.map`), the controller's run of clock `c` on every
 //! PE's plan port (`plan.txt`; none where the controller sends none) and
 //! the broadcast of clock `c + 1` (`bus.txt`; nothing where the model did
@@ -49,6 +50,8 @@ pub fn testbench(
     let (ny, half, stored) = (shape.ny, shape.half_rows, shape.stored);
     let vol = nz * ny * stored;
     let bd = r.bank_depth;
+    // A row's termination bits, front to back with termination.
+    let s1 = shape.slots() - 1;
     let mut v = String::new();
     let w = &mut v;
     let _ = writeln!(
@@ -99,8 +102,13 @@ module {TOP};
   reg ev_ok{k};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;
   reg mp_ok{k}, map_we{k};
-  reg [63:0] map_lo{k}, map_n{k};
+  reg [63:0] map_lo{k}, map_n{k};{tw}
   wire [{e1}:0] edge_out{k};",
+            tw = if shape.termination.is_some() {
+                format!("\n  reg [{s1}:0] tw{k};")
+            } else {
+                String::new()
+            },
             v1 = shape.voxel_bits - 1,
             volm = vol.max(1) - 1,
         );
@@ -206,6 +214,18 @@ module {TOP};
     // The middle of each clock: events, the held range, the broadcast.
     let _ = writeln!(w, "  always @(negedge clk) if (phase == 2) begin");
     for k in 0..pes {
+        // Kind 5, front to back with termination: a ray's termination bit.
+        let kind5 = if shape.termination.is_some() {
+            format!(
+                "
+      end else if (ev{k}_1 == 5) begin
+        tw{k} = pe{k}.term[ev{k}_2];
+        tw{k}[ev{k}_3] = ev{k}_4[0];
+        pe{k}.term[ev{k}_2] = tw{k};"
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             w,
             "    while (ev_ok{k} && ev{k}_0 == cyc) begin
@@ -218,7 +238,7 @@ module {TOP};
             else pe{k}.sb1[(zp * {half} + yy / 2) * {stored} + ll] = word;
             if (ll == 0 && yy % 2 == 0) pe{k}.ec0[zp * {half} + yy / 2] = word;
             if (ll == 0 && yy % 2 == 1) pe{k}.ec1[zp * {half} + yy / 2] = word;
-          end
+          end{kind5}
       end else begin
         if (ev{k}_2 % 2 == 0) pe{k}.bank0[ev{k}_2 / 2] = ev{k}_4;
         else pe{k}.bank1[ev{k}_2 / 2] = ev{k}_4;

@@ -10,14 +10,19 @@
 //!   the row, slice and voxel rows, the row's words and the next row's
 //!   voxel rows the edge registers read;
 //! - per PE, what the model does to the PE outside the sample stage, at
-//!   each slice's start: the held range (`pe<K>.map`), the slice's voxels
-//!   to load (`pe<K>.ev`, kind 1) and every compositing buffer word that
-//!   migration, merges or splits changed (kind 3: the words that differ
-//!   from what the stage's own write-backs left);
+//!   each slice's start: the held range (`pe<K>.map`), every compositing
+//!   buffer word that migration, merges or splits changed (`pe<K>.ev`,
+//!   kind 3: the words that differ from what the stage's own write-backs
+//!   left) and, front to back with termination, every ray's termination
+//!   bit that differs from what the write-backs left (kind 5: row, slot,
+//!   bit); and the slice's voxels to load (kind 1), in the clock before
+//!   its first sampling clock;
 //! - `plan.txt`: the controller's runs on the PEs' plan port, one a clock
 //!   from each sampled slice's first clock (clock, first run of its row,
 //!   row, lo, hi: [`PeCapture::plan_runs`]), which each PE's comparators
-//!   turn into its row plan's words;
+//!   turn into its row plan's words (bit `i` of row `r` set when held
+//!   column `lo + i` lies inside the row's runs; front to back the PE
+//!   leaves out those its termination bits mark when it issues);
 //! - per PE, the model's issues (`pe<K>.I`: cycle, ray, the accumulators
 //!   read), their taps (`pe<K>.T`) and write-backs (`pe<K>.W`: land cycle,
 //!   buffer address, the words), in the text the testbench prints for the
@@ -102,12 +107,18 @@ pub(crate) fn sample_bus(capture: &Capture, bus: &SampleBus) {
 }
 
 /// Tells `capture` the PEs planned the slice's rows from `first_row` on
-/// after clock `cycle`.
-pub(crate) fn rows_planned(capture: &Capture, cycle: u64, first_row: usize, pes: &[Pe]) {
+/// after clock `cycle`, inside `runs`.
+pub(crate) fn rows_planned(
+    capture: &Capture,
+    cycle: u64,
+    first_row: usize,
+    pes: &[Pe],
+    runs: &RowRuns,
+) {
     capture
         .lock()
         .unwrap_or_else(|e| e.into_inner())
-        .rows_planned(cycle, first_row, pes);
+        .rows_planned(cycle, first_row, pes, runs);
 }
 
 /// Tells `capture` the controller sends the slice's `runs` (of rows from
@@ -213,6 +224,11 @@ pub struct PeCapture {
     held: Vec<(i64, usize)>,
     /// The last broadcast's clock and row.
     row_at: (u64, usize),
+    /// The slice begun whose voxels are not loaded yet: they are, in the
+    /// clock before its first sampling clock (a slice that samples nothing
+    /// is never loaded, so that it cannot overwrite the half of the slice
+    /// buffer a slice still in the datapath reads).
+    pending_load: Option<usize>,
     volumes: bool,
     /// Samples each PE issued.
     pub issued: Vec<u64>,
@@ -224,6 +240,14 @@ pub struct PeCapture {
     /// out (the runs' gaps: empty space and culling inside the row),
     /// summed over PEs and rows.
     pub skipped_in_rows: u64,
+    /// Front to back: in-run columns of sampled rows that the termination
+    /// bits leave out (terminated rays), summed over PEs and rows.
+    pub terminated_in_rows: u64,
+    /// Termination bits written outside the sample stage, over all PEs.
+    pub outside_flags: u64,
+    /// Per PE, each ray's termination bit as the stage's own write-backs
+    /// leave it.
+    term: Vec<Vec<Option<bool>>>,
     /// Why the frame does not fit the emitted memories, if it does not.
     pub unfit: Option<String>,
     /// A file that could not be written.
@@ -277,11 +301,15 @@ impl PeCapture {
             lands: vec![vec![None; words]; pes],
             held: vec![(0, 0); pes],
             row_at: (0, 0),
+            pending_load: None,
             volumes: false,
             issued: vec![0; pes],
             outside_words: 0,
             plan_runs: 0,
             skipped_in_rows: 0,
+            terminated_in_rows: 0,
+            outside_flags: 0,
+            term: vec![vec![None; words]; pes],
             unfit: None,
             error: None,
             tables: Vec::new(),
@@ -357,6 +385,7 @@ impl PeCapture {
             self.volumes(pes)?;
         }
         let s = self.shape;
+        self.pending_load = Some(z);
         for (k, pe) in pes.iter().enumerate() {
             let n = pe.rays.len();
             let lo = pe.rays.front().map_or(0, |c| c.mx);
@@ -379,7 +408,6 @@ impl PeCapture {
             }
             self.held[k] = (lo, pe.active.1);
             writeln!(self.map[k], "{:x} {:x} {:x}", cycle, lo as u64, n)?;
-            writeln!(self.ev[k], "{:x} 1 {:x} {:x} 0", cycle, z, z & 1)?;
             for c in &pe.rays {
                 if c.acc.len() as u64 > s.rays.max_rows {
                     self.unfit(format!(
@@ -392,6 +420,9 @@ impl PeCapture {
                 }
                 for (row, a) in c.acc.iter().enumerate() {
                     let addr = s.ray_addr(c.mx, row) as usize;
+                    if s.termination.is_some() {
+                        self.flag(cycle, k, (c.mx, row), (c.ftb[row].done, a.raw))?;
+                    }
                     if self.shadow[k][addr] != Some(a.raw) {
                         self.shadow[k][addr] = Some(a.raw);
                         self.outside_words += 1;
@@ -409,19 +440,62 @@ impl PeCapture {
         Ok(())
     }
 
+    /// Ray `(mx, row)`'s termination bit `done` (its words `acc`) at a
+    /// slice's start on PE `k`: a kind 5 event of clock `cycle` where it
+    /// differs from what the stage's write-backs left. A ray whose words
+    /// the stage left as they are keeps the bit they wrote, or the model's
+    /// flag is not the comparator's (an error).
+    fn flag(
+        &mut self,
+        cycle: u64,
+        k: usize,
+        (mx, row): (i64, usize),
+        (done, acc): (bool, [i64; 4]),
+    ) -> std::io::Result<()> {
+        let s = self.shape;
+        let addr = s.ray_addr(mx, row) as usize;
+        let was = self.term[k][addr];
+        if was == Some(done) {
+            return Ok(());
+        }
+        if was.is_some() && self.shadow[k][addr] == Some(acc) {
+            return Err(std::io::Error::other(format!(
+                "PE {k}'s ray ({mx}, {row}) has the termination flag {done} at clock {cycle}, its write-back's comparator {}",
+                !done
+            )));
+        }
+        self.term[k][addr] = Some(done);
+        self.outside_flags += 1;
+        writeln!(
+            self.ev[k],
+            "{cycle:x} 5 {row:x} {:x} {:x}",
+            s.slot(mx),
+            u8::from(done)
+        )
+    }
+
     /// The slice's row plans as the PEs made them from the `PlanRows`
-    /// broadcast, checked against the declared memories and counted (the
-    /// RTL makes its own from the runs on its plan port).
-    fn plan(&mut self, first_row: usize, pes: &[Pe]) {
+    /// broadcast (`runs`), checked against the declared memories and
+    /// counted (the RTL makes its own words from the runs on its plan
+    /// port: the held columns inside the row's runs; front to back the PE
+    /// leaves out those its termination bits mark).
+    fn plan(&mut self, first_row: usize, pes: &[Pe], runs: &RowRuns) {
         let s = self.shape;
         let rows = pes.iter().map(Pe::planned_rows).max().unwrap_or(0);
+        let mut cols = Vec::new();
         for r in 0..rows {
             let row = first_row + r;
             let sampled = pes.iter().any(|p| p.planned(r).next().is_some());
             for (k, pe) in pes.iter().enumerate() {
                 let (lo, active) = self.held[k];
                 let mut n = 0;
-                for mx in pe.planned(r) {
+                cols.clear();
+                pe.run_ranges(runs.row(r), |js| cols.extend(js));
+                if sampled && s.termination.is_some() {
+                    self.terminated_in_rows +=
+                        cols.iter().filter(|&&j| pe.rays[j].ftb[row].done).count() as u64;
+                }
+                for mx in cols.iter().map(|&j| pe.rays[j].mx) {
                     let i = mx - lo;
                     if i < 0 || i as u64 >= s.slots() {
                         self.unfit(format!(
@@ -541,6 +615,10 @@ impl PeCapture {
         if let Some(slot) = self.shadow[k].get_mut(addr as usize) {
             *slot = Some(issue.out.raw);
         }
+        if let (Some(t), Some(bit)) = (self.shape.termination, self.term[k].get_mut(addr as usize))
+        {
+            *bit = Some(issue.out.raw[3] >= t);
+        }
         if let Some(l) = self.lands[k].get_mut(addr as usize) {
             *l = Some(s.land);
         }
@@ -596,6 +674,15 @@ impl IssueSink for PeCapture {
 
     fn sample_bus(&mut self, b: &BusCycle) {
         self.row_at = (b.cycle, b.row);
+        if let Some(z) = self.pending_load.take() {
+            for f in &mut self.ev {
+                if let Err(e) =
+                    writeln!(f, "{:x} 1 {:x} {:x} 0", b.cycle.saturating_sub(1), z, z & 1)
+                {
+                    self.error.get_or_insert(e.to_string());
+                }
+            }
+        }
         let (nv, nz, ny0, ny1) = match b.next {
             Some((z, y0, y1)) => (1, z & 1, y0, y1),
             None => (0, 0, 0, 0),
@@ -625,8 +712,8 @@ impl IssueSink for PeCapture {
         }
     }
 
-    fn rows_planned(&mut self, _cycle: u64, first_row: usize, pes: &[Pe]) {
-        self.plan(first_row, pes);
+    fn rows_planned(&mut self, _cycle: u64, first_row: usize, pes: &[Pe], runs: &RowRuns) {
+        self.plan(first_row, pes, runs);
     }
 
     fn plan_runs(&mut self, from: u64, first_row: usize, runs: &RowRuns, lens: &[usize]) {

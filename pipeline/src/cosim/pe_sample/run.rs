@@ -41,6 +41,11 @@ pub struct PeStageRun {
     /// Held columns inside a slice's x range that sampled rows left out
     /// (the runs' gaps; [`super::PeCapture::skipped_in_rows`]).
     pub skipped_in_rows: u64,
+    /// Front to back: in-run columns of sampled rows the termination bits
+    /// left out ([`super::PeCapture::terminated_in_rows`]).
+    pub terminated_in_rows: u64,
+    /// Termination bits written outside the stage (replayed).
+    pub outside_flags: u64,
     /// The build.
     pub built: Built,
     /// Seconds: the model capturing, the simulation.
@@ -184,6 +189,8 @@ pub fn simulate<'a>(
         outside_words: c.outside_words,
         plan_runs: c.plan_runs,
         skipped_in_rows: c.skipped_in_rows,
+        terminated_in_rows: c.terminated_in_rows,
+        outside_flags: c.outside_flags,
         built: Built {
             exe: dir.to_owned(),
             sim,

@@ -126,9 +126,11 @@ impl Array {
             runs: pre_skip.then_some(&pre_runs),
         });
         // Every held ray's scoreboard stamp was written by a sample or a
-        // migration: when none is later than now, no row can wait.
+        // migration: when none is later than now (front to back, none is
+        // now, as a terminated ray's flag must land before its row's first
+        // clock), no row can wait.
         let lands_by = self.clock.reports().map(|r| r.lands_by).max().unwrap_or(0);
-        let waits = lands_by > self.clock.now();
+        let waits = lands_by + u64::from(ftb) > self.clock.now();
         let mut host = QuantStats::default();
         let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
@@ -152,6 +154,7 @@ impl Array {
                 self.clock.cycle(),
                 first_row,
                 self.clock.pes(),
+                &runs,
             );
         }
         // Each row's cycles: as many as the busiest PE has scheduled rays

@@ -99,7 +99,11 @@ impl Pe {
     /// bisection (the comparator pair's answer): a row costs its runs, not
     /// every held column. The held columns must be contiguous
     /// ([`Pe::plan_rows`] makes them so).
-    fn run_ranges(&self, runs: &[(i64, i64)], mut visit: impl FnMut(std::ops::Range<usize>)) {
+    pub(crate) fn run_ranges(
+        &self,
+        runs: &[(i64, i64)],
+        mut visit: impl FnMut(std::ops::Range<usize>),
+    ) {
         let (first, n) = self.active;
         let active = &self.rays.as_slices().0[first..first + n];
         // No run reaches the active columns (the comparators' answer for
@@ -124,25 +128,23 @@ impl Pe {
         }
     }
 
-    /// Visits the held columns this PE samples in `row`: those inside the
-    /// row's `runs` ([`Pe::run_ranges`]), front to back only those whose
-    /// termination flag is clear. Calls `take(j)` for each, in order, and
-    /// returns how many in-run columns were terminated.
+    /// Visits the held columns inside `row`'s `runs` ([`Pe::run_ranges`]),
+    /// in order: `visit(j, live)`, `live` false for a column whose
+    /// termination flag is set (front to back), which the row does not
+    /// sample. Returns how many in-run columns were terminated.
     fn schedule(
         &self,
         row: usize,
         runs: &[(i64, i64)],
         ftb: bool,
-        mut take: impl FnMut(usize),
+        mut visit: impl FnMut(usize, bool),
     ) -> u64 {
         let mut terminated = 0;
         self.run_ranges(runs, |cols| {
             for j in cols {
-                if ftb && self.rays[j].ftb[row].done {
-                    terminated += 1;
-                } else {
-                    take(j);
-                }
+                let live = !(ftb && self.rays[j].ftb[row].done);
+                terminated += u64::from(!live);
+                visit(j, live);
             }
         });
         terminated
@@ -154,7 +156,11 @@ impl Pe {
     /// samples in it (see [`Pe::begin_row`]) and the earliest cycle the
     /// row may start so that each of them issues after its accumulators
     /// were written back (its `c`-th column issues `c` cycles after the
-    /// start): [`Pe::row_reports`]. The controller runs each row for as
+    /// start) and, front to back, so that every in-run column whose flag
+    /// is set has had its last write-back land in a clock before the
+    /// row's first issue (the PE reads the row's termination bits in the
+    /// clock before it, [`crate::hw::pe_sample_rtl`]):
+    /// [`Pe::row_reports`]. The controller runs each row for as
     /// many cycles as the largest count, from the latest start (a max tree
     /// over the PEs' report lines, the one signal besides the broadcast
     /// that is not nearest-neighbour).
@@ -165,7 +171,8 @@ impl Pe {
     /// change only when that row samples, after it began.
     ///
     /// `waits` is false when no held ray's accumulators are written back
-    /// after the slice's first cycle: then no row can wait for one, and
+    /// after the slice's first cycle (front to back, in it or after): then
+    /// no row can wait for one, and
     /// the reports' starts are 0 instead of reading every ray's
     /// scoreboard (the same schedule).
     pub fn plan_rows(
@@ -196,7 +203,18 @@ impl Pe {
         for r in 0..n {
             let row = first_row + r;
             let (mut k, mut ready) = (0, 0);
-            let terminated = self.schedule(row, runs.row(r), ftb, |j| {
+            let terminated = self.schedule(row, runs.row(r), ftb, |j, live| {
+                if !live {
+                    // The PE reads the row's termination bits in the clock
+                    // before its first issue, forwarding a write-back of
+                    // that clock: the flag's write-back must land before
+                    // the row starts.
+                    let land = self.rays[j].land[row];
+                    if waits && land > 0 {
+                        ready = ready.max(land + 1);
+                    }
+                    return;
+                }
                 if waits {
                     ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
                 }
