@@ -35,6 +35,7 @@ mod isqrt_rtl;
 mod pe_plan_rtl;
 pub mod pe_sample_rtl;
 mod pe_sample_shape;
+mod pe_term_rtl;
 pub mod pipeline_rtl;
 pub mod preint;
 pub mod readout_rtl;

@@ -41,6 +41,9 @@
 pub mod bench;
 pub mod compare;
 pub mod run;
+mod words;
+
+pub use words::{BusCycle, Widths};
 
 use std::fmt::Write as _;
 use std::fs::File;
@@ -53,50 +56,6 @@ use crate::datapath::Datapath;
 use crate::hw::pe_sample_rtl::PeSampleShape;
 use crate::pe::Pe;
 use crate::stages::sample::{RowRuns, SampleBus};
-
-/// A sampling clock's broadcast as the PE's control reads it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BusCycle {
-    /// The clock (the frame's numbering).
-    pub cycle: u64,
-    /// Whether the clock samples (not the prologue).
-    pub go: bool,
-    /// Whether it is the row's first sampling clock.
-    pub first: bool,
-    /// The row in the region's buffer.
-    pub row: usize,
-    /// The slice.
-    pub z: usize,
-    /// The row's clamped voxel rows.
-    pub y: (usize, usize),
-    /// The row's words, raw: `a`, `t`, `b`, `k`, `row_wy`, `sy`, `sz`.
-    pub words: [i64; 7],
-    /// The row whose edge voxels the PEs drive: slice, voxel rows.
-    pub next: Option<(usize, usize, usize)>,
-}
-
-impl BusCycle {
-    fn of(b: &SampleBus) -> BusCycle {
-        BusCycle {
-            cycle: b.now,
-            go: b.cycle != usize::MAX,
-            first: b.cycle == 0,
-            row: b.row,
-            z: b.slice.z,
-            y: (b.y.0, b.y.1),
-            words: [
-                b.slice.a[0].raw(),
-                b.slice.t[0].raw(),
-                b.slope_x.0.raw(),
-                b.slope_x.1.raw(),
-                b.y.2.raw(),
-                b.slope_yz.0.raw(),
-                b.slope_yz.1.raw(),
-            ],
-            next: b.next,
-        }
-    }
-}
 
 /// Hands `capture` the broadcast of the clock `bus` is for.
 pub(crate) fn sample_bus(capture: &Capture, bus: &SampleBus) {
@@ -143,62 +102,6 @@ pub(crate) fn slice_begin(capture: &Capture, cycle: u64, z: usize, pes: &[Pe]) {
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .slice_begin(cycle, z, pes);
-}
-
-/// Widths of the words the streams carry.
-#[derive(Debug, Clone, Copy)]
-pub struct Widths {
-    /// The ray index (`slot_m`).
-    pub m: u32,
-    /// A colour accumulator.
-    pub color: u32,
-    /// The opacity accumulator.
-    pub alpha: u32,
-    /// A voxel.
-    pub voxel: u32,
-    /// A buffer address.
-    pub addr: u32,
-    /// Clocks from issue to the taps' line (the tap stage).
-    pub tap_stage: u64,
-}
-
-impl Widths {
-    fn acc(&self, i: usize) -> u32 {
-        if i == 3 {
-            self.alpha
-        } else {
-            self.color
-        }
-    }
-
-    /// A buffer word packed as the module stores it (`{a, b, g, r}`).
-    pub fn pack(&self, acc: &[i64; 4]) -> u128 {
-        let mut w = 0u128;
-        let mut at = 0;
-        for (i, &v) in acc.iter().enumerate() {
-            w |= masked(v, self.acc(i)) << at;
-            at += self.acc(i);
-        }
-        w
-    }
-
-    /// The accumulators of a packed word, sign-extended where `signed`.
-    pub fn unpack(&self, w: u128, signed: [bool; 2]) -> [i64; 4] {
-        let mut out = [0; 4];
-        let mut at = 0;
-        for (i, o) in out.iter_mut().enumerate() {
-            let bits = self.acc(i);
-            let raw = (w >> at) & ((1u128 << bits) - 1);
-            let s = if i == 3 { signed[1] } else { signed[0] };
-            *o = if s && (raw >> (bits - 1)) & 1 == 1 {
-                (raw as i128 - (1i128 << bits)) as i64
-            } else {
-                raw as i64
-            };
-            at += bits;
-        }
-        out
-    }
 }
 
 /// The capture of the sample stage's co-simulation: it writes the
