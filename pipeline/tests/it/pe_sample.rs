@@ -22,6 +22,7 @@ use std::path::PathBuf;
 use golden::skip::Skips;
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cosim::build::Simulator;
+use pipeline::cosim::outcome::Mismatch;
 use pipeline::cosim::pe_sample::run::{simulate, PeStageRun};
 use pipeline::hw::pe_sample_rtl::{emit, PeSampleShape, MODULE};
 use pipeline::hw::pipeline_rtl::{emit as emit_dp, PipelinedModule};
@@ -190,39 +191,56 @@ fn a_skipping_frame_matches_the_model() {
     }
 }
 
+/// The frame `shot` in Icarus with the emitted Verilog's `from` replaced
+/// by `to` (a mutation of one line, which must occur in the text), or
+/// `None` (after one line) without Icarus.
+fn icarus_mutant(
+    what: &str,
+    c: &PipelineConfig,
+    shot: Shot,
+    skips: Option<Skips>,
+    (from, to): (&str, &str),
+) -> Option<PeStageRun> {
+    if !have("iverilog", "iverilog", what) {
+        return None;
+    }
+    let broken = |v: &str| {
+        assert!(v.contains(from), "the emitted Verilog has `{from}`");
+        v.replace(from, to)
+    };
+    Some(run(c, shot, skips, Simulator::Icarus, Some(&broken)))
+}
+
+/// The mutant is caught, its first mismatch an issued ray (`slot_m` or
+/// `in_valid`), which is returned.
+fn assert_caught_issuing(r: &PeStageRun) -> &Mismatch {
+    let m = r.outcome.first.as_ref().expect("a mismatch");
+    assert!(
+        m.signal == "slot_m" || m.signal == "in_valid",
+        "the first mismatch is an issued ray: {m}"
+    );
+    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
+    m
+}
+
 /// Comparators that leave out a run's last column (`<` for `<=` on the
 /// run's end) are caught on the skipping frame: the first mismatch is an
 /// issued ray, named with its clock, PE, model and RTL values.
 #[test]
 fn a_comparator_that_drops_a_run_end_is_caught() {
-    if !have(
-        "iverilog",
-        "iverilog",
+    let Some(r) = icarus_mutant(
         "the row plan comparator mutation in Icarus",
-    ) {
-        return;
-    }
-    let broken = |v: &str| {
-        let from = "pl_mx <= pl_hi;";
-        assert!(v.contains(from));
-        v.replace(from, "pl_mx < pl_hi;")
-    };
-    let r = run(
         &cfg(2),
         SKIPPING,
         Some(Skips::default()),
-        Simulator::Icarus,
-        Some(&broken),
-    );
-    let m = r.outcome.first.as_ref().expect("a mismatch");
+        ("pl_mx <= pl_hi;", "pl_mx < pl_hi;"),
+    ) else {
+        return;
+    };
+    let m = assert_caught_issuing(&r);
     println!("first mismatch: {m}");
-    assert!(
-        m.signal == "slot_m" || m.signal == "in_valid",
-        "the first mismatch is an issued ray: {m}"
-    );
     assert!(m.pe < 2, "{m}");
     assert_ne!(m.model, m.rtl, "{m}");
-    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
 }
 
 /// A control that ignores the row plan (issuing every held column of a
@@ -230,31 +248,16 @@ fn a_comparator_that_drops_a_run_end_is_caught() {
 /// skipping frame: a ray the model skipped issues.
 #[test]
 fn a_control_that_ignores_the_row_plan_is_caught() {
-    if !have(
-        "iverilog",
-        "iverilog",
+    let Some(r) = icarus_mutant(
         "the sample stage row plan mutation in Icarus",
-    ) {
-        return;
-    }
-    let broken = |v: &str| {
-        let from = "bc_first ? plan[bc_row] : rem;";
-        assert!(v.contains(from));
-        v.replace(from, "bc_first ? ~0 : rem;")
-    };
-    let r = run(
         &cfg(2),
         SKIPPING,
         Some(Skips::default()),
-        Simulator::Icarus,
-        Some(&broken),
-    );
-    let m = r.outcome.first.as_ref().expect("a mismatch");
-    assert!(
-        m.signal == "slot_m" || m.signal == "in_valid",
-        "the first mismatch is an issued ray: {m}"
-    );
-    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
+        ("bc_first ? plan[bc_row] : rem;", "bc_first ? ~0 : rem;"),
+    ) else {
+        return;
+    };
+    assert_caught_issuing(&r);
 }
 
 /// A control that steps past two of the row plan's rays at each clock
@@ -262,26 +265,16 @@ fn a_control_that_ignores_the_row_plan_is_caught() {
 /// the PE and the ray index.
 #[test]
 fn a_control_that_skips_a_ray_is_caught() {
-    if !have(
-        "iverilog",
-        "iverilog",
+    // Each clock clears the issued bit and the one above it.
+    let Some(r) = icarus_mutant(
         "the sample stage mutation in Icarus",
-    ) {
-        return;
-    }
-    let broken = |v: &str| {
-        // Each clock clears the issued bit and the one above it.
-        let (from, to) = ("'d1 << idx);", "'d3 << idx);");
-        assert!(v.contains(from));
-        v.replace(from, to)
-    };
-    let r = run(
         &cfg(2),
         ("sphere:24", [16.0, 10.0, -60.0], 16),
         None,
-        Simulator::Icarus,
-        Some(&broken),
-    );
+        ("'d1 << idx);", "'d3 << idx);"),
+    ) else {
+        return;
+    };
     let m = r.outcome.first.as_ref().expect("a mismatch");
     assert_eq!(m.signal, "slot_m", "{m}");
     let (model, rtl): (i64, i64) = (m.model.parse().unwrap(), m.rtl.parse().unwrap());
@@ -345,26 +338,19 @@ fn front_to_back_frames_match_the_model() {
 /// column, terminated or not) is caught: a ray the model left out issues.
 #[test]
 fn a_control_that_ignores_the_termination_bits_is_caught() {
-    if !have(
-        "iverilog",
-        "iverilog",
+    let Some(r) = icarus_mutant(
         "the sample stage termination mutation in Icarus",
-    ) {
+        &ftb_cfg(2),
+        ("ml:24", [16.0, 10.0, -60.0], 16),
+        None,
+        (
+            "bc_first ? plan[bc_row] & ~dead : rem;",
+            "bc_first ? plan[bc_row] : rem;",
+        ),
+    ) else {
         return;
-    }
-    let broken = |v: &str| {
-        let from = "bc_first ? plan[bc_row] & ~dead : rem;";
-        assert!(v.contains(from));
-        v.replace(from, "bc_first ? plan[bc_row] : rem;")
     };
-    let frame = ("ml:24", [16.0, 10.0, -60.0], 16);
-    let r = run(&ftb_cfg(2), frame, None, Simulator::Icarus, Some(&broken));
-    let m = r.outcome.first.as_ref().expect("a mismatch");
-    assert!(
-        m.signal == "slot_m" || m.signal == "in_valid",
-        "the first mismatch is an issued ray: {m}"
-    );
-    assert!(r.outcome.mismatches > 0 && !r.problems().is_empty());
+    assert_caught_issuing(&r);
 }
 
 /// `verilator --lint-only -Wall` and `iverilog -Wall` print nothing on the
