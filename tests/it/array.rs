@@ -92,10 +92,12 @@ fn cli_pipeline_render_writes_everything() {
     assert!(util > 0.0 && util <= 1.0, "utilization {util}");
     let stages = stats["stages"].as_object().expect("stages");
     let mut sum = 0;
-    for k in ["migrate", "sample", "merge", "readout", "drain", "stall"] {
+    for k in [
+        "migrate", "plan", "sample", "merge", "readout", "drain", "stall",
+    ] {
         sum += stages[k].as_u64().unwrap_or_else(|| panic!("stages.{k}"));
     }
-    assert_eq!(stages.len(), 6, "{stages:?}");
+    assert_eq!(stages.len(), 7, "{stages:?}");
     assert_eq!(sum, cycles, "stages add up to cycles");
     let cfg_json = stats["config"].as_object().expect("config object");
     assert_eq!(cfg_json["pes"], 4, "{cfg_json:?}");

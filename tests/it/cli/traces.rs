@@ -122,7 +122,10 @@ fn the_save_file_is_relative_and_marks_stages() {
             );
         }
     }
-    assert!(gtkw.contains("[markername] Asample\n"), "{gtkw}");
+    // The frame's first stage is the row plan of the first slice, then its
+    // samples.
+    assert!(gtkw.contains("[markername] Aplan\n"), "{gtkw}");
+    assert!(gtkw.contains("[markername] Bsample\n"), "{gtkw}");
     assert!(gtkw.contains("readout\n"), "the readout is marked:\n{gtkw}");
 }
 
