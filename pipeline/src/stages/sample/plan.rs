@@ -114,10 +114,25 @@ impl Pe {
         if n == 0 || active[0].mx > hi || active[n - 1].mx < lo {
             return;
         }
+        // The held columns' `mx` ascend strictly, so when the first and
+        // the last lie `n - 1` apart they are consecutive, and the columns
+        // below `x` number `x - mx0` (clamped to `0..=n`): the bisection's
+        // answer without reading the columns between.
+        let (mx0, dense) = (
+            active[0].mx,
+            active[n - 1].mx - active[0].mx == n as i64 - 1,
+        );
+        let below = |x: i64| x.saturating_sub(mx0).clamp(0, n as i64) as usize;
+        let up_to = |x: i64| x.saturating_sub(mx0).saturating_add(1).clamp(0, n as i64) as usize;
         let mut from = 0;
         for &(lo, hi) in runs {
-            let a = from + active[from..].partition_point(|c| c.mx < lo);
-            let b = a + active[a..].partition_point(|c| c.mx <= hi);
+            let (a, b) = if dense {
+                let a = from.max(below(lo));
+                (a, a.max(up_to(hi)))
+            } else {
+                let a = from + active[from..].partition_point(|c| c.mx < lo);
+                (a, a + active[a..].partition_point(|c| c.mx <= hi))
+            };
             if a < b {
                 visit(first + a..first + b);
             }
@@ -140,9 +155,11 @@ impl Pe {
         mut visit: impl FnMut(usize, bool),
     ) -> u64 {
         let mut terminated = 0;
+        // Contiguous: `run_ranges` needs it too.
+        let rays = self.rays.as_slices().0;
         self.run_ranges(runs, |cols| {
             for j in cols {
-                let live = !(ftb && self.rays[j].ftb[row].done);
+                let live = !(ftb && rays[j].ftb[row].done);
                 terminated += u64::from(!live);
                 visit(j, live);
             }
@@ -186,20 +203,34 @@ impl Pe {
         let mut plan = std::mem::take(&mut self.row_plan);
         plan.clear();
         self.rays.make_contiguous();
-        if !ftb && !waits && pre.is_none() {
-            // Nothing to look at per ray (no termination flag, no
-            // scoreboard, no step flags): a row's columns are its run
-            // ranges whole.
+        if !ftb && pre.is_none() {
+            // No termination flag and no step flags: a row's columns are
+            // its run ranges whole, and its start waits (when rays may
+            // still be written back) for the latest of their scoreboards,
+            // the `k`-th column's less the `k` cycles it issues after the
+            // start.
+            let rays = self.rays.as_slices().0;
             for r in 0..n {
+                let row = first_row + r;
                 let start = plan.live.len();
-                self.run_ranges(runs.row(r), |cols| plan.live.extend(cols));
+                let mut ready = 0;
+                self.run_ranges(runs.row(r), |cols| {
+                    if waits {
+                        let k0 = (plan.live.len() - start) as u64;
+                        for (k, ray) in (k0..).zip(&rays[cols.clone()]) {
+                            ready = ready.max(ray.land[row].saturating_sub(k));
+                        }
+                    }
+                    plan.live.extend(cols);
+                });
                 plan.ends.push(plan.live.len());
                 plan.terminated.push(0);
-                plan.reports.push((plan.live.len() - start, 0));
+                plan.reports.push((plan.live.len() - start, ready));
             }
             self.row_plan = plan;
             return;
         }
+        let rays = self.rays.as_slices().0;
         for r in 0..n {
             let row = first_row + r;
             let (mut k, mut ready) = (0, 0);
@@ -209,19 +240,19 @@ impl Pe {
                     // before its first issue, forwarding a write-back of
                     // that clock: the flag's write-back must land before
                     // the row starts.
-                    let land = self.rays[j].land[row];
+                    let land = rays[j].land[row];
                     if waits && land > 0 {
                         ready = ready.max(land + 1);
                     }
                     return;
                 }
                 if waits {
-                    ready = ready.max(self.rays[j].land[row].saturating_sub(k as u64));
+                    ready = ready.max(rays[j].land[row].saturating_sub(k as u64));
                 }
                 k += 1;
                 plan.live.push(j);
                 if let Some(p) = pre {
-                    plan.flags.push(p.flags(r, self.rays[j].mx));
+                    plan.flags.push(p.flags(r, rays[j].mx));
                 }
             });
             plan.ends.push(plan.live.len());
@@ -279,7 +310,14 @@ mod tests {
             rows in proptest::collection::vec(
                 proptest::collection::vec((-50i64..50, 0i64..12), 0..5), 1..6),
             skip in 0usize..4,
+            consecutive in proptest::option::of(-45i64..20),
         ) {
+            // Consecutive columns take `run_ranges`' arithmetic answer,
+            // the others its bisection.
+            let mxs: Vec<i64> = match consecutive {
+                Some(m0) => (m0..m0 + mxs.len() as i64).collect(),
+                None => mxs.into_iter().collect(),
+            };
             let dims = [8, 6, 2];
             let mut pe = Pe::new(0, ColumnMap::blocks(1, 8), &(0..8).collect::<Vec<_>>(),
                 VoxelMem::Words(vec![0; 8 * 6 * 2]), dims);
