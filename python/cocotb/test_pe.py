@@ -29,6 +29,7 @@ from pathlib import Path
 import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
+from cocotb.types import LogicArray
 
 import ercube
 
@@ -88,19 +89,20 @@ async def pe_sample_stage_matches_the_model(dut):
     # The tables: through the host port, and into the model by tbl_sel.
     start = time.perf_counter()
     sb, ab, db = (ports[n]["bits"] for n in ["tbl_sel", "tbl_addr", "tbl_data"])
-    names = {t["tbl_sel"]: t["name"] for t in m["tables"]}
+    names = {t["sel"]: t for t in m["tables"]}
     tables = {}
     for row in words(vec / "tables.hex") if man["tables"]["rows"] else []:
         sel, addr, data = (row >> (ab + db)) & ((1 << sb) - 1), (row >> db) & ((1 << ab) - 1), row & ((1 << db) - 1)
-        tables.setdefault(names[sel], {})[addr] = data
+        tables.setdefault(sel, {})[addr] = data
         dut.tbl_we.value = 1
         dut.tbl_sel.value = sel
         dut.tbl_addr.value = addr
         dut.tbl_data.value = data
         await FallingEdge(dut.clk)
     dut.tbl_we.value = 0
-    for name, ws in tables.items():
-        dp.load_table(name, [signed(ws[a], db) if a in ws else 0 for a in range(max(ws) + 1)])
+    for sel, ws in tables.items():
+        t = names[sel]
+        dp.load_table(t["name"], [mask(ws.get(a, 0), t["bits"]) for a in range(t["depth"])])
     tables_s = time.perf_counter() - start
 
     wf = {f["name"]: f["bits"] for f in man["writes"]["fields"]}
@@ -120,15 +122,22 @@ async def pe_sample_stage_matches_the_model(dut):
     start = time.perf_counter()
     for r in range(rows):
         # The memory writes of the clock before, then this clock's inputs.
+        # A write lands at the end of the time step, so a clock's bits of
+        # one termination word gather first.
+        term = {}
         while wi < len(writes) and writes[wi][0] + 1 <= r:
             _, mem, addr, data = writes[wi]
             if mem == "term":
-                word = int(handles[mem][addr].value)
-                bit = 1 << (data >> 1)
-                handles[mem][addr].value = (word | bit) if data & 1 else (word & ~bit)
+                # One bit of the row's word; the others as they are (X too).
+                if addr not in term:
+                    term[addr] = list(str(handles[mem][addr].value))
+                bits = term[addr]
+                bits[len(bits) - 1 - (data >> 1)] = "1" if data & 1 else "0"
             else:
                 handles[mem][addr].value = data
             wi += 1
+        for addr, bits in term.items():
+            handles["term"][addr].value = LogicArray("".join(bits))
         for n in drive:
             h[n].value = col[n][r]
         await FallingEdge(dut.clk)
@@ -137,10 +146,11 @@ async def pe_sample_stage_matches_the_model(dut):
             if when != "every cycle" and not col[when.split()[1]][r]:
                 continue
             checks += 1
-            got, exp = int(h[n].value), col[n][r]
-            if got != exp:
+            got, exp = h[n].value, col[n][r]
+            if not got.is_resolvable or int(got) != exp:
+                shown = f"{int(got):#x}" if got.is_resolvable else str(got)
                 raise AssertionError(
-                    f"first mismatch at cycle {r} (PE {k}): {n}: model {exp:#x}, rtl {got:#x}"
+                    f"first mismatch at cycle {r} (PE {k}): {n}: model {exp:#x}, rtl {shown}"
                 )
         if col["iss_valid"][r]:
             # The sample through the Python model, from the files' words.

@@ -319,9 +319,7 @@ pub(super) fn stream(
     if pe + 1 < pes {
         let right = voxels(dir, pe + 1)?;
         let during = edge_out(&right, s, &next, s.voxel_bits);
-        for r in 1..n {
-            cols[e].words[r] = during[r - 1];
-        }
+        cols[e].words[1..n].copy_from_slice(&during[..n - 1]);
     }
     // The expected outputs.
     let out = |cols: &mut Vec<Column>, names: &[&str], valid: &'static str| {
