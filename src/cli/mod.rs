@@ -28,6 +28,7 @@ mod skipbench;
 mod stats;
 mod synth;
 mod vectors;
+mod vectors_pe;
 
 use std::process::ExitCode;
 

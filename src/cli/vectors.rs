@@ -34,6 +34,15 @@ pub struct VectorsArgs {
     /// Folder the files go to (created if missing).
     #[arg(long)]
     pub out_dir: PathBuf,
+    /// What the vectors drive: every PE's datapath (`datapath`,
+    /// `ercube_sample`) or one PE's sample stage (`pe`,
+    /// `ercube_pe_sample`: the broadcast, the plan port, the slice loads
+    /// and the expected issues, taps and write-backs of the whole frame).
+    #[arg(long, default_value = "datapath", value_parser = ["datapath", "pe"])]
+    pub stage: String,
+    /// With `--stage pe`: the PE (0 is the leftmost).
+    #[arg(long)]
+    pub pe: Option<usize>,
 }
 
 /// `A-B` with `1 <= A <= B`.
@@ -53,6 +62,12 @@ fn parse_cycles(s: &str) -> std::result::Result<(u64, u64), String> {
 /// Runs `ercube vectors`.
 pub fn run(a: &VectorsArgs) -> Result<()> {
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
+    if a.stage == "pe" {
+        return super::vectors_pe::run(a);
+    }
+    if a.pe.is_some() {
+        bail!("vectors: --pe is for --stage pe (the datapath's vectors hold every PE)");
+    }
     let s = setup(&a.frame, "vectors")?;
     let (first, last) = a.cycles.unwrap_or((1, u64::MAX));
     let rec = Arc::new(Mutex::new(Recorded::window(first, last).limit(MAX_SAMPLES)));

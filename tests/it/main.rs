@@ -30,6 +30,7 @@ mod explore;
 mod frame_rate;
 mod memory;
 mod outputs;
+mod pe_vectors;
 mod peers;
 mod preint;
 mod refine;

@@ -25,6 +25,7 @@ pub mod build;
 pub mod capture;
 pub mod outcome;
 pub mod pe_sample;
+pub mod pe_vectors;
 pub mod readout;
 pub mod replay;
 pub mod vectors;

@@ -14,6 +14,7 @@
 
 mod chip;
 mod cocotb;
+mod cocotb_pe;
 mod cocotb_verilator;
 mod datapath;
 

@@ -1,0 +1,180 @@
+//! `ercube vectors --stage pe`: one PE's sample stage over a frame as
+//! `$readmemh` files, replayed by the plain testbench against the emitted
+//! `ercube_pe_sample` in Icarus with no mismatch; a copy of the module
+//! whose control skips a ray fails naming the cycle and the signal. Without
+//! Icarus the test prints one line and skips (`ERCUBE_REQUIRE_TOOLS=1`
+//! makes that a failure).
+//!
+//! `cargo test --release --test it -- pe_vectors::` (about 10 s).
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::bin::{assert_refused, describe, ercube};
+use crate::tools::have;
+
+/// Runs `ercube` with whitespace-separated `args` in `dir`.
+fn run(dir: &Path, args: &str) -> std::process::Output {
+    let args: Vec<String> = args.split_whitespace().map(String::from).collect();
+    let out = ercube(dir, &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    out
+}
+
+/// Builds and runs the files in `dir` in Icarus; the testbench's output.
+fn replay(dir: &Path) -> String {
+    let c = std::process::Command::new("iverilog")
+        .args(["-g2005", "-o", "tb.vvp"])
+        .args(["ercube_sample.v", "ercube_pe_sample.v", "pe_vectors_tb.v"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    let r = std::process::Command::new("vvp")
+        .args(["-n", "tb.vvp"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&r.stdout).into_owned()
+}
+
+/// The middle PE of three, front to back with termination and the
+/// controller's empty-space skipping (the default): its broadcast, plan
+/// port, held range, right neighbour's edge register, slice loads, buffer
+/// words and termination bits written from outside the stage replay with
+/// 0 mismatches, every issue, tap and write-back checked; the manifest
+/// names every file's signal, width and rows; a control that clears two
+/// bits of the row plan a clock is caught at its first differing issue.
+#[test]
+fn pe_vectors_replay_in_icarus() {
+    if !have("iverilog", "iverilog", "the PE's vectors replay") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = run(
+        d,
+        "vectors --stage pe --pe 1 --scene ml:16 --pes 3 --size 12x12 --order ftb --out-dir v",
+    );
+    let v = d.join("v");
+    let m: Value =
+        serde_json::from_str(&std::fs::read_to_string(v.join("manifest.json")).unwrap()).unwrap();
+    let rows = m["rows"].as_u64().unwrap();
+    let samples = m["samples"].as_u64().unwrap();
+    assert!(samples > 100 && rows > samples, "{m}");
+    assert!(
+        m["samples_all_pes"].as_u64().unwrap() > samples,
+        "PE 1 is one of three"
+    );
+    let files = m["files"].as_array().unwrap();
+    let signal = |n: &str| files.iter().find(|f| f["signal"] == n);
+    for n in [
+        "bc_go",
+        "bc_a",
+        "pl_valid",
+        "pl_lo",
+        "map_we",
+        "edge_in",
+        "iss_valid",
+        "iss_m",
+        "tap_v01",
+        "wb_valid",
+        "wb_data",
+    ] {
+        assert!(signal(n).is_some(), "{n} in the manifest");
+    }
+    for f in files {
+        let text = std::fs::read_to_string(v.join(f["path"].as_str().unwrap())).unwrap();
+        assert_eq!(text.lines().count() as u64, rows, "{f}");
+        let width = f["width"].as_u64().unwrap();
+        assert!(
+            text.lines()
+                .all(|l| u128::from_str_radix(l, 16).unwrap() >> width == 0),
+            "{f}: a word wider than its port"
+        );
+    }
+    let ones = |n: &str| {
+        std::fs::read_to_string(v.join(format!("pe1_{n}.hex")))
+            .unwrap()
+            .lines()
+            .filter(|l| *l == "1")
+            .count() as u64
+    };
+    assert_eq!(ones("iss_valid"), samples);
+    assert_eq!(ones("wb_valid"), samples);
+    assert!(ones("pl_valid") > 0, "runs on the plan port");
+    let edge = std::fs::read_to_string(v.join("pe1_edge_in.hex")).unwrap();
+    assert!(
+        edge.lines().any(|l| l != "0"),
+        "the right neighbour's edge words"
+    );
+    // The writes: slice loads, buffer words and termination bits.
+    let writes = std::fs::read_to_string(v.join("pe1_writes.hex")).unwrap();
+    for mem in ['0', '2', '4', '6'] {
+        assert!(
+            writes.lines().any(|l| l.chars().nth(8) == Some(mem)),
+            "a write into memory {mem}"
+        );
+    }
+    let good = replay(&v);
+    assert!(good.contains("vectors: 0 mismatches in "), "{good}");
+    let checks: u64 = good
+        .split("mismatches in ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(checks > 3 * samples + 2 * rows, "{good}");
+    println!("{}{good}", String::from_utf8_lossy(&out.stdout));
+    // Each clock clears the issued bit and the one above it.
+    let path = v.join("ercube_pe_sample.v");
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("'d1 << idx);"));
+    std::fs::write(&path, text.replace("'d1 << idx);", "'d3 << idx);")).unwrap();
+    let bad = replay(&v);
+    let line = bad
+        .lines()
+        .find(|l| l.starts_with("MISMATCH cycle "))
+        .unwrap_or_else(|| panic!("the broken copy fails: {bad}"));
+    let cycle: u64 = line["MISMATCH cycle ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(cycle < rows, "{line}");
+    assert!(
+        line.contains(" pe 1 iss_m expected ") || line.contains(" pe 1 iss_valid expected "),
+        "{line}"
+    );
+    assert!(!bad.contains(" 0 mismatches"), "{bad}");
+    println!("broken copy: {line}");
+}
+
+/// Refused in one line: a PE the frame lacks, `--cycles` with the PE's
+/// stage, `--pe` without it.
+#[test]
+fn pe_vectors_refusals() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (args, needle) in [
+        (
+            "vectors --stage pe --pe 2 --scene ml:16 --pes 2 --size 8x8 --out-dir v",
+            "--pe 2",
+        ),
+        (
+            "vectors --stage pe --cycles 1-10 --scene ml:16 --pes 2 --size 8x8 --out-dir v",
+            "--cycles",
+        ),
+        (
+            "vectors --pe 1 --scene ml:16 --pes 2 --size 8x8 --out-dir v",
+            "--stage pe",
+        ),
+    ] {
+        let args: Vec<String> = args.split_whitespace().map(String::from).collect();
+        assert_refused(&args, &ercube(d, &args), needle);
+    }
+    assert!(!d.join("v").exists(), "a refused run leaves nothing");
+}
