@@ -250,7 +250,7 @@ impl NodeTrace {
             {
                 ring.pop_front();
             }
-            if !(sampling && shown && pe.last.busy) || !self.ids[k].iter().any(|i| i.is_traced()) {
+            if !(sampling && shown && pe.last.busy && self.ids[k].iter().any(|i| i.is_traced())) {
                 continue;
             }
             match self.words(&pe.last.issue) {
