@@ -151,6 +151,12 @@ pub struct PipelineArgs {
     /// ctrl,ports,datapath,acc.
     #[arg(long, requires = "trace_out", help_heading = "Waveforms")]
     pub trace_signals: Option<String>,
+    /// Nodes of the datapath's description to trace by name,
+    /// comma-separated, `*` a glob (comp.*,class.addr1, or * for every
+    /// node): each PE's node words in scope top.pe_K.hw, a node of
+    /// pipeline stage s showing the sample issued s cycles earlier.
+    #[arg(long, requires = "trace_out", help_heading = "Waveforms")]
+    pub trace_nodes: Option<String>,
     /// Write the raw accumulator words of the baseplane (int64 H x W x 4 .npy).
     #[arg(long)]
     pub raw_npy: Option<PathBuf>,
@@ -293,13 +299,19 @@ pub fn run(
         None => {
             // The busiest PEs are known once the frame has run.
             let mut scratch = None;
-            let untraced = (Tracer::disabled(), &mut scratch, None);
+            let untraced = ((Tracer::disabled(), Vec::new()), &mut scratch, None);
             let opts = (skips, shade, voi, preint);
             let f = frame_with(cfg, data_bits, lut, prep, opts, untraced)?;
             busiest(&f.pes)
         }
     };
     let tr = tracer(a, pes)?;
+    let nodes = match &a.trace_nodes {
+        Some(text) => {
+            pipeline::probes::nodes::parse_node_patterns(text).map_err(anyhow::Error::msg)?
+        }
+        None => Vec::new(),
+    };
     let t = Instant::now();
     // The previous frame's memories only lend their buffers: this frame
     // loads the volume again, as a fresh one does.
@@ -310,7 +322,7 @@ pub fn run(
         lut,
         prep,
         (skips, shade, voi, preint),
-        (tr, &mut resident, tap),
+        ((tr, nodes), &mut resident, tap),
     )?;
     *spare = resident;
     let time_s = t.elapsed().as_secs_f64();
@@ -331,7 +343,8 @@ type FrameOptions<'a> = (
     Option<&'a golden::preint::PreTable>,
 );
 
-/// One frame through the array with tracer `tr`, reusing `resident`'s
+/// One frame through the array with tracer `tr` (and the description's
+/// nodes `nodes` names), reusing `resident`'s
 /// memories, stepped through `tap` when given.
 fn frame_with(
     cfg: &PipelineConfig,
@@ -339,8 +352,8 @@ fn frame_with(
     lut: &Lut,
     prep: &Prepared,
     (skips, shade, voi, preint): FrameOptions<'_>,
-    (tr, resident, tap): (
-        Tracer,
+    ((tr, nodes), resident, tap): (
+        (Tracer, Vec<String>),
         &mut Option<pipeline::Resident>,
         Option<pipeline::stepper::Tap>,
     ),
@@ -348,6 +361,7 @@ fn frame_with(
     let mut frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits })
         .skips(skips)
         .trace(tr)
+        .trace_nodes(nodes)
         .resident(resident);
     if let Some(t) = tap {
         frame = frame.tap(t);

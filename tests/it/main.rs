@@ -40,5 +40,6 @@ mod shards;
 mod shearwarp;
 mod skipbench;
 mod synth;
+mod trace_nodes;
 mod voi;
 mod volumes;

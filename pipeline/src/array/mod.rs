@@ -88,6 +88,8 @@ pub struct Array {
     pub(crate) links_free: u64,
     /// The waveform tracer until the frame starts (see [`Array::run`]).
     pending: Option<Tracer>,
+    /// The description's nodes the waveform traces (`--trace-nodes`).
+    pub(crate) trace_nodes: Vec<String>,
     /// What the PE memories' contents depend on, and the host's
     /// quantisation events in loading them (kept with them, see
     /// [`Resident`]).
@@ -210,6 +212,7 @@ impl Array {
             dp,
             clock,
             pending,
+            trace_nodes: Vec::new(),
             map,
             blocks: ColumnMap::blocks(p, nx),
             nx,
@@ -429,7 +432,8 @@ impl Array {
                 self.dp.voi.is_some(),
                 self.dp.preint.is_some(),
             );
-            let probes = Probes::new(t, p, &self.dp.cfg, units)?;
+            let nodes = (!self.trace_nodes.is_empty()).then(|| (&*self.dp, &self.trace_nodes[..]));
+            let probes = Probes::new(t, p, &self.dp.cfg, units, nodes)?;
             self.clock.attach(probes);
         }
         self.clock.begin_tap(crate::probes::SignalSet::new(

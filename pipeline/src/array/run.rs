@@ -77,6 +77,7 @@ pub struct FrameRun<'a> {
     skips: Option<Skips>,
     units: Units<'a>,
     tracer: Tracer,
+    nodes: Vec<String>,
     resident: Option<&'a mut Option<Resident>>,
     capture: Option<crate::cosim::capture::Capture>,
     tap: Option<crate::stepper::Tap>,
@@ -127,6 +128,7 @@ impl<'a> FrameRun<'a> {
             skips: None,
             units: Units::default(),
             tracer: Tracer::disabled(),
+            nodes: Vec::new(),
             resident: None,
             capture: None,
             tap: None,
@@ -182,6 +184,15 @@ impl<'a> FrameRun<'a> {
         self
     }
 
+    /// Also traces the datapath description's nodes that `patterns` name
+    /// (`*` globs; [`crate::probes::nodes`]), in scope `top.pe_K.hw` of
+    /// the waveform; a pattern naming no node, or a pre-integrated frame,
+    /// is refused when the frame starts.
+    pub fn trace_nodes(mut self, patterns: Vec<String>) -> Self {
+        self.nodes = patterns;
+        self
+    }
+
     /// Keeps the PE memories in `resident` across frames: when it holds
     /// the memories of a frame with the same axis map, configuration and
     /// data width, the PEs start from them and the host loads nothing (the
@@ -221,6 +232,7 @@ impl<'a> FrameRun<'a> {
             skips,
             units,
             tracer,
+            nodes,
             resident,
             capture,
             tap,
@@ -260,6 +272,7 @@ impl<'a> FrameRun<'a> {
         let resident = resident.unwrap_or(&mut spare);
         let mut array =
             Array::load_reusing(cfg, source, data_bits, lut, view, tracer, resident.take())?;
+        array.trace_nodes = nodes;
         let clipped = matches!(camera, Camera::Prepared(prep) if !prep.clip.is_empty());
         units.load(&mut array, view, (data_bits, clipped))?;
         if let (Camera::Prepared(prep), Some(mm)) = (camera, blocks) {

@@ -21,6 +21,8 @@
 //! would not fit (checked per sample) or that breaks the ownership rules
 //! (the general path reports it).
 
+#[cfg(test)]
+mod description_tests;
 mod lanes;
 mod step;
 mod tent;

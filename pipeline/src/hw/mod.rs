@@ -52,7 +52,7 @@ pub mod verilog;
 pub mod voi;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 #[cfg(test)]
 mod unit_tests;
 #[cfg(test)]

@@ -12,14 +12,14 @@ use crate::tables::Tables;
 use proptest::prelude::*;
 
 /// A raw word of `f` from any `r`.
-fn word(r: i64, f: Format) -> i64 {
+pub(crate) fn word(r: i64, f: Format) -> i64 {
     let span = i128::from(f.max_raw()) - i128::from(f.min_raw()) + 1;
     (i128::from(r).rem_euclid(span) + i128::from(f.min_raw())) as i64
 }
 
 /// An unsigned format of `bits` with `frac` fraction bits (at most
 /// `bits`) and the given modes.
-fn ufmt(bits: u8, frac: u8, q: usize, o: usize) -> Format {
+pub(crate) fn ufmt(bits: u8, frac: u8, q: usize, o: usize) -> Format {
     Format::new(bits, frac.min(bits), false, Quant::ALL[q], Overflow::ALL[o]).expect("format")
 }
 
@@ -78,7 +78,7 @@ struct Model {
 }
 
 /// Evaluates the description on one sample's inputs and tables.
-fn run(
+pub(crate) fn run(
     g: &Graph,
     cfg: &PipelineConfig,
     t: &Tables,

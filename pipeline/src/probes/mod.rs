@@ -24,6 +24,7 @@ pub const STAGE_SIGNAL: &str = "top.ctrl.stage";
 pub const MARKED_STAGES: [Stage; 4] = [Stage::Merge, Stage::Split, Stage::Fold, Stage::Readout];
 
 mod groups;
+pub mod nodes;
 mod pe;
 mod ports;
 mod recorder;

@@ -55,6 +55,8 @@ struct PeIds {
 /// The probes of a run: the tracer and the ids of every table's signals.
 pub(crate) struct Probes {
     tracer: Tracer,
+    /// The description's nodes traced by name (`--trace-nodes`).
+    nodes: Option<super::nodes::NodeTrace>,
     ctrl: Vec<SignalId>,
     pes: Vec<PeIds>,
     color: u32,
@@ -81,13 +83,16 @@ impl Probes {
 
     /// Registers the signals of `p` PEs (with the shading unit's when
     /// `units.0`, the volume-of-interest stage's when `units.1`, the
-    /// pre-integration unit's when `units.2`); an unknown group in the
-    /// tracer's selection is an error.
+    /// pre-integration unit's when `units.2`), and the nodes of the
+    /// datapath's description that `nodes` names (its datapath and the
+    /// patterns; [`super::nodes`]); an unknown group in the tracer's
+    /// selection, or a pattern naming no node, is an error.
     pub(crate) fn new(
         mut tracer: Tracer,
         p: usize,
         cfg: &PipelineConfig,
         units: (bool, bool, bool),
+        nodes: Option<(&crate::datapath::Datapath, &[String])>,
     ) -> Result<Probes, WavesError> {
         let c = (cfg, units);
         Probes::check_groups(&tracer)?;
@@ -109,8 +114,15 @@ impl Probes {
                 any_port,
             });
         }
+        // After the tables' signals, so the other signals keep their
+        // declaration order and codes.
+        let nodes = match nodes {
+            Some((dp, pats)) => Some(super::nodes::NodeTrace::new(&mut tracer, p, dp, pats)?),
+            None => None,
+        };
         Ok(Probes {
             tracer,
+            nodes,
             ctrl,
             pes,
             color: link_color(cfg),
@@ -125,6 +137,7 @@ impl Probes {
     pub(crate) fn sample(&mut self, cycle: u64, pes: &[Pe], ports: &[Ports], ctrl: Ctrl) {
         let Probes {
             tracer,
+            nodes,
             ctrl: ctrl_ids,
             pes: ids,
             color,
@@ -151,10 +164,16 @@ impl Probes {
                 }
             }
         });
+        if let Some(n) = nodes.as_mut() {
+            n.sample(tracer, cycle, pes, ctrl.stage == super::Stage::Sample);
+        }
     }
 
     /// Completes the trace files.
     pub(crate) fn finish(self) -> Result<Option<waves::TraceInfo>, WavesError> {
+        if let Some(e) = self.nodes.as_ref().and_then(|n| n.error()) {
+            return Err(e);
+        }
         self.tracer.finish()
     }
 }

@@ -40,5 +40,6 @@ mod skip;
 mod stepper;
 mod stress;
 mod support;
+mod trace_nodes;
 mod traces;
 mod voi;
