@@ -95,7 +95,7 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
     let opts = slice.options()?;
     chip::check_options(&opts)?;
     if opts.slice.preintegrate {
-        bail!("{cmd}: pre-integration (--preintegrate) is not in the emitted datapath yet (the plain sample, shading and the volume of interest are)");
+        bail!("{cmd}: pre-integration (--preintegrate) is not co-simulated: the stream does not capture its ports (the ray's previous sample, the half step, the table scale); the plain sample, shading and the volume of interest are");
     }
     let spec = FrameSpec {
         technique: None,
@@ -121,6 +121,7 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
     let units = Units {
         lights,
         voi: opts.slice.voi.is_some(),
+        preint: false,
     };
     // The schedule the model's latency is read from.
     let g = pipeline::hw::compose::sample(&cfg, units);

@@ -2,14 +2,17 @@
 //! the configured widths, for a volume of given (view-space) dimensions
 //! split over `P` PEs.
 //!
-//! The datapath follows `crate::datapath` step by step (one sample per
-//! clock, fully pipelined): ray position and slope `A + m t`, address and
-//! weight, bilinear interpolation, classification, path length (two
-//! squares, a sum, a square root), opacity correction (log table, multiply,
-//! interpolated exp table, shift, `1 - T`) and compositing, then the
-//! Bartlett merge unit. Stage timing is as soon as possible, one clock per
-//! unit and one per square-root bit; values that skip stages travel in
-//! delay lines, whose length the schedule gives.
+//! The datapath is its description's (one sample per clock, fully
+//! pipelined): the sample with the configuration's units composed
+//! ([`crate::hw::compose::sample`]: ray position and slope `A + m t`,
+//! weight, bilinear interpolation, classification, path length (three
+//! squares, a sum, a square root), opacity correction (log table,
+//! multiply, interpolated exp table, shift, `1 - T`) and compositing, the
+//! units between), the PE's address step around it
+//! ([`crate::hw::address`]) and the Bartlett merge unit
+//! ([`crate::hw::tents`]). The pipeline registers and delay lines are the
+//! ones the composed module declares on its schedule
+//! ([`crate::hw::schedule`]).
 //!
 //! Memories, sized for the geometry's view (the voxel memories for the
 //! volume, the ray memories for what that view's frames hold,
@@ -51,11 +54,7 @@ mod dsp_regs;
 mod memories;
 
 use datapath::datapath;
-pub(super) use datapath::Step;
-pub use datapath::{in_module, PIPELINE_REGISTERS};
-pub use datapath::{
-    preint_schedule_depth, schedule_depth, shaded_schedule_depth, unit_schedule_depth, Schedule,
-};
+pub use datapath::{in_module, Schedule, PIPELINE_REGISTERS};
 use memories::memories;
 pub use memories::{is_datapath_table, off_chip_bits};
 
@@ -162,7 +161,7 @@ pub struct Geometry {
     /// The PEs carry the gradient and shading unit ([`super::shading`]).
     #[serde(default)]
     pub shading: bool,
-    /// The PEs carry the volume-of-interest stage ([`super::voi`]).
+    /// The PEs carry the volume-of-interest stage ([`crate::hw::voi`]).
     #[serde(default)]
     pub voi: bool,
     /// The PEs carry the pre-integration unit ([`super::preint`]) in place
@@ -306,6 +305,18 @@ impl Geometry {
     /// This geometry with (or without) the pre-integration unit.
     pub fn with_preint(self, preint: bool) -> Geometry {
         Geometry { preint, ..self }
+    }
+
+    /// The units its PEs' sample datapath carries, as
+    /// [`crate::hw::compose::sample`] composes them (the shading unit built
+    /// for one light: each further light adds a dot product pair, two
+    /// dividers and a power-table read per sample).
+    pub fn units(&self) -> crate::hw::compose::Units {
+        crate::hw::compose::Units {
+            lights: self.shading.then_some(1),
+            voi: self.voi,
+            preint: self.preint,
+        }
     }
 
     /// Columns per PE, `W = ceil(nx / P)`.

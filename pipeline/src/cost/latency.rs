@@ -9,13 +9,13 @@
 //! built on the same schedule ([`sample_schedule`]), so its depth is the
 //! model's latency.
 //!
-//! With the gradient and shading unit or the volume-of-interest stage the
-//! latency is the depth of the composed sample ([`crate::hw::compose`],
-//! the units spliced between the classification and the opacity
-//! correction) on the same schedule rules: the module `ercube rtl` and
-//! `ercube cosim` emit for such a frame. The pre-integration unit is not
-//! composed into the sample's description yet: it adds the extra depth the
-//! cost inventory's step schedule derives for it ([`preint_extra_depth`]).
+//! With the gradient and shading unit, the volume-of-interest stage or the
+//! pre-integration unit the latency is the depth of the composed sample
+//! ([`crate::hw::compose`]: shading and VOI spliced between the
+//! classification and the opacity correction, pre-integration in the
+//! classification's and the log table's place) on the same schedule
+//! rules: the module the cost inventory prices, and that `ercube rtl` and
+//! `ercube cosim` emit for a shaded or VOI frame.
 
 use crate::config::PipelineConfig;
 use crate::hw::compose::Units;
@@ -72,13 +72,6 @@ pub fn plain_depth(cfg: &PipelineConfig) -> u32 {
     sample_schedule(cfg).depth.max(1)
 }
 
-/// The clocks the pre-integration unit adds to the plain datapath: the
-/// cost inventory's step schedule's (its colour dividers beside the exp
-/// stage).
-pub fn preint_extra_depth(cfg: &PipelineConfig) -> u32 {
-    inventory::preint_schedule_depth(cfg).saturating_sub(inventory::schedule_depth(cfg))
-}
-
 /// The plain datapath's latency: [`PipelineConfig::datapath_latency`]
 /// when set, else [`plain_depth`].
 pub fn datapath_latency(cfg: &PipelineConfig) -> u32 {
@@ -94,6 +87,7 @@ pub fn unit_latency(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
         Units {
             lights: shading.then_some(1),
             voi,
+            preint: false,
         },
     )
 }
@@ -106,22 +100,20 @@ pub fn shaded_latency(cfg: &PipelineConfig) -> u32 {
 
 /// The latency of a datapath with the pre-integration unit
 /// ([`crate::preint`], priced in [`super::preint`]) in the
-/// classification's and the log table's place: the configured latency,
-/// or [`plain_depth`] plus [`preint_extra_depth`].
+/// classification's and the log table's place: [`sample_latency`].
 pub fn preint_latency(cfg: &PipelineConfig) -> u32 {
-    if cfg.datapath_latency > 0 {
-        return u32::from(cfg.datapath_latency);
-    }
-    plain_depth(cfg) + preint_extra_depth(cfg)
+    sample_latency(
+        cfg,
+        Units {
+            preint: true,
+            ..Units::default()
+        },
+    )
 }
 
 /// The latency of a datapath with the units of `geo`.
 pub fn geometry_latency(cfg: &PipelineConfig, geo: &inventory::Geometry) -> u32 {
-    if geo.preint {
-        preint_latency(cfg)
-    } else {
-        unit_latency(cfg, (geo.shading, geo.voi))
-    }
+    sample_latency(cfg, geo.units())
 }
 
 #[cfg(test)]
@@ -130,10 +122,9 @@ mod tests {
     use crate::config::Order;
     use crate::cost::Target;
 
-    /// The shading and VOI latencies are the composed sample's scheduled
-    /// depths, the pre-integration one the plain depth plus the inventory's
-    /// extra, in both orders; the units only deepen it; a stated latency
-    /// is the whole datapath's.
+    /// The shading, VOI and pre-integration latencies are the composed
+    /// sample's scheduled depths, in both orders; the units only deepen
+    /// it; a stated latency is the whole datapath's.
     #[test]
     fn unit_latencies_are_the_composed_depths() {
         for order in [Order::BackToFront, Order::FrontToBack] {
@@ -142,9 +133,15 @@ mod tests {
                 ..PipelineConfig::default()
             };
             let plain = crate::hw::schedule::schedule(&crate::hw::sample::plain(&cfg)).depth;
-            let inv = inventory::schedule_depth(&cfg);
-            let composed = |lights: Option<usize>, voi: bool| {
-                let g = crate::hw::compose::sample(&cfg, Units { lights, voi });
+            let composed = |lights: Option<usize>, voi: bool, preint: bool| {
+                let g = crate::hw::compose::sample(
+                    &cfg,
+                    Units {
+                        lights,
+                        voi,
+                        preint,
+                    },
+                );
                 crate::hw::schedule::schedule(&g).depth
             };
             let row = [
@@ -156,10 +153,10 @@ mod tests {
             ];
             eprintln!("{order:?}: plain {plain}; plain, shaded, voi, both, preint {row:?}");
             assert_eq!(row[0], plain);
-            assert_eq!(row[1], composed(Some(1), false));
-            assert_eq!(row[2], composed(None, true));
-            assert_eq!(row[3], composed(Some(1), true));
-            assert_eq!(row[4] - plain, inventory::preint_schedule_depth(&cfg) - inv);
+            assert_eq!(row[1], composed(Some(1), false, false));
+            assert_eq!(row[2], composed(None, true, false));
+            assert_eq!(row[3], composed(Some(1), true, false));
+            assert_eq!(row[4], composed(None, false, true));
             assert!(row[1..].iter().all(|&d| d > plain), "{row:?}");
             assert!(row[3] >= row[1].max(row[2]), "{row:?}");
             let stated = PipelineConfig {

@@ -39,7 +39,6 @@ pub mod shapes;
 pub mod target;
 pub mod throughput;
 pub mod units;
-pub mod voi;
 
 pub use target::{Resources, Target};
 

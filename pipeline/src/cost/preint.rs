@@ -27,12 +27,14 @@
 //! - **Dividers** `min(wc / tau, 1)`, one per channel, non-restoring with
 //!   [`crate::preint::GUARD_BITS`] quotient bits below `color`'s LSB and an
 //!   integer bit for the cap, beside the exp stage: at the default widths
-//!   they, not the exp stage, set the depth ([`crate::cost::preint_latency`]).
+//!   they, not the exp stage, set the depth of the composed sample
+//!   ([`crate::hw::compose`], [`crate::cost::preint_latency`]).
 //! - **The pass's rays**: the controller broadcasts per pass which rays
 //!   composite a step, keep their sample and take slice 0's half step
-//!   ([`crate::host::PreStep`]); each PE holds the three rectangles and
-//!   tests its ray against them, and the half step's back scalar is the
-//!   sample itself (a mux).
+//!   ([`crate::host::PreStep`]); each PE holds the three rectangles (a
+//!   declared register, [`crate::pe::Pe::register_state`]) and tests its
+//!   ray against them ([`crate::hw::address`]), and the half step's back
+//!   scalar is the sample itself (a mux).
 //! - **The previous sample**: every ray carries one more `sample` word
 //!   ([`ray_bits`]) in the compositing buffer (or the external ray
 //!   buffer's row buffers), the migration FIFOs and the ray ports; merges
@@ -41,18 +43,13 @@
 //!
 //! [`Geometry::preint`]: super::inventory::Geometry::preint
 
-use super::inventory::{addr_bits, Geometry, Item, Step};
+use super::inventory::{Geometry, Item};
 use super::memory::MemPorts;
-use super::shapes::RAY_INDEX_BITS;
 use super::units::Unit;
 use crate::config::PipelineConfig;
 
 fn bits(f: crate::fixed::Format) -> u32 {
     u32::from(f.bits())
-}
-
-fn frac(f: crate::fixed::Format) -> i32 {
-    i32::from(f.frac())
 }
 
 /// Bins per table axis: golden's, one per classification entry up to
@@ -95,18 +92,6 @@ pub fn ray_bits(cfg: &PipelineConfig, geo: &Geometry) -> u32 {
     }
 }
 
-/// Bits of the divider's quotient: `color`'s fraction bits, the guard
-/// bits below them, and an integer bit, so that the cap at 1 sees the
-/// quotients from 1 up.
-fn quotient_bits(cfg: &PipelineConfig) -> u32 {
-    (frac(cfg.color) + crate::preint::GUARD_BITS + 1).max(1) as u32
-}
-
-/// Bits of a bin index, `0..bins`.
-fn bin_bits(cfg: &PipelineConfig) -> u32 {
-    addr_bits(bins(cfg))
-}
-
 /// Front rows of the two banks: the even rows `0, 2, ..., bins` and the
 /// odd ones.
 fn bank_rows(cfg: &PipelineConfig) -> [u64; 2] {
@@ -137,84 +122,6 @@ pub(super) fn memories(cfg: &PipelineConfig) -> Vec<Item> {
             },
         ],
     )]
-}
-
-/// The unit's control beside its datapath (whose units come from its
-/// description, [`crate::hw::preint`]): the PE's copy of the pass's
-/// broadcast and the tests of its ray against the pass's rectangles.
-pub(super) fn control_items(cfg: &PipelineConfig) -> Vec<Item> {
-    let stb = bits(cfg.step);
-    let mut out = Vec::new();
-    out.push(Item::new(
-        "preint",
-        "broadcast copy: K, comp/keep/lead rays, half",
-        1,
-        vec![Unit::Reg {
-            bits: stb + 12 * RAY_INDEX_BITS + 1,
-        }],
-    ));
-    // Which of the pass's three rectangles the ray is in (two compares per
-    // axis and rectangle).
-    let mut u = vec![
-        Unit::Cmp {
-            width: RAY_INDEX_BITS,
-        };
-        12
-    ];
-    u.push(Unit::Reg { bits: 3 });
-    out.push(Item::new("preint", "pass rays: comp, keep, lead", 1, u));
-
-    out
-}
-
-/// The unit's pipeline steps, in dependency order: the back position from
-/// the ray slot (the previous sample comes with the accumulators), the
-/// front one from the sample (`y lerp`); `p`, which the exp stage reads
-/// under that name, from the front lerp and the path length (`sqrt`); the
-/// dividers beside the exp stage. The caller drops the classification and
-/// log-table steps and rewires the compositing to `preint divide`.
-pub(super) fn steps(cfg: &PipelineConfig) -> Vec<Step<'static>> {
-    let (sm, wt, pa, pt) = (
-        bits(cfg.sample),
-        bits(cfg.weight),
-        bits(cfg.path),
-        bits(cfg.preint_tau),
-    );
-    let (bb, word) = (bin_bits(cfg), table_word(cfg));
-    let bank_addr = addr_bits(bank_rows(cfg)[0] * (bins(cfg) + 1));
-    vec![
-        ("preint back position", vec![("slot", sm)], 1),
-        ("preint front position", vec![("y lerp", sm)], 1),
-        (
-            "preint address",
-            vec![("preint front position", bb), ("preint back position", bb)],
-            1,
-        ),
-        (
-            "preint table",
-            vec![("preint address", 4 * bank_addr + 1)],
-            1,
-        ),
-        (
-            "preint back lerp",
-            vec![("preint table", 4 * word), ("preint back position", wt)],
-            1,
-        ),
-        (
-            "preint front lerp",
-            vec![
-                ("preint back lerp", 2 * word),
-                ("preint front position", wt),
-            ],
-            1,
-        ),
-        ("p", vec![("preint front lerp", pt), ("sqrt", pa)], 1),
-        (
-            "preint divide",
-            vec![("preint front lerp", word)],
-            quotient_bits(cfg),
-        ),
-    ]
 }
 
 #[cfg(test)]
@@ -252,11 +159,10 @@ mod tests {
         assert!(table_item(&plain.items).is_none());
         assert_eq!(
             unit(&pre.items),
-            control_items(&cfg).len()
-                + crate::hw::units::items(&crate::hw::preint::preint(&cfg))
-                    .iter()
-                    .filter(|i| i.group == "preint")
-                    .count()
+            crate::hw::units::items(&crate::hw::preint::preint(&cfg))
+                .iter()
+                .filter(|i| i.group == "preint")
+                .count()
         );
         assert!(table_item(&pre.items).is_some());
         // The unit takes the classification's place, tables included.
@@ -328,8 +234,8 @@ mod tests {
         // them, the invisible sample's accumulator select included; the
         // 1,035 register bits the DSP48E1s take in are not fabric FFs).
         let r = pe.cost(Target::Xc7);
-        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 2215, 7401, 139));
-        assert_eq!(pe.schedule.depth, 26);
+        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 2245, 7389, 139));
+        assert_eq!(pe.schedule.depth, crate::cost::datapath_latency(&cfg));
         // A report's JSON leaves the flag out unless it is set.
         let json = serde_json::to_string(&geo).unwrap();
         assert!(!json.contains("preint"), "{json}");
@@ -343,16 +249,16 @@ mod tests {
             crate::cost::preint_latency(&cfg),
         );
         assert!(pre > plain, "{pre} vs {plain}");
-        // The plain schedule's depth plus the unit's extra steps in the
-        // inventory's schedule.
+        // The composed sample's scheduled depth, as the inventory reports
+        // it.
         let geo = Geometry::new([128, 128, 128], 16);
-        let (with, without) = (
+        assert_eq!(
             pe_inventory(&cfg, &geo.clone().with_preint(true))
                 .schedule
                 .depth,
-            pe_inventory(&cfg, &geo).schedule.depth,
+            pre
         );
-        assert_eq!(pre - plain, with - without);
+        assert_eq!(pe_inventory(&cfg, &geo).schedule.depth, plain);
         // A stated latency is kept.
         cfg.datapath_latency = 40;
         assert_eq!(crate::cost::preint_latency(&cfg), 40);

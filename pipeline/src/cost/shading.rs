@@ -1,5 +1,5 @@
 //! The gradient and shading unit's hardware ([`crate::shading`]), for an
-//! array built with it (`Geometry::shading`): its pipeline steps, the
+//! array built with it (`Geometry::shading`): the
 //! wider slice buffer and edge columns it reads, and its port. Its
 //! datapath units come from its description ([`crate::hw::shading`],
 //! built for one light) and its power table from the description's
@@ -25,7 +25,7 @@
 //! - **Port**: ten voxel words to the left neighbour, two to the right,
 //!   beside the scalar's two.
 
-use super::inventory::{Item, Step};
+use super::inventory::Item;
 use super::memory::MemPorts;
 use super::units::Unit;
 use crate::config::PipelineConfig;
@@ -93,67 +93,6 @@ pub(super) fn table_item(g: &crate::hw::Graph) -> Vec<Item> {
             )
         })
         .collect()
-}
-
-/// The unit's pipeline steps, after the scalar's `address` and beside its
-/// interpolation and classification; the steps the caller rewires read
-/// `shade` (colour) and `gradient opacity` (opacity).
-pub(super) fn steps(cfg: &PipelineConfig, col_bits: u32) -> Vec<Step<'static>> {
-    let (v, gb, nb, lb, nd, sb, mb, c, al, wt) = (
-        bits(cfg.voxel),
-        bits(cfg.gradient),
-        bits(cfg.grad_norm),
-        bits(cfg.light),
-        bits(cfg.normal_dot),
-        bits(cfg.specular),
-        bits(cfg.material),
-        bits(cfg.color),
-        bits(cfg.alpha),
-        bits(cfg.weight),
-    );
-    vec![
-        ("gradient taps", vec![("address", 2 * col_bits)], 1),
-        ("differences", vec![("gradient taps", 20 * v)], 2),
-        (
-            "gradient x lerp",
-            vec![("differences", 12 * gb), ("address", wt)],
-            1,
-        ),
-        ("gradient y lerp", vec![("gradient x lerp", 6 * gb)], 1),
-        ("gradient squares", vec![("gradient y lerp", 3 * gb)], 1),
-        ("norm sum", vec![("gradient squares", 6 * gb)], 1),
-        (
-            "norm sqrt",
-            vec![("norm sum", 2 * gb + 2)],
-            norm_root(cfg).max(1),
-        ),
-        ("dots", vec![("gradient y lerp", 3 * gb)], 1),
-        (
-            "divide",
-            vec![("dots", 2 * (gb + lb + 2)), ("norm sqrt", nb)],
-            nd.max(1),
-        ),
-        ("power table", vec![("divide", nd)], 1),
-        (
-            "power lerp",
-            vec![("power table", 2 * sb), ("divide", nd)],
-            1,
-        ),
-        ("fade", vec![("norm sqrt", nb)], 1),
-        ("light mix", vec![("divide", nd), ("fade", nd)], 1),
-        ("gain", vec![("light mix", 2 * nd + 2)], 1),
-        ("highlight", vec![("power lerp", sb), ("fade", nd)], 1),
-        (
-            "shade",
-            vec![("class lerp", 3 * c), ("gain", mb), ("highlight", mb)],
-            2,
-        ),
-        (
-            "gradient opacity",
-            vec![("class lerp", al), ("norm sqrt", nb)],
-            2,
-        ),
-    ]
 }
 
 /// The shading port: the halo to the left, the last column to the right.

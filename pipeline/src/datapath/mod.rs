@@ -141,12 +141,13 @@ impl Datapath {
     }
 
     /// The units beside the plain sample this datapath carries (shading
-    /// with its light count, the VOI), as [`crate::hw::compose`] composes
-    /// them; pre-integration is not among them.
+    /// with its light count, the VOI, pre-integration), as
+    /// [`crate::hw::compose`] composes them.
     pub fn units(&self) -> crate::hw::compose::Units {
         crate::hw::compose::Units {
             lights: self.shade.as_ref().map(|s| s.light_count()),
             voi: self.voi.is_some(),
+            preint: self.preint.is_some(),
         }
     }
 
@@ -177,13 +178,12 @@ impl Datapath {
 
     /// This datapath with the pre-integration unit loaded
     /// ([`crate::preint`]). A derived latency becomes the depth of the
-    /// schedule with the unit ([`crate::cost::preint_latency`]); one the
-    /// configuration states is kept.
+    /// composed sample's schedule with the unit in the classification's
+    /// and the log table's place ([`crate::cost::sample_latency`]); one
+    /// the configuration states is kept.
     pub fn with_preint(mut self, unit: crate::preint::PreintUnit) -> Datapath {
-        if self.cfg.datapath_latency == 0 {
-            self.latency = u64::from(crate::cost::preint_latency(&self.cfg));
-        }
         self.preint = Some(unit);
+        self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
         self
     }
 

@@ -17,11 +17,22 @@
 //! composed one always computes, and an invisible sample's opacity is
 //! zero either way (the gradient opacity scales it), so the write-back is
 //! the same.
+//!
+//! The pre-integration unit's ports the sample does not compute are
+//! `pre.prev` (the ray's previous sample, read with its accumulators),
+//! `pre.half` (the step is slice 0's half step) and `pre.scale` (the
+//! frame's table scale). Back to front the sample is the step's front
+//! scalar and the previous sample its back one; front to back the
+//! reverse, and a half step's front is the sample too (a select by
+//! `pre.half`), as `crate::stages::sample`'s pre-integrated half calls
+//! [`crate::preint::PreintUnit::lookup`].
 
 use std::collections::HashMap;
 
-use super::sample::{with_units, Classified};
+use super::sample::{with_preint, with_units, Classified, Corrected, Sampled};
+use super::Word;
 use super::{Graph, MemId, Node, NodeId, Op};
+use crate::config::Order;
 use crate::config::PipelineConfig;
 
 /// The units a sample's datapath carries besides the plain sample.
@@ -32,12 +43,16 @@ pub struct Units {
     pub lights: Option<usize>,
     /// The volume-of-interest stage.
     pub voi: bool,
+    /// The pre-integration unit in the classification's and the log
+    /// table's place (not with the others: golden neither shades nor
+    /// weights pre-integrated steps).
+    pub preint: bool,
 }
 
 impl Units {
     /// Whether the datapath is the plain sample's.
     pub fn plain(&self) -> bool {
-        self.lights.is_none() && !self.voi
+        self.lights.is_none() && !self.voi && !self.preint
     }
 }
 
@@ -134,8 +149,12 @@ pub fn splice(
 }
 
 /// The sample's description for `cfg` with `units`: the plain sample
-/// ([`super::sample::plain`]) when there are none.
+/// ([`super::sample::plain`]) when there are none. With `preint` the
+/// other units are left out.
 pub fn sample(cfg: &PipelineConfig, units: Units) -> Graph {
+    if units.preint {
+        return preintegrated(cfg);
+    }
     with_units(cfg, &mut |g: &mut Graph, c: &Classified| {
         let mut alpha = c.alpha;
         let mut rgb = c.rgb;
@@ -167,5 +186,29 @@ pub fn sample(cfg: &PipelineConfig, units: Units) -> Graph {
             alpha = out["alpha"];
         }
         (rgb, alpha)
+    })
+}
+
+/// The sample's description with the pre-integration unit spliced in the
+/// classification's and the log table's place.
+fn preintegrated(cfg: &PipelineConfig) -> Graph {
+    let unit = super::preint::preint(cfg);
+    with_preint(cfg, &mut |g: &mut Graph, s: &Sampled| {
+        let half = g.input_word("pre.half", Word::unsigned(1, 0));
+        let mut bind = vec![("half", half), ("len", s.ds)];
+        match cfg.order {
+            Order::BackToFront => bind.push(("front", s.sample)),
+            Order::FrontToBack => {
+                let prev = g.input("pre.prev", cfg.sample);
+                let front = g.mux("pre.front_in", half, prev, s.sample, cfg.sample.into());
+                bind.extend([("front", front), ("prev", s.sample)]);
+            }
+        }
+        let out = splice(g, &unit, "pre.", &bind);
+        Corrected {
+            rgb: [out["c_r"], out["c_g"], out["c_b"]],
+            alpha: out["alpha"],
+            visible: out["visible"],
+        }
     })
 }

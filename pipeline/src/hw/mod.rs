@@ -27,6 +27,7 @@
 //!   [`cut`];
 //! - the probe names are the nodes' names ([`Graph::probe_names`]).
 
+pub mod address;
 pub mod compose;
 pub mod cut;
 mod div_rtl;

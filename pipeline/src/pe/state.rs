@@ -130,6 +130,17 @@ impl Pe {
                 1 + 2 * (row_bits + 1) + slot_bits + (acc + RAY_INDEX_BITS + row_bits + 1),
             ),
         ];
+        if geo.preint {
+            // The pass's broadcast the pre-integration unit reads: the
+            // table scale `K`, the three rectangles' bounds, the half-step
+            // flag.
+            out.push(reg(
+                "preint_broadcast",
+                "pre-integration broadcast copy: K, comp/keep/lead rays, half",
+                1,
+                s + 12 * RAY_INDEX_BITS + 1,
+            ));
+        }
         if arch::round_robin_width(cfg).is_none() {
             // Column blocks read the right neighbour's first column while
             // sampling (round-robin blocks carry their aprons instead).

@@ -182,9 +182,32 @@ fn derived_latency_is_the_emitted_modules_depth() {
                 );
                 if mhz == 0 {
                     // One operator a stage: the schedule the module
-                    // documents, not the cost inventory's step list.
+                    // documents.
                     assert_eq!(latency, pipeline::hw::schedule::schedule(&g).depth);
                 }
+                // The pre-integrated sample: the composed module's depth
+                // (one operator a stage; a clock's schedule packs the
+                // colour dividers' stages, which the divider's Verilog
+                // does not emit).
+                if mhz > 0 {
+                    depths.push((name, order, family, mhz, latency));
+                    continue;
+                }
+                let pre = pipeline::hw::compose::sample(
+                    &cfg,
+                    pipeline::hw::compose::Units {
+                        preint: true,
+                        ..Default::default()
+                    },
+                );
+                let sch = pipeline::cost::latency::graph_schedule(&cfg, &pre);
+                let m = emit_scheduled(&pre, &sch, "ercube_sample").expect("emits");
+                assert_eq!(
+                    pipeline::cost::preint_latency(&cfg),
+                    m.depth,
+                    "{name} {order:?} {family:?} {mhz} MHz: the pre-integrated latency"
+                );
+                assert!(m.depth > latency, "{name}: the unit deepens it");
                 depths.push((name, order, family, mhz, latency));
             }
         }

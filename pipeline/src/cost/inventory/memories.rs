@@ -89,51 +89,59 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
         ports,
     };
     let mut items: Vec<Item> = Pe::voxel_state(cfg, geo).into_iter().map(charge).collect();
-    // A pre-integrating PE reads its own table instead of the
-    // classification and `-log2(1 - a)` tables; a plain PE the tables its
-    // emitted datapath declares (`super::datapath::emitted`).
-    let emitted = super::datapath::emitted(cfg, geo);
-    let tables = if let Some(e) = &emitted {
-        e.tables.iter().map(table_item).collect()
-    } else if geo.preint {
-        crate::cost::preint::memories(cfg)
-    } else {
-        vec![
-            Item::new(
+    // The plain sample's tables the emitted datapath declares
+    // (`super::datapath::emitted`; a pre-integrating PE reads its own
+    // table instead of the classification and `-log2(1 - a)` tables); the
+    // units' tables are block RAM loaded between frames, priced with their
+    // units.
+    let mut tables: Vec<Item> = match super::datapath::emitted(cfg, geo) {
+        Some(e) => e
+            .tables
+            .iter()
+            .filter(|t| crate::hw::sample::MEMORIES.contains(&t.name.as_str()))
+            .map(table_item)
+            .collect(),
+        None => {
+            let mut v = Vec::new();
+            if !geo.preint {
+                v.push(Item::new(
+                    "memories",
+                    "classification table",
+                    1,
+                    vec![mem(
+                        u64::from(cfg.table_entries),
+                        table_word(cfg),
+                        MemPorts::DualRead,
+                    )],
+                ));
+                v.push(Item::new(
+                    "memories",
+                    "-log2(1 - a) table",
+                    1,
+                    vec![mem(
+                        1u64 << cfg.alpha.bits(),
+                        fmt_bits(cfg.log_transmittance),
+                        MemPorts::Sdp,
+                    )],
+                ));
+            }
+            v.push(Item::new(
                 "memories",
-                "classification table",
+                "2^-f table",
                 1,
                 vec![mem(
-                    u64::from(cfg.table_entries),
-                    table_word(cfg),
+                    (1u64 << cfg.exp_table_bits) + 1,
+                    fmt_bits(cfg.opacity_corr),
                     MemPorts::DualRead,
                 )],
-            ),
-            Item::new(
-                "memories",
-                "-log2(1 - a) table",
-                1,
-                vec![mem(
-                    1u64 << cfg.alpha.bits(),
-                    fmt_bits(cfg.log_transmittance),
-                    MemPorts::Sdp,
-                )],
-            ),
-        ]
+            ));
+            v
+        }
     };
-    items.extend(tables);
-    if emitted.is_none() {
-        items.push(Item::new(
-            "memories",
-            "2^-f table",
-            1,
-            vec![mem(
-                (1u64 << cfg.exp_table_bits) + 1,
-                fmt_bits(cfg.opacity_corr),
-                MemPorts::DualRead,
-            )],
-        ));
+    if geo.preint {
+        tables.extend(crate::cost::preint::memories(cfg));
     }
+    items.extend(tables);
     items.extend(
         Pe::ray_state(cfg, geo)
             .into_iter()
