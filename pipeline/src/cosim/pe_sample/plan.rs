@@ -31,7 +31,7 @@ impl PeCapture {
                         cols.iter().filter(|&&j| pe.rays[j].ftb[row].done).count() as u64;
                 }
                 for mx in cols.iter().map(|&j| pe.rays[j].mx) {
-                    let i = mx - lo;
+                    let i = if s.round_robin { 0 } else { mx - lo };
                     if i < 0 || i as u64 >= s.slots() {
                         self.unfit(format!(
                             "PE {k} plans column {mx} outside its held columns from {lo}"
