@@ -91,6 +91,12 @@ pub fn run(a: &CosimArgs) -> Result<()> {
             r.slots.0, r.slots.1, r.slots.0
         ));
     }
+    if r.stored.0 > r.stored.1 {
+        lines.push(format!(
+            "  a PE's memory holds up to {} voxel columns (its blocks and their aprons), past the slice buffer's declared {}: the slice buffer is emitted {} columns wide",
+            r.stored.0, r.stored.1, r.stored.0
+        ));
+    }
     lines.push(format!(
         "  model: {untraced_s:.2} s untraced, {:.2} s capturing",
         r.seconds[0]
@@ -137,6 +143,8 @@ pub fn run(a: &CosimArgs) -> Result<()> {
                 "outside_flags": r.outside_flags,
                 "columns_held_peak": r.slots.0,
                 "column_map_declared_slots": r.slots.1,
+                "voxel_columns_held_peak": r.stored.0,
+                "slice_buffer_declared_columns": r.stored.1,
                 "memory_bits_per_pe": r.bits[0],
                 "control_register_bits_per_pe": r.bits[1],
                 "rtl_lines": { "pe": r.lines[0], "testbench": r.lines[1] },

@@ -86,7 +86,7 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
     let _ = writeln!(
         w,
         "From `pipeline::hw::pe_sample_rtl`, for a view-space volume of {}x{}x{} (`--dims`), \
-         {}, column blocks: one PE's control walking a row plan's rays one a clock \
+         {}, {}: one PE's control walking a row plan's rays one a clock \
          into `ercube_sample` (instantiated inside), its row plan ({} words of {} bits: the \
          held columns each ray row samples, where empty-space skipping reaches the PE), its slice buffer (2 row banks x 2 slices x \
          {} columns x {} rows of {} bits) and edge column, its compositing buffer (2 banks x {} \
@@ -105,6 +105,13 @@ pub fn section(s: &PeSampleShape, r: &PeSampleRtl, dims: [usize; 3]) -> String {
                 s.slots()
             ),
             None => "without early ray termination (the datapath composites in its order)".to_owned(),
+        },
+        if s.round_robin {
+            "a round-robin mapping (several blocks with their aprons, the taps through the column \
+             decoder `loc`, the held rays in increasing index with their slots in the column map \
+             `cm_mx`, `cm_sl`)"
+        } else {
+            "column blocks"
         },
         s.rays.max_rows,
         s.slots(),

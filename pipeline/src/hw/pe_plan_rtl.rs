@@ -54,7 +54,7 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
   genvar pl_i;
   generate
     for (pl_i = 0; pl_i < {slots}; pl_i = pl_i + 1) begin : pl_cmp
-      wire signed [31:0] pl_mx = map_lo + pl_i;
+      wire signed [31:0] pl_mx = {pl_mx};
       assign pl_bits[pl_i] = pl_i < map_n && pl_mx >= pl_lo && pl_mx <= pl_hi;
     end
   endgenerate
@@ -67,6 +67,7 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
   end
   always @(posedge clk) if (pl_valid) plan[pl_row] <= pl_word;",
         s1 = slots - 1,
+        pl_mx = super::pe_columns_rtl::planned_mx(s, "pl_i"),
     );
     (t, slots)
 }

@@ -216,7 +216,7 @@ module {MODULE} (
   reg [{s1}:0] plan [0:{rm}];
   reg signed [{ib1}:0] map_lo;
   reg [{sb1}:0] map_n;
-  always @(posedge clk) begin
+{rr_decls}  always @(posedge clk) begin
     if (rst) begin
       map_lo <= 0;
       map_n <= 0;
@@ -245,6 +245,7 @@ module {MODULE} (
         ebw1 = ebw - 1,
         s1 = slots - 1,
         rm = r.max_rows - 1,
+        rr_decls = super::pe_columns_rtl::declarations(s),
     );
     if let Some(thr) = s.termination {
         super::pe_term_rtl::termination_bits(w, s, depth, thr);
@@ -270,9 +271,8 @@ module {MODULE} (
   reg [{s1}:0] rem;
   wire [{s1}:0] row_bits = bc_first ? plan[bc_row]{live} : rem;
   wire [{sb1}:0] idx = lowest(row_bits);
-  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});
+{mx_slot}
   wire go = bc_go && row_bits != 0;
-  wire [31:0] slot = (mx + {off}) % {slots};
   wire [31:0] addr = bc_row * {slots} + slot;
   always @(posedge clk) begin
     if (rst) rem <= 0;
@@ -295,6 +295,7 @@ module {MODULE} (
         bw1 = bw - 1,
         ab1 = ab - 1,
         yb1 = yb - 1,
+        mx_slot = super::pe_columns_rtl::mx_slot(s),
     );
     for n in row_words {
         let p = port(n)?;
@@ -413,9 +414,7 @@ module {MODULE} (
   wire signed [31:0] last_i = $signed({{1'b0, nx_last}});
   wire signed [31:0] c0 = x0_i < 0 ? 0 : (x0_i > last_i ? last_i : x0_i);
   wire signed [31:0] c1 = x0_i + 1 < 0 ? 0 : (x0_i + 1 > last_i ? last_i : x0_i + 1);
-  wire [31:0] l0 = c0 - $signed({{1'b0, col_lo}});
-  wire [31:0] l1 = c1 - $signed({{1'b0, col_lo}});
-  wire held1 = c1 < $signed({{1'b0, col_end}});
+{locals}
   wire [{yb1}:0] ty0 = {y0}, ty1 = {y1};
   wire [{yb1}:0] r0 = ty0[0] ? ty1 : ty0;
   wire [{yb1}:0] r1 = ty0[0] ? ty0 : ty1;
@@ -459,53 +458,10 @@ module {MODULE} (
         z = at("z"),
         edge = at("edge"),
         tv = at("tv"),
+        locals = super::pe_columns_rtl::tap_columns(s),
     );
     regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
-    // The edge register: the first column at the next row's voxel rows.
-    let _ = writeln!(
-        w,
-        "  // The edge register: this block's first column at the next row's two voxel
-  // rows, read when the broadcast names a next row and held otherwise.
-  reg e_v, e_z;
-  reg [{yb1}:0] e_y0, e_y1;
-  always @(posedge clk) begin
-    if (rst) begin
-      e_v <= 1'b0;
-      e_z <= 1'b0;
-      e_y0 <= 0;
-      e_y1 <= 0;
-    end else begin
-      e_v <= bc_nv;
-      e_z <= bc_nz;
-      e_y0 <= bc_ny0;
-      e_y1 <= bc_ny1;
-    end
-  end
-  wire [{yb1}:0] er0 = e_y0[0] ? e_y1 : e_y0;
-  wire [{yb1}:0] er1 = e_y0[0] ? e_y0 : e_y1;
-  wire [31:0] ea0 = {{31'd0, e_z}} * {half} + (er0 >> 1);
-  wire [31:0] ea1 = {{31'd0, e_z}} * {half} + (er1 >> 1);
-  reg [{v1}:0] eq0, eq1;
-  reg ep0, ep1;
-  always @(posedge clk) begin
-    if (rst) begin
-      eq0 <= 0;
-      eq1 <= 0;
-      ep0 <= 1'b0;
-      ep1 <= 1'b0;
-    end else if (e_v) begin
-      eq0 <= ec0[ea0[{ebw1}:0]];
-      eq1 <= ec1[ea1[{ebw1}:0]];
-      ep0 <= e_y0[0];
-      ep1 <= e_y1[0];
-    end
-  end
-  assign edge_out = {{ep1 ? eq1 : eq0, ep0 ? eq1 : eq0}};",
-        yb1 = yb - 1,
-        v1 = v - 1,
-        ebw1 = ebw - 1,
-    );
-    regs += 2 + 2 * u64::from(yb) + 2 * u64::from(v) + 2;
+    regs += super::pe_columns_rtl::edge_register(w, s);
     // The write-back address travels with the sample.
     let _ = writeln!(w, "  // The ray's address, carried to its write-back.");
     for i in 1..=depth {

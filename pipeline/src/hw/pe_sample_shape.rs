@@ -15,7 +15,7 @@
 //! and a column keeps its slot while columns arrive and leave).
 
 use super::readout_rtl::ReadoutShape;
-use crate::config::{Mapping, PipelineConfig};
+use crate::config::PipelineConfig;
 use crate::cost::inventory::{addr_bits, Geometry};
 use crate::pe::Pe;
 
@@ -42,37 +42,31 @@ pub struct PeSampleShape {
     /// termination bits compare the written-back opacity with; `None`
     /// otherwise (no termination bits).
     pub termination: Option<i64>,
+    /// Under a round-robin mapping (the interleave, the cyclic mapping):
+    /// the PE holds several blocks and their aprons, its taps all in its
+    /// own memory through a column decoder, and its rays in the slots its
+    /// column map names ([`crate::cosim::pe_sample::slots`]); under
+    /// column blocks a consecutive block, the column right of it from the
+    /// neighbour, ray `mx` in slot `mx` modulo the slots.
+    pub round_robin: bool,
 }
 
 impl PeSampleShape {
     /// The shape of `cfg`'s PE for a frame of `view`, refused in one line
-    /// where the stage's control is not emitted yet.
+    /// where the frame cannot be planned.
     pub fn for_view(
         cfg: &PipelineConfig,
         view: &golden::geometry::View,
     ) -> Result<PeSampleShape, String> {
-        Self::emitted(cfg)?;
         crate::host::plan(cfg, view).map_err(|e| e.to_string())?;
         let geo = Geometry::for_view(cfg, view).map_err(|e| e.to_string())?;
         PeSampleShape::new(cfg, &geo)
     }
 
-    /// Refuses in one line what the stage's control does not emit.
-    fn emitted(cfg: &PipelineConfig) -> Result<(), String> {
-        if cfg.mapping != Mapping::Blocks {
-            return Err(format!(
-                "the sample stage's control under the {} mapping (aprons, several blocks a PE) is not emitted yet (only column blocks)",
-                cfg.mapping.name()
-            ));
-        }
-        Ok(())
-    }
-
     /// The shape of `cfg`'s PE at the depths it declares for `geo` (a
     /// frame's, or [`Geometry::new`]'s for a volume), refused in one
-    /// line where the stage's control is not emitted yet.
+    /// line where its declaration is not the one the stage reads.
     pub fn new(cfg: &PipelineConfig, geo: &Geometry) -> Result<PeSampleShape, String> {
-        Self::emitted(cfg)?;
         let rays = ReadoutShape::new(cfg, geo)?;
         let decls = Pe::voxel_state(cfg, geo);
         let sb = decls
@@ -111,6 +105,7 @@ impl PeSampleShape {
             nx: geo.dims[0] as u64,
             index_bits: crate::cost::shapes::RAY_INDEX_BITS,
             termination: cfg.termination_raw(),
+            round_robin: crate::mapping::ColumnMap::of(cfg, geo.dims[0]).round_robin(),
         })
     }
 
@@ -122,6 +117,17 @@ impl PeSampleShape {
             self.rays.map_depth = n;
             self.rays.bank_depth = (n * self.rays.max_rows).div_ceil(2);
         }
+        self
+    }
+
+    /// The shape with a slice buffer `n` columns wide where the
+    /// declaration has fewer: under a round-robin mapping the model's PE
+    /// holds each block's apron of one column left and two right
+    /// ([`crate::mapping::ColumnMap::held`]), where the declaration
+    /// charges one column a block unshaded
+    /// ([`crate::cost::arch::apron`]).
+    pub fn with_stored(mut self, n: u64) -> PeSampleShape {
+        self.stored = self.stored.max(n);
         self
     }
 
@@ -154,7 +160,9 @@ impl PeSampleShape {
 
     /// Memory bits one PE's module declares: the slice buffer, the edge
     /// column, the compositing buffer and the row plan (a bit a ray: a
-    /// word of `slots` bits a row; the datapath's tables are its own).
+    /// word of `slots` bits a row), under a round-robin mapping the
+    /// column map and the column decoder (the datapath's tables are its
+    /// own).
     pub fn memory_bits(&self) -> u64 {
         let v = u64::from(self.voxel_bits);
         2 * self.bank_words() * v
@@ -162,6 +170,7 @@ impl PeSampleShape {
             + 2 * self.rays.bank_depth * u64::from(self.rays.buffer_width)
             + self.plan_bits()
             + self.termination_bits()
+            + super::pe_columns_rtl::memory_bits(self)
     }
 
     /// Bits of the termination bits front to back with termination: like

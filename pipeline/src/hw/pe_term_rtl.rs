@@ -57,16 +57,12 @@ pub(super) fn termination_bits(w: &mut String, s: &PeSampleShape, depth: u32, th
         "  wire wb_done = {reach};
   always @(posedge clk) if (wb_valid) term[tr_{depth}][ts_{depth}] <= wb_done;
   // The row's bits as the control reads them, a write-back of this clock
-  // forwarded, turned from slots to the plan's held columns: plan bit i is
-  // held column map_lo + i, in slot (map_lo + i) % {n}.
+  // forwarded, turned from slots to the plan's held columns.
   wire [{s1}:0] dead_s = term[bc_row]
       | ((wb_valid && wb_done && tr_{depth} == bc_row) ? ({n}'d1 << ts_{depth}) : {n}'d0);
-  wire [31:0] t_base = (map_lo + {off}) % {n};
-  wire [{d1}:0] dead_2 = {{dead_s, dead_s}} >> t_base;
-  wire [{s1}:0] dead = dead_2[{s1}:0];",
+{dead}",
         n = s.slots(),
-        off = s.slot_offset(),
-        d1 = 2 * s.slots() - 1,
+        dead = super::pe_columns_rtl::dead_by_plan(s),
     );
 }
 

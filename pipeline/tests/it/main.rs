@@ -29,6 +29,7 @@ mod mapping;
 mod migration;
 mod model;
 mod occupancy;
+mod pe_maps;
 mod pe_sample;
 mod preexact;
 mod preint;

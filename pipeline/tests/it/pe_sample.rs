@@ -48,12 +48,12 @@ fn cfg(pes: u16) -> PipelineConfig {
 }
 
 /// A frame: scene, eye, image size (square).
-type Shot = (&'static str, [f64; 3], u32);
+pub(crate) type Shot = (&'static str, [f64; 3], u32);
 
 /// The frame `shot` through the sample stage in `sim`: a bare view
 /// (nothing skipped) without `skips`, with them a prepared frame whose
 /// controller skips them (its occupancy memory from the volume's blocks).
-fn run(
+pub(crate) fn run(
     c: &PipelineConfig,
     (scene, eye, size): Shot,
     skips: Option<Skips>,
@@ -82,7 +82,7 @@ fn run(
 
 /// 0 mismatches; every issue, tap and write-back compared; the buffers
 /// read back at the readout's start.
-fn assert_matches(r: &PeStageRun, what: &str) {
+pub(crate) fn assert_matches(r: &PeStageRun, what: &str) {
     assert!(r.unfit.is_none(), "{what}: {:?}", r.unfit);
     assert!(
         r.samples > 100,

@@ -102,8 +102,20 @@ module {TOP};
   reg ev_ok{k};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;
   reg mp_ok{k}, map_we{k};
-  reg [63:0] map_lo{k}, map_n{k};{tw}
+  reg [63:0] map_lo{k}, map_n{k};{tw}{rr}
   wire [{e1}:0] edge_out{k};",
+            rr = if shape.round_robin {
+                format!(
+                    "\n  // The column map's entries (pe{k}.cm) and the column decoder (pe{k}.loc).
+  integer fcm{k} /* verilator public_flat */;
+  reg [63:0] cm{k}_0, cm{k}_1, cm{k}_2, cm{k}_3;
+  reg cm_ok{k};
+  reg [63:0] loc{k} [0:{nxm}];",
+                    nxm = shape.nx - 1
+                )
+            } else {
+                String::new()
+            },
             tw = if shape.termination.is_some() {
                 format!("\n  reg [{s1}:0] tw{k};")
             } else {
@@ -162,13 +174,26 @@ module {TOP};
     fev{k} = $fopen(\"pe{k}.ev\", \"r\");
     got = $fscanf(fev{k}, \"%h %h %h %h %h\\n\", ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4);
     ev_ok{k} = (got == 5);
-    fmap{k} = $fopen(\"pe{k}.map\", \"r\");
+    fmap{k} = $fopen(\"pe{k}.map\", \"r\");{rr}
     got = $fscanf(fmap{k}, \"%h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2);
     mp_ok{k} = (got == 3);
     map_we{k} = 0; map_lo{k} = 0; map_n{k} = 0;
     fi{k} = $fopen(\"rtl{k}.I\", \"w\");
     ft{k} = $fopen(\"rtl{k}.T\", \"w\");
-    fw{k} = $fopen(\"rtl{k}.W\", \"w\");"
+    fw{k} = $fopen(\"rtl{k}.W\", \"w\");",
+            rr = if shape.round_robin {
+                format!(
+                    "
+    fcm{k} = $fopen(\"pe{k}.cm\", \"r\");
+    got = $fscanf(fcm{k}, \"%h %h %h %h\\n\", cm{k}_0, cm{k}_1, cm{k}_2, cm{k}_3);
+    cm_ok{k} = (got == 4);
+    $readmemh(\"pe{k}.loc\", loc{k});
+    for (i = 0; i < {nx}; i = i + 1) pe{k}.loc[i] = loc{k}[i];",
+                    nx = shape.nx
+                )
+            } else {
+                String::new()
+            }
         );
     }
     let _ = writeln!(
@@ -246,12 +271,25 @@ module {TOP};
       got = $fscanf(fev{k}, \"%h %h %h %h %h\\n\", ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4);
       ev_ok{k} = (got == 5);
     end
-    map_we{k} = 0;
+    map_we{k} = 0;{rr}
     if (mp_ok{k} && mp{k}_0 == cyc + 1) begin
       map_we{k} = 1; map_lo{k} = mp{k}_1; map_n{k} = mp{k}_2;
       got = $fscanf(fmap{k}, \"%h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2);
       mp_ok{k} = (got == 3);
+    end",
+            rr = if shape.round_robin {
+                format!(
+                    "
+    while (cm_ok{k} && cm{k}_0 == cyc) begin
+      pe{k}.cm_mx[cm{k}_1] = cm{k}_2;
+      pe{k}.cm_sl[cm{k}_1] = cm{k}_3;
+      got = $fscanf(fcm{k}, \"%h %h %h %h\\n\", cm{k}_0, cm{k}_1, cm{k}_2, cm{k}_3);
+      cm_ok{k} = (got == 4);
     end"
+                )
+            } else {
+                String::new()
+            }
         );
     }
     let _ = writeln!(

@@ -160,12 +160,14 @@ pub struct Buffers {
 /// (none where the RTL's memory held no defined word).
 pub type RayDiff = (usize, i64, usize, [i64; 4], Option<[i64; 4]>);
 
-/// Reads `buf<K>.hex` in `dir` and compares the held rays of `start`.
+/// Reads `buf<K>.hex` in `dir` and compares the held rays of `start`,
+/// PE `k`'s ray `(mx, row)` at `addr(k, mx, row)`.
 pub fn buffers(
     dir: &Path,
     shape: &PeSampleShape,
     widths: &Widths,
     start: &ReadoutStart,
+    addr: &dyn Fn(usize, i64, usize) -> Option<u64>,
 ) -> Result<Buffers, String> {
     let signed = [shape.rays.color_signed, shape.rays.alpha_signed];
     let mut out = Buffers {
@@ -183,7 +185,7 @@ pub fn buffers(
         let mut at = 0;
         for (c, &mx) in pe.mx.iter().enumerate() {
             for row in 0..pe.rows[c] {
-                let addr = shape.ray_addr(mx, row) as usize;
+                let addr = addr(k, mx, row).map_or(usize::MAX, |a| a as usize);
                 let rtl = banks
                     .get(addr / 2)
                     .and_then(|b| b[addr % 2])

@@ -39,8 +39,11 @@
 //! ([`PeCapture::early_read`]).
 
 pub mod bench;
+mod columns;
 pub mod compare;
+mod plan;
 pub mod run;
+pub mod slots;
 mod words;
 
 pub use words::{BusCycle, Widths};
@@ -118,6 +121,10 @@ pub struct PeCapture {
     iss: Vec<BufWriter<File>>,
     taps: Vec<BufWriter<File>>,
     wbs: Vec<BufWriter<File>>,
+    /// Per PE under a round-robin mapping, the column map's entries.
+    cm: Vec<BufWriter<File>>,
+    /// Under a round-robin mapping, the rays' slots.
+    slots: Option<slots::Slots>,
     /// Per PE, the buffer as the stage's own write-backs leave it.
     shadow: Vec<Vec<Option<[i64; 4]>>>,
     /// Per PE, the clock each buffer word's last write-back lands in.
@@ -200,6 +207,14 @@ impl PeCapture {
             iss: per("I")?,
             taps: per("T")?,
             wbs: per("W")?,
+            cm: if shape.round_robin {
+                per("cm")?
+            } else {
+                Vec::new()
+            },
+            slots: shape
+                .round_robin
+                .then(|| slots::Slots::new(pes, Some(shape.slots()))),
             shadow: vec![vec![None; words]; pes],
             lands: vec![vec![None; words]; pes],
             held: vec![(0, 0); pes],
@@ -235,6 +250,7 @@ impl PeCapture {
             .chain(&mut self.iss)
             .chain(&mut self.taps)
             .chain(&mut self.wbs)
+            .chain(&mut self.cm)
         {
             f.flush()?;
         }
@@ -262,7 +278,8 @@ impl PeCapture {
             }
             f.flush()?;
             let w = pe.held_columns();
-            if w as u64 > self.shape.stored || pe.cols.len() != w {
+            self.decoder(k, pe)?;
+            if w as u64 > self.shape.stored || (!self.shape.round_robin && pe.cols.len() != w) {
                 self.unfit(format!(
                     "PE {k} holds {w} voxel columns, past the declared {}",
                     self.shape.stored
@@ -290,27 +307,9 @@ impl PeCapture {
         let s = self.shape;
         self.pending_load = Some(z);
         for (k, pe) in pes.iter().enumerate() {
-            let n = pe.rays.len();
-            let lo = pe.rays.front().map_or(0, |c| c.mx);
-            let consecutive = pe
-                .rays
-                .iter()
-                .enumerate()
-                .all(|(i, c)| c.mx == lo + i as i64);
-            if n as u64 > s.slots() || !consecutive {
-                self.unfit(format!(
-                    "PE {k} holds {n} columns{} at slice {z}, past the declared {} slots",
-                    if consecutive {
-                        ""
-                    } else {
-                        " (not consecutive)"
-                    },
-                    s.slots()
-                ));
+            if !self.column_map(cycle, (k, z), pe)? {
                 continue;
             }
-            self.held[k] = (lo, pe.active.1);
-            writeln!(self.map[k], "{:x} {:x} {:x}", cycle, lo as u64, n)?;
             for c in &pe.rays {
                 if c.acc.len() as u64 > s.rays.max_rows {
                     self.unfit(format!(
@@ -322,7 +321,7 @@ impl PeCapture {
                     break;
                 }
                 for (row, a) in c.acc.iter().enumerate() {
-                    let addr = s.ray_addr(c.mx, row) as usize;
+                    let addr = self.addr(k, c.mx, row).unwrap_or(0) as usize;
                     if s.termination.is_some() {
                         self.flag(cycle, k, (c.mx, row), (c.ftb[row].done, a.raw))?;
                     }
@@ -355,8 +354,7 @@ impl PeCapture {
         (mx, row): (i64, usize),
         (done, acc): (bool, [i64; 4]),
     ) -> std::io::Result<()> {
-        let s = self.shape;
-        let addr = s.ray_addr(mx, row) as usize;
+        let addr = self.addr(k, mx, row).unwrap_or(0) as usize;
         let was = self.term[k][addr];
         if was == Some(done) {
             return Ok(());
@@ -369,93 +367,13 @@ impl PeCapture {
         }
         self.term[k][addr] = Some(done);
         self.outside_flags += 1;
+        let slot = self.slot_of(k, mx).unwrap_or(0);
         writeln!(
             self.ev[k],
             "{cycle:x} 5 {row:x} {:x} {:x}",
-            s.slot(mx),
+            slot,
             u8::from(done)
         )
-    }
-
-    /// The slice's row plans as the PEs made them from the `PlanRows`
-    /// broadcast (`runs`), checked against the declared memories and
-    /// counted (the RTL makes its own words from the runs on its plan
-    /// port: the held columns inside the row's runs; front to back the PE
-    /// leaves out those its termination bits mark).
-    fn plan(&mut self, first_row: usize, pes: &[Pe], runs: &RowRuns) {
-        let s = self.shape;
-        let rows = pes.iter().map(Pe::planned_rows).max().unwrap_or(0);
-        let mut cols = Vec::new();
-        for r in 0..rows {
-            let row = first_row + r;
-            let sampled = pes.iter().any(|p| p.planned(r).next().is_some());
-            for (k, pe) in pes.iter().enumerate() {
-                let (lo, active) = self.held[k];
-                let mut n = 0;
-                cols.clear();
-                pe.run_ranges(runs.row(r), |js| cols.extend(js));
-                if sampled && s.termination.is_some() {
-                    self.terminated_in_rows +=
-                        cols.iter().filter(|&&j| pe.rays[j].ftb[row].done).count() as u64;
-                }
-                for mx in cols.iter().map(|&j| pe.rays[j].mx) {
-                    let i = mx - lo;
-                    if i < 0 || i as u64 >= s.slots() {
-                        self.unfit(format!(
-                            "PE {k} plans column {mx} outside its held columns from {lo}"
-                        ));
-                        return;
-                    }
-                    n += 1;
-                }
-                if sampled {
-                    self.skipped_in_rows += (active - n) as u64;
-                }
-                if row as u64 >= s.rays.max_rows {
-                    self.unfit(format!(
-                        "PE {k} plans row {row}, past the declared {} rows",
-                        s.rays.max_rows
-                    ));
-                    return;
-                }
-            }
-        }
-    }
-
-    /// The runs of the slice's sampled rows (`lens[r] > 0`) on the plan
-    /// port, one a clock from clock `from` (clock, first run of its row,
-    /// row, lo, hi).
-    fn write_runs(
-        &mut self,
-        from: u64,
-        first_row: usize,
-        runs: &RowRuns,
-        lens: &[usize],
-    ) -> std::io::Result<()> {
-        let half = 1i64 << (self.shape.index_bits - 1);
-        let mut clock = from;
-        for r in (0..runs.rows()).filter(|&r| lens.get(r).is_some_and(|&n| n > 0)) {
-            let row = first_row + r;
-            for (i, &(lo, hi)) in runs.row(r).iter().enumerate() {
-                if lo < -half || hi >= half {
-                    self.unfit(format!(
-                        "row {row}'s run {lo} ..= {hi} is past the plan port's {}-bit ray indices",
-                        self.shape.index_bits
-                    ));
-                    return Ok(());
-                }
-                writeln!(
-                    self.plan_port,
-                    "{clock:x} {:x} {row:x} {:x} {:x}",
-                    u8::from(i == 0),
-                    lo as u64,
-                    hi as u64
-                )?;
-                clock += 1;
-                self.plan_runs += 1;
-            }
-        }
-        Ok(())
     }
 
     /// The buffer words the stages after the last slice changed (the
@@ -463,12 +381,18 @@ impl PeCapture {
     fn before_readout(&mut self, start: &ReadoutStart) -> std::io::Result<()> {
         let s = self.shape;
         for (k, pe) in start.pes.iter().enumerate() {
+            if let Some(t) = &mut self.slots {
+                if let Err(e) = t.hold(k, &pe.mx, start.cycle) {
+                    self.unfit(e);
+                    continue;
+                }
+            }
             let mut at = 0;
             for (c, &mx) in pe.mx.iter().enumerate() {
                 for row in 0..pe.rows[c] {
                     let word = pe.words[at];
                     at += 1;
-                    let addr = s.ray_addr(mx, row) as usize;
+                    let addr = self.addr(k, mx, row).unwrap_or(0) as usize;
                     if row as u64 >= s.rays.max_rows || pe.mx.len() as u64 > s.slots() {
                         continue;
                     }
@@ -509,7 +433,10 @@ impl PeCapture {
             let _ = write!(l, " {:x}", masked(i64::from(t), w.voxel));
         }
         writeln!(self.taps[k], "{l}")?;
-        let addr = self.shape.ray_addr(s.m, self.row_at.1);
+        if let Some(t) = &mut self.slots {
+            t.landed(k, s.m, s.land);
+        }
+        let addr = self.addr(k, s.m, self.row_at.1).unwrap_or(u64::MAX);
         let mut l = format!("W {:x} {:x}", s.land, addr);
         for i in 0..4 {
             let _ = write!(l, " {:x}", masked(issue.out.raw[i], w.acc(i)));
@@ -543,7 +470,7 @@ impl PeCapture {
     fn check_read(&mut self, tick: &ReadoutTick) {
         for (k, o) in tick.host.iter().enumerate() {
             let Some(o) = o else { continue };
-            let addr = self.shape.ray_addr(o.mx, o.row as usize) as usize;
+            let addr = self.addr(k, o.mx, o.row as usize).unwrap_or(u64::MAX) as usize;
             let land = self
                 .lands
                 .get(k)

@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use super::bench::{testbench, TOP};
 use super::compare::{buffers, streams, Buffers, StageOutcome};
+use super::slots::Slots;
 use super::{PeCapture, Widths};
 use crate::cosim::build::{build, run, Built, Simulator};
 use crate::cosim::readout::StageRun;
@@ -62,17 +63,38 @@ pub struct PeStageRun {
     /// The most columns a PE held at a slice's start, and the column
     /// map's declared slots (the emitted module has the larger).
     pub slots: (u64, u64),
+    /// The most voxel columns a PE's memory held, and the slice buffer's
+    /// declared columns (the emitted module has the larger).
+    pub stored: (u64, u64),
 }
 
-/// A capture noting the most columns any PE holds at a slice's start.
-#[derive(Default)]
-struct Peak(u64);
+/// A capture noting the most columns any PE holds at a slice's start
+/// and, under a round-robin mapping, the most slots migration gives out
+/// ([`super::slots`], as many as it needs).
+/// and the most voxel columns a PE's memory holds.
+struct Peak(u64, Option<Slots>, u64);
 
 impl crate::cosim::capture::IssueSink for Peak {
-    fn issue(&mut self, _: &crate::cosim::capture::Issue) {}
-    fn slice_begin(&mut self, _: u64, _: usize, pes: &[crate::pe::Pe]) {
-        for p in pes {
+    fn issue(&mut self, i: &crate::cosim::capture::Issue) {
+        if let Some(t) = &mut self.1 {
+            t.landed(i.pe, i.input.m, i.input.land);
+        }
+    }
+    fn slice_begin(&mut self, cycle: u64, _: usize, pes: &[crate::pe::Pe]) {
+        for (k, p) in pes.iter().enumerate() {
             self.0 = self.0.max(p.rays.len() as u64);
+            self.2 = self.2.max(p.held_columns() as u64);
+            if let Some(t) = &mut self.1 {
+                let mxs: Vec<i64> = p.rays.iter().map(|c| c.mx).collect();
+                let _ = t.hold(k, &mxs, cycle);
+            }
+        }
+    }
+    fn readout_begin(&mut self, start: &crate::cosim::capture::ReadoutStart) {
+        if let Some(t) = &mut self.1 {
+            for (k, p) in start.pes.iter().enumerate() {
+                let _ = t.hold(k, &p.mx, start.cycle);
+            }
         }
     }
 }
@@ -131,13 +153,19 @@ pub fn simulate<'a>(
     mutate: Option<&dyn Fn(&str) -> String>,
 ) -> Result<PeStageRun, String> {
     let declared = PeSampleShape::for_view(cfg, view)?;
-    let peak = Arc::new(Mutex::new(Peak::default()));
+    let pes = usize::from(cfg.pes);
+    let slots = declared.round_robin.then(|| Slots::new(pes, None));
+    let peak = Arc::new(Mutex::new(Peak(0, slots, 0)));
     frame()
         .capture(peak.clone())
         .run()
         .map_err(|e| e.to_string())?;
-    let held = peak.lock().map_err(|_| "capture poisoned".to_owned())?.0;
-    let shape = declared.with_slots(held);
+    let (held, given, cols) = {
+        let p = peak.lock().map_err(|_| "capture poisoned".to_owned())?;
+        (p.0, p.1.as_ref().map_or(0, |t| t.peak), p.2)
+    };
+    let held = held.max(given);
+    let shape = declared.with_slots(held).with_stored(cols);
     let pe = emit(&shape, dp)?;
     let verilog = mutate.map_or_else(|| pe.verilog.clone(), |f| f(&pe.verilog));
     let port = |n: &str| dp.ports.iter().find(|p| p.name == n);
@@ -150,7 +178,6 @@ pub fn simulate<'a>(
         addr: shape.rays.ray_addr_bits(),
         tap_stage,
     };
-    let pes = usize::from(cfg.pes);
     let capture = PeCapture::create(shape, widths, dir, pes).map_err(|e| e.to_string())?;
     let capture = Arc::new(Mutex::new(capture));
     let t = std::time::Instant::now();
@@ -203,6 +230,7 @@ pub fn simulate<'a>(
         unfit: c.unfit.clone(),
         early_read: c.early_read.clone(),
         slots: (held, declared.slots()),
+        stored: (cols, declared.stored),
     };
     if out.unfit.is_some() {
         return Ok(out);
@@ -216,7 +244,7 @@ pub fn simulate<'a>(
     out.seconds[1] = run_s;
     out.outcome = streams(dir, pes)?;
     if let Some(s) = &start {
-        let b = buffers(dir, &shape, &widths, s)?;
+        let b = buffers(dir, &shape, &widths, s, &|k, mx, row| c.addr(k, mx, row))?;
         if let Ok(rs) = ReadoutShape::for_view(cfg, view) {
             if crate::cosim::readout::counts(&rs, &b.start).is_ok() {
                 let rtl = emit_readout(&rs);

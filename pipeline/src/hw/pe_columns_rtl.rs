@@ -1,0 +1,181 @@
+//! Where a PE's sample stage finds its columns, by mapping
+//! ([`super::pe_sample_rtl`]): the issuing ray's index and buffer slot,
+//! the taps' local columns in the slice buffer, and under column blocks
+//! the edge register the left neighbour reads.
+//!
+//! Under column blocks a PE holds one consecutive block: held column
+//! `map_lo + i` is ray `map_lo + i` in slot `mx` modulo the slots, a tap
+//! column `c` is local column `c - col_lo`, and the column right of the
+//! block comes from the right neighbour's edge register. Under a
+//! round-robin mapping (the interleave, the cyclic mapping:
+//! [`crate::mapping::ColumnMap`]) a PE holds several blocks, each with its
+//! apron (one column left, two right), so every tap is in its own memory:
+//! the column decoder `loc` (the model's `Pe::local`, the host's load
+//! order) gives a held column's local index; and its rays are the ones
+//! whose columns lie in its blocks in the current slice, from across the
+//! slice, so the column map lists them in increasing index (`cm_mx`),
+//! each with the slot migration gave it (`cm_sl`,
+//! [`crate::cosim::pe_sample::slots`]): plan bit `i` is the column map's
+//! entry `i`, and the control issues a row's set bits lowest first, in
+//! increasing ray index as the model's `Pe::sample_step` does.
+//!
+//! Golden twin: `golden::sampling::sample_region` (the taps each ray
+//! reads), through [`crate::pe::Pe::sample_step`].
+
+use std::fmt::Write as _;
+
+use super::pe_sample_shape::PeSampleShape;
+use crate::cost::inventory::addr_bits;
+
+/// Bits of a round-robin column map entry's slot.
+pub(super) fn slot_bits(s: &PeSampleShape) -> u32 {
+    addr_bits(s.slots())
+}
+
+/// Under a round-robin mapping, the column map (`cm_mx`, `cm_sl`, `map_n`
+/// entries in increasing ray index, written by migration) and the column
+/// decoder (`loc`, written by the host with the voxels); nothing under
+/// column blocks.
+pub(super) fn declarations(s: &PeSampleShape) -> String {
+    if !s.round_robin {
+        return String::new();
+    }
+    format!(
+        "  // The column map, held rays in increasing index: ray cm_mx[i] in slot cm_sl[i].
+  reg signed [{ib1}:0] cm_mx [0:{s1}];
+  reg [{tb1}:0] cm_sl [0:{s1}];
+  // The column decoder: a held voxel column's local index in the slice buffer.
+  reg [{lb1}:0] loc [0:{nxm}];
+",
+        ib1 = s.index_bits - 1,
+        s1 = s.slots() - 1,
+        tb1 = slot_bits(s) - 1,
+        lb1 = addr_bits(s.stored) - 1,
+        nxm = s.nx - 1,
+    )
+}
+
+/// The ray a plan bit `i` stands for (an expression of `i`).
+pub(super) fn planned_mx(s: &PeSampleShape, i: &str) -> String {
+    if s.round_robin {
+        format!("cm_mx[{i}]")
+    } else {
+        format!("map_lo + {i}")
+    }
+}
+
+/// The issuing ray's index `mx` and slot `slot` from the plan bit `idx`.
+pub(super) fn mx_slot(s: &PeSampleShape) -> String {
+    if s.round_robin {
+        "  wire signed [31:0] mx = cm_mx[idx];\n  wire [31:0] slot = {{1'b0, cm_sl[idx]}};"
+            .replace("{{", "{")
+            .replace("}}", "}")
+    } else {
+        format!(
+            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});\n  wire [31:0] slot = (mx + {off}) % {slots};",
+            off = s.slot_offset(),
+            slots = s.slots()
+        )
+    }
+}
+
+/// The taps' local columns `l0`, `l1` of the clamped columns `c0`, `c1`
+/// and whether the PE holds `c1` (`held1`; else the right neighbour's
+/// edge words serve it).
+pub(super) fn tap_columns(s: &PeSampleShape) -> String {
+    if s.round_robin {
+        "  wire [31:0] l0 = {{1'b0, loc[c0]}};\n  wire [31:0] l1 = {{1'b0, loc[c1]}};\n  wire held1 = 1'b1;"
+            .replace("{{", "{")
+            .replace("}}", "}")
+    } else {
+        "  wire [31:0] l0 = c0 - $signed({1'b0, col_lo});\n  wire [31:0] l1 = c1 - $signed({1'b0, col_lo});\n  wire held1 = c1 < $signed({1'b0, col_end});".to_owned()
+    }
+}
+
+/// Front to back, the row's termination bits (`dead_s`, by slot) in the
+/// plan's order (`dead`, bit `i` for plan bit `i`).
+pub(super) fn dead_by_plan(s: &PeSampleShape) -> String {
+    let n = s.slots();
+    if s.round_robin {
+        format!(
+            "  wire [{s1}:0] dead;
+  genvar dg;
+  generate
+    for (dg = 0; dg < {n}; dg = dg + 1) begin : dead_g
+      assign dead[dg] = dead_s[cm_sl[dg]];
+    end
+  endgenerate",
+            s1 = n - 1
+        )
+    } else {
+        format!(
+            "  wire [31:0] t_base = (map_lo + {off}) % {n};
+  wire [{d1}:0] dead_2 = {{dead_s, dead_s}} >> t_base;
+  wire [{s1}:0] dead = dead_2[{s1}:0];",
+            off = s.slot_offset(),
+            d1 = 2 * n - 1,
+            s1 = n - 1
+        )
+    }
+}
+
+/// Bits of the round-robin column map and column decoder (none under
+/// column blocks).
+pub(super) fn memory_bits(s: &PeSampleShape) -> u64 {
+    if !s.round_robin {
+        return 0;
+    }
+    s.slots() * u64::from(s.index_bits + slot_bits(s)) + s.nx * u64::from(addr_bits(s.stored))
+}
+
+/// The edge register: this block's first column at the next row's two
+/// voxel rows, read when the broadcast names a next row and held
+/// otherwise (the left neighbour's `edge_in`); returns its register bits.
+pub(super) fn edge_register(w: &mut String, s: &PeSampleShape) -> u64 {
+    let (yb, v, half) = (s.row_bits(), s.voxel_bits, s.half_rows);
+    let ebw = addr_bits(2 * half);
+    let _ = writeln!(
+        w,
+        "  // The edge register: this block's first column at the next row's two voxel
+  // rows, read when the broadcast names a next row and held otherwise.
+  reg e_v, e_z;
+  reg [{yb1}:0] e_y0, e_y1;
+  always @(posedge clk) begin
+    if (rst) begin
+      e_v <= 1'b0;
+      e_z <= 1'b0;
+      e_y0 <= 0;
+      e_y1 <= 0;
+    end else begin
+      e_v <= bc_nv;
+      e_z <= bc_nz;
+      e_y0 <= bc_ny0;
+      e_y1 <= bc_ny1;
+    end
+  end
+  wire [{yb1}:0] er0 = e_y0[0] ? e_y1 : e_y0;
+  wire [{yb1}:0] er1 = e_y0[0] ? e_y0 : e_y1;
+  wire [31:0] ea0 = {{31'd0, e_z}} * {half} + (er0 >> 1);
+  wire [31:0] ea1 = {{31'd0, e_z}} * {half} + (er1 >> 1);
+  reg [{v1}:0] eq0, eq1;
+  reg ep0, ep1;
+  always @(posedge clk) begin
+    if (rst) begin
+      eq0 <= 0;
+      eq1 <= 0;
+      ep0 <= 1'b0;
+      ep1 <= 1'b0;
+    end else if (e_v) begin
+      eq0 <= ec0[ea0[{ebw1}:0]];
+      eq1 <= ec1[ea1[{ebw1}:0]];
+      ep0 <= e_y0[0];
+      ep1 <= e_y1[0];
+    end
+  end
+  assign edge_out = {{ep1 ? eq1 : eq0, ep0 ? eq1 : eq0}};",
+        yb1 = yb - 1,
+        v1 = v - 1,
+        ebw1 = ebw - 1,
+    );
+    2 + 2 * u64::from(yb) + 2 * u64::from(v) + 2
+}
