@@ -51,13 +51,19 @@ pub struct SynthArgs {
     /// (`pipeline::cost::readout`).
     #[arg(long, conflicts_with_all = ["unit", "datapath"])]
     pub readout: bool,
-    /// With --readout: the view-space volume the PE's memories are
-    /// declared for, NX,NY,NZ (as `ercube rtl --dims`).
-    #[arg(long, default_value = "256,256,256", requires = "readout")]
-    pub dims: String,
-    /// The whole PE (refused: its control and stage state machines are not
-    /// emitted yet; --datapath places its sample datapath).
+    /// With --readout or --pe: the view-space volume the PE's memories
+    /// are declared for, NX,NY,NZ (as `ercube rtl --dims`; default
+    /// 256,256,256).
     #[arg(long)]
+    pub dims: Option<String>,
+    /// The PE as `ercube rtl` emits it: its sample stage
+    /// (`ercube_pe_sample`: control, voxel memory, compositing buffer,
+    /// column map, row plan and plan port, termination bits) around the
+    /// sample datapath, at the depths `--dims` and the configuration's PEs
+    /// declare, against the PE inventory's items it holds
+    /// (`pipeline::synth::pe`). Not in it: migration, merge, split, fold
+    /// (not emitted) and the readout (`--readout`).
+    #[arg(long, conflicts_with_all = ["unit", "datapath", "readout"])]
     pub pe: bool,
     /// The whole array (refused: its Verilog is not emitted yet).
     #[arg(long)]
@@ -80,7 +86,7 @@ pub struct SynthArgs {
 #[derive(Debug, Serialize)]
 pub struct SynthReport {
     /// The unit's name (`datapath` for the whole sample datapath,
-    /// `readout` for the PE's readout stage).
+    /// `readout` for the PE's readout stage, `pe` for its sample stage).
     pub unit: String,
     /// The Verilog module synthesized.
     pub module: String,
@@ -237,16 +243,16 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     super::outputs::check_files(&[a.stats.as_deref()])?;
     super::outputs::check_dirs(&[a.keep.as_deref()])?;
     let part: Part = a.target.parse().map_err(anyhow::Error::msg)?;
-    if a.pe || a.array {
-        bail!(
-            "synth --{}: the {}'s control and stage state machines are not emitted yet; --datapath places the sample datapath alone, --unit NAME one unit",
-            if a.pe { "pe" } else { "array" },
-            if a.pe { "PE" } else { "array" }
-        );
+    if a.array {
+        bail!("synth --array: the array's Verilog (links, controller) is not emitted yet; --pe places the PE's sample stage, --readout its readout stage");
     }
-    if a.unit.is_none() && !a.datapath && !a.readout {
-        bail!("synth: give --unit NAME, --datapath or --readout (--pe and --array need the PE's control, not emitted yet)");
+    if a.unit.is_none() && !a.datapath && !a.readout && !a.pe {
+        bail!("synth: give --unit NAME, --datapath, --readout or --pe");
     }
+    if a.dims.is_some() && !(a.readout || a.pe) {
+        bail!("synth: --dims is for --readout and --pe");
+    }
+    let dims = super::rtl::parse_dims(a.dims.as_deref().unwrap_or("256,256,256"))?;
     if let Some(c) = a.clock_mhz {
         if !c.is_finite() || c <= 0.0 || c > 2000.0 {
             bail!("--clock-mhz {c} must be a clock above 0 and at most 2000 MHz");
@@ -255,9 +261,9 @@ pub fn run(a: &SynthArgs) -> Result<()> {
     let cfg = a.cfg.load()?;
     let m = match a.unit.as_deref() {
         Some(name) => unit(&cfg, name).map_err(anyhow::Error::msg)?,
-        None if a.readout => {
-            let dims = super::rtl::parse_dims(&a.dims)?;
-            pipeline::synth::readout(&cfg, dims).map_err(anyhow::Error::msg)?
+        None if a.readout => pipeline::synth::readout(&cfg, dims).map_err(anyhow::Error::msg)?,
+        None if a.pe => {
+            pipeline::synth::pe::sample_stage(&cfg, dims).map_err(anyhow::Error::msg)?
         }
         None => pipeline::synth::datapath(&cfg).map_err(anyhow::Error::msg)?,
     };
@@ -349,12 +355,14 @@ pub fn run(a: &SynthArgs) -> Result<()> {
             "no open place and route for Xilinx parts: synthesis counts only, no timing".to_owned(),
         ),
     };
-    let is_datapath = a.unit.is_none() && !a.readout;
+    let is_datapath = a.unit.is_none() && !a.readout && !a.pe;
     let report = SynthReport {
         unit: if is_datapath {
             "datapath".to_owned()
         } else if a.readout {
             "readout".to_owned()
+        } else if a.pe {
+            "pe".to_owned()
         } else {
             pipeline::synth::unit_name(&m).to_owned()
         },
@@ -368,6 +376,8 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         estimated: family.map(|f| {
             if is_datapath {
                 pipeline::synth::datapath_estimate(&cfg, f)
+            } else if a.pe {
+                pipeline::synth::pe::estimate(&cfg, dims, f)
             } else {
                 m.estimate(f)
             }
@@ -376,7 +386,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),
         predicted_mhz: family.filter(|_| !a.readout).and_then(|f| {
-            if is_datapath {
+            if is_datapath || a.pe {
                 // The schedule's slowest stage, as `ercube cost` predicts it.
                 Some(pipeline::cost::fmax::pe_prediction(&cfg, f)?.mhz)
             } else {

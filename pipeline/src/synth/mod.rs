@@ -9,6 +9,7 @@
 //! and nextpnr's `--report` ([`report`]). Running the tools is the
 //! command line's job (`src/cli/synth.rs`).
 
+pub mod pe;
 pub mod report;
 pub mod wrap;
 

@@ -34,6 +34,11 @@ pub fn classify(part: Part, cells: &BTreeMap<String, u64>) -> Result<Resources, 
     let mut r = Resources::default();
     for (ty, &n) in cells {
         let t = ty.as_str();
+        // Newer yosys keeps a flattened instance's hierarchy as
+        // `$scopeinfo` cells: names for debugging, no hardware.
+        if t == "$scopeinfo" {
+            continue;
+        }
         match part {
             Part::Xc7 | Part::Xcup => match t {
                 "LUT1" | "LUT2" | "LUT3" | "LUT4" | "LUT5" | "LUT6" | "INV" => r.lut += n,
@@ -225,10 +230,15 @@ mod tests {
 
     #[test]
     fn classifies_ecp5_cells_and_refuses_unknown_ones() {
-        let cells: BTreeMap<String, u64> = [("LUT4", 32), ("CCU2C", 16), ("TRELLIS_FF", 97)]
-            .into_iter()
-            .map(|(k, n)| (k.to_owned(), n))
-            .collect();
+        let cells: BTreeMap<String, u64> = [
+            ("LUT4", 32),
+            ("CCU2C", 16),
+            ("TRELLIS_FF", 97),
+            ("$scopeinfo", 3),
+        ]
+        .into_iter()
+        .map(|(k, n)| (k.to_owned(), n))
+        .collect();
         let r = classify(Part::Ecp5_25k, &cells).unwrap();
         assert_eq!((r.lut, r.ff, r.carry), (64, 97, 16));
         let odd: BTreeMap<String, u64> = [("WEIRD".to_owned(), 1)].into_iter().collect();

@@ -48,8 +48,14 @@ pub fn ports(verilog: &str, module: &str) -> Result<Vec<Port>, String> {
     let end = verilog[start..]
         .find(");")
         .ok_or_else(|| format!("module {module}: unterminated port list"))?;
+    // Line comments between the declarations are not ports.
+    let list: String = verilog[start..start + end]
+        .lines()
+        .map(|l| l.split("//").next().unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("\n");
     let mut out = Vec::new();
-    for decl in verilog[start..start + end].split(',') {
+    for decl in list.split(',') {
         let toks: Vec<&str> = decl.split_whitespace().collect();
         let Some((&first, rest)) = toks.split_first() else {
             continue;
@@ -184,5 +190,21 @@ mod tests {
             (y.bits, y.dir),
             (u32::from(cfg.accum_alpha.bits()), Dir::Out)
         );
+    }
+
+    #[test]
+    fn the_sample_stage_ports_are_read_past_their_comments() {
+        let cfg = PipelineConfig::default();
+        let m = super::super::pe::sample_stage(&cfg, [16, 16, 16]).unwrap();
+        let ps = ports(&m.verilog, &m.name).unwrap();
+        let find = |n: &str| ps.iter().find(|p| p.name == n).map(|p| (p.bits, p.dir));
+        // `// The host's voxel load ...` precedes `vld_we` in the list.
+        assert_eq!(find("vld_we"), Some((1, Dir::In)));
+        assert_eq!(find("pl_lo"), Some((16, Dir::In)));
+        assert_eq!(
+            find("vld_data"),
+            Some((u32::from(cfg.voxel.bits()), Dir::In))
+        );
+        assert!(ps.iter().all(|p| !p.name.contains('/')), "{ps:?}");
     }
 }

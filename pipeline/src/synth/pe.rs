@@ -1,0 +1,126 @@
+//! The PE's sample stage as one design for `ercube synth --pe`: the
+//! emitted `ercube_pe_sample` (its control, voxel memory, compositing
+//! buffer, column map, row plan with its plan port, termination bits)
+//! around the pipelined sample datapath (`ercube_sample`, its tables
+//! included), at the depths the PE declares for a view-space volume.
+//!
+//! It is what `ercube rtl` emits of the PE, not the whole PE: the
+//! migration's link FIFOs and ports, the merge, split and fold with their
+//! line buffer, and the readout's state machine (placed alone by
+//! `--readout`) are not in it. Its estimate is `ercube cost`'s PE
+//! inventory restricted to the items the module holds
+//! ([`sample_stage_item`]), so the report compares like with like.
+
+use super::DATAPATH;
+use crate::config::PipelineConfig;
+use crate::cost::inventory::{pe_inventory, Geometry, Item};
+use crate::cost::{Resources, Target};
+use crate::hw::pe_sample_rtl::{emit, PeSampleShape, MODULE};
+use crate::rtl::CalibrationModule;
+
+/// The inventory's memories the sample stage declares.
+const MEMORIES: [&str; 5] = [
+    "slice buffer",
+    "edge column",
+    "compositing buffer",
+    "column map",
+    "row plan",
+];
+
+/// The inventory's registers and control the sample stage declares.
+const CONTROL: [&str; 6] = [
+    "schedule: ray index in run",
+    "address and weight",
+    "active columns",
+    "row plan:",
+    "edge register",
+    "counters",
+];
+
+/// Whether `it` is held by the emitted sample stage: the datapath
+/// ([`super::datapath_item`]), the PE's voxel and ray memories the stage
+/// reads and writes, its run compare and address clamps, and its control
+/// registers and counters. Not the merge, the link FIFOs, the ports, the
+/// broadcast's copy (the stage takes the broadcast on its `bc_*` ports)
+/// or the readout's registers.
+pub fn sample_stage_item(it: &Item) -> bool {
+    let named = |list: &[&str]| list.iter().any(|n| it.name.starts_with(n));
+    super::datapath_item(it)
+        || (it.group == "memories" && named(&MEMORIES))
+        || (matches!(it.group, "position" | "registers" | "control") && named(&CONTROL))
+}
+
+/// The geometry the stage is declared for: `dims` over `cfg.pes` PEs.
+fn geometry(cfg: &PipelineConfig, dims: [usize; 3]) -> Geometry {
+    Geometry::new(dims, cfg.pes.max(1))
+}
+
+/// The estimate of the sample stage on `t`: the [`sample_stage_item`]s of
+/// the PE's inventory for `dims` over `cfg.pes` PEs.
+pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources {
+    pe_inventory(cfg, &geometry(cfg, dims))
+        .items
+        .iter()
+        .filter(|it| sample_stage_item(it))
+        .map(|it| it.cost(t))
+        .sum()
+}
+
+/// The PE's sample stage for a view-space volume of `dims` over
+/// `cfg.pes` PEs, with the datapath it instantiates, as one Verilog text
+/// (module [`MODULE`]); its estimate is [`estimate`] (the `units` are
+/// left empty, as for the datapath).
+pub fn sample_stage(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<CalibrationModule, String> {
+    let shape = PeSampleShape::new(cfg, &geometry(cfg, dims))?;
+    let g = crate::hw::sample::plain(cfg);
+    let s = crate::cost::latency::sample_schedule(cfg);
+    let dp =
+        crate::hw::pipeline_rtl::emit_scheduled(&g, &s, DATAPATH).map_err(|e| e.to_string())?;
+    let r = emit(&shape, &dp)?;
+    Ok(CalibrationModule {
+        name: MODULE.to_owned(),
+        description: format!(
+            "the PE's sample stage for a {}x{}x{} volume over {} PEs ({} memory bits, {} control register bits, the datapath {} clocks); not the migration, merge, split, fold or readout",
+            dims[0],
+            dims[1],
+            dims[2],
+            cfg.pes.max(1),
+            shape.memory_bits(),
+            r.register_bits,
+            dp.depth
+        ),
+        verilog: format!("{}\n{}", dp.verilog, r.verilog),
+        units: Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sample_stage_holds_its_memories_and_not_the_merge() {
+        let cfg = PipelineConfig::default();
+        let inv = pe_inventory(&cfg, &geometry(&cfg, [32, 32, 32]));
+        let held: Vec<String> = inv
+            .items
+            .iter()
+            .filter(|it| sample_stage_item(it))
+            .map(|it| format!("{}: {}", it.group, it.name))
+            .collect();
+        for m in MEMORIES {
+            assert!(held.iter().any(|h| h.contains(m)), "{m} not held: {held:?}");
+        }
+        assert!(
+            !held.iter().any(|h| h.starts_with("merge")
+                || h.contains("link FIFO")
+                || h.contains("readout")),
+            "{held:?}"
+        );
+        let m = sample_stage(&cfg, [32, 32, 32]).unwrap();
+        assert!(
+            m.verilog.contains(&format!("module {MODULE}"))
+                && m.verilog.contains(&format!("module {DATAPATH}"))
+        );
+    }
+}
