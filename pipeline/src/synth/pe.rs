@@ -30,7 +30,7 @@ const MEMORIES: [&str; 5] = [
 /// The inventory's registers and control the sample stage declares.
 const CONTROL: [&str; 6] = [
     "schedule: ray index in run",
-    "address and weight",
+    "address: clamp",
     "active columns",
     "row plan:",
     "edge register",
@@ -47,7 +47,7 @@ pub fn sample_stage_item(it: &Item) -> bool {
     let named = |list: &[&str]| list.iter().any(|n| it.name.starts_with(n));
     super::datapath_item(it)
         || (it.group == "memories" && named(&MEMORIES))
-        || (matches!(it.group, "position" | "registers" | "control") && named(&CONTROL))
+        || (matches!(it.group, "address" | "registers" | "control") && named(&CONTROL))
 }
 
 /// The geometry the stage is declared for: `dims` over `cfg.pes` PEs.
@@ -117,6 +117,9 @@ mod tests {
                 || h.contains("readout")),
             "{held:?}"
         );
+        for c in CONTROL {
+            assert!(held.iter().any(|h| h.contains(c)), "{c} not held: {held:?}");
+        }
         let m = sample_stage(&cfg, [32, 32, 32]).unwrap();
         assert!(
             m.verilog.contains(&format!("module {MODULE}"))
