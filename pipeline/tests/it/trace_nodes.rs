@@ -77,6 +77,7 @@ fn check(order: Order, shading: bool, with_voi: bool, patterns: &[&str]) {
     let units = Units {
         lights: shading.then_some(1),
         voi: with_voi,
+        preint: false,
     };
     let g = sample(&cfg, units);
     let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
@@ -191,12 +192,13 @@ fn unknown_nodes_are_refused() {
         ..PipelineConfig::default()
     };
     let dir = tempfile::tempdir().unwrap();
-    let e = FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
+    let Err(e) = FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
         .trace(Tracer::new(TraceConfig::new(dir.path().join("x.vcd"))).unwrap())
         .trace_nodes(vec!["comp.*".into(), "no.such".into()])
         .run()
-        .err()
-        .expect("refused")
-        .to_string();
+    else {
+        panic!("an unknown node was not refused");
+    };
+    let e = e.to_string();
     assert!(e.contains("\"no.such\"") && !e.contains('\n'), "{e}");
 }
