@@ -7,42 +7,11 @@ use std::fmt::Write as _;
 
 use pipeline::hw::pe_sample_rtl::{PeSampleRtl, PeSampleShape, MODULE};
 
-/// A declared port: direction, width, signedness, name.
-struct Port {
-    input: bool,
-    bits: u32,
-    signed: bool,
-    name: String,
-}
-
-/// The ports in the module's port list (`input`/`output` lines up to
-/// the list's `);`).
-fn ports(v: &str) -> Vec<Port> {
-    let list = v
-        .split(&format!("module {MODULE} ("))
-        .nth(1)
-        .and_then(|t| t.split(");").next())
-        .unwrap_or("");
-    list.lines()
-        .map(str::trim)
-        .filter(|l| l.starts_with("input") || l.starts_with("output"))
-        .filter_map(|l| {
-            let l = l.trim_end_matches(',');
-            let name = l.rsplit(' ').next()?.to_owned();
-            let bits = l
-                .split('[')
-                .nth(1)
-                .and_then(|r| r.split(':').next())
-                .and_then(|h| h.parse::<u32>().ok())
-                .map_or(1, |h| h + 1);
-            Some(Port {
-                input: l.starts_with("input"),
-                bits,
-                signed: l.contains(" signed "),
-                name,
-            })
-        })
-        .collect()
+/// The ports in the module's port list
+/// (`pipeline::cosim::pe_vectors::ports`, the reader `ercube synth` and
+/// `ercube vectors` use).
+fn ports(v: &str) -> Vec<pipeline::cosim::pe_vectors::Decl> {
+    pipeline::cosim::pe_vectors::ports(v)
 }
 
 /// What a port is, by its group.

@@ -232,8 +232,8 @@ fn synth_datapath_on_ecp5_85k() {
     assert!(r["predicted_mhz"].as_f64().expect("a prediction") > 0.0);
 }
 
-/// Bad targets, units and the whole-PE forms are one line and status 2,
-/// before any tool runs.
+/// Bad targets, units, the array and misplaced options are one line and
+/// status 2, before any tool runs.
 #[test]
 fn synth_refuses_bad_input() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -241,7 +241,17 @@ fn synth_refuses_bad_input() {
     let cases: [(&[&str], &str); 7] = [
         (&["--target", "zynq", "--unit", "composite"], "zynq"),
         (&["--target", "ice40-up5k", "--unit", "nope"], "nope"),
-        (&["--target", "ice40-up5k", "--pe"], "not emitted"),
+        (
+            &[
+                "--target",
+                "ice40-up5k",
+                "--unit",
+                "composite",
+                "--dims",
+                "8,8,8",
+            ],
+            "--dims",
+        ),
         (&["--target", "ecp5-85k", "--array"], "not emitted"),
         (&["--target", "xc7"], "--unit"),
         (

@@ -35,6 +35,8 @@ pub struct Port {
     pub bits: u32,
     /// Input or output.
     pub dir: Dir,
+    /// Declared `signed`.
+    pub signed: bool,
 }
 
 /// The ports of module `module` in `verilog` (ANSI port list, one port a
@@ -67,9 +69,11 @@ pub fn ports(verilog: &str, module: &str) -> Result<Vec<Port>, String> {
         };
         let mut bits = 1;
         let mut name = None;
+        let mut signed = false;
         for t in rest {
             match *t {
-                "reg" | "wire" | "signed" => {}
+                "signed" => signed = true,
+                "reg" | "wire" => {}
                 r if r.starts_with('[') => {
                     let hi = r
                         .trim_start_matches('[')
@@ -83,7 +87,12 @@ pub fn ports(verilog: &str, module: &str) -> Result<Vec<Port>, String> {
             }
         }
         let name = name.ok_or_else(|| format!("module {module}: a port without a name"))?;
-        out.push(Port { name, bits, dir });
+        out.push(Port {
+            name,
+            bits,
+            dir,
+            signed,
+        });
     }
     Ok(out)
 }

@@ -22,32 +22,18 @@ pub struct Decl {
     pub signed: bool,
 }
 
-/// The ports of `ercube_pe_sample`'s port list (`input`/`output` lines up
-/// to the list's `);`), in order.
+/// The ports of `ercube_pe_sample`'s port list, in order (read by
+/// [`crate::synth::wrap::ports`]; none when the text has no such module).
 pub fn ports(verilog: &str) -> Vec<Decl> {
-    let list = verilog
-        .split(&format!("module {MODULE} ("))
-        .nth(1)
-        .and_then(|t| t.split(");").next())
-        .unwrap_or("");
-    list.lines()
-        .map(str::trim)
-        .filter(|l| l.starts_with("input") || l.starts_with("output"))
-        .filter_map(|l| {
-            let l = l.trim_end_matches(',');
-            let name = l.rsplit(' ').next()?.to_owned();
-            let bits = l
-                .split('[')
-                .nth(1)
-                .and_then(|r| r.split(':').next())
-                .and_then(|h| h.parse::<u32>().ok())
-                .map_or(1, |h| h + 1);
-            Some(Decl {
-                input: l.starts_with("input"),
-                bits,
-                signed: l.contains(" signed "),
-                name,
-            })
+    use crate::synth::wrap::{ports, Dir};
+    ports(verilog, MODULE)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|p| Decl {
+            input: p.dir == Dir::In,
+            bits: p.bits,
+            signed: p.signed,
+            name: p.name,
         })
         .collect()
 }
