@@ -159,7 +159,14 @@ fn pe_vectors_replay_in_icarus() {
 fn pe_vectors_refusals() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    let interleave = d.join("il.toml");
+    std::fs::write(&interleave, "mapping = \"interleave\"\n").unwrap();
+    let mapped = format!(
+        "vectors --stage pe --config {} --scene ml:16 --pes 2 --size 8x8 --out-dir v",
+        interleave.display()
+    );
     for (args, needle) in [
+        (mapped.as_str(), "interleave mapping"),
         (
             "vectors --stage pe --pe 2 --scene ml:16 --pes 2 --size 8x8 --out-dir v",
             "--pe 2",

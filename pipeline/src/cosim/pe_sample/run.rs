@@ -168,16 +168,8 @@ pub fn simulate<'a>(
     let shape = declared.with_slots(held).with_stored(cols);
     let pe = emit(&shape, dp)?;
     let verilog = mutate.map_or_else(|| pe.verilog.clone(), |f| f(&pe.verilog));
-    let port = |n: &str| dp.ports.iter().find(|p| p.name == n);
-    let tap_stage = u64::from(port("v00").map_or(0, |p| p.stage));
-    let widths = Widths {
-        m: port("slot_m").map_or(16, |p| p.word.bits),
-        color: shape.rays.color_bits,
-        alpha: shape.rays.alpha_bits,
-        voxel: shape.voxel_bits,
-        addr: shape.rays.ray_addr_bits(),
-        tap_stage,
-    };
+    let widths = Widths::of(&shape, dp);
+    let tap_stage = widths.tap_stage;
     let capture = PeCapture::create(shape, widths, dir, pes).map_err(|e| e.to_string())?;
     let capture = Arc::new(Mutex::new(capture));
     let t = std::time::Instant::now();

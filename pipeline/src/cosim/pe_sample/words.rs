@@ -67,6 +67,24 @@ pub struct Widths {
 }
 
 impl Widths {
+    /// The words of the sample stage `shape` around datapath `dp`: the ray
+    /// index as wide as the datapath's `slot_m` port, the taps at its
+    /// `v00` port's stage.
+    pub fn of(
+        shape: &crate::hw::pe_sample_rtl::PeSampleShape,
+        dp: &crate::hw::pipeline_rtl::PipelinedModule,
+    ) -> Widths {
+        let port = |n: &str| dp.ports.iter().find(|p| p.name == n);
+        Widths {
+            m: port("slot_m").map_or(16, |p| p.word.bits),
+            color: shape.rays.color_bits,
+            alpha: shape.rays.alpha_bits,
+            voxel: shape.voxel_bits,
+            addr: shape.rays.ray_addr_bits(),
+            tap_stage: u64::from(port("v00").map_or(0, |p| p.stage)),
+        }
+    }
+
     pub(super) fn acc(&self, i: usize) -> u32 {
         if i == 3 {
             self.alpha

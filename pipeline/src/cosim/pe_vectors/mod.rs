@@ -151,6 +151,12 @@ pub fn capture<'a>(
     pe: usize,
     dir: &Path,
 ) -> Result<PeStream, String> {
+    if cfg.mapping != crate::config::Mapping::Blocks {
+        return Err(format!(
+            "the {} mapping's column map and column decoder are not in the vectors yet (column blocks only; `ercube cosim --stage pe` runs it)",
+            cfg.mapping.name()
+        ));
+    }
     let pes = usize::from(cfg.pes);
     if pe >= pes {
         return Err(format!(
@@ -167,16 +173,8 @@ pub fn capture<'a>(
     let held = peak.lock().map_err(|_| "capture poisoned".to_owned())?.0;
     let shape = declared.with_slots(held);
     let rtl = emit(&shape, dp)?;
-    let port = |n: &str| dp.ports.iter().find(|p| p.name == n);
-    let tap_stage = u64::from(port("v00").map_or(0, |p| p.stage));
-    let widths = Widths {
-        m: port("slot_m").map_or(16, |p| p.word.bits),
-        color: shape.rays.color_bits,
-        alpha: shape.rays.alpha_bits,
-        voxel: shape.voxel_bits,
-        addr: shape.rays.ray_addr_bits(),
-        tap_stage,
-    };
+    let widths = Widths::of(&shape, dp);
+    let tap_stage = widths.tap_stage;
     let cap = PeCapture::create(shape, widths, dir, pes).map_err(|e| e.to_string())?;
     let cap = Arc::new(Mutex::new(cap));
     let f = frame()
