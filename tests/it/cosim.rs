@@ -22,6 +22,7 @@ use proptest::prelude::*;
 use serde_json::Value;
 
 use crate::bin::{assert_refused, describe, ercube};
+use crate::pe_vectors::{passed_checks, replay};
 use crate::tools::have;
 
 /// The builds' cache, shared by the tests (and kept between runs).
@@ -408,33 +409,9 @@ fn vectors_replay_in_icarus() {
         })
         .sum();
     assert!(issued > 0, "no sample in the window");
-    let replay = |dir: &Path| -> String {
-        let sim = dir.join("tb.vvp");
-        let c = std::process::Command::new("iverilog")
-            .args(["-g2005", "-o"])
-            .arg(&sim)
-            .args(["ercube_sample.v", "vectors_tb.v"])
-            .current_dir(dir)
-            .output()
-            .unwrap();
-        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
-        let r = std::process::Command::new("vvp")
-            .arg("-n")
-            .arg(&sim)
-            .current_dir(dir)
-            .output()
-            .unwrap();
-        String::from_utf8_lossy(&r.stdout).into_owned()
-    };
-    let good = replay(&v);
-    assert!(good.contains("vectors: 0 mismatches in "), "{good}");
-    let checks: u64 = good
-        .split("mismatches in ")
-        .nth(1)
-        .and_then(|t| t.split_whitespace().next())
-        .unwrap()
-        .parse()
-        .unwrap();
+    let files = ["ercube_sample.v", "vectors_tb.v"];
+    let good = replay(&v, &files);
+    let checks = passed_checks(&good);
     assert!(checks > issued, "{good}");
     // Break one expected accumulator word where a sample is written back.
     let valid = std::fs::read_to_string(v.join("pe0_out_valid.hex")).unwrap();
@@ -448,7 +425,7 @@ fn vectors_replay_in_icarus() {
     let w = u64::from_str_radix(&words[row], 16).unwrap();
     words[row] = format!("{:x}", w ^ 1);
     std::fs::write(&path, words.join("\n") + "\n").unwrap();
-    let bad = replay(&v);
+    let bad = replay(&v, &files);
     assert!(
         bad.contains(&format!("MISMATCH row {row} pe 0 acc_out_a"))
             && !bad.contains(" 0 mismatches"),

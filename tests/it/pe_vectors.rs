@@ -22,11 +22,13 @@ fn run(dir: &Path, args: &str) -> std::process::Output {
     out
 }
 
-/// Builds and runs the files in `dir` in Icarus; the testbench's output.
-fn replay(dir: &Path) -> String {
+/// Builds `files` (the testbench last) in `dir` with Icarus and runs
+/// them; the testbench's output. Shared with the datapath's vectors
+/// (`cosim.rs`).
+pub(crate) fn replay(dir: &Path, files: &[&str]) -> String {
     let c = std::process::Command::new("iverilog")
         .args(["-g2005", "-o", "tb.vvp"])
-        .args(["ercube_sample.v", "ercube_pe_sample.v", "pe_vectors_tb.v"])
+        .args(files)
         .current_dir(dir)
         .output()
         .unwrap();
@@ -38,6 +40,21 @@ fn replay(dir: &Path) -> String {
         .unwrap();
     String::from_utf8_lossy(&r.stdout).into_owned()
 }
+
+/// The checks a passing replay's output counts (`vectors: 0 mismatches
+/// in N ...`); fails when it reports mismatches.
+pub(crate) fn passed_checks(out: &str) -> u64 {
+    assert!(out.contains("vectors: 0 mismatches in "), "{out}");
+    out.split("mismatches in ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+/// The PE stage's files in the order Icarus builds them.
+const PE_FILES: [&str; 3] = ["ercube_sample.v", "ercube_pe_sample.v", "pe_vectors_tb.v"];
 
 /// The middle PE of three, front to back with termination and the
 /// controller's empty-space skipping (the default): its broadcast, plan
@@ -117,15 +134,8 @@ fn pe_vectors_replay_in_icarus() {
             "a write into memory {mem}"
         );
     }
-    let good = replay(&v);
-    assert!(good.contains("vectors: 0 mismatches in "), "{good}");
-    let checks: u64 = good
-        .split("mismatches in ")
-        .nth(1)
-        .and_then(|t| t.split_whitespace().next())
-        .unwrap()
-        .parse()
-        .unwrap();
+    let good = replay(&v, &PE_FILES);
+    let checks = passed_checks(&good);
     assert!(checks > 3 * samples + 2 * rows, "{good}");
     println!("{}{good}", String::from_utf8_lossy(&out.stdout));
     // Each clock clears the issued bit and the one above it.
@@ -133,7 +143,7 @@ fn pe_vectors_replay_in_icarus() {
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("'d1 << idx);"));
     std::fs::write(&path, text.replace("'d1 << idx);", "'d3 << idx);")).unwrap();
-    let bad = replay(&v);
+    let bad = replay(&v, &PE_FILES);
     let line = bad
         .lines()
         .find(|l| l.starts_with("MISMATCH cycle "))
