@@ -53,6 +53,19 @@ pub(crate) fn passed_checks(out: &str) -> u64 {
         .unwrap()
 }
 
+/// Manifest entry `f`'s file in `dir` has `rows` words, none wider than
+/// its port. Shared with the datapath's vectors (`cosim.rs`).
+pub(crate) fn assert_rows_fit(dir: &Path, f: &serde_json::Value, rows: u64) {
+    let text = std::fs::read_to_string(dir.join(f["path"].as_str().unwrap())).unwrap();
+    assert_eq!(text.lines().count() as u64, rows, "{f}");
+    let width = f["width"].as_u64().unwrap();
+    assert!(
+        text.lines()
+            .all(|l| u128::from_str_radix(l, 16).unwrap() >> width == 0),
+        "{f}: a word wider than its port"
+    );
+}
+
 /// The PE stage's files in the order Icarus builds them.
 const PE_FILES: [&str; 3] = ["ercube_sample.v", "ercube_pe_sample.v", "pe_vectors_tb.v"];
 
@@ -102,14 +115,7 @@ fn pe_vectors_replay_in_icarus() {
         assert!(signal(n).is_some(), "{n} in the manifest");
     }
     for f in files {
-        let text = std::fs::read_to_string(v.join(f["path"].as_str().unwrap())).unwrap();
-        assert_eq!(text.lines().count() as u64, rows, "{f}");
-        let width = f["width"].as_u64().unwrap();
-        assert!(
-            text.lines()
-                .all(|l| u128::from_str_radix(l, 16).unwrap() >> width == 0),
-            "{f}: a word wider than its port"
-        );
+        assert_rows_fit(&v, f, rows);
     }
     let ones = |n: &str| {
         std::fs::read_to_string(v.join(format!("pe1_{n}.hex")))
