@@ -33,7 +33,7 @@ fn meaning(name: &str) -> &'static str {
             "the host's voxel load: write, slice parity, row bank, row / 2, local column, word"
         }
         n if n.starts_with("map_") => {
-            "the column map's held range (write, first ray index, count), written by migration"
+            "the column map's held range (write, first ray index, count, the first's slot), written by migration"
         }
         n if n.starts_with("bc_") => {
             "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, next row)"

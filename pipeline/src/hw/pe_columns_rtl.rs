@@ -55,25 +55,91 @@ pub(super) fn declarations(s: &PeSampleShape) -> String {
     )
 }
 
-/// The ray a plan bit `i` stands for (an expression of `i`).
-pub(super) fn planned_mx(s: &PeSampleShape, i: &str) -> String {
+/// The plan port's comparators: `pl_bits[i]` set when the ray plan bit
+/// `i` stands for is held (`i < map_n`) and lies in the run `pl_lo ..=
+/// pl_hi`. Under column blocks that ray is `map_lo + i`, so the run is
+/// moved to the range once (two subtractors) and each bit compares it with
+/// its constant `i`; under a round-robin mapping each entry's index
+/// `cm_mx[i]` is compared with the run at the index's width.
+pub(super) fn plan_compare(s: &PeSampleShape) -> String {
+    let (n, ib) = (s.slots(), s.index_bits);
     if s.round_robin {
-        format!("cm_mx[{i}]")
+        format!(
+            "  genvar pl_i;
+  generate
+    for (pl_i = 0; pl_i < {n}; pl_i = pl_i + 1) begin : pl_cmp
+      wire signed [{ib1}:0] pl_mx = cm_mx[pl_i];
+      assign pl_bits[pl_i] = pl_i < map_n && pl_mx >= pl_lo && pl_mx <= pl_hi;
+    end
+  endgenerate",
+            ib1 = ib - 1
+        )
     } else {
-        format!("map_lo + {i}")
+        format!(
+            "  wire signed [{ib}:0] pl_lo_r = pl_lo - map_lo;
+  wire signed [{ib}:0] pl_hi_r = pl_hi - map_lo;
+  genvar pl_i;
+  generate
+    for (pl_i = 0; pl_i < {n}; pl_i = pl_i + 1) begin : pl_cmp
+      assign pl_bits[pl_i] = pl_i < map_n && pl_lo_r <= pl_i && pl_hi_r >= pl_i;
+    end
+  endgenerate"
+        )
     }
 }
 
+/// The index `idx` of the one-hot word `one` (the row's lowest bit not
+/// issued): bit `b` of the index is the OR of the word's bits whose index
+/// has bit `b` set, a tree of ORs rather than a priority chain.
+pub(super) fn encoder(s: &PeSampleShape) -> String {
+    let n = s.slots();
+    (0..slot_bits(s))
+        .map(|b| {
+            let mask: String = (0..n)
+                .rev()
+                .map(|i| if (i >> b) & 1 == 1 { '1' } else { '0' })
+                .collect();
+            format!("  assign idx[{b}] = |(one & {n}'b{mask});")
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// `x * slots` as a sum of `x`'s shifts, one a set bit of the slots (the
+/// row's base address in the compositing buffer; no multiplier).
+pub(super) fn times_slots(s: &PeSampleShape, x: &str) -> String {
+    let n = s.slots();
+    let terms: Vec<String> = (0..64)
+        .filter(|b| (n >> b) & 1 == 1)
+        .map(|b| {
+            if b == 0 {
+                x.to_owned()
+            } else {
+                format!("({x} << {b})")
+            }
+        })
+        .collect();
+    terms.join(" + ")
+}
+
 /// The issuing ray's index `mx` and slot `slot` from the plan bit `idx`.
+/// Under column blocks the slot is the range's first slot `map_sl` plus
+/// `idx`, wrapped once (`idx` is below the slots): migration keeps the
+/// column map's slots a ring, so no modulo of the index is on the issue
+/// path.
 pub(super) fn mx_slot(s: &PeSampleShape) -> String {
+    let tb = slot_bits(s);
     if s.round_robin {
-        "  wire signed [31:0] mx = cm_mx[idx];\n  wire [31:0] slot = {{1'b0, cm_sl[idx]}};"
-            .replace("{{", "{")
-            .replace("}}", "}")
+        format!(
+            "  wire signed [31:0] mx = cm_mx[idx];\n  wire [{tb1}:0] slot = cm_sl[idx];",
+            tb1 = tb - 1
+        )
     } else {
         format!(
-            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});\n  wire [31:0] slot = (mx + {off}) % {slots};",
-            off = s.slot_offset(),
+            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});
+  wire [{tb}:0] sl_sum = map_sl + idx;
+  wire [{tb1}:0] slot = sl_sum >= {slots} ? sl_sum - {slots} : sl_sum;",
+            tb1 = tb - 1,
             slots = s.slots()
         )
     }
@@ -109,10 +175,8 @@ pub(super) fn dead_by_plan(s: &PeSampleShape) -> String {
         )
     } else {
         format!(
-            "  wire [31:0] t_base = (map_lo + {off}) % {n};
-  wire [{d1}:0] dead_2 = {{dead_s, dead_s}} >> t_base;
+            "  wire [{d1}:0] dead_2 = {{dead_s, dead_s}} >> map_sl;
   wire [{s1}:0] dead = dead_2[{s1}:0];",
-            off = s.slot_offset(),
             d1 = 2 * n - 1,
             s1 = n - 1
         )

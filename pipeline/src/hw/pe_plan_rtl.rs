@@ -48,16 +48,10 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
     let mut t = String::new();
     let _ = writeln!(
         t,
-        "  // The row plan's comparators: slot i is planned by a run when it holds a
-  // column (i < map_n) and map_lo + i lies in the run.
+        "  // The row plan's comparators: bit i is planned by a run when the column
+  // map's entry i holds a column (i < map_n) whose ray lies in the run.
   wire [{s1}:0] pl_bits;
-  genvar pl_i;
-  generate
-    for (pl_i = 0; pl_i < {slots}; pl_i = pl_i + 1) begin : pl_cmp
-      wire signed [31:0] pl_mx = {pl_mx};
-      assign pl_bits[pl_i] = pl_i < map_n && pl_mx >= pl_lo && pl_mx <= pl_hi;
-    end
-  endgenerate
+{compare}
   // The row's word so far, written through on every run.
   reg [{s1}:0] pl_acc;
   wire [{s1}:0] pl_word = (pl_first ? {{{slots}{{1'b0}}}} : pl_acc) | pl_bits;
@@ -67,7 +61,7 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
   end
   always @(posedge clk) if (pl_valid) plan[pl_row] <= pl_word;",
         s1 = slots - 1,
-        pl_mx = super::pe_columns_rtl::planned_mx(s, "pl_i"),
+        compare = super::pe_columns_rtl::plan_compare(s),
     );
     (t, slots)
 }

@@ -132,10 +132,11 @@ module {MODULE} (
   input wire [{hb1}:0] vld_row,
   input wire [{lb1}:0] vld_col,
   input wire [{v1}:0] vld_data,
-  // The held columns (the column map's range: first mx, count), written by migration.
+  // The held columns (the column map's range: first mx, count, the first's slot), written by migration.
   input wire map_we,
   input wire signed [{ib1}:0] map_lo_in,
   input wire [{sb1}:0] map_n_in,
+  input wire [{tb1}:0] map_sl_in,
 {plan_ports}
   // This PE's voxel columns: first, one past the last, the volume's last.
   input wire [{cb1}:0] col_lo,
@@ -157,6 +158,7 @@ module {MODULE} (
         v1 = v - 1,
         ib1 = ib - 1,
         sb1 = r.slot_bits() - 1,
+        tb1 = super::pe_columns_rtl::slot_bits(s) - 1,
         cb1 = cb - 1,
         rb1 = rb - 1,
         yb1 = yb - 1,
@@ -216,13 +218,16 @@ module {MODULE} (
   reg [{s1}:0] plan [0:{rm}];
   reg signed [{ib1}:0] map_lo;
   reg [{sb1}:0] map_n;
+  reg [{tb1}:0] map_sl;
 {rr_decls}  always @(posedge clk) begin
     if (rst) begin
       map_lo <= 0;
       map_n <= 0;
+      map_sl <= 0;
     end else if (map_we) begin
       map_lo <= map_lo_in;
       map_n <= map_n_in;
+      map_sl <= map_sl_in;
     end
   end
 {plan_write}  // The host's voxel load; column 0 also into the edge column.
@@ -241,6 +246,7 @@ module {MODULE} (
         bdm = r.bank_depth - 1,
         ib1 = ib - 1,
         sb1 = r.slot_bits() - 1,
+        tb1 = super::pe_columns_rtl::slot_bits(s) - 1,
         sbw1 = sbw - 1,
         ebw1 = ebw - 1,
         s1 = slots - 1,
@@ -259,27 +265,24 @@ module {MODULE} (
     let _ = writeln!(
         w,
         "  // The row's c-th planned column issues in the row's c-th cycle: the
-  // lowest of the row's bits not issued yet (rem holds them after the first).
-  function [{sb1}:0] lowest;
-    input [{s1}:0] bits;
-    integer i;
-    begin
-      lowest = 0;
-      for (i = {s1}; i >= 0; i = i - 1) if (bits[i]) lowest = i;
-    end
-  endfunction
+  // lowest of the row's bits not issued yet (rem holds them after the first),
+  // one-hot from a carry chain (bits & -bits), its index from an OR tree.
   reg [{s1}:0] rem;
   wire [{s1}:0] row_bits = bc_first ? plan[bc_row]{live} : rem;
-  wire [{sb1}:0] idx = lowest(row_bits);
+  wire [{s1}:0] one = row_bits & (~row_bits + {slots}'d1);
+  wire [{tb1}:0] idx;
+{encoder}
 {mx_slot}
   wire go = bc_go && row_bits != 0;
-  wire [31:0] addr = bc_row * {slots} + slot;
+  // The ray's buffer word, row * {slots} + slot, the product as the row's shifted sums.
+  wire [{ab1}:0] row_w = bc_row;
+  wire [{ab1}:0] addr = {row_base} + slot;
   always @(posedge clk) begin
     if (rst) rem <= 0;
-    else if (bc_go) rem <= row_bits & ~({slots}'d1 << idx);
+    else if (bc_go) rem <= row_bits & ~one;
   end
-  // The issuing ray's accumulators: both banks at its word, forwarded
-  // from a write-back in this clock or the issue's.
+  // The issuing ray's accumulators: both banks at its word; a write-back in
+  // this clock or the issue's is forwarded (compared at issue, off this path).
   reg [{bw1}:0] rq0, rq1;
   always @(posedge clk) begin
     rq0 <= bank0[addr[{ab1}:1]];
@@ -289,13 +292,16 @@ module {MODULE} (
   reg s_z;
   reg [{yb1}:0] s_y0, s_y1;
   reg fw_v;
+  reg [{ab1}:0] fw_a;
   reg [{bw1}:0] fw_d;",
-        sb1 = r.slot_bits() - 1,
         s1 = slots - 1,
+        tb1 = super::pe_columns_rtl::slot_bits(s) - 1,
         bw1 = bw - 1,
         ab1 = ab - 1,
         yb1 = yb - 1,
+        encoder = super::pe_columns_rtl::encoder(s),
         mx_slot = super::pe_columns_rtl::mx_slot(s),
+        row_base = super::pe_columns_rtl::times_slots(s, "row_w"),
     );
     for n in row_words {
         let p = port(n)?;
@@ -312,6 +318,7 @@ module {MODULE} (
       s_y0 <= 0;
       s_y1 <= 0;
       fw_v <= 1'b0;
+      fw_a <= 0;
       fw_d <= 0;"
     );
     for n in row_words {
@@ -326,7 +333,8 @@ module {MODULE} (
       s_z <= bc_z;
       s_y0 <= bc_y0;
       s_y1 <= bc_y1;
-      fw_v <= wb_valid && wb_addr == addr[{ab1}:0];
+      fw_v <= wb_valid;
+      fw_a <= wb_addr;
       fw_d <= wb_data;",
         ab1 = ab - 1
     );
@@ -338,7 +346,7 @@ module {MODULE} (
         "    end
   end
   wire [{bw1}:0] acc_word = (wb_valid && wb_addr == s_addr) ? wb_data
-      : fw_v ? fw_d : (s_addr[0] ? rq1 : rq0);
+      : (fw_v && fw_a == s_addr) ? fw_d : (s_addr[0] ? rq1 : rq0);
   wire [{bw1}:0] acc_in = iss_valid ? acc_word : {{{bw}{{1'b0}}}};",
         bw1 = bw - 1,
     );
@@ -510,6 +518,8 @@ module {MODULE} (
     if s.termination.is_some() {
         regs += super::pe_term_rtl::termination_line(w, s, depth);
     }
+    // rem, rq0/rq1, iss_valid, iss_m, s_addr, s_z, s_y0/s_y1, fw_v/fw_a/fw_d,
+    // and the held range (map_lo, map_n, map_sl).
     regs += slots
         + 2 * u64::from(bw)
         + 1
@@ -518,9 +528,11 @@ module {MODULE} (
         + 1
         + 2 * u64::from(yb)
         + 1
+        + u64::from(ab)
         + u64::from(bw)
         + u64::from(ib)
-        + u64::from(r.slot_bits());
+        + u64::from(r.slot_bits())
+        + u64::from(super::pe_columns_rtl::slot_bits(s));
     for n in row_words {
         regs += u64::from(port(n)?.word.bits);
     }

@@ -233,7 +233,7 @@ fn a_comparator_that_drops_a_run_end_is_caught() {
         &cfg(2),
         SKIPPING,
         Some(Skips::default()),
-        ("pl_mx <= pl_hi;", "pl_mx < pl_hi;"),
+        ("pl_hi_r >= pl_i;", "pl_hi_r > pl_i;"),
     ) else {
         return;
     };
@@ -271,7 +271,10 @@ fn a_control_that_skips_a_ray_is_caught() {
         &cfg(2),
         ("sphere:24", [16.0, 10.0, -60.0], 16),
         None,
-        ("'d1 << idx);", "'d3 << idx);"),
+        (
+            "rem <= row_bits & ~one;",
+            "rem <= row_bits & ~one & ~(one << 1);",
+        ),
     ) else {
         return;
     };

@@ -62,8 +62,15 @@ fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
     );
     let path = vec.join("ercube_pe_sample.v");
     let good = std::fs::read_to_string(&path).unwrap();
-    assert!(good.contains("'d1 << idx);"));
-    std::fs::write(&path, good.replace("'d1 << idx);", "'d3 << idx);")).unwrap();
+    assert!(good.contains("rem <= row_bits & ~one;"));
+    std::fs::write(
+        &path,
+        good.replace(
+            "rem <= row_bits & ~one;",
+            "rem <= row_bits & ~one & ~(one << 1);",
+        ),
+    )
+    .unwrap();
     let o = run_in(&py, &d.join("broken"), "icarus", &args);
     let t = text(&o);
     assert!(!o.status.success(), "the broken copy passed:\n{t}");

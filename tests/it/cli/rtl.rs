@@ -81,6 +81,7 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "wb_data",
             "vld_data",
             "map_n_in",
+            "map_sl_in",
             "pl_valid",
             "pl_hi",
         ] {

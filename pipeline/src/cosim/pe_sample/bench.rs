@@ -100,9 +100,9 @@ module {TOP};
   integer fi{k}, ft{k}, fw{k};
   reg [63:0] ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4;
   reg ev_ok{k};
-  reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2;
+  reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2, mp{k}_3;
   reg mp_ok{k}, map_we{k};
-  reg [63:0] map_lo{k}, map_n{k};{tw}{rr}
+  reg [63:0] map_lo{k}, map_n{k}, map_sl{k};{tw}{rr}
   wire [{e1}:0] edge_out{k};",
             rr = if shape.round_robin {
                 format!(
@@ -135,7 +135,7 @@ module {TOP};
             w,
             "  {MODULE} pe{k} (.clk(clk), .rst(rst), .tbl_we(tbl_we), .tbl_sel(tbl_sel), .tbl_addr(tbl_addr), .tbl_data(tbl_data),
     .vld_we(1'b0), .vld_z(1'b0), .vld_bank(1'b0), .vld_row(0), .vld_col(0), .vld_data(0),
-    .map_we(map_we{k}), .map_lo_in(map_lo{k}), .map_n_in(map_n{k}),
+    .map_we(map_we{k}), .map_lo_in(map_lo{k}), .map_n_in(map_n{k}), .map_sl_in(map_sl{k}),
     .pl_valid(pl_valid), .pl_first(pl_first), .pl_row(pl_row), .pl_lo(pl_lo), .pl_hi(pl_hi),
     .col_lo(clo{k}), .col_end(cend{k}), .nx_last(nxl{k}),
     .bc_go(bc_go), .bc_first(bc_first), .bc_row(bc_row), .bc_z(bc_z), .bc_y0(bc_y0), .bc_y1(bc_y1),
@@ -175,9 +175,9 @@ module {TOP};
     got = $fscanf(fev{k}, \"%h %h %h %h %h\\n\", ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4);
     ev_ok{k} = (got == 5);
     fmap{k} = $fopen(\"pe{k}.map\", \"r\");{rr}
-    got = $fscanf(fmap{k}, \"%h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2);
-    mp_ok{k} = (got == 3);
-    map_we{k} = 0; map_lo{k} = 0; map_n{k} = 0;
+    got = $fscanf(fmap{k}, \"%h %h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2, mp{k}_3);
+    mp_ok{k} = (got == 4);
+    map_we{k} = 0; map_lo{k} = 0; map_n{k} = 0; map_sl{k} = 0;
     fi{k} = $fopen(\"rtl{k}.I\", \"w\");
     ft{k} = $fopen(\"rtl{k}.T\", \"w\");
     fw{k} = $fopen(\"rtl{k}.W\", \"w\");",
@@ -223,9 +223,9 @@ module {TOP};
             w,
             "    // The held range of clock 0, in place for its first clock.
     if (mp_ok{k} && mp{k}_0 == 0) begin
-      map_we{k} = 1; map_lo{k} = mp{k}_1; map_n{k} = mp{k}_2;
-      got = $fscanf(fmap{k}, \"%h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2);
-      mp_ok{k} = (got == 3);
+      map_we{k} = 1; map_lo{k} = mp{k}_1; map_n{k} = mp{k}_2; map_sl{k} = mp{k}_3;
+      got = $fscanf(fmap{k}, \"%h %h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2, mp{k}_3);
+      mp_ok{k} = (got == 4);
     end"
         );
     }
@@ -273,9 +273,9 @@ module {TOP};
     end
     map_we{k} = 0;{rr}
     if (mp_ok{k} && mp{k}_0 == cyc + 1) begin
-      map_we{k} = 1; map_lo{k} = mp{k}_1; map_n{k} = mp{k}_2;
-      got = $fscanf(fmap{k}, \"%h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2);
-      mp_ok{k} = (got == 3);
+      map_we{k} = 1; map_lo{k} = mp{k}_1; map_n{k} = mp{k}_2; map_sl{k} = mp{k}_3;
+      got = $fscanf(fmap{k}, \"%h %h %h %h\\n\", mp{k}_0, mp{k}_1, mp{k}_2, mp{k}_3);
+      mp_ok{k} = (got == 4);
     end",
             rr = if shape.round_robin {
                 format!(

@@ -75,7 +75,7 @@ impl PeCapture {
                 return Ok(false);
             }
             self.held[k] = (0, pe.active.1);
-            writeln!(self.map[k], "{cycle:x} 0 {n:x}")?;
+            writeln!(self.map[k], "{cycle:x} 0 {n:x} 0")?;
             for (i, (mx, sl)) in mxs.iter().zip(&given).enumerate() {
                 writeln!(self.cm[k], "{cycle:x} {i:x} {:x} {sl:x}", *mx as u64)?;
             }
@@ -98,7 +98,9 @@ impl PeCapture {
             return Ok(false);
         }
         self.held[k] = (lo, pe.active.1);
-        writeln!(self.map[k], "{:x} {:x} {:x}", cycle, lo as u64, n)?;
+        // The range's first slot, as migration keeps the slots a ring.
+        let sl = self.shape.slot(lo);
+        writeln!(self.map[k], "{:x} {:x} {:x} {:x}", cycle, lo as u64, n, sl)?;
         Ok(true)
     }
 }

@@ -28,6 +28,7 @@ pub fn meaning(name: &str) -> &'static str {
         "map_we" => "the held range takes effect this clock",
         "map_lo_in" => "the held range's first ray index",
         "map_n_in" => "the held range's columns",
+        "map_sl_in" => "the held range's first column map slot (migration keeps the slots a ring)",
         "pl_valid" => "a run on the plan port (the controller's runs of a row)",
         "pl_first" => "the row's first run",
         "pl_row" => "the run's ray row",

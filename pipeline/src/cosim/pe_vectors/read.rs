@@ -276,6 +276,7 @@ pub(super) fn stream(
         col_in(&mut cols, &decl("map_we")?, Check::Drive, n),
         col_in(&mut cols, &decl("map_lo_in")?, Check::Drive, n),
         col_in(&mut cols, &decl("map_n_in")?, Check::Drive, n),
+        col_in(&mut cols, &decl("map_sl_in")?, Check::Drive, n),
     ];
     let mut by_row = vec![None; n];
     for l in hex_lines(&dir.join(format!("pe{pe}.map")))? {
