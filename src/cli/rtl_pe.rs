@@ -39,7 +39,7 @@ fn meaning(name: &str) -> &'static str {
             "the controller's broadcast for the next clock (sample, row, slice, voxel rows, row words, next row)"
         }
         n if n.starts_with("pl_") => {
-            "the plan port: the controller's runs of the PlanRows broadcast, one a clock (valid, first run of its row, ray row, first and last ray index), which a comparator pair a column map slot turns into the row plan's word (bit i set when held column map_lo + i lies in a run)"
+            "the plan port: the controller's runs of the PlanRows broadcast, one a clock, rows in the order they issue (valid, first run of its row, first and last ray index), which comparators turn into the row plan's word (bit i set when held column map_lo + i lies in a run), kept in a FIFO of rows"
         }
         n if n.starts_with("iss_") => "what the control issues into the datapath: valid, ray index, the ray's accumulators",
         n if n.starts_with("tap_") => "the voxel taps served to the datapath",

@@ -58,8 +58,9 @@ pub(super) fn declarations(s: &PeSampleShape) -> String {
 /// The plan port's comparators: `pl_bits[i]` set when the ray plan bit
 /// `i` stands for is held (`i < map_n`) and lies in the run `pl_lo ..=
 /// pl_hi`. Under column blocks that ray is `map_lo + i`, so the run is
-/// moved to the range once (two subtractors) and each bit compares it with
-/// its constant `i`; under a round-robin mapping each entry's index
+/// moved to the range once (two subtractors) and compared with every
+/// bit's constant `i` at once (thermometer codes of the run's ends); under a
+/// round-robin mapping each entry's index
 /// `cm_mx[i]` is compared with the run at the index's width.
 pub(super) fn plan_compare(s: &PeSampleShape) -> String {
     let (n, ib) = (s.slots(), s.index_bits);
@@ -76,14 +77,17 @@ pub(super) fn plan_compare(s: &PeSampleShape) -> String {
         )
     } else {
         format!(
-            "  wire signed [{ib}:0] pl_lo_r = pl_lo - map_lo;
+            "  // The run moved to the range, and each bit's three tests as thermometer
+  // codes of the run's ends and the count (i >= lo, i <= hi, i < map_n).
+  wire signed [{ib}:0] pl_lo_r = pl_lo - map_lo;
   wire signed [{ib}:0] pl_hi_r = pl_hi - map_lo;
-  genvar pl_i;
-  generate
-    for (pl_i = 0; pl_i < {n}; pl_i = pl_i + 1) begin : pl_cmp
-      assign pl_bits[pl_i] = pl_i < map_n && pl_lo_r <= pl_i && pl_hi_r >= pl_i;
-    end
-  endgenerate"
+  wire [{s1}:0] pl_all = {{{n}{{1'b1}}}};
+  wire [{s1}:0] pl_ge = pl_lo_r < 0 ? pl_all : pl_lo_r > {s1} ? {n}'d0 : pl_all << pl_lo_r[{tb1}:0];
+  wire [{s1}:0] pl_le = pl_hi_r < 0 ? {n}'d0 : pl_hi_r > {s1} ? pl_all : pl_all >> ({s1} - pl_hi_r[{tb1}:0]);
+  wire [{s1}:0] pl_in = ~(pl_all << map_n);
+  assign pl_bits = pl_ge & pl_le & pl_in;",
+            s1 = n - 1,
+            tb1 = slot_bits(s) - 1
         )
     }
 }

@@ -11,19 +11,27 @@
 //! column, so it broadcasts every row's runs to every PE, one run a clock
 //! (`pl_valid`), the slice's rows in order, `pl_first` on a row's first
 //! run; a row no PE samples (no runs, or none over a held column: the
-//! PEs' row reports) is not sent, as its word is never read. The runs are inside the slice's x range (the controller's
-//! planner clips them to it), so a held column is planned when it is one
-//! of the `map_n` held ones and inside the run: a comparator pair per
-//! column map slot over `map_lo + i`. The row's word is the OR of its
-//! runs' bits, gathered in `pl_acc` and written through on every run, so
-//! the memory holds the whole word after the row's last run; the control
-//! reads it from the next clock on (a run's beat is at least
+//! PEs' row reports) is not sent, as its word is never read. The runs are
+//! inside the slice's x range (the controller's planner clips them to
+//! it), so a held column is planned when it is one of the `map_n` held
+//! ones and inside the run. The row's word is the OR of its runs' bits,
+//! gathered in `pl_acc` and written through on every run.
+//!
+//! The rows are sent in the order the controller samples them, and every
+//! row sent is sampled, so the plan memory is a FIFO of words: `pl_first`
+//! opens the entry after the tail, and the head entry is the row that
+//! issues next. Its word is read one clock ahead (a synchronous read, so
+//! the memory is a block RAM), the read moving to the next entry at a
+//! row's first clock; a run written to the entry being read in that clock
+//! bypasses the memory. The control sees the word a run writes from the
+//! next clock on, as a run's beat is at least
 //! [`crate::stages::sample::PLAN_TO_ISSUE`] clocks before its row's first
-//! issue, which the model counts).
+//! issue (which the model counts).
 
 use std::fmt::Write as _;
 
 use super::pe_sample_shape::PeSampleShape;
+use crate::cost::inventory::addr_bits;
 
 /// The plan port's declarations in the module's port list.
 pub(super) fn ports(s: &PeSampleShape) -> String {
@@ -32,19 +40,20 @@ pub(super) fn ports(s: &PeSampleShape) -> String {
   // a clock, the slice's rows in order, pl_first on a row's first run.
   input wire pl_valid,
   input wire pl_first,
-  input wire [{rb1}:0] pl_row,
   input wire signed [{ib1}:0] pl_lo,
   input wire signed [{ib1}:0] pl_hi,",
-        rb1 = s.rays.row_bits() - 1,
         ib1 = s.index_bits - 1,
     )
 }
 
-/// The comparators and the plan memory's write, after the memory and the
-/// held range (`map_lo`, `map_n`) are declared; returns the text and the
-/// register bits it declares.
+/// The comparators, the plan FIFO's write and its head's read, after the
+/// memory (`plan`) and the held range (`map_lo`, `map_n`) are declared:
+/// the head row's word is `hq`. Returns the text and the register bits
+/// it declares.
 pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
     let slots = s.slots();
+    let rows = s.rays.max_rows;
+    let pb = addr_bits(rows);
     let mut t = String::new();
     let _ = writeln!(
         t,
@@ -59,9 +68,43 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
     if (rst) pl_acc <= 0;
     else if (pl_valid) pl_acc <= pl_word;
   end
-  always @(posedge clk) if (pl_valid) plan[pl_row] <= pl_word;",
+  // The rows' words in the order they are sent, the order they issue:
+  // pl_first opens the entry after the tail, the row's other runs rewrite it.
+  reg [{pb1}:0] p_tail, p_head;
+  wire [{pb1}:0] p_open = p_tail == {last} ? {pb}'d0 : p_tail + {pb}'d1;
+  wire [{pb1}:0] p_widx = pl_first ? p_open : p_tail;
+  always @(posedge clk) begin
+    if (rst) p_tail <= {pb}'d{last};
+    else if (pl_valid) p_tail <= p_widx;
+  end
+  always @(posedge clk) if (pl_valid) plan[p_widx] <= pl_word;
+  // The head entry (the row that issues next) read a clock ahead, moving to
+  // the next entry at a row's first clock; a run written to the entry read
+  // in that clock bypasses the memory.
+  wire [{pb1}:0] p_next = p_head == {last} ? {pb}'d0 : p_head + {pb}'d1;
+  wire [{pb1}:0] p_ra = bc_first ? p_next : p_head;
+  reg [{s1}:0] p_q;
+  always @(posedge clk) p_q <= plan[p_ra];
+  reg p_byp;
+  reg [{s1}:0] p_bw;
+  always @(posedge clk) begin
+    if (rst) begin
+      p_head <= 0;
+      p_byp <= 1'b0;
+      p_bw <= 0;
+    end else begin
+      if (bc_first) p_head <= p_next;
+      p_byp <= pl_valid && p_widx == p_ra;
+      p_bw <= pl_word;
+    end
+  end
+  wire [{s1}:0] hq = p_byp ? p_bw : p_q;",
         s1 = slots - 1,
+        pb1 = pb - 1,
+        last = rows - 1,
         compare = super::pe_columns_rtl::plan_compare(s),
     );
-    (t, slots)
+    // pl_acc, the FIFO's pointers, the head's bypass (the read register
+    // is the memory's).
+    (t, 2 * slots + 2 * u64::from(pb) + 1)
 }

@@ -268,7 +268,7 @@ module {MODULE} (
   // lowest of the row's bits not issued yet (rem holds them after the first),
   // one-hot from a carry chain (bits & -bits), its index from an OR tree.
   reg [{s1}:0] rem;
-  wire [{s1}:0] row_bits = bc_first ? plan[bc_row]{live} : rem;
+  wire [{s1}:0] row_bits = bc_first ? hq{live} : rem;
   wire [{s1}:0] one = row_bits & (~row_bits + {slots}'d1);
   wire [{tb1}:0] idx;
 {encoder}

@@ -136,7 +136,7 @@ module {TOP};
             "  {MODULE} pe{k} (.clk(clk), .rst(rst), .tbl_we(tbl_we), .tbl_sel(tbl_sel), .tbl_addr(tbl_addr), .tbl_data(tbl_data),
     .vld_we(1'b0), .vld_z(1'b0), .vld_bank(1'b0), .vld_row(0), .vld_col(0), .vld_data(0),
     .map_we(map_we{k}), .map_lo_in(map_lo{k}), .map_n_in(map_n{k}), .map_sl_in(map_sl{k}),
-    .pl_valid(pl_valid), .pl_first(pl_first), .pl_row(pl_row), .pl_lo(pl_lo), .pl_hi(pl_hi),
+    .pl_valid(pl_valid), .pl_first(pl_first), .pl_lo(pl_lo), .pl_hi(pl_hi),
     .col_lo(clo{k}), .col_end(cend{k}), .nx_last(nxl{k}),
     .bc_go(bc_go), .bc_first(bc_first), .bc_row(bc_row), .bc_z(bc_z), .bc_y0(bc_y0), .bc_y1(bc_y1),
     .bc_nv(bc_nv), .bc_nz(bc_nz), .bc_ny0(bc_ny0), .bc_ny1(bc_ny1),

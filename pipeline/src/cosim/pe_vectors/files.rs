@@ -31,7 +31,6 @@ pub fn meaning(name: &str) -> &'static str {
         "map_sl_in" => "the held range's first column map slot (migration keeps the slots a ring)",
         "pl_valid" => "a run on the plan port (the controller's runs of a row)",
         "pl_first" => "the row's first run",
-        "pl_row" => "the run's ray row",
         "pl_lo" | "pl_hi" => "the run's ends (signed ray indices)",
         "edge_in" => {
             "the right neighbour's edge register: its first column at the row's two voxel rows"

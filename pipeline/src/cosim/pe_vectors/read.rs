@@ -286,18 +286,24 @@ pub(super) fn stream(
     }
     fill(&mut cols, &map, &by_row);
     // The plan port: plan.txt's run of clock c is taken at the edge
-    // ending it.
+    // ending it (its row goes nowhere: the PE keeps its rows in the order
+    // they come).
     let plan = [
         col_in(&mut cols, &decl("pl_valid")?, Check::Drive, n),
         col_in(&mut cols, &decl("pl_first")?, Check::Drive, n),
-        col_in(&mut cols, &decl("pl_row")?, Check::Drive, n),
         col_in(&mut cols, &decl("pl_lo")?, Check::Drive, n),
         col_in(&mut cols, &decl("pl_hi")?, Check::Drive, n),
     ];
     let mut by_row = vec![None; n];
     for l in hex_lines(&dir.join("plan.txt"))? {
         if let Some(r) = by_row.get_mut(l[0] as usize + 1) {
-            *r = Some(l);
+            *r = Some(
+                l.iter()
+                    .enumerate()
+                    .filter(|&(i, _)| i != 2)
+                    .map(|(_, &w)| w)
+                    .collect(),
+            );
         }
     }
     fill(&mut cols, &plan, &by_row);
