@@ -17,6 +17,7 @@ mod cocotb;
 mod cocotb_pe;
 mod cocotb_verilator;
 mod datapath;
+mod pe_vectors;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
