@@ -30,98 +30,18 @@
 
 use std::fmt::Write as _;
 
-use pipeline::cosim::pe_vectors::{ports, Decl};
+mod manifest;
+
+use pipeline::cosim::pe_vectors::ports;
 use pipeline::hw::unit::Unit;
 use serde_json::Value;
+
+use manifest::{columns, field, memory_bits, num, text, Col};
 
 /// The datapath inputs fed by the broadcast's row words (`bc_<name>`).
 const ROW_WORDS: [&str; 7] = ["a", "t", "b", "k", "row_wy", "sy", "sz"];
 /// The compositing channels, in `wb_data`'s order from its low bits.
 const CHANNELS: [&str; 4] = ["r", "g", "b", "a"];
-
-/// A file's port, as the manifest lists it.
-struct Col {
-    name: String,
-    input: bool,
-    bits: u32,
-    signed: bool,
-    /// The valid a checked output is compared under (`None`: every clock).
-    when: Option<String>,
-}
-
-fn field<'a>(v: &'a Value, key: &str) -> Result<&'a Value, String> {
-    v.get(key)
-        .ok_or_else(|| format!("manifest.json: no \"{key}\""))
-}
-
-fn num(v: &Value, key: &str) -> Result<u64, String> {
-    field(v, key)?
-        .as_u64()
-        .ok_or_else(|| format!("manifest.json: \"{key}\" is not a count"))
-}
-
-fn text<'a>(v: &'a Value, key: &str) -> Result<&'a str, String> {
-    field(v, key)?
-        .as_str()
-        .ok_or_else(|| format!("manifest.json: \"{key}\" is not text"))
-}
-
-/// The files' ports from the manifest, checked against the module's.
-fn columns(man: &Value, decls: &[Decl]) -> Result<Vec<Col>, String> {
-    let files = field(man, "files")?
-        .as_array()
-        .ok_or("manifest.json: \"files\" is not a list")?;
-    let mut cols = Vec::new();
-    for f in files {
-        let name = text(f, "signal")?.to_owned();
-        let input = text(f, "direction")? == "in";
-        let bits = num(f, "width")? as u32;
-        let signed = field(f, "signed")?.as_bool().unwrap_or(false);
-        let checked = text(f, "checked")?;
-        let when = checked
-            .strip_prefix("where ")
-            .and_then(|s| s.strip_suffix(" is 1"))
-            .map(str::to_owned);
-        match decls.iter().find(|d| d.name == name) {
-            Some(d) if d.input == input && d.bits == bits => {}
-            Some(d) => {
-                return Err(format!(
-                    "port {name} is {} bits {}, the vectors' is {bits} bits {}",
-                    d.bits,
-                    if d.input { "in" } else { "out" },
-                    if input { "in" } else { "out" }
-                ))
-            }
-            None => {
-                return Err(format!(
-                    "the module has no port {name} (a column of the vectors)"
-                ))
-            }
-        }
-        cols.push(Col {
-            name,
-            input,
-            bits,
-            signed,
-            when,
-        });
-    }
-    Ok(cols)
-}
-
-/// The width of the memory `name` in the module's text (`reg [H:0] name
-/// [`), or `None` when the module has no such memory.
-fn memory_bits(verilog: &str, name: &str) -> Option<u32> {
-    verilog.lines().find_map(|l| {
-        let l = l.trim();
-        let rest = l.strip_prefix("reg [")?;
-        let (hi, rest) = rest.split_once(":0]")?;
-        let rest = rest.trim_start().strip_prefix(name)?;
-        rest.trim_start()
-            .starts_with('[')
-            .then(|| hi.trim().parse::<u32>().ok().map(|h| h + 1))?
-    })
-}
 
 /// `signed [b-1:0]` or `[b-1:0]`.
 fn range(bits: u32, signed: bool) -> String {
