@@ -71,6 +71,72 @@ def render(
     change it while the call runs.
     """
 
+class PeVectors(TypedDict):
+    """One PE's sample stage over a frame (`ercube.pe_vectors`): the words
+    of the files `ercube vectors --stage pe` writes, as arrays."""
+
+    pe: int
+    pes: int
+    rows: int
+    """Clocks (rows of every port's array), clock 0 the first after reset
+    and the tables."""
+    depth: int
+    """The datapath's depth: a sample issued in clock c is written back in
+    clock c + depth."""
+    tap_stage: int
+    """Clocks from an issue to its taps."""
+    samples: int
+    """Samples this PE issued."""
+    samples_all_pes: int
+    frame_cycles: int
+    inputs: dict[str, npt.NDArray[np.uint64]]
+    """Stimulus by port: the word at the rising edge that starts each clock
+    (two's complement over the port's width)."""
+    outputs: dict[str, npt.NDArray[np.uint64]]
+    """Expected responses by port: the word during each clock."""
+    ports: dict[str, dict[str, Any]]
+    """Per port: bits, signed, direction ("in", "out") and checked
+    ("stimulus", "every cycle", "where iss_valid is 1", ...)."""
+    constants: dict[str, int]
+    """col_lo, col_end, nx_last: inputs that hold one word over the frame."""
+    writes: dict[str, npt.NDArray[Any]]
+    """The memory writes the model makes without a clock, in order: cycle
+    (uint64; applied before the rising edge that ends it), mem (uint8, an
+    index into memories), addr, data (uint64; for term, slot << 1 | bit)."""
+    memories: List[str]
+    tables: dict[str, npt.NDArray[np.int64]]
+    """The datapath's tables, raw words by name (Datapath.load_table takes
+    them; the module's host port their low bits)."""
+    verilog: dict[str, str]
+    """The two modules' Verilog by name: ercube_pe_sample, ercube_sample."""
+
+def pe_vectors(
+    voxels: npt.NDArray[Union[np.uint8, np.uint16]],
+    *,
+    pe: int = 0,
+    spacing: Vec3 = (1.0, 1.0, 1.0),
+    eye: Optional[Vec3] = None,
+    look_at: Optional[Vec3] = None,
+    up: Vec3 = (0.0, 1.0, 0.0),
+    fov: float = 60.0,
+    size: Union[Tuple[int, int], Sequence[int]] = (256, 256),
+    tf: Optional[str] = "grey-ramp",
+    order: Optional[str] = None,
+    config: Optional[str] = None,
+    **options: Any,
+) -> PeVectors:
+    """PE `pe`'s sample stage (ercube_pe_sample) over the frame `ercube
+    vectors --stage pe` captures of voxels: every port's stimulus and
+    expected response a clock, the memory writes and the tables, equal to
+    the command's files word for word, with no file written.
+
+    Defaults are the command line's; order is "btf" or "ftb" (default the
+    configuration's); further options are its flags with underscores
+    (pes=3, terminate=0.95). Shading, the volume of interest and the
+    interleave and cyclic mappings raise ercube.Error as the command
+    refuses them. The GIL is released while the frame runs.
+    """
+
 STAGES: List[str]
 """The controller's stages by code: STAGES[Chip.broadcast()["stage"]]."""
 

@@ -19,9 +19,11 @@ use clap::{CommandFactory, FromArgMatches, Parser};
 use golden::volume::{Volume, Voxels};
 
 use crate::cli::args::SourceArgs;
+use crate::cli::cosim_frame::{setup_given, FrameArgs};
 use crate::cli::render::{self, RenderArgs};
 
 pub use crate::cli::render::{Rendered, Reuse};
+pub use pipeline::cosim::pe_vectors::PeStream;
 
 /// A failure, in the one-line form the command line prints after
 /// `ercube: error: `.
@@ -72,6 +74,15 @@ struct RenderCommand {
 struct SourceCommand {
     #[command(flatten)]
     source: SourceArgs,
+}
+
+/// The frame `ercube vectors` captures: the view, the renderer's options,
+/// the configuration and the order.
+#[derive(Debug, Parser)]
+#[command(name = "ercube vectors", no_binary_name = true)]
+struct VectorsFrameCommand {
+    #[command(flatten)]
+    frame: FrameArgs,
 }
 
 /// The flags that name files the caller receives as values instead.
@@ -255,6 +266,25 @@ pub fn volume<S: AsRef<str>>(args: &[S]) -> Result<Volume, Error> {
     let c = SourceCommand::try_parse_from(words).map_err(|e| Error::usage(&e))?;
     let (vol, _) = c.source.load().map_err(|e| Error::run(&e))?;
     Ok(vol)
+}
+
+/// PE `pe`'s sample stage over the frame `ercube vectors --stage pe ARGS`
+/// captures (the view, renderer and `--order` flags of `ercube vectors`),
+/// of `volume` when given, with the configuration `config` (TOML text)
+/// when given: every port's word each clock, the memory writes and the
+/// tables, the words its files hold (`pipeline::cosim::pe_vectors`),
+/// nothing written.
+pub fn pe_stream<S: AsRef<str>>(
+    args: &[S],
+    volume: Option<Volume>,
+    config: Option<&str>,
+    pe: usize,
+) -> Result<PeStream, Error> {
+    let words = args.iter().map(|s| s.as_ref().to_string());
+    let mut c = VectorsFrameCommand::try_parse_from(words).map_err(|e| Error::usage(&e))?;
+    c.frame.cfg.toml = config.map(str::to_string);
+    let s = setup_given(&c.frame, "vectors", volume).map_err(|e| Error::run(&e))?;
+    crate::cli::vectors_pe::stream(&s, pe).map_err(|e| Error::run(&e))
 }
 
 /// The raw accumulator words of a pipeline frame, row-major `H x W x 4`

@@ -16,10 +16,18 @@
 //! ports), checked by [`ercube_ffi::sample_testbench`]: random bundles
 //! with bubbles by default, or a frame's captured issue stream written by
 //! `ercube vectors` (run with `+vectors=DIR +pe=K +first=N`).
+//!
+//! `--pe-vectors DIR` is one PE's sample stage, `ercube_pe_sample`, driven
+//! with the files `ercube vectors --stage pe --out-dir DIR` writes and
+//! checked by [`ercube_ffi::pe_testbench`] (give the frame's `--order` and
+//! `--config`; `--verilog FILE` replaces the vectors' `ercube_pe_sample.v`
+//! with a module of the same name, ports and memories). `DIR` gets the
+//! two modules besides, and the run is `obj/Vtb +vectors=DIR`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use ercube_ffi::pe_testbench::pe_testbench;
 use ercube_ffi::sample_testbench::sample_testbench;
 use ercube_ffi::testbench::{testbench, MAIN, PACKAGE, WAIVER};
 use pipeline::hw::unit::Unit;
@@ -32,6 +40,7 @@ fn run() -> Result<String, String> {
         "grey-ramp".to_owned(),
     );
     let (mut config, mut verilog, mut top, mut out) = (None, None, None, None);
+    let mut pe_vectors: Option<PathBuf> = None;
     let mut samples = 100_000u32;
     while let Some(a) = args.next() {
         let mut val = || args.next().ok_or_else(|| format!("{a} needs a value"));
@@ -43,11 +52,15 @@ fn run() -> Result<String, String> {
             "--verilog" => verilog = Some(val()?),
             "--top" => top = Some(val()?),
             "--out-dir" => out = Some(PathBuf::from(val()?)),
+            "--pe-vectors" => pe_vectors = Some(PathBuf::from(val()?)),
             "--samples" => samples = val()?.parse().map_err(|e| format!("--samples: {e}"))?,
             _ => return Err(format!("unknown argument {a}")),
         }
     }
     let out = out.ok_or("--out-dir DIR is required")?;
+    if pe_vectors.is_some() {
+        unit = "sample".to_owned();
+    }
     let toml = match &config {
         Some(p) => std::fs::read_to_string(p).map_err(|e| format!("{p}: {e}"))?,
         None => String::new(),
@@ -59,6 +72,9 @@ fn run() -> Result<String, String> {
     )
     .map_err(|e| e.to_string())?;
     u.fill_tables(&tf).map_err(|e| e.to_string())?;
+    if let Some(dir) = pe_vectors {
+        return pe(&u, &dir, verilog, &out, (&toml, &order));
+    }
     let whole = u.name() == "sample";
     let (text, module) = match (verilog, top) {
         (Some(v), Some(t)) => (
@@ -93,19 +109,61 @@ fn run() -> Result<String, String> {
     ] {
         std::fs::write(out.join(name), t).map_err(|e| format!("{name}: {e}"))?;
     }
-    // This example is built into target/release/examples, beside the
-    // static library's folder.
-    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let lib = exe
-        .parent()
-        .and_then(|p| p.parent())
-        .map(|p| p.join("libercube_ffi.a"));
-    let lib = lib.ok_or("cannot find target/release")?;
+    let lib = lib()?;
     Ok(format!(
         "cd {} && verilator --cc --exe --build -j 2 --top-module tb -Mdir obj -o Vtb \\\n  unit.vlt ercube_pkg.sv unit.v tb.sv sim_main.cpp \\\n  -LDFLAGS \"{} -lpthread -ldl -lm\" && obj/Vtb{run}",
         out.display(),
         lib.display()
     ))
+}
+
+/// Writes the PE's sample stage testbench of the vectors in `dir` into
+/// `out`; the command that builds and runs it.
+fn pe(
+    u: &Unit,
+    dir: &Path,
+    verilog: Option<String>,
+    out: &Path,
+    model: (&str, &str),
+) -> Result<String, String> {
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()));
+    let manifest = read(&dir.join("manifest.json"))?;
+    let pe_file = match &verilog {
+        Some(v) => PathBuf::from(v),
+        None => dir.join("ercube_pe_sample.v"),
+    };
+    let pe_text = read(&pe_file)?;
+    let tb = pe_testbench(u, &manifest, &pe_text, model)?;
+    let datapath = read(&dir.join("ercube_sample.v"))?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    for (name, t) in [
+        ("ercube_pkg.sv", PACKAGE),
+        ("tb.sv", tb.as_str()),
+        ("ercube_sample.v", datapath.as_str()),
+        ("ercube_pe_sample.v", pe_text.as_str()),
+        ("sim_main.cpp", MAIN),
+    ] {
+        std::fs::write(out.join(name), t).map_err(|e| format!("{name}: {e}"))?;
+    }
+    let vectors = dir
+        .canonicalize()
+        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(format!(
+        "cd {} && verilator --cc --exe --build -j 2 --top-module tb -Mdir obj -o Vtb \\\n  ercube_pkg.sv ercube_sample.v ercube_pe_sample.v tb.sv sim_main.cpp \\\n  -LDFLAGS \"{} -lpthread -ldl -lm\" && obj/Vtb +vectors={}",
+        out.display(),
+        lib()?.display(),
+        vectors.display()
+    ))
+}
+
+/// The static library: this example is built into target/release/examples,
+/// beside the library's folder.
+fn lib() -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    exe.parent()
+        .and_then(|p| p.parent())
+        .map(|p| p.join("libercube_ffi.a"))
+        .ok_or_else(|| "cannot find target/release".to_owned())
 }
 
 fn main() -> ExitCode {

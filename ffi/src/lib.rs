@@ -23,6 +23,7 @@ use golden::volume::{Volume, Voxels};
 
 pub mod chip;
 mod datapath;
+pub mod pe_testbench;
 pub mod sample_testbench;
 pub mod testbench;
 pub use chip::ErcubeChip;

@@ -4,7 +4,9 @@
 //! and statistics are the command line's bit for bit. The GIL is released
 //! while a volume loads or a frame renders. The PE array runs whole frames
 //! or steps one clock at a time through `ercube.Chip` (`src/chip.rs`); one
-//! datapath sample evaluates through `ercube.Datapath` (`src/datapath.rs`).
+//! datapath sample evaluates through `ercube.Datapath` (`src/datapath.rs`);
+//! one PE's sample stage over a frame comes back as numpy arrays from
+//! `ercube.pe_vectors` (`src/vectors.rs`).
 //! Type hints: `ercube.pyi`.
 
 use pyo3::create_exception;
@@ -21,6 +23,7 @@ mod chip;
 mod datapath;
 mod records;
 mod trace;
+mod vectors;
 
 create_exception!(
     ercube,
@@ -381,6 +384,7 @@ fn ercube_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(clear_cache, m)?)?;
+    m.add_function(wrap_pyfunction!(vectors::pe_vectors, m)?)?;
     // The controller's stages by code (`Chip.broadcast()["stage"]`).
     let mut stages = vec![""; pipeline::probes::Stage::ALL.len()];
     for s in pipeline::probes::Stage::ALL {

@@ -83,6 +83,16 @@ impl Setup {
 /// Loads the frame `a` describes, refusing in one line (as `cmd`) what the
 /// datapath's stream does not cover yet.
 pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
+    setup_given(a, cmd, None)
+}
+
+/// [`setup`] of the volume `given` in memory instead of `--scene` or
+/// `--volume` when it is `Some` (a library caller's).
+pub fn setup_given(
+    a: &FrameArgs,
+    cmd: &str,
+    given: Option<golden::volume::Volume>,
+) -> Result<Setup> {
     let method = match a.order.as_deref() {
         Some("ftb") => MethodArg::PipelineFtb,
         _ => MethodArg::Pipeline,
@@ -102,7 +112,7 @@ pub fn setup(a: &FrameArgs, cmd: &str) -> Result<Setup> {
         shade: false,
         size: a.view.camera.size,
     };
-    let (vol, tf, cam) = a.view.load_for(cmd, &spec)?;
+    let (vol, tf, cam) = a.view.load_given(cmd, &spec, given)?;
     let mut opts = opts;
     slice.apply_tf(&mut opts, &tf)?;
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);

@@ -9,7 +9,7 @@ mod bound;
 mod chip;
 mod compare;
 mod cosim;
-mod cosim_frame;
+pub(crate) mod cosim_frame;
 mod cosim_pe;
 mod cost;
 mod explore;
@@ -28,7 +28,7 @@ mod skipbench;
 mod stats;
 mod synth;
 mod vectors;
-mod vectors_pe;
+pub(crate) mod vectors_pe;
 
 use std::process::ExitCode;
 

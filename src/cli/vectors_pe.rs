@@ -5,24 +5,21 @@
 
 use anyhow::{anyhow, bail, Result};
 
-use pipeline::cosim::pe_vectors::{capture, files::files};
+use pipeline::cosim::pe_vectors::{capture, files::files, PeStream};
 
-use super::cosim::setup;
+use super::cosim::{setup, Setup};
 use super::vectors::VectorsArgs;
 
 /// Words (rows times ports, and the memory writes) a run may write.
 const MAX_WORDS: u64 = 50_000_000;
 
-/// Runs `ercube vectors --stage pe`.
-pub fn run(a: &VectorsArgs) -> Result<()> {
-    if a.cycles.is_some() {
-        bail!("vectors --stage pe: --cycles is for the datapath's vectors (the PE's files run the whole frame: its memories carry state from the frame's start)");
-    }
-    let s = setup(&a.frame, "vectors")?;
+/// PE `pe`'s sample stage over the frame `s`: every port's word each
+/// clock, the memory writes and the tables (`ercube vectors --stage pe`'s
+/// files, in memory); refused in one line as the command refuses it.
+pub fn stream(s: &Setup, pe: usize) -> Result<PeStream> {
     if s.units.lights.is_some() || s.units.voi {
         bail!("vectors --stage pe: the emitted PE's sample stage has the plain sample only (no shading or volume of interest)");
     }
-    let pe = a.pe.unwrap_or(0);
     let dir = tempfile::Builder::new()
         .prefix("ercube-pe-vectors-")
         .tempdir()?;
@@ -44,6 +41,17 @@ pub fn run(a: &VectorsArgs) -> Result<()> {
             st.writes.len()
         );
     }
+    Ok(st)
+}
+
+/// Runs `ercube vectors --stage pe`.
+pub fn run(a: &VectorsArgs) -> Result<()> {
+    if a.cycles.is_some() {
+        bail!("vectors --stage pe: --cycles is for the datapath's vectors (the PE's files run the whole frame: its memories carry state from the frame's start)");
+    }
+    let s = setup(&a.frame, "vectors")?;
+    let pe = a.pe.unwrap_or(0);
+    let st = stream(&s, pe)?;
     let (files, _) = files(&st);
     let out = &a.out_dir;
     super::outputs::all_or_nothing(&[out], || {

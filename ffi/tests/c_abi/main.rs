@@ -10,10 +10,13 @@
 //! model's `pipeline::datapath::Datapath` step by step (`datapath.rs`);
 //! `tests/c/chip.c`: a frame stepped one clock at a time, ending with
 //! `ercube_render`'s raw words and cycles;
-//! and the DPI-C package's scoreboard testbench in Verilator (`dpi.rs`).
+//! and the DPI-C package's scoreboard testbenches in Verilator (`dpi.rs`:
+//! the cuts; `dpi_sample.rs`: the whole datapath; `dpi_pe.rs`: one PE's
+//! sample stage).
 
 mod datapath;
 mod dpi;
+mod dpi_pe;
 mod dpi_sample;
 
 #[path = "../../../tests/support/tools.rs"]

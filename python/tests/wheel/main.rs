@@ -10,13 +10,17 @@
 //! The same environment runs `tests/check_datapath.py` (`ercube.Datapath`
 //! gives the description's words, `datapath.rs`) and the cocotb testbench
 //! (`python/cocotb`) in Icarus on the emitted units and a broken copy
-//! (`cocotb.rs`).
+//! (`cocotb.rs`), in Verilator (`cocotb_verilator.rs`), on one PE's sample
+//! stage in both (`cocotb_pe.rs`); and `tests/check_pe_vectors.py`
+//! (`ercube.pe_vectors` gives the words of `ercube vectors --stage pe`'s
+//! files, `pe_vectors.rs`).
 
 mod chip;
 mod cocotb;
 mod cocotb_pe;
 mod cocotb_verilator;
 mod datapath;
+mod pe_vectors;
 
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
