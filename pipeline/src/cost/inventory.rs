@@ -54,7 +54,7 @@ mod dsp_regs;
 mod memories;
 
 use datapath::datapath;
-pub use datapath::{in_module, Schedule, PIPELINE_REGISTERS};
+pub use datapath::{in_module, Schedule, PIPELINE_REGISTERS, SAMPLE_STAGE};
 use memories::memories;
 pub use memories::{is_datapath_table, off_chip_bits};
 

@@ -34,6 +34,7 @@ pub mod parts;
 pub mod preint;
 pub mod readout;
 pub mod report;
+pub mod sample_stage;
 pub mod shading;
 pub mod shapes;
 pub mod target;

@@ -194,12 +194,12 @@ impl PeSampleShape {
     }
 
     /// Bits of a voxel row index.
-    pub(super) fn row_bits(&self) -> u32 {
+    pub fn row_bits(&self) -> u32 {
         addr_bits(self.ny)
     }
 
     /// Bits of a voxel column (`0 ..= nx`, signed room for the clamp).
-    pub(super) fn col_bits(&self) -> u32 {
+    pub fn col_bits(&self) -> u32 {
         addr_bits(self.nx + 1) + 1
     }
 }

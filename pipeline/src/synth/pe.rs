@@ -28,9 +28,8 @@ const MEMORIES: [&str; 5] = [
 ];
 
 /// The inventory's registers and control the sample stage declares.
-const CONTROL: [&str; 6] = [
-    "schedule: ray index in run",
-    "address: clamp",
+const CONTROL: [&str; 5] = [
+    crate::cost::inventory::SAMPLE_STAGE,
     "active columns",
     "row plan:",
     "edge register",

@@ -29,18 +29,40 @@ pub(super) struct Datapath {
     pub(super) schedule: Schedule,
 }
 
+/// The prefix of the sample stage's control items
+/// ([`crate::cost::sample_stage::control_logic`]).
+pub const SAMPLE_STAGE: &str = "sample stage: ";
+
 pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     let g = crate::hw::compose::sample(cfg, geo.units());
     let mut items = described_items(&g);
     if geo.shading {
         items.extend(crate::cost::shading::table_item(&g));
     }
-    // The PE's address and run compare around the module (and the
-    // pre-integrated pass's ray tests).
+    // The PE's control around the module: the emitted sample stage's
+    // statements where its shape is declared (else the described address
+    // step's run compare and clamps), and the pre-integrated pass's ray
+    // tests.
     let col_bits = addr_bits(geo.block() + 1);
-    items.extend(described_items(&crate::hw::address::address(
-        cfg, col_bits, geo.preint,
-    )));
+    let address = described_items(&crate::hw::address::address(cfg, col_bits, geo.preint));
+    match crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo) {
+        Ok(shape) => {
+            let x0_bits = u32::from(cfg.position.bits() - cfg.position.frac()).max(1);
+            items.extend(
+                crate::cost::sample_stage::control_logic(&shape, x0_bits)
+                    .into_iter()
+                    .map(|(what, units)| {
+                        Item::new("control", format!("{SAMPLE_STAGE}{what}"), 1, units)
+                    }),
+            );
+            items.extend(
+                address
+                    .into_iter()
+                    .filter(|it| it.name.starts_with("pre-integrated")),
+            );
+        }
+        Err(_) => items.extend(address),
+    }
     let sch = crate::cost::latency::graph_schedule(cfg, &g);
     // The composed module's registers, counted once: its items price
     // logic, multipliers and memories only.
