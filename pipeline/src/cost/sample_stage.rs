@@ -30,14 +30,8 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
     let bw = r.buffer_width;
     let sbw = addr_bits(s.bank_words());
     let ebw = addr_bits(2 * s.half_rows);
-    let hb = addr_bits(s.half_rows);
     let lb = addr_bits(s.stored);
     let mux = |width: u32, inputs: u32| Unit::Mux { width, inputs };
-    let row_addr = |y: u32| Unit::ConstMulAdd {
-        a: hb + 1,
-        k: s.stored,
-        y,
-    };
     let mut out: Vec<(&'static str, Vec<Unit>)> = Vec::new();
     if s.round_robin {
         out.push((
@@ -122,11 +116,7 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
     out.extend([
         (
             "issue: the buffer word row * slots + slot",
-            vec![Unit::ConstMulAdd {
-                a: rb,
-                k: s.slots(),
-                y: ab,
-            }],
+            times_plus(s.slots(), ab),
         ),
         (
             "accumulators: a write-back forwarded (two compares), bank select",
@@ -163,14 +153,12 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
     out.extend([
         (
             "taps: the row banks' rows and the four read addresses",
-            vec![
-                mux(yb, 2),
-                mux(yb, 2),
-                row_addr(sbw),
-                row_addr(sbw),
-                Unit::Add { width: sbw },
-                Unit::Add { width: sbw },
-            ],
+            [mux(yb, 2), mux(yb, 2), Unit::Add { width: sbw }, Unit::Add { width: sbw }]
+                .into_iter()
+                .chain(times_plus(s.stored, sbw))
+                .chain(times_plus(s.stored, sbw))
+                .chain([Unit::Add { width: sbw }, Unit::Add { width: sbw }])
+                .collect(),
         ),
         (
             "taps: each tap's row bank or the neighbour's edge word",
@@ -189,11 +177,11 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
         ),
         (
             "voxel load: the slice buffer's and the edge column's words",
-            vec![
-                row_addr(sbw),
-                Unit::Add { width: ebw },
-                Unit::Reduce { width: lb },
-            ],
+            [Unit::Add { width: sbw }]
+                .into_iter()
+                .chain(times_plus(s.stored, sbw))
+                .chain([Unit::Add { width: ebw }, Unit::Reduce { width: lb }])
+                .collect(),
         ),
     ]);
     if let Some(_thr) = s.termination {
@@ -221,6 +209,13 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
         ));
     }
     out
+}
+
+/// `x * k + c` into `y` bits as the Verilog writes it
+/// ([`crate::hw::pe_sample_rtl`]'s shifted sums): an adder a further set
+/// bit of `k`, and the `+ c`.
+fn times_plus(k: u64, y: u32) -> Vec<Unit> {
+    vec![Unit::Add { width: y }; k.count_ones().max(1) as usize]
 }
 
 #[cfg(test)]

@@ -109,12 +109,12 @@ pub(super) fn encoder(s: &PeSampleShape) -> String {
         .join("\n")
 }
 
-/// `x * slots` as a sum of `x`'s shifts, one a set bit of the slots (the
-/// row's base address in the compositing buffer; no multiplier).
-pub(super) fn times_slots(s: &PeSampleShape, x: &str) -> String {
-    let n = s.slots();
+/// `x * k` as a sum of `x`'s shifts, one a set bit of the constant `k`
+/// (no multiplier: the row's base address in the compositing buffer, a
+/// slice row's in the slice buffer).
+pub(super) fn times(k: u64, x: &str) -> String {
     let terms: Vec<String> = (0..64)
-        .filter(|b| (n >> b) & 1 == 1)
+        .filter(|b| (k >> b) & 1 == 1)
         .map(|b| {
             if b == 0 {
                 x.to_owned()
@@ -123,7 +123,11 @@ pub(super) fn times_slots(s: &PeSampleShape, x: &str) -> String {
             }
         })
         .collect();
-    terms.join(" + ")
+    if terms.is_empty() {
+        "0".to_owned()
+    } else {
+        terms.join(" + ")
+    }
 }
 
 /// The issuing ray's index `mx` and slot `slot` from the plan bit `idx`.
@@ -223,8 +227,8 @@ pub(super) fn edge_register(w: &mut String, s: &PeSampleShape) -> u64 {
   end
   wire [{yb1}:0] er0 = e_y0[0] ? e_y1 : e_y0;
   wire [{yb1}:0] er1 = e_y0[0] ? e_y0 : e_y1;
-  wire [31:0] ea0 = {{31'd0, e_z}} * {half} + (er0 >> 1);
-  wire [31:0] ea1 = {{31'd0, e_z}} * {half} + (er1 >> 1);
+  wire [31:0] ea0 = (e_z ? {half} : 0) + (er0 >> 1);
+  wire [31:0] ea1 = (e_z ? {half} : 0) + (er1 >> 1);
   reg [{v1}:0] eq0, eq1;
   reg ep0, ep1;
   always @(posedge clk) begin

@@ -231,7 +231,8 @@ module {MODULE} (
     end
   end
 {plan_write}  // The host's voxel load; column 0 also into the edge column.
-  wire [31:0] vld_word = ({{31'd0, vld_z}} * {half} + vld_row) * {stored} + vld_col;
+  wire [{sbw1}:0] vld_rw = (vld_z ? {half} : 0) + vld_row;
+  wire [{sbw1}:0] vld_word = {vld_base} + vld_col;
   wire [31:0] vld_edge = {{31'd0, vld_z}} * {half} + vld_row;
   always @(posedge clk) begin
     if (vld_we && !vld_bank) sb0[vld_word[{sbw1}:0]] <= vld_data;
@@ -249,6 +250,7 @@ module {MODULE} (
         tb1 = super::pe_columns_rtl::slot_bits(s) - 1,
         sbw1 = sbw - 1,
         ebw1 = ebw - 1,
+        vld_base = super::pe_columns_rtl::times(stored, "vld_rw"),
         s1 = slots - 1,
         rm = r.max_rows - 1,
         rr_decls = super::pe_columns_rtl::declarations(s),
@@ -301,7 +303,7 @@ module {MODULE} (
         yb1 = yb - 1,
         encoder = super::pe_columns_rtl::encoder(s),
         mx_slot = super::pe_columns_rtl::mx_slot(s),
-        row_base = super::pe_columns_rtl::times_slots(s, "row_w"),
+        row_base = super::pe_columns_rtl::times(slots, "row_w"),
     );
     for n in row_words {
         let p = port(n)?;
@@ -426,9 +428,11 @@ module {MODULE} (
   wire [{yb1}:0] ty0 = {y0}, ty1 = {y1};
   wire [{yb1}:0] r0 = ty0[0] ? ty1 : ty0;
   wire [{yb1}:0] r1 = ty0[0] ? ty0 : ty1;
-  wire [31:0] zb = {{31'd0, {z}}} * {half};
-  wire [31:0] a00 = (zb + (r0 >> 1)) * {stored} + l0, a01 = (zb + (r0 >> 1)) * {stored} + l1;
-  wire [31:0] a10 = (zb + (r1 >> 1)) * {stored} + l0, a11 = (zb + (r1 >> 1)) * {stored} + l1;
+  // Each bank's slice row (row * {stored} as shifted sums), then its two columns.
+  wire [{sbw1}:0] rw0 = ({z} ? {half} : 0) + (r0 >> 1), rw1 = ({z} ? {half} : 0) + (r1 >> 1);
+  wire [{sbw1}:0] rb0 = {rb0}, rb1 = {rb1};
+  wire [{sbw1}:0] a00 = rb0 + l0, a01 = rb0 + l1;
+  wire [{sbw1}:0] a10 = rb1 + l0, a11 = rb1 + l1;
   reg [{v1}:0] q00, q01, q10, q11;
   always @(posedge clk) begin
     q00 <= sb0[a00[{sbw1}:0]];
@@ -467,6 +471,8 @@ module {MODULE} (
         edge = at("edge"),
         tv = at("tv"),
         locals = super::pe_columns_rtl::tap_columns(s),
+        rb0 = super::pe_columns_rtl::times(stored, "rw0"),
+        rb1 = super::pe_columns_rtl::times(stored, "rw1"),
     );
     regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
     regs += super::pe_columns_rtl::edge_register(w, s);
