@@ -245,7 +245,7 @@ impl ColumnJob<'_> {
         b.pad();
         self.kernel.sample_lanes(b, total);
         for (l, &(i, _)) in chunk.iter().enumerate() {
-            if b.visible[l] {
+            if (b.visible >> l) & 1 != 0 {
                 let row = rows[i as usize].row as usize;
                 for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
                     *a = w[l];
@@ -253,7 +253,7 @@ impl ColumnJob<'_> {
                 if self.kernel.front_to_back() {
                     // The comparator behind the accumulator sets the
                     // flag the next slice's schedule reads.
-                    col.ftb[row].done = b.done[l];
+                    col.ftb[row].done = (b.done >> l) & 1 != 0;
                 }
             }
         }
