@@ -144,6 +144,10 @@ impl Taps {
 /// parallel (below, the column loop's overhead outweighs the gain).
 const PARALLEL_SAMPLES: usize = 4096;
 
+/// PEs per thread from which the PEs' slices, which the clock samples in
+/// parallel, keep the threads busy without splitting a PE's columns too.
+const PES_PER_THREAD: usize = 4;
+
 /// What every column of a slice's column-major sampling shares.
 struct ColumnJob<'a> {
     kernel: &'a Kernel,
@@ -355,6 +359,10 @@ impl Pe {
             first,
             locals: &self.local,
         };
+        // Columns share nothing: a big slice's spread over the threads
+        // when the PEs are too few to share them out.
+        let split = samples >= PARALLEL_SAMPLES
+            && self.map.pes < PES_PER_THREAD * rayon::current_num_threads();
         let mem = &self.mem;
         let active = &mut self.rays.make_contiguous()[first..first + count];
         let work = |(c, col): (usize, &mut RayColumn)| {
@@ -368,8 +376,7 @@ impl Pe {
             a
         };
         let zero = || (Tally::default(), PlainCounts::default());
-        // Columns share nothing: a big slice's spread over the threads.
-        let (t, c) = if samples >= PARALLEL_SAMPLES {
+        let (t, c) = if split {
             active
                 .par_iter_mut()
                 .enumerate()
