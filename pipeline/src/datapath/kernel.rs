@@ -31,7 +31,7 @@ mod tests;
 
 pub(crate) use lanes::{Batch, LANES};
 pub(crate) use step::Tally;
-use step::SLOTS;
+use step::{NSLOTS, SLOTS};
 pub(crate) use tent::Tents;
 
 use super::{Classes, Datapath};
@@ -220,6 +220,11 @@ pub struct Kernel {
     alpha_frac: u32,
     /// The Bartlett merge's assignments, when modelled.
     tents: Option<Tents>,
+    /// The assignments into each slot of a batch lane in use and of a
+    /// visible one ([`Kernel::settle`]), besides the classification's
+    /// (counted from its table) and the transmittance's shift (counted
+    /// where it assigns).
+    per_lane: [[u64; NSLOTS]; 2],
 }
 
 /// A row's constants for [`Kernel`]: the broadcast's words aligned to the
@@ -358,7 +363,22 @@ impl Kernel {
         if signed.iter().any(|f| f.is_signed()) {
             return None;
         }
+        // Every lane in use interpolates (two x steps, one y step); a
+        // visible one takes the slope, the root, the opacity correction's
+        // three steps and `1 - T`, and the four compositing steps: the
+        // steps `Kernel::sample_lanes` runs.
+        let mut per_lane = [[0; NSLOTS]; 2];
+        for s in [&lerp_x, &lerp_x, &lerp_y] {
+            per_lane[0][s.slot] += 1;
+        }
+        let shown = [
+            &line, &root, &log_p, &exp_w, &exp_lerp, &one_minus, &comp_c, &comp_c, &comp_c, &comp_a,
+        ];
+        for s in shown {
+            per_lane[1][s.slot] += 1;
+        }
         Some(Kernel {
+            per_lane,
             ftb,
             threshold: dp.threshold,
             position: c.position,
@@ -388,6 +408,18 @@ impl Kernel {
             alpha_frac: faa,
             tents: Tents::new(c),
         })
+    }
+
+    /// Adds the assignments of the lanes `t` counted ([`Tally::lanes`])
+    /// to its counts: each lane in use and each visible lane assigns a
+    /// fixed number of words into each slot.
+    pub(crate) fn settle(&self, t: &mut Tally) {
+        for (n, per) in t.lanes.iter().zip(&self.per_lane) {
+            for (c, &k) in t.counts.iter_mut().zip(per) {
+                c[0] += n * k;
+            }
+        }
+        t.lanes = [0; 2];
     }
 
     /// The Bartlett merge's assignments, when modelled.

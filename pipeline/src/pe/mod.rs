@@ -334,7 +334,8 @@ pub struct Pe {
 pub(crate) struct PeModel {
     /// Quantisation events of this PE's datapath.
     pub(crate) stats: QuantStats,
-    /// The whole-slice path's column buckets and column addresses.
+    /// The whole-slice path's table of a slice's sampled rows and its
+    /// columns' addresses.
     pub(crate) plain_order: crate::stages::sample::ColumnOrder,
     pub(crate) plain_cols: Vec<crate::stages::sample::ColumnTaps>,
     /// The latest scoreboard stamp a migration wrote into a ray this PE

@@ -27,7 +27,7 @@ pub(crate) const LANES: usize = 8;
 type Lanes = [i64; LANES];
 
 /// Which lanes count their events: bit `l` for lane `l`.
-type Mask = u8;
+pub(crate) type Mask = u8;
 
 /// Up to [`LANES`] plain samples of one ray column (one `mx`, so one x
 /// address and slope), each lane a row of the slice.
@@ -47,10 +47,12 @@ pub(crate) struct Batch {
     /// The rays' accumulators (R, G, B, A words), replaced by
     /// [`Kernel::sample_lanes`] in the lanes whose sample is visible.
     pub acc: [Lanes; 4],
-    /// Whether each lane's sample was visible (composited).
-    pub visible: [bool; LANES],
-    /// Front to back, each visible lane's termination comparator.
-    pub done: [bool; LANES],
+    /// Which lanes' samples were visible (composited), bit `l` for lane
+    /// `l`.
+    pub visible: Mask,
+    /// Front to back, each visible lane's termination comparator, bit `l`
+    /// for lane `l`.
+    pub done: Mask,
 }
 
 impl Batch {
@@ -68,17 +70,19 @@ impl Batch {
 }
 
 impl Step {
-    /// [`Step::apply`] in every lane, counting the events of the lanes
-    /// `on` marks: each lane's overflow and inexact flags gathered into
-    /// a bit mask, the marked ones counted (a compare mask and a
-    /// population count per step, not a counter per lane).
+    /// [`Step::apply`] in every lane, counting the overflows and inexact
+    /// assignments of the lanes `on` marks: each lane's flags gathered
+    /// into a bit mask, the marked ones counted (a compare mask and a
+    /// population count per step, not a counter per lane). The
+    /// assignments themselves are counted per lane ([`Tally::lanes`],
+    /// [`Kernel::settle`]).
     #[inline(always)]
     fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let q = each(|l| (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2);
         let out = each(|l| q[l].max(self.min).min(self.max));
         let over = ne_mask(&out, &q);
         let inexact = nonzero_mask(&each(|l| raw[l] & self.mask));
-        t.count(self.slot, on, over, inexact);
+        t.events(self.slot, on, over, inexact);
         out
     }
 }
@@ -166,8 +170,9 @@ impl Kernel {
             *w = each(|l| ((words[l] >> (ch as u32 * cb)) & cm) as i64);
         }
         rgba[3] = each(|l| ((words[l] >> (3 * cb)) & am) as i64);
-        // The lanes in use as all-ones words, the rest zero.
-        let in_use = each(|l| -i64::from((used >> l) & 1));
+        // The lanes in use as all-ones words, the rest zero (a compare of
+        // the lane numbers, one vector operation).
+        let in_use = each(|l| -i64::from(l < b.n));
         let mut groups = [0u64; 3];
         for (k, g) in groups.iter_mut().enumerate() {
             for l in 0..LANES {
@@ -175,9 +180,8 @@ impl Kernel {
             }
         }
         let shown = nonzero_mask(&rgba[3]);
-        for (l, v) in b.visible.iter_mut().enumerate() {
-            *v = (shown >> l) & 1 != 0;
-        }
+        b.visible = shown;
+        t.lanes[0] += u64::from(used.count_ones());
         // Count `i` (format `i / 3`, kind `i % 3`) is field `i / 3` of
         // group `i % 3`.
         for (f, &slot) in CLASS_SLOTS.iter().enumerate() {
@@ -190,6 +194,7 @@ impl Kernel {
         if shown == 0 {
             return;
         }
+        t.lanes[1] += u64::from(shown.count_ones());
         let sx = self.line.lanes(&[b.slope; LANES], t, shown);
         let rs = self.rad_shift;
         let rad: Lanes = each(|l| {
@@ -209,12 +214,17 @@ impl Kernel {
         };
         for (w, n) in b.acc.iter_mut().zip(&new) {
             for l in 0..LANES {
-                w[l] = if b.visible[l] { n[l] } else { w[l] };
+                w[l] = if (b.visible >> l) & 1 != 0 {
+                    n[l]
+                } else {
+                    w[l]
+                };
             }
         }
-        for (d, &a) in b.done.iter_mut().zip(&new[3]) {
-            *d = self.ftb && self.threshold.is_some_and(|th| a >= th);
-        }
+        b.done = match self.threshold {
+            Some(th) if self.ftb => ne_mask(&each(|l| i64::from(new[3][l] >= th)), &[0; LANES]),
+            _ => 0,
+        };
     }
 
     /// [`Datapath::correct`] and [`Datapath::transmit`] in every lane: the

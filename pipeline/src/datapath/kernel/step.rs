@@ -36,11 +36,18 @@ pub(crate) fn slot(id: FormatId) -> Option<usize> {
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Tally {
     pub(super) counts: [[u64; 3]; NSLOTS],
+    /// Lanes of the kernel's batches that were in use and that were
+    /// visible, whose assignments (a fixed number per slot each,
+    /// [`super::Kernel::settle`]) are not yet in `counts`: one count per
+    /// batch instead of one per assignment.
+    pub(super) lanes: [u64; 2],
 }
 
 impl Tally {
-    /// Adds these counts to `st`, each under its format.
+    /// Adds these counts to `st`, each under its format (the lanes'
+    /// assignments settled, [`super::Kernel::settle`]).
     pub(crate) fn add_to(&self, st: &mut QuantStats) {
+        debug_assert_eq!(self.lanes, [0; 2], "the lanes' assignments are settled");
         for (&id, c) in SLOTS.iter().zip(&self.counts) {
             if c[0] > 0 {
                 st.add_as(
@@ -64,6 +71,9 @@ impl Tally {
                 *x += k * y;
             }
         }
+        for (x, y) in self.lanes.iter_mut().zip(&o.lanes) {
+            *x += k * y;
+        }
     }
 
     /// Adds another tally.
@@ -77,8 +87,15 @@ impl Tally {
     /// those `inexact` marks dropped nonzero bits.
     #[inline(always)]
     pub(crate) fn count(&mut self, slot: usize, on: u8, over: u8, inexact: u8) {
+        self.counts[slot][0] += u64::from(on.count_ones());
+        self.events(slot, on, over, inexact);
+    }
+
+    /// [`Tally::count`]'s overflows and inexact assignments only (the
+    /// assignments counted per lane, [`Tally::lanes`]).
+    #[inline(always)]
+    pub(crate) fn events(&mut self, slot: usize, on: u8, over: u8, inexact: u8) {
         let n = &mut self.counts[slot];
-        n[0] += u64::from(on.count_ones());
         n[1] += u64::from((over & on).count_ones());
         n[2] += u64::from((inexact & on).count_ones());
     }

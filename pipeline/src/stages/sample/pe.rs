@@ -448,6 +448,7 @@ impl Pe {
             let at = (nx, dp.latency);
             let out = (&mut tally, &mut counts);
             if self.sample_columns(k, rows, (lens, starts), right_edges, at, out) {
+                k.settle(&mut tally);
                 tally.add_to(&mut self.model.stats);
                 self.add_plain_counts(&counts);
                 return Ok(());

@@ -44,70 +44,99 @@ impl Pe {
     }
 }
 
-/// The whole-slice path's buckets for sampling a slice column by column:
-/// each held column's samples (slice row and issue cycle), reused from
-/// slice to slice.
+/// The whole-slice path's table of a slice's sampled rows for sampling it
+/// column by column, reused from slice to slice: each row's constants
+/// (from its broadcast) and which active columns sample in it when.
 #[derive(Debug, Clone, Default)]
 pub struct ColumnOrder {
-    /// Where each active column's samples start in `items` (one more
-    /// entry than columns).
-    starts: Vec<u32>,
-    /// `(slice row, issue cycle)` of every sample, column after column,
-    /// each column's in row order.
-    items: Vec<(u32, u64)>,
-    /// The next free entry of each column while bucketing.
-    at: Vec<u32>,
+    rows: Vec<PlainRow>,
+}
+
+/// A sampled row of a slice as the column loop reads it.
+#[derive(Debug, Clone, Copy, Default)]
+struct PlainRow {
+    /// The row's index in the slice (its bus and its edge words).
+    r: u32,
+    /// Its row in the region's buffer (the rays' accumulators and
+    /// scoreboards).
+    row: u32,
+    /// Its first and last sampled column (active columns, counted from
+    /// the first).
+    lo: u32,
+    hi: u32,
+    /// Where its columns start in the row plan's `live`, and how many
+    /// (all of `lo..=hi` when `hi - lo + 1`: then a column's place in the
+    /// row is its distance from `lo`).
+    at: u32,
+    len: u32,
+    /// The memory indices of its taps' voxel rows `y0`, `y0 + 1` in the
+    /// slice, before the column.
+    base: [usize; 2],
+    /// Its y weight word and `sy^2 + sz^2` ([`crate::datapath::KernelRow`]).
+    wy: i64,
+    yz: i64,
+    /// The cycle its first sample issues.
+    start: u64,
+}
+
+impl PlainRow {
+    /// Where column `c` (an active column's index from the first, held
+    /// ray `j`) samples in this row, `None` when it does not: its place
+    /// in the row's issue order, the distance from `lo` when the row
+    /// samples every column between its ends, else found in the row's
+    /// `live` columns.
+    #[inline(always)]
+    fn place(&self, c: u32, j: usize, live: &[usize]) -> Option<u32> {
+        if c < self.lo || c > self.hi {
+            return None;
+        }
+        if self.hi - self.lo + 1 == self.len {
+            return Some(c - self.lo);
+        }
+        let at = self.at as usize;
+        live[at..at + self.len as usize]
+            .binary_search(&j)
+            .ok()
+            .map(|p| p as u32)
+    }
 }
 
 /// Where a column's voxel taps lie in a PE's memory `[z][y][l]`: the
-/// local columns of `c0` and (when held) `c1`, in slice `z`.
+/// local columns of `c0` and (when held) `c1`, in the slice.
 struct Taps {
     cols: [usize; 2],
     held: bool,
-    z: usize,
-    ny: usize,
-    width: usize,
 }
 
 impl Taps {
-    /// Loads the taps of each of `chunk`'s rows into `b`'s lanes
-    /// (`read`: the word at a memory index), with the right neighbour's
-    /// edge voxels where the PE does not hold `c1`, and the rows' y
-    /// weights and slope terms.
+    /// Loads the taps of each of `chunk`'s samples (each a row of
+    /// `rows`) into `b`'s lanes (`read`: the word at a memory index),
+    /// with the right neighbour's edge voxels where the PE does not hold
+    /// `c1`, and the rows' y weights and slope terms.
     #[inline(always)]
     fn load(
         &self,
         read: impl Fn(usize) -> u16,
         chunk: &[(u32, u64)],
-        rows: &[RowBus],
+        rows: &[PlainRow],
         right_edges: Option<&[EdgeWords]>,
         b: &mut Batch,
     ) {
-        for (l, &(r, _)) in chunk.iter().enumerate() {
-            let bus = &rows[r as usize];
-            let (y0, y1, _) = bus.y;
-            let base = |y: usize| (self.z * self.ny + y) * self.width;
-            let (base0, base1) = (base(y0), base(y1));
+        for (l, &(i, _)) in chunk.iter().enumerate() {
+            let row = &rows[i as usize];
+            let [base0, base1] = row.base;
             b.v[0][l] = i64::from(read(base0 + self.cols[0]));
             b.v[2][l] = i64::from(read(base1 + self.cols[0]));
             let right = if self.held {
                 [read(base0 + self.cols[1]), read(base1 + self.cols[1])]
             } else {
-                right_edges.map_or([0; 2], |e| e[r as usize].left)
+                right_edges.map_or([0; 2], |e| e[row.r as usize].left)
             };
             b.v[1][l] = i64::from(right[0]);
             b.v[3][l] = i64::from(right[1]);
-            let (wy, yz) = bus.plain.map_or((0, 0), |p| p.lane_constants());
-            b.wy[l] = wy;
-            b.yz[l] = yz;
+            b.wy[l] = row.wy;
+            b.yz[l] = row.yz;
         }
-    }
-}
-
-impl ColumnOrder {
-    /// Active column `c`'s samples.
-    fn column(&self, c: usize) -> &[(u32, u64)] {
-        &self.items[self.starts[c] as usize..self.starts[c + 1] as usize]
     }
 }
 
@@ -115,39 +144,36 @@ impl ColumnOrder {
 /// parallel (below, the column loop's overhead outweighs the gain).
 const PARALLEL_SAMPLES: usize = 4096;
 
+/// PEs per thread from which the PEs' slices, which the clock samples in
+/// parallel, keep the threads busy without splitting a PE's columns too.
+const PES_PER_THREAD: usize = 4;
+
 /// What every column of a slice's column-major sampling shares.
 struct ColumnJob<'a> {
     kernel: &'a Kernel,
-    rows: &'a [RowBus<'a>],
+    /// The slice's sampled rows.
+    rows: &'a [PlainRow],
+    /// The row plan's columns, row after row.
+    live: &'a [usize],
     right_edges: Option<&'a [EdgeWords]>,
     latency: u64,
-    z: usize,
-    ny: usize,
-    width: usize,
+    /// The first active column's index into the rays.
+    first: usize,
     /// Each column's local index in the PE's memory.
     locals: &'a [u32],
 }
 
 impl ColumnJob<'_> {
-    /// Samples column `col` (its address and taps `taps`) at its rows
-    /// `items`, counting into `out`.
+    /// Samples active column `c` (its address and taps `taps`) in every
+    /// row that samples it, in row order, counting into `out`.
     fn column(
         &self,
         mem: &VoxelMem,
         col: &mut RayColumn,
+        c: usize,
         &(ray, t, c0, c1, held): &ColumnTaps,
-        items: &[(u32, u64)],
         (total, n): &mut (Tally, PlainCounts),
     ) {
-        if items.is_empty() {
-            return;
-        }
-        let k = items.len() as u64;
-        // The address's events, once per sample.
-        total.add_times(&t, k);
-        n.samples += k;
-        n.mem_reads += k * if held { 4 } else { 2 };
-        n.edge_voxels += if held { 0 } else { 2 * k };
         let mut b = Batch {
             wx: ray.wx,
             slope: ray.slope,
@@ -159,42 +185,79 @@ impl ColumnJob<'_> {
         let taps = Taps {
             cols: [local(c0), if held { local(c1) } else { 0 }],
             held,
-            z: self.z,
-            ny: self.ny,
-            width: self.width,
         };
+        let j = self.first + c;
+        let mut k = 0;
+        let mut chunk = [(0u32, 0u64); LANES];
+        let mut lanes = 0;
+        for (i, pr) in self.rows.iter().enumerate() {
+            let Some(place) = pr.place(c as u32, j, self.live) else {
+                continue;
+            };
+            chunk[lanes] = (i as u32, pr.start + u64::from(place));
+            lanes += 1;
+            if lanes == LANES {
+                self.batch(mem, col, &taps, &chunk, &mut b, total, &mut n.drained_at);
+                k += LANES as u64;
+                lanes = 0;
+            }
+        }
+        if lanes > 0 {
+            let chunk = &chunk[..lanes];
+            self.batch(mem, col, &taps, chunk, &mut b, total, &mut n.drained_at);
+            k += lanes as u64;
+        }
+        // The address's events, once per sample.
+        total.add_times(&t, k);
+        n.samples += k;
+        n.mem_reads += k * if held { 4 } else { 2 };
+        n.edge_voxels += if held { 0 } else { 2 * k };
+    }
+
+    /// Samples `chunk`'s samples (row table index, issue cycle) of a
+    /// column through the kernel's lanes (`b` holds the column's address).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn batch(
+        &self,
+        mem: &VoxelMem,
+        col: &mut RayColumn,
+        taps: &Taps,
+        chunk: &[(u32, u64)],
+        b: &mut Batch,
+        total: &mut Tally,
+        drained_at: &mut u64,
+    ) {
         let rows = self.rows;
-        for chunk in items.chunks(LANES) {
-            b.n = chunk.len();
-            match mem {
-                VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, self.right_edges, &mut b),
-                VoxelMem::Codes { codes, words } => {
-                    let read = |i: usize| words[usize::from(codes[i])];
-                    taps.load(read, chunk, rows, self.right_edges, &mut b);
-                }
+        b.n = chunk.len();
+        match mem {
+            VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, self.right_edges, b),
+            VoxelMem::Codes { codes, words } => {
+                let read = |i: usize| words[usize::from(codes[i])];
+                taps.load(read, chunk, rows, self.right_edges, b);
             }
-            for (l, &(r, now)) in chunk.iter().enumerate() {
-                let row = rows[r as usize].row;
-                let land = now + self.latency;
-                n.drained_at = n.drained_at.max(land);
-                col.land[row] = land;
-                for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
-                    w[l] = a;
-                }
+        }
+        for (l, &(i, now)) in chunk.iter().enumerate() {
+            let row = rows[i as usize].row as usize;
+            let land = now + self.latency;
+            *drained_at = (*drained_at).max(land);
+            col.land[row] = land;
+            for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
+                w[l] = a;
             }
-            b.pad();
-            self.kernel.sample_lanes(&mut b, total);
-            for (l, &(r, _)) in chunk.iter().enumerate() {
-                if b.visible[l] {
-                    let row = rows[r as usize].row;
-                    for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
-                        *a = w[l];
-                    }
-                    if self.kernel.front_to_back() {
-                        // The comparator behind the accumulator sets the
-                        // flag the next slice's schedule reads.
-                        col.ftb[row].done = b.done[l];
-                    }
+        }
+        b.pad();
+        self.kernel.sample_lanes(b, total);
+        for (l, &(i, _)) in chunk.iter().enumerate() {
+            if (b.visible >> l) & 1 != 0 {
+                let row = rows[i as usize].row as usize;
+                for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
+                    *a = w[l];
+                }
+                if self.kernel.front_to_back() {
+                    // The comparator behind the accumulator sets the
+                    // flag the next slice's schedule reads.
+                    col.ftb[row].done = (b.done >> l) & 1 != 0;
                 }
             }
         }
@@ -253,10 +316,12 @@ impl Pe {
             }
             cols.push((ray, t, c0, c1, held));
         }
-        // Bucket the row plan's samples by column (a counting sort).
+        // The sampled rows' table: each row's columns (from its plan) and
+        // constants.
         let mut order = std::mem::take(&mut self.model.plain_order);
-        order.starts.clear();
-        order.starts.resize(count + 1, 0);
+        order.rows.clear();
+        let (z, ny, width) = (rows[0].slice.z, self.ny, self.held_columns());
+        let mut samples = 0;
         for (r, &len) in lens.iter().enumerate() {
             self.begin_row(r);
             if len == 0 {
@@ -264,42 +329,45 @@ impl Pe {
             }
             let span = self.row_plan.span(r);
             self.counters.idle += (len - span.len()) as u64;
-            for &j in &self.row_plan.live[span] {
-                order.starts[j - first + 1] += 1;
-            }
-        }
-        for c in 0..count {
-            order.starts[c + 1] += order.starts[c];
-        }
-        order.items.resize(order.starts[count] as usize, (0, 0));
-        order.at.clear();
-        order.at.extend_from_slice(&order.starts[..count]);
-        for (r, &len) in lens.iter().enumerate() {
-            if len == 0 {
+            let live = &self.row_plan.live[span.clone()];
+            let (Some(&lo), Some(&hi)) = (live.first(), live.last()) else {
                 continue;
-            }
-            let span = self.row_plan.span(r);
-            for (c, &j) in self.row_plan.live[span].iter().enumerate() {
-                let slot = &mut order.at[j - first];
-                order.items[*slot as usize] = (r as u32, starts[r] + c as u64);
-                *slot += 1;
-            }
+            };
+            samples += live.len();
+            let bus = &rows[r];
+            let (wy, yz) = bus.plain.map_or((0, 0), |p| p.lane_constants());
+            let base = |y: usize| (z * ny + y) * width;
+            order.rows.push(PlainRow {
+                r: r as u32,
+                row: bus.row as u32,
+                lo: (lo - first) as u32,
+                hi: (hi - first) as u32,
+                at: span.start as u32,
+                len: live.len() as u32,
+                base: [base(bus.y.0), base(bus.y.1)],
+                wy,
+                yz,
+                start: starts[r],
+            });
         }
         let job = ColumnJob {
             kernel,
-            rows,
+            rows: &order.rows,
+            live: &self.row_plan.live,
             right_edges,
             latency,
-            z: rows[0].slice.z,
-            ny: self.ny,
-            width: self.held_columns(),
+            first,
             locals: &self.local,
         };
+        // Columns share nothing: a big slice's spread over the threads
+        // when the PEs are too few to share them out.
+        let split = samples >= PARALLEL_SAMPLES
+            && self.map.pes < PES_PER_THREAD * rayon::current_num_threads();
         let mem = &self.mem;
         let active = &mut self.rays.make_contiguous()[first..first + count];
         let work = |(c, col): (usize, &mut RayColumn)| {
             let mut out = (Tally::default(), PlainCounts::default());
-            job.column(mem, col, &cols[c], order.column(c), &mut out);
+            job.column(mem, col, c, &cols[c], &mut out);
             out
         };
         let join = |mut a: (Tally, PlainCounts), b: (Tally, PlainCounts)| {
@@ -308,8 +376,7 @@ impl Pe {
             a
         };
         let zero = || (Tally::default(), PlainCounts::default());
-        // Columns share nothing: a big slice's spread over the threads.
-        let (t, c) = if order.items.len() >= PARALLEL_SAMPLES {
+        let (t, c) = if split {
             active
                 .par_iter_mut()
                 .enumerate()
