@@ -386,7 +386,10 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         placed,
         requested_mhz: part.nextpnr_device().map(|_| requested),
         predicted_mhz: family.filter(|_| !a.readout).and_then(|f| {
-            if is_datapath || a.pe {
+            if a.pe {
+                // The datapath's slowest stage or the control's issue path.
+                pipeline::synth::pe::predicted_mhz(&cfg, dims, f)
+            } else if is_datapath {
                 // The schedule's slowest stage, as `ercube cost` predicts it.
                 Some(pipeline::cost::fmax::pe_prediction(&cfg, f)?.mhz)
             } else {

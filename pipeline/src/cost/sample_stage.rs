@@ -153,12 +153,17 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
     out.extend([
         (
             "taps: the row banks' rows and the four read addresses",
-            [mux(yb, 2), mux(yb, 2), Unit::Add { width: sbw }, Unit::Add { width: sbw }]
-                .into_iter()
-                .chain(times_plus(s.stored, sbw))
-                .chain(times_plus(s.stored, sbw))
-                .chain([Unit::Add { width: sbw }, Unit::Add { width: sbw }])
-                .collect(),
+            [
+                mux(yb, 2),
+                mux(yb, 2),
+                Unit::Add { width: sbw },
+                Unit::Add { width: sbw },
+            ]
+            .into_iter()
+            .chain(times_plus(s.stored, sbw))
+            .chain(times_plus(s.stored, sbw))
+            .chain([Unit::Add { width: sbw }, Unit::Add { width: sbw }])
+            .collect(),
         ),
         (
             "taps: each tap's row bank or the neighbour's edge word",

@@ -55,14 +55,60 @@ fn geometry(cfg: &PipelineConfig, dims: [usize; 3]) -> Geometry {
 }
 
 /// The estimate of the sample stage on `t`: the [`sample_stage_item`]s of
-/// the PE's inventory for `dims` over `cfg.pes` PEs.
+/// the PE's inventory for `dims` over `cfg.pes` PEs, with the control's
+/// registers as the emitted module declares them (its delay lines, the
+/// write-back address line, the plan FIFO's pointers) in place of the
+/// PE's declared control registers, less the read registers its block
+/// RAMs take in (the compositing buffer's two words, the four taps).
 pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources {
-    pe_inventory(cfg, &geometry(cfg, dims))
+    let items: Resources = pe_inventory(cfg, &geometry(cfg, dims))
         .items
         .iter()
-        .filter(|it| sample_stage_item(it))
+        .filter(|it| sample_stage_item(it) && it.group != "registers")
         .map(|it| it.cost(t))
-        .sum()
+        .sum();
+    let registers = match emitted(cfg, dims) {
+        Ok((shape, r, _)) => {
+            let absorbed = 2 * u64::from(shape.rays.buffer_width) + 4 * u64::from(shape.voxel_bits);
+            Resources::ffs(r.register_bits.saturating_sub(absorbed))
+        }
+        Err(_) => pe_inventory(cfg, &geometry(cfg, dims))
+            .items
+            .iter()
+            .filter(|it| sample_stage_item(it) && it.group == "registers")
+            .map(|it| it.cost(t))
+            .sum(),
+    };
+    items + registers
+}
+
+/// The predicted clock of the stage for `dims` over `cfg.pes` PEs on
+/// `t`: the slower of its datapath's slowest stage and its control's
+/// issue path ([`crate::cost::fmax::sample_stage_prediction`]).
+pub fn predicted_mhz(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Option<f64> {
+    crate::cost::fmax::sample_stage_prediction(cfg, &geometry(cfg, dims), t).map(|p| p.mhz)
+}
+
+/// The emitted stage for `dims` over `cfg.pes` PEs: its shape, the
+/// datapath module it instantiates and its own text.
+fn emitted(
+    cfg: &PipelineConfig,
+    dims: [usize; 3],
+) -> Result<
+    (
+        PeSampleShape,
+        crate::hw::pe_sample_rtl::PeSampleRtl,
+        crate::hw::pipeline_rtl::PipelinedModule,
+    ),
+    String,
+> {
+    let shape = PeSampleShape::new(cfg, &geometry(cfg, dims))?;
+    let g = crate::hw::sample::plain(cfg);
+    let s = crate::cost::latency::sample_schedule(cfg);
+    let dp =
+        crate::hw::pipeline_rtl::emit_scheduled(&g, &s, DATAPATH).map_err(|e| e.to_string())?;
+    let r = emit(&shape, &dp)?;
+    Ok((shape, r, dp))
 }
 
 /// The PE's sample stage for a view-space volume of `dims` over
@@ -70,12 +116,7 @@ pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources 
 /// (module [`MODULE`]); its estimate is [`estimate`] (the `units` are
 /// left empty, as for the datapath).
 pub fn sample_stage(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<CalibrationModule, String> {
-    let shape = PeSampleShape::new(cfg, &geometry(cfg, dims))?;
-    let g = crate::hw::sample::plain(cfg);
-    let s = crate::cost::latency::sample_schedule(cfg);
-    let dp =
-        crate::hw::pipeline_rtl::emit_scheduled(&g, &s, DATAPATH).map_err(|e| e.to_string())?;
-    let r = emit(&shape, &dp)?;
+    let (shape, r, dp) = emitted(cfg, dims)?;
     Ok(CalibrationModule {
         name: MODULE.to_owned(),
         description: format!(
@@ -95,6 +136,27 @@ pub fn sample_stage(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<Calibratio
 
 #[cfg(test)]
 mod tests {
+    use crate::cost::fmax::{pe_prediction, sample_stage_prediction};
+
+    /// The stage's clock is at most its datapath's, and falls as the
+    /// column map's slots lengthen the issue path's carry chain.
+    #[test]
+    fn the_issue_path_bounds_the_stages_clock() {
+        let cfg = PipelineConfig {
+            pes: 2,
+            ..PipelineConfig::default()
+        };
+        for t in [Target::Ecp5, Target::Ice40] {
+            let dp = pe_prediction(&cfg, t).unwrap().mhz;
+            let small = predicted_mhz(&cfg, [16, 16, 16], t).unwrap();
+            let big = predicted_mhz(&cfg, [64, 64, 64], t).unwrap();
+            eprintln!("{t:?}: datapath {dp:.1} MHz, 16^3 stage {small:.1}, 64^3 stage {big:.1}");
+            assert!(small <= dp + 1e-9 && big <= small, "{dp} {small} {big}");
+            let p = sample_stage_prediction(&cfg, &geometry(&cfg, [64, 64, 64]), t).unwrap();
+            assert!(p.critical.contains("issue"), "{p:?}");
+        }
+    }
+
     use super::*;
 
     #[test]

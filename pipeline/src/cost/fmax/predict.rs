@@ -203,3 +203,68 @@ pub fn stage_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction>
         model,
     })
 }
+
+/// The path of the sample stage's issue in the clock before issue
+/// ([`crate::hw::pe_sample_rtl`]'s control, as
+/// [`crate::cost::sample_stage::control_logic`] prices its statements):
+/// the plan FIFO's block-RAM read, the head's bypass and the row's bits
+/// (two LUT levels), the one-hot pick's carry chain over the slots and its
+/// AND, the index's OR tree (a LUT4 level per four inputs), the slot
+/// (`map_sl + idx`, its compare and wrap; a multiplexer tree over the
+/// column map under a round-robin mapping) and the address's last adder
+/// into the compositing buffer's read port.
+pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
+    let n = s.slots();
+    let levels = |inputs: u64| {
+        let mut l = 0;
+        let mut w = inputs.max(1);
+        while w > 1 {
+            w = w.div_ceil(4);
+            l += 1;
+        }
+        l
+    };
+    let tb = crate::cost::inventory::addr_bits(n);
+    let slot = if s.round_robin {
+        Path::luts(levels(n))
+    } else {
+        Path::chain(tb + 1)
+            .then(Path::chain(tb + 1))
+            .then(Path::luts(1))
+    };
+    Path {
+        brams: 1.0,
+        ..Path::default()
+    }
+    .then(Path::luts(2))
+    .then(Path::chain(n as u32))
+    .then(Path::luts(1))
+    .then(Path::luts(levels(n.div_ceil(2))))
+    .then(slot)
+    .then(Path::chain(s.rays.ray_addr_bits()))
+}
+
+/// The clock of the PE's emitted sample stage for `geo` on `t`: the
+/// slower of the datapath's slowest stage and the control's issue path
+/// ([`issue_path`]), plus the routing a whole design adds. `None` for
+/// xc7 (no model) or where the stage's shape is not declared.
+pub fn sample_stage_prediction(
+    cfg: &PipelineConfig,
+    geo: &crate::cost::inventory::Geometry,
+    t: Target,
+) -> Option<PePrediction> {
+    let dp = pe_prediction(cfg, t)?;
+    let shape = crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo).ok()?;
+    let path = issue_path(&shape);
+    let ns = dp.model.period_ns(&path);
+    if ns <= 1e3 / dp.stage_mhz {
+        return Some(dp);
+    }
+    Some(PePrediction {
+        mhz: 1e3 / (ns + dp.routing_ns),
+        stage_mhz: 1e3 / ns,
+        critical: "the sample stage's issue (plan FIFO read to the buffer's address)".to_owned(),
+        path,
+        ..dp
+    })
+}
