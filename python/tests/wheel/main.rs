@@ -128,6 +128,18 @@ fn installed() -> Option<PathBuf> {
 }
 
 /// `PATH` with `bin` first.
+/// `ercube vectors --stage pe` of PE 1 of a 3-PE, 12x12 front-to-back
+/// frame of `ml:16` into `out`, with `extra` options.
+fn ml16_pe1_vectors(out: &Path, extra: &[&str]) {
+    let mut argv = vec![
+        "ercube", "vectors", "--stage", "pe", "--pe", "1", "--scene", "ml:16", "--pes", "3",
+        "--size", "12x12", "--order", "ftb",
+    ];
+    argv.extend_from_slice(extra);
+    argv.extend(["--out-dir", out.to_str().unwrap()]);
+    assert_eq!(ercube::cli::run_with(argv), std::process::ExitCode::SUCCESS);
+}
+
 fn with_bin(bin: &Path) -> std::ffi::OsString {
     std::env::join_paths(
         std::iter::once(bin.to_path_buf()).chain(std::env::split_paths(

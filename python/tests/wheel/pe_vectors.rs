@@ -6,9 +6,9 @@
 //! `ercube.Datapath.eval`'s on the arrays' bundle, and the errors to raise
 //! `ercube.Error` with one-line messages.
 
-use std::process::{Command, ExitCode};
+use std::process::Command;
 
-use super::{installed, root};
+use super::{installed, ml16_pe1_vectors, root};
 
 #[test]
 fn the_python_pe_vectors_are_the_files_words() {
@@ -17,28 +17,7 @@ fn the_python_pe_vectors_are_the_files_words() {
     };
     let dir = tempfile::tempdir().unwrap();
     let vec = dir.path().join("vec");
-    let argv = [
-        "ercube",
-        "vectors",
-        "--stage",
-        "pe",
-        "--pe",
-        "1",
-        "--scene",
-        "ml:16",
-        "--pes",
-        "3",
-        "--size",
-        "12x12",
-        "--order",
-        "ftb",
-        "--tf",
-        "ml",
-        "--out-dir",
-    ];
-    let mut argv: Vec<&str> = argv.to_vec();
-    argv.push(vec.to_str().unwrap());
-    assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS);
+    ml16_pe1_vectors(&vec, &["--tf", "ml"]);
     let out = Command::new(&py)
         .arg(root().join("python/tests/check_pe_vectors.py"))
         .arg(&vec)
