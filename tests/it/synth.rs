@@ -232,6 +232,44 @@ fn synth_datapath_on_ecp5_85k() {
     assert!(r["predicted_mhz"].as_f64().expect("a prediction") > 0.0);
 }
 
+/// The PE's emitted sample stage for a 64^3 volume on two PEs, placed on
+/// an LFE5U-85F (docs/cost.md, "The PE's sample stage placed"): the
+/// estimator's LUTs and flip-flops within 10% of yosys's, its multiplier
+/// blocks exact, a measured clock no faster than the prediction that
+/// includes the control's issue path. About 12 minutes on two shared
+/// cores.
+#[test]
+#[ignore = "ECP5 tools, about 12 minutes: cargo test --release --test it -- --ignored synth_pe_stage"]
+fn synth_pe_stage_on_ecp5_85k_against_its_estimate() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let args = [
+        "synth", "--target", "ecp5-85k", "--pe", "--dims", "64,64,64", "--pes", "2", "--json",
+        "pe.json",
+    ];
+    let out = ercube(dir.path(), &args);
+    assert!(out.status.success(), "{}", describe(&args, &out));
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("pe.json")).expect("report"))
+            .expect("valid JSON");
+    assert_eq!(r["module"], "ercube_pe_sample");
+    assert_eq!(r["latch_free"], true);
+    let (syn, est) = (&r["synthesized"], &r["estimated"]);
+    for k in ["lut", "ff"] {
+        let (a, b) = (syn[k].as_f64().unwrap(), est[k].as_f64().unwrap());
+        assert!(
+            (b - a).abs() <= 0.1 * a,
+            "{k}: synthesized {a}, estimated {b}"
+        );
+    }
+    assert_eq!(syn["dsp"], est["dsp"], "{r}");
+    let fmax = r["placed"]["fmax_mhz"].as_f64().expect("a measured clock");
+    let predicted = r["predicted_mhz"].as_f64().expect("a prediction");
+    assert!(
+        fmax > 5.0 && fmax <= predicted,
+        "measured {fmax}, predicted {predicted}"
+    );
+}
+
 /// Bad targets, units, the array and misplaced options are one line and
 /// status 2, before any tool runs.
 #[test]
