@@ -22,17 +22,21 @@
 //! that clock or the next is forwarded.
 //!
 //! Which columns a row samples is the PE's **row plan** (`plan`, one word
-//! of `slots` bits a ray row, bit `i` for held column `map_lo + i`): what
+//! of `slots` bits a sampled ray row, bit `i` for held column `map_lo +
+//! i`, a FIFO in the order the rows issue): what
 //! [`crate::pe::Pe::plan_rows`] computes from the controller's `PlanRows`
 //! broadcast at the slice's start, the held columns inside the slice's x
 //! range and inside the row's runs. The runs are the controller's: its
 //! occupancy memory and clip planes decide them
 //! ([`crate::skip::plan_mask`], golden's planner), so empty-space skipping
 //! and culling reach the PE as cleared bits, and the control issues a
-//! row's set bits lowest first, one a clock (a priority encoder over the
-//! bits not yet issued). The plan is written through its port (`pl_*`,
-//! `pe_plan_rtl`: the controller's runs, one a clock, through a
-//! comparator pair a column map slot) before the row's first issue.
+//! row's set bits lowest first, one a clock (the lowest bit not yet
+//! issued, one-hot from a carry chain, its index from an OR tree; the
+//! slot `map_sl + idx` wrapped once, `map_sl` the held range's first slot,
+//! which migration writes with the range). The plan is written through
+//! its port (`pl_*`, `pe_plan_rtl`: the controller's runs, one a clock,
+//! turned into the PE's bits by thermometer codes of the run's ends)
+//! before the row's first issue.
 //!
 //! Front to back with early ray termination the PE also keeps a
 //! **termination bit** a ray (`term`, a word of `slots` bits a ray row,
@@ -103,13 +107,14 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
         "// {MODULE}: one PE's sample stage (pipeline::hw::pe_sample_rtl), emitted by ercube.
 // Slice buffer: 2 row banks x 2 slices x {stored} columns x {half} rows of {v} bits;
 // edge column: 2 row banks x 2 slices x {half} words; compositing buffer: 2 banks x
-// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots};
-// row plan: {rows} words of {slots} bits, bit i of row r set when held column map_lo + i samples in it.
+// {bd} words of {bw} bits, ray (slot, row) at row * {slots} + slot, slot = (mx + {off}) % {slots}
+// (map_sl + idx, wrapped); row plan: a FIFO of {rows} words of {slots} bits in the order the rows
+// issue, bit i set when held column map_lo + i samples in the row.
 // The broadcast bc_* is the next clock's; the datapath ({dp_name}) is {depth} clocks deep,
 // shows its tap column {sx} clocks after issue and reads the taps one clock later.
-// Lint waivers: WIDTH (indices and counters are computed in 32-bit integers and
-// cut to their memories' address widths), UNUSEDSIGNAL (a word's upper bits past
-// an address go nowhere).
+// Lint waivers: WIDTH (some indices are computed in 32-bit integers and cut to
+// their memories' address widths), UNUSEDSIGNAL (a word's upper bits past an
+// address go nowhere).
 /* verilator lint_off WIDTH */
 /* verilator lint_off UNUSEDSIGNAL */
 module {MODULE} (
