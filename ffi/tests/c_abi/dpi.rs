@@ -12,58 +12,19 @@ pub(super) mod mutate;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use ercube_ffi::testbench::{testbench, MAIN, PACKAGE, WAIVER};
+use ercube_ffi::testbench::{testbench, WAIVER};
 use pipeline::hw::unit::Unit;
 
-use super::{lib_dir, tools};
+use super::{tools, verilate_dpi};
 
 const SAMPLES: u32 = 5000;
 
 /// Builds the testbench of `verilog` (module `module`, unit `unit`) in
 /// `dir` with Verilator and runs it.
 fn verilate(dir: &Path, unit: &Unit, module: &str, verilog: &str) -> Output {
-    std::fs::create_dir_all(dir).unwrap();
     let tb = testbench(unit, verilog, module, ("", "btf", "grey-ramp"), SAMPLES).unwrap();
-    for (name, text) in [
-        ("ercube_pkg.sv", PACKAGE),
-        ("tb.sv", tb.as_str()),
-        ("unit.v", verilog),
-        ("sim_main.cpp", MAIN),
-        ("unit.vlt", WAIVER),
-    ] {
-        std::fs::write(dir.join(name), text).unwrap();
-    }
-    let lib = lib_dir().join("libercube_ffi.a");
-    let build = Command::new("verilator")
-        .current_dir(dir)
-        .args([
-            "--cc",
-            "--exe",
-            "--build",
-            "-j",
-            "2",
-            "--top-module",
-            "tb",
-            "-Mdir",
-            "obj",
-            "-o",
-            "Vtb",
-            "unit.vlt",
-            "ercube_pkg.sv",
-            "unit.v",
-            "tb.sv",
-            "sim_main.cpp",
-            "-LDFLAGS",
-        ])
-        .arg(format!("{} -lpthread -ldl -lm", lib.display()))
-        .output()
-        .unwrap();
-    assert!(
-        build.status.success(),
-        "verilator failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
-    );
-    Command::new(dir.join("obj/Vtb")).output().unwrap()
+    let exe = verilate_dpi(dir, &tb, &[("unit.vlt", WAIVER), ("unit.v", verilog)], &[]);
+    Command::new(exe).output().unwrap()
 }
 
 fn text(o: &Output) -> String {

@@ -15,12 +15,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 use ercube_ffi::pe_testbench::pe_testbench;
-use ercube_ffi::testbench::{MAIN, PACKAGE};
 use pipeline::hw::unit::Unit;
 use serde_json::Value;
 
 use super::dpi::mutate;
-use super::{lib_dir, tools};
+use super::{tools, verilate_dpi, UNOPTIMISED};
 
 /// The frame: PE 1 of 3, `ml:16`, 12x12, front to back.
 fn vectors(dir: &Path) -> Value {
@@ -50,34 +49,12 @@ fn vectors(dir: &Path) -> Value {
 /// Builds the testbench around `datapath` and `pe` (the two modules'
 /// texts) in `dir` with Verilator, unoptimised (the runs are short).
 fn verilate(dir: &Path, tb: &str, datapath: &str, pe: &str) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    for (name, text) in [
-        ("ercube_pkg.sv", PACKAGE),
-        ("tb.sv", tb),
-        ("ercube_sample.v", datapath),
-        ("ercube_pe_sample.v", pe),
-        ("sim_main.cpp", MAIN),
-    ] {
-        std::fs::write(dir.join(name), text).unwrap();
-    }
-    let lib = lib_dir().join("libercube_ffi.a");
-    let build = Command::new("verilator")
-        .current_dir(dir)
-        .args(["--cc", "--exe", "--build", "-j", "2", "--top-module", "tb"])
-        .args(["-Mdir", "obj", "-o", "Vtb"])
-        .args(["ercube_pkg.sv", "ercube_sample.v", "ercube_pe_sample.v"])
-        .args(["tb.sv", "sim_main.cpp"])
-        .args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"])
-        .arg("-LDFLAGS")
-        .arg(format!("{} -lpthread -ldl -lm", lib.display()))
-        .output()
-        .unwrap();
-    assert!(
-        build.status.success(),
-        "verilator failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
-    );
-    dir.join("obj/Vtb")
+    verilate_dpi(
+        dir,
+        tb,
+        &[("ercube_sample.v", datapath), ("ercube_pe_sample.v", pe)],
+        &UNOPTIMISED,
+    )
 }
 
 /// Runs the testbench on the files in `vec`: (passed, output).

@@ -12,12 +12,11 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use ercube_ffi::sample_testbench::sample_testbench;
-use ercube_ffi::testbench::{MAIN, PACKAGE};
 use pipeline::hw::unit::Unit;
 
 use super::dpi::mutate;
 use super::window::{self, FIRST};
-use super::{lib_dir, root, tools, BRAIN};
+use super::{root, tools, verilate_dpi, BRAIN, UNOPTIMISED};
 
 /// The captured window's last cycle (`tests/support/window.rs`).
 const LAST: u64 = 306_000;
@@ -26,32 +25,7 @@ const LAST: u64 = 306_000;
 /// with Verilator, unoptimised (the runs are short; the C++ compile of the
 /// 1700-line module dominates).
 fn verilate(dir: &Path, tb: &str, verilog: &str) -> std::path::PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    for (name, text) in [
-        ("ercube_pkg.sv", PACKAGE),
-        ("tb.sv", tb),
-        ("unit.v", verilog),
-        ("sim_main.cpp", MAIN),
-    ] {
-        std::fs::write(dir.join(name), text).unwrap();
-    }
-    let lib = lib_dir().join("libercube_ffi.a");
-    let build = Command::new("verilator")
-        .current_dir(dir)
-        .args(["--cc", "--exe", "--build", "-j", "2", "--top-module", "tb"])
-        .args(["-Mdir", "obj", "-o", "Vtb"])
-        .args(["ercube_pkg.sv", "unit.v", "tb.sv", "sim_main.cpp"])
-        .args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"])
-        .arg("-LDFLAGS")
-        .arg(format!("{} -lpthread -ldl -lm", lib.display()))
-        .output()
-        .unwrap();
-    assert!(
-        build.status.success(),
-        "verilator failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
-    );
-    dir.join("obj/Vtb")
+    verilate_dpi(dir, tb, &[("unit.v", verilog)], &UNOPTIMISED)
 }
 
 fn run(exe: &Path, args: &[String]) -> (bool, String) {

@@ -67,6 +67,45 @@ fn cli_raw(dir: &Path, name: &str, args: &[&str]) -> Vec<i64> {
     words(&bytes[header..])
 }
 
+/// Builds a DPI-C testbench in `dir` with Verilator: the package, the
+/// design files `sources` (name, text; a `.vlt` waiver among them is
+/// read first), the testbench `tb` (top module `tb`) and the C++ main,
+/// linked with the crate's static library; `flags` are further Verilator
+/// options. Returns the executable.
+fn verilate_dpi(dir: &Path, tb: &str, sources: &[(&str, &str)], flags: &[&str]) -> PathBuf {
+    use ercube_ffi::testbench::{MAIN, PACKAGE};
+    std::fs::create_dir_all(dir).unwrap();
+    let mut files = vec![("ercube_pkg.sv", PACKAGE)];
+    files.extend_from_slice(sources);
+    files.extend([("tb.sv", tb), ("sim_main.cpp", MAIN)]);
+    for (name, text) in &files {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    // Verilator reads a configuration file before the sources it waives.
+    files.sort_by_key(|(name, _)| !name.ends_with(".vlt"));
+    let lib = lib_dir().join("libercube_ffi.a");
+    let build = std::process::Command::new("verilator")
+        .current_dir(dir)
+        .args(["--cc", "--exe", "--build", "-j", "2", "--top-module", "tb"])
+        .args(["-Mdir", "obj", "-o", "Vtb"])
+        .args(files.iter().map(|(name, _)| *name))
+        .args(flags)
+        .arg("-LDFLAGS")
+        .arg(format!("{} -lpthread -ldl -lm", lib.display()))
+        .output()
+        .unwrap();
+    assert!(
+        build.status.success(),
+        "verilator failed:\n{}",
+        String::from_utf8_lossy(&build.stderr)
+    );
+    dir.join("obj/Vtb")
+}
+
+/// Verilator's options for a testbench built unoptimised (its runs are
+/// short; the C++ compile dominates).
+const UNOPTIMISED: [&str; 2] = ["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"];
+
 fn words(bytes: &[u8]) -> Vec<i64> {
     bytes
         .chunks_exact(8)
