@@ -212,25 +212,42 @@ struct View {
 
 impl View {
     fn args(&self, options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
-        let v3 = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
-        let mut a = vec![
-            format!("--method={}", self.method),
-            format!("--up={}", v3(self.up)),
-            format!("--fov={}", self.fov),
-            format!("--size={}x{}", self.size[0], self.size[1]),
-        ];
-        if let Some(e) = self.eye {
-            a.push(format!("--eye={}", v3(e)));
-        }
-        if let Some(l) = self.look_at {
-            a.push(format!("--look-at={}", v3(l)));
-        }
-        if let Some(t) = &self.tf {
-            a.push(format!("--tf={t}"));
-        }
+        let mut a = vec![format!("--method={}", self.method)];
+        a.extend(camera_args(
+            (self.eye, self.look_at, self.up),
+            self.fov,
+            self.size,
+            self.tf.as_deref(),
+        ));
         a.extend(flags(options)?);
         Ok(a)
     }
+}
+
+/// The command line's camera and transfer-function flags: `--up`, `--fov`,
+/// `--size`, and `--eye`, `--look-at`, `--tf` where given.
+fn camera_args(
+    (eye, look_at, up): (Option<[f64; 3]>, Option<[f64; 3]>, [f64; 3]),
+    fov: f64,
+    size: [u32; 2],
+    tf: Option<&str>,
+) -> Vec<String> {
+    let v3 = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+    let mut a = vec![
+        format!("--up={}", v3(up)),
+        format!("--fov={fov}"),
+        format!("--size={}x{}", size[0], size[1]),
+    ];
+    if let Some(e) = eye {
+        a.push(format!("--eye={}", v3(e)));
+    }
+    if let Some(l) = look_at {
+        a.push(format!("--look-at={}", v3(l)));
+    }
+    if let Some(t) = tf {
+        a.push(format!("--tf={t}"));
+    }
+    a
 }
 
 /// What a frame returns to Python: the image, the raw words (pipeline

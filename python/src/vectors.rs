@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 use pipeline::cosim::pe_vectors::{Check, MEMORIES};
 use pipeline::hw::pe_sample_rtl::MODULE;
 
-use super::{array, error, flags, volume_of, Error};
+use super::{array, camera_args, error, flags, volume_of, Error};
 
 /// `words` as u64, refused in one line when a word is wider (a port or a
 /// write of more than 64 bits, which a configuration can make).
@@ -46,21 +46,7 @@ pub fn pe_vectors<'py>(
     config: Option<String>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let v3 = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
-    let mut args = vec![
-        format!("--up={}", v3(up)),
-        format!("--fov={fov}"),
-        format!("--size={}x{}", size[0], size[1]),
-    ];
-    if let Some(e) = eye {
-        args.push(format!("--eye={}", v3(e)));
-    }
-    if let Some(l) = look_at {
-        args.push(format!("--look-at={}", v3(l)));
-    }
-    if let Some(t) = tf {
-        args.push(format!("--tf={t}"));
-    }
+    let mut args = camera_args((eye, look_at, up), fov, size, tf);
     if let Some(o) = order {
         args.push(format!("--order={o}"));
     }

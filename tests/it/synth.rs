@@ -36,10 +36,17 @@ fn synth_with(
         "synth", "--target", target, "--unit", unit, "--stats", &json,
     ];
     args.extend_from_slice(extra);
-    let out = ercube(dir, &args);
-    assert!(out.status.success(), "{}", describe(&args, &out));
-    serde_json::from_slice(&std::fs::read(dir.join(&json)).expect("report written"))
-        .expect("valid JSON")
+    report(dir, &args, &json).1
+}
+
+/// Runs `ercube args` in `dir`, which must succeed and write the report
+/// `json`: its standard output and the report.
+fn report(dir: &std::path::Path, args: &[&str], json: &str) -> (String, serde_json::Value) {
+    let out = ercube(dir, args);
+    assert!(out.status.success(), "{}", describe(args, &out));
+    let r = serde_json::from_slice(&std::fs::read(dir.join(json)).expect("report written"))
+        .expect("valid JSON");
+    (String::from_utf8_lossy(&out.stdout).into_owned(), r)
 }
 
 /// Checks the estimate against the synthesized counts of one report.
@@ -159,13 +166,8 @@ fn synth_readout_on_ice40_against_its_estimate() {
         "--stats",
         "readout.json",
     ];
-    let out = ercube(dir.path(), &args);
-    assert!(out.status.success(), "{}", describe(&args, &out));
-    let text = String::from_utf8_lossy(&out.stdout);
+    let (text, r) = report(dir.path(), &args, "readout.json");
     assert!(text.contains("estimated (pipeline::cost, ice40)"), "{text}");
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("readout.json")).expect("report"))
-            .expect("valid JSON");
     assert_eq!(r["unit"], "readout", "{r}");
     assert!(r["synthesized"]["bram"].as_u64().unwrap() > 0, "{r}");
     check_estimate(&r);
@@ -213,11 +215,7 @@ fn synth_datapath_on_ecp5_85k() {
         "--stats",
         "dp.json",
     ];
-    let out = ercube(dir.path(), &args);
-    assert!(out.status.success(), "{}", describe(&args, &out));
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("dp.json")).expect("report"))
-            .expect("valid JSON");
+    let (_, r) = report(dir.path(), &args, "dp.json");
     assert_eq!(r["module"], "ercube_sample");
     assert_eq!(r["latch_free"], true);
     assert!(
@@ -246,11 +244,7 @@ fn synth_pe_stage_on_ecp5_85k_against_its_estimate() {
         "synth", "--target", "ecp5-85k", "--pe", "--dims", "64,64,64", "--pes", "2", "--json",
         "pe.json",
     ];
-    let out = ercube(dir.path(), &args);
-    assert!(out.status.success(), "{}", describe(&args, &out));
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("pe.json")).expect("report"))
-            .expect("valid JSON");
+    let (_, r) = report(dir.path(), &args, "pe.json");
     assert_eq!(r["module"], "ercube_pe_sample");
     assert_eq!(r["latch_free"], true);
     let (syn, est) = (&r["synthesized"], &r["estimated"]);
