@@ -189,7 +189,7 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
                 .collect(),
         ),
     ]);
-    if let Some(_thr) = s.termination {
+    if s.termination.is_some() {
         let aw = r.alpha_bits;
         out.push((
             "termination: the threshold, the write's bit, the read forwarded",

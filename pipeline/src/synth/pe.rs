@@ -61,25 +61,19 @@ fn geometry(cfg: &PipelineConfig, dims: [usize; 3]) -> Geometry {
 /// PE's declared control registers, less the read registers its block
 /// RAMs take in (the compositing buffer's two words, the four taps).
 pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources {
-    let items: Resources = pe_inventory(cfg, &geometry(cfg, dims))
-        .items
-        .iter()
-        .filter(|it| sample_stage_item(it) && it.group != "registers")
-        .map(|it| it.cost(t))
-        .sum();
-    let registers = match emitted(cfg, dims) {
+    let inventory = pe_inventory(cfg, &geometry(cfg, dims));
+    let held = inventory.items.iter().filter(|it| sample_stage_item(it));
+    match emitted(cfg, dims) {
         Ok((shape, r, _)) => {
             let absorbed = 2 * u64::from(shape.rays.buffer_width) + 4 * u64::from(shape.voxel_bits);
-            Resources::ffs(r.register_bits.saturating_sub(absorbed))
+            held.filter(|it| it.group != "registers")
+                .map(|it| it.cost(t))
+                .sum::<Resources>()
+                + Resources::ffs(r.register_bits.saturating_sub(absorbed))
         }
-        Err(_) => pe_inventory(cfg, &geometry(cfg, dims))
-            .items
-            .iter()
-            .filter(|it| sample_stage_item(it) && it.group == "registers")
-            .map(|it| it.cost(t))
-            .sum(),
-    };
-    items + registers
+        // No emitted stage: the PE's declared registers.
+        Err(_) => held.map(|it| it.cost(t)).sum(),
+    }
 }
 
 /// The predicted clock of the stage for `dims` over `cfg.pes` PEs on
