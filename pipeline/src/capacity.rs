@@ -362,7 +362,6 @@ impl Span {
     fn contains(&self, m: i64) -> bool {
         self.count > 0 && (self.lo..=self.hi).contains(&m)
     }
-
 }
 
 /// How many of `kids`' rays have their centre parent (`centre`) in each

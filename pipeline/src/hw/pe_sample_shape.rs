@@ -6,8 +6,8 @@
 //! [`super::readout_rtl::ReadoutShape`] for the rays and
 //! [`crate::pe::Pe::voxel_state`] for the voxels): the slice buffer is two
 //! row banks (even and odd voxel rows) of two slices each, a bank
-//! `stored * ceil(ny / 2)` words a slice, read at two columns a clock (the
-//! declared dual read); the edge column, likewise banked, holds the
+//! `stored * ceil(ny / 2)` words a slice, read at two columns a clock
+//! while the host writes (a write port and two read ports); the edge column, likewise banked, holds the
 //! block's first column; the compositing buffer is two banks interleaved
 //! by the ray address's low bit, ray `(slot, row)` at `row * slots +
 //! slot`, where a held column's slot is its `mx` modulo the slots (a held
@@ -90,16 +90,16 @@ impl PeSampleShape {
         }
         let ny = geo.dims[1] as u64;
         let half_rows = ny.div_ceil(2);
-        if sb.copies != 4 || sb.depth % half_rows != 0 {
+        if sb.copies != 2 || sb.depth % (2 * half_rows) != 0 {
             return Err(format!(
-                "the slice buffer is declared as {} copies of {} words; the sample stage reads 4 (2 slices x 2 row banks)",
+                "the slice buffer is declared as {} copies of {} words; the sample stage reads 2 row banks of 2 slices",
                 sb.copies, sb.depth
             ));
         }
         Ok(PeSampleShape {
             rays,
             voxel_bits: sb.width,
-            stored: sb.depth / half_rows,
+            stored: sb.depth / (2 * half_rows),
             half_rows,
             ny,
             nx: geo.dims[0] as u64,

@@ -45,6 +45,7 @@ fn decl(
 
 const SDP: StateKind = StateKind::Memory(MemPorts::Sdp);
 const DUAL_READ: StateKind = StateKind::Memory(MemPorts::DualRead);
+const WRITE_TWO_READS: StateKind = StateKind::Memory(MemPorts::WriteTwoReads);
 const REG: StateKind = StateKind::Register;
 const OFF_CHIP: StateKind = StateKind::OffChip;
 
@@ -199,19 +200,27 @@ impl Pe {
                 ));
             }
         } else {
+            // Two row banks (even and odd voxel rows), each holding both
+            // slices (the slice is the word address's top part), read at
+            // a row's two columns a clock while the host writes the next
+            // slice: a write port and two read ports, as the sample stage
+            // emits them (`hw::pe_sample_rtl`). On iCE40, whose blocks have
+            // one read port, a bank of both slices takes half the blocks
+            // four banks would; on ECP5 and xc7 two copies of a bank cost
+            // what four dual-read banks of one slice would.
             let half_rows = ny.div_ceil(2);
             out.push(decl(
                 "slice_buffer",
-                "slice buffer (2 slices x 2 row banks)",
-                DUAL_READ,
-                (4, stored * half_rows, v),
+                "slice buffer (2 row banks of 2 slices)",
+                WRITE_TWO_READS,
+                (2, 2 * stored * half_rows, v),
             ));
             if edges {
                 out.push(decl(
                     "edge_column",
-                    "edge column (2 slices x 2 row banks)",
+                    "edge column (2 row banks of 2 slices)",
                     SDP,
-                    (4, half_rows, v),
+                    (2, 2 * half_rows, v),
                 ));
             }
         }

@@ -201,10 +201,10 @@ fn the_default_declaration_has_the_documented_depths() {
         let d = get(n);
         (d.copies, d.depth, d.width)
     };
-    // Two slices in two row banks of W columns x ny / 2 rows of 12-bit
+    // Two row banks of two slices of W columns x ny / 2 rows of 12-bit
     // voxels, and the neighbour's edge column.
-    assert_eq!(shape("slice_buffer"), (4, 16 * 128, 12));
-    assert_eq!(shape("edge_column"), (4, 128, 12));
+    assert_eq!(shape("slice_buffer"), (2, 2 * 16 * 128, 12));
+    assert_eq!(shape("edge_column"), (2, 2 * 128, 12));
     // The view's ray columns (its end PEs hold the rays beyond the
     // volume's sides, far more than a middle PE's 2W + 1 = 33) of its
     // tallest region's rows (at most 2 ny + 1), in two column banks, 4 x

@@ -111,8 +111,11 @@ impl Part {
             // Multipliers map to SB_MAC16 as the estimator assumes.
             Part::Ice40Up5k => format!("synth_ice40 -dsp -top {top}"),
             Part::Ice40Hx8k => format!("synth_ice40 -top {top}"),
-            Part::Xc7 => format!("synth_xilinx -top {top}"),
-            Part::Xcup => format!("synth_xilinx -family xcup -top {top}"),
+            // synth_xilinx keeps the hierarchy unless told (synth_ecp5 and
+            // synth_ice40 flatten): flattened, the stats count the
+            // submodules' cells, not the submodules.
+            Part::Xc7 => format!("synth_xilinx -flatten -top {top}"),
+            Part::Xcup => format!("synth_xilinx -flatten -family xcup -top {top}"),
         }
     }
 

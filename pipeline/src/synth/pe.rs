@@ -62,7 +62,13 @@ fn geometry(cfg: &PipelineConfig, dims: [usize; 3]) -> Geometry {
 /// RAMs take in (the compositing buffer's two words, the four taps).
 pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources {
     let inventory = pe_inventory(cfg, &geometry(cfg, dims));
-    let held = inventory.items.iter().filter(|it| sample_stage_item(it));
+    // Under column blocks a held column's slot is its index modulo the
+    // slots: the stage keeps no column map (the readout's is its own).
+    let blocks = !crate::mapping::ColumnMap::of(cfg, dims[0]).round_robin();
+    let held = inventory
+        .items
+        .iter()
+        .filter(|it| sample_stage_item(it) && !(blocks && it.name.starts_with("column map")));
     match emitted(cfg, dims) {
         Ok((shape, r, _)) => {
             let absorbed = 2 * u64::from(shape.rays.buffer_width) + 4 * u64::from(shape.voxel_bits);
