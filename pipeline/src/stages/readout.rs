@@ -67,6 +67,37 @@ impl Pe {
             .is_some_and(|a| !(self.sparse_passes && a.raw == [0; 4]))
     }
 
+    /// The clocks [`Pe::readout_step`] runs from [`Pe::begin_readout`]
+    /// until [`Pe::readout_done`], counted from the rays each row streams
+    /// instead of clock by clock (the untraced readout, whose host writes
+    /// the words from the buffer): the clock reading row 0's valid word,
+    /// each row's as many as it streams rays, at least one, and one more
+    /// driving the last ray when the last row streams one. Leaves the
+    /// readout done, as its last clock does.
+    pub(crate) fn readout_clocks(&mut self) -> u64 {
+        let f = &mut self.readout;
+        if !f.start {
+            return 0;
+        }
+        let (mut clocks, mut last) = (1, 0);
+        for r in 0..f.rows {
+            last = (0..self.rays.len())
+                .filter(|&c| {
+                    self.rays[c]
+                        .acc
+                        .get(r)
+                        .is_some_and(|a| !(self.sparse_passes && a.raw == [0; 4]))
+                })
+                .count() as u64;
+            clocks += last.max(1);
+        }
+        f.start = false;
+        f.valid_row = None;
+        f.row = None;
+        f.read = None;
+        clocks + u64::from(last > 0)
+    }
+
     /// One readout clock, as `ercube_pe_readout` runs it, row by row: the
     /// ray read last clock leaves the buffer's read register for the host
     /// port; the first clock reads row 0's valid word; then each clock

@@ -154,21 +154,14 @@ impl Clock {
     /// The readout of region 0 (grid `g`) into `raw` (row-major, cleared)
     /// without ticking: each PE streams its words (it shares nothing with
     /// the others), and the readout lasts as many cycles as the longest
-    /// stream, as the clocked loop ticks. The PEs' readouts have begun.
+    /// stream ([`Pe::readout_clocks`](crate::pe::Pe::readout_clocks)), as
+    /// the clocked loop ticks. The PEs' readouts have begun.
     pub(crate) fn readout_untraced(&mut self, g: &RayGrid, raw: &mut [[i64; 4]]) {
         let w = g.counts()[0];
         let longest = self
             .pes
             .par_iter_mut()
-            .map(|pe| {
-                let mut n = 0;
-                let mut out = Ports::default();
-                while !pe.readout_done() {
-                    pe.readout_step(&mut out);
-                    n += 1;
-                }
-                n
-            })
+            .map(|pe| pe.readout_clocks())
             .max()
             .unwrap_or(0);
         // The host's writes, a band of rows at a time: each ray's word

@@ -143,8 +143,25 @@ impl Kernel {
     /// classification) and what only a visible one does (the rest). Sets
     /// [`Batch::visible`] and [`Batch::done`] and replaces the visible
     /// lanes' accumulators.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn sample_lanes(&self, b: &mut Batch, t: &mut Tally) {
+        self.sample_lanes_with(b, t, |_| {});
+    }
+
+    /// [`Kernel::sample_lanes`] with the accumulators loaded by `load`
+    /// only once some lane's sample is visible (a transparent sample
+    /// never reads them): a column's transparent batches skip the copy.
+    /// Until `load` runs, `b.acc` holds whatever words it held, which the
+    /// interpolation and the classification do not read; after it, the
+    /// lanes `load` leaves alone hold accumulator words of earlier
+    /// batches, in range like any (their results are dropped).
+    #[inline(always)]
+    pub(crate) fn sample_lanes_with(
+        &self,
+        b: &mut Batch,
+        t: &mut Tally,
+        load: impl FnOnce(&mut Batch),
+    ) {
         let fw = u32::from(self.weight.frac());
         let wx = [b.wx; LANES];
         // `n <= LANES = 8`, so the shift stays below 16.
@@ -195,10 +212,15 @@ impl Kernel {
             return;
         }
         t.lanes[1] += u64::from(shown.count_ones());
-        let sx = self.line.lanes(&[b.slope; LANES], t, shown);
+        load(b);
+        // The x slope is the column's, the same word in every lane: one
+        // assignment evaluated once, its events those of every lane shown.
+        let (sx, over, inexact) = self.line.eval(b.slope);
+        let all = |f: bool| if f { Mask::MAX } else { 0 };
+        t.events(self.line.slot, shown, all(over), all(inexact));
         let rs = self.rad_shift;
         let rad: Lanes = each(|l| {
-            let sum = sx[l] * sx[l] + b.yz[l];
+            let sum = sx * sx + b.yz[l];
             if rs >= 0 {
                 sum << rs
             } else {

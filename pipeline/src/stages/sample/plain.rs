@@ -237,17 +237,27 @@ impl ColumnJob<'_> {
                 taps.load(read, chunk, rows, self.right_edges, b);
             }
         }
-        for (l, &(i, now)) in chunk.iter().enumerate() {
+        for &(i, now) in chunk {
             let row = rows[i as usize].row as usize;
             let land = now + self.latency;
             *drained_at = (*drained_at).max(land);
             col.land[row] = land;
-            for (w, &a) in b.acc.iter_mut().zip(&col.acc[row].raw) {
-                w[l] = a;
-            }
         }
         b.pad();
-        self.kernel.sample_lanes(b, total);
+        // The rays' accumulators, read only when some sample is visible.
+        let acc = &col.acc;
+        let load = |b: &mut Batch| {
+            for (l, &(i, _)) in chunk.iter().enumerate() {
+                let row = rows[i as usize].row as usize;
+                for (w, &a) in b.acc.iter_mut().zip(&acc[row].raw) {
+                    w[l] = a;
+                }
+            }
+        };
+        self.kernel.sample_lanes_with(b, total, load);
+        if b.visible == 0 {
+            return;
+        }
         for (l, &(i, _)) in chunk.iter().enumerate() {
             if (b.visible >> l) & 1 != 0 {
                 let row = rows[i as usize].row as usize;
