@@ -38,6 +38,7 @@ mod path;
 mod pipelining;
 mod predict;
 pub mod routing;
+pub mod stages;
 
 pub use fit::{fit_rows, least_squares, FEATURES};
 pub use measured::{Measured, Role, Setting, MEASURED};

@@ -246,7 +246,8 @@ pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
 
 /// The clock of the PE's emitted sample stage for `geo` on `t`: the
 /// slower of the datapath's slowest stage and the control's issue path
-/// ([`issue_path`]), plus the routing a whole design adds. `None` for
+/// ([`issue_path`], with its nets' routing across the stage:
+/// [`super::stages`]), plus the routing a whole design adds. `None` for
 /// xc7 (no model) or where the stage's shape is not declared.
 pub fn sample_stage_prediction(
     cfg: &PipelineConfig,
@@ -256,7 +257,8 @@ pub fn sample_stage_prediction(
     let dp = pe_prediction(cfg, t)?;
     let shape = crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo).ok()?;
     let path = issue_path(&shape);
-    let ns = dp.model.period_ns(&path);
+    // The issue path's nets route across the whole stage.
+    let ns = dp.model.period_ns(&path) + super::stages::issue_routing_ns(path.luts, t);
     if ns <= 1e3 / dp.stage_mhz {
         return Some(dp);
     }
