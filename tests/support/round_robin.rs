@@ -11,17 +11,19 @@
 
 use std::path::{Path, PathBuf};
 
-/// (mapping, configuration TOML, frame flags), one a mapping.
+/// (mapping, configuration TOML, frame flags), one a mapping; the
+/// transfer function named (the scene's, which the command line picks and
+/// `ercube.pe_vectors` of the scene's voxels does not).
 pub const FRAMES: [(&str, &str, &str); 2] = [
     (
         "interleave",
         "pes = 3\nmapping = \"interleave\"\nmigration = \"overlapped\"\nlink_lanes = 2\n",
-        "--scene sphere:16 --size 12x12 --eye 40,30,-50",
+        "--scene sphere:16 --tf sphere --size 12x12 --eye 40,30,-50",
     ),
     (
         "cyclic",
         "pes = 3\nmapping = \"cyclic\"\ncyclic_width = 2\npass_skip_empty = true\n",
-        "--scene ml:16 --size 12x12 --eye -20,10,-40 --no-skip-empty",
+        "--scene ml:16 --tf ml --size 12x12 --eye -20,10,-40 --no-skip-empty",
     ),
 ];
 

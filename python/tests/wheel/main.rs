@@ -22,6 +22,8 @@ mod cocotb_verilator;
 mod datapath;
 mod pe_vectors;
 
+#[path = "../../../tests/support/round_robin.rs"]
+mod round_robin;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 #[path = "../../../tests/support/window.rs"]
@@ -127,7 +129,19 @@ fn installed() -> Option<PathBuf> {
     .clone()
 }
 
-/// `PATH` with `bin` first.
+/// `ercube vectors --stage pe` of PE 1 of the round-robin mapping frame
+/// `frame` with configuration `toml` into `out` (the configuration's file
+/// beside it); the file.
+fn round_robin_pe1_vectors(out: &Path, name: &str, toml: &str, frame: &str) -> PathBuf {
+    let parent = out.parent().unwrap();
+    std::fs::create_dir_all(parent).unwrap();
+    let cfg = round_robin::config(parent, name, toml);
+    let args = round_robin::vectors_args(frame, &cfg, out);
+    let argv = std::iter::once("ercube").chain(args.iter().map(String::as_str));
+    assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS, "{name}");
+    cfg
+}
+
 /// `ercube vectors --stage pe` of PE 1 of a 3-PE, 12x12 front-to-back
 /// frame of `ml:16` into `out`, with `extra` options.
 fn ml16_pe1_vectors(out: &Path, extra: &[&str]) {
@@ -140,6 +154,7 @@ fn ml16_pe1_vectors(out: &Path, extra: &[&str]) {
     assert_eq!(ercube::cli::run_with(argv), std::process::ExitCode::SUCCESS);
 }
 
+/// `PATH` with `bin` first.
 fn with_bin(bin: &Path) -> std::ffi::OsString {
     std::env::join_paths(
         std::iter::once(bin.to_path_buf()).chain(std::env::split_paths(
