@@ -227,10 +227,7 @@ fn the_dpi_testbench_scores_the_round_robin_mappings_and_fails_a_broken_decoder(
         assert!(!ok, "{name}: the broken decoder passed:\n{t}");
         let cycle = after(&t, "ercube: first mismatch at cycle ");
         assert!(cycle < rows, "{name}: {t}");
-        assert!(
-            t.contains(&format!("{cycle} (PE 1): tap_v")),
-            "{name}: {t}"
-        );
+        assert!(t.contains(&format!("{cycle} (PE 1): tap_v")), "{name}: {t}");
     }
 }
 

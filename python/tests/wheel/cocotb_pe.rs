@@ -139,10 +139,17 @@ fn the_cocotb_pe_testbench_drives_the_round_robin_mappings_and_fails_a_broken_de
         );
         let path = vec.join("ercube_pe_sample.v");
         let good = std::fs::read_to_string(&path).unwrap();
-        std::fs::write(&path, round_robin::break_decoder(&good).expect("the decoder")).unwrap();
+        std::fs::write(
+            &path,
+            round_robin::break_decoder(&good).expect("the decoder"),
+        )
+        .unwrap();
         let o = run_in(&py, &d.join("broken"), "icarus", &args);
         let t = text(&o);
-        assert!(!o.status.success(), "{name}: the broken decoder passed:\n{t}");
+        assert!(
+            !o.status.success(),
+            "{name}: the broken decoder passed:\n{t}"
+        );
         let key = "first mismatch at cycle ";
         let at = t
             .find(key)

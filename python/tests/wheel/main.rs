@@ -1,8 +1,9 @@
 //! `pip install ./python` into a virtual environment under `target/`, then
 //! `tests/check_render.py`: `ercube.render` gives the command line's
 //! `--npy` image bit for bit and its `--stats` (apart from wall-clock
-//! fields), on brainsmall (er and pipeline) and on a scene with every
-//! method. Needs Python with `venv`, and maturin and numpy in the
+//! fields), on brainsmall (er and pipeline, the pipeline again after the
+//! scene's on another PE count, through the last frame's kept memories)
+//! and on a scene with every method. Needs Python with `venv`, and maturin and numpy in the
 //! environment (`.ci/run` installs them into `target/pyvenv`; so does this
 //! test when PyPI is reachable); skips with one line without them unless
 //! `ERCUBE_REQUIRE_TOOLS=1`.
@@ -221,6 +222,29 @@ fn the_python_module_renders_the_command_lines_images() {
         c["kwargs"] = json!({
             "method": method, "tf": "ml", "size": [48, 40], "eye": [-30.0, 25.0, -70.0], "fov": 45.0,
         });
+        cases.push(c);
+    }
+    // brainsmall's pipeline again after the scene's, on 4 PEs and then the
+    // default 16: each frame loads its memories into the last pipeline
+    // frame's buffers (another volume, another PE count) and takes its
+    // datapath only when the configuration and table are the same.
+    for (name, extra, kw) in [
+        (
+            "brain-pipeline-4",
+            &["--pes", "4"][..],
+            json!({"method": "pipeline", "pes": 4}),
+        ),
+        (
+            "brain-pipeline-again",
+            &[][..],
+            json!({"method": "pipeline"}),
+        ),
+    ] {
+        let mut args = vec!["--volume", brain, "--method", "pipeline"];
+        args.extend(extra);
+        let mut c = cli(d, name, &args);
+        c["source"] = json!("brain");
+        c["kwargs"] = kw;
         cases.push(c);
     }
     cases[0]["brain"] = json!(brain);

@@ -12,7 +12,7 @@ use std::process::Command;
 
 use serde_json::{json, Map, Value};
 
-use super::{installed, ml16_pe1_vectors, round_robin, round_robin_pe1_vectors, root};
+use super::{installed, ml16_pe1_vectors, root, round_robin, round_robin_pe1_vectors};
 
 #[test]
 fn the_python_pe_vectors_are_the_files_words() {
@@ -34,7 +34,8 @@ fn the_python_pe_vectors_are_the_files_words() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(
-        text.contains("pe_vectors: PE 1 (blocks): ") && text.contains("equal to the files and the model"),
+        text.contains("pe_vectors: PE 1 (blocks): ")
+            && text.contains("equal to the files and the model"),
         "{text}"
     );
     assert!(text.contains("errors raise ercube.Error"), "{text}");
@@ -60,7 +61,10 @@ fn frame_json(frame: &str, toml: &str) -> Value {
             "scene" => scene = (*v).to_owned(),
             "size" => {
                 let (w, h) = v.split_once('x').unwrap();
-                kw.insert("size".into(), json!([w.parse::<u32>().unwrap(), h.parse::<u32>().unwrap()]));
+                kw.insert(
+                    "size".into(),
+                    json!([w.parse::<u32>().unwrap(), h.parse::<u32>().unwrap()]),
+                );
             }
             _ => {
                 let n: Result<Vec<f64>, _> = v.split(',').map(str::parse::<f64>).collect();

@@ -165,7 +165,11 @@ fn load(v: &Voxels, s: &PeSampleShape, (cycle, z, zp): (u64, u64, u64), out: &mu
 /// entries at the clock migration gives them.
 fn writes(v: &Voxels, s: &PeSampleShape) -> Vec<MemWrite> {
     let mut out = Vec::new();
-    let first_load = v.events.iter().find(|e| e[1] == 1).map_or(0, |e| e[0] as u64);
+    let first_load = v
+        .events
+        .iter()
+        .find(|e| e[1] == 1)
+        .map_or(0, |e| e[0] as u64);
     for (c, &l) in v.loc.iter().enumerate() {
         out.push(MemWrite {
             cycle: first_load,
