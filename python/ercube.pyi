@@ -89,6 +89,8 @@ class PeVectors(TypedDict):
     """Samples this PE issued."""
     samples_all_pes: int
     frame_cycles: int
+    mapping: str
+    """The column mapping: "blocks", "interleave" or "cyclic"."""
     inputs: dict[str, npt.NDArray[np.uint64]]
     """Stimulus by port: the word at the rising edge that starts each clock
     (two's complement over the port's width)."""
@@ -102,8 +104,14 @@ class PeVectors(TypedDict):
     writes: dict[str, npt.NDArray[Any]]
     """The memory writes the model makes without a clock, in order: cycle
     (uint64; applied before the rising edge that ends it), mem (uint8, an
-    index into memories), addr, data (uint64; for term, slot << 1 | bit)."""
+    index into memories), addr, data (uint64; for term, slot << 1 | bit;
+    for cm_mx, the ray index as two's complement over its width). Under
+    the interleave and cyclic mappings they include the column map's
+    entries (cm_mx, cm_sl: addr the entry) and the column decoder (loc:
+    addr the volume column, data its local index)."""
     memories: List[str]
+    """The memories by code: sb0, sb1, ec0, ec1, bank0, bank1, term,
+    cm_mx, cm_sl, loc."""
     tables: dict[str, npt.NDArray[np.int64]]
     """The datapath's tables, raw words by name (Datapath.load_table takes
     them; the module's host port their low bits)."""
@@ -132,9 +140,9 @@ def pe_vectors(
 
     Defaults are the command line's; order is "btf" or "ftb" (default the
     configuration's); further options are its flags with underscores
-    (pes=3, terminate=0.95). Shading, the volume of interest and the
-    interleave and cyclic mappings raise ercube.Error as the command
-    refuses them. The GIL is released while the frame runs.
+    (pes=3, terminate=0.95); every column mapping. Shading and the volume
+    of interest raise ercube.Error as the command refuses them. The GIL is
+    released while the frame runs.
     """
 
 STAGES: List[str]

@@ -94,12 +94,30 @@ const FILE_FLAGS: [(&str, &str); 5] = [
     ("baseplane_npy", "--baseplane-npy"),
 ];
 
+/// The flags `words` as clap matches them: the last call's matches again
+/// when `words` are the last call's (matching is a function of the words
+/// alone; a caller rendering frame after frame with the same flags, as the
+/// Python module's loops do, skips building clap's command and matching).
+fn matches(words: Vec<String>) -> Result<clap::ArgMatches, Error> {
+    static LAST: std::sync::Mutex<Option<(Vec<String>, clap::ArgMatches)>> =
+        std::sync::Mutex::new(None);
+    if let Ok(last) = LAST.lock() {
+        if let Some((_, m)) = last.as_ref().filter(|(w, _)| *w == words) {
+            return Ok(m.clone());
+        }
+    }
+    let m = RenderCommand::command()
+        .try_get_matches_from(&words)
+        .map_err(|e| Error::usage(&e))?;
+    if let Ok(mut last) = LAST.lock() {
+        *last = Some((words, m.clone()));
+    }
+    Ok(m)
+}
+
 /// Parses `ercube render`'s flags `args`.
 pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RenderArgs, Error> {
-    let words = args.iter().map(|s| s.as_ref().to_string());
-    let m = RenderCommand::command()
-        .try_get_matches_from(words)
-        .map_err(|e| Error::usage(&e))?;
+    let m = matches(args.iter().map(|s| s.as_ref().to_string()).collect())?;
     for (id, flag) in FILE_FLAGS {
         if m.value_source(id) == Some(ValueSource::CommandLine) {
             return Err(Error {

@@ -5,8 +5,9 @@ Replays the files `ercube vectors --stage pe` writes: after reset the
 tables go in through the host port (`tables.hex`, also loaded into
 `ercube.Datapath`), then each clock the memory writes of the clock before
 (`pe<K>_writes.hex`: slice loads, buffer words and termination bits the
-model changed without a clock, written into the module's memories by
-their hierarchical names) and each input's row (`pe<K>_<port>.hex`: the
+model changed without a clock, and under the interleave and cyclic
+mappings the column map and column decoder, written into the module's
+memories by their hierarchical names) and each input's row (`pe<K>_<port>.hex`: the
 broadcast, the held range, the plan port, the right neighbour's edge
 words); in the middle of each clock every output is compared with its row
 (the valids every clock, the words where their valid is 1). Each issued

@@ -397,7 +397,7 @@ impl Chip {
             (None, Some(s)) => py.detach(|| finished(s)),
             (None, None) => return Err(Error::new_err("no frame: call Chip.begin first")),
         }?;
-        let out = outputs(py, &r, true)?;
+        let out = outputs(py, r, true)?;
         let raw = out
             .raw
             .ok_or_else(|| Error::new_err("the frame has no raw words"))?;

@@ -12,6 +12,7 @@
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyByteArray, PyDict, PyList, PyTuple};
 
 use std::sync::Mutex;
@@ -69,6 +70,14 @@ fn flags(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     Ok(out)
 }
 
+/// numpy, imported once.
+fn numpy(py: Python<'_>) -> PyResult<&Bound<'_, PyModule>> {
+    static NUMPY: PyOnceLock<Py<PyModule>> = PyOnceLock::new();
+    NUMPY
+        .get_or_try_init(py, || Ok::<_, PyErr>(py.import("numpy")?.unbind()))
+        .map(|m| m.bind(py))
+}
+
 /// A numpy array of `shape` and `dtype` (numpy's name for `T`, native
 /// byte order) holding `values`, backed by a bytearray (one copy).
 fn array<'py, T: bytemuck::Pod>(
@@ -78,9 +87,60 @@ fn array<'py, T: bytemuck::Pod>(
     dtype: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let bytes = PyByteArray::new(py, bytemuck::cast_slice(values));
-    py.import("numpy")?
+    numpy(py)?
         .call_method1("frombuffer", (bytes, dtype))?
         .call_method1("reshape", (PyTuple::new(py, shape)?,))
+}
+
+/// A frame's pixels lent to numpy without a copy: the array numpy makes
+/// of it (`__array_interface__`, writable) reads and writes the frame's
+/// own buffer and keeps this object, and so the buffer, alive as its base.
+#[pyclass(frozen)]
+struct Pixels {
+    /// The buffer, never read or moved again (moving the `Vec` would not
+    /// move it); numpy reaches it through `address`.
+    _data: Vec<[f32; 4]>,
+    /// Where the buffer starts, from `as_mut_ptr`: numpy may write there.
+    address: usize,
+    /// (height, width, 4).
+    shape: [usize; 3],
+}
+
+#[pymethods]
+impl Pixels {
+    /// numpy's array interface (version 3): native-order float32 of
+    /// `shape`, C-contiguous, writable.
+    #[getter]
+    fn __array_interface__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("shape", PyTuple::new(py, self.shape)?)?;
+        let order = if cfg!(target_endian = "little") {
+            "<"
+        } else {
+            ">"
+        };
+        d.set_item("typestr", format!("{order}f4"))?;
+        d.set_item("data", (self.address, false))?;
+        d.set_item("version", 3)?;
+        Ok(d)
+    }
+}
+
+/// The image `im` as a float32 H x W x 4 numpy array, its buffer handed
+/// over without a copy ([`Pixels`]).
+fn image_array(py: Python<'_>, im: golden::image::Image) -> PyResult<Bound<'_, PyAny>> {
+    let shape = [im.height, im.width, 4];
+    let mut data = im.data;
+    let address = data.as_mut_ptr() as usize;
+    let pixels = Bound::new(
+        py,
+        Pixels {
+            _data: data,
+            address,
+            shape,
+        },
+    )?;
+    numpy(py)?.call_method1("asarray", (pixels,))
 }
 
 /// A volume's voxels as a numpy array `(z, y, x)` in their own type.
@@ -108,10 +168,11 @@ struct Input<'py> {
 impl<'py> Input<'py> {
     /// `voxels` (an array-like `(z, y, x)` of uint8 or uint16).
     fn of(voxels: &Bound<'py, PyAny>) -> PyResult<Input<'py>> {
+        if let Some(input) = Input::ready(voxels)? {
+            return Ok(input);
+        }
         let py = voxels.py();
-        let a = py
-            .import("numpy")?
-            .call_method1("require", (voxels, py.None(), "CA"))?;
+        let a = numpy(py)?.call_method1("require", (voxels, py.None(), "CA"))?;
         let shape: Vec<usize> = a.getattr("shape")?.extract()?;
         if shape.len() != 3 {
             return Err(Error::new_err(format!(
@@ -145,6 +206,43 @@ impl<'py> Input<'py> {
             address,
             count: shape.iter().product(),
         })
+    }
+
+    /// `voxels` when it is a numpy array that `numpy.require` would return
+    /// as it is (3-D, C-contiguous, aligned, uint8 or native uint16), read
+    /// from its `__array_interface__` alone; `None` for anything else,
+    /// which [`Input::of`] converts or refuses.
+    fn ready(voxels: &Bound<'py, PyAny>) -> PyResult<Option<Input<'py>>> {
+        let py = voxels.py();
+        if !voxels.is_instance(&numpy(py)?.getattr("ndarray")?)? {
+            return Ok(None);
+        }
+        let ai = voxels.getattr("__array_interface__")?;
+        if !ai.get_item("strides")?.is_none() {
+            return Ok(None);
+        }
+        let native = if cfg!(target_endian = "little") {
+            "<u2"
+        } else {
+            ">u2"
+        };
+        let u16 = match ai.get_item("typestr")?.extract::<String>()?.as_str() {
+            "|u1" => false,
+            t if t == native => true,
+            _ => return Ok(None),
+        };
+        let shape: Vec<usize> = ai.get_item("shape")?.extract()?;
+        let (address, _readonly): (usize, bool) = ai.get_item("data")?.extract()?;
+        if shape.len() != 3 || (u16 && address % 2 != 0) {
+            return Ok(None);
+        }
+        Ok(Some(Input {
+            _array: voxels.clone(),
+            dims: [shape[2], shape[1], shape[0]],
+            u16,
+            address,
+            count: shape.iter().product(),
+        }))
     }
 
     /// The voxels, x fastest.
@@ -284,31 +382,26 @@ fn run<'py>(
             }
         })
         .map_err(error)?;
-    outputs(py, &r, with_raw)
+    outputs(py, r, with_raw)
 }
 
 /// A render's image, raw words (pipeline only, when `with_raw`) and
 /// statistics as numpy arrays and a dict (built from the statistics'
-/// values, as `json.loads` of `--stats` would).
-fn outputs<'py>(
-    py: Python<'py>,
-    r: &ercube::frame::Rendered,
-    with_raw: bool,
-) -> PyResult<Out<'py>> {
-    let im = &r.image;
-    let image = array(
-        py,
-        im.data.as_flattened(),
-        &[im.height, im.width, 4],
-        "float32",
-    )?;
-    let raw = match ercube::frame::raw_words(r).filter(|_| with_raw) {
+/// values, as `json.loads` of `--stats` would); the image's buffer is
+/// handed to numpy, not copied.
+fn outputs(py: Python<'_>, mut r: ercube::frame::Rendered, with_raw: bool) -> PyResult<Out<'_>> {
+    let raw = match ercube::frame::raw_words(&r).filter(|_| with_raw) {
         Some((w, h, words)) => Some(array(py, words.as_flattened(), &[h, w, 4], "int64")?),
         None => None,
     };
     let stats = pythonize::pythonize(py, &r.stats)
         .map_err(|e| Error::new_err(format!("the statistics: {e}")))?;
-    Ok(Out { image, raw, stats })
+    let im = std::mem::replace(&mut r.image, golden::image::Image::new(0, 0));
+    Ok(Out {
+        image: image_array(py, im)?,
+        raw,
+        stats,
+    })
 }
 
 /// Loads a volume file, in any format `ercube render --volume` reads:

@@ -65,6 +65,7 @@ pub fn pe_vectors<'py>(
     d.set_item("samples", st.samples.0)?;
     d.set_item("samples_all_pes", st.samples.1)?;
     d.set_item("frame_cycles", st.frame_cycles)?;
+    d.set_item("mapping", st.mapping)?;
     let (inputs, outputs, ports) = (PyDict::new(py), PyDict::new(py), PyDict::new(py));
     for c in &st.columns {
         let p = &c.port;

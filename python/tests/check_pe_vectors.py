@@ -1,12 +1,17 @@
 """Checks ercube.pe_vectors against the files of `ercube vectors --stage pe`
 (written by tests/wheel/pe_vectors.rs for the same frame: PE 1 of 3,
-ml:16, 12x12, front to back, tf ml): every port's words each clock, the
-memory writes, the tables, the constants and the counts equal the files';
-each issued sample's write-back equals ercube.Datapath.eval on the bundle
-the arrays give; the errors raise ercube.Error. Prints what it checked;
-exits non-zero on the first difference.
+ml:16, 12x12, front to back, tf ml; or the frame FRAME names): every
+port's words each clock, the memory writes, the tables, the constants and
+the counts equal the files'; each issued sample's write-back equals
+ercube.Datapath.eval on the bundle the arrays give; the errors raise
+ercube.Error. Prints what it checked; exits non-zero on the first
+difference.
 
-usage: python check_pe_vectors.py DIR
+usage: python check_pe_vectors.py DIR [FRAME]
+
+FRAME is JSON: {"scene": ..., "config": TOML text, "kwargs": {...}} (the
+keyword arguments of ercube.pe_vectors besides config), for a frame of
+another mapping.
 """
 
 import json
@@ -26,11 +31,16 @@ def words(path):
     return [int(w, 16) for w in (vec / path).read_text().split()]
 
 
+frame = json.loads(sys.argv[2]) if len(sys.argv) > 2 else {
+    "scene": "ml:16",
+    "config": None,
+    "kwargs": {"pe": 1, "pes": 3, "size": [12, 12], "order": "ftb", "tf": "ml"},
+}
 start = time.perf_counter()
-v = ercube.pe_vectors(ercube.scene("ml:16"), pe=1, pes=3, size=(12, 12), order="ftb", tf="ml")
+v = ercube.pe_vectors(ercube.scene(frame["scene"]), config=frame["config"], **frame["kwargs"])
 took = time.perf_counter() - start
 
-for key in ["pe", "pes", "rows", "depth", "tap_stage", "samples", "frame_cycles"]:
+for key in ["pe", "pes", "rows", "depth", "tap_stage", "samples", "frame_cycles", "mapping"]:
     assert v[key] == man[key], (key, v[key], man[key])
 assert v["samples_all_pes"] == man["samples_all_pes"]
 rows = v["rows"]
@@ -63,7 +73,7 @@ for i, line in enumerate(words(man["writes"]["path"])):
     assert got == (cycle, mem, addr, data), (i, got, (cycle, mem, addr, data))
 
 # The tables, as the host port's rows write them.
-dp = ercube.Datapath(order="ftb")
+dp = ercube.Datapath(config=frame["config"], order=frame["kwargs"].get("order"))
 m = dp.pipelined()
 ports = {p["name"]: p for p in m["ports"]}
 sb, ab, db = (ports[n]["bits"] for n in ["tbl_sel", "tbl_addr", "tbl_data"])
@@ -105,9 +115,11 @@ for r in issues:
         assert (wb >> (i * cw)) & ((1 << cw) - 1) == out[f"acc_out_{c}"] & ((1 << cw) - 1), (r, c)
 assert len(issues) == v["samples"]
 print(
-    f"pe_vectors: PE 1: {len(issues)} samples, {rows} clocks, {len(w['cycle'])} memory writes "
+    f"pe_vectors: PE 1 ({v['mapping']}): {len(issues)} samples, {rows} clocks, {len(w['cycle'])} memory writes "
     f"equal to the files and the model ({took:.2f} s)"
 )
+if len(sys.argv) > 2:
+    sys.exit(0)
 
 for call, says in [
     (lambda: ercube.pe_vectors(ercube.scene("ml:16"), pe=3, pes=3, size=(12, 12)), "--pe 3: the frame has 3 PEs"),

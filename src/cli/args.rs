@@ -507,7 +507,31 @@ impl TfArgs {
     }
 }
 
-/// Runs `f` on a thread pool of `threads` workers (all cores when `None`).
+/// The process's thread pool of `n` workers, started on first use and
+/// kept: a process that renders many frames (the Python module, the C
+/// ABI) starts its workers once, not once a frame, and its frames run on
+/// warm threads as a command's frames after its first do.
+fn pool(n: usize) -> Result<std::sync::Arc<rayon::ThreadPool>> {
+    static POOLS: std::sync::Mutex<Vec<(usize, std::sync::Arc<rayon::ThreadPool>)>> =
+        std::sync::Mutex::new(Vec::new());
+    let mut pools = POOLS
+        .lock()
+        .map_err(|_| anyhow::anyhow!("the thread pools' lock is poisoned"))?;
+    if let Some((_, p)) = pools.iter().find(|(k, _)| *k == n) {
+        return Ok(p.clone());
+    }
+    let p = std::sync::Arc::new(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("cannot start the thread pool")?,
+    );
+    pools.push((n, p.clone()));
+    Ok(p)
+}
+
+/// Runs `f` on a thread pool of `threads` workers (all cores when `None`);
+/// the pool of each count is kept for the process's later runs ([`pool`]).
 pub fn with_threads<T: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> Result<T> + Send,
@@ -516,10 +540,7 @@ pub fn with_threads<T: Send>(
         None => f(),
         Some(0) => bail!("--threads must be at least 1"),
         Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .context("cannot start the thread pool")?;
+            let pool = pool(n)?;
             // The run's staged outputs (see outputs::all_or_nothing) follow
             // the work onto the pool's thread and back.
             let carried = golden::image::carry();

@@ -89,14 +89,22 @@ pub struct Limits {
 impl Limits {
     /// Reads the limits now in force.
     pub fn read() -> Limits {
-        let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+        let (address_space, data) = (rlimit(libc::RLIMIT_AS), rlimit(libc::RLIMIT_DATA));
+        // What the process maps matters only under a limit; without one
+        // the status file (slow to make for a process of many threads and
+        // mappings) is not read.
+        let status = if address_space.is_some() || data.is_some() {
+            std::fs::read_to_string("/proc/self/status").unwrap_or_default()
+        } else {
+            String::new()
+        };
         let left = |limit: Option<u64>, used: &str| {
             limit.map(|l| l.saturating_sub(kib_field(&status, used).unwrap_or(0)))
         };
         Limits {
             available: mem_available(),
-            address_space: left(rlimit(libc::RLIMIT_AS), "VmSize:"),
-            data: left(rlimit(libc::RLIMIT_DATA), "VmData:"),
+            address_space: left(address_space, "VmSize:"),
+            data: left(data, "VmData:"),
             cgroup: cgroup_left(),
         }
     }

@@ -13,7 +13,8 @@ pub struct Stage(ProgressBar);
 impl Stage {
     /// Starts showing `msg` with a spinner and elapsed time.
     pub fn start(msg: impl Into<String>) -> Stage {
-        let bar = if std::io::stdout().is_terminal() {
+        let shown = std::io::stdout().is_terminal();
+        let bar = if shown {
             ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
         } else {
             ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden())
@@ -23,7 +24,11 @@ impl Stage {
                 .unwrap_or_else(|_| ProgressStyle::default_spinner()),
         );
         bar.set_message(msg.into());
-        bar.enable_steady_tick(Duration::from_millis(120));
+        // The ticker is a thread; a hidden bar draws nothing, so it starts
+        // none (a library caller's frames start and join no thread each).
+        if shown {
+            bar.enable_steady_tick(Duration::from_millis(120));
+        }
         Stage(bar)
     }
 }

@@ -259,22 +259,33 @@ pub fn frame_tapped(
 /// A caller holding the voxels elsewhere (a numpy array) can have the
 /// kept volume lent back for the next frame ([`Reuse::lend_if`]) instead
 /// of copying its voxels into a new one.
+///
+/// A pipeline frame also leaves its PE memories and datapath here, as the
+/// command's `--repeat` frames hand them on ([`pipeline::Resident`]): the
+/// next pipeline frame loads its volume again into those buffers and takes
+/// the datapath's tables when its configuration and table are the same.
 #[derive(Default)]
 pub struct Reuse {
     /// The kept volume (`None` while it is lent to a frame) and its
     /// preparation.
     last: Option<(Option<golden::volume::Volume>, Prepared)>,
+    /// The last pipeline frame's memories and datapath.
+    spare: Option<pipeline::Resident>,
 }
 
 impl Reuse {
     /// Nothing kept yet.
     pub const fn new() -> Reuse {
-        Reuse { last: None }
+        Reuse {
+            last: None,
+            spare: None,
+        }
     }
 
-    /// Drops the kept volume and preparation.
+    /// Drops the kept volume, preparation, memories and datapath.
     pub fn clear(&mut self) {
         self.last = None;
+        self.spare = None;
     }
 
     /// The kept volume, lent for the next frame when `same` says it is
@@ -488,7 +499,7 @@ fn frame_golden(
 fn frame_pipeline(
     a: &RenderArgs,
     given: Option<golden::volume::Volume>,
-    reuse: Option<&mut Reuse>,
+    mut reuse: Option<&mut Reuse>,
     tap: Option<pipeline::stepper::Tap>,
 ) -> Result<Rendered> {
     let clock = a.pipeline.clock()?;
@@ -529,7 +540,7 @@ fn frame_pipeline(
     } else {
         // The PEs load from golden's stack, which takes the volume's
         // voxels: the frame holds them once.
-        prepare_for(&slice, vol, &cam, reuse)?
+        prepare_for(&slice, vol, &cam, reuse.as_deref_mut())?
     };
     // Golden's own table from the same classification table: the unit
     // quantises it, and the comparison below renders golden with it.
@@ -539,9 +550,9 @@ fn frame_pipeline(
         .then(|| golden::preint::PreTable::with_colouring(&lut, opts.slice.pre_colouring));
     let (run, times) = {
         let _s = Stage::start(format!("clocking {} PEs", cfg.pes));
-        let mut spare = None;
+        let mut spare = reuse.as_deref_mut().and_then(|r| r.spare.take());
         let mut tap = tap;
-        timed(a.repeat, || {
+        let out = timed(a.repeat, || {
             chip::run(
                 &a.pipeline,
                 &cfg,
@@ -556,7 +567,11 @@ fn frame_pipeline(
                 ),
                 (&mut spare, tap.take()),
             )
-        })?
+        });
+        if let Some(r) = reuse {
+            r.spare = spare;
+        }
+        out?
     };
     let run = chip::PipelineRun {
         time_s: median(&times),

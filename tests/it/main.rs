@@ -14,6 +14,8 @@ mod bin;
 mod chip;
 #[path = "../support/mutate.rs"]
 mod mutate;
+#[path = "../support/round_robin.rs"]
+mod round_robin;
 #[path = "../support/scenes.rs"]
 mod scenes;
 #[path = "../support/tools.rs"]

@@ -1,17 +1,20 @@
 //! `ercube vectors --stage pe`: one PE's sample stage over a frame as
 //! `$readmemh` files, replayed by the plain testbench against the emitted
-//! `ercube_pe_sample` in Icarus with no mismatch; a copy of the module
-//! whose control skips a ray fails naming the cycle and the signal. Without
+//! `ercube_pe_sample` in Icarus with no mismatch, under column blocks and
+//! the round-robin mappings; a copy of the module whose control skips a
+//! ray, or whose column decoder misreads a tap column, fails naming the
+//! cycle and the signal. Without
 //! Icarus the test prints one line and skips (`ERCUBE_REQUIRE_TOOLS=1`
 //! makes that a failure).
 //!
-//! `cargo test --release --test it -- pe_vectors::` (about 10 s).
+//! `cargo test --release --test it -- pe_vectors::` (about 20 s).
 
 use std::path::Path;
 
 use serde_json::Value;
 
 use crate::bin::{assert_refused, describe, ercube};
+use crate::round_robin::{break_decoder, config, vectors_args, COLUMNS, FRAMES};
 use crate::tools::have;
 
 /// Runs `ercube` with whitespace-separated `args` in `dir`.
@@ -176,20 +179,70 @@ fn pe_vectors_replay_in_icarus() {
     println!("broken copy: {line}");
 }
 
+/// The middle PE of three under the interleave (overlapped migration,
+/// two lanes) and the cyclic mapping: the column map's entries and the
+/// column decoder are memory writes (`cm_mx`, `cm_sl`, `loc`) beside the
+/// slice loads and buffer words, and the files replay with 0 mismatches,
+/// every issue of the PE checked; a copy whose column decoder reads the
+/// right tap column at the left one's index is caught at a tap.
+#[test]
+fn pe_vectors_replay_round_robin_mappings_in_icarus() {
+    if !have("iverilog", "iverilog", "the PE's vectors replay") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (name, toml, frame) in FRAMES {
+        let v = d.join(name);
+        let args = vectors_args(frame, &config(d, name, toml), &v);
+        let out = ercube(d, &args);
+        assert!(out.status.success(), "{}", describe(&args, &out));
+        let m: Value =
+            serde_json::from_str(&std::fs::read_to_string(v.join("manifest.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["mapping"], name);
+        let mems = m["writes"]["mem"].as_array().unwrap();
+        let code = |n: &str| mems.iter().position(|m| m == n).unwrap();
+        let writes = std::fs::read_to_string(v.join("pe1_writes.hex")).unwrap();
+        let count = |n: &str| {
+            let c = format!("{:x}", code(n));
+            writes.lines().filter(|l| l[8..9] == c).count()
+        };
+        // The decoder: one entry a volume column.
+        assert_eq!(count("loc"), COLUMNS, "{name}");
+        assert!(count("cm_mx") > 0, "{name}: the column map's entries");
+        assert_eq!(count("cm_mx"), count("cm_sl"), "{name}");
+        let rows = m["rows"].as_u64().unwrap();
+        for f in m["files"].as_array().unwrap() {
+            assert_rows_fit(&v, f, rows);
+        }
+        let samples = m["samples"].as_u64().unwrap();
+        assert!(samples > 100, "{name}: {m}");
+        let good = replay(&v, &PE_FILES);
+        let checks = passed_checks(&good);
+        assert!(checks > 3 * samples + 2 * rows, "{name}: {good}");
+        println!("{name}: {good}");
+        let path = v.join("ercube_pe_sample.v");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let broken = break_decoder(&text).expect("the column decoder");
+        std::fs::write(&path, broken).unwrap();
+        let bad = replay(&v, &PE_FILES);
+        let line = bad
+            .lines()
+            .find(|l| l.starts_with("MISMATCH cycle "))
+            .unwrap_or_else(|| panic!("{name}: the broken copy fails: {bad}"));
+        assert!(line.contains(" pe 1 tap_v"), "{name}: {line}");
+        println!("{name}, broken decoder: {line}");
+    }
+}
+
 /// Refused in one line: a PE the frame lacks, `--cycles` with the PE's
 /// stage, `--pe` without it.
 #[test]
 fn pe_vectors_refusals() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let interleave = d.join("il.toml");
-    std::fs::write(&interleave, "mapping = \"interleave\"\n").unwrap();
-    let mapped = format!(
-        "vectors --stage pe --config {} --scene ml:16 --pes 2 --size 8x8 --out-dir v",
-        interleave.display()
-    );
     for (args, needle) in [
-        (mapped.as_str(), "interleave mapping"),
         (
             "vectors --stage pe --pe 2 --scene ml:16 --pes 2 --size 8x8 --out-dir v",
             "--pe 2",

@@ -83,15 +83,36 @@ pub(super) fn columns(man: &Value, decls: &[Decl]) -> Result<Vec<Col>, String> {
 }
 
 /// The width of the memory `name` in the module's text (`reg [H:0] name
-/// [`), or `None` when the module has no such memory.
+/// [` or `reg signed [H:0] name [`), or `None` when the module has no
+/// such memory.
 pub(super) fn memory_bits(verilog: &str, name: &str) -> Option<u32> {
     verilog.lines().find_map(|l| {
         let l = l.trim();
-        let rest = l.strip_prefix("reg [")?;
+        let l = l.strip_prefix("reg ")?.trim_start();
+        let rest = l.strip_prefix("signed ").unwrap_or(l).trim_start();
+        let rest = rest.strip_prefix('[')?;
         let (hi, rest) = rest.split_once(":0]")?;
         let rest = rest.trim_start().strip_prefix(name)?;
         rest.trim_start()
             .starts_with('[')
             .then(|| hi.trim().parse::<u32>().ok().map(|h| h + 1))?
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::memory_bits;
+
+    /// Plain and signed memories (a round-robin column map's ray indices
+    /// are signed); a register, a wire or a prefix of the name is none.
+    #[test]
+    fn memory_bits_reads_plain_and_signed_memories() {
+        let v = "  reg [7:0] sb0 [0:63];\n  reg signed [15:0] cm_mx [0:5];\n  reg [2:0] cm_sl[0:5];\n  reg [3:0] one;\n  wire [4:0] w [0:1];\n  reg [9:0] locx [0:1];";
+        assert_eq!(memory_bits(v, "sb0"), Some(8));
+        assert_eq!(memory_bits(v, "cm_mx"), Some(16));
+        assert_eq!(memory_bits(v, "cm_sl"), Some(3));
+        assert_eq!(memory_bits(v, "one"), None);
+        assert_eq!(memory_bits(v, "w"), None);
+        assert_eq!(memory_bits(v, "loc"), None);
+    }
 }

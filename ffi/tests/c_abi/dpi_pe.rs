@@ -8,6 +8,9 @@
 //! clock stops at its first differing issue; a copy whose datapath's red
 //! compositing sum is a difference stops at its first write-back, named
 //! by the DPI-C scoreboard (`acc_out_r`, the issue cycle plus the depth).
+//! Under the round-robin mappings the column map and decoder are memory
+//! writes among the files, and a copy with a broken column decoder stops
+//! at its first differing tap.
 //! Needs `verilator` (and `cc`); skips with one line without it unless
 //! `ERCUBE_REQUIRE_TOOLS=1`.
 
@@ -19,7 +22,7 @@ use pipeline::hw::unit::Unit;
 use serde_json::Value;
 
 use super::dpi::mutate;
-use super::{tools, verilate_dpi, UNOPTIMISED};
+use super::{round_robin, tools, verilate_dpi, UNOPTIMISED};
 
 /// The frame: PE 1 of 3, `ml:16`, 12x12, front to back.
 fn vectors(dir: &Path) -> Value {
@@ -172,6 +175,60 @@ fn the_dpi_testbench_scores_a_pe_sample_stage_and_fails_broken_copies() {
         after(&t, "sample issued at cycle "),
     );
     assert_eq!(cycle, from + depth, "{t}");
+}
+
+/// The round-robin mappings (`tests/support/round_robin.rs`): the
+/// column map's entries and the column decoder reach the module as memory
+/// writes (`cm_mx`, `cm_sl`, `loc`), and the emitted PE passes the
+/// scoreboard under the interleave and the cyclic mapping, every issue,
+/// tap and write-back checked; a copy whose column decoder reads the right
+/// tap column at the left one's index stops at its first differing tap.
+#[test]
+fn the_dpi_testbench_scores_the_round_robin_mappings_and_fails_a_broken_decoder() {
+    let what = "the DPI-C testbench of the PE's sample stage";
+    if !tools::have("verilator", "verilator", what) || !tools::have("cc", "gcc", what) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (name, toml, frame) in round_robin::FRAMES {
+        let vec = d.join(name).join("vec");
+        std::fs::create_dir_all(d.join(name)).unwrap();
+        let args = round_robin::vectors_args(frame, &round_robin::config(d, name, toml), &vec);
+        let argv = std::iter::once("ercube").chain(args.iter().map(String::as_str));
+        assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS, "{name}");
+        let man: Value =
+            serde_json::from_str(&std::fs::read_to_string(vec.join("manifest.json")).unwrap())
+                .unwrap();
+        assert_eq!(man["mapping"], name);
+        let (samples, rows) = (
+            man["samples"].as_u64().unwrap(),
+            man["rows"].as_u64().unwrap(),
+        );
+        assert!(samples > 100, "{name}: {man}");
+        let unit = Unit::from_toml(Some(toml), None, "sample").unwrap();
+        let manifest = std::fs::read_to_string(vec.join("manifest.json")).unwrap();
+        let pe = std::fs::read_to_string(vec.join("ercube_pe_sample.v")).unwrap();
+        let datapath = std::fs::read_to_string(vec.join("ercube_sample.v")).unwrap();
+        let tb = pe_testbench(&unit, &manifest, &pe, (toml, "")).unwrap();
+        let exe = verilate(&d.join(name).join("pass"), &tb, &datapath, &pe);
+        let (ok, t) = run(&exe, &vec);
+        assert!(ok, "{name}:\n{t}");
+        let n = checks(&vec, &man);
+        assert!(
+            t.contains(&format!(
+                "ercube: PE 1: {samples} samples' write-backs match the model through DPI-C; {n} checks of the issue, tap and write-back stream over {rows} cycles"
+            )),
+            "{name}: {samples} samples, {n} checks:\n{t}"
+        );
+        let broken = round_robin::break_decoder(&pe).expect("the column decoder");
+        let exe = verilate(&d.join(name).join("decoder"), &tb, &datapath, &broken);
+        let (ok, t) = run(&exe, &vec);
+        assert!(!ok, "{name}: the broken decoder passed:\n{t}");
+        let cycle = after(&t, "ercube: first mismatch at cycle ");
+        assert!(cycle < rows, "{name}: {t}");
+        assert!(t.contains(&format!("{cycle} (PE 1): tap_v")), "{name}: {t}");
+    }
 }
 
 #[test]

@@ -19,6 +19,8 @@ mod dpi;
 mod dpi_pe;
 mod dpi_sample;
 
+#[path = "../../../tests/support/round_robin.rs"]
+mod round_robin;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 #[path = "../../../tests/support/window.rs"]

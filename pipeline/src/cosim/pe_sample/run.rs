@@ -68,10 +68,10 @@ pub struct PeStageRun {
     pub stored: (u64, u64),
 }
 
-/// A capture noting the most columns any PE holds at a slice's start
-/// and, under a round-robin mapping, the most slots migration gives out
-/// ([`super::slots`], as many as it needs).
-/// and the most voxel columns a PE's memory holds.
+/// A capture noting the most columns any PE holds at a slice's start,
+/// under a round-robin mapping the most slots migration gives out
+/// ([`super::slots`], as many as it needs), and the most voxel columns a
+/// PE's memory holds.
 struct Peak(u64, Option<Slots>, u64);
 
 impl crate::cosim::capture::IssueSink for Peak {
@@ -137,6 +137,28 @@ impl PeStageRun {
     }
 }
 
+/// The declared shape of `cfg`'s sample stage for `view`, and what a run
+/// of the frame `frame` makes needs: the most column map slots (columns
+/// a PE holds, or slots migration gives out) and the most voxel columns
+/// a PE's memory holds. The emitted module is sized to the larger of each.
+pub(crate) fn peaks<'a>(
+    frame: &dyn Fn() -> FrameRun<'a>,
+    cfg: &crate::config::PipelineConfig,
+    view: &golden::geometry::View,
+) -> Result<(PeSampleShape, u64, u64), String> {
+    let declared = PeSampleShape::for_view(cfg, view)?;
+    let pes = usize::from(cfg.pes);
+    let slots = declared.round_robin.then(|| Slots::new(pes, None));
+    let peak = Arc::new(Mutex::new(Peak(0, slots, 0)));
+    frame()
+        .capture(peak.clone())
+        .run()
+        .map_err(|e| e.to_string())?;
+    let p = peak.lock().map_err(|_| "capture poisoned".to_owned())?;
+    let given = p.1.as_ref().map_or(0, |t| t.peak);
+    Ok((declared, p.0.max(given), p.2))
+}
+
 /// Runs the frame `frame` makes with the capture (twice: first for the
 /// most columns a PE holds), then the sample stage of `cfg`'s PEs
 /// around datapath `dp` in `sim` (built under `cache`, run in `dir`);
@@ -152,19 +174,8 @@ pub fn simulate<'a>(
     dir: &Path,
     mutate: Option<&dyn Fn(&str) -> String>,
 ) -> Result<PeStageRun, String> {
-    let declared = PeSampleShape::for_view(cfg, view)?;
+    let (declared, held, cols) = peaks(frame, cfg, view)?;
     let pes = usize::from(cfg.pes);
-    let slots = declared.round_robin.then(|| Slots::new(pes, None));
-    let peak = Arc::new(Mutex::new(Peak(0, slots, 0)));
-    frame()
-        .capture(peak.clone())
-        .run()
-        .map_err(|e| e.to_string())?;
-    let (held, given, cols) = {
-        let p = peak.lock().map_err(|_| "capture poisoned".to_owned())?;
-        (p.0, p.1.as_ref().map_or(0, |t| t.peak), p.2)
-    };
-    let held = held.max(given);
     let shape = declared.with_slots(held).with_stored(cols);
     let pe = emit(&shape, dp)?;
     let verilog = mutate.map_or_else(|| pe.verilog.clone(), |f| f(&pe.verilog));

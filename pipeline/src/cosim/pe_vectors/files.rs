@@ -26,9 +26,11 @@ pub fn meaning(name: &str) -> &'static str {
         "bc_nv" => "the broadcast names the next row whose edge voxels the PEs drive",
         "bc_nz" | "bc_ny0" | "bc_ny1" => "the broadcast's next row: slice parity, voxel rows",
         "map_we" => "the held range takes effect this clock",
-        "map_lo_in" => "the held range's first ray index",
-        "map_n_in" => "the held range's columns",
-        "map_sl_in" => "the held range's first column map slot (migration keeps the slots a ring)",
+        "map_lo_in" => "the held range's first ray index (0 under a round-robin mapping)",
+        "map_n_in" => {
+            "the held columns: the range's, or under a round-robin mapping the column map's entries"
+        }
+        "map_sl_in" => "the held range's first column map slot (migration keeps the slots a ring; 0 under a round-robin mapping)",
         "pl_valid" => "a run on the plan port (the controller's runs of a row)",
         "pl_first" => "the row's first run",
         "pl_lo" | "pl_hi" => "the run's ends (signed ray indices)",
@@ -113,6 +115,7 @@ pub fn files(s: &PeStream) -> (Vec<(String, String)>, Value) {
         "testbench": "pe_vectors_tb.v",
         "top": TOP,
         "stage": "pe",
+        "mapping": s.mapping,
         "pe": k,
         "pes": s.pes,
         "depth": s.depth,
@@ -139,7 +142,7 @@ pub fn files(s: &PeStream) -> (Vec<(String, String)>, Value) {
                 {"name": "data", "bits": db},
             ],
             "mem": MEMORIES,
-            "when": "before the rising edge that ends the write's clock, straight into the module's memory (the model counts no clock for a slice load or a word changed by migration, merges and splits); term: bit data >> 1 of row addr's word set to data & 1",
+            "when": "before the rising edge that ends the write's clock, straight into the module's memory (the model counts no clock for a slice load or a word changed by migration, merges and splits); term: bit data >> 1 of row addr's word set to data & 1; cm_mx, cm_sl (a round-robin mapping's column map): entry addr's ray index (two's complement) and slot, written at the clock migration gives them; loc (its column decoder): volume column addr's local index, written with the PE's first slice load",
         },
         "tables": {
             "path": "tables.hex",

@@ -15,9 +15,11 @@
 //! output's file is what the module shows during clock `c` (an issue, the
 //! taps of the sample issued the tap stage earlier, a write-back landing).
 //! What the model does to the PE without a clock (a slice's voxels, buffer
-//! words changed by migration, merges and splits, termination bits) is a
-//! list of memory writes, each applied before the rising edge that ends
-//! its clock, as the co-simulation's testbench applies them.
+//! words changed by migration, merges and splits, termination bits, and
+//! under a round-robin mapping the column map's entries migration writes
+//! and the column decoder the host writes with the voxels) is a list of
+//! memory writes, each applied before the rising edge that ends its
+//! clock, as the co-simulation's testbench applies them.
 //!
 //! The right neighbour's edge register is computed from its slice loads
 //! and the broadcast as the emitted register reads them (it latches the
@@ -32,7 +34,7 @@ pub mod tb;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use super::capture::{Issue, IssueSink};
+use super::pe_sample::run::peaks;
 use super::pe_sample::{PeCapture, Widths};
 use super::replay::table_rows;
 use crate::hw::pe_sample_rtl::{emit, PeSampleShape};
@@ -41,8 +43,13 @@ use crate::FrameRun;
 
 pub use read::{ports, Decl};
 
-/// The memories the writes go to, by code (the events file's `mem`).
-pub const MEMORIES: [&str; 7] = ["sb0", "sb1", "ec0", "ec1", "bank0", "bank1", "term"];
+/// The memories the writes go to, by code (the events file's `mem`): the
+/// slice buffer's row banks and edge columns, the compositing buffer's
+/// banks, the termination bits, and under a round-robin mapping the
+/// column map's ray indices and slots and the column decoder.
+pub const MEMORIES: [&str; 10] = [
+    "sb0", "sb1", "ec0", "ec1", "bank0", "bank1", "term", "cm_mx", "cm_sl", "loc",
+];
 
 /// A write into one of the module's memories without a clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -114,6 +121,8 @@ pub struct PeStream {
     pub samples: (u64, u64),
     /// The frame's cycles in the model.
     pub frame_cycles: u64,
+    /// The column mapping (`blocks`, `interleave`, `cyclic`).
+    pub mapping: &'static str,
     /// The compositing buffer's word, the row plan's slots, and whether
     /// the module has termination bits.
     pub shape: PeSampleShape,
@@ -126,22 +135,9 @@ impl PeStream {
     }
 }
 
-/// Notes the most columns any PE holds at a slice's start (the emitted
-/// column map's slots).
-#[derive(Default)]
-struct Peak(u64);
-
-impl IssueSink for Peak {
-    fn issue(&mut self, _: &Issue) {}
-    fn slice_begin(&mut self, _: u64, _: usize, pes: &[crate::pe::Pe]) {
-        for p in pes {
-            self.0 = self.0.max(p.rays.len() as u64);
-        }
-    }
-}
-
-/// Runs the frame `frame` makes (twice: first for the most columns a PE
-/// holds) with the sample stage's capture into `dir`, and reads back PE
+/// Runs the frame `frame` makes (twice: first for the column map slots
+/// and voxel columns a PE needs, as `ercube cosim --stage pe` sizes the
+/// module) with the sample stage's capture into `dir`, and reads back PE
 /// `pe`'s stream around datapath `dp`.
 pub fn capture<'a>(
     frame: &dyn Fn() -> FrameRun<'a>,
@@ -151,12 +147,6 @@ pub fn capture<'a>(
     pe: usize,
     dir: &Path,
 ) -> Result<PeStream, String> {
-    if cfg.mapping != crate::config::Mapping::Blocks {
-        return Err(format!(
-            "the {} mapping's column map and column decoder are not in the vectors yet (column blocks only; `ercube cosim --stage pe` runs it)",
-            cfg.mapping.name()
-        ));
-    }
     let pes = usize::from(cfg.pes);
     if pe >= pes {
         return Err(format!(
@@ -164,14 +154,8 @@ pub fn capture<'a>(
             pes - 1
         ));
     }
-    let declared = PeSampleShape::for_view(cfg, view)?;
-    let peak = Arc::new(Mutex::new(Peak::default()));
-    frame()
-        .capture(peak.clone())
-        .run()
-        .map_err(|e| e.to_string())?;
-    let held = peak.lock().map_err(|_| "capture poisoned".to_owned())?.0;
-    let shape = declared.with_slots(held);
+    let (declared, held, cols) = peaks(frame, cfg, view)?;
+    let shape = declared.with_slots(held).with_stored(cols);
     let rtl = emit(&shape, dp)?;
     let widths = Widths::of(&shape, dp);
     let tap_stage = widths.tap_stage;
@@ -200,5 +184,6 @@ pub fn capture<'a>(
     s.depth = dp.depth;
     s.samples = (c.issued[pe], c.issued.iter().sum());
     s.frame_cycles = f.cycles;
+    s.mapping = cfg.mapping.name();
     Ok(s)
 }

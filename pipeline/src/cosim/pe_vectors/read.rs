@@ -1,5 +1,6 @@
 //! Reading the sample stage's capture (`bus.txt`, `plan.txt`,
-//! `pe<K>.{map,ev,vol,cfg,I,T,W}`) back into one PE's per-clock port
+//! `pe<K>.{map,ev,vol,cfg,I,T,W}`, and under a round-robin mapping
+//! `pe<K>.{cm,loc}`) back into one PE's per-clock port
 //! words, with the clock conventions of the co-simulation's testbench
 //! ([`crate::cosim::pe_sample::bench`]).
 
@@ -78,14 +79,19 @@ const BUS: [&str; 17] = [
 const BUS_PULSES: [&str; 3] = ["bc_go", "bc_first", "bc_nv"];
 
 /// A PE's held columns and its voxels `[z][y][l]` (`pe<K>.cfg`,
-/// `pe<K>.vol`), and its slice loads (`pe<K>.ev` kind 1).
+/// `pe<K>.vol`), its slice loads (`pe<K>.ev` kind 1) and, under a
+/// round-robin mapping, its column map's entries (`pe<K>.cm`: clock,
+/// entry, ray index, slot) and column decoder (`pe<K>.loc`, a local index
+/// a volume column).
 struct Voxels {
     cfg: Vec<u128>,
     vol: Vec<u128>,
     events: Vec<Vec<u128>>,
+    cm: Vec<Vec<u128>>,
+    loc: Vec<u128>,
 }
 
-fn voxels(dir: &Path, k: usize) -> Result<Voxels, String> {
+fn voxels(dir: &Path, s: &PeSampleShape, k: usize) -> Result<Voxels, String> {
     let cfg = hex_lines(&dir.join(format!("pe{k}.cfg")))?
         .into_iter()
         .next()
@@ -101,7 +107,24 @@ fn voxels(dir: &Path, k: usize) -> Result<Voxels, String> {
     if events.iter().any(|e| e.len() != 5) {
         return Err(format!("pe{k}.ev: expected 5 words a line"));
     }
-    Ok(Voxels { cfg, vol, events })
+    let (mut cm, mut loc) = (Vec::new(), Vec::new());
+    if s.round_robin {
+        cm = hex_lines(&dir.join(format!("pe{k}.cm")))?;
+        if cm.iter().any(|e| e.len() != 4) {
+            return Err(format!("pe{k}.cm: expected 4 words a line"));
+        }
+        loc = hex_lines(&dir.join(format!("pe{k}.loc")))?
+            .into_iter()
+            .map(|l| l.first().copied().unwrap_or(0))
+            .collect();
+    }
+    Ok(Voxels {
+        cfg,
+        vol,
+        events,
+        cm,
+        loc,
+    })
 }
 
 /// The writes of a slice load (`z` into parity `zp`, clock `cycle`): the
@@ -136,9 +159,41 @@ fn load(v: &Voxels, s: &PeSampleShape, (cycle, z, zp): (u64, u64, u64), out: &mu
     }
 }
 
-/// Every write into PE `k`'s memories, in the order applied.
+/// Every write into PE `k`'s memories, in the order applied: under a
+/// round-robin mapping the column decoder first, with the PE's first
+/// slice load (the host writes it with the voxels), and the column map's
+/// entries at the clock migration gives them.
 fn writes(v: &Voxels, s: &PeSampleShape) -> Vec<MemWrite> {
     let mut out = Vec::new();
+    let first_load = v
+        .events
+        .iter()
+        .find(|e| e[1] == 1)
+        .map_or(0, |e| e[0] as u64);
+    for (c, &l) in v.loc.iter().enumerate() {
+        out.push(MemWrite {
+            cycle: first_load,
+            mem: 9,
+            addr: c as u64,
+            data: l,
+        });
+    }
+    for e in &v.cm {
+        let (cycle, entry) = (e[0] as u64, e[1] as u64);
+        // The ray index as two's complement over the entry's width.
+        out.push(MemWrite {
+            cycle,
+            mem: 7,
+            addr: entry,
+            data: e[2] & mask(s.index_bits),
+        });
+        out.push(MemWrite {
+            cycle,
+            mem: 8,
+            addr: entry,
+            data: e[3],
+        });
+    }
     for e in &v.events {
         let cycle = e[0] as u64;
         match e[1] {
@@ -310,7 +365,7 @@ pub(super) fn stream(
     // The right neighbour's edge register, a clock behind.
     let e = col_in(&mut cols, &decl("edge_in")?, Check::Drive, n);
     if pe + 1 < pes {
-        let right = voxels(dir, pe + 1)?;
+        let right = voxels(dir, s, pe + 1)?;
         let during = edge_out(&right, s, &next, s.voxel_bits);
         cols[e].words[1..n].copy_from_slice(&during[..n - 1]);
     }
@@ -356,7 +411,7 @@ pub(super) fn stream(
         }
         put(&mut cols, &wb_cols, l[0] as usize, &[l[1], packed]);
     }
-    let me = voxels(dir, pe)?;
+    let me = voxels(dir, s, pe)?;
     let constants = ["col_lo", "col_end", "nx_last"]
         .iter()
         .enumerate()
@@ -381,6 +436,7 @@ pub(super) fn stream(
         tap_stage,
         samples: (0, 0),
         frame_cycles: 0,
+        mapping: "",
         shape: *s,
     })
 }

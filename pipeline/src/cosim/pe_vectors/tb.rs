@@ -3,6 +3,7 @@
 //! tables through the host port (`tables.hex`), then for each clock
 //! applies the memory writes of the clock before (`pe<K>_writes.hex`,
 //! straight into the module's memories, as the model counts no clock for
+//! them; under a round-robin mapping the column map and decoder among
 //! them), drives every input's row, and after the rising edge compares
 //! every output's row; it prints the first mismatch (clock, signal,
 //! expected, got) and the count.
@@ -10,6 +11,7 @@
 use std::fmt::Write as _;
 
 use super::{Check, PeStream, MEMORIES};
+use crate::cost::inventory::addr_bits;
 use crate::hw::pe_sample_rtl::MODULE;
 
 /// The testbench's top module.
@@ -136,10 +138,15 @@ module {TOP};
     let (a_hi, a_lo) = (db + WRITE_ADDR_BITS - 1, db);
     let vb = s.shape.voxel_bits;
     let bw = s.shape.rays.buffer_width;
+    let sh = &s.shape;
     for (code, mem) in MEMORIES.iter().enumerate() {
         let data_bits = match code {
             0..=3 => vb,
             4 | 5 => bw,
+            // The column map and decoder: a round-robin mapping's only.
+            7 if sh.round_robin => sh.index_bits,
+            8 if sh.round_robin => addr_bits(sh.slots()),
+            9 if sh.round_robin => addr_bits(sh.stored),
             _ => 0,
         };
         if code == 6 {
@@ -150,6 +157,9 @@ module {TOP};
                     d1 = db - 1
                 );
             }
+            continue;
+        }
+        if data_bits == 0 {
             continue;
         }
         let _ = writeln!(
