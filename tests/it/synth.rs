@@ -233,9 +233,9 @@ fn synth_datapath_on_ecp5_85k() {
 /// The PE's emitted sample stage for a 64^3 volume on two PEs, placed on
 /// an LFE5U-85F (docs/cost.md, "The PE's sample stage placed"): the
 /// estimator's LUTs and flip-flops within 10% of yosys's, its multiplier
-/// blocks exact, a measured clock no faster than the prediction that
-/// includes the control's issue path. About 12 minutes on two shared
-/// cores.
+/// blocks and block RAMs exact, the measured clock within 15% of the
+/// prediction that includes the control's issue path. About 12 minutes
+/// on two quiet cores (33 on two loaded ones).
 #[test]
 #[ignore = "ECP5 tools, about 12 minutes: cargo test --release --test it -- --ignored synth_pe_stage"]
 fn synth_pe_stage_on_ecp5_85k_against_its_estimate() {
@@ -248,12 +248,7 @@ fn synth_pe_stage_on_ecp5_85k_against_its_estimate() {
     assert_eq!(r["module"], "ercube_pe_sample");
     assert_eq!(r["latch_free"], true);
     check_estimate(&r);
-    let fmax = r["placed"]["fmax_mhz"].as_f64().expect("a measured clock");
-    let predicted = r["predicted_mhz"].as_f64().expect("a prediction");
-    assert!(
-        fmax > 5.0 && fmax <= predicted,
-        "measured {fmax}, predicted {predicted}"
-    );
+    check_fmax(&r);
 }
 
 /// The PE's sample stage (16^3 over 2 PEs) synthesized for a 7-series

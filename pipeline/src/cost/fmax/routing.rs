@@ -32,25 +32,34 @@ pub struct DesignMeasured {
     pub mhz: f64,
 }
 
-/// The rows of `pipeline/data/measured/designs.csv` (comment lines and
-/// the header skipped).
-pub fn designs() -> Vec<DesignMeasured> {
-    DESIGNS
-        .lines()
+/// The data rows of a measurement file, split at commas (comment lines
+/// and the header, which starts with `target,`, skipped).
+pub(super) fn csv_rows(text: &str) -> impl Iterator<Item = Vec<&str>> {
+    text.lines()
         .filter(|l| !l.starts_with('#') && !l.starts_with("target,") && !l.trim().is_empty())
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
+        .map(|l| l.split(',').collect())
+}
+
+/// A row's role: `calibration`, or held out.
+pub(super) fn role(field: &str) -> Role {
+    if field == "calibration" {
+        Role::Calibration
+    } else {
+        Role::Holdout
+    }
+}
+
+/// The rows of `pipeline/data/measured/designs.csv`.
+pub fn designs() -> Vec<DesignMeasured> {
+    csv_rows(DESIGNS)
+        .filter_map(|f| {
             let target = Target::ALL.into_iter().find(|t| t.name() == f[0])?;
             let setting = Setting::ALL.into_iter().find(|s| s.name() == f[2])?;
-            let role = match f[3] {
-                "calibration" => Role::Calibration,
-                _ => Role::Holdout,
-            };
             Some(DesignMeasured {
                 target,
                 part: f[1].to_owned(),
                 setting,
-                role,
+                role: role(f[3]),
                 mhz: f[4].parse().ok()?,
             })
         })
@@ -73,30 +82,49 @@ fn stage_ns(cfg: &crate::config::PipelineConfig, t: Target) -> Option<f64> {
 /// calibration row).
 pub fn routing_ns_per_kcell(t: Target) -> Option<f64> {
     static FITTED: std::sync::OnceLock<[Option<f64>; 3]> = std::sync::OnceLock::new();
-    let fits = FITTED.get_or_init(|| Target::ALL.map(fit));
+    per_family(&FITTED, fit, t)
+}
+
+/// `fit(t)`, fitted once per process for every family into `cell`.
+pub(super) fn per_family(
+    cell: &'static std::sync::OnceLock<[Option<f64>; 3]>,
+    fit: fn(Target) -> Option<f64>,
+    t: Target,
+) -> Option<f64> {
+    let fits = cell.get_or_init(|| Target::ALL.map(fit));
     Target::ALL
         .iter()
         .position(|&x| x == t)
         .and_then(|i| fits[i])
 }
 
-/// Minimises the relative period error over the calibration rows of `t`:
-/// `rho = sum(c y' / y^2) / sum(c^2 / y^2)` with `y` the measured period,
-/// `y'` its excess over the stage's and `c` the design's thousands of cells.
-fn fit(t: Target) -> Option<f64> {
+/// The one coefficient `rho` of a term `rho c` added to a period that
+/// minimises the relative period error over `rows` of `(c, y, base)`, `y`
+/// the measured period and `base` the period without the term: `rho =
+/// sum(c (y - base) / y^2) / sum(c^2 / y^2)`, at least 0; `None` without
+/// a row, or when a row could not be priced (`None` in `rows`).
+pub(super) fn one_coefficient(rows: impl Iterator<Item = Option<(f64, f64, f64)>>) -> Option<f64> {
     let mut num = 0.0;
     let mut den = 0.0;
-    for d in designs()
-        .iter()
-        .filter(|d| d.target == t && d.role == Role::Calibration)
-    {
-        let cfg = d.setting.config();
-        let y = 1e3 / d.mhz;
-        let c = kcells(&cfg, t);
-        num += c * (y - stage_ns(&cfg, t)?) / (y * y);
+    for row in rows {
+        let (c, y, base) = row?;
+        num += c * (y - base) / (y * y);
         den += c * c / (y * y);
     }
     (den > 0.0).then(|| (num / den).max(0.0))
+}
+
+/// The calibration rows of `t`, `c` the design's thousands of cells.
+fn fit(t: Target) -> Option<f64> {
+    one_coefficient(
+        designs()
+            .into_iter()
+            .filter(|d| d.target == t && d.role == Role::Calibration)
+            .map(|d| {
+                let cfg = d.setting.config();
+                Some((kcells(&cfg, t), 1e3 / d.mhz, stage_ns(&cfg, t)?))
+            }),
+    )
 }
 
 /// The routing term of the whole datapath at `cfg`'s widths on `t`, ns

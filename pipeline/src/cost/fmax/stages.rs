@@ -54,25 +54,17 @@ impl StageMeasured {
     }
 }
 
-/// The rows of `pipeline/data/measured/stages.csv` (comment lines and
-/// the header skipped).
+/// The rows of `pipeline/data/measured/stages.csv`.
 pub fn stages() -> Vec<StageMeasured> {
-    STAGES
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("target,") && !l.trim().is_empty())
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
+    super::routing::csv_rows(STAGES)
+        .filter_map(|f| {
             let target = Target::ALL.into_iter().find(|t| t.name() == f[0])?;
             Some(StageMeasured {
                 target,
                 part: f[1].to_owned(),
                 dims: f[2].parse().ok()?,
                 pes: f[3].parse().ok()?,
-                role: if f[4] == "calibration" {
-                    Role::Calibration
-                } else {
-                    Role::Holdout
-                },
+                role: super::routing::role(f[4]),
                 mhz: f[5].parse().ok()?,
             })
         })
@@ -95,29 +87,21 @@ fn unrouted(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> Option<(f64, f64
 /// (`None` without a calibration row).
 pub fn hop_ns(t: Target) -> Option<f64> {
     static FITTED: std::sync::OnceLock<[Option<f64>; 3]> = std::sync::OnceLock::new();
-    let fits = FITTED.get_or_init(|| Target::ALL.map(fit));
-    Target::ALL
-        .iter()
-        .position(|&x| x == t)
-        .and_then(|i| fits[i])
+    super::routing::per_family(&FITTED, fit, t)
 }
 
-/// Minimises the relative period error over the calibration rows of `t`:
-/// `h = sum(l y' / y^2) / sum(l^2 / y^2)` with `y` the measured period,
-/// `y'` its excess over the unrouted path's and `l` the path's LUT levels.
+/// The calibration rows of `t` ([`super::routing`]'s relative-error fit),
+/// `c` the issue path's LUT levels.
 fn fit(t: Target) -> Option<f64> {
-    let mut num = 0.0;
-    let mut den = 0.0;
-    for s in stages()
-        .iter()
-        .filter(|s| s.target == t && s.role == Role::Calibration)
-    {
-        let y = 1e3 / s.mhz;
-        let (ns, l) = unrouted(&s.config(), &s.geometry(), t)?;
-        num += l * (y - ns) / (y * y);
-        den += l * l / (y * y);
-    }
-    (den > 0.0).then(|| (num / den).max(0.0))
+    super::routing::one_coefficient(
+        stages()
+            .into_iter()
+            .filter(|s| s.target == t && s.role == Role::Calibration)
+            .map(|s| {
+                let (base, luts) = unrouted(&s.config(), &s.geometry(), t)?;
+                Some((luts, 1e3 / s.mhz, base))
+            }),
+    )
 }
 
 /// The term for an issue path of `luts` LUT levels on `t`, ns (0 for a
