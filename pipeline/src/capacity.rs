@@ -246,7 +246,7 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> PeDepths {
         zs.extend([b0, b1, g.slices.end as f64, view.dims[2] as f64 - 0.5]);
         zs.sort_by(f64::total_cmp);
         zs.dedup();
-        for (i, map) in maps.iter().enumerate() {
+        for map in &maps {
             let owners: Vec<Vec<[usize; 2]>> =
                 zs.iter().map(|&z| plane.owners(g, z, map)).collect();
             for o in &owners {
@@ -262,7 +262,7 @@ pub fn need_of(cfg: &PipelineConfig, view: &View, layout: &Layout) -> PeDepths {
             // about as many; there the deepest PE's columns plus those in
             // flight hold (the occupancy proptest's round-robin cases),
             // where the union would count most rays twice.
-            if i == 1 {
+            if !map.round_robin() {
                 for pair in owners.windows(2) {
                     raise(&mut out, &plane.counts(&pair[0], &pair[1]), columns);
                 }

@@ -164,16 +164,21 @@ impl Drop for Done<'_> {
 mod tests {
     use super::*;
 
+    /// A rayon pool of `threads` threads.
+    fn pool(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    }
+
     /// Every item runs once, at its own index, and the results come back
     /// in item order, on one thread and on several (inside a warm frame
     /// and nested in another step, as the sampling's column jobs are).
     #[test]
     fn each_mut_runs_every_item_once_in_order() {
         for threads in [1, 2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = pool(threads);
             let got = pool.install(|| {
                 with_warm_pool(|| {
                     let mut outer: Vec<Vec<u64>> = (0..7)
@@ -202,10 +207,7 @@ mod tests {
     #[test]
     fn steps_after_the_pollers_park_run_and_the_frame_ends() {
         for threads in [2, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = pool(threads);
             let got = pool.install(|| {
                 with_warm_pool(|| {
                     let mut sums = Vec::new();
@@ -232,10 +234,7 @@ mod tests {
     /// rather than leaving the caller waiting for it.
     #[test]
     fn a_panicking_item_ends_the_step() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let pool = pool(2);
         let ran = AtomicUsize::new(0);
         let out = pool.install(|| {
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

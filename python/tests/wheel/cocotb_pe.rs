@@ -72,16 +72,23 @@ fn passes_and_fails_a_broken_copy(py: &Path, dir: &Path, sim: &str) -> String {
     passed
 }
 
-#[test]
-fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
+/// The venv's Python with cocotb, when Icarus is installed too (each
+/// missing tool skips in one line, or fails under
+/// `ERCUBE_REQUIRE_TOOLS=1`).
+fn icarus_cocotb() -> Option<std::path::PathBuf> {
     if !tools::have(
         "iverilog",
         "iverilog",
         "the cocotb testbench of the PE's sample stage",
     ) {
-        return;
+        return None;
     }
-    let Some(py) = with_cocotb() else {
+    with_cocotb()
+}
+
+#[test]
+fn the_cocotb_testbench_drives_a_pe_sample_stage_and_fails_a_broken_copy() {
+    let Some(py) = icarus_cocotb() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -105,14 +112,7 @@ fn the_cocotb_pe_testbench_passes_in_verilator_and_fails_a_broken_copy() {
 /// first differing tap, naming the cycle.
 #[test]
 fn the_cocotb_pe_testbench_drives_the_round_robin_mappings_and_fails_a_broken_decoder() {
-    if !tools::have(
-        "iverilog",
-        "iverilog",
-        "the cocotb testbench of the PE's sample stage",
-    ) {
-        return;
-    }
-    let Some(py) = with_cocotb() else {
+    let Some(py) = icarus_cocotb() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
