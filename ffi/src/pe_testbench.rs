@@ -19,8 +19,9 @@
 //!   `wb_addr` and `wb_data` where their valid is 1);
 //! - every write-back's data against the model's datapath evaluated
 //!   through DPI-C (`ercube_pkg.sv`, the C ABI) on the bundle the module
-//!   itself issued: its `iss_m` and `iss_acc_*` and the broadcast's row
-//!   words at the issue, its taps `tap_stage` clocks later; the four
+//!   itself issued: its `iss_m` and the broadcast's row words at the
+//!   issue, its `iss_acc_*` a clock later (`acc_valid`), its taps
+//!   `tap_stage` clocks later; the four
 //!   accumulators packed `{a, b, g, r}` must be `wb_data` exactly `depth`
 //!   clocks after the issue, with `wb_valid` high then and only then.
 //!
@@ -104,14 +105,17 @@ pub fn pe_testbench(
         if matches!(p.name.as_str(), "clk" | "rst" | "in_valid") || p.name.starts_with("tbl_") {
             continue;
         }
-        // The taps enter the datapath after the issue; the rest with it.
-        let late = p.stage > 0;
+        // The taps enter the datapath at the tap stage, the ray's
+        // accumulators a clock after the issue, the rest with it.
         let src = match p.name.as_str() {
             "slot_m" => "iss_m".to_owned(),
             n if ROW_WORDS.contains(&n) => format!("bc_{n}"),
-            n if late => format!("tap_{n}"),
+            n if n.starts_with("acc_") => format!("iss_{n}"),
+            n if p.stage > 0 => format!("tap_{n}"),
             n => format!("iss_{n}"),
         };
+        let late = src.starts_with("tap_");
+        let at = if late { 0 } else { p.stage };
         let c = col(&src)?;
         if c.bits != p.word.bits {
             return Err(format!(
@@ -119,7 +123,7 @@ pub fn pe_testbench(
                 c.bits, p.name, p.word.bits
             ));
         }
-        feeds.push((p.name.clone(), src, p.word.bits, p.word.signed, late));
+        feeds.push((p.name.clone(), src, p.word.bits, p.word.signed, late, at));
     }
     let cw = m
         .ports
@@ -253,7 +257,7 @@ module tb (input clk);
         w,
         "  logic issued_at [R];\n  logic e_valid [R];\n  int e_from [R];"
     );
-    for (name, _, bits, signed, late) in &feeds {
+    for (name, _, bits, signed, late, _) in &feeds {
         if !late {
             let _ = writeln!(w, "  logic {} b_{name} [R];", range(*bits, *signed));
         }
@@ -432,12 +436,22 @@ module tb (input clk);
         w,
         "      if (p_iss_valid == 1'b1) begin\n        issued_at[at] = 1'b1;"
     );
-    for (name, src, _, _, late) in &feeds {
-        if !late {
+    for (name, src, _, _, late, at) in &feeds {
+        if !late && *at == 0 {
             let _ = writeln!(w, "        b_{name}[at] = p_{src};");
         }
     }
     let _ = writeln!(w, "        issued++;\n      end");
+    // What the datapath takes a clock or more after the issue (the ray's
+    // accumulators), into the issue's bundle.
+    for (name, src, _, _, late, at) in &feeds {
+        if !late && *at > 0 {
+            let _ = writeln!(
+                w,
+                "      if (r >= {at} && issued_at[(r - {at}) % R]) b_{name}[(r - {at}) % R] = p_{src};"
+            );
+        }
+    }
     // The taps of the sample issued TAP clocks before complete its bundle:
     // the model's write-back through DPI-C.
     let _ = writeln!(
@@ -446,7 +460,7 @@ module tb (input clk);
         from = (r - TAP) % R;
         issued_at[from] = 1'b0;"
     );
-    for (name, src, _, _, late) in &feeds {
+    for (name, src, _, _, late, _) in &feeds {
         let v = if *late {
             format!("p_{src}")
         } else {

@@ -160,8 +160,9 @@ async def pe_sample_stage_matches_the_model(dut):
 
             bundle = {w: at(f"bc_{w}", r) for w in ROW_WORDS}
             bundle["slot_m"] = at("iss_m", r)
+            # The ray's accumulators reach the datapath a clock after its issue.
             for c in "rgba":
-                bundle[f"acc_{c}"] = col[f"iss_acc_{c}"][r]
+                bundle[f"acc_{c}"] = col[f"iss_acc_{c}"][r + 1]
             for t in ["v00", "v01", "v10", "v11"]:
                 bundle[t] = col[f"tap_{t}"][r + tap_stage]
             bundle = {n: v for n, v in bundle.items() if n in inputs}

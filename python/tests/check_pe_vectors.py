@@ -106,7 +106,8 @@ issues = np.flatnonzero(outs["iss_valid"])
 for r in issues:
     bundle = {n: value(f"bc_{n}", r) for n in ["a", "t", "b", "k", "row_wy", "sy", "sz"]}
     bundle["slot_m"] = value("iss_m", r)
-    bundle.update({f"acc_{c}": value(f"iss_acc_{c}", r) for c in "rgba"})
+    # The ray's accumulators reach the datapath a clock after its issue.
+    bundle.update({f"acc_{c}": value(f"iss_acc_{c}", r + 1) for c in "rgba"})
     bundle.update({t: value(f"tap_{t}", r + v["tap_stage"]) for t in ["v00", "v01", "v10", "v11"]})
     out = dp.eval(**{n: x for n, x in bundle.items() if n in inputs})
     assert outs["wb_valid"][r + v["depth"]] == 1, r

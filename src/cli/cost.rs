@@ -228,15 +228,14 @@ fn cost(a: &CostArgs) -> Result<()> {
             clock::ClockSource::Assumed,
         ),
         "predicted" => {
-            let p = pipeline::cost::fmax::pe_prediction(&cfg, a.target)
-                .with_context(|| {
-                    format!(
-                        "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
-                        a.target.name()
-                    )
-                })?;
-            // One decimal, as the report prints it.
-            ((p.mhz * 10.0).round() / 10.0, clock::ClockSource::Predicted)
+            // Checked now; quoted for the view's geometry once it is run.
+            pipeline::cost::fmax::pe_prediction(&cfg, a.target).with_context(|| {
+                format!(
+                    "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
+                    a.target.name()
+                )
+            })?;
+            (0.0, clock::ClockSource::Predicted)
         }
         other => bail!("--clock {other}: expected assumed or predicted"),
     };
@@ -320,6 +319,15 @@ fn cost(a: &CostArgs) -> Result<()> {
         };
         arch_runs.push((c, r));
     }
+    let clock = if clock.1 == clock::ClockSource::Predicted {
+        // The sample stage's clock for this view's memories, as the
+        // report's predicted line gives it (one decimal, as printed).
+        let p = pipeline::cost::fmax::predicted_clock(&cfg, &main.geometry, a.target)
+            .context("--clock predicted: no prediction for this design")?;
+        ((p.mhz * 10.0).round() / 10.0, clock.1)
+    } else {
+        clock
+    };
     let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());
     if let Some(c) = &pipelined {

@@ -354,9 +354,17 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
         .and_then(|r| r.split(" MHz").next())
         .and_then(|x| x.parse().ok())
         .expect("an ECP5 figure");
-    // Between the unpipelined compositing unit's measured 64.8 MHz and the
-    // ECP5's fabric limit.
-    assert!(mhz > 64.8 && mhz < 400.0, "{line}");
+    // The sample stage's clock: never above its datapath's (whose slowest
+    // stage this view's issue path may or may not undercut), and well
+    // above the 13.7 MHz of a control written without the pick's carry
+    // chain (docs/cost.md).
+    let datapath = pipeline::cost::fmax::pe_prediction(
+        &pipeline::config::PipelineConfig::default(),
+        pipeline::cost::Target::Ecp5,
+    )
+    .expect("an ECP5 prediction")
+    .mhz;
+    assert!(mhz > 13.7 && mhz <= datapath + 0.05, "{line}");
     let predicted = run(&["--target", "ecp5", "--clock", "predicted"]);
     assert!(
         predicted.contains(&format!("at {mhz} MHz (predicted clock)")),

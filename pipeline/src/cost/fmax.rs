@@ -46,8 +46,8 @@ pub use path::{module_paths, unit_path, Path};
 pub use pipelining::{clock_schedule, schedule_for, ClockSchedule, Clocked};
 use predict::node_path;
 pub use predict::{
-    issue_path, module_mhz, pe_prediction, sample_stage_prediction, stage_prediction,
-    unit_prediction, unit_predictions, PePrediction, UnitPrediction,
+    address_path, issue_path, module_mhz, pe_prediction, predicted_clock, sample_stage_prediction,
+    stage_prediction, tap_path, unit_prediction, unit_predictions, PePrediction, UnitPrediction,
 };
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

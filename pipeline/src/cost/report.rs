@@ -312,7 +312,7 @@ pub fn build(
     let mut notes = vec![
         if source == super::clock::ClockSource::Predicted {
             format!(
-                "Clock {clock_mhz} MHz is predicted from the slowest stage of the sample datapath's schedule by a delay model fitted to units placed and routed with ercube synth; the PE is not placed and routed. The datapath is {staging}."
+                "Clock {clock_mhz} MHz is predicted by delay models fitted to units and sample stages placed and routed with ercube synth: the slower of the sample datapath's slowest scheduled stage and the PE sample stage's issue; the whole PE is not placed and routed. The datapath is {staging}."
             )
         } else {
             format!(
@@ -348,7 +348,7 @@ pub fn build(
         clock_source: source,
         predicted_clocks: [Target::Ecp5, Target::Ice40]
             .into_iter()
-            .filter_map(|t| super::fmax::pe_prediction(cfg, t))
+            .filter_map(|t| super::fmax::predicted_clock(cfg, &geo, t))
             .collect(),
         config: *cfg,
         geometry: geo,

@@ -119,8 +119,8 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
             times_plus(s.slots(), ab),
         ),
         (
-            "accumulators: a write-back forwarded (two compares), bank select",
-            vec![Unit::Cmp { width: ab }, Unit::Cmp { width: ab }, mux(bw, 4)],
+            "accumulators: a write-back forwarded, bank select",
+            vec![Unit::Cmp { width: ab }, mux(bw, 3)],
         ),
         (
             "taps: x0 and x0 + 1 clamped into the volume",

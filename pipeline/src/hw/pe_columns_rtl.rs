@@ -130,22 +130,60 @@ pub(super) fn times(k: u64, x: &str) -> String {
     }
 }
 
-/// The issuing ray's index `mx` and slot `slot` from the plan bit `idx`.
-/// Under column blocks the slot is the range's first slot `map_sl` plus
-/// `idx`, wrapped once (`idx` is below the slots): migration keeps the
-/// column map's slots a ring, so no modulo of the index is on the issue
-/// path.
-pub(super) fn mx_slot(s: &PeSampleShape) -> String {
-    let tb = slot_bits(s);
+/// The picked ray's index `mx` from its plan bit `idx`, in the pick's
+/// clock (the datapath takes it at issue), and what the issue's clock
+/// needs of the column map to find the ray's slot (`pk_sl`): under a
+/// round-robin mapping the entry's slot, else the held range's first
+/// slot. Both are taken in the pick's clock, so that a column map the
+/// next slice's migration writes in the issue's clock does not reach it.
+pub(super) fn mx(s: &PeSampleShape) -> String {
+    let tb1 = slot_bits(s) - 1;
     if s.round_robin {
-        format!(
-            "  wire signed [31:0] mx = cm_mx[idx];\n  wire [{tb1}:0] slot = cm_sl[idx];",
-            tb1 = tb - 1
-        )
+        format!("  wire signed [31:0] mx = cm_mx[idx];\n  wire [{tb1}:0] pk_sl = cm_sl[idx];")
     } else {
         format!(
-            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});
-  wire [{tb}:0] sl_sum = map_sl + idx;
+            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});\n  wire [{tb1}:0] pk_sl = map_sl;"
+        )
+    }
+}
+
+/// The pick's registers (`k_sl`, and under column blocks the plan bit
+/// `k_idx`): their declarations and clocked loads, and their bits.
+pub(super) fn pick_registers(s: &PeSampleShape) -> (String, u64) {
+    let tb = slot_bits(s);
+    let regs: &[&str] = if s.round_robin {
+        &["k_sl"]
+    } else {
+        &["k_sl", "k_idx"]
+    };
+    let src = |r: &str| if r == "k_sl" { "pk_sl" } else { "idx" };
+    let mut t = String::new();
+    for r in regs {
+        t += &format!("  reg [{}:0] {r};\n", tb - 1);
+    }
+    t += "  always @(posedge clk) begin\n    if (rst) begin\n";
+    for r in regs {
+        t += &format!("      {r} <= 0;\n");
+    }
+    t += "    end else begin\n";
+    for r in regs {
+        t += &format!("      {r} <= {};\n", src(r));
+    }
+    t += "    end\n  end";
+    (t, regs.len() as u64 * u64::from(tb))
+}
+
+/// The issuing ray's buffer slot `slot`, in the issue's clock, from the
+/// registered pick. Under column blocks the slot is the range's first
+/// slot plus the plan bit, wrapped once (the bit is below the slots):
+/// migration keeps the column map's slots a ring, so no modulo is built.
+pub(super) fn slot(s: &PeSampleShape) -> String {
+    let tb = slot_bits(s);
+    if s.round_robin {
+        format!("  wire [{tb1}:0] slot = k_sl;", tb1 = tb - 1)
+    } else {
+        format!(
+            "  wire [{tb}:0] sl_sum = k_sl + k_idx;
   wire [{tb1}:0] slot = sl_sum >= {slots} ? sl_sum - {slots} : sl_sum;",
             tb1 = tb - 1,
             slots = s.slots()

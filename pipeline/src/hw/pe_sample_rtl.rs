@@ -3,7 +3,7 @@
 //! compositing buffer, the column map's held range, and the control that
 //! walks a row's rays one a clock into the pipelined datapath
 //! ([`super::pipeline_rtl`]'s `ercube_sample`), reads each ray's
-//! accumulators from the buffer before it issues and writes them back
+//! accumulators from the buffer as it issues and writes them back
 //! when the datapath returns them, and serves the voxel taps, the column
 //! right of the block from the right neighbour's edge register.
 //!
@@ -16,10 +16,13 @@
 //! PE's declaration).
 //!
 //! The controller's broadcast comes one clock ahead (`bc_*`): in the clock
-//! before a sampling cycle the control finds the ray that issues in it
+//! before a sampling cycle the control picks the ray that issues in it
 //! (the row's `c`-th planned column, `c` counting the row's sampling
-//! cycles) and reads its accumulators; a write-back to the same ray in
-//! that clock or the next is forwarded.
+//! cycles); in the issue's clock it finds the ray's buffer word from the
+//! registered pick and reads its accumulators, which the datapath takes a
+//! clock later ([`super::schedule::RAY_STAGE`]), a write-back of the
+//! issue's clock forwarded. Two clocks, so that neither holds both the
+//! pick's carry chain and the buffer's address.
 //!
 //! Which columns a row samples is the PE's **row plan** (`plan`, one word
 //! of `slots` bits a sampled ray row, bit `i` for held column `map_lo +
@@ -82,6 +85,15 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
         return Err(format!(
             "the datapath reads its taps {sv} clocks after issue and shows the tap column at {sx}: the voxel memory answers one clock after the column"
         ));
+    }
+    for n in ["acc_r", "acc_g", "acc_b", "acc_a"] {
+        let st = port(n)?.stage;
+        if st != super::schedule::RAY_STAGE {
+            return Err(format!(
+                "the datapath takes the ray's {n} {st} clocks after issue: the PE reads the buffer in the issue's clock and gives it {} clocks after",
+                super::schedule::RAY_STAGE
+            ));
+        }
     }
     let depth = dp.depth;
     let v = s.voxel_bits;
@@ -192,6 +204,8 @@ module {MODULE} (
         e1 = 2 * v - 1,
         mr = range(m.word.bits, m.word.signed),
     );
+    // The issuing ray's accumulators, a clock after its issue.
+    let _ = writeln!(w, "  output wire acc_valid,");
     for n in accs {
         let p = port(n)?;
         let _ = writeln!(
@@ -268,7 +282,8 @@ module {MODULE} (
     } else {
         ""
     };
-    // The control, one clock ahead of issue.
+    // The control: the pick one clock ahead of issue, the buffer's read in
+    // the issue's clock.
     let _ = writeln!(
         w,
         "  // The row's c-th planned column issues in the row's c-th cycle: the
@@ -279,23 +294,35 @@ module {MODULE} (
   wire [{s1}:0] one = row_bits & (~row_bits + {slots}'d1);
   wire [{tb1}:0] idx;
 {encoder}
-{mx_slot}
+{mx}
   wire go = bc_go && row_bits != 0;
-  // The ray's buffer word, row * {slots} + slot, the product as the row's shifted sums.
-  wire [{ab1}:0] row_w = bc_row;
-  wire [{ab1}:0] addr = {row_base} + slot;
   always @(posedge clk) begin
     if (rst) rem <= 0;
     else if (bc_go) rem <= row_bits & ~one;
   end
-  // The issuing ray's accumulators: both banks at its word; a write-back in
-  // this clock or the issue's is forwarded (compared at issue, off this path).
+  // The pick, registered: the issuing ray's row and what finds its slot.
+  reg [{rb1}:0] k_row;
+  always @(posedge clk) begin
+    if (rst) k_row <= 0;
+    else k_row <= bc_row;
+  end
+{pick}
+{slot}
+  // The ray's buffer word, row * {slots} + slot, the product as the row's
+  // shifted sums, read from both banks in the issue's clock: the datapath
+  // takes the accumulators a clock after issue, a write-back of the issue's
+  // clock forwarded (compared then, off the read's path).
+  wire [{ab1}:0] row_w = k_row;
+  wire [{ab1}:0] addr = {row_base} + slot;
   reg [{bw1}:0] rq0, rq1;
+  reg [{ab1}:0] s_addr;
   always @(posedge clk) begin
     rq0 <= bank0[addr[{ab1}:1]];
     rq1 <= bank1[addr[{ab1}:1]];
+    if (rst) s_addr <= 0;
+    else s_addr <= addr[{ab1}:0];
   end
-  reg [{ab1}:0] s_addr;
+  reg a_valid;
   reg s_z;
   reg [{yb1}:0] s_y0, s_y1;
   reg fw_v;
@@ -303,11 +330,14 @@ module {MODULE} (
   reg [{bw1}:0] fw_d;",
         s1 = slots - 1,
         tb1 = super::pe_columns_rtl::slot_bits(s) - 1,
+        rb1 = rb - 1,
         bw1 = bw - 1,
         ab1 = ab - 1,
         yb1 = yb - 1,
         encoder = super::pe_columns_rtl::encoder(s),
-        mx_slot = super::pe_columns_rtl::mx_slot(s),
+        mx = super::pe_columns_rtl::mx(s),
+        slot = super::pe_columns_rtl::slot(s),
+        pick = super::pe_columns_rtl::pick_registers(s).0,
         row_base = super::pe_columns_rtl::times(slots, "row_w"),
     );
     for n in row_words {
@@ -320,7 +350,7 @@ module {MODULE} (
     if (rst) begin
       iss_valid <= 1'b0;
       iss_m <= 0;
-      s_addr <= 0;
+      a_valid <= 1'b0;
       s_z <= 1'b0;
       s_y0 <= 0;
       s_y1 <= 0;
@@ -336,14 +366,13 @@ module {MODULE} (
         "    end else begin
       iss_valid <= go;
       iss_m <= go ? mx : 0;
-      s_addr <= addr[{ab1}:0];
+      a_valid <= iss_valid;
       s_z <= bc_z;
       s_y0 <= bc_y0;
       s_y1 <= bc_y1;
       fw_v <= wb_valid;
       fw_a <= wb_addr;
-      fw_d <= wb_data;",
-        ab1 = ab - 1
+      fw_d <= wb_data;"
     );
     for n in row_words {
         let _ = writeln!(w, "      s_{n} <= go ? bc_{n} : 0;");
@@ -352,9 +381,9 @@ module {MODULE} (
         w,
         "    end
   end
-  wire [{bw1}:0] acc_word = (wb_valid && wb_addr == s_addr) ? wb_data
-      : (fw_v && fw_a == s_addr) ? fw_d : (s_addr[0] ? rq1 : rq0);
-  wire [{bw1}:0] acc_in = iss_valid ? acc_word : {{{bw}{{1'b0}}}};",
+  wire [{bw1}:0] acc_word = (fw_v && fw_a == s_addr) ? fw_d : (s_addr[0] ? rq1 : rq0);
+  wire [{bw1}:0] acc_in = a_valid ? acc_word : {{{bw}{{1'b0}}}};
+  assign acc_valid = a_valid;",
         bw1 = bw - 1,
     );
     let fields = [
@@ -482,23 +511,24 @@ module {MODULE} (
     regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
     regs += super::pe_columns_rtl::edge_register(w, s);
     // The write-back address travels with the sample.
-    let _ = writeln!(w, "  // The ray's address, carried to its write-back.");
-    for i in 1..=depth {
+    // The write-back address travels with the sample from a clock after
+    // issue (`s_addr`, its first stage).
+    let _ = writeln!(
+        w,
+        "  // The ray's address, carried to its write-back.\n  wire [{}:0] wa_1 = s_addr;",
+        ab - 1
+    );
+    for i in 2..=depth {
         let _ = writeln!(w, "  reg [{}:0] wa_{i};", ab - 1);
     }
-    regs += u64::from(depth) * u64::from(ab);
+    regs += u64::from(depth - 1) * u64::from(ab);
     let _ = writeln!(w, "  always @(posedge clk) begin\n    if (rst) begin");
-    for i in 1..=depth {
+    for i in 2..=depth {
         let _ = writeln!(w, "      wa_{i} <= 0;");
     }
     let _ = writeln!(w, "    end else begin");
-    for i in 1..=depth {
-        let prev = if i == 1 {
-            "s_addr".to_owned()
-        } else {
-            format!("wa_{}", i - 1)
-        };
-        let _ = writeln!(w, "      wa_{i} <= {prev};");
+    for i in 2..=depth {
+        let _ = writeln!(w, "      wa_{i} <= wa_{};", i - 1);
     }
     let _ = writeln!(w, "    end\n  end");
     let out_fields: Vec<String> = ["acc_out_a", "acc_out_b", "acc_out_g", "acc_out_r"]
@@ -529,11 +559,14 @@ module {MODULE} (
     if s.termination.is_some() {
         regs += super::pe_term_rtl::termination_line(w, s, depth);
     }
-    // rem, rq0/rq1, iss_valid, iss_m, s_addr, s_z, s_y0/s_y1, fw_v/fw_a/fw_d,
-    // and the held range (map_lo, map_n, map_sl).
+    // rem, the pick's, k_row, rq0/rq1, iss_valid, a_valid, iss_m, s_addr,
+    // s_z, s_y0/s_y1, fw_v/fw_a/fw_d, and the held range (map_lo, map_n,
+    // map_sl).
     regs += slots
+        + super::pe_columns_rtl::pick_registers(s).1
+        + u64::from(rb)
         + 2 * u64::from(bw)
-        + 1
+        + 2
         + u64::from(m.word.bits)
         + u64::from(ab)
         + 1

@@ -49,7 +49,7 @@ pub(super) fn termination_bits(w: &mut String, s: &PeSampleShape, depth: u32, th
         slots = s.slots(),
         rm = r.max_rows - 1,
     );
-    for i in 0..=depth {
+    for i in 1..=depth {
         let _ = writeln!(w, "  reg [{rb1}:0] tr_{i};\n  reg [{tb1}:0] ts_{i};");
     }
     let _ = writeln!(
@@ -67,21 +67,21 @@ pub(super) fn termination_bits(w: &mut String, s: &PeSampleShape, depth: u32, th
 }
 
 /// The issuing ray's row and slot carried to its write-back beside its
-/// address (the termination bits' write, [`termination_bits`]); returns
-/// the register bits.
+/// address (the termination bits' write, [`termination_bits`]), from the
+/// issue's clock, where the slot is found; returns the register bits.
 pub(super) fn termination_line(w: &mut String, s: &PeSampleShape, depth: u32) -> u64 {
     let _ = writeln!(
         w,
         "  // The ray's row and slot, carried to its write-back.\n  always @(posedge clk) begin\n    if (rst) begin"
     );
-    for i in 0..=depth {
+    for i in 1..=depth {
         let _ = writeln!(w, "      tr_{i} <= 0;\n      ts_{i} <= 0;");
     }
     let _ = writeln!(
         w,
-        "    end else begin\n      tr_0 <= bc_row;\n      ts_0 <= slot;"
+        "    end else begin\n      tr_1 <= k_row;\n      ts_1 <= slot;"
     );
-    for i in 1..=depth {
+    for i in 2..=depth {
         let _ = writeln!(
             w,
             "      tr_{i} <= tr_{p};\n      ts_{i} <= ts_{p};",
@@ -89,5 +89,5 @@ pub(super) fn termination_line(w: &mut String, s: &PeSampleShape, depth: u32) ->
         );
     }
     let _ = writeln!(w, "    end\n  end");
-    u64::from(depth + 1) * u64::from(s.rays.row_bits() + addr_bits(s.slots()))
+    u64::from(depth) * u64::from(s.rays.row_bits() + addr_bits(s.slots()))
 }

@@ -21,9 +21,34 @@
 //! are in. A memory read and a declared register end a stage. Ports are
 //! held registers (the row broadcast, the ray's accumulators read when
 //! needed): they cost no delay line.
+//!
+//! Ports arrive at issue but the ray's state from the compositing buffer
+//! ([`RAY_PORTS`]), which arrives [`RAY_STAGE`] clocks later: the PE
+//! picks the issuing ray in the clock before issue and reads its buffer
+//! word in the issue's clock, from the registered pick, so that one clock
+//! never holds both the pick's carry chain and the buffer's address
+//! (`super::pe_sample_rtl`). The compositing reads them tens of stages
+//! later, so the depth does not follow.
 
 use super::{Graph, Op};
 use crate::cost::shapes::Quantizer;
+
+/// The ports carrying the ray's state from the compositing buffer: its
+/// accumulators and, pre-integrated, its previous sample.
+pub const RAY_PORTS: [&str; 5] = ["acc_r", "acc_g", "acc_b", "acc_a", "pre.prev"];
+
+/// Clocks after issue at which the [`RAY_PORTS`] arrive.
+pub const RAY_STAGE: u32 = 1;
+
+/// The stage at which node `i` of `g`, a port, arrives: [`RAY_STAGE`] for
+/// the [`RAY_PORTS`], else issue's (0).
+pub fn port_stage(g: &Graph, i: usize) -> u32 {
+    if RAY_PORTS.contains(&g.nodes[i].name.as_str()) {
+        RAY_STAGE
+    } else {
+        0
+    }
+}
 
 /// A graph's schedule.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -78,7 +103,8 @@ pub fn schedule(g: &Graph) -> Schedule {
         let s = ops.iter().map(|o| stage[o.0]).max().unwrap_or(0);
         let busy = ops.iter().any(|o| stage[o.0] == s && heavy[o.0]);
         let (st, h, r) = match node.op {
-            Op::Input | Op::Const(_) => (0, false, 0),
+            Op::Input => (port_stage(g, i), false, 0),
+            Op::Const(_) => (0, false, 0),
             Op::Read(..) | Op::Reg(_) => (s + 1, false, s),
             op => match chains(g, op, i) {
                 Some(0) => (s, busy, s),

@@ -72,8 +72,8 @@ fn a_broken_round_robin_addressing_is_caught() {
     }
     let c = sparse_interleave(3);
     let by_rank = |v: &str| {
-        assert!(v.contains("slot = cm_sl[idx];"));
-        v.replace("slot = cm_sl[idx];", "slot = idx;")
+        assert!(v.contains("pk_sl = cm_sl[idx];"));
+        v.replace("pk_sl = cm_sl[idx];", "pk_sl = idx;")
     };
     let r = run(&c, SHOT, None, Simulator::Icarus, Some(&by_rank));
     assert!(r.outcome.mismatches > 0, "a rank-addressed buffer passed");

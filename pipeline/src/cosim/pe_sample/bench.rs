@@ -44,6 +44,14 @@ pub fn testbench(
             .map_or(1, |p| p.word.bits)
     };
     let (sb, ab, db) = (bits("tbl_sel"), bits("tbl_addr"), bits("tbl_data"));
+    // The issue's ray index, as the PE's iss_m declares it.
+    let mr = dp.ports.iter().find(|p| p.name == "slot_m").map_or_else(
+        || "[0:0]".to_owned(),
+        |p| {
+            let sg = if p.word.signed { "signed " } else { "" };
+            format!("{sg}[{}:0]", p.word.bits - 1)
+        },
+    );
     let tw = 1 + sb + ab + db;
     let r = &shape.rays;
     let (cw, aw) = (r.color_bits, r.alpha_bits);
@@ -98,12 +106,14 @@ module {TOP};
   reg [63:0] cw{k}, clo{k}, cend{k}, nxl{k};
   integer fev{k} /* verilator public_flat */, fmap{k} /* verilator public_flat */;
   integer fi{k}, ft{k}, fw{k};
+  reg {mr} im{k};
   reg [63:0] ev{k}_0, ev{k}_1, ev{k}_2, ev{k}_3, ev{k}_4;
   reg ev_ok{k};
   reg [63:0] mp{k}_0, mp{k}_1, mp{k}_2, mp{k}_3;
   reg mp_ok{k}, map_we{k};
   reg [63:0] map_lo{k}, map_n{k}, map_sl{k};{tw}{rr}
   wire [{e1}:0] edge_out{k};",
+            mr = mr,
             rr = if shape.round_robin {
                 format!(
                     "\n  // The column map's entries (pe{k}.cm) and the column decoder (pe{k}.loc).
@@ -142,7 +152,7 @@ module {TOP};
     .bc_nv(bc_nv), .bc_nz(bc_nz), .bc_ny0(bc_ny0), .bc_ny1(bc_ny1),
     .bc_a(bc_w[0]), .bc_t(bc_w[1]), .bc_b(bc_w[2]), .bc_k(bc_w[3]), .bc_row_wy(bc_w[4]), .bc_sy(bc_w[5]), .bc_sz(bc_w[6]),
     .edge_in({right}), .edge_out(edge_out{k}),
-    .iss_valid(), .iss_m(), .iss_acc_r(), .iss_acc_g(), .iss_acc_b(), .iss_acc_a(),
+    .iss_valid(), .iss_m(), .acc_valid(), .iss_acc_r(), .iss_acc_g(), .iss_acc_b(), .iss_acc_a(),
     .tap_valid(), .tap_v00(), .tap_v01(), .tap_v10(), .tap_v11(),
     .wb_valid(), .wb_addr(), .wb_data());"
         );
@@ -329,7 +339,9 @@ module {TOP};
         let p = format!("pe{k}");
         let _ = writeln!(
             w,
-            "    if ({p}.iss_valid) $fwrite(fi{k}, \"I %0h %0h %0h %0h %0h %0h\\n\", cyc, {p}.iss_m, {p}.iss_acc_r, {p}.iss_acc_g, {p}.iss_acc_b, {p}.iss_acc_a);
+            "    // An issue's accumulators reach the datapath a clock after it.
+    if ({p}.acc_valid) $fwrite(fi{k}, \"I %0h %0h %0h %0h %0h %0h\\n\", cyc - 1, im{k}, {p}.iss_acc_r, {p}.iss_acc_g, {p}.iss_acc_b, {p}.iss_acc_a);
+    if ({p}.iss_valid) im{k} = {p}.iss_m;
     if ({p}.tap_valid) $fwrite(ft{k}, \"T %0h %0h %0h %0h %0h\\n\", cyc - {tap_stage}, {p}.tap_v00, {p}.tap_v01, {p}.tap_v10, {p}.tap_v11);
     if ({p}.wb_valid) $fwrite(fw{k}, \"W %0h %0h %0h %0h %0h %0h\\n\", cyc, {p}.wb_addr, {p}.wb_data[{r1}:0], {p}.wb_data[{g1}:{cw}], {p}.wb_data[{b1}:{g2}], {p}.wb_data[{a1}:{b2}]);",
             r1 = cw - 1,

@@ -39,8 +39,9 @@ pub fn meaning(name: &str) -> &'static str {
         }
         "iss_valid" => "a sample issues into the datapath",
         "iss_m" => "the issued ray's index",
+        "acc_valid" => "the accumulators of the sample issued a clock ago",
         "iss_acc_r" | "iss_acc_g" | "iss_acc_b" | "iss_acc_a" => {
-            "the issued ray's accumulators, read from the compositing buffer"
+            "the accumulators of the ray issued a clock ago, read from the compositing buffer"
         }
         "tap_valid" => "the taps of the sample issued the tap stage ago",
         "tap_v00" | "tap_v01" | "tap_v10" | "tap_v11" => "a voxel tap",

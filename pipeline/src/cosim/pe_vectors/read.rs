@@ -377,13 +377,16 @@ pub(super) fn stream(
         }
         Ok::<_, String>(idx)
     };
-    let iss_cols = out(
+    // An issue's accumulators reach the datapath a clock after it.
+    let iss_cols = out(&mut cols, &["iss_m"], "iss_valid")?;
+    let acc_cols = out(
         &mut cols,
-        &["iss_m", "iss_acc_r", "iss_acc_g", "iss_acc_b", "iss_acc_a"],
-        "iss_valid",
+        &["iss_acc_r", "iss_acc_g", "iss_acc_b", "iss_acc_a"],
+        "acc_valid",
     )?;
     for l in &iss {
-        put(&mut cols, &iss_cols, l[0] as usize, &l[1..]);
+        put(&mut cols, &iss_cols, l[0] as usize, &l[1..2]);
+        put(&mut cols, &acc_cols, l[0] as usize + 1, &l[2..]);
     }
     let tap_cols = out(
         &mut cols,

@@ -72,7 +72,8 @@ pub fn clock_schedule(g: &Graph, t: Target, target_mhz: f64) -> Result<Clocked, 
         let ops = op.operands();
         let s = ops.iter().map(|o| stage[o.0]).max().unwrap_or(0);
         let (st, r, arr) = match op {
-            Op::Input | Op::Const(_) => (0, 0, Path::default()),
+            Op::Input => (crate::hw::schedule::port_stage(g, i), 0, Path::default()),
+            Op::Const(_) => (0, 0, Path::default()),
             Op::Reg(_) => (s + 1, s, Path::default()),
             Op::Read(..) => (
                 s + 1,

@@ -153,18 +153,42 @@ pub fn pe_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
 /// priced by [`model`], without the routing of a whole design. `None`
 /// for xc7 (no model).
 pub fn stage_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction> {
-    use crate::hw::Op;
     let model = model(t)?;
     let g = crate::hw::sample::plain(cfg);
     let s = crate::cost::latency::sample_schedule(cfg);
+    let arrive = arrivals(&g, &s, t, &model);
+    let best = arrive.iter().map(|a| model.period_ns(a)).enumerate().fold(
+        (0usize, f64::MIN),
+        |b, (i, ns)| if ns > b.1 { (i, ns) } else { b },
+    );
+    Some(PePrediction {
+        target: t,
+        mhz: 1e3 / best.1,
+        stage_mhz: 1e3 / best.1,
+        routing_ns: 0.0,
+        critical: g.node(crate::hw::NodeId(best.0)).name.clone(),
+        path: arrive[best.0],
+        depth: s.depth,
+        model,
+    })
+}
+
+/// Each node's path within its stage of `s` (operands produced in the
+/// same stage chain on; a memory read or register starts a stage).
+fn arrivals(
+    g: &crate::hw::Graph,
+    s: &crate::hw::schedule::Schedule,
+    t: Target,
+    model: &DelayModel,
+) -> Vec<Path> {
+    use crate::hw::Op;
     let consumers = g.consumers();
     let n = g.nodes.len();
     let mut arrive = vec![Path::default(); n];
-    let mut best = (0usize, f64::MIN);
     for i in 0..n {
         let id = crate::hw::NodeId(i);
         let node = g.node(id);
-        let own = node_path(t, &g, id, &consumers);
+        let own = node_path(t, g, id, &consumers);
         let start = match node.op {
             Op::Input | Op::Const(_) | Op::Reg(_) => Path::default(),
             Op::Read(..) => Path {
@@ -187,50 +211,38 @@ pub fn stage_prediction(cfg: &PipelineConfig, t: Target) -> Option<PePrediction>
                 }),
         };
         arrive[i] = start.then(own);
-        let ns = model.period_ns(&arrive[i]);
-        if ns > best.1 {
-            best = (i, ns);
-        }
     }
-    Some(PePrediction {
-        target: t,
-        mhz: 1e3 / best.1,
-        stage_mhz: 1e3 / best.1,
-        routing_ns: 0.0,
-        critical: g.node(crate::hw::NodeId(best.0)).name.clone(),
-        path: arrive[best.0],
-        depth: s.depth,
-        model,
-    })
+    arrive
 }
 
-/// The path of the sample stage's issue in the clock before issue
-/// ([`crate::hw::pe_sample_rtl`]'s control, as
+/// The LUT4 levels of a tree over `inputs` (four inputs a level).
+fn tree_levels(inputs: u64) -> u32 {
+    let mut l = 0;
+    let mut w = inputs.max(1);
+    while w > 1 {
+        w = w.div_ceil(4);
+        l += 1;
+    }
+    l
+}
+
+/// The path of the sample stage's issue: the pick, in the clock before
+/// issue ([`crate::hw::pe_sample_rtl`]'s control, as
 /// [`crate::cost::sample_stage::control_logic`] prices its statements):
 /// the plan FIFO's block-RAM read, the head's bypass and the row's bits
 /// (two LUT levels), the one-hot pick's carry chain over the slots and its
-/// AND, the index's OR tree (a LUT4 level per four inputs), the slot
-/// (`map_sl + idx`, its compare and wrap; a multiplexer tree over the
-/// column map under a round-robin mapping) and the address's last adder
-/// into the compositing buffer's read port.
+/// AND, the index's OR tree (a LUT4 level per four inputs) and the ray
+/// `map_lo + idx` (a multiplexer tree over the column map under a
+/// round-robin mapping) into the issue's registers. The other path of the
+/// issue, the buffer's address in the issue's clock ([`address_path`]),
+/// starts at a register and holds no carry chain over the slots: the
+/// pick is the longer (`the_pick_is_the_issues_longer_path`).
 pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
     let n = s.slots();
-    let levels = |inputs: u64| {
-        let mut l = 0;
-        let mut w = inputs.max(1);
-        while w > 1 {
-            w = w.div_ceil(4);
-            l += 1;
-        }
-        l
-    };
-    let tb = crate::cost::inventory::addr_bits(n);
-    let slot = if s.round_robin {
-        Path::luts(levels(n))
+    let mx = if s.round_robin {
+        Path::luts(tree_levels(n))
     } else {
-        Path::chain(tb + 1)
-            .then(Path::chain(tb + 1))
-            .then(Path::luts(1))
+        Path::chain(s.index_bits)
     };
     Path {
         brams: 1.0,
@@ -239,16 +251,81 @@ pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
     .then(Path::luts(2))
     .then(Path::chain(n as u32))
     .then(Path::luts(1))
-    .then(Path::luts(levels(n.div_ceil(2))))
-    .then(slot)
-    .then(Path::chain(s.rays.ray_addr_bits()))
+    .then(Path::luts(tree_levels(n.div_ceil(2))))
+    .then(mx)
+}
+
+/// The issue's second clock's path: from the registered pick, the slot
+/// (`map_sl + idx`, its compare and wrap; under a round-robin mapping the
+/// column map entry's slot, read in the pick's clock) and the address's
+/// last adder into the compositing buffer's read port.
+pub fn address_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
+    let tb = crate::cost::inventory::addr_bits(s.slots());
+    let slot = if s.round_robin {
+        Path::default()
+    } else {
+        Path::chain(tb + 1)
+            .then(Path::chain(tb + 1))
+            .then(Path::luts(1))
+    };
+    slot.then(Path::chain(s.rays.ray_addr_bits()))
+}
+
+/// The path of the sample stage's tap address, in the datapath's tap
+/// column stage: the column `x0` as the datapath's stage computes it
+/// (its arrival in [`crate::cost::latency::sample_schedule`]'s stage, the
+/// output's valid gate), then the PE's logic into the slice buffer's read
+/// ports (`crate::hw::pe_sample_rtl`'s tap stage, as
+/// [`crate::cost::sample_stage::control_logic`] prices it): `x0 + 1`, its
+/// clamp into the volume (a compare chain and a select), the local column
+/// (`c - col_lo`; the column decoder's read under a round-robin mapping)
+/// and the bank row's base plus the column.
+pub fn tap_path(
+    cfg: &PipelineConfig,
+    s: &crate::hw::pe_sample_rtl::PeSampleShape,
+    t: Target,
+) -> Option<Path> {
+    let model = model(t)?;
+    let g = crate::hw::sample::plain(cfg);
+    let sch = crate::cost::latency::sample_schedule(cfg);
+    let x0 = g.outputs.iter().find(|o| o.0 == "x0")?.1;
+    let xb = g.word(x0).bits;
+    let local = if s.round_robin {
+        Path::luts(tree_levels(s.nx))
+    } else {
+        Path::chain(s.col_bits() + 1)
+    };
+    Some(
+        arrivals(&g, &sch, t, &model)[x0.0]
+            .then(Path::luts(1))
+            .then(Path::chain(xb + 1))
+            .then(Path::chain(xb + 1))
+            .then(Path::luts(1))
+            .then(local)
+            .then(Path::chain(crate::cost::inventory::addr_bits(
+                s.bank_words(),
+            ))),
+    )
+}
+
+/// The clock `ercube cost` quotes as predicted for `geo` on `t`: the
+/// sample stage's ([`sample_stage_prediction`]), or the datapath's
+/// ([`pe_prediction`]) where the stage's shape is not declared. `None`
+/// for xc7 (no model).
+pub fn predicted_clock(
+    cfg: &PipelineConfig,
+    geo: &crate::cost::inventory::Geometry,
+    t: Target,
+) -> Option<PePrediction> {
+    sample_stage_prediction(cfg, geo, t).or_else(|| pe_prediction(cfg, t))
 }
 
 /// The clock of the PE's emitted sample stage for `geo` on `t`: the
-/// slower of the datapath's slowest stage and the control's issue path
-/// ([`issue_path`], with its nets' routing across the stage:
-/// [`super::stages`]), plus the routing a whole design adds. `None` for
-/// xc7 (no model) or where the stage's shape is not declared.
+/// slowest of the datapath's slowest stage, the control's issue path
+/// ([`issue_path`]) and the tap address ([`tap_path`]), these two with
+/// their nets' routing across the stage ([`super::stages`]), plus the
+/// routing a whole design adds. `None` for xc7 (no model) or where the
+/// stage's shape is not declared.
 pub fn sample_stage_prediction(
     cfg: &PipelineConfig,
     geo: &crate::cost::inventory::Geometry,
@@ -256,16 +333,25 @@ pub fn sample_stage_prediction(
 ) -> Option<PePrediction> {
     let dp = pe_prediction(cfg, t)?;
     let shape = crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo).ok()?;
-    let path = issue_path(&shape);
-    // The issue path's nets route across the whole stage.
-    let ns = dp.model.period_ns(&path) + super::stages::issue_routing_ns(path.luts, t);
+    // The stage's own paths, their nets routed across the whole stage.
+    let (ns, path, critical) = super::stages::StagePath::ALL
+        .into_iter()
+        .filter_map(|k| {
+            let path = k.path(cfg, &shape, t)?;
+            let ns = dp.model.period_ns(&path) + super::stages::stage_routing_ns(path.luts, t, k);
+            Some((ns, path, k.describe()))
+        })
+        .fold(None::<(f64, Path, &str)>, |b, c| match b {
+            Some(b) if b.0 >= c.0 => Some(b),
+            _ => Some(c),
+        })?;
     if ns <= 1e3 / dp.stage_mhz {
         return Some(dp);
     }
     Some(PePrediction {
         mhz: 1e3 / (ns + dp.routing_ns),
         stage_mhz: 1e3 / ns,
-        critical: "the sample stage's issue (plan FIFO read to the buffer's address)".to_owned(),
+        critical: critical.to_owned(),
         path,
         ..dp
     })

@@ -1,18 +1,20 @@
-//! The routing a whole sample stage adds along its issue path.
+//! The routing a whole sample stage adds along its own paths.
 //!
-//! The issue path ([`super::issue_path`]) runs from the row plan's block
-//! RAM through a dozen LUT levels and four carry chains into the
-//! compositing buffer's address: placed among a whole stage's cells
-//! (thousands of LUTs, tens of block RAMs spread over the part) each of
-//! its nets routes far longer than in a unit placed alone, where the delay
-//! model's coefficients come from (on the LFE5U-85F, 15.4 to 19.9 ns of
-//! the path's 28.5 to 32.6 ns are routing, about a nanosecond a hop). The
+//! The stage's control has two paths of its own ([`StagePath`]): the
+//! issue's pick ([`super::issue_path`], from the row plan's block RAM
+//! through the carry chain over the slots) and the tap address
+//! ([`super::tap_path`], from the datapath's tap column through the
+//! clamps and the local column into the slice buffer's read ports).
+//! Placed among a whole stage's cells (thousands of LUTs, tens of block
+//! RAMs spread over the part) each of their nets routes far longer than
+//! in a unit placed alone, where the delay model's coefficients come from
+//! (on the LFE5U-85F 12.8 of the tap address's 21.3 ns are routing). The
 //! term is `hop_ns x LUT levels` of the path, added to its period, its
 //! one coefficient per family a least-squares fit of the relative period
 //! error to the calibration rows of `pipeline/data/measured/stages.csv`
-//! (stages placed by `ercube synth --pe`); the holdout rows check it. A
-//! family without a placed stage (iCE40: no iCE40UP5K holds one) has no
-//! term.
+//! (stages placed by `ercube synth --pe`, each with the path nextpnr
+//! found critical); the holdout rows check it. A family without a placed
+//! stage (iCE40: no iCE40UP5K holds one) has no term.
 
 use super::Role;
 use crate::config::PipelineConfig;
@@ -21,6 +23,52 @@ use crate::cost::Target;
 
 /// The measured stages, as stored (see the file's header).
 const STAGES: &str = include_str!("../../../data/measured/stages.csv");
+
+/// A path of the sample stage's own logic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum StagePath {
+    /// The issue's pick ([`super::issue_path`]).
+    Issue,
+    /// The tap address ([`super::tap_path`]).
+    Tap,
+}
+
+impl StagePath {
+    /// Both paths.
+    pub const ALL: [StagePath; 2] = [StagePath::Issue, StagePath::Tap];
+
+    /// The path for `s` on `t` (`None` without a delay model).
+    pub fn path(
+        self,
+        cfg: &PipelineConfig,
+        s: &crate::hw::pe_sample_rtl::PeSampleShape,
+        t: Target,
+    ) -> Option<super::Path> {
+        match self {
+            StagePath::Issue => Some(super::issue_path(s)),
+            StagePath::Tap => super::tap_path(cfg, s, t),
+        }
+    }
+
+    /// What a report calls it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            StagePath::Issue => "the sample stage's issue (plan FIFO read to the pick's registers)",
+            StagePath::Tap => {
+                "the sample stage's tap address (the datapath's tap column to the slice buffer)"
+            }
+        }
+    }
+
+    /// The name in the measurement file.
+    fn parse(s: &str) -> Option<StagePath> {
+        match s {
+            "issue" => Some(StagePath::Issue),
+            "tap" => Some(StagePath::Tap),
+            _ => None,
+        }
+    }
+}
 
 /// One placed sample stage.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -37,6 +85,8 @@ pub struct StageMeasured {
     pub role: Role,
     /// nextpnr's achieved clock, MHz.
     pub mhz: f64,
+    /// The path nextpnr found critical.
+    pub critical: StagePath,
 }
 
 impl StageMeasured {
@@ -66,48 +116,55 @@ pub fn stages() -> Vec<StageMeasured> {
                 pes: f[3].parse().ok()?,
                 role: super::routing::role(f[4]),
                 mhz: f[5].parse().ok()?,
+                critical: StagePath::parse(f[6])?,
             })
         })
         .collect()
 }
 
-/// The issue path's period without the term (the delay model's, plus
-/// the whole datapath's routing term) and its LUT levels, for `geo`.
-fn unrouted(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> Option<(f64, f64)> {
+/// Path `k`'s period without the term (the delay model's, plus the whole
+/// datapath's routing term) and its LUT levels, for `geo`.
+fn unrouted(cfg: &PipelineConfig, geo: &Geometry, t: Target, k: StagePath) -> Option<(f64, f64)> {
     let model = super::model(t)?;
     let shape = crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo).ok()?;
-    let path = super::issue_path(&shape);
+    let path = k.path(cfg, &shape, t)?;
     Some((
         model.period_ns(&path) + super::routing::routing_ns(cfg, t),
         path.luts,
     ))
 }
 
-/// The fitted coefficient of `t`, ns per LUT level of the issue path
-/// (`None` without a calibration row).
-pub fn hop_ns(t: Target) -> Option<f64> {
-    static FITTED: std::sync::OnceLock<[Option<f64>; 3]> = std::sync::OnceLock::new();
-    super::routing::per_family(&FITTED, fit, t)
+/// The fitted coefficient of path `k` on `t`, ns per LUT level (`None`
+/// without a calibration row where `k` was critical). Each path has its
+/// own: a net into a block RAM's ports routes farther than one between
+/// flip-flops, and the two paths differ in that.
+pub fn hop_ns(t: Target, k: StagePath) -> Option<f64> {
+    static ISSUE: std::sync::OnceLock<[Option<f64>; 3]> = std::sync::OnceLock::new();
+    static TAP: std::sync::OnceLock<[Option<f64>; 3]> = std::sync::OnceLock::new();
+    match k {
+        StagePath::Issue => super::routing::per_family(&ISSUE, |t| fit(t, StagePath::Issue), t),
+        StagePath::Tap => super::routing::per_family(&TAP, |t| fit(t, StagePath::Tap), t),
+    }
 }
 
-/// The calibration rows of `t` ([`super::routing`]'s relative-error fit),
-/// `c` the issue path's LUT levels.
-fn fit(t: Target) -> Option<f64> {
+/// The calibration rows of `t` where `k` was critical
+/// ([`super::routing`]'s relative-error fit), `c` its LUT levels.
+fn fit(t: Target, k: StagePath) -> Option<f64> {
     super::routing::one_coefficient(
         stages()
             .into_iter()
-            .filter(|s| s.target == t && s.role == Role::Calibration)
+            .filter(|s| s.target == t && s.role == Role::Calibration && s.critical == k)
             .map(|s| {
-                let (base, luts) = unrouted(&s.config(), &s.geometry(), t)?;
+                let (base, luts) = unrouted(&s.config(), &s.geometry(), t, k)?;
                 Some((luts, 1e3 / s.mhz, base))
             }),
     )
 }
 
-/// The term for an issue path of `luts` LUT levels on `t`, ns (0 for a
-/// family without one).
-pub fn issue_routing_ns(luts: f64, t: Target) -> f64 {
-    hop_ns(t).map_or(0.0, |h| h * luts)
+/// The term for path `k` of `luts` LUT levels on `t`, ns (0 without a
+/// fitted coefficient: no placed stage of the family had it critical).
+pub fn stage_routing_ns(luts: f64, t: Target, k: StagePath) -> f64 {
+    hop_ns(t, k).map_or(0.0, |h| h * luts)
 }
 
 #[cfg(test)]
@@ -120,6 +177,12 @@ mod tests {
     #[test]
     fn placed_stages_are_predicted_within_15_percent() {
         let rows = stages();
+        for s in &rows {
+            for k in StagePath::ALL {
+                let (ns, luts) = unrouted(&s.config(), &s.geometry(), s.target, k).unwrap();
+                eprintln!("{}^3 {k:?}: {ns:.2} ns unrouted, {luts} LUT levels", s.dims);
+            }
+        }
         assert!(rows.iter().any(|s| s.role == Role::Holdout), "{rows:?}");
         for s in &rows {
             let p = super::super::sample_stage_prediction(&s.config(), &s.geometry(), s.target)
@@ -134,12 +197,12 @@ mod tests {
                 s.mhz,
                 p.mhz,
                 100.0 * err,
-                hop_ns(s.target).unwrap_or(0.0)
+                hop_ns(s.target, s.critical).unwrap_or(0.0)
             );
-            assert!(p.critical.contains("issue"), "{p:?}");
+            assert_eq!(p.critical, s.critical.describe(), "{s:?}");
             assert!(err.abs() <= 0.15, "{s:?}: predicted {:.1}", p.mhz);
         }
-        assert!(hop_ns(Target::Ecp5).unwrap() > 0.0);
-        assert!(hop_ns(Target::Ice40).is_none());
+        assert!(hop_ns(Target::Ecp5, StagePath::Tap).unwrap() > 0.0);
+        assert!(hop_ns(Target::Ice40, StagePath::Tap).is_none());
     }
 }

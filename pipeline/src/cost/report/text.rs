@@ -107,17 +107,18 @@ impl CostReport {
             .iter()
             .map(|p| {
                 format!(
-                    "{} {:.1} MHz (stage {:.1}, routing +{:.2} ns)",
+                    "{} {:.1} MHz (stage {:.1}, routing +{:.2} ns; slowest: {})",
                     p.target.name(),
                     p.mhz,
                     p.stage_mhz,
-                    p.routing_ns
+                    p.routing_ns,
+                    p.critical
                 )
             })
             .collect();
         let _ = writeln!(
             o,
-            "  predicted clock (slowest scheduled stage plus a whole design's routing, models fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
+            "  predicted clock (the slower of the datapath's slowest scheduled stage and the PE sample stage's issue, plus a whole design's routing; models fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
             predicted.join(", ")
         );
         let c = &self.config;

@@ -18,12 +18,14 @@
 //! - An integer square root is the pipelined unit of `hw/isqrt_rtl.rs`,
 //!   a divider that of `hw/div_rtl.rs`.
 //!
-//! Ports are taken once, at issue, and held down the pipeline with the
-//! sample (a sample's accumulators included), so samples issue back to
-//! back; the schedule's `register_bits` counts ports as held registers
-//! outside the datapath and so does not count these delay lines. The
-//! module's text is written by `text` (`text.rs`) from what
-//! [`emit_scheduled`] builds.
+//! Ports are taken once and held down the pipeline with the sample, so
+//! samples issue back to back; the schedule's `register_bits` counts
+//! ports as held registers outside the datapath and so does not count
+//! these delay lines. Every port is taken at issue but the ray's state
+//! read from the compositing buffer, taken where the schedule has it
+//! arrive ([`super::schedule::RAY_PORTS`], [`super::schedule::RAY_STAGE`]
+//! clocks after issue). The module's text is written by `text`
+//! (`text.rs`) from what [`emit_scheduled`] builds.
 
 mod text;
 
@@ -285,7 +287,7 @@ pub fn emit_scheduled(
                 input: true,
                 word: w,
                 format: node.fmt.map(|f| f.to_string()),
-                stage: 0,
+                stage: stage[i],
                 meaning: meaning(&node.name).to_owned(),
             }),
             Op::Reg(d) => regs.push(Reg::new(&v, w, &get(d))),
