@@ -129,6 +129,10 @@ fn voi_frames_match_the_model() {
         assert!(ro.raw.0 > 0 && ro.raw.1 == 0, "{what}: raw {:?}", ro.raw);
         let (with, without) = (raw_words(&c, FRAME, Some(&voi)), raw_words(&c, FRAME, None));
         let differ = with.iter().zip(&without).filter(|(a, b)| a != b).count();
+        println!(
+            "{what}: the VOI changes {differ} of {} raw words",
+            with.len()
+        );
         assert!(
             differ > 10,
             "{what}: the VOI changes {differ} of {} raw words",
