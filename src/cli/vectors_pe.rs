@@ -18,7 +18,7 @@ const MAX_WORDS: u64 = 50_000_000;
 /// files, in memory); refused in one line as the command refuses it.
 pub fn stream(s: &Setup, pe: usize) -> Result<PeStream> {
     if s.units.lights.is_some() || s.units.voi {
-        bail!("vectors --stage pe: the emitted PE's sample stage has the plain sample only (no shading or volume of interest)");
+        bail!("vectors --stage pe: the PE's vector files carry the plain sample only (no shading or volume of interest; `cosim --stage pe` runs the volume of interest)");
     }
     let dir = tempfile::Builder::new()
         .prefix("ercube-pe-vectors-")

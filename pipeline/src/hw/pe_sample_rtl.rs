@@ -112,6 +112,7 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
     let ebw = addr_bits(2 * half);
     let hb = addr_bits(half);
     let lb = addr_bits(stored);
+    let units = super::pe_units_rtl::UnitWiring::of(dp);
     let mut t = String::new();
     let w = &mut t;
     let _ = writeln!(
@@ -124,7 +125,7 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
 // issue, bit i set when held column map_lo + i samples in the row.
 // The broadcast bc_* is the next clock's; the datapath ({dp_name}) is {depth} clocks deep,
 // shows its tap column {sx} clocks after issue and reads the taps one clock later.
-// Lint waivers: WIDTH (some indices are computed in 32-bit integers and cut to
+{units_header}// Lint waivers: WIDTH (some indices are computed in 32-bit integers and cut to
 // their memories' address widths), UNUSEDSIGNAL (a word's upper bits past an
 // address go nowhere).
 /* verilator lint_off WIDTH */
@@ -135,11 +136,13 @@ module {MODULE} (
         bd = r.bank_depth,
         rows = r.max_rows,
         dp_name = dp.name,
+        units_header = units.header(),
     );
     for n in ["tbl_we", "tbl_sel", "tbl_addr", "tbl_data"] {
         let p = port(n)?;
         let _ = writeln!(w, "  input wire {} {n},", range(p.word.bits, false));
     }
+    w.push_str(&units.ports());
     let _ = writeln!(
         w,
         "  // The host's voxel load: slice parity, row bank, row / 2, local column.
@@ -181,8 +184,12 @@ module {MODULE} (
         yb1 = yb - 1,
         plan_ports = super::pe_plan_rtl::ports(s),
     );
-    let row_words = ["a", "t", "b", "k", "row_wy", "sy", "sz"];
-    for n in row_words {
+    // The row's words, then the units' (taken at issue like them).
+    let row_words: Vec<&str> = ["a", "t", "b", "k", "row_wy", "sy", "sz"]
+        .into_iter()
+        .chain(units.row_names())
+        .collect();
+    for &n in &row_words {
         let p = port(n)?;
         let _ = writeln!(
             w,
@@ -238,7 +245,7 @@ module {MODULE} (
   reg signed [{ib1}:0] map_lo;
   reg [{sb1}:0] map_n;
   reg [{tb1}:0] map_sl;
-{rr_decls}  always @(posedge clk) begin
+{rr_decls}{frame_regs}  always @(posedge clk) begin
     if (rst) begin
       map_lo <= 0;
       map_n <= 0;
@@ -273,6 +280,7 @@ module {MODULE} (
         s1 = slots - 1,
         rm = r.max_rows - 1,
         rr_decls = super::pe_columns_rtl::declarations(s),
+        frame_regs = units.registers(),
     );
     if let Some(thr) = s.termination {
         super::pe_term_rtl::termination_bits(w, s, depth, thr);
@@ -340,7 +348,7 @@ module {MODULE} (
         pick = super::pe_columns_rtl::pick_registers(s).0,
         row_base = super::pe_columns_rtl::times(slots, "row_w"),
     );
-    for n in row_words {
+    for &n in &row_words {
         let p = port(n)?;
         let _ = writeln!(w, "  reg {} s_{n};", range(p.word.bits, p.word.signed));
     }
@@ -358,7 +366,7 @@ module {MODULE} (
       fw_a <= 0;
       fw_d <= 0;"
     );
-    for n in row_words {
+    for &n in &row_words {
         let _ = writeln!(w, "      s_{n} <= 0;");
     }
     let _ = writeln!(
@@ -374,7 +382,7 @@ module {MODULE} (
       fw_a <= wb_addr;
       fw_d <= wb_data;"
     );
-    for n in row_words {
+    for &n in &row_words {
         let _ = writeln!(w, "      s_{n} <= go ? bc_{n} : 0;");
     }
     let _ = writeln!(
@@ -577,9 +585,10 @@ module {MODULE} (
         + u64::from(ib)
         + u64::from(r.slot_bits())
         + u64::from(super::pe_columns_rtl::slot_bits(s));
-    for n in row_words {
+    for &n in &row_words {
         regs += u64::from(port(n)?.word.bits);
     }
+    regs += units.register_bits();
     // The datapath.
     let mut conns = Vec::new();
     for p in &dp.ports {
@@ -591,6 +600,7 @@ module {MODULE} (
             "slot_m" => "iss_m".to_owned(),
             "x0" => "x0".to_owned(),
             _ if row_words.contains(&n) => format!("s_{n}"),
+            _ if units.is_frame(n) => format!("frm_{n}"),
             _ if accs.contains(&n) => format!("iss_{n}"),
             _ if taps.contains(&n) => format!("tap_{n}"),
             _ if n.starts_with("acc_out_") => format!("{n}_w"),

@@ -31,6 +31,7 @@ mod model;
 mod occupancy;
 mod pe_maps;
 mod pe_sample;
+mod pe_units;
 mod preexact;
 mod preint;
 mod readout_rtl;

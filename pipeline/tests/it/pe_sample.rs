@@ -355,23 +355,25 @@ fn a_control_that_ignores_the_termination_bits_is_caught() {
 
 /// `verilator --lint-only -Wall` and `iverilog -Wall` print nothing on the
 /// PE module (with its datapath); yosys's coarse synthesis (`proc`, where
-/// latches are inferred, and the memories) leaves no latch cell.
+/// latches are inferred, and the memories) leaves no latch cell. Around
+/// the plain sample and the sample composed with the VOI stage (its
+/// frame registers and broadcast words), both orders.
 #[test]
 fn pe_sample_module_lints_and_synthesizes_without_latches() {
     for c in [cfg(3), ftb_cfg(3)] {
-        lints_and_synthesizes(&c);
+        lints_and_synthesizes(&c, &datapath(&c));
+        lints_and_synthesizes(&c, &crate::pe_units::datapath(&c));
     }
 }
 
 /// [`pe_sample_module_lints_and_synthesizes_without_latches`] for `c`'s
-/// PE (front to back with its termination bits).
-fn lints_and_synthesizes(c: &PipelineConfig) {
-    let dp = datapath(c);
+/// PE (front to back with its termination bits) around `dp`.
+fn lints_and_synthesizes(c: &PipelineConfig, dp: &PipelinedModule) {
     let s = subject("ml:24");
     let prep = view_from(&s.vol, [16.0, 10.0, -36.0], 24);
     let shape = PeSampleShape::for_view(c, &prep.view).unwrap();
     assert_eq!(shape.termination.is_some(), c.order == Order::FrontToBack);
-    let pe = emit(&shape, &dp).unwrap();
+    let pe = emit(&shape, dp).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("ercube_sample.v");
     let b = dir.path().join(format!("{MODULE}.v"));

@@ -3,7 +3,8 @@
 //! left neighbour's `edge_in`, driven by the replayed broadcast.
 //!
 //! It resets, writes the datapath's tables through the host port
-//! (`tables.hex`, `+tables=N` rows), then runs clocks `0..=+cycles`. In
+//! (`tables.hex`, `+tables=N` rows) and the units' frame registers
+//! through the register port (`frame.hex`, `+frames=N` rows), then runs clocks `0..=+cycles`. In
 //! the middle of clock `c` it applies what the model did to each PE after
 //! clock `c` outside the sample stage (`pe<K>.ev`: a slice's voxels into
 //! the half of the slice buffer and the edge column its parity names, a
@@ -23,6 +24,7 @@
 use std::fmt::Write as _;
 
 use crate::hw::pe_sample_rtl::{PeSampleShape, MODULE};
+use crate::hw::pe_units_rtl::UnitWiring;
 use crate::hw::pipeline_rtl::PipelinedModule;
 
 /// The testbench's module name.
@@ -52,6 +54,16 @@ pub fn testbench(
             format!("{sg}[{}:0]", p.word.bits - 1)
         },
     );
+    let units = UnitWiring::of(dp);
+    // The units' ports of each PE: the broadcast's words, the frame port.
+    let mut unit_conns = String::new();
+    for n in units.row_names() {
+        let src = if n == "voi_y" { "bc_vy" } else { "bc_vz" };
+        let _ = write!(unit_conns, " .bc_{n}({src}),");
+    }
+    if !units.frame.is_empty() {
+        unit_conns.push_str(" .frm_we(frm_we), .frm_sel(frm_sel), .frm_data(frm_data),");
+    }
     let tw = 1 + sb + ab + db;
     let r = &shape.rays;
     let (cw, aw) = (r.color_bits, r.alpha_bits);
@@ -81,8 +93,16 @@ module {TOP};
   // as a local left at 0, and every read there fails.
   // The broadcast (one clock ahead) and the next line of bus.txt.
   integer fbus /* verilator public_flat */;
-  reg [63:0] b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17;
+  reg [63:0] b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17, b_18, b_19;
   reg b_ok;
+  // The units' broadcast words (the row's y position, the slice) and the
+  // host's frame register writes (frame.hex, +frames=N rows).
+  reg [63:0] bc_vy, bc_vz;
+  integer nframes;
+  reg [{fw1}:0] frames [0:255];
+  reg frm_we;
+  reg [{fs1}:0] frm_sel;
+  reg [{fd1}:0] frm_data;
   reg bc_go, bc_first, bc_z, bc_nv, bc_nz;
   reg [63:0] bc_row, bc_y0, bc_y1, bc_ny0, bc_ny1;
   reg [63:0] bc_w [0:6];
@@ -96,6 +116,9 @@ module {TOP};
         sb1 = sb - 1,
         ab1 = ab - 1,
         db1 = db - 1,
+        fw1 = units.sel_bits() + units.data_bits() - 1,
+        fs1 = units.sel_bits() - 1,
+        fd1 = units.data_bits() - 1,
     );
     let e1 = 2 * shape.voxel_bits - 1;
     for k in 0..pes {
@@ -150,7 +173,7 @@ module {TOP};
     .col_lo(clo{k}), .col_end(cend{k}), .nx_last(nxl{k}),
     .bc_go(bc_go), .bc_first(bc_first), .bc_row(bc_row), .bc_z(bc_z), .bc_y0(bc_y0), .bc_y1(bc_y1),
     .bc_nv(bc_nv), .bc_nz(bc_nz), .bc_ny0(bc_ny0), .bc_ny1(bc_ny1),
-    .bc_a(bc_w[0]), .bc_t(bc_w[1]), .bc_b(bc_w[2]), .bc_k(bc_w[3]), .bc_row_wy(bc_w[4]), .bc_sy(bc_w[5]), .bc_sz(bc_w[6]),
+    .bc_a(bc_w[0]), .bc_t(bc_w[1]), .bc_b(bc_w[2]), .bc_k(bc_w[3]), .bc_row_wy(bc_w[4]), .bc_sy(bc_w[5]), .bc_sz(bc_w[6]),{unit_conns}
     .edge_in({right}), .edge_out(edge_out{k}),
     .iss_valid(), .iss_m(), .acc_valid(), .iss_acc_r(), .iss_acc_g(), .iss_acc_b(), .iss_acc_a(),
     .tap_valid(), .tap_v00(), .tap_v01(), .tap_v10(), .tap_v11(),
@@ -167,6 +190,10 @@ module {TOP};
     bc_go = 0; bc_first = 0; bc_z = 0; bc_nv = 0; bc_nz = 0;
     bc_row = 0; bc_y0 = 0; bc_y1 = 0; bc_ny0 = 0; bc_ny1 = 0;
     for (i = 0; i < 7; i = i + 1) bc_w[i] = 0;
+    bc_vy = 0; bc_vz = 0;
+    frm_we = 0; frm_sel = 0; frm_data = 0;
+    if (!$value$plusargs(\"frames=%d\", nframes)) nframes = 0;
+    if (nframes > 0) $readmemh(\"frame.hex\", frames, 0, nframes - 1);
     pl_valid = 0; pl_first = 0; pl_row = 0; pl_lo = 0; pl_hi = 0;
     if (!$value$plusargs(\"cycles=%d\", cycles)) cycles = 0;
     if (!$value$plusargs(\"dump=%d\", dump_at)) dump_at = 64'hffffffffffffffff;
@@ -209,9 +236,9 @@ module {TOP};
     let _ = writeln!(
         w,
         "    fbus = $fopen(\"bus.txt\", \"r\");
-    got = $fscanf(fbus, \"%h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h\\n\",
-        b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17);
-    b_ok = (got == 18);
+    got = $fscanf(fbus, \"%h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h\\n\",
+        b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17, b_18, b_19);
+    b_ok = (got == 20);
     fplan = $fopen(\"plan.txt\", \"r\");
     got = $fscanf(fplan, \"%h %h %h %h %h\\n\", q_0, q_1, q_2, q_3, q_4);
     q_ok = (got == 5);
@@ -226,6 +253,12 @@ module {TOP};
     end
     @(negedge clk);
     tbl_we = 0;
+    for (i = 0; i < nframes; i = i + 1) begin
+      {{frm_sel, frm_data}} = frames[i];
+      frm_we = 1;
+      @(negedge clk);
+    end
+    frm_we = 0;
 "
     );
     for k in 0..pes {
@@ -314,10 +347,10 @@ module {TOP};
     if (b_ok && b_0 == cyc + 1) begin
       bc_go = b_1; bc_first = b_2; bc_row = b_3; bc_z = b_4; bc_y0 = b_5; bc_y1 = b_6;
       bc_w[0] = b_7; bc_w[1] = b_8; bc_w[2] = b_9; bc_w[3] = b_10; bc_w[4] = b_11; bc_w[5] = b_12; bc_w[6] = b_13;
-      bc_nv = b_14; bc_nz = b_15; bc_ny0 = b_16; bc_ny1 = b_17;
-      got = $fscanf(fbus, \"%h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h\\n\",
-        b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17);
-      b_ok = (got == 18);
+      bc_nv = b_14; bc_nz = b_15; bc_ny0 = b_16; bc_ny1 = b_17; bc_vy = b_18; bc_vz = b_19;
+      got = $fscanf(fbus, \"%h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h %h\\n\",
+        b_0, b_1, b_2, b_3, b_4, b_5, b_6, b_7, b_8, b_9, b_10, b_11, b_12, b_13, b_14, b_15, b_16, b_17, b_18, b_19);
+      b_ok = (got == 20);
     end else begin
       bc_go = 0; bc_first = 0; bc_nv = 0;
     end"

@@ -7,8 +7,9 @@
 //!
 //! - `bus.txt`: the controller's broadcast of every sampling clock (the
 //!   prologue's too): whether the clock samples, the row's first clock,
-//!   the row, slice and voxel rows, the row's words and the next row's
-//!   voxel rows the edge registers read;
+//!   the row, slice parity and voxel rows, the row's words, the next
+//!   row's voxel rows the edge registers read, the row's y position and
+//!   the slice (the volume of interest's `voi.y`, `voi.z`);
 //! - per PE, what the model does to the PE outside the sample stage, at
 //!   each slice's start: the held range (`pe<K>.map`), every compositing
 //!   buffer word that migration, merges or splits changed (`pe<K>.ev`,
@@ -164,6 +165,9 @@ pub struct PeCapture {
     pub error: Option<String>,
     /// The datapath's tables, raw words.
     pub tables: Vec<(String, Vec<i64>)>,
+    /// The units' per-frame words by the composed module's port names
+    /// (the PE's frame registers).
+    pub frame: Vec<(String, i64)>,
     /// The readout's start and clocks.
     pub readout: Option<ReadoutStart>,
     /// The readout's clocks.
@@ -231,6 +235,7 @@ impl PeCapture {
             unfit: None,
             error: None,
             tables: Vec::new(),
+            frame: Vec::new(),
             readout: None,
             ticks: Vec::new(),
             last_cycle: 0,
@@ -494,6 +499,7 @@ impl PeCapture {
 impl IssueSink for PeCapture {
     fn begin(&mut self, dp: &Datapath) {
         self.tables = super::capture::table_words(dp);
+        self.frame = super::capture::frame_words(dp);
     }
 
     fn issue(&mut self, issue: &Issue) {
@@ -530,7 +536,11 @@ impl IssueSink for PeCapture {
         for v in &b.words {
             let _ = write!(l, " {:x}", *v as u64);
         }
-        let _ = write!(l, " {nv:x} {nz:x} {ny0:x} {ny1:x}");
+        let _ = write!(
+            l,
+            " {nv:x} {nz:x} {ny0:x} {ny1:x} {:x} {:x}",
+            b.yp as u64, b.z
+        );
         if let Err(e) = writeln!(self.bus, "{l}") {
             self.fail(e);
         }

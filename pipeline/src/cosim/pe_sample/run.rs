@@ -13,6 +13,7 @@ use crate::cosim::build::{build, run, Built, Simulator};
 use crate::cosim::readout::StageRun;
 use crate::cosim::replay::table_rows;
 use crate::hw::pe_sample_rtl::{emit, PeSampleShape, MODULE};
+use crate::hw::pe_units_rtl::UnitWiring;
 use crate::hw::pipeline_rtl::PipelinedModule;
 use crate::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
 use crate::FrameRun;
@@ -159,6 +160,25 @@ pub(crate) fn peaks<'a>(
     Ok((declared, p.0.max(given), p.2))
 }
 
+/// The host's writes of the PE's frame registers (`frame.hex`, a line
+/// each: `{frm_sel, frm_data}` in hex), in `frm_sel` order, from the
+/// model's per-frame words `words`; a register the model has no word for
+/// is an error.
+fn frame_rows(u: &UnitWiring, words: &[(String, i64)]) -> Result<String, String> {
+    let db = u.data_bits();
+    let mut rows = String::new();
+    for (i, (n, w)) in u.frame.iter().enumerate() {
+        let v = words
+            .iter()
+            .find(|(m, _)| m == n)
+            .ok_or_else(|| format!("the model has no word for the frame register {n}"))?
+            .1;
+        let data = crate::cosim::replay::masked(v, w.bits);
+        rows.push_str(&format!("{:x}\n", ((i as u128) << db) | data));
+    }
+    Ok(rows)
+}
+
 /// Runs the frame `frame` makes with the capture (twice: first for the
 /// most columns a PE holds), then the sample stage of `cfg`'s PEs
 /// around datapath `dp` in `sim` (built under `cache`, run in `dir`);
@@ -196,6 +216,8 @@ pub fn simulate<'a>(
     }
     let (rows, n) = table_rows(dp, &c.tables);
     std::fs::write(dir.join("tables.hex"), rows).map_err(|e| e.to_string())?;
+    let frame_rows = frame_rows(&UnitWiring::of(dp), &c.frame)?;
+    std::fs::write(dir.join("frame.hex"), &frame_rows).map_err(|e| e.to_string())?;
     let start = c.readout.clone();
     let dump = start.as_ref().map(|s| c.dump_cycle(s));
     let cycles = dump
@@ -239,7 +261,11 @@ pub fn simulate<'a>(
         return Ok(out);
     }
     out.built = build(sim, cache, &sources, TOP, false).map_err(|e| e.to_string())?;
-    let mut args = vec![format!("+cycles={cycles}"), format!("+tables={n}")];
+    let mut args = vec![
+        format!("+cycles={cycles}"),
+        format!("+tables={n}"),
+        format!("+frames={}", frame_rows.lines().count()),
+    ];
     if let Some(d) = dump {
         args.push(format!("+dump={d}"));
     }

@@ -24,6 +24,9 @@ pub struct BusCycle {
     pub words: [i64; 7],
     /// The row whose edge voxels the PEs drive: slice, voxel rows.
     pub next: Option<(usize, usize, usize)>,
+    /// The row's y position (`position`), raw: the volume of interest's
+    /// `voi.y` (with `z`, its `voi.z`).
+    pub yp: i64,
 }
 
 impl BusCycle {
@@ -45,6 +48,7 @@ impl BusCycle {
                 b.slope_yz.1.raw(),
             ],
             next: b.next,
+            yp: b.yp.raw(),
         }
     }
 }

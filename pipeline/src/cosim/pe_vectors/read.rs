@@ -302,8 +302,10 @@ pub(super) fn stream(
         .collect::<Result<_, _>>()?;
     let mut bus = vec![None; n];
     for l in hex_lines(&dir.join("bus.txt"))? {
-        if l.len() != 18 {
-            return Err("bus.txt: expected 18 words a line".into());
+        // The clock, the broadcast's fields, then the volume of
+        // interest's row position and slice (the files carry no VOI).
+        if l.len() != 20 {
+            return Err("bus.txt: expected 20 words a line".into());
         }
         if let Some(r) = bus.get_mut(l[0] as usize) {
             *r = Some(l);
