@@ -387,7 +387,7 @@ pub fn run(a: &SynthArgs) -> Result<()> {
         requested_mhz: part.nextpnr_device().map(|_| requested),
         predicted_mhz: family.filter(|_| !a.readout).and_then(|f| {
             if a.pe {
-                // The datapath's slowest stage or the control's issue path.
+                // The datapath's slowest stage or the stage's own paths.
                 pipeline::synth::pe::predicted_mhz(&cfg, dims, f)
             } else if is_datapath {
                 // The schedule's slowest stage, as `ercube cost` predicts it.

@@ -83,8 +83,9 @@ pub fn estimate(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Resources 
 }
 
 /// The predicted clock of the stage for `dims` over `cfg.pes` PEs on
-/// `t`: the slower of its datapath's slowest stage and its control's
-/// issue path ([`crate::cost::fmax::sample_stage_prediction`]).
+/// `t`: the slowest of its datapath's slowest stage and its own paths,
+/// the issue's pick and the tap address
+/// ([`crate::cost::fmax::sample_stage_prediction`]).
 pub fn predicted_mhz(cfg: &PipelineConfig, dims: [usize; 3], t: Target) -> Option<f64> {
     crate::cost::fmax::sample_stage_prediction(cfg, &geometry(cfg, dims), t).map(|p| p.mhz)
 }

@@ -321,7 +321,7 @@ pub fn predicted_clock(
 }
 
 /// The clock of the PE's emitted sample stage for `geo` on `t`: the
-/// slowest of the datapath's slowest stage, the control's issue path
+/// slowest of the datapath's slowest stage, the issue's pick
 /// ([`issue_path`]) and the tap address ([`tap_path`]), these two with
 /// their nets' routing across the stage ([`super::stages`]), plus the
 /// routing a whole design adds. `None` for xc7 (no model) or where the
