@@ -47,14 +47,18 @@ pub struct CostArgs {
     /// FPGA family: xc7 (Artix-7), ecp5 or ice40 (UltraPlus).
     #[arg(long, value_parser = parse_target, default_value = "xc7")]
     pub target: Target,
-    /// Clock in MHz (an assumption, not a timing result). Default: 200 on
-    /// xc7, 150 on ecp5, 48 on ice40 (as explore and render).
-    #[arg(long, allow_hyphen_values = true, conflicts_with = "clock")]
+    /// Clock in MHz (an assumption, not a timing result; as explore and
+    /// render, whose default is xc7's 200).
+    #[arg(long, allow_hyphen_values = true)]
     pub clock_mhz: Option<f64>,
-    /// Where the clock comes from: "assumed" (the family default or
-    /// --clock-mhz) or "predicted" (the schedule's slowest stage, a delay
-    /// model fitted to `ercube synth` runs; ecp5 and ice40 only).
-    #[arg(long, default_value = "assumed")]
+    /// Where the clock comes from: "measured" (the PE sample stage of this
+    /// volume's edge, PEs and widths placed and routed by `ercube synth`),
+    /// "predicted" (the slowest of the datapath's stages and the sample
+    /// stage's paths, delay models fitted to `ercube synth` runs; ecp5 and
+    /// ice40 only), "assumed" (the family default: 200 MHz on xc7, 150 on
+    /// ecp5, 48 on ice40) or "auto": --clock-mhz when given, else the
+    /// first of measured, predicted and assumed there is.
+    #[arg(long, default_value = "auto")]
     pub clock: String,
     /// Pipeline the sample datapath for this clock on --target (MHz,
     /// 1..=1000): sets the configuration's `target_mhz` and
@@ -221,23 +225,34 @@ fn cost(a: &CostArgs) -> Result<()> {
         cfg.target_family = a.target;
         cfg.validate()?;
     }
-    let clock = match a.clock.trim() {
-        "assumed" => (
+    let source = a.clock.trim();
+    if a.clock_mhz.is_some() && !matches!(source, "auto" | "assumed") {
+        bail!(
+            "--clock-mhz {}: an assumed clock; drop --clock {source}",
+            a.clock_mhz.unwrap_or(0.0)
+        );
+    }
+    let assumed = || -> Result<(f64, clock::ClockSource)> {
+        Ok((
             clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
                 .map_err(anyhow::Error::msg)?,
             clock::ClockSource::Assumed,
+        ))
+    };
+    let has_model = pipeline::cost::fmax::pe_prediction(&cfg, a.target).is_some();
+    // Measured and predicted clocks are found for the view's geometry once
+    // the frame is run (0.0 until then).
+    let clock = match source {
+        "assumed" => assumed()?,
+        "auto" if a.clock_mhz.is_some() => assumed()?,
+        "auto" if !has_model => assumed()?,
+        "auto" | "measured" => (0.0, clock::ClockSource::Measured),
+        "predicted" if has_model => (0.0, clock::ClockSource::Predicted),
+        "predicted" => bail!(
+            "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
+            a.target.name()
         ),
-        "predicted" => {
-            // Checked now; quoted for the view's geometry once it is run.
-            pipeline::cost::fmax::pe_prediction(&cfg, a.target).with_context(|| {
-                format!(
-                    "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
-                    a.target.name()
-                )
-            })?;
-            (0.0, clock::ClockSource::Predicted)
-        }
-        other => bail!("--clock {other}: expected assumed or predicted"),
+        other => bail!("--clock {other}: expected auto, measured, predicted or assumed"),
     };
     // The configuration's clock schedule (validated above: it reaches the
     // clock), beside the one-operator one.
@@ -319,14 +334,23 @@ fn cost(a: &CostArgs) -> Result<()> {
         };
         arch_runs.push((c, r));
     }
-    let clock = if clock.1 == clock::ClockSource::Predicted {
-        // The sample stage's clock for this view's memories, as the
-        // report's predicted line gives it (one decimal, as printed).
-        let p = pipeline::cost::fmax::predicted_clock(&cfg, &main.geometry, a.target)
-            .context("--clock predicted: no prediction for this design")?;
-        ((p.mhz * 10.0).round() / 10.0, clock.1)
-    } else {
-        clock
+    let measured = pipeline::cost::fmax::stages::measured_stage(&cfg, &main.geometry, a.target);
+    let clock = match (clock.1, measured) {
+        (clock::ClockSource::Measured, Some(m)) => (m.mhz, clock::ClockSource::Measured),
+        (clock::ClockSource::Measured, None) if source == "measured" => bail!(
+            "--clock measured: no PE sample stage of this design was placed on {} ({}^3 on {} PEs at these widths; pipeline/data/measured/stages.csv lists those placed); give --clock predicted",
+            a.target.name(),
+            main.geometry.dims[0],
+            cfg.pes
+        ),
+        (clock::ClockSource::Measured, None) | (clock::ClockSource::Predicted, _) => {
+            // The sample stage's clock for this view's memories, as the
+            // report's predicted line gives it (one decimal, as printed).
+            let p = pipeline::cost::fmax::predicted_clock(&cfg, &main.geometry, a.target)
+                .context("--clock predicted: no prediction for this design")?;
+            ((p.mhz * 10.0).round() / 10.0, clock::ClockSource::Predicted)
+        }
+        (clock::ClockSource::Assumed, _) => clock,
     };
     let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());

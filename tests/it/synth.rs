@@ -317,6 +317,44 @@ fn synth_refuses_bad_input() {
     }
 }
 
+/// The clock of a design whose PE sample stage was placed is the
+/// measured one by default: each ECP5 stage of
+/// `pipeline/data/measured/stages.csv`, its volume's edge and PEs costed,
+/// is quoted at its measured clock, labelled measured.
+#[test]
+fn cost_quotes_a_placed_stages_measured_clock() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let stages = pipeline::cost::fmax::stages::stages();
+    assert!(!stages.is_empty());
+    for s in stages
+        .iter()
+        .filter(|s| s.target == pipeline::cost::Target::Ecp5)
+    {
+        let (scene, pes) = (format!("checker:{}", s.dims), s.pes.to_string());
+        let args = [
+            "cost",
+            "--scene",
+            &scene,
+            "--pes",
+            &pes,
+            "--target",
+            "ecp5",
+            "--archs",
+            "none",
+            "--sweep-pes",
+            "none",
+        ];
+        let out = ercube(dir.path(), &args);
+        assert!(out.status.success(), "{}", describe(&args, &out));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains(&format!("at {} MHz (measured clock)", s.mhz)),
+            "{}: {text}",
+            s.dims
+        );
+    }
+}
+
 /// `ercube cost --clock predicted` quotes the frame at the clock the
 /// schedule is predicted to reach (`pipeline::cost::fmax`), labelled so,
 /// and prints the predicted clocks beside the assumed one by default;
@@ -342,7 +380,7 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
         assert!(out.status.success(), "{}", describe(&args, &out));
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
-    let assumed = run(&["--target", "ecp5"]);
+    let assumed = run(&["--target", "ecp5", "--clock", "assumed"]);
     assert!(assumed.contains("at 150 MHz (assumed clock)"), "{assumed}");
     let line = assumed
         .lines()
@@ -369,6 +407,17 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
     assert!(
         predicted.contains(&format!("at {mhz} MHz (predicted clock)")),
         "{predicted}"
+    );
+    // By default the clock is the first of measured, predicted and assumed
+    // there is: predicted here (no 16^3 stage was placed), assumed on xc7.
+    let auto = run(&["--target", "ecp5"]);
+    assert!(
+        auto.contains(&format!("at {mhz} MHz (predicted clock)")),
+        "{auto}"
+    );
+    assert!(
+        run(&["--target", "xc7"]).contains("at 200 MHz (assumed clock)"),
+        "xc7 has no timing flow"
     );
     let slow = run(&["--target", "ecp5", "--target-mhz", "40"]);
     let pipelined = slow
@@ -397,7 +446,7 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
             .expect("the run's drain cycles")
     };
     assert!(drain(&slow) < drain(&assumed), "{slow}\n{assumed}");
-    let refusals: [(&[&str], &str); 5] = [
+    let refusals: [(&[&str], &str); 6] = [
         (&["--target", "xc7", "--clock", "predicted"], "xc7"),
         (
             &["--target", "ecp5", "--target-mhz", "900"],
@@ -408,7 +457,21 @@ fn cost_quotes_the_predicted_clock_and_pipelines_to_a_target() {
             "outside 0..=1000",
         ),
         (&["--target", "xc7", "--target-mhz", "50"], "delay model"),
-        (&["--target", "ecp5", "--clock", "measured"], "--clock"),
+        (
+            &["--target", "ecp5", "--clock", "measured"],
+            "--clock measured",
+        ),
+        (
+            &[
+                "--target",
+                "ecp5",
+                "--clock",
+                "predicted",
+                "--clock-mhz",
+                "50",
+            ],
+            "--clock-mhz",
+        ),
     ];
     for (extra, needle) in refusals {
         let mut args: Vec<&str> = base.to_vec();

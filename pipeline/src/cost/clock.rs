@@ -4,9 +4,12 @@
 //! quote frames per second at one clock option, `--clock-mhz`, with the
 //! same default ([`assumed_mhz`] of the family; `explore` and `render`
 //! price on xc7) and the same label ([`ClockSource`]). `ercube synth`
-//! measures a unit's clock after place and route; the whole PE has no
-//! measured clock, but `ercube cost --clock predicted` quotes the clock its
-//! schedule is predicted to reach ([`super::fmax`]), labelled predicted.
+//! measures a unit's or the PE sample stage's clock after place and route.
+//! `ercube cost` quotes by default (`--clock auto`) the clock the PE
+//! sample stage of its design measured where one was placed
+//! ([`super::fmax::stages`]), else the one its paths are predicted to
+//! reach ([`super::fmax`]) where the family has a delay model, else the
+//! family's assumed clock, each labelled with where it comes from.
 
 use serde::Serialize;
 

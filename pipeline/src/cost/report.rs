@@ -310,7 +310,11 @@ pub fn build(
         format!("pipelined one multiplier or carry chain a stage ({depth} clocks deep)")
     };
     let mut notes = vec![
-        if source == super::clock::ClockSource::Predicted {
+        if source == super::clock::ClockSource::Measured {
+            format!(
+                "Clock {clock_mhz} MHz is measured: the PE's sample stage of this volume's edge, PEs and widths placed and routed by ercube synth (pipeline/data/measured/stages.csv); its migration, merge, split, fold and readout are not placed. The datapath is {staging}."
+            )
+        } else if source == super::clock::ClockSource::Predicted {
             format!(
                 "Clock {clock_mhz} MHz is predicted by delay models fitted to units and sample stages placed and routed with ercube synth: the slower of the sample datapath's slowest scheduled stage and the PE sample stage's issue; the whole PE is not placed and routed. The datapath is {staging}."
             )

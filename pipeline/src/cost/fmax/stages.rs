@@ -122,6 +122,14 @@ pub fn stages() -> Vec<StageMeasured> {
         .collect()
 }
 
+/// The placed stage of `cfg` for `geo` on `t`, if one was measured: the
+/// same family, PEs and widths, and a cube of the same edge.
+pub fn measured_stage(cfg: &PipelineConfig, geo: &Geometry, t: Target) -> Option<StageMeasured> {
+    stages().into_iter().find(|s| {
+        s.target == t && s.config() == *cfg && geo.dims == [s.dims; 3] && geo.pes == s.pes
+    })
+}
+
 /// Path `k`'s period without the term (the delay model's, plus the whole
 /// datapath's routing term) and its LUT levels, for `geo`.
 fn unrouted(cfg: &PipelineConfig, geo: &Geometry, t: Target, k: StagePath) -> Option<(f64, f64)> {
