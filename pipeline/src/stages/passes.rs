@@ -25,6 +25,7 @@ use golden::geometry::RayGrid;
 
 use super::boundary::Edges;
 
+use crate::datapath::Tally;
 use crate::array::{Array, Links, RunError};
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
@@ -149,6 +150,9 @@ pub struct PassState {
     /// Sparse passes: the neighbours' edge rays of the slot's parent row,
     /// latched in its first cycle ([`Pe::pass_step_sparse`]).
     pub edges: Edges,
+    /// The merge's tent events ([`crate::datapath::Datapath::tent_rgba`]),
+    /// added to the PE's stats when the merge ends ([`Pe::end_merge`]).
+    pub(crate) tents: Tally,
 }
 
 impl PassState {
