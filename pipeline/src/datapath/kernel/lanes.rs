@@ -76,18 +76,25 @@ impl Step {
     /// population count per step, not a counter per lane). The
     /// assignments themselves are counted per lane ([`Tally::lanes`],
     /// [`Kernel::settle`]). Overflows are rare (a saturating clamp), so
-    /// their count is added only when some marked lane overflowed; an
+    /// their count is added only when some marked lane overflowed, and
+    /// a step proven in range ([`Step::in_range`]) neither clamps nor
+    /// looks; an
     /// assignment that drops no bits (`mask` 0) is never inexact, so its
     /// test is left out.
     #[inline(always)]
     fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let q = each(|l| (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2);
-        let out = each(|l| q[l].max(self.min).min(self.max));
         let n = &mut t.counts[self.slot];
-        let over = ne_mask(&out, &q) & on;
-        if over != 0 {
-            n[1] += u64::from(over.count_ones());
-        }
+        let out = if self.in_range {
+            q
+        } else {
+            let out = each(|l| q[l].max(self.min).min(self.max));
+            let over = ne_mask(&out, &q) & on;
+            if over != 0 {
+                n[1] += u64::from(over.count_ones());
+            }
+            out
+        };
         if self.mask != 0 {
             let inexact = nonzero_mask(&each(|l| raw[l] & self.mask)) & on;
             n[2] += u64::from(inexact.count_ones());
