@@ -25,8 +25,8 @@ use golden::geometry::RayGrid;
 
 use super::boundary::Edges;
 
-use crate::datapath::Tally;
 use crate::array::{Array, Links, RunError};
+use crate::datapath::Tally;
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
 
