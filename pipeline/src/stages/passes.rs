@@ -55,11 +55,13 @@ impl LineBuffer {
     }
 
     /// Writes child `c` of parent row `row`.
+    #[inline]
     pub(crate) fn write(&mut self, row: usize, c: usize, v: [i64; 4]) {
         self.slots[row % LINE_ROWS][c] = Some((row, v));
     }
 
     /// Child `c` of parent row `row`, if the buffer still holds it.
+    #[inline]
     pub(crate) fn read(&self, pe: usize, row: usize, c: usize) -> Result<[i64; 4], StepError> {
         match self.slots[row % LINE_ROWS][c] {
             Some((r, v)) if r == row => Ok(v),
@@ -89,6 +91,7 @@ impl LineBuffer {
     /// The y pass's `N` taps of child `c`: parent rows `rows` (relative to
     /// the parent grid; rows outside its `prows` read zero), each through
     /// [`LineBuffer::read`], or [`LineBuffer::read_sparse`] when `sparse`.
+    #[inline]
     pub(crate) fn taps<const N: usize>(
         &self,
         pe: usize,
