@@ -291,6 +291,17 @@ impl Kernel {
         if c.voxel.is_signed() || c.sample.is_signed() || c.weight.is_signed() {
             return None;
         }
+        // The taps are voxel words (`0..=vmax`), and a weight word of at
+        // most 2^fw makes each interpolation a convex combination:
+        // `a (2^fw - w) + b w` of words in `0..=hi` lies in `0..=hi << fw`.
+        // Where both ends assign in range, no tap can overflow the sample.
+        let convex = c.weight.max_raw() <= 1 << fw;
+        let vmax = c.voxel.max_raw();
+        let mut lerp_x = lerp_x;
+        lerp_x.in_range = convex && lerp_x.holds(0, vmax << fw);
+        let smax = lerp_x.eval(vmax << fw).0;
+        let mut lerp_y = lerp_y;
+        lerp_y.in_range = convex && lerp_y.holds(0, smax << fw);
         let classes = ClassTable::new(classes, c.color, c.alpha)?;
         let raw_of = |v: &[Fx]| -> Option<(Vec<i64>, Format)> {
             let f = v.first()?.format();

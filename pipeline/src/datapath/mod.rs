@@ -15,7 +15,7 @@ mod ops;
 mod passes;
 
 use classes::Classes;
-use kernel::Tents;
+pub(crate) use kernel::Tents;
 pub(crate) use kernel::{Batch, Ray, Tally, LANES};
 pub use kernel::{Kernel, KernelRow};
 #[cfg(test)]
@@ -124,7 +124,7 @@ impl Datapath {
     /// The Bartlett merge's assignments worked out once ([`Kernel`]'s,
     /// shaded frames too: the merge is the same), `None` without a
     /// kernel or when a merge format is not modelled.
-    fn tents(&self) -> Option<&Tents> {
+    pub(crate) fn tents(&self) -> Option<&Tents> {
         self.kernel.as_ref().and_then(Kernel::tents)
     }
 

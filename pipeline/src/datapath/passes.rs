@@ -3,7 +3,7 @@
 //! the assignments worked out once per frame when the formats allow),
 //! each assigned into a declared [`Format`].
 
-use super::Datapath;
+use super::{Datapath, Tally};
 use crate::config::Reg;
 use crate::fixed::{Format, Fx, QuantStats, Wide};
 
@@ -59,10 +59,17 @@ impl Datapath {
     /// the x pass's (`y` false) of accumulator words into `merge`, or the
     /// y pass's of `merge` words back into the accumulators; through the
     /// assignments worked out once ([`Datapath::tents`]) when the formats
-    /// are modelled.
-    pub(crate) fn tent_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
+    /// are modelled, whose events go to `pass` (the pass's tally, added to
+    /// `st` when the pass ends); the general path's go to `st`.
+    pub(crate) fn tent_rgba(
+        &self,
+        y: bool,
+        p: [[i64; 4]; 3],
+        st: &mut QuantStats,
+        pass: &mut Tally,
+    ) -> [i64; 4] {
         if let Some(tents) = self.tents() {
-            return tents.apply_rgba(y, p, st);
+            return tents.apply_rgba(y, p, pass);
         }
         let tap = |ch: usize| [p[0][ch], p[1][ch], p[2][ch]];
         let mut out = [0; 4];

@@ -156,7 +156,7 @@ proptest! {
                     word(words[off + k][ch], if y { cfg.merge } else { acc(ch) })
                 })
             });
-            let want = dp.tent_rgba(y, p, &mut QuantStats::default());
+            let want = dp.tent_rgba(y, p, &mut QuantStats::default(), &mut Default::default());
             let mut inputs = Vec::new();
             for (ch, n) in super::tents::CHANNELS.iter().enumerate() {
                 for (k, pk) in p.iter().enumerate() {

@@ -12,7 +12,7 @@ use golden::geometry::RayGrid;
 use super::boundary::{BoundaryPass, Edges};
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, RunError};
-use crate::datapath::{Acc, Datapath};
+use crate::datapath::{Acc, Datapath, Tents};
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::Stage;
 use crate::schedule::btf::rays;
@@ -87,6 +87,9 @@ impl Pe {
         edges: &[(Acc, Acc)],
         (bg, fg): (&RayGrid, &RayGrid),
     ) -> Result<(), (usize, StepError)> {
+        if let Some(&tents) = dp.tents() {
+            return self.merge_columns(&tents, (slots, width), edges, (bg, fg));
+        }
         let pass = MergePass { bg, fg };
         let mut first: Option<(usize, StepError)> = None;
         for col in 0..width {
@@ -116,9 +119,69 @@ impl Pe {
         first.map_or(Ok(()), Err)
     }
 
+    /// [`Pe::merge_whole`] through the tents worked out once per frame
+    /// ([`Tents`]): the same steps in the same order, each column's
+    /// parents found once (a held column, a neighbour's edge ray or
+    /// neither: the parents stay put during the pass) instead of at
+    /// every slot, and the tents' events kept in the pass's tally.
+    fn merge_columns(
+        &mut self,
+        tents: &Tents,
+        (slots, width): (&[Slot], usize),
+        edges: &[(Acc, Acc)],
+        (bg, fg): (&RayGrid, &RayGrid),
+    ) -> Result<(), (usize, StepError)> {
+        let prows = bg.counts()[1] as i64;
+        let span = self.span();
+        self.rays.make_contiguous();
+        let mut tally = std::mem::take(&mut self.pass.tents);
+        let mut first: Option<(usize, StepError)> = None;
+        // A column past the children computes nothing in any slot.
+        for c in 0..width.min(self.pass.children.len()) {
+            let m = self.pass.children[c];
+            let src = [2 * m - 1, 2 * m, 2 * m + 1].map(|mx| Parent::of(span, mx));
+            for (s, slot) in slots.iter().enumerate() {
+                let cycle = s * width + c;
+                // A later cycle's failure cannot be the earliest.
+                if first.as_ref().is_some_and(|&(at, _)| at < cycle) {
+                    break;
+                }
+                if let Some(i) = slot.y {
+                    let my = fg.lo[1] + i as i64;
+                    let rows = [2 * my - 1, 2 * my, 2 * my + 1].map(|py| py - bg.lo[1]);
+                    match self.pass.line.taps(self.k, rows, prows, c, false) {
+                        Ok(taps) => {
+                            self.pass.next[c].acc[i].raw = tents.apply_rgba(true, taps, &mut tally);
+                            self.counters.merge_outputs += 1;
+                        }
+                        Err(err) => {
+                            first = Some((cycle, err));
+                            break;
+                        }
+                    }
+                }
+                if let Some(q) = slot.x {
+                    let (l, r) = &edges[q];
+                    let rays = self.rays.as_slices().0;
+                    let p = src.map(|p| match p {
+                        Parent::Held(j) => rays[j].acc[q].raw,
+                        Parent::Left => l.raw,
+                        Parent::Right => r.raw,
+                        Parent::None => [0; 4],
+                    });
+                    let out = tents.apply_rgba(false, p, &mut tally);
+                    self.pass.line.write(q, c, out);
+                }
+            }
+        }
+        self.pass.tents = tally;
+        first.map_or(Ok(()), Err)
+    }
+
     /// Ends a merge: the children become the held columns (the bank
-    /// select flips).
+    /// select flips), and the merge's tent events join the PE's stats.
     pub fn end_merge(&mut self) {
+        std::mem::take(&mut self.pass.tents).add_to(&mut self.model.stats);
         let next = std::mem::take(&mut self.pass.next);
         self.set_rays(next);
     }
@@ -136,6 +199,43 @@ impl Pe {
             }
         }
         count
+    }
+}
+
+/// Where a merge's parent column lies for a PE holding columns `span`
+/// ([`Pe::parent`]'s cases).
+#[derive(Debug, Clone, Copy)]
+enum Parent {
+    /// Held, at this index of the held columns.
+    Held(usize),
+    /// The left neighbour's edge ray.
+    Left,
+    /// The right neighbour's edge ray.
+    Right,
+    /// Beyond both: an empty ray.
+    None,
+}
+
+impl Parent {
+    fn of(span: Option<(i64, i64)>, mx: i64) -> Parent {
+        match span {
+            None => Parent::None,
+            Some((lo, _)) if mx < lo => {
+                if mx == lo - 1 {
+                    Parent::Left
+                } else {
+                    Parent::None
+                }
+            }
+            Some((_, hi)) if mx > hi => {
+                if mx == hi + 1 {
+                    Parent::Right
+                } else {
+                    Parent::None
+                }
+            }
+            Some((lo, _)) => Parent::Held((mx - lo) as usize),
+        }
     }
 }
 
@@ -167,7 +267,8 @@ impl BoundaryPass for MergePass<'_> {
             pe.parent(2 * m, q, &edges),
             pe.parent(2 * m + 1, q, &edges),
         ];
-        let out = dp.tent_rgba(false, p.map(|a| a.raw), &mut pe.model.stats);
+        let st = &mut pe.model.stats;
+        let out = dp.tent_rgba(false, p.map(|a| a.raw), st, &mut pe.pass.tents);
         pe.pass.line.write(q, c, out);
         Ok(())
     }
@@ -187,7 +288,8 @@ impl BoundaryPass for MergePass<'_> {
         let my = fg.lo[1] + i as i64;
         let rows = [2 * my - 1, 2 * my, 2 * my + 1].map(|py| py - bg.lo[1]);
         let taps = pe.pass.line.taps(pe.k, rows, prows, c, sparse)?;
-        pe.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, &mut pe.model.stats);
+        let st = &mut pe.model.stats;
+        pe.pass.next[c].acc[i].raw = dp.tent_rgba(true, taps, st, &mut pe.pass.tents);
         pe.counters.merge_outputs += 1;
         Ok(())
     }

@@ -26,6 +26,7 @@ use golden::geometry::RayGrid;
 use super::boundary::Edges;
 
 use crate::array::{Array, Links, RunError};
+use crate::datapath::Tally;
 use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
 use crate::probes::{Ctrl, Stage};
 
@@ -54,11 +55,13 @@ impl LineBuffer {
     }
 
     /// Writes child `c` of parent row `row`.
+    #[inline]
     pub(crate) fn write(&mut self, row: usize, c: usize, v: [i64; 4]) {
         self.slots[row % LINE_ROWS][c] = Some((row, v));
     }
 
     /// Child `c` of parent row `row`, if the buffer still holds it.
+    #[inline]
     pub(crate) fn read(&self, pe: usize, row: usize, c: usize) -> Result<[i64; 4], StepError> {
         match self.slots[row % LINE_ROWS][c] {
             Some((r, v)) if r == row => Ok(v),
@@ -88,6 +91,7 @@ impl LineBuffer {
     /// The y pass's `N` taps of child `c`: parent rows `rows` (relative to
     /// the parent grid; rows outside its `prows` read zero), each through
     /// [`LineBuffer::read`], or [`LineBuffer::read_sparse`] when `sparse`.
+    #[inline]
     pub(crate) fn taps<const N: usize>(
         &self,
         pe: usize,
@@ -149,6 +153,9 @@ pub struct PassState {
     /// Sparse passes: the neighbours' edge rays of the slot's parent row,
     /// latched in its first cycle ([`Pe::pass_step_sparse`]).
     pub edges: Edges,
+    /// The merge's tent events ([`crate::datapath::Datapath::tent_rgba`]),
+    /// added to the PE's stats when the merge ends ([`Pe::end_merge`]).
+    pub(crate) tents: Tally,
 }
 
 impl PassState {

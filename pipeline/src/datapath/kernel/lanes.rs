@@ -75,14 +75,30 @@ impl Step {
     /// into a bit mask, the marked ones counted (a compare mask and a
     /// population count per step, not a counter per lane). The
     /// assignments themselves are counted per lane ([`Tally::lanes`],
-    /// [`Kernel::settle`]).
+    /// [`Kernel::settle`]). Overflows are rare (a saturating clamp), so
+    /// their count is added only when some marked lane overflowed, and
+    /// a step proven in range ([`Step::in_range`]) neither clamps nor
+    /// looks; an
+    /// assignment that drops no bits (`mask` 0) is never inexact, so its
+    /// test is left out.
     #[inline(always)]
     fn lanes(&self, raw: &Lanes, t: &mut Tally, on: Mask) -> Lanes {
         let q = each(|l| (((raw[l] << self.left) >> self.sh1) + self.add) >> self.sh2);
-        let out = each(|l| q[l].max(self.min).min(self.max));
-        let over = ne_mask(&out, &q);
-        let inexact = nonzero_mask(&each(|l| raw[l] & self.mask));
-        t.events(self.slot, on, over, inexact);
+        let n = &mut t.counts[self.slot];
+        let out = if self.in_range {
+            q
+        } else {
+            let out = each(|l| q[l].max(self.min).min(self.max));
+            let over = ne_mask(&out, &q) & on;
+            if over != 0 {
+                n[1] += u64::from(over.count_ones());
+            }
+            out
+        };
+        if self.mask != 0 {
+            let inexact = nonzero_mask(&each(|l| raw[l] & self.mask)) & on;
+            n[2] += u64::from(inexact.count_ones());
+        }
         out
     }
 }
@@ -120,13 +136,19 @@ fn lerps(a: &Lanes, b: &Lanes, w: &Lanes, fw: u32) -> Lanes {
 
 /// [`crate::datapath::ops::isqrt`] in every lane: the float estimate of a root below
 /// 2^31 is within one of it (its error is below 2^-20), so one correction
-/// each way makes it exact.
+/// each way makes it exact. The truncated estimate, an integer below
+/// 2^31, is read from the bits of its sum with 2^52 (exact, the sum's
+/// unit in the last place being 1): a vector add and subtract, where a
+/// float-to-integer conversion (`as`, which saturates) compiles to a
+/// scalar compare and conversion per lane.
 #[inline(always)]
 fn isqrts(v: &Lanes) -> Lanes {
+    const MAGIC: f64 = (1u64 << 52) as f64;
     let mut out = [0; LANES];
     for l in 0..LANES {
         let v = v[l].max(0);
-        let mut r = (v as f64).sqrt() as i64;
+        let est = (v as f64).sqrt().trunc();
+        let mut r = ((est + MAGIC).to_bits() - MAGIC.to_bits()) as i64;
         r -= i64::from(r * r > v);
         r += i64::from((r + 1) * (r + 1) <= v);
         out[l] = r;

@@ -119,6 +119,10 @@ pub(super) struct Step {
     pub(super) max: i64,
     /// The destination's tally slot ([`SLOTS`]).
     pub(super) slot: usize,
+    /// Whether every word the kernel assigns here is proven in range
+    /// ([`Step::in_range`]): then the lanes neither clamp nor look for an
+    /// overflow.
+    pub(super) in_range: bool,
 }
 
 /// The rounding of a format the kernel models: whether it is `RND` (else
@@ -164,7 +168,17 @@ impl Step {
             min: dst.min_raw(),
             max: dst.max_raw(),
             slot,
+            in_range: false,
         })
+    }
+
+    /// Whether every exact word in `lo..=hi` assigns without overflowing:
+    /// the assignment is monotone, so the unclamped words of the two ends
+    /// decide. `lo` and `hi` lie within the source range the step was
+    /// built for.
+    pub(super) fn holds(&self, lo: i64, hi: i64) -> bool {
+        let q = |raw: i64| (((raw << self.left) >> self.sh1) + self.add) >> self.sh2;
+        q(lo) >= self.min && q(hi) <= self.max
     }
 
     /// The assigned word of `raw`, whether it overflowed and whether it

@@ -3,13 +3,12 @@
 //! events as [`Datapath::tent`] (a proptest compares them over many
 //! formats).
 
-#[cfg(test)]
-use super::Tally;
-use super::{mag, Step, SLOTS};
+use super::{mag, Step, Tally};
 use crate::config::Reg;
 #[cfg(doc)]
 use crate::datapath::Datapath;
-use crate::fixed::{Counts, QuantStats};
+#[cfg(doc)]
+use crate::fixed::QuantStats;
 
 /// The Bartlett merge's four assignments ([`Datapath::tent`]): the x
 /// pass's tent of accumulator words (colour, opacity) into `merge`, and
@@ -39,11 +38,11 @@ impl Tents {
 
     /// [`Datapath::tent`] of every channel (R, G, B, A) of parents `p`:
     /// the x pass's (`y` false) or the y pass's, its events counted in
-    /// `st` under each destination's format. The counts are kept in
-    /// locals and added once per ray, two formats at most (a whole
-    /// [`Tally`] per ray cost more than the tents).
+    /// `t` under each destination's format: a pass's tally, added to the
+    /// PE's [`QuantStats`] once when the pass ends (sums commute), where
+    /// adding each ray's counts cost as much as its tents.
     #[inline(always)]
-    pub(crate) fn apply_rgba(&self, y: bool, p: [[i64; 4]; 3], st: &mut QuantStats) -> [i64; 4] {
+    pub(crate) fn apply_rgba(&self, y: bool, p: [[i64; 4]; 3], t: &mut Tally) -> [i64; 4] {
         let steps = if y { &self.y } else { &self.x };
         let mut out = [0; 4];
         // Colour channels, then opacity: each pair's events.
@@ -57,14 +56,9 @@ impl Tents {
             n[i][2] += u64::from(inexact);
         }
         for (s, n) in steps.iter().zip(&n) {
-            st.add_as(
-                SLOTS[s.slot],
-                &Counts {
-                    assignments: n[0],
-                    overflows: n[1],
-                    inexact: n[2],
-                },
-            );
+            for (a, b) in t.counts[s.slot].iter_mut().zip(n) {
+                *a += b;
+            }
         }
         out
     }
@@ -194,8 +188,10 @@ mod tests {
                 }
                 want[ch] = general().tent([p[0][ch], p[1][ch], p[2][ch]], from, to, &mut want_st).raw();
             }
+            let mut t = Tally::default();
+            let got = tents.apply_rgba(y, p, &mut t);
             let mut got_st = QuantStats::default();
-            let got = tents.apply_rgba(y, p, &mut got_st);
+            t.add_to(&mut got_st);
             prop_assert_eq!(got, want);
             prop_assert_eq!(got_st, want_st);
         }

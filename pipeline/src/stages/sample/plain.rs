@@ -109,34 +109,31 @@ struct Taps {
 }
 
 impl Taps {
-    /// Loads the taps of each of `chunk`'s samples (each a row of
-    /// `rows`) into `b`'s lanes (`read`: the word at a memory index),
-    /// with the right neighbour's edge voxels where the PE does not hold
-    /// `c1`, and the rows' y weights and slope terms.
+    /// Loads the taps of a sample in row `row` into lane `l` of `b`
+    /// (`read`: the word at a memory index), with the right neighbour's
+    /// edge voxels where the PE does not hold `c1`, and the row's y
+    /// weight and slope term.
     #[inline(always)]
     fn load(
         &self,
-        read: impl Fn(usize) -> u16,
-        chunk: &[(u32, u64)],
-        rows: &[PlainRow],
+        read: &impl Fn(usize) -> u16,
+        row: &PlainRow,
         right_edges: Option<&[EdgeWords]>,
         b: &mut Batch,
+        l: usize,
     ) {
-        for (l, &(i, _)) in chunk.iter().enumerate() {
-            let row = &rows[i as usize];
-            let [base0, base1] = row.base;
-            b.v[0][l] = i64::from(read(base0 + self.cols[0]));
-            b.v[2][l] = i64::from(read(base1 + self.cols[0]));
-            let right = if self.held {
-                [read(base0 + self.cols[1]), read(base1 + self.cols[1])]
-            } else {
-                right_edges.map_or([0; 2], |e| e[row.r as usize].left)
-            };
-            b.v[1][l] = i64::from(right[0]);
-            b.v[3][l] = i64::from(right[1]);
-            b.wy[l] = row.wy;
-            b.yz[l] = row.yz;
-        }
+        let [base0, base1] = row.base;
+        b.v[0][l] = i64::from(read(base0 + self.cols[0]));
+        b.v[2][l] = i64::from(read(base1 + self.cols[0]));
+        let right = if self.held {
+            [read(base0 + self.cols[1]), read(base1 + self.cols[1])]
+        } else {
+            right_edges.map_or([0; 2], |e| e[row.r as usize].left)
+        };
+        b.v[1][l] = i64::from(right[0]);
+        b.v[3][l] = i64::from(right[1]);
+        b.wy[l] = row.wy;
+        b.yz[l] = row.yz;
     }
 }
 
@@ -171,6 +168,29 @@ impl ColumnJob<'_> {
         mem: &VoxelMem,
         col: &mut RayColumn,
         c: usize,
+        taps: &ColumnTaps,
+        out: &mut (Tally, PlainCounts),
+    ) {
+        // The memory read once per column (the voxel words, or the bytes
+        // and their words), each case its own loop.
+        match mem {
+            VoxelMem::Words(w) => self.column_with(|i| w[i], col, c, taps, out),
+            VoxelMem::Codes { codes, words } => {
+                let read = |i: usize| words[usize::from(codes[i])];
+                self.column_with(read, col, c, taps, out);
+            }
+        }
+    }
+
+    /// [`ColumnJob::column`] reading the memory through `read`: each
+    /// sampling row's taps, constants and write-back cycle go straight
+    /// into the batch's next lane, eight lanes a batch.
+    #[inline(always)]
+    fn column_with(
+        &self,
+        read: impl Fn(usize) -> u16,
+        col: &mut RayColumn,
+        c: usize,
         &(ray, t, c0, c1, held): &ColumnTaps,
         (total, n): &mut (Tally, PlainCounts),
     ) {
@@ -180,31 +200,34 @@ impl ColumnJob<'_> {
             ..Batch::default()
         };
         let local = |c: usize| self.locals[c] as usize;
-        // The taps' local columns, and the memory read once per column
-        // (the voxel words, or the bytes and their words).
         let taps = Taps {
             cols: [local(c0), if held { local(c1) } else { 0 }],
             held,
         };
         let j = self.first + c;
         let mut k = 0;
-        let mut chunk = [(0u32, 0u64); LANES];
+        // Each lane's row in the region's buffer.
+        let mut rows = [0usize; LANES];
         let mut lanes = 0;
-        for (i, pr) in self.rows.iter().enumerate() {
+        for pr in self.rows {
             let Some(place) = pr.place(c as u32, j, self.live) else {
                 continue;
             };
-            chunk[lanes] = (i as u32, pr.start + u64::from(place));
+            taps.load(&read, pr, self.right_edges, &mut b, lanes);
+            let row = pr.row as usize;
+            let land = pr.start + u64::from(place) + self.latency;
+            n.drained_at = n.drained_at.max(land);
+            col.land[row] = land;
+            rows[lanes] = row;
             lanes += 1;
             if lanes == LANES {
-                self.batch(mem, col, &taps, &chunk, &mut b, total, &mut n.drained_at);
+                self.batch(col, &rows, &mut b, LANES, total);
                 k += LANES as u64;
                 lanes = 0;
             }
         }
         if lanes > 0 {
-            let chunk = &chunk[..lanes];
-            self.batch(mem, col, &taps, chunk, &mut b, total, &mut n.drained_at);
+            self.batch(col, &rows, &mut b, lanes, total);
             k += lanes as u64;
         }
         // The address's events, once per sample.
@@ -214,41 +237,24 @@ impl ColumnJob<'_> {
         n.edge_voxels += if held { 0 } else { 2 * k };
     }
 
-    /// Samples `chunk`'s samples (row table index, issue cycle) of a
-    /// column through the kernel's lanes (`b` holds the column's address).
-    #[allow(clippy::too_many_arguments)]
+    /// Samples the first `lanes` lanes of `b` (taps and row constants
+    /// loaded, the column's address set), rays in buffer rows `rows`,
+    /// through the kernel.
     #[inline(always)]
     fn batch(
         &self,
-        mem: &VoxelMem,
         col: &mut RayColumn,
-        taps: &Taps,
-        chunk: &[(u32, u64)],
+        rows: &[usize; LANES],
         b: &mut Batch,
+        lanes: usize,
         total: &mut Tally,
-        drained_at: &mut u64,
     ) {
-        let rows = self.rows;
-        b.n = chunk.len();
-        match mem {
-            VoxelMem::Words(w) => taps.load(|i| w[i], chunk, rows, self.right_edges, b),
-            VoxelMem::Codes { codes, words } => {
-                let read = |i: usize| words[usize::from(codes[i])];
-                taps.load(read, chunk, rows, self.right_edges, b);
-            }
-        }
-        for &(i, now) in chunk {
-            let row = rows[i as usize].row as usize;
-            let land = now + self.latency;
-            *drained_at = (*drained_at).max(land);
-            col.land[row] = land;
-        }
+        b.n = lanes;
         b.pad();
         // The rays' accumulators, read only when some sample is visible.
         let acc = &col.acc;
         let load = |b: &mut Batch| {
-            for (l, &(i, _)) in chunk.iter().enumerate() {
-                let row = rows[i as usize].row as usize;
+            for (l, &row) in rows[..lanes].iter().enumerate() {
                 for (w, &a) in b.acc.iter_mut().zip(&acc[row].raw) {
                     w[l] = a;
                 }
@@ -258,9 +264,8 @@ impl ColumnJob<'_> {
         if b.visible == 0 {
             return;
         }
-        for (l, &(i, _)) in chunk.iter().enumerate() {
+        for (l, &row) in rows[..lanes].iter().enumerate() {
             if (b.visible >> l) & 1 != 0 {
-                let row = rows[i as usize].row as usize;
                 for (a, w) in col.acc[row].raw.iter_mut().zip(&b.acc) {
                     *a = w[l];
                 }
