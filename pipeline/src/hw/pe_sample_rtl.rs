@@ -518,27 +518,7 @@ module {MODULE} (
     );
     regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
     regs += super::pe_columns_rtl::edge_register(w, s);
-    // The write-back address travels with the sample.
-    // The write-back address travels with the sample from a clock after
-    // issue (`s_addr`, its first stage).
-    let _ = writeln!(
-        w,
-        "  // The ray's address, carried to its write-back.\n  wire [{}:0] wa_1 = s_addr;",
-        ab - 1
-    );
-    for i in 2..=depth {
-        let _ = writeln!(w, "  reg [{}:0] wa_{i};", ab - 1);
-    }
-    regs += u64::from(depth - 1) * u64::from(ab);
-    let _ = writeln!(w, "  always @(posedge clk) begin\n    if (rst) begin");
-    for i in 2..=depth {
-        let _ = writeln!(w, "      wa_{i} <= 0;");
-    }
-    let _ = writeln!(w, "    end else begin");
-    for i in 2..=depth {
-        let _ = writeln!(w, "      wa_{i} <= wa_{};", i - 1);
-    }
-    let _ = writeln!(w, "    end\n  end");
+    regs += super::pe_carry_rtl::address_line(w, ab, depth);
     let out_fields: Vec<String> = ["acc_out_a", "acc_out_b", "acc_out_g", "acc_out_r"]
         .iter()
         .map(|n| format!("{n}_w"))
@@ -565,7 +545,7 @@ module {MODULE} (
         ab1 = ab - 1
     );
     if s.termination.is_some() {
-        regs += super::pe_term_rtl::termination_line(w, s, depth);
+        regs += super::pe_carry_rtl::termination_line(w, s, depth);
     }
     // rem, the pick's, k_row, rq0/rq1, iss_valid, a_valid, iss_m, s_addr,
     // s_z, s_y0/s_y1, fw_v/fw_a/fw_d, and the held range (map_lo, map_n,

@@ -21,7 +21,7 @@ use std::fmt::Write as _;
 /// the model's row plan holds such a row back until its terminated rays'
 /// last write-backs have landed ([`crate::pe::Pe::plan_rows`]).
 /// Declares the ray's row and slot carried to its write-back
-/// ([`termination_line`] clocks them).
+/// ([`super::pe_carry_rtl::termination_line`] clocks them).
 pub(super) fn termination_bits(w: &mut String, s: &PeSampleShape, depth: u32, thr: i64) {
     let r = &s.rays;
     let (cw, aw) = (r.color_bits, r.alpha_bits);
@@ -64,30 +64,4 @@ pub(super) fn termination_bits(w: &mut String, s: &PeSampleShape, depth: u32, th
         n = s.slots(),
         dead = super::pe_columns_rtl::dead_by_plan(s),
     );
-}
-
-/// The issuing ray's row and slot carried to its write-back beside its
-/// address (the termination bits' write, [`termination_bits`]), from the
-/// issue's clock, where the slot is found; returns the register bits.
-pub(super) fn termination_line(w: &mut String, s: &PeSampleShape, depth: u32) -> u64 {
-    let _ = writeln!(
-        w,
-        "  // The ray's row and slot, carried to its write-back.\n  always @(posedge clk) begin\n    if (rst) begin"
-    );
-    for i in 1..=depth {
-        let _ = writeln!(w, "      tr_{i} <= 0;\n      ts_{i} <= 0;");
-    }
-    let _ = writeln!(
-        w,
-        "    end else begin\n      tr_1 <= k_row;\n      ts_1 <= slot;"
-    );
-    for i in 2..=depth {
-        let _ = writeln!(
-            w,
-            "      tr_{i} <= tr_{p};\n      ts_{i} <= ts_{p};",
-            p = i - 1
-        );
-    }
-    let _ = writeln!(w, "    end\n  end");
-    u64::from(depth) * u64::from(s.rays.row_bits() + addr_bits(s.slots()))
 }
