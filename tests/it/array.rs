@@ -328,6 +328,8 @@ fn cost_command_reports_a_real_run() {
             "2,4",
             "--target",
             "ice40",
+            "--clock",
+            "assumed",
             "--json",
             "r.json",
             "--verilog-dir",

@@ -142,14 +142,14 @@ fn datapath_estimate_counts_what_the_module_declares() {
             );
         }
     }
-    // The default widths: 7,175 register bits declared (docs/cost.md).
+    // The default widths: 7,093 register bits declared (docs/rtl.md).
     let m = datapath(&PipelineConfig::default()).unwrap();
     let regs: u64 = declared(&m.verilog)
         .iter()
         .filter(|d| d.depth == 1)
         .map(|d| d.bits)
         .sum();
-    assert_eq!(regs, 7175);
+    assert_eq!(regs, 7093);
 }
 
 /// The tolerance on LUTs and flip-flops (the 10%).
