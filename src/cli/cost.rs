@@ -207,6 +207,53 @@ fn run_at(
     ))
 }
 
+/// The clock `--clock` and `--clock-mhz` ask for, decided before the
+/// frame runs: a measured or predicted clock is found for the view's
+/// geometry once it has run.
+#[derive(Debug, Clone, Copy)]
+enum Wanted {
+    /// An assumed clock, MHz (the family's or `--clock-mhz`).
+    Assumed(f64),
+    /// The placed stage's clock; without one, the predicted clock when
+    /// `or_predicted` (`auto`), else a refusal.
+    Measured { or_predicted: bool },
+    /// The predicted clock.
+    Predicted,
+}
+
+/// What `a`'s clock options ask for on `cfg`: `auto` is `--clock-mhz`
+/// when given, else measured-or-predicted where the family has a delay
+/// model, else the family's assumed clock.
+fn wanted_clock(a: &CostArgs, cfg: &PipelineConfig) -> Result<Wanted> {
+    let source = a.clock.trim();
+    if let Some(mhz) = a.clock_mhz {
+        if !matches!(source, "auto" | "assumed") {
+            bail!("--clock-mhz {mhz}: an assumed clock; drop --clock {source}");
+        }
+    }
+    let assumed = || -> Result<Wanted> {
+        Ok(Wanted::Assumed(
+            clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
+                .map_err(anyhow::Error::msg)?,
+        ))
+    };
+    let has_model = pipeline::cost::fmax::pe_prediction(cfg, a.target).is_some();
+    match source {
+        "assumed" => assumed(),
+        "auto" if a.clock_mhz.is_some() || !has_model => assumed(),
+        "auto" => Ok(Wanted::Measured { or_predicted: true }),
+        "measured" => Ok(Wanted::Measured {
+            or_predicted: false,
+        }),
+        "predicted" if has_model => Ok(Wanted::Predicted),
+        "predicted" => bail!(
+            "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
+            a.target.name()
+        ),
+        other => bail!("--clock {other}: expected auto, measured, predicted or assumed"),
+    }
+}
+
 /// Runs `ercube cost`.
 pub fn run(a: &CostArgs) -> Result<()> {
     super::outputs::check_files(&[a.stats.as_deref()])?;
@@ -225,35 +272,7 @@ fn cost(a: &CostArgs) -> Result<()> {
         cfg.target_family = a.target;
         cfg.validate()?;
     }
-    let source = a.clock.trim();
-    if a.clock_mhz.is_some() && !matches!(source, "auto" | "assumed") {
-        bail!(
-            "--clock-mhz {}: an assumed clock; drop --clock {source}",
-            a.clock_mhz.unwrap_or(0.0)
-        );
-    }
-    let assumed = || -> Result<(f64, clock::ClockSource)> {
-        Ok((
-            clock::check_mhz(a.clock_mhz.unwrap_or_else(|| clock::assumed_mhz(a.target)))
-                .map_err(anyhow::Error::msg)?,
-            clock::ClockSource::Assumed,
-        ))
-    };
-    let has_model = pipeline::cost::fmax::pe_prediction(&cfg, a.target).is_some();
-    // Measured and predicted clocks are found for the view's geometry once
-    // the frame is run (0.0 until then).
-    let clock = match source {
-        "assumed" => assumed()?,
-        "auto" if a.clock_mhz.is_some() => assumed()?,
-        "auto" if !has_model => assumed()?,
-        "auto" | "measured" => (0.0, clock::ClockSource::Measured),
-        "predicted" if has_model => (0.0, clock::ClockSource::Predicted),
-        "predicted" => bail!(
-            "--clock predicted: no predicted clock for {} (no open timing flow to fit the model to); give --clock-mhz",
-            a.target.name()
-        ),
-        other => bail!("--clock {other}: expected auto, measured, predicted or assumed"),
-    };
+    let wanted = wanted_clock(a, &cfg)?;
     // The configuration's clock schedule (validated above: it reaches the
     // clock), beside the one-operator one.
     let pipelined = if cfg.target_mhz > 0 {
@@ -335,22 +354,22 @@ fn cost(a: &CostArgs) -> Result<()> {
         arch_runs.push((c, r));
     }
     let measured = pipeline::cost::fmax::stages::measured_stage(&cfg, &main.geometry, a.target);
-    let clock = match (clock.1, measured) {
-        (clock::ClockSource::Measured, Some(m)) => (m.mhz, clock::ClockSource::Measured),
-        (clock::ClockSource::Measured, None) if source == "measured" => bail!(
+    let clock = match (wanted, measured) {
+        (Wanted::Assumed(mhz), _) => (mhz, clock::ClockSource::Assumed),
+        (Wanted::Measured { .. }, Some(m)) => (m.mhz, clock::ClockSource::Measured),
+        (Wanted::Measured { or_predicted: false }, None) => bail!(
             "--clock measured: no PE sample stage of this design was placed on {} ({}^3 on {} PEs at these widths; pipeline/data/measured/stages.csv lists those placed); give --clock predicted",
             a.target.name(),
             main.geometry.dims[0],
             cfg.pes
         ),
-        (clock::ClockSource::Measured, None) | (clock::ClockSource::Predicted, _) => {
+        (Wanted::Measured { or_predicted: true } | Wanted::Predicted, _) => {
             // The sample stage's clock for this view's memories, as the
             // report's predicted line gives it (one decimal, as printed).
             let p = pipeline::cost::fmax::predicted_clock(&cfg, &main.geometry, a.target)
                 .context("--clock predicted: no prediction for this design")?;
             ((p.mhz * 10.0).round() / 10.0, clock::ClockSource::Predicted)
         }
-        (clock::ClockSource::Assumed, _) => clock,
     };
     let report = build(&cfg, a.target, clock, main, &runs, &arch_runs);
     super::say(report.text().trim_end());

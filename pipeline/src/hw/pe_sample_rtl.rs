@@ -66,8 +66,11 @@ pub struct PeSampleRtl {
     pub register_bits: u64,
 }
 
+/// The datapath's accumulator ports, which the PE feeds from its buffer.
+const ACCS: [&str; 4] = ["acc_r", "acc_g", "acc_b", "acc_a"];
+
 /// A port's `[w-1:0]`, signed when `signed`.
-fn range(bits: u32, signed: bool) -> String {
+pub(crate) fn range(bits: u32, signed: bool) -> String {
     format!("{}[{}:0]", if signed { "signed " } else { "" }, bits - 1)
 }
 
@@ -86,7 +89,7 @@ pub fn emit(s: &PeSampleShape, dp: &PipelinedModule) -> Result<PeSampleRtl, Stri
             "the datapath reads its taps {sv} clocks after issue and shows the tap column at {sx}: the voxel memory answers one clock after the column"
         ));
     }
-    for n in ["acc_r", "acc_g", "acc_b", "acc_a"] {
+    for n in ACCS {
         let st = port(n)?.stage;
         if st != super::schedule::RAY_STAGE {
             return Err(format!(
@@ -197,7 +200,7 @@ module {MODULE} (
             range(p.word.bits, p.word.signed)
         );
     }
-    let accs = ["acc_r", "acc_g", "acc_b", "acc_a"];
+    let accs = ACCS;
     let taps = ["v00", "v01", "v10", "v11"];
     let m = port("slot_m")?;
     let _ = writeln!(

@@ -49,10 +49,7 @@ pub fn testbench(
     // The ray index, as the PE's iss_m declares it.
     let mr = dp.ports.iter().find(|p| p.name == "slot_m").map_or_else(
         || "[0:0]".to_owned(),
-        |p| {
-            let sg = if p.word.signed { "signed " } else { "" };
-            format!("{sg}[{}:0]", p.word.bits - 1)
-        },
+        |p| crate::hw::pe_sample_rtl::range(p.word.bits, p.word.signed),
     );
     let units = UnitWiring::of(dp);
     // The units' ports of each PE: the broadcast's words, the frame port.
