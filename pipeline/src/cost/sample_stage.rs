@@ -3,7 +3,7 @@
 //! and memories, statement by statement.
 //!
 //! Every unit follows a statement of the emitted module (or of its
-//! helpers `pe_plan_rtl`, `pe_columns_rtl`, `pe_term_rtl`) at the widths
+//! helpers `pe_plan_rtl`, `pe_columns_rtl`, `pe_taps_rtl`, `pe_term_rtl`) at the widths
 //! and depths of the [`PeSampleShape`] the Verilog is written from: the
 //! plan port's comparators and FIFO, the issue's one-hot pick, index,
 //! slot and buffer address, the accumulators' forwarding, the taps'
@@ -103,7 +103,7 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
         ));
     } else {
         out.push((
-            "issue: the ray map_lo + idx, its slot map_sl + idx wrapped",
+            "issue: the ray map_lo + idx (added at issue), its slot map_sl + idx wrapped",
             vec![
                 Unit::Add { width: ib },
                 Unit::Add { width: tb + 1 },
@@ -122,49 +122,72 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
             "accumulators: a write-back forwarded, bank select",
             vec![Unit::Cmp { width: ab }, mux(bw, 3)],
         ),
-        (
-            "taps: x0 and x0 + 1 clamped into the volume",
-            vec![
-                Unit::Inc { width: x0_bits },
-                Unit::Cmp { width: x0_bits },
-                Unit::Cmp { width: x0_bits },
-                Unit::Cmp { width: x0_bits },
-                Unit::Cmp { width: x0_bits },
-                mux(cb, 3),
-                mux(cb, 3),
-            ],
-        ),
     ]);
+    let rows = [
+        mux(yb, 2),
+        mux(yb, 2),
+        Unit::Add { width: sbw },
+        Unit::Add { width: sbw },
+    ]
+    .into_iter()
+    .chain(times_plus(s.stored, sbw))
+    .chain(times_plus(s.stored, sbw));
     if s.round_robin {
-        out.push((
-            "taps: the local columns through the column decoder",
-            vec![mux(lb, s.nx as u32), mux(lb, s.nx as u32)],
-        ));
+        out.extend([
+            (
+                "taps: x0 and x0 + 1 clamped into the volume",
+                vec![
+                    Unit::Inc { width: x0_bits },
+                    Unit::Cmp { width: x0_bits },
+                    Unit::Cmp { width: x0_bits },
+                    Unit::Cmp { width: x0_bits },
+                    Unit::Cmp { width: x0_bits },
+                    mux(cb, 3),
+                    mux(cb, 3),
+                ],
+            ),
+            (
+                "taps: the local columns through the column decoder",
+                vec![mux(lb, s.nx as u32), mux(lb, s.nx as u32)],
+            ),
+            (
+                "taps: the row banks' rows and the four read addresses",
+                rows.chain([Unit::Add { width: sbw }; 4]).collect(),
+            ),
+        ]);
     } else {
-        out.push((
-            "taps: the local columns (c - col_lo), the right tap held",
-            vec![
-                Unit::Sub { width: cb + 1 },
-                Unit::Sub { width: cb + 1 },
-                Unit::Cmp { width: cb + 1 },
-            ],
-        ));
+        out.extend([
+            (
+                "taps: a clock ahead, the row banks' rows and bases less col_lo, + 1, + nx_last",
+                rows.chain([
+                    Unit::Sub { width: sbw },
+                    Unit::Sub { width: sbw },
+                    Unit::Inc { width: sbw },
+                    Unit::Inc { width: sbw },
+                    Unit::Add { width: sbw },
+                    Unit::Add { width: sbw },
+                ])
+                .collect(),
+            ),
+            (
+                "taps: the clamp's compares, each address a sum with x0 or a clamped form",
+                [Unit::Cmp { width: x0_bits }; 3]
+                    .into_iter()
+                    .chain([Unit::Add { width: sbw }; 4])
+                    .chain([mux(sbw, 3); 4])
+                    .collect(),
+            ),
+            (
+                "taps: x0 + 1 clamped, the right tap held (c1 < col_end)",
+                vec![
+                    Unit::Inc { width: x0_bits },
+                    mux(cb, 3),
+                    Unit::Cmp { width: cb + 1 },
+                ],
+            ),
+        ]);
     }
     out.extend([
-        (
-            "taps: the row banks' rows and the four read addresses",
-            [
-                mux(yb, 2),
-                mux(yb, 2),
-                Unit::Add { width: sbw },
-                Unit::Add { width: sbw },
-            ]
-            .into_iter()
-            .chain(times_plus(s.stored, sbw))
-            .chain(times_plus(s.stored, sbw))
-            .chain([Unit::Add { width: sbw }, Unit::Add { width: sbw }])
-            .collect(),
-        ),
         (
             "taps: each tap's row bank or the neighbour's edge word",
             vec![mux(v, 2), mux(v, 2), mux(v, 3), mux(v, 3)],

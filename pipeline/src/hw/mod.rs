@@ -38,6 +38,7 @@ mod pe_columns_rtl;
 mod pe_plan_rtl;
 pub mod pe_sample_rtl;
 mod pe_sample_shape;
+mod pe_taps_rtl;
 mod pe_term_rtl;
 pub mod pe_units_rtl;
 pub mod pipeline_rtl;

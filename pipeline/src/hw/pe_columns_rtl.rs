@@ -1,7 +1,8 @@
 //! Where a PE's sample stage finds its columns, by mapping
 //! ([`super::pe_sample_rtl`]): the issuing ray's index and buffer slot,
-//! the taps' local columns in the slice buffer, and under column blocks
-//! the edge register the left neighbour reads.
+//! the column map and column decoder, and under column blocks the edge
+//! register the left neighbour reads (the taps' addresses from these
+//! columns are [`super::pe_taps_rtl`]'s).
 //!
 //! Under column blocks a PE holds one consecutive block: held column
 //! `map_lo + i` is ray `map_lo + i` in slot `mx` modulo the slots, a tap
@@ -130,53 +131,61 @@ pub(super) fn times(k: u64, x: &str) -> String {
     }
 }
 
-/// The picked ray's index `mx` from its plan bit `idx`, in the pick's
-/// clock (the datapath takes it at issue), and what the issue's clock
-/// needs of the column map to find the ray's slot (`pk_sl`): under a
-/// round-robin mapping the entry's slot, else the held range's first
-/// slot. Both are taken in the pick's clock, so that a column map the
-/// next slice's migration writes in the issue's clock does not reach it.
+/// What the issue's clock needs of the column map, taken in the pick's
+/// clock so that a column map the next slice's migration writes in the
+/// issue's clock does not reach it: under a round-robin mapping the
+/// entry's ray index `mx` (the datapath takes it at issue, registered as
+/// `iss_m`) and slot `pk_sl`; under column blocks the held range's first
+/// slot (and its first column, [`pick_registers`]'s `k_lo`).
 pub(super) fn mx(s: &PeSampleShape) -> String {
     let tb1 = slot_bits(s) - 1;
     if s.round_robin {
         format!("  wire signed [31:0] mx = cm_mx[idx];\n  wire [{tb1}:0] pk_sl = cm_sl[idx];")
     } else {
-        format!(
-            "  wire signed [31:0] mx = map_lo + $signed({{1'b0, idx}});\n  wire [{tb1}:0] pk_sl = map_sl;"
-        )
+        format!("  wire [{tb1}:0] pk_sl = map_sl;")
     }
 }
 
-/// The pick's registers (`k_sl`, and under column blocks the plan bit
-/// `k_idx`): their declarations and clocked loads, and their bits.
+/// The pick's registers (`k_sl`; under column blocks also the plan bit
+/// `k_idx` and the held range's first column `k_lo`, from which the issue's
+/// clock adds the ray index, off the pick's path): their declarations and
+/// clocked loads, and their bits.
 pub(super) fn pick_registers(s: &PeSampleShape) -> (String, u64) {
     let tb = slot_bits(s);
-    let regs: &[&str] = if s.round_robin {
-        &["k_sl"]
+    let ib = s.index_bits;
+    // (register, its range, its bits, what it takes)
+    let slot = ("k_sl", format!("[{}:0]", tb - 1), tb, "pk_sl");
+    let regs: Vec<(&str, String, u32, &str)> = if s.round_robin {
+        vec![slot]
     } else {
-        &["k_sl", "k_idx"]
+        vec![
+            slot,
+            ("k_idx", format!("[{}:0]", tb - 1), tb, "idx"),
+            ("k_lo", format!("signed [{}:0]", ib - 1), ib, "map_lo"),
+        ]
     };
-    let src = |r: &str| if r == "k_sl" { "pk_sl" } else { "idx" };
     let mut t = String::new();
-    for r in regs {
-        t += &format!("  reg [{}:0] {r};\n", tb - 1);
+    for (r, rng, _, _) in &regs {
+        t += &format!("  reg {rng} {r};\n");
     }
     t += "  always @(posedge clk) begin\n    if (rst) begin\n";
-    for r in regs {
+    for (r, _, _, _) in &regs {
         t += &format!("      {r} <= 0;\n");
     }
     t += "    end else begin\n";
-    for r in regs {
-        t += &format!("      {r} <= {};\n", src(r));
+    for (r, _, _, src) in &regs {
+        t += &format!("      {r} <= {src};\n");
     }
     t += "    end\n  end";
-    (t, regs.len() as u64 * u64::from(tb))
+    (t, regs.iter().map(|r| u64::from(r.2)).sum())
 }
 
 /// The issuing ray's buffer slot `slot`, in the issue's clock, from the
-/// registered pick. Under column blocks the slot is the range's first
-/// slot plus the plan bit, wrapped once (the bit is below the slots):
-/// migration keeps the column map's slots a ring, so no modulo is built.
+/// registered pick; under column blocks also the ray index the datapath
+/// takes (`iss_m`, `k_lo + k_idx` while an issue is valid). Under column
+/// blocks the slot is the range's first slot plus the plan bit, wrapped
+/// once (the bit is below the slots): migration keeps the column map's
+/// slots a ring, so no modulo is built.
 pub(super) fn slot(s: &PeSampleShape) -> String {
     let tb = slot_bits(s);
     if s.round_robin {
@@ -184,23 +193,12 @@ pub(super) fn slot(s: &PeSampleShape) -> String {
     } else {
         format!(
             "  wire [{tb}:0] sl_sum = k_sl + k_idx;
-  wire [{tb1}:0] slot = sl_sum >= {slots} ? sl_sum - {slots} : sl_sum;",
+  wire [{tb1}:0] slot = sl_sum >= {slots} ? sl_sum - {slots} : sl_sum;
+  wire signed [31:0] k_mx = k_lo + $signed({{1'b0, k_idx}});
+  assign iss_m = iss_valid ? k_mx : 0;",
             tb1 = tb - 1,
             slots = s.slots()
         )
-    }
-}
-
-/// The taps' local columns `l0`, `l1` of the clamped columns `c0`, `c1`
-/// and whether the PE holds `c1` (`held1`; else the right neighbour's
-/// edge words serve it).
-pub(super) fn tap_columns(s: &PeSampleShape) -> String {
-    if s.round_robin {
-        "  wire [31:0] l0 = {{1'b0, loc[c0]}};\n  wire [31:0] l1 = {{1'b0, loc[c1]}};\n  wire held1 = 1'b1;"
-            .replace("{{", "{")
-            .replace("}}", "}")
-    } else {
-        "  wire [31:0] l0 = c0 - $signed({1'b0, col_lo});\n  wire [31:0] l1 = c1 - $signed({1'b0, col_lo});\n  wire held1 = c1 < $signed({1'b0, col_end});".to_owned()
     }
 }
 

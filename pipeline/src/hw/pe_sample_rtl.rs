@@ -210,9 +210,10 @@ module {MODULE} (
   output wire [{e1}:0] edge_out,
   // What the control issues into the datapath, the taps it serves, the write-back.
   output reg iss_valid,
-  output reg {mr} iss_m,",
+  output {mk} {mr} iss_m,",
         e1 = 2 * v - 1,
         mr = range(m.word.bits, m.word.signed),
+        mk = if s.round_robin { "reg" } else { "wire" },
     );
     // The issuing ray's accumulators, a clock after its issue.
     let _ = writeln!(w, "  output wire acc_valid,");
@@ -359,15 +360,19 @@ module {MODULE} (
         w,
         "  always @(posedge clk) begin
     if (rst) begin
-      iss_valid <= 1'b0;
-      iss_m <= 0;
+      iss_valid <= 1'b0;{m0}
       a_valid <= 1'b0;
       s_z <= 1'b0;
       s_y0 <= 0;
       s_y1 <= 0;
       fw_v <= 1'b0;
       fw_a <= 0;
-      fw_d <= 0;"
+      fw_d <= 0;",
+        m0 = if s.round_robin {
+            "\n      iss_m <= 0;"
+        } else {
+            ""
+        },
     );
     for &n in &row_words {
         let _ = writeln!(w, "      s_{n} <= 0;");
@@ -375,15 +380,19 @@ module {MODULE} (
     let _ = writeln!(
         w,
         "    end else begin
-      iss_valid <= go;
-      iss_m <= go ? mx : 0;
+      iss_valid <= go;{m1}
       a_valid <= iss_valid;
       s_z <= bc_z;
       s_y0 <= bc_y0;
       s_y1 <= bc_y1;
       fw_v <= wb_valid;
       fw_a <= wb_addr;
-      fw_d <= wb_data;"
+      fw_d <= wb_data;",
+        m1 = if s.round_robin {
+            "\n      iss_m <= go ? mx : 0;"
+        } else {
+            ""
+        },
     );
     for &n in &row_words {
         let _ = writeln!(w, "      s_{n} <= go ? bc_{n} : 0;");
@@ -406,120 +415,9 @@ module {MODULE} (
     for (n, lo, bits) in fields {
         let _ = writeln!(w, "  assign iss_{n} = acc_in[{}:{lo}];", lo + bits - 1);
     }
-    // Delay lines to the tap stage and to the write-back.
-    let e1 = 2 * v - 1;
-    let lines: [(&str, String, &str); 5] = [
-        ("y0", format!("[{}:0]", yb - 1), "s_y0"),
-        ("y1", format!("[{}:0]", yb - 1), "s_y1"),
-        ("z", String::new(), "s_z"),
-        ("edge", format!("[{e1}:0]"), "edge_in"),
-        ("tv", String::new(), "iss_valid"),
-    ];
-    let _ = writeln!(
-        w,
-        "  // The row, the slice and the right neighbour's edge words at issue, carried to the tap stage."
-    );
-    let mut regs: u64 = 0;
-    for (n, rng, src) in &lines {
-        let width = if rng.is_empty() {
-            1
-        } else if *n == "edge" {
-            u64::from(2 * v)
-        } else {
-            u64::from(yb)
-        };
-        for i in 1..=sx {
-            let _ = writeln!(w, "  reg {rng} d_{n}_{i};");
-            regs += width;
-        }
-        let _ = writeln!(w, "  always @(posedge clk) begin");
-        let _ = writeln!(w, "    if (rst) begin");
-        for i in 1..=sx {
-            let _ = writeln!(w, "      d_{n}_{i} <= 0;");
-        }
-        let _ = writeln!(w, "    end else begin");
-        for i in 1..=sx {
-            let prev = if i == 1 {
-                (*src).to_owned()
-            } else {
-                format!("d_{n}_{}", i - 1)
-            };
-            let _ = writeln!(w, "      d_{n}_{i} <= {prev};");
-        }
-        let _ = writeln!(w, "    end\n  end");
-    }
-    let at = |n: &str| {
-        if sx == 0 {
-            match n {
-                "y0" => "s_y0".to_owned(),
-                "y1" => "s_y1".to_owned(),
-                "z" => "s_z".to_owned(),
-                "edge" => "edge_in".to_owned(),
-                _ => "iss_valid".to_owned(),
-            }
-        } else {
-            format!("d_{n}_{sx}")
-        }
-    };
-    let _ = writeln!(
-        w,
-        "  // The tap stage: the clamped columns, each row bank's row, both columns read.
-  wire {x0r} x0;
-  wire signed [31:0] x0_i = x0;
-  wire signed [31:0] last_i = $signed({{1'b0, nx_last}});
-  wire signed [31:0] c0 = x0_i < 0 ? 0 : (x0_i > last_i ? last_i : x0_i);
-  wire signed [31:0] c1 = x0_i + 1 < 0 ? 0 : (x0_i + 1 > last_i ? last_i : x0_i + 1);
-{locals}
-  wire [{yb1}:0] ty0 = {y0}, ty1 = {y1};
-  wire [{yb1}:0] r0 = ty0[0] ? ty1 : ty0;
-  wire [{yb1}:0] r1 = ty0[0] ? ty0 : ty1;
-  // Each bank's slice row (row * {stored} as shifted sums), then its two columns.
-  wire [{sbw1}:0] rw0 = ({z} ? {half} : 0) + (r0 >> 1), rw1 = ({z} ? {half} : 0) + (r1 >> 1);
-  wire [{sbw1}:0] rb0 = {rb0}, rb1 = {rb1};
-  wire [{sbw1}:0] a00 = rb0 + l0, a01 = rb0 + l1;
-  wire [{sbw1}:0] a10 = rb1 + l0, a11 = rb1 + l1;
-  reg [{v1}:0] q00, q01, q10, q11;
-  always @(posedge clk) begin
-    q00 <= sb0[a00[{sbw1}:0]];
-    q01 <= sb0[a01[{sbw1}:0]];
-    q10 <= sb1[a10[{sbw1}:0]];
-    q11 <= sb1[a11[{sbw1}:0]];
-  end
-  reg p0, p1, h1;
-  reg [{e1}:0] te;
-  always @(posedge clk) begin
-    if (rst) begin
-      p0 <= 1'b0;
-      p1 <= 1'b0;
-      h1 <= 1'b0;
-      te <= 0;
-      tap_valid <= 1'b0;
-    end else begin
-      p0 <= ty0[0];
-      p1 <= ty1[0];
-      h1 <= held1;
-      te <= {edge};
-      tap_valid <= {tv};
-    end
-  end
-  assign tap_v00 = p0 ? q10 : q00;
-  assign tap_v10 = p1 ? q10 : q00;
-  assign tap_v01 = h1 ? (p0 ? q11 : q01) : te[{v1}:0];
-  assign tap_v11 = h1 ? (p1 ? q11 : q01) : te[{e1}:{v}];",
-        x0r = range(port("x0")?.word.bits, true),
-        yb1 = yb - 1,
-        v1 = v - 1,
-        sbw1 = sbw - 1,
-        y0 = at("y0"),
-        y1 = at("y1"),
-        z = at("z"),
-        edge = at("edge"),
-        tv = at("tv"),
-        locals = super::pe_columns_rtl::tap_columns(s),
-        rb0 = super::pe_columns_rtl::times(stored, "rw0"),
-        rb1 = super::pe_columns_rtl::times(stored, "rw1"),
-    );
-    regs += 3 + u64::from(2 * v) + 1 + 4 * u64::from(v);
+    // Delay lines to the tap stage, and the taps.
+    let x0r = range(port("x0")?.word.bits, true);
+    let mut regs = super::pe_taps_rtl::tap_stage(w, s, &x0r, sx);
     regs += super::pe_columns_rtl::edge_register(w, s);
     regs += super::pe_carry_rtl::address_line(w, ab, depth);
     let out_fields: Vec<String> = ["acc_out_a", "acc_out_b", "acc_out_g", "acc_out_r"]
@@ -550,15 +448,19 @@ module {MODULE} (
     if s.termination.is_some() {
         regs += super::pe_carry_rtl::termination_line(w, s, depth);
     }
-    // rem, the pick's, k_row, rq0/rq1, iss_valid, a_valid, iss_m, s_addr,
-    // s_z, s_y0/s_y1, fw_v/fw_a/fw_d, and the held range (map_lo, map_n,
-    // map_sl).
+    // rem, the pick's, k_row, rq0/rq1, iss_valid, a_valid, s_addr, s_z,
+    // s_y0/s_y1, fw_v/fw_a/fw_d, the held range (map_lo, map_n, map_sl),
+    // and under a round-robin mapping iss_m (else a sum of the pick's).
     regs += slots
         + super::pe_columns_rtl::pick_registers(s).1
         + u64::from(rb)
         + 2 * u64::from(bw)
         + 2
-        + u64::from(m.word.bits)
+        + if s.round_robin {
+            u64::from(m.word.bits)
+        } else {
+            0
+        }
         + u64::from(ab)
         + 1
         + 2 * u64::from(yb)

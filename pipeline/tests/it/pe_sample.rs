@@ -410,3 +410,24 @@ fn lints_and_synthesizes(c: &PipelineConfig, dp: &PipelinedModule) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// A right tap read at the left tap's column (the registered row base's
+/// `+ 1` form left out of its address) is caught at a tap word.
+#[test]
+fn a_right_tap_read_at_the_left_column_is_caught() {
+    let Some(r) = icarus_mutant(
+        "the sample stage mutation in Icarus",
+        &cfg(2),
+        ("sphere:24", [16.0, 10.0, -60.0], 16),
+        None,
+        (
+            "a01 = lo1 ? rl0 : hi1 ? rh0 : rp0 + x0_a;",
+            "a01 = lo1 ? rl0 : hi1 ? rh0 : rl0 + x0_a;",
+        ),
+    ) else {
+        return;
+    };
+    let m = r.outcome.first.as_ref().expect("a mismatch");
+    assert_eq!(m.signal, "v01", "{m}");
+    assert!(!r.problems().is_empty());
+}

@@ -231,9 +231,10 @@ fn tree_levels(inputs: u64) -> u32 {
 /// [`crate::cost::sample_stage::control_logic`] prices its statements):
 /// the plan FIFO's block-RAM read, the head's bypass and the row's bits
 /// (two LUT levels), the one-hot pick's carry chain over the slots and its
-/// AND, the index's OR tree (a LUT4 level per four inputs) and the ray
-/// `map_lo + idx` (a multiplexer tree over the column map under a
-/// round-robin mapping) into the issue's registers. The other path of the
+/// AND and the index's OR tree (a LUT4 level per four inputs) into the
+/// pick's registers; under a round-robin mapping also the column map's
+/// ray index at that index (a multiplexer tree), where under column
+/// blocks the issue's clock adds `k_lo + k_idx`. The other path of the
 /// issue, the buffer's address in the issue's clock ([`address_path`]),
 /// starts at a register and holds no carry chain over the slots: the
 /// pick is the longer (`the_pick_is_the_issues_longer_path`).
@@ -242,7 +243,7 @@ pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
     let mx = if s.round_robin {
         Path::luts(tree_levels(n))
     } else {
-        Path::chain(s.index_bits)
+        Path::default()
     };
     Path {
         brams: 1.0,
@@ -276,10 +277,13 @@ pub fn address_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
 /// (its arrival in [`crate::cost::latency::sample_schedule`]'s stage, the
 /// output's valid gate), then the PE's logic into the slice buffer's read
 /// ports (`crate::hw::pe_sample_rtl`'s tap stage, as
-/// [`crate::cost::sample_stage::control_logic`] prices it): `x0 + 1`, its
-/// clamp into the volume (a compare chain and a select), the local column
-/// (`c - col_lo`; the column decoder's read under a round-robin mapping)
-/// and the bank row's base plus the column.
+/// [`crate::cost::sample_stage::control_logic`] prices it). Under column
+/// blocks the row base less `col_lo` is a register, so an address is the
+/// adder from `x0` beside the clamp's compare, then the select between
+/// the sum and a clamped column's registered form. Under a round-robin
+/// mapping: `x0 + 1`, its clamp into the volume (a compare chain and a
+/// select), the column decoder's read and the bank row's base plus the
+/// local column.
 pub fn tap_path(
     cfg: &PipelineConfig,
     s: &crate::hw::pe_sample_rtl::PeSampleShape,
@@ -290,22 +294,18 @@ pub fn tap_path(
     let sch = crate::cost::latency::sample_schedule(cfg);
     let x0 = g.outputs.iter().find(|o| o.0 == "x0")?.1;
     let xb = g.word(x0).bits;
-    let local = if s.round_robin {
-        Path::luts(tree_levels(s.nx))
+    let ab = crate::cost::inventory::addr_bits(s.bank_words());
+    let pe = if s.round_robin {
+        Path::luts(1)
+            .then(Path::chain(xb + 1))
+            .then(Path::chain(xb + 1))
+            .then(Path::luts(1))
+            .then(Path::luts(tree_levels(s.nx)))
+            .then(Path::chain(ab))
     } else {
-        Path::chain(s.col_bits() + 1)
+        Path::chain(ab.max(xb + 1)).then(Path::luts(1))
     };
-    Some(
-        arrivals(&g, &sch, t, &model)[x0.0]
-            .then(Path::luts(1))
-            .then(Path::chain(xb + 1))
-            .then(Path::chain(xb + 1))
-            .then(Path::luts(1))
-            .then(local)
-            .then(Path::chain(crate::cost::inventory::addr_bits(
-                s.bank_words(),
-            ))),
-    )
+    Some(arrivals(&g, &sch, t, &model)[x0.0].then(pe))
 }
 
 /// The clock `ercube cost` quotes as predicted for `geo` on `t`: the
