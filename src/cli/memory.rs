@@ -139,8 +139,7 @@ impl Limits {
         static LAST: Mutex<Option<(Instant, Limits)>> = Mutex::new(None);
         if let Ok(last) = LAST.lock() {
             if let Some((at, l)) = *last {
-                let room = l.tightest().map_or(UNKNOWN_AVAILABLE, |(b, _)| b);
-                if at.elapsed() < RECENT_FOR && need <= u128::from(room) / RECENT_SHARE {
+                if l.stands_in(at.elapsed(), need) {
                     return l;
                 }
             }
@@ -150,6 +149,13 @@ impl Limits {
             *last = Some((Instant::now(), l));
         }
         l
+    }
+
+    /// Whether this reading, `age` old, stands in for a new one for a
+    /// frame needing `need` bytes ([`Limits::recent`]).
+    fn stands_in(&self, age: Duration, need: u128) -> bool {
+        let room = self.tightest().map_or(UNKNOWN_AVAILABLE, |(b, _)| b);
+        age < RECENT_FOR && need <= u128::from(room) / RECENT_SHARE
     }
 
     /// The tightest limit and its name, if any is known.
@@ -419,6 +425,29 @@ mod tests {
         // This process's own limits read as positive figures.
         let own = Limits::read();
         assert!(own.available.is_none_or(|b| b > 0));
+    }
+
+    #[test]
+    fn a_reading_stands_in_only_when_recent_and_far_from_the_frame_need() {
+        let l = Limits {
+            available: Some(8 << 30),
+            address_space: None,
+            data: None,
+            cgroup: Some(4 << 30),
+        };
+        let young = Duration::from_millis(200);
+        // The room is the cgroup's 4 GiB: an eighth of it is 512 MiB.
+        assert!(l.stands_in(young, 512 << 20));
+        assert!(!l.stands_in(young, (512 << 20) + 1));
+        assert!(!l.stands_in(RECENT_FOR, 1));
+        // Nothing read: the assumed memory is the room.
+        let none = Limits {
+            available: None,
+            cgroup: None,
+            ..l
+        };
+        assert!(none.stands_in(young, u128::from(UNKNOWN_AVAILABLE) / 8));
+        assert!(!none.stands_in(young, u128::from(UNKNOWN_AVAILABLE) / 8 + 1));
     }
 
     #[test]
