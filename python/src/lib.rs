@@ -472,11 +472,11 @@ fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py
         },
         Value::String(t) => pyo3::types::PyString::new(py, t).into_any(),
         Value::Array(items) => {
-            let list = PyList::empty(py);
-            for x in items {
-                list.append(json_value(py, x)?)?;
-            }
-            list.into_any()
+            let items = items
+                .iter()
+                .map(|x| json_value(py, x))
+                .collect::<PyResult<Vec<_>>>()?;
+            PyList::new(py, items)?.into_any()
         }
         Value::Object(map) => {
             let d = PyDict::new(py);
