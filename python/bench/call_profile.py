@@ -8,8 +8,11 @@ er-ftb) on T threads (default 1), after 3 warm-up calls, then attributes
 each sample taken between the first and the last call to the first part in
 PARTS a frame of its stack names (the frame's own time, `time_s`, first).
 Prints each part's CPU time a call, in ms: the samples over the sampling
-rate and the calls; their sum outside the frame leaves out the pool's idle
-workers, which spin beside the call rather than in its way. Needs perf; the wheel's debug line tables name the
+rate and the calls; their sum outside the frame leaves out the pool's
+other workers, which spin beside the call rather than in its way. At one
+thread that is all they do; with more, the work they take from the frame
+or the comparison is counted with them (their stacks start in the pool),
+so the figures are for one thread. Needs perf; the wheel's debug line tables name the
 Rust functions.
 """
 
@@ -30,15 +33,15 @@ PARTS = [
     ("preparing the kept stack for the camera", ["Reuse::prepared", "Prepared::moved", "Prepared::place"]),
     ("transfer function and camera", ["load_given"]),
     ("flags", ["ercube::frame::parse", "clap"]),
+    ("statistics dict", ["json_value", "pythonize"]),
     ("statistics (JSON values)", ["frame_json", "serde_json"]),
-    ("statistics dict", ["json_value"]),
     ("image to numpy", ["image_array", "Pixels"]),
     ("array from numpy", ["Input::of", "Input::ready", "Input>::of", "Input>::ready"]),
     ("progress display", ["indicatif", "progress::Stage"]),
     ("rest of the golden frame", ["frame_golden"]),
     ("hand-off to the pool", ["with_threads", "frame_reusing", "render_borrowed", "detach", "LockLatch"]),
     ("rest of the call", ["ercube_python"]),
-    ("idle workers", ["wait_until_cold", "Sleep::", "ThreadBuilder::run"]),
+    ("other workers", ["wait_until_cold", "Sleep::", "ThreadBuilder::run"]),
 ]
 
 
@@ -102,11 +105,11 @@ def main():
     outside = 0.0
     for p in [p for p, _ in PARTS] + ["other (Python)"]:
         ms = counts[p] / HZ / n * 1e3
-        # Idle workers spin beside the call, not in its way.
-        if p not in ("the frame (time_s)", "idle workers"):
+        # The other workers spin beside the call, not in its way.
+        if p not in ("the frame (time_s)", "other workers"):
             outside += ms
         print(f"| {p} | {ms:.3f} |")
-    print(f"| outside the frame (the idle workers apart) | {outside:.3f} |")
+    print(f"| outside the frame (the other workers apart) | {outside:.3f} |")
 
 
 if __name__ == "__main__":

@@ -312,9 +312,9 @@ impl<'py> Input<'py> {
         }
         // SAFETY: `_array` is a C-contiguous, aligned numpy array of
         // `count` elements of this type, alive as long as `self`, whose
-        // buffer starts at `address` (`__array_interface__`); numpy does
-        // not resize an array while another reference to it (this one)
-        // exists.
+        // buffer starts at `address` (`__array_struct__` or
+        // `__array_interface__`); numpy does not resize an array while
+        // another reference to it (this one) exists.
         unsafe {
             if self.u16 {
                 VoxelsRef::U16(std::slice::from_raw_parts(
