@@ -17,8 +17,9 @@ use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser};
 
 use golden::volume::{Volume, Voxels};
+use rayon::prelude::*;
 
-use crate::cli::args::SourceArgs;
+use crate::cli::args::{with_threads, SourceArgs};
 use crate::cli::cosim_frame::{setup_given, FrameArgs};
 use crate::cli::render::{self, RenderArgs};
 
@@ -94,30 +95,21 @@ const FILE_FLAGS: [(&str, &str); 5] = [
     ("baseplane_npy", "--baseplane-npy"),
 ];
 
-/// The flags `words` as clap matches them: the last call's matches again
-/// when `words` are the last call's (matching is a function of the words
-/// alone; a caller rendering frame after frame with the same flags, as the
-/// Python module's loops do, skips building clap's command and matching).
-fn matches(words: Vec<String>) -> Result<clap::ArgMatches, Error> {
-    static LAST: std::sync::Mutex<Option<(Vec<String>, clap::ArgMatches)>> =
-        std::sync::Mutex::new(None);
+/// Parses `ercube render`'s flags `words`: the last call's arguments
+/// again when `words` are the last call's (parsing is a function of the
+/// words alone; a caller rendering frame after frame with the same flags,
+/// as the Python module's loops do, skips building clap's command,
+/// matching and converting).
+fn parse_words(words: Vec<String>) -> Result<RenderArgs, Error> {
+    static LAST: std::sync::Mutex<Option<(Vec<String>, RenderArgs)>> = std::sync::Mutex::new(None);
     if let Ok(last) = LAST.lock() {
-        if let Some((_, m)) = last.as_ref().filter(|(w, _)| *w == words) {
-            return Ok(m.clone());
+        if let Some((_, a)) = last.as_ref().filter(|(w, _)| *w == words) {
+            return Ok(a.clone());
         }
     }
     let m = RenderCommand::command()
         .try_get_matches_from(&words)
         .map_err(|e| Error::usage(&e))?;
-    if let Ok(mut last) = LAST.lock() {
-        *last = Some((words, m.clone()));
-    }
-    Ok(m)
-}
-
-/// Parses `ercube render`'s flags `args`.
-pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RenderArgs, Error> {
-    let m = matches(args.iter().map(|s| s.as_ref().to_string()).collect())?;
     for (id, flag) in FILE_FLAGS {
         if m.value_source(id) == Some(ValueSource::CommandLine) {
             return Err(Error {
@@ -126,8 +118,18 @@ pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RenderArgs, Error> {
             });
         }
     }
-    let c = RenderCommand::from_arg_matches(&m).map_err(|e| Error::usage(&e))?;
-    Ok(c.args)
+    let a = RenderCommand::from_arg_matches(&m)
+        .map_err(|e| Error::usage(&e))?
+        .args;
+    if let Ok(mut last) = LAST.lock() {
+        *last = Some((words, a.clone()));
+    }
+    Ok(a)
+}
+
+/// Parses `ercube render`'s flags `args`.
+pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RenderArgs, Error> {
+    parse_words(args.iter().map(|s| s.as_ref().to_string()).collect())
 }
 
 /// Renders the frame `ercube render ARGS` renders, of `volume` when it is
@@ -171,11 +173,12 @@ pub enum VoxelsRef<'a> {
 }
 
 impl VoxelsRef<'_> {
-    /// Whether `v` holds these voxels, value for value and of the same type.
+    /// Whether `v` holds these voxels, value for value and of the same type
+    /// (compared in slabs across the current thread pool's workers).
     fn equals(self, v: &Voxels) -> bool {
         match (self, v) {
-            (VoxelsRef::U8(a), Voxels::U8(b)) => a == b.as_slice(),
-            (VoxelsRef::U16(a), Voxels::U16(b)) => a == b.as_slice(),
+            (VoxelsRef::U8(a), Voxels::U8(b)) => same(a, b),
+            (VoxelsRef::U16(a), Voxels::U16(b)) => same(a, b),
             _ => false,
         }
     }
@@ -187,6 +190,16 @@ impl VoxelsRef<'_> {
             VoxelsRef::U16(a) => Voxels::U16(a.to_vec()),
         }
     }
+}
+
+/// `a == b`, in slabs of 256 KiB or more compared in parallel: a
+/// comparison of memory, bound by its bandwidth, which more cores share.
+fn same<T: PartialEq + Sync>(a: &[T], b: &[T]) -> bool {
+    let slab = (256 << 10) / std::mem::size_of::<T>().max(1);
+    a.len() == b.len()
+        && a.par_chunks(slab)
+            .zip(b.par_chunks(slab))
+            .all(|(x, y)| x == y)
 }
 
 /// [`render_reusing`] of a volume the caller holds: `dims` (x, y, z),
@@ -205,23 +218,34 @@ pub fn render_borrowed<S: AsRef<str>>(
 ) -> Result<Rendered, Error> {
     let mut a = parse(args)?;
     a.pipeline.cfg.toml = config.map(str::to_string);
-    let kept = if a.view.keeps_given() {
-        reuse.lend_if(|v| v.dims() == dims && v.spacing() == spacing && voxels.equals(v.voxels()))
-    } else {
-        None
-    };
-    let vol = match kept {
-        Some(v) => v,
-        None => Volume::from_voxels(dims, voxels.to_voxels())
-            .and_then(|v| v.with_spacing(spacing))
-            .map_err(|e| Error {
-                usage: false,
-                message: e.to_string(),
-            })?,
-    };
-    let r = render::frame_reusing(&a, Some(vol), Some(reuse));
+    // The comparison runs on the frame's pool (the frame's own
+    // `with_threads` then runs in place), its slabs across the workers.
+    let r = with_threads(a.threads, || {
+        let kept = if a.view.keeps_given() {
+            reuse.lend_if(|v| {
+                v.dims() == dims && v.spacing() == spacing && voxels.equals(v.voxels())
+            })
+        } else {
+            None
+        };
+        let vol = match kept {
+            Some(v) => v,
+            None => match Volume::from_voxels(dims, voxels.to_voxels())
+                .and_then(|v| v.with_spacing(spacing))
+            {
+                Ok(v) => v,
+                Err(e) => {
+                    return Ok(Err(Error {
+                        usage: false,
+                        message: e.to_string(),
+                    }))
+                }
+            },
+        };
+        Ok(render::frame_reusing(&a, Some(vol), Some(&mut *reuse)).map_err(|e| Error::run(&e)))
+    });
     reuse.end_loan();
-    r.map_err(|e| Error::run(&e))
+    r.map_err(|e| Error::run(&e))?
 }
 
 /// A pipeline frame stepped one clock at a time: what the stepper's

@@ -13,7 +13,9 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyByteArray, PyDict, PyList, PyTuple};
+use pyo3::types::{PyByteArray, PyCapsule, PyDict, PyList, PyTuple};
+
+use std::ffi::{c_char, c_int};
 
 use std::sync::Mutex;
 
@@ -152,6 +154,39 @@ fn voxels_array<'py>(py: Python<'py>, v: &Volume) -> PyResult<Bound<'py, PyAny>>
     }
 }
 
+/// numpy's `PyArrayInterface`: the C struct of the array interface
+/// protocol (version 3), which `__array_struct__` hands over in a capsule.
+#[repr(C)]
+struct ArrayInterface {
+    /// 2, always.
+    two: c_int,
+    /// The number of dimensions.
+    nd: c_int,
+    /// The kind of element: `b'u'` for an unsigned integer.
+    typekind: c_char,
+    /// Bytes an element.
+    itemsize: c_int,
+    /// `C_CONTIGUOUS`, `ALIGNED`, `NOT_SWAPPED`, ...
+    flags: c_int,
+    /// `nd` extents, slowest first.
+    shape: *const isize,
+    /// `nd` strides in bytes.
+    strides: *const isize,
+    /// The first element.
+    data: *mut std::ffi::c_void,
+    /// A description of the elements (unused here).
+    descr: *mut std::ffi::c_void,
+}
+
+impl ArrayInterface {
+    /// The elements lie in C order without gaps.
+    const C_CONTIGUOUS: c_int = 0x1;
+    /// The data is aligned for its element type.
+    const ALIGNED: c_int = 0x100;
+    /// The elements are in the machine's byte order.
+    const NOT_SWAPPED: c_int = 0x200;
+}
+
 /// A numpy array's voxels, borrowed: the array, C-contiguous and aligned
 /// (`numpy.require`; an array that already is one is not copied), held so
 /// its buffer stays alive while the voxels are read, and where that buffer
@@ -210,37 +245,54 @@ impl<'py> Input<'py> {
 
     /// `voxels` when it is a numpy array that `numpy.require` would return
     /// as it is (3-D, C-contiguous, aligned, uint8 or native uint16), read
-    /// from its `__array_interface__` alone; `None` for anything else,
-    /// which [`Input::of`] converts or refuses.
+    /// from its `__array_struct__` alone (one capsule: no dict, tuple or
+    /// string is made, as `__array_interface__` makes them); `None` for
+    /// anything else, which [`Input::of`] converts or refuses.
     fn ready(voxels: &Bound<'py, PyAny>) -> PyResult<Option<Input<'py>>> {
         let py = voxels.py();
-        if !voxels.is_instance(&numpy(py)?.getattr("ndarray")?)? {
+        static NDARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+        let ndarray = NDARRAY.get_or_try_init(py, || {
+            Ok::<_, PyErr>(numpy(py)?.getattr("ndarray")?.unbind())
+        })?;
+        if !voxels.is_instance(ndarray.bind(py))? {
             return Ok(None);
         }
-        let ai = voxels.getattr("__array_interface__")?;
-        if !ai.get_item("strides")?.is_none() {
+        let Ok(capsule) = voxels
+            .getattr(pyo3::intern!(py, "__array_struct__"))?
+            .cast_into::<PyCapsule>()
+        else {
             return Ok(None);
-        }
-        let native = if cfg!(target_endian = "little") {
-            "<u2"
-        } else {
-            ">u2"
         };
-        let u16 = match ai.get_item("typestr")?.extract::<String>()?.as_str() {
-            "|u1" => false,
-            t if t == native => true,
+        let p = capsule.pointer_checked(None)?;
+        // SAFETY: numpy's `__array_struct__` is a capsule holding a
+        // `PyArrayInterface` (numpy's array interface protocol, the C
+        // struct `ArrayInterface` mirrors), alive with the capsule, whose
+        // `shape` points at `nd` dimensions; the capsule is held here.
+        let ai = unsafe { &*(p.as_ptr() as *const ArrayInterface) };
+        let want =
+            ArrayInterface::C_CONTIGUOUS | ArrayInterface::ALIGNED | ArrayInterface::NOT_SWAPPED;
+        if ai.two != 2 || ai.nd != 3 || ai.typekind != b'u' as c_char || ai.flags & want != want {
+            return Ok(None);
+        }
+        let u16 = match ai.itemsize {
+            1 => false,
+            2 => true,
             _ => return Ok(None),
         };
-        let shape: Vec<usize> = ai.get_item("shape")?.extract()?;
-        let (address, _readonly): (usize, bool) = ai.get_item("data")?.extract()?;
-        if shape.len() != 3 || (u16 && address % 2 != 0) {
+        // SAFETY: as above; `nd` is 3.
+        let shape: [isize; 3] = unsafe { [*ai.shape, *ai.shape.add(1), *ai.shape.add(2)] };
+        let Ok(shape) = shape
+            .map(usize::try_from)
+            .into_iter()
+            .collect::<Result<Vec<_>, _>>()
+        else {
             return Ok(None);
-        }
+        };
         Ok(Some(Input {
             _array: voxels.clone(),
             dims: [shape[2], shape[1], shape[0]],
             u16,
-            address,
+            address: ai.data as usize,
             count: shape.iter().product(),
         }))
     }
@@ -260,9 +312,9 @@ impl<'py> Input<'py> {
         }
         // SAFETY: `_array` is a C-contiguous, aligned numpy array of
         // `count` elements of this type, alive as long as `self`, whose
-        // buffer starts at `address` (`__array_interface__`); numpy does
-        // not resize an array while another reference to it (this one)
-        // exists.
+        // buffer starts at `address` (`__array_struct__` or
+        // `__array_interface__`); numpy does not resize an array while
+        // another reference to it (this one) exists.
         unsafe {
             if self.u16 {
                 VoxelsRef::U16(std::slice::from_raw_parts(
@@ -394,13 +446,45 @@ fn outputs(py: Python<'_>, mut r: ercube::frame::Rendered, with_raw: bool) -> Py
         Some((w, h, words)) => Some(array(py, words.as_flattened(), &[h, w, 4], "int64")?),
         None => None,
     };
-    let stats = pythonize::pythonize(py, &r.stats)
-        .map_err(|e| Error::new_err(format!("the statistics: {e}")))?;
+    let stats = json_value(py, &r.stats)?;
     let im = std::mem::replace(&mut r.image, golden::image::Image::new(0, 0));
     Ok(Out {
         image: image_array(py, im)?,
         raw,
         stats,
+    })
+}
+
+/// A JSON value as the Python object `json.loads` makes of it: a dict
+/// (keys in the map's order), list, str, int, float, bool or None.
+/// Built directly from the value: a frame's statistics (some 130
+/// values) convert in a few microseconds.
+fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    use serde_json::Value;
+    Ok(match v {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => pyo3::types::PyBool::new(py, *b).to_owned().into_any(),
+        Value::Number(n) => match (n.as_u64(), n.as_i64()) {
+            (Some(u), _) => u.into_pyobject(py)?.into_any(),
+            (None, Some(i)) => i.into_pyobject(py)?.into_any(),
+            // serde_json's floats are finite.
+            _ => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
+        },
+        Value::String(t) => pyo3::types::PyString::new(py, t).into_any(),
+        Value::Array(items) => {
+            let items = items
+                .iter()
+                .map(|x| json_value(py, x))
+                .collect::<PyResult<Vec<_>>>()?;
+            PyList::new(py, items)?.into_any()
+        }
+        Value::Object(map) => {
+            let d = PyDict::new(py);
+            for (k, x) in map {
+                d.set_item(k, json_value(py, x)?)?;
+            }
+            d.into_any()
+        }
     })
 }
 

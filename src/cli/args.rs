@@ -148,6 +148,13 @@ impl SourceArgs {
         Budget::new(self.max_memory)
     }
 
+    /// The memory a frame estimated to need `need` bytes may take
+    /// ([`Budget::for_need`]: a recent reading of the limits serves a
+    /// frame far within them).
+    pub fn budget_for(&self, need: u128) -> Budget {
+        Budget::for_need(self.max_memory, need)
+    }
+
     /// A scene's dimensions and voxel type, known before it is built
     /// (`None` for a file, whose header says).
     pub fn scene_shape(&self) -> Result<Option<([usize; 3], VoxelType)>> {
@@ -295,13 +302,13 @@ impl ViewArgs {
         spec: &FrameSpec,
         given: Option<Volume>,
     ) -> Result<(Volume, TransferFunction, Camera)> {
-        let budget = self.source.budget();
         let check = |dims: [usize; 3], kind: VoxelType| {
+            let need = frame_bytes(dims, kind, spec);
             let what = format!(
                 "the {method} frame of a {}x{}x{} {kind:?} volume",
                 dims[0], dims[1], dims[2]
             );
-            budget.check(&what, frame_bytes(dims, kind, spec))
+            self.source.budget_for(need).check(&what, need)
         };
         let (vol, tf, cam) = match given {
             Some(v) => {

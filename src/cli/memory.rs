@@ -11,6 +11,9 @@
 //! and its slice stack apart even where a view lays the stack in the
 //! volume's own buffer.
 
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
 use anyhow::{bail, Result};
 
 use golden::render::Technique;
@@ -23,6 +26,14 @@ const UNKNOWN_AVAILABLE: u64 = golden::volume::DEFAULT_MEMORY_LIMIT;
 /// frame takes besides the arrays [`frame_bytes`] counts (a 64^3 frame
 /// peaks at about 20 MB).
 const OVERHEAD: u128 = 64 << 20;
+
+/// How long a reading of the [`Limits`] may stand in for a new one
+/// ([`Limits::recent`]).
+const RECENT_FOR: Duration = Duration::from_secs(1);
+
+/// A reading stands in for a new one only for a frame needing at most
+/// this fraction (one over it) of the room the reading showed.
+const RECENT_SHARE: u128 = 8;
 
 /// Parses a byte count: a whole number of bytes, or a number with a binary
 /// suffix `K`, `M`, `G` or `T` (KiB, MiB, GiB, TiB; `1.5G` is allowed).
@@ -109,6 +120,44 @@ impl Limits {
         }
     }
 
+    /// The limits for a frame estimated to need `need` bytes: the last
+    /// reading when it is under [`RECENT_FOR`] old and `need` is at most
+    /// one [`RECENT_SHARE`]th of the room it showed, else a new reading
+    /// (kept for the next frame).
+    ///
+    /// A limit moves while the process runs (other processes take and give
+    /// back memory, a cgroup's usage moves, `prlimit` changes a ulimit), so
+    /// any reading is a snapshot that the frame's allocations follow. A
+    /// reading under a second old decides as a new one would unless seven
+    /// eighths of the room it showed went within that second; a frame
+    /// nearer its limits, and any frame a second later, reads them again.
+    /// Reading them takes about 0.1 ms (`/proc/meminfo` is generated on
+    /// each read, the cgroup's files are opened by path), which a caller
+    /// rendering frame after frame in one process (the Python module)
+    /// would otherwise pay on every frame.
+    pub fn recent(need: u128) -> Limits {
+        static LAST: Mutex<Option<(Instant, Limits)>> = Mutex::new(None);
+        if let Ok(last) = LAST.lock() {
+            if let Some((at, l)) = *last {
+                if l.stands_in(at.elapsed(), need) {
+                    return l;
+                }
+            }
+        }
+        let l = Limits::read();
+        if let Ok(mut last) = LAST.lock() {
+            *last = Some((Instant::now(), l));
+        }
+        l
+    }
+
+    /// Whether this reading, `age` old, stands in for a new one for a
+    /// frame needing `need` bytes ([`Limits::recent`]).
+    fn stands_in(&self, age: Duration, need: u128) -> bool {
+        let room = self.tightest().map_or(UNKNOWN_AVAILABLE, |(b, _)| b);
+        age < RECENT_FOR && need <= u128::from(room) / RECENT_SHARE
+    }
+
     /// The tightest limit and its name, if any is known.
     pub fn tightest(&self) -> Option<(u64, &'static str)> {
         [
@@ -183,13 +232,24 @@ impl Budget {
     /// `--max-memory` when given (but never past an address-space, data or
     /// cgroup limit), else the tightest of the process's [`Limits`].
     pub fn new(max_memory: Option<u64>) -> Budget {
+        Budget::under(max_memory, Limits::read())
+    }
+
+    /// [`Budget::new`] for a frame estimated to need `need` bytes, from
+    /// the [`Limits::recent`] for it.
+    pub fn for_need(max_memory: Option<u64>, need: u128) -> Budget {
+        Budget::under(max_memory, Limits::recent(need))
+    }
+
+    /// [`Budget::new`] under the limits `limits`.
+    fn under(max_memory: Option<u64>, limits: Limits) -> Budget {
         match max_memory {
             // The flag may go past the machine's free memory (swap, other
             // jobs ending) but not past a limit the kernel enforces.
             Some(bytes) => {
                 let hard = Limits {
                     available: None,
-                    ..Limits::read()
+                    ..limits
                 }
                 .tightest()
                 .filter(|&(h, _)| h < bytes);
@@ -207,7 +267,7 @@ impl Budget {
                 }
             }
             None => {
-                let (bytes, source) = Limits::read()
+                let (bytes, source) = limits
                     .tightest()
                     .unwrap_or((UNKNOWN_AVAILABLE, "assumed memory (no limit could be read)"));
                 Budget {
@@ -365,6 +425,29 @@ mod tests {
         // This process's own limits read as positive figures.
         let own = Limits::read();
         assert!(own.available.is_none_or(|b| b > 0));
+    }
+
+    #[test]
+    fn a_reading_stands_in_only_when_recent_and_far_from_the_frame_need() {
+        let l = Limits {
+            available: Some(8 << 30),
+            address_space: None,
+            data: None,
+            cgroup: Some(4 << 30),
+        };
+        let young = Duration::from_millis(200);
+        // The room is the cgroup's 4 GiB: an eighth of it is 512 MiB.
+        assert!(l.stands_in(young, 512 << 20));
+        assert!(!l.stands_in(young, (512 << 20) + 1));
+        assert!(!l.stands_in(RECENT_FOR, 1));
+        // Nothing read: the assumed memory is the room.
+        let none = Limits {
+            available: None,
+            cgroup: None,
+            ..l
+        };
+        assert!(none.stands_in(young, u128::from(UNKNOWN_AVAILABLE) / 8));
+        assert!(!none.stands_in(young, u128::from(UNKNOWN_AVAILABLE) / 8 + 1));
     }
 
     #[test]

@@ -7,29 +7,25 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// A running stage; cleared when dropped.
-pub struct Stage(ProgressBar);
+/// A running stage; cleared when dropped. `None` when nothing is drawn:
+/// a hidden bar would draw nothing, so none is made (a library caller's
+/// frames build no bar and parse no style each).
+pub struct Stage(Option<ProgressBar>);
 
 impl Stage {
     /// Starts showing `msg` with a spinner and elapsed time.
     pub fn start(msg: impl Into<String>) -> Stage {
-        let shown = std::io::stdout().is_terminal();
-        let bar = if shown {
-            ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
-        } else {
-            ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden())
-        };
+        if !std::io::stdout().is_terminal() {
+            return Stage(None);
+        }
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         bar.set_style(
             ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")
                 .unwrap_or_else(|_| ProgressStyle::default_spinner()),
         );
         bar.set_message(msg.into());
-        // The ticker is a thread; a hidden bar draws nothing, so it starts
-        // none (a library caller's frames start and join no thread each).
-        if shown {
-            bar.enable_steady_tick(Duration::from_millis(120));
-        }
-        Stage(bar)
+        bar.enable_steady_tick(Duration::from_millis(120));
+        Stage(Some(bar))
     }
 }
 
@@ -38,22 +34,28 @@ impl Stage {
     /// ([`Stage::inc`]) and the elapsed time.
     pub fn counted(msg: impl Into<String>, total: u64) -> Stage {
         let s = Stage::start(msg);
-        s.0.set_length(total);
-        s.0.set_style(
-            ProgressStyle::with_template("{spinner} {msg} {pos}/{len} [{elapsed}]")
-                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-        );
+        if let Some(bar) = &s.0 {
+            bar.set_length(total);
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} {msg} {pos}/{len} [{elapsed}]")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+        }
         s
     }
 
     /// One more step of a [`Stage::counted`] stage done.
     pub fn inc(&self) {
-        self.0.inc(1);
+        if let Some(bar) = &self.0 {
+            bar.inc(1);
+        }
     }
 }
 
 impl Drop for Stage {
     fn drop(&mut self) {
-        self.0.finish_and_clear();
+        if let Some(bar) = &self.0 {
+            bar.finish_and_clear();
+        }
     }
 }

@@ -24,7 +24,7 @@ pub use versus::Rays;
 use versus::{footprint_level_of, footprint_of, gaze_of, versus_full, versus_reference};
 
 /// Arguments of `ercube render`.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct RenderArgs {
     #[command(flatten)]
     pub view: ViewArgs,
