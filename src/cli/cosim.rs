@@ -366,7 +366,7 @@ impl Report<'_> {
             "  rtl: {MODULE} {} lines ({} clocks deep) x {} + {TOP} {} lines; {}; ran {} cycles after {} clocks of reset and table writes in {sim_s:.2} s ({:.0} clocks/s)",
             self.datapath_lines,
             s.module.depth,
-            s.cfg.pes,
+            o.pes.len(),
             self.tb_lines,
             if self.cached {
                 "build cached".to_owned()
