@@ -295,7 +295,11 @@ impl PreintUnit {
         let n = self.bins + 1;
         (usize::from(odd)..n)
             .step_by(2)
-            .flat_map(|r| self.table[r * n..(r + 1) * n].iter().map(move |w| w[ch].raw()))
+            .flat_map(|r| {
+                self.table[r * n..(r + 1) * n]
+                    .iter()
+                    .map(move |w| w[ch].raw())
+            })
             .collect()
     }
 

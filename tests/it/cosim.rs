@@ -337,7 +337,10 @@ fn cosim_refuses_what_is_not_emitted() {
     let d = dir.path();
     for (flag, needle) in [
         ("--preintegrate", "pre-integration"),
-        ("--preintegrate --pre-colouring exact", "fast colouring only"),
+        (
+            "--preintegrate --pre-colouring exact",
+            "fast colouring only",
+        ),
     ] {
         for cmd in [
             "cosim --simulator iverilog --stage pe --pes 2",

@@ -37,7 +37,10 @@ fn preint_passes(d: &Path, frame: &str, sim: &str, btf: bool) -> Value {
     let order = if btf { "" } else { " --order ftb" };
     let s = passes(d, &format!("{frame}{order} {sim}"));
     assert_eq!(s["model_latency"], s["rtl_depth"], "{frame}");
-    assert_eq!(s["cycles"], s["frame_cycles"], "{frame}: every cycle simulated");
+    assert_eq!(
+        s["cycles"], s["frame_cycles"],
+        "{frame}: every cycle simulated"
+    );
     let second = s["second_steps_compared"].as_u64().unwrap();
     if btf {
         // Slice 0's rays take their half step after their whole one.
@@ -102,7 +105,11 @@ fn preintegrated_frames_match_the_model_in_verilator() {
 /// 1 naming the first differing cycle, PE and accumulator with both words.
 #[test]
 fn a_mutated_preint_operator_is_caught() {
-    if !have("iverilog", "iverilog", "the pre-integrated cosim mutation test") {
+    if !have(
+        "iverilog",
+        "iverilog",
+        "the pre-integrated cosim mutation test",
+    ) {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

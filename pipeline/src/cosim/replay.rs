@@ -126,7 +126,10 @@ pub fn is_frame_port(name: &str) -> bool {
         input: Default::default(),
         out: Default::default(),
     };
-    ["shade_", "voi_", "pre_"].iter().any(|p| name.starts_with(p)) && word_of(&probe, name).is_none()
+    ["shade_", "voi_", "pre_"]
+        .iter()
+        .any(|p| name.starts_with(p))
+        && word_of(&probe, name).is_none()
 }
 
 /// `v`'s low `bits` bits as an unsigned word.

@@ -133,7 +133,13 @@ pub fn preint(cfg: &PipelineConfig) -> Graph {
     let k = g.input("scale", c.step);
     // A lead step's path is halved too: a select, no carry chain.
     let one_bit = g.constant("pre.half_one", 1, Word::unsigned(1, 0));
-    let half = g.mux("pre.half_path", lead, half_in, one_bit, Word::unsigned(1, 0));
+    let half = g.mux(
+        "pre.half_path",
+        lead,
+        half_in,
+        one_bit,
+        Word::unsigned(1, 0),
+    );
     let len = g.input("len", c.path);
 
     // 1. Table positions: the front's bin i, the back's j (a lead step's
