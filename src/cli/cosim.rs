@@ -302,10 +302,13 @@ impl Report<'_> {
         } else if o.mismatches() > 0 {
             v.push(format!("{} mismatches", o.mismatches()));
         }
+        let p = usize::from(self.s.cfg.pes);
         for (k, (pe, &n)) in o.pes.iter().zip(issued).enumerate() {
             if pe.issued != n || pe.left {
+                let what = if k < p { "samples" } else { "second steps" };
                 v.push(format!(
-                    "PE {k}: the RTL issued {} of the model's {n} samples",
+                    "PE {}: the RTL issued {} of the model's {n} {what}",
+                    k % p.max(1),
                     pe.issued
                 ));
             }
