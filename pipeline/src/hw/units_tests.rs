@@ -407,7 +407,7 @@ fn default_unit_shapes() {
     let want = [
         ("shading", 202, 59),
         ("voi", 97, 49),
-        ("preint", 152, 34),
+        ("preint", 155, 34),
         ("tents", 64, 3),
     ];
     let cfg = PipelineConfig::default();
