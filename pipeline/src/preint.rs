@@ -283,6 +283,26 @@ impl PreintUnit {
         self.bins
     }
 
+    /// The table scale `K` (`step`), the unit's per-frame port `scale`.
+    pub fn scale(&self) -> Fx {
+        self.scale
+    }
+
+    /// The raw words of channel `ch`'s even (`odd` false) or odd bank as
+    /// the described unit holds them ([`crate::hw::preint`]): the table's
+    /// rows of that parity, `bins + 1` words each.
+    pub fn bank_words(&self, ch: usize, odd: bool) -> Vec<i64> {
+        let n = self.bins + 1;
+        (usize::from(odd)..n)
+            .step_by(2)
+            .flat_map(|r| {
+                self.table[r * n..(r + 1) * n]
+                    .iter()
+                    .map(move |w| w[ch].raw())
+            })
+            .collect()
+    }
+
     /// The bin index and weight of sample `s` (step 1 of the module notes):
     /// positions at or above the last bin read it with weight 0 (the
     /// repeated row), as golden clamps.

@@ -143,6 +143,13 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     let untraced_s = t.elapsed().as_secs_f64();
     // The model again, each PE's issue stream written as it runs.
     let replay = Replay::new(s.module.clone(), latency)?;
+    // Back to front slice 0's rays composite two steps in one sample.
+    let replay = if s.units.preint && s.cfg.order == Order::BackToFront {
+        replay.with_second_steps()
+    } else {
+        replay
+    };
+    let lanes = p * replay.lanes;
     let run_dir = tempfile::Builder::new().prefix("ercube-cosim-").tempdir()?;
     let last_issue = a.max_cycles.unwrap_or(u64::MAX);
     let realign = (latency != depth).then_some(depth);
@@ -165,11 +172,11 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         st.finish()?;
         (st.issued.clone(), st.last_land)
     };
-    let samples: u64 = issued.iter().sum();
+    let samples: u64 = issued[..p].iter().sum();
     let frame_end = a.max_cycles.map_or(plain.cycles, |m| m.min(plain.cycles));
     let cycles = frame_end.max(last_land);
     // The RTL: built once per text, run on the streams.
-    let tb = replay.testbench(p);
+    let tb = replay.testbench(lanes);
     let sources = [
         (format!("{MODULE}.v"), datapath),
         (format!("{TOP}.v"), tb.as_str()),
@@ -184,7 +191,11 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     }
     let (text, sim_s) =
         run_sim(&built, run_dir.path(), &args).map_err(|e| anyhow!("cosim: {e}"))?;
-    let o = parse(&replay, p, &text);
+    let mut o = parse(&replay, lanes, &text);
+    if let Some(m) = o.first.as_mut().filter(|m| m.pe >= p && m.pe < lanes) {
+        m.pe -= p;
+        m.signal = format!("{} (the second step)", m.signal);
+    }
     let readout = readout
         .lock()
         .map_err(|_| anyhow!("cosim: capture poisoned"))?;
@@ -291,10 +302,13 @@ impl Report<'_> {
         } else if o.mismatches() > 0 {
             v.push(format!("{} mismatches", o.mismatches()));
         }
+        let p = usize::from(self.s.cfg.pes);
         for (k, (pe, &n)) in o.pes.iter().zip(issued).enumerate() {
             if pe.issued != n || pe.left {
+                let what = if k < p { "samples" } else { "second steps" };
                 v.push(format!(
-                    "PE {k}: the RTL issued {} of the model's {n} samples",
+                    "PE {}: the RTL issued {} of the model's {n} {what}",
+                    k % p.max(1),
                     pe.issued
                 ));
             }
@@ -310,6 +324,14 @@ impl Report<'_> {
         v
     }
 
+    /// Write-backs compared: the samples' (each PE's first datapath) and
+    /// the second steps' ([`Replay::lanes`]).
+    fn checked(&self) -> [u64; 2] {
+        let p = usize::from(self.s.cfg.pes).min(self.o.pes.len());
+        let (a, b) = self.o.pes.split_at(p);
+        [a, b].map(|l| l.iter().map(|x| x.checked).sum())
+    }
+
     fn lines(&self) -> Vec<String> {
         let (s, o) = (self.s, self.o);
         let [untraced, capture, build_s, sim_s] = self.times;
@@ -317,8 +339,9 @@ impl Report<'_> {
             Order::BackToFront => "back to front",
             Order::FrontToBack => "front to back",
         };
+        let [checked, second] = self.checked();
         let mut v = vec![format!(
-            "cosim: {}, {} PEs, {order}, {}: {} cycles{}, {} samples, {} write-backs compared, {} mismatches",
+            "cosim: {}, {} PEs, {order}, {}: {} cycles{}, {} samples, {checked} write-backs compared{}, {} mismatches",
             s.label,
             s.cfg.pes,
             self.sim.tool(),
@@ -329,7 +352,11 @@ impl Report<'_> {
                 format!(" (of the frame's {})", self.frame_cycles)
             },
             self.samples,
-            o.checked(),
+            if o.pes.len() > usize::from(s.cfg.pes) {
+                format!(", {second} second steps compared (slice 0's half step, in each PE's second datapath)")
+            } else {
+                String::new()
+            },
             o.mismatches()
         )];
         v.push(format!(
@@ -342,7 +369,7 @@ impl Report<'_> {
             "  rtl: {MODULE} {} lines ({} clocks deep) x {} + {TOP} {} lines; {}; ran {} cycles after {} clocks of reset and table writes in {sim_s:.2} s ({:.0} clocks/s)",
             self.datapath_lines,
             s.module.depth,
-            s.cfg.pes,
+            o.pes.len(),
             self.tb_lines,
             if self.cached {
                 "build cached".to_owned()
@@ -368,7 +395,8 @@ impl Report<'_> {
             "cycles": self.cycles,
             "max_cycles": self.a.max_cycles,
             "samples": self.samples,
-            "write_backs_compared": o.checked(),
+            "write_backs_compared": self.checked()[0],
+            "second_steps_compared": self.checked()[1],
             "mismatches": o.mismatches(),
             "first_mismatch": o.first.as_ref().map(|m| json!({
                 "cycle": m.cycle, "pe": m.pe, "signal": m.signal, "model": m.model, "rtl": m.rtl,

@@ -56,6 +56,8 @@ pub struct Setup {
     pub shade: Option<golden::shading::Shade>,
     /// The frame's volume of interest.
     pub voi: Option<golden::voi::Voi>,
+    /// The frame's pre-integrated table (`--preintegrate`).
+    pub preint: Option<golden::preint::PreTable>,
 }
 
 impl Setup {
@@ -72,6 +74,16 @@ impl Setup {
         .skips(self.skips)
         .shading(self.shade.as_ref())
         .voi(self.voi.as_ref())
+        .preint(self.preint.as_ref())
+    }
+
+    /// Refuses a pre-integrated frame in one line (as `cmd`): what does not
+    /// take the pre-integrated sample's ports yet.
+    pub fn refuse_preint(&self, cmd: &str, what: &str) -> Result<()> {
+        if self.units.preint {
+            bail!("{cmd}: pre-integration (--preintegrate) is not {what}; `ercube cosim` (the datapath stage) co-simulates it");
+        }
+        Ok(())
     }
 
     /// The model's write-back latency.
@@ -104,8 +116,11 @@ pub fn setup_given(
     }
     let opts = slice.options()?;
     chip::check_options(&opts)?;
-    if opts.slice.preintegrate {
-        bail!("{cmd}: pre-integration (--preintegrate) is not co-simulated: the stream does not capture its ports (the ray's previous sample, the half step, the table scale); the plain sample, shading and the volume of interest are");
+    if opts.slice.preintegrate && opts.slice.pre_colouring != golden::preint::Colouring::Fast {
+        bail!(
+            "{cmd}: --pre-colouring {}: the pre-integration unit is described (and emitted) for the fast colouring only",
+            opts.slice.pre_colouring.name()
+        );
     }
     let spec = FrameSpec {
         technique: None,
@@ -131,8 +146,14 @@ pub fn setup_given(
     let units = Units {
         lights,
         voi: opts.slice.voi.is_some(),
-        preint: false,
+        preint: opts.slice.preintegrate,
     };
+    // Golden's table from the classification table, which the unit
+    // quantises (as `ercube render --preintegrate`).
+    let preint = opts
+        .slice
+        .preintegrate
+        .then(|| golden::preint::PreTable::with_colouring(&lut, opts.slice.pre_colouring));
     // The schedule the model's latency is read from.
     let g = pipeline::hw::compose::sample(&cfg, units);
     let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
@@ -148,5 +169,6 @@ pub fn setup_given(
         units,
         shade: opts.slice.shade,
         voi: opts.slice.voi,
+        preint,
     })
 }

@@ -29,6 +29,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     }
     let sim = simulator(&a.simulator)?;
     let s = setup(&a.frame, "cosim")?;
+    s.refuse_preint("cosim --stage pe", "in the PE's sample stage (its pass broadcast, the ray's previous sample in the compositing buffer and slice 0's two steps in one sample are not emitted)")?;
     let t = Instant::now();
     let plain = s.frame().run()?;
     let untraced_s = t.elapsed().as_secs_f64();

@@ -36,6 +36,10 @@ pub const MODULE: &str = "ercube_sample";
 /// `--voi` spliced in).
 pub const COMPOSED: &str = "ercube_sample_composed";
 
+/// The pre-integrated datapath's module name (the sample with `--preint`'s
+/// unit in the classification's and the log table's place).
+pub const COMPOSED_PREINT: &str = "ercube_sample_preint";
+
 /// A unit's description from the configuration.
 type Builder = fn(&PipelineConfig) -> pipeline::hw::Graph;
 
@@ -142,6 +146,17 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         let g = pipeline::hw::compose::sample(&cfg, with);
         let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
         let u = emit_scheduled(&g, &sch, COMPOSED).map_err(|e| anyhow!("rtl: {COMPOSED}: {e}"))?;
+        units.push(u);
+    }
+    if a.preint {
+        let with = Units {
+            preint: true,
+            ..Units::default()
+        };
+        let g = pipeline::hw::compose::sample(&cfg, with);
+        let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
+        let u = emit_scheduled(&g, &sch, COMPOSED_PREINT)
+            .map_err(|e| anyhow!("rtl: {COMPOSED_PREINT}: {e}"))?;
         units.push(u);
     }
     // The sample stage around the plain datapath, at the depths the PE
@@ -290,7 +305,8 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
          (migrate, merge, split, fold), its line buffer and FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \
-         `--shading` or `--voi` the datapath with them composed (`{COMPOSED}`).\n"
+         `--shading` or `--voi` the datapath with them composed (`{COMPOSED}`), with `--preint` \
+         the datapath with the pre-integration unit (`{COMPOSED_PREINT}`).\n"
     );
     let _ = writeln!(w, "## Checking it\n");
     let _ = writeln!(
@@ -344,6 +360,11 @@ fn unit_section(m: &PipelinedModule) -> String {
         "the sample's description with the units given (`--shading`, built for one \
          light; `--voi`) spliced in as the model's PE runs them \
          (`pipeline::hw::compose`; `ercube cosim` checks it on frames with `--shade`, `--voi`)"
+            .to_owned()
+    } else if m.name == COMPOSED_PREINT {
+        "the sample's description with the pre-integration unit in the classification's and \
+         the log table's place (`pipeline::hw::compose`; `ercube cosim --preintegrate` checks \
+         it, back to front with a second copy a PE for slice 0's second step)"
             .to_owned()
     } else {
         format!(

@@ -69,6 +69,7 @@ pub fn run(a: &VectorsArgs) -> Result<()> {
         bail!("vectors: --pe is for --stage pe (the datapath's vectors hold every PE)");
     }
     let s = setup(&a.frame, "vectors")?;
+    s.refuse_preint("vectors", "written as vectors")?;
     let (first, last) = a.cycles.unwrap_or((1, u64::MAX));
     let rec = Arc::new(Mutex::new(Recorded::window(first, last).limit(MAX_SAMPLES)));
     let frame = s.frame().capture(rec.clone()).run()?;

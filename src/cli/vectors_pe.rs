@@ -50,6 +50,7 @@ pub fn run(a: &VectorsArgs) -> Result<()> {
         bail!("vectors --stage pe: --cycles is for the datapath's vectors (the PE's files run the whole frame: its memories carry state from the frame's start)");
     }
     let s = setup(&a.frame, "vectors")?;
+    s.refuse_preint("vectors --stage pe", "written as vectors")?;
     let pe = a.pe.unwrap_or(0);
     let st = stream(&s, pe)?;
     let (files, _) = files(&st);

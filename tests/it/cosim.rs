@@ -26,7 +26,7 @@ use crate::pe_vectors::{assert_rows_fit, passed_checks, replay};
 use crate::tools::have;
 
 /// The builds' cache, shared by the tests (and kept between runs).
-fn cache() -> PathBuf {
+pub(crate) fn cache() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cosim-cache")
 }
 
@@ -43,7 +43,7 @@ fn config(dir: &Path, name: &str, depth: u32, extra: &str) -> String {
 }
 
 /// Runs `ercube` with whitespace-separated `args` in `dir`.
-fn run(dir: &Path, args: &str) -> (Vec<String>, Output) {
+pub(crate) fn run(dir: &Path, args: &str) -> (Vec<String>, Output) {
     let args: Vec<String> = args.split_whitespace().map(String::from).collect();
     let out = ercube(dir, &args);
     (args, out)
@@ -52,7 +52,7 @@ fn run(dir: &Path, args: &str) -> (Vec<String>, Output) {
 /// Runs a cosim that must pass: 0 mismatches, every sample written back and
 /// compared, as many as the stats say; returns the stats.
 #[track_caller]
-fn passes(dir: &Path, args: &str) -> Value {
+pub(crate) fn passes(dir: &Path, args: &str) -> Value {
     let stats = dir.join("cosim.json");
     let _ = std::fs::remove_file(&stats);
     let full = format!(
@@ -328,14 +328,24 @@ fn a_mutated_shading_operator_is_caught() {
     assert_ne!(model, parts[3].trim_start_matches("RTL "), "{text}");
 }
 
-/// What the datapath's stream does not cover yet is refused in one line,
-/// before any simulator runs.
+/// What the streams do not cover yet is refused in one line, before any
+/// simulator runs: pre-integration in the PE's sample stage and as
+/// vectors, the exact colouring anywhere.
 #[test]
 fn cosim_refuses_what_is_not_emitted() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for (flag, needle) in [("--preintegrate", "pre-integration")] {
-        for cmd in ["cosim --simulator iverilog", "vectors --out-dir v"] {
+    for (flag, needle) in [
+        ("--preintegrate", "pre-integration"),
+        (
+            "--preintegrate --pre-colouring exact",
+            "fast colouring only",
+        ),
+    ] {
+        for cmd in [
+            "cosim --simulator iverilog --stage pe --pes 2",
+            "vectors --out-dir v",
+        ] {
             let args: Vec<String> = format!("{cmd} --scene ml:16 --size 8x8 {flag}")
                 .split_whitespace()
                 .map(String::from)

@@ -27,6 +27,7 @@ mod bench;
 mod bound;
 mod cli;
 mod cosim;
+mod cosim_preint;
 mod docs;
 mod explore;
 mod frame_rate;

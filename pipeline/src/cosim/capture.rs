@@ -70,6 +70,56 @@ pub struct UnitIn {
     pub y: i64,
     /// The slice index, port `voi_z`.
     pub z: i64,
+    /// The pre-integration unit's words (zero unless pre-integrating).
+    pub pre: PreIn,
+}
+
+/// The words a pre-integrated sample's unit takes
+/// ([`crate::hw::compose`]'s `pre.*` ports) for the step the datapath
+/// composites at issue, and, when the model's sample composites two
+/// (back to front, slice 0's step and then its half step), what the
+/// second step takes.
+///
+/// Golden twin: the pre-integrated branch of
+/// `golden::sampling::sample_region` (a step between two scalars, and
+/// slice 0's half step).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PreIn {
+    /// The ray's previous sample (raw `sample`), port `pre_prev`.
+    pub prev: i64,
+    /// The sample composites a step, port `pre_step` (a sample that only
+    /// keeps its scalar writes its accumulators back as they were).
+    pub step: bool,
+    /// The step is slice 0's half step at the sample, port `pre_lead`.
+    pub lead: bool,
+    /// The pass's step is half a slice step long (the last slice's, to
+    /// the volume's face), port `pre_half`.
+    pub half: bool,
+    /// A second step in the same sample: the accumulators after the first
+    /// (the second is the other kind: a lead step after a step between
+    /// two scalars, or the reverse), written back with the second's
+    /// result in [`Issue::out`].
+    pub then: Option<Acc>,
+}
+
+impl PreIn {
+    /// The two steps of `issue`, each as the datapath takes it: the first
+    /// written back with the accumulators between the steps, the second
+    /// reading them; `issue` itself when it composites at most one.
+    pub fn steps(issue: &Issue) -> (Issue, Option<Issue>) {
+        let p = issue.input.units.pre;
+        let Some(mid) = p.then else {
+            return (*issue, None);
+        };
+        let mut first = *issue;
+        first.out = mid;
+        first.input.units.pre.then = None;
+        let mut second = first;
+        second.input.acc = mid;
+        second.input.units.pre.lead = !p.lead;
+        second.out = issue.out;
+        (first, Some(second))
+    }
 }
 
 impl UnitIn {
@@ -304,7 +354,8 @@ impl Recorded {
 }
 
 /// The raw words of `dp`'s tables, named as the emitted module's
-/// ([`crate::hw::sample::MEMORIES`]).
+/// ([`crate::hw::sample::MEMORIES`], the shading unit's power table, the
+/// pre-integration unit's banks [`crate::hw::preint::bank_name`]).
 pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
     let t = dp.tables();
     let raw = |v: &[crate::fixed::Fx]| v.iter().map(|x| x.raw()).collect::<Vec<i64>>();
@@ -327,11 +378,21 @@ pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
             unit.power_words(),
         ));
     }
+    if let Some(unit) = &dp.preint {
+        for ch in 0..crate::hw::preint::CHANNELS.len() {
+            for odd in [false, true] {
+                v.push((
+                    crate::hw::preint::bank_name(ch, odd),
+                    unit.bank_words(ch, odd),
+                ));
+            }
+        }
+    }
     v
 }
 
 /// The per-frame ports of `dp`'s units, named as the composed module's
-/// ([`crate::hw::compose`]: `shade_ka`, `voi_centre_x`, ...), raw words;
+/// ([`crate::hw::compose`]: `shade_ka`, `voi_centre_x`, `pre_scale`, ...), raw words;
 /// none for the plain sample.
 pub fn frame_words(dp: &Datapath) -> Vec<(String, i64)> {
     let mut v = Vec::new();
@@ -349,6 +410,9 @@ pub fn frame_words(dp: &Datapath) -> Vec<(String, i64)> {
                 .into_iter()
                 .map(|(n, w)| (name("shade.", &n), w)),
         );
+    }
+    if let Some(unit) = &dp.preint {
+        v.push((name("pre.", "scale"), unit.scale().raw()));
     }
     v
 }

@@ -102,6 +102,10 @@ pub fn word_of(issue: &Issue, name: &str) -> Option<i64> {
         "acc_out_a" => issue.out.raw[3],
         "voi_y" => s.units.y,
         "voi_z" => s.units.z,
+        "pre_prev" => s.units.pre.prev,
+        "pre_step" => i64::from(s.units.pre.step),
+        "pre_lead" => i64::from(s.units.pre.lead),
+        "pre_half" => i64::from(s.units.pre.half),
         _ => {
             let tap = name.strip_prefix("shade_")?;
             let k = crate::hw::compose::SHADE_TAPS
@@ -113,8 +117,8 @@ pub fn word_of(issue: &Issue, name: &str) -> Option<i64> {
 }
 
 /// Whether port `name` is a unit's per-frame port (a broadcast register
-/// the host writes once a frame: `shade_ka`, `voi_centre_x`, ...), whose
-/// word is the frame's rather than a sample's.
+/// the host writes once a frame: `shade_ka`, `voi_centre_x`, `pre_scale`,
+/// ...), whose word is the frame's rather than a sample's.
 pub fn is_frame_port(name: &str) -> bool {
     let probe = Issue {
         cycle: 0,
@@ -122,7 +126,10 @@ pub fn is_frame_port(name: &str) -> bool {
         input: Default::default(),
         out: Default::default(),
     };
-    (name.starts_with("shade_") || name.starts_with("voi_")) && word_of(&probe, name).is_none()
+    ["shade_", "voi_", "pre_"]
+        .iter()
+        .any(|p| name.starts_with(p))
+        && word_of(&probe, name).is_none()
 }
 
 /// `v`'s low `bits` bits as an unsigned word.
@@ -235,6 +242,12 @@ pub struct Replay {
     /// The units' per-frame port words ([`super::capture::frame_words`]),
     /// driven with every sample (the module takes its ports at issue).
     pub frame: Vec<(String, i64)>,
+    /// Datapaths a PE: 2 where a pre-integrated sample composites two
+    /// steps (back to front, slice 0's step and its half step), the
+    /// second step replayed through PE `k`'s second datapath (replayer
+    /// `pes + k`, stream `pe<pes + k>.stim`) with the model's
+    /// accumulators between the steps; else 1.
+    pub lanes: usize,
 }
 
 impl Replay {
@@ -249,7 +262,14 @@ impl Replay {
             fields,
             ring_bits,
             frame: Vec::new(),
+            lanes: 1,
         })
+    }
+
+    /// The replay with a second datapath a PE for the second of a
+    /// sample's two pre-integrated steps ([`Replay::lanes`]).
+    pub fn with_second_steps(self) -> Replay {
+        Replay { lanes: 2, ..self }
     }
 
     /// The word port `name` carries for `issue`: the sample's, or the
@@ -288,8 +308,9 @@ pub struct StreamFiles {
     /// Write back at issue plus this instead of the model's cycle.
     realign: Option<u64>,
     line: String,
-    /// Issues written, per PE.
+    /// Issues written, per replayer (PE `k`'s second steps at `pes + k`).
     pub issued: Vec<u64>,
+    pes: usize,
     /// The last write-back cycle written.
     pub last_land: u64,
     /// The model's latency, known at the frame's start.
@@ -309,17 +330,18 @@ impl StreamFiles {
         last_issue: u64,
         realign: Option<u64>,
     ) -> std::io::Result<StreamFiles> {
-        let files = (0..pes)
+        let files = (0..pes * replay.lanes)
             .map(|k| File::create(dir.join(format!("pe{k}.stim"))).map(BufWriter::new))
             .collect::<std::io::Result<Vec<_>>>()?;
         Ok(StreamFiles {
+            issued: vec![0; files.len()],
             replay,
             dir: dir.to_owned(),
             files,
             last_issue,
             realign,
             line: String::new(),
-            issued: vec![0; pes],
+            pes,
             last_land: 0,
             latency: 0,
             error: None,
@@ -357,13 +379,25 @@ impl IssueSink for StreamFiles {
             None => issue.input.land,
         };
         self.last_land = self.last_land.max(land);
-        self.line.clear();
-        self.replay.line(issue, land, &mut self.line);
-        if let Some(f) = self.files.get_mut(issue.pe) {
-            if let Err(e) = f.write_all(self.line.as_bytes()) {
-                self.error = Some(e);
+        let (first, second) = super::capture::PreIn::steps(issue);
+        for (lane, step) in [(0, Some(first)), (1, second)] {
+            let Some(step) = step else { continue };
+            if lane >= self.replay.lanes {
+                self.error = Some(std::io::Error::other(format!(
+                    "cycle {}, PE {}: a sample composites two steps and the replay has one datapath a PE",
+                    issue.cycle, issue.pe
+                )));
+                return;
             }
-            self.issued[issue.pe] += 1;
+            let k = lane * self.pes + issue.pe;
+            self.line.clear();
+            self.replay.line(&step, land, &mut self.line);
+            if let Some(f) = self.files.get_mut(k) {
+                if let Err(e) = f.write_all(self.line.as_bytes()) {
+                    self.error = Some(e);
+                }
+                self.issued[k] += 1;
+            }
         }
     }
 }

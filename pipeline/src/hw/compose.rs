@@ -20,12 +20,18 @@
 //!
 //! The pre-integration unit's ports the sample does not compute are
 //! `pre.prev` (the ray's previous sample, read with its accumulators),
-//! `pre.half` (the step is slice 0's half step) and `pre.scale` (the
-//! frame's table scale). Back to front the sample is the step's front
-//! scalar and the previous sample its back one; front to back the
-//! reverse, and a half step's front is the sample too (a select by
-//! `pre.half`), as `crate::stages::sample`'s pre-integrated half calls
-//! [`crate::preint::PreintUnit::lookup`].
+//! `pre.step` (the sample composites a step; without it the
+//! accumulators are written back as they were: a sample that only keeps
+//! its scalar for the next step), `pre.lead` (the step is slice 0's half
+//! step at the sample), `pre.half` (the step's path is halved: the last
+//! slice's step to the volume's face) and `pre.scale` (the frame's table
+//! scale). Back to front the sample is the step's front scalar and the
+//! previous sample its back one; front to back the reverse, and a lead
+//! step's front is the sample too (a select by `pre.lead`), as
+//! `crate::stages::sample`'s pre-integrated half calls
+//! [`crate::preint::PreintUnit::lookup`]. One issue composites one step:
+//! the model's sample that composites two (back to front, slice 0's step
+//! and then its half step) is two steps of this description.
 
 use std::collections::HashMap;
 
@@ -194,21 +200,27 @@ pub fn sample(cfg: &PipelineConfig, units: Units) -> Graph {
 fn preintegrated(cfg: &PipelineConfig) -> Graph {
     let unit = super::preint::preint(cfg);
     with_preint(cfg, &mut |g: &mut Graph, s: &Sampled| {
-        let half = g.input_word("pre.half", Word::unsigned(1, 0));
-        let mut bind = vec![("half", half), ("len", s.ds)];
+        let bit = Word::unsigned(1, 0);
+        let step = g.input_word("pre.step", bit);
+        let lead = g.input_word("pre.lead", bit);
+        let mut bind = vec![("lead", lead), ("len", s.ds)];
         match cfg.order {
             Order::BackToFront => bind.push(("front", s.sample)),
             Order::FrontToBack => {
                 let prev = g.input("pre.prev", cfg.sample);
-                let front = g.mux("pre.front_in", half, prev, s.sample, cfg.sample.into());
+                let front = g.mux("pre.front_in", lead, prev, s.sample, cfg.sample.into());
                 bind.extend([("front", front), ("prev", s.sample)]);
             }
         }
         let out = splice(g, &unit, "pre.", &bind);
+        // A sample that composites no step leaves the accumulators as an
+        // invisible one does: a select, no carry chain.
+        let zero = g.constant("pre.no_step", 0, bit);
+        let visible = g.mux("pre.visible_step", step, zero, out["visible"], bit);
         Corrected {
             rgb: [out["c_r"], out["c_g"], out["c_b"]],
             alpha: out["alpha"],
-            visible: out["visible"],
+            visible,
         }
     })
 }

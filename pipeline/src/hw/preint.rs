@@ -15,9 +15,13 @@
 //! and `j + 1`; a select by `i`'s parity puts the rows back in order.
 //!
 //! Ports: the step's front scalar `front` (the sample), the ray's
-//! previous sample `prev`, the half-step flag `half` (its back scalar is
-//! the front one, its path half the step's), the per-frame table scale
-//! `scale` (`K`, in `step`) and the ray's path per slice step `len` (`path`).
+//! previous sample `prev`, the lead flag `lead` (slice 0's half step: its
+//! back scalar is the front one, its path half the step's), the half-path
+//! flag `half` (the last slice's step to the volume's face: its path half
+//! the step's, its back scalar `prev`), the per-frame table scale `scale`
+//! (`K`, in `step`) and the ray's path per slice step `len` (`path`): the
+//! model's `lookup(front, lead ? front : prev)` and `step(.., half ||
+//! lead)`.
 //! Outputs: `visible` (the extinction is not zero), the colour `c_r`,
 //! `c_g`, `c_b` (`color`) and the opacity `alpha` (`opacity_corr`).
 
@@ -124,16 +128,26 @@ pub fn preint(cfg: &PipelineConfig) -> Graph {
     g.no_item();
     let front = g.input("front", c.sample);
     let prev = g.input("prev", c.sample);
-    let half = g.input_word("half", Word::unsigned(1, 0));
+    let lead = g.input_word("lead", Word::unsigned(1, 0));
+    let half_in = g.input_word("half", Word::unsigned(1, 0));
     let k = g.input("scale", c.step);
+    // A lead step's path is halved too: a select, no carry chain.
+    let one_bit = g.constant("pre.half_one", 1, Word::unsigned(1, 0));
+    let half = g.mux(
+        "pre.half_path",
+        lead,
+        half_in,
+        one_bit,
+        Word::unsigned(1, 0),
+    );
     let len = g.input("len", c.path);
 
-    // 1. Table positions: the front's bin i, the back's j (a half step's
+    // 1. Table positions: the front's bin i, the back's j (a lead step's
     // back scalar is its front one).
     g.item("preint", "table position f = s K (front, back)", 0);
     let [i, wi] = position(&mut g, c, "pre.front", front, k);
     g.item("preint", "table position f = s K (front, back)", 1);
-    let back = g.mux("pre.back", half, prev, front, c.sample.into());
+    let back = g.mux("pre.back", lead, prev, front, c.sample.into());
     let [j, wj] = position(&mut g, c, "pre.back_pos", back, k);
 
     // 2. The bank addresses: row (bins + 1) + j and its j + 1.

@@ -183,8 +183,8 @@ proptest! {
 
     /// The pre-integration unit: the four interpolated channels, the
     /// zero-extinction test, the colour dividers and the opacity of
-    /// `crate::preint::PreintUnit::lookup` and `step`, for whole and half
-    /// steps, over table sizes and formats, on random table words.
+    /// `crate::preint::PreintUnit::lookup` and `step`, for whole steps,
+    /// lead (half) steps and whole steps over half a path, over table sizes and formats, on random table words.
     #[test]
     fn preint_description_is_the_model(
         entries_log in 2u32..=7,
@@ -193,7 +193,7 @@ proptest! {
         (colb, colq, wb) in (8u8..=12, 0usize..7, 6u8..=14),
         seed in any::<u64>(),
         (front, prev, len) in any::<(i64, i64, i64)>(),
-        half in any::<bool>(),
+        (lead, half) in any::<(bool, bool)>(),
     ) {
         let d = PipelineConfig::default();
         let entries = 1u32 << (entries_log + 1);
@@ -236,17 +236,20 @@ proptest! {
         let unit = crate::preint::PreintUnit::from_words(bins, k, table.clone());
         let (front, prev) = (fx(front, c.sample), fx(prev, c.sample));
         let len = fx(len, c.path);
-        let back = if half { front } else { prev };
+        // A lead step is slice 0's half step at the sample; `half` alone
+        // halves the path between two scalars (the last slice's step).
+        let back = if lead { front } else { prev };
         let st = &mut QuantStats::default();
         let e = unit.lookup(c, front, back, st).expect("lookup");
-        let Ok(res) = crate::preint::PreintUnit::step(&dp, e, (len, half), st) else {
+        let Ok(res) = crate::preint::PreintUnit::step(&dp, e, (len, half || lead), st) else {
             return Ok(());
         };
 
         let g = super::preint::preint(c);
         let inputs: Vec<(String, i64)> = vec![
             ("front".into(), front.raw()), ("prev".into(), prev.raw()),
-            ("half".into(), i64::from(half)), ("scale".into(), k.raw()), ("len".into(), len.raw()),
+            ("lead".into(), i64::from(lead)), ("half".into(), i64::from(half)),
+            ("scale".into(), k.raw()), ("len".into(), len.raw()),
         ];
         let exp: Vec<i64> = tables.exp.iter().map(|x| x.raw()).collect();
         let read = |_: &str, m: MemId, addr: i128| -> Option<i64> {
@@ -404,7 +407,7 @@ fn default_unit_shapes() {
     let want = [
         ("shading", 202, 59),
         ("voi", 97, 49),
-        ("preint", 152, 34),
+        ("preint", 155, 34),
         ("tents", 64, 3),
     ];
     let cfg = PipelineConfig::default();

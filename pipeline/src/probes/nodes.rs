@@ -81,7 +81,7 @@ pub fn description(
     preint: bool,
 ) -> Result<Graph, String> {
     if preint {
-        return Err("--trace-nodes: a pre-integrated frame's unit reads ports the issue capture does not record (the ray's back sample, the half step); trace it without --preintegrate".into());
+        return Err("--trace-nodes: a pre-integrated sample can composite two steps (back to front, slice 0's), where the trace evaluates the description once an issue; trace it without --preintegrate".into());
     }
     Ok(crate::hw::compose::sample(cfg, units))
 }

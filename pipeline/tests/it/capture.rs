@@ -194,3 +194,98 @@ fn captured_unit_issues_are_the_composed_datapaths_words() {
         }
     }
 }
+
+/// The sample composed with the pre-integration unit (`hw::compose`),
+/// evaluated on every captured bundle of a pre-integrated frame, each of a
+/// sample's steps as the replay drives it (`PreIn::steps`: back to front
+/// slice 0's second step reading the accumulators between the two), with
+/// the unit's banks and table scale as captured, gives the accumulators
+/// the model wrote back and the tap column, in both orders; the frame has
+/// samples that only keep their scalar, lead steps, half-path steps and
+/// (back to front) second steps.
+#[test]
+fn captured_preintegrated_issues_are_the_composed_datapaths_words() {
+    use pipeline::cosim::capture::PreIn;
+    use pipeline::hw::compose::{sample, Units};
+    use pipeline::hw::pipeline_rtl::verilog_name;
+
+    let s = subject("ml:24");
+    let prep = view_from(&s.vol, [30.0, 20.0, -40.0], 20);
+    let pt = golden::preint::PreTable::new(&s.lut);
+    for order in [Order::BackToFront, Order::FrontToBack] {
+        let cfg = PipelineConfig {
+            pes: 3,
+            order,
+            ..PipelineConfig::default()
+        };
+        let run = || FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view).preint(Some(&pt));
+        let plain = run().run().unwrap();
+        let rec = Arc::new(Mutex::new(Recorded::new()));
+        let captured = run().capture(rec.clone()).run().unwrap();
+        assert_eq!(signature(&captured), signature(&plain));
+        let rec = rec.lock().unwrap();
+        assert_eq!(rec.issues.len() as u64, plain.samples);
+        let units = Units {
+            preint: true,
+            ..Units::default()
+        };
+        let g = sample(&cfg, units);
+        assert_eq!(
+            rec.latency,
+            u64::from(pipeline::hw::schedule::schedule(&g).depth)
+        );
+        let tables = rec.tables.clone();
+        let frame = rec.frame.clone();
+        assert_eq!(frame.len(), 1, "the table scale: {frame:?}");
+        // Kept only, lead, half path, second step, steps that changed the
+        // accumulators.
+        let mut seen = [0usize; 5];
+        for issue in &rec.issues {
+            let pre = issue.input.units.pre;
+            seen[0] += usize::from(!pre.step);
+            // Back to front a lead step is always a second one.
+            seen[1] += usize::from(pre.lead || pre.then.is_some());
+            seen[2] += usize::from(pre.step && pre.half);
+            seen[3] += usize::from(pre.then.is_some());
+            let (first, second) = PreIn::steps(issue);
+            for i in std::iter::once(first).chain(second) {
+                seen[4] += usize::from(i.out != i.input.acc);
+                let word = |name: &str| -> Option<i64> {
+                    let v = verilog_name(name);
+                    word_of(&i, &v).or_else(|| frame.iter().find(|f| f.0 == v).map(|f| f.1))
+                };
+                let read = |node: &str, m: pipeline::hw::MemId, addr: i128| -> Option<i64> {
+                    let mem = &g.mems[m.0];
+                    if mem.depth == 0 {
+                        let k = ["v00", "v01", "v10", "v11"]
+                            .iter()
+                            .position(|t| *t == node)?;
+                        return Some(i64::from(i.input.taps[k]));
+                    }
+                    let words = &tables.iter().find(|t| t.0 == mem.name)?.1;
+                    words.get(usize::try_from(addr).ok()?).copied()
+                };
+                let v = pipeline::hw::eval::eval(
+                    &g,
+                    &word,
+                    &read,
+                    &mut pipeline::fixed::QuantStats::default(),
+                )
+                .unwrap_or_else(|e| panic!("{order:?}: cycle {}: {e}", i.cycle));
+                for (name, id) in &g.outputs {
+                    assert_eq!(
+                        Some(v[id.0] as i64),
+                        word_of(&i, name),
+                        "{order:?}: cycle {}, PE {}, {name}, {pre:?}",
+                        i.cycle,
+                        i.pe
+                    );
+                }
+            }
+        }
+        let btf = order == Order::BackToFront;
+        assert!(seen[..3].iter().all(|&n| n > 0), "{order:?}: {seen:?}");
+        assert_eq!(seen[3] > 0, btf, "{order:?}: {seen:?}");
+        assert!(seen[4] > rec.issues.len() / 10, "{order:?}: {seen:?}");
+    }
+}

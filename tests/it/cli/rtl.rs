@@ -131,9 +131,9 @@ fn rtl_writes_the_module_filelist_and_readme() {
     }
 }
 
-/// `--shading --voi --preint`: the three units' modules and the sample
-/// composed with shading and the VOI beside the sample's, in the file
-/// list, each with its section in the README naming every port it
+/// `--shading --voi --preint`: the three units' modules, the sample
+/// composed with shading and the VOI and the sample with the
+/// pre-integration unit beside the sample's, in the file list, each with its section in the README naming every port it
 /// declares.
 #[test]
 fn rtl_writes_the_units() {
@@ -144,6 +144,7 @@ fn rtl_writes_the_units() {
     let units = [
         "ercube_preint",
         "ercube_sample_composed",
+        "ercube_sample_preint",
         "ercube_shading",
         "ercube_voi",
     ];
@@ -164,7 +165,7 @@ fn rtl_writes_the_units() {
     let list = std::fs::read_to_string(o.join("filelist.f")).unwrap();
     assert_eq!(
         list,
-        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_sample_composed.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_sample_composed.v\nercube_sample_preint.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
     );
     let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
     for u in units {

@@ -108,7 +108,7 @@ pub struct PipelinedModule {
     pub memory_bits: u64,
 }
 
-/// What a port of the plain sample carries.
+/// What a port of the plain sample or of the pre-integrated one carries.
 fn meaning(name: &str) -> &'static str {
     match name {
         "slot.m" => "ray index m (the ray slot)",
@@ -125,6 +125,11 @@ fn meaning(name: &str) -> &'static str {
         "v10" | "v11" => "voxel tap of row y0 + 1, column x0 / x0 + 1",
         "x0" => "voxel tap column (the taps' read address)",
         _ if name.starts_with("acc_out") => "the ray's accumulator after the sample",
+        "pre.prev" => "the ray's previous sample (the step's other scalar)",
+        "pre.step" => "the sample composites a step (else the accumulators pass unchanged)",
+        "pre.lead" => "the step is slice 0's half step at the sample",
+        "pre.half" => "the step's path is halved (the last slice's, to the volume's face)",
+        "pre.scale" => "the pre-integration table's scale K (per frame)",
         _ => "",
     }
 }

@@ -212,8 +212,30 @@ impl Pe {
             None => None,
         };
         let sample = dp.bilinear([[left[0], right[0]], [left[1], right[1]]], wx, wy, st)?;
+        let row = bus.row;
+        // The plain sample's words at issue, kept for a capture (the
+        // accumulators before the sample).
+        let issue = if TRACE {
+            crate::cosim::capture::SampleIn {
+                m: mx,
+                a: s.a[0].raw(),
+                t: s.t[0].raw(),
+                b: bus.slope_x.0.raw(),
+                k: bus.slope_x.1.raw(),
+                wy: wy.raw(),
+                sy: bus.slope_yz.0.raw(),
+                sz: bus.slope_yz.1.raw(),
+                acc: self.rays[j].acc[row],
+                taps: [left[0], right[0], left[1], right[1]],
+                x0,
+                land,
+                units: Default::default(),
+            }
+        } else {
+            Default::default()
+        };
         if let Some(unit) = &dp.preint {
-            return self.preint_sample::<TRACE>(dp, unit, bus, (j, flags), sample, st);
+            return self.preint_sample::<TRACE>(dp, unit, bus, (j, flags), (sample, issue), st);
         }
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
         let mut voi = crate::voi::VoiTrace::default();
@@ -234,13 +256,6 @@ impl Pe {
         }
         let mut corrected = 0;
         let mut terminated = false;
-        let row = bus.row;
-        // The accumulators the sample reads, kept for a capture.
-        let acc_in = if TRACE {
-            self.rays[j].acc[row]
-        } else {
-            Default::default()
-        };
         if alpha.raw() > 0 {
             // The ray's x slope `b + mx k`, in `position` like a position.
             let (b, k) = bus.slope_x;
@@ -273,25 +288,15 @@ impl Pe {
                 voi,
                 preint: Default::default(),
                 issue: crate::cosim::capture::SampleIn {
-                    m: mx,
-                    a: s.a[0].raw(),
-                    t: s.t[0].raw(),
-                    b: bus.slope_x.0.raw(),
-                    k: bus.slope_x.1.raw(),
-                    wy: wy.raw(),
-                    sy: bus.slope_yz.0.raw(),
-                    sz: bus.slope_yz.1.raw(),
-                    acc: acc_in,
-                    taps: [left[0], right[0], left[1], right[1]],
-                    x0,
-                    land,
                     units: crate::cosim::capture::UnitIn {
                         taps: taps
                             .as_ref()
                             .map_or([0; 16], crate::cosim::capture::UnitIn::shade_taps),
                         y: if dp.voi.is_some() { bus.yp.raw() } else { 0 },
                         z: if dp.voi.is_some() { s.z as i64 } else { 0 },
+                        pre: Default::default(),
                     },
+                    ..issue
                 },
             };
         }

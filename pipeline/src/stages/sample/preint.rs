@@ -157,7 +157,7 @@ impl Pe {
         unit: &PreintUnit,
         bus: &RowBus,
         (j, flags): (usize, u8),
-        sample: Fx,
+        (sample, issue): (Fx, crate::cosim::capture::SampleIn),
         st: &mut QuantStats,
     ) -> Result<(), StepError> {
         let Some(pre) = bus.slice.pre else {
@@ -172,6 +172,14 @@ impl Pe {
         let ftb = dp.cfg.order == Order::FrontToBack;
         let mut trace = PreintTrace::default();
         let (mut corrected, mut terminated) = (0, false);
+        // For a capture: the ray's previous sample as its register holds
+        // it, and the accumulators between two steps.
+        let prev_in = if TRACE {
+            self.rays[j].prev.get(row).copied().unwrap_or(0)
+        } else {
+            0
+        };
+        let mut then = None;
         if comp || lead {
             let (b, k) = bus.slope_x;
             let sx = dp.position(b, k, mx, st)?;
@@ -183,7 +191,10 @@ impl Pe {
                 dp.cfg.sample,
             );
             let acc = &mut self.rays[j].acc[row];
-            let mut step = |s0: Fx, s1: Fx, half: bool, st: &mut QuantStats| {
+            let step = |acc: &mut crate::datapath::Acc,
+                        (s0, s1): (Fx, Fx),
+                        half: bool,
+                        st: &mut QuantStats| {
                 let e = unit.lookup(&dp.cfg, s0, s1, st)?;
                 let out = PreintUnit::step(dp, e, (ds, half), st)?;
                 if let Some((rgb, a)) = out {
@@ -196,15 +207,21 @@ impl Pe {
                 Ok::<_, crate::fixed::FxError>((e[3].raw(), out.map_or(0, |o| o.1.raw())))
             };
             if ftb && lead {
-                step(sample, sample, true, st)?;
+                step(acc, (sample, sample), true, st)?;
+                if TRACE && comp {
+                    then = Some(*acc);
+                }
             }
             if comp {
                 let (front, back) = if ftb { (prev, sample) } else { (sample, prev) };
-                (trace.tau, corrected) = step(front, back, pre.half, st)?;
+                (trace.tau, corrected) = step(acc, (front, back), pre.half, st)?;
                 trace.back = back.raw();
+                if TRACE && !ftb && lead {
+                    then = Some(*acc);
+                }
             }
             if !ftb && lead {
-                step(sample, sample, true, st)?;
+                step(acc, (sample, sample), true, st)?;
             }
             if ftb && comp {
                 let ray = &mut self.rays[j];
@@ -234,7 +251,21 @@ impl Pe {
                 shade: Default::default(),
                 voi: Default::default(),
                 preint: trace,
-                issue: Default::default(),
+                issue: crate::cosim::capture::SampleIn {
+                    units: crate::cosim::capture::UnitIn {
+                        pre: crate::cosim::capture::PreIn {
+                            prev: prev_in,
+                            step: comp || lead,
+                            // The first step: front to back the lead's,
+                            // back to front the one between two scalars.
+                            lead: lead && (ftb || !comp),
+                            half: pre.half,
+                            then,
+                        },
+                        ..Default::default()
+                    },
+                    ..issue
+                },
             };
         }
         Ok(())
