@@ -178,11 +178,14 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
                     .collect(),
             ),
             (
-                "taps: x0 + 1 clamped, the right tap held (c1 < col_end)",
+                "taps: the right tap held (x0 + 1 clamped, below col_end: x0 against col_end - 1)",
                 vec![
-                    Unit::Inc { width: x0_bits },
-                    mux(cb, 3),
+                    Unit::Sub { width: cb + 1 },
+                    Unit::Cmp {
+                        width: x0_bits.max(cb + 1),
+                    },
                     Unit::Cmp { width: cb + 1 },
+                    mux(1, 3),
                 ],
             ),
         ]);

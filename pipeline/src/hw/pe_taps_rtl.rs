@@ -158,8 +158,9 @@ pub(super) fn tap_stage(w: &mut String, s: &PeSampleShape, x0_range: &str, sx: u
   wire [{sbw1}:0] a01 = lo1 ? rl0 : hi1 ? rh0 : rp0 + x0_a;
   wire [{sbw1}:0] a10 = lo0 ? rl1 : hi0 ? rh1 : rl1 + x0_a;
   wire [{sbw1}:0] a11 = lo1 ? rl1 : hi1 ? rh1 : rp1 + x0_a;
-  wire signed [31:0] c1 = lo1 ? 0 : (hi1 ? last_i : x0_i + 1);
-  wire held1 = c1 < $signed({{1'b0, col_end}});",
+  // (c1 < col_end for c1 the clamped x0 + 1: x0 against col_end - 1, a frame constant.)
+  wire signed [31:0] end_i = $signed({{1'b0, col_end}});
+  wire held1 = lo1 ? end_i > 0 : hi1 ? last_i < end_i : x0_i < end_i - 1;",
             sbw1 = sbw - 1,
             rows = rows(
                 &at("y0", sx_i - 1),
