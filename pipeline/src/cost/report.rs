@@ -316,7 +316,7 @@ pub fn build(
             )
         } else if source == super::clock::ClockSource::Predicted {
             format!(
-                "Clock {clock_mhz} MHz is predicted by delay models fitted to units and sample stages placed and routed with ercube synth: the slower of the sample datapath's slowest scheduled stage and the PE sample stage's issue; the whole PE is not placed and routed. The datapath is {staging}."
+                "Clock {clock_mhz} MHz is predicted by delay models fitted to units and sample stages placed and routed with ercube synth: the slowest of the sample datapath's slowest scheduled stage and the PE sample stage's issue and tap address; the whole PE is not placed and routed. The datapath is {staging}."
             )
         } else {
             format!(

@@ -118,7 +118,7 @@ impl CostReport {
             .collect();
         let _ = writeln!(
             o,
-            "  predicted clock (the slower of the datapath's slowest scheduled stage and the PE sample stage's issue, plus a whole design's routing; models fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
+            "  predicted clock (the slowest of the datapath's slowest scheduled stage and the PE sample stage's issue and tap address, plus a whole design's routing; models fitted to ercube synth runs): {}; none for xc7 (no open timing flow)",
             predicted.join(", ")
         );
         let c = &self.config;
