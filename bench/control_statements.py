@@ -59,7 +59,7 @@ STATEMENTS = [
             (r"a01 = lo1 \? rl0 : hi1 \? rh0 : rp0 \+ x0_a;", "a01 = rp0 + x0_a;"),
             (r"a10 = lo0 \? rl1 : hi0 \? rh1 : rl1 \+ x0_a;", "a10 = rl1 + x0_a;"),
             (r"a11 = lo1 \? rl1 : hi1 \? rh1 : rp1 \+ x0_a;", "a11 = rp1 + x0_a;"),
-            (r"c1 = lo1 \? 0 : \(hi1 \? last_i : x0_i \+ 1\);", "c1 = x0_i + 1;"),
+            (r"held1 = lo1 \? end_i > 0 : hi1 \? last_i < end_i : x0_i < end_i - 1;", "held1 = x0_i < end_i - 1;"),
         ],
     ),
     (

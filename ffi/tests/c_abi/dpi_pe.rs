@@ -249,15 +249,15 @@ fn the_pe_testbench_refuses_what_does_not_match_the_vectors() {
     let e = tb(&ftb, "not json", &pe).unwrap_err();
     assert!(e.starts_with("manifest.json: "), "{e}");
     let renamed = pe.replace(
-        "output reg signed [15:0] iss_m",
-        "output reg signed [15:0] iss_x",
+        "output wire signed [15:0] iss_m",
+        "output wire signed [15:0] iss_x",
     );
     assert_ne!(renamed, pe);
     let e = tb(&ftb, &manifest, &renamed).unwrap_err();
     assert!(e.contains("no port iss_m"), "{e}");
     let narrow = pe.replace(
-        "output reg signed [15:0] iss_m",
-        "output reg signed [14:0] iss_m",
+        "output wire signed [15:0] iss_m",
+        "output wire signed [14:0] iss_m",
     );
     let e = tb(&ftb, &manifest, &narrow).unwrap_err();
     assert!(e.contains("port iss_m is 15 bits"), "{e}");
