@@ -309,7 +309,15 @@ fn a_mutated_shading_operator_is_caught() {
         "cosim {frame} --simulator iverilog --verilog broken.v --max-cycles 2500 --cache-dir {}",
         cache().display()
     );
-    let (a, out) = run(d, &args);
+    let cycle = assert_caught_at_an_output(d, &args, &line);
+    assert!(cycle > 0);
+}
+
+/// Runs `ercube ARGS` in `d`, a cosim of a module broken at `line`, and
+/// checks it fails (exit 1) naming a first mismatch at a PE's `acc_out_*`
+/// whose RTL word differs from the model's; returns its cycle.
+pub(crate) fn assert_caught_at_an_output(d: &Path, args: &str, line: &str) -> u64 {
+    let (a, out) = run(d, args);
     let text = describe(&a, &out);
     assert_eq!(out.status.code(), Some(1), "{text} ({line})");
     let err = String::from_utf8_lossy(&out.stderr);
@@ -320,12 +328,11 @@ fn a_mutated_shading_operator_is_caught() {
         .unwrap_or_else(|| panic!("{text}"));
     let parts: Vec<&str> = tail.split(", ").collect();
     assert_eq!(parts.len(), 4, "{text}");
-    let cycle: u64 = parts[0].trim_start_matches("cycle ").parse().unwrap();
-    assert!(cycle > 0, "{text}");
     assert!(parts[1].starts_with("PE "), "{text}");
     let (signal, model) = parts[2].split_once(": model ").unwrap();
     assert!(signal.starts_with("acc_out_"), "{text} ({line})");
     assert_ne!(model, parts[3].trim_start_matches("RTL "), "{text}");
+    parts[0].trim_start_matches("cycle ").parse().unwrap()
 }
 
 /// What the streams do not cover yet is refused in one line, before any

@@ -125,21 +125,7 @@ fn a_mutated_preint_operator_is_caught() {
         "cosim --scene ml:16 --size 12x12 --pes 2 --preintegrate --config {cfg} --simulator iverilog --verilog broken.v --cache-dir {}",
         cache().display()
     );
-    let (a, out) = run(d, &args);
-    let text = describe(&a, &out);
-    assert_eq!(out.status.code(), Some(1), "{text} ({line})");
-    let err = String::from_utf8_lossy(&out.stderr);
-    let tail = err
-        .trim()
-        .split("mismatches; the first: ")
-        .nth(1)
-        .unwrap_or_else(|| panic!("{text}"));
-    let parts: Vec<&str> = tail.split(", ").collect();
-    assert_eq!(parts.len(), 4, "{text}");
-    assert!(parts[1].starts_with("PE "), "{text}");
-    let (signal, model) = parts[2].split_once(": model ").unwrap();
-    assert!(signal.starts_with("acc_out_"), "{text} ({line})");
-    assert_ne!(model, parts[3].trim_start_matches("RTL "), "{text}");
+    crate::cosim::assert_caught_at_an_output(d, &args, &line);
 }
 
 /// The exact colouring's depth layers are not described: refused in one
