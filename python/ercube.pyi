@@ -24,14 +24,18 @@ def load(
 ) -> Tuple[npt.NDArray[Union[np.uint8, np.uint16]], Vec3]:
     """Loads a volume file in any format `ercube render --volume` reads.
 
-    Returns (voxels, spacing): voxels a (z, y, x) array in the file's type
-    (uint8 or uint16), spacing (x, y, z). Options are the command line's
+    Returns (voxels, spacing): voxels a read-only (z, y, x) array in the
+    file's type (uint8 or uint16) over the loaded volume's own buffer (a
+    render of it, or of a view into it, is known to be of the kept voxels
+    without comparing them; `voxels.copy()` gives an array to change),
+    spacing (x, y, z). Options are the command line's
     source flags with underscores: raw_dims=(x, y, z), raw_type="u16le",
     raw_offset, spacing, window, max_memory.
     """
 
 def scene(spec: str) -> npt.NDArray[Union[np.uint8, np.uint16]]:
-    """Builds a synthetic scene as `--scene SPEC` does ("ml:40", "checker:32")."""
+    """Builds a synthetic scene as `--scene SPEC` does ("ml:40", "checker:32"):
+    a read-only (z, y, x) array, as `load`'s voxels."""
 
 def render(
     voxels: npt.NDArray[Union[np.uint8, np.uint16]],

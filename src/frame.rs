@@ -23,7 +23,7 @@ use crate::cli::args::{with_threads, SourceArgs};
 use crate::cli::cosim_frame::{setup_given, FrameArgs};
 use crate::cli::render::{self, RenderArgs};
 
-pub use crate::cli::render::{Rendered, Reuse};
+pub use crate::cli::render::{Frozen, Rendered, Reuse};
 pub use pipeline::cosim::pe_vectors::PeStream;
 
 /// A failure, in the one-line form the command line prints after
@@ -183,6 +183,15 @@ impl VoxelsRef<'_> {
         }
     }
 
+    /// Whether `v` holds as many voxels of the same type.
+    fn same_kind(self, v: &Voxels) -> bool {
+        match (self, v) {
+            (VoxelsRef::U8(a), Voxels::U8(b)) => a.len() == b.len(),
+            (VoxelsRef::U16(a), Voxels::U16(b)) => a.len() == b.len(),
+            _ => false,
+        }
+    }
+
     /// An owned copy.
     pub fn to_voxels(self) -> Voxels {
         match self {
@@ -203,27 +212,40 @@ fn same<T: PartialEq + Sync>(a: &[T], b: &[T]) -> bool {
 }
 
 /// [`render_reusing`] of a volume the caller holds: `dims` (x, y, z),
-/// `spacing` (x, y, z) and the borrowed `voxels`. When `reuse` keeps a
-/// volume with the same dimensions, spacing and voxels (compared value for
-/// value, so a caller that changed its array in place gets a frame of what
-/// it holds now) and the arguments render a given volume as it is
+/// `spacing` (x, y, z) and the borrowed `voxels`, which lie at `frozen`
+/// when they are in a buffer that cannot change. When `reuse` keeps a
+/// volume with the same dimensions, spacing and voxels and the arguments
+/// render a given volume as it is
 /// ([`crate::cli::args::ViewArgs::keeps_given`]), the kept volume and its
 /// preparation render the frame and nothing is copied; otherwise the
-/// voxels are copied once into a new volume.
+/// voxels are copied once into a new volume. The voxels are the same when
+/// the kept volume was copied from the same place of the same unchanging
+/// buffer ([`Frozen`]), else when they compare equal value for value, so
+/// a caller that changed its array in place gets a frame of what it holds
+/// now.
 pub fn render_borrowed<S: AsRef<str>>(
     args: &[S],
     (dims, spacing, voxels): ([usize; 3], [f64; 3], VoxelsRef<'_>),
+    frozen: Option<Frozen>,
     config: Option<&str>,
     reuse: &mut Reuse,
 ) -> Result<Rendered, Error> {
     let mut a = parse(args)?;
     a.pipeline.cfg.toml = config.map(str::to_string);
+    let keeps = a.view.keeps_given();
+    let known = frozen.is_some() && reuse.frozen() == frozen;
     // The comparison runs on the frame's pool (the frame's own
     // `with_threads` then runs in place), its slabs across the workers.
     let r = with_threads(a.threads, || {
-        let kept = if a.view.keeps_given() {
+        let kept = if keeps {
             reuse.lend_if(|v| {
-                v.dims() == dims && v.spacing() == spacing && voxels.equals(v.voxels())
+                v.dims() == dims
+                    && v.spacing() == spacing
+                    && if known {
+                        voxels.same_kind(v.voxels())
+                    } else {
+                        voxels.equals(v.voxels())
+                    }
             })
         } else {
             None
@@ -245,6 +267,9 @@ pub fn render_borrowed<S: AsRef<str>>(
         Ok(render::frame_reusing(&a, Some(vol), Some(&mut *reuse)).map_err(|e| Error::run(&e)))
     });
     reuse.end_loan();
+    // A volume kept now is this frame's: the voxels given, when the
+    // frame rendered them as they are.
+    reuse.kept_from(frozen.filter(|_| keeps));
     r.map_err(|e| Error::run(&e))?
 }
 

@@ -5,7 +5,7 @@
 //!
 //! The pipeline's merge stage mirrors [`merge`]: same weights, same parity.
 
-use std::cell::RefCell;
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 
@@ -14,27 +14,27 @@ use crate::geometry::{Merge, RayGrid};
 /// One ray's accumulated state: premultiplied RGB and opacity.
 pub type Rgba = [f32; 4];
 
-thread_local! {
-    /// Ray buffers of finished frames, kept for later frames on this
-    /// thread: a fresh megabyte costs hundreds of page faults (several
-    /// milliseconds a frame in a virtual machine, more than a region's
-    /// merge), a recycled one a memset.
-    static SPARE: RefCell<Vec<Vec<Rgba>>> = const { RefCell::new(Vec::new()) };
-}
+/// Ray buffers of finished frames, kept for later frames: a fresh
+/// megabyte costs hundreds of page faults (several milliseconds a frame
+/// in a virtual machine, more than a region's merge), a recycled one a
+/// memset. One pool for the process, not one a thread: a frame's buffers
+/// are made on whichever worker runs it and may be given back on another
+/// thread (the Python module's caller drops an image numpy held).
+static SPARE: Mutex<Vec<Vec<Rgba>>> = Mutex::new(Vec::new());
 
-/// Spare buffers kept per thread.
+/// Spare buffers kept.
 const MAX_SPARE: usize = 12;
 
-/// A spare buffer of this thread with room for `n` states, as it was
-/// recycled (its length kept), or a new empty one.
+/// A spare buffer with room for `n` states, as it was recycled (its
+/// length kept), or a new empty one.
 fn spare(n: usize) -> Vec<Rgba> {
-    SPARE
-        .with(|s| {
-            let mut s = s.borrow_mut();
-            let i = s.iter().position(|b| b.capacity() >= n)?;
-            Some(s.swap_remove(i))
-        })
-        .unwrap_or_default()
+    // A poisoned pool only means a holder panicked between two plain
+    // `Vec` operations; its buffers are still whole.
+    let mut s = SPARE.lock().unwrap_or_else(|e| e.into_inner());
+    match s.iter().position(|b| b.capacity() >= n) {
+        Some(i) => s.swap_remove(i),
+        None => Vec::new(),
+    }
 }
 
 /// States one task of [`zeroed`] writes (128 KiB): a
@@ -59,17 +59,15 @@ pub fn zeroed(n: usize) -> Vec<Rgba> {
     v
 }
 
-/// Gives a buffer back for later frames on this thread.
+/// Gives a buffer back for later frames.
 pub fn recycle(v: Vec<Rgba>) {
     if v.capacity() == 0 {
         return;
     }
-    SPARE.with(|s| {
-        let mut s = s.borrow_mut();
-        if s.len() < MAX_SPARE {
-            s.push(v);
-        }
-    });
+    let mut s = SPARE.lock().unwrap_or_else(|e| e.into_inner());
+    if s.len() < MAX_SPARE {
+        s.push(v);
+    }
 }
 
 /// Reads `buf` (over `grid`) at ray `(mx, my)`, empty outside the grid.

@@ -392,7 +392,8 @@ impl Frame {
 }
 
 impl Frame {
-    /// Gives the frame's buffers back to this thread's pool, for the next
+    /// Gives the frame's buffers back to the pool of spare ray buffers
+    /// ([`crate::merge::recycle`]), for the next
     /// frame (a renderer drawing frame after frame touches fresh memory
     /// once instead of every frame).
     pub fn recycle(self) {

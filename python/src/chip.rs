@@ -14,8 +14,10 @@ use golden::volume::Volume;
 use pipeline::probes::SignalSet;
 use pipeline::stepper::Cycle;
 
+use crate::arrays::new_buffer;
 use crate::records::{self, Layout};
 use crate::{error, outputs, run, trace, volume_of, voxels_ref, Error, View};
+use ercube::frame::Frozen;
 
 /// A frame being stepped: the stepper while it runs, then its render.
 #[derive(Default)]
@@ -106,7 +108,10 @@ fn finished(s: ercube::frame::Stepper) -> Result<ercube::frame::Rendered, PyErr>
 #[pyclass(module = "ercube")]
 pub struct Chip {
     config: Option<String>,
-    volume: Option<Volume>,
+    /// The loaded volume and its identity as a buffer that cannot change
+    /// (a new one each `load`), so a frame of it is not compared with the
+    /// module's kept volume.
+    volume: Option<(Volume, Frozen)>,
     stepping: Mutex<Stepping>,
 }
 
@@ -173,7 +178,11 @@ impl Chip {
     /// (x, y, z) for the next frames.
     #[pyo3(signature = (voxels, spacing=[1.0, 1.0, 1.0]))]
     fn load(&mut self, voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<()> {
-        self.volume = Some(volume_of(voxels, spacing)?);
+        let frozen = Frozen {
+            buffer: new_buffer(),
+            offset: 0,
+        };
+        self.volume = Some((volume_of(voxels, spacing)?, frozen));
         Ok(())
     }
 
@@ -198,11 +207,17 @@ impl Chip {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let view = view_of((eye, look_at, up, fov), size, method, tf)?;
-        let Some(volume) = &self.volume else {
+        let Some((volume, frozen)) = &self.volume else {
             return Err(Error::new_err("no volume: call Chip.load(voxels) first"));
         };
         let source = (volume.dims(), volume.spacing(), voxels_ref(volume));
-        let out = run(py, view.args(options)?, source, self.config.clone(), true)?;
+        let out = run(
+            py,
+            view.args(options)?,
+            (source, Some(*frozen)),
+            self.config.clone(),
+            true,
+        )?;
         let raw = out
             .raw
             .ok_or_else(|| Error::new_err("the frame has no raw words"))?;
@@ -236,7 +251,8 @@ impl Chip {
             Some(v) => volume_of(v, spacing)?,
             None => self
                 .volume
-                .clone()
+                .as_ref()
+                .map(|(v, _)| v.clone())
                 .ok_or_else(|| Error::new_err("no volume: pass voxels or call Chip.load first"))?,
         };
         let args = view.args(options)?;

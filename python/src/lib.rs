@@ -12,16 +12,16 @@
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyByteArray, PyCapsule, PyDict, PyList, PyTuple};
-
-use std::ffi::{c_char, c_int};
+use pyo3::types::{PyDict, PyList, PyTuple};
 
 use std::sync::Mutex;
 
-use ercube::frame::{Reuse, VoxelsRef};
-use golden::volume::{Volume, Voxels};
+use ercube::frame::{Frozen, Reuse, VoxelsRef};
 
+use arrays::{array, image_array, voxels_array, Input};
+pub(crate) use arrays::{volume_of, voxels_ref};
+
+mod arrays;
 mod chip;
 mod datapath;
 mod records;
@@ -70,283 +70,6 @@ fn flags(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
         out.push(format!("{name}={value}"));
     }
     Ok(out)
-}
-
-/// numpy, imported once.
-fn numpy(py: Python<'_>) -> PyResult<&Bound<'_, PyModule>> {
-    static NUMPY: PyOnceLock<Py<PyModule>> = PyOnceLock::new();
-    NUMPY
-        .get_or_try_init(py, || Ok::<_, PyErr>(py.import("numpy")?.unbind()))
-        .map(|m| m.bind(py))
-}
-
-/// A numpy array of `shape` and `dtype` (numpy's name for `T`, native
-/// byte order) holding `values`, backed by a bytearray (one copy).
-fn array<'py, T: bytemuck::Pod>(
-    py: Python<'py>,
-    values: &[T],
-    shape: &[usize],
-    dtype: &str,
-) -> PyResult<Bound<'py, PyAny>> {
-    let bytes = PyByteArray::new(py, bytemuck::cast_slice(values));
-    numpy(py)?
-        .call_method1("frombuffer", (bytes, dtype))?
-        .call_method1("reshape", (PyTuple::new(py, shape)?,))
-}
-
-/// A frame's pixels lent to numpy without a copy: the array numpy makes
-/// of it (`__array_interface__`, writable) reads and writes the frame's
-/// own buffer and keeps this object, and so the buffer, alive as its base.
-#[pyclass(frozen)]
-struct Pixels {
-    /// The buffer, never read or moved again (moving the `Vec` would not
-    /// move it); numpy reaches it through `address`.
-    _data: Vec<[f32; 4]>,
-    /// Where the buffer starts, from `as_mut_ptr`: numpy may write there.
-    address: usize,
-    /// (height, width, 4).
-    shape: [usize; 3],
-}
-
-#[pymethods]
-impl Pixels {
-    /// numpy's array interface (version 3): native-order float32 of
-    /// `shape`, C-contiguous, writable.
-    #[getter]
-    fn __array_interface__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("shape", PyTuple::new(py, self.shape)?)?;
-        let order = if cfg!(target_endian = "little") {
-            "<"
-        } else {
-            ">"
-        };
-        d.set_item("typestr", format!("{order}f4"))?;
-        d.set_item("data", (self.address, false))?;
-        d.set_item("version", 3)?;
-        Ok(d)
-    }
-}
-
-/// The image `im` as a float32 H x W x 4 numpy array, its buffer handed
-/// over without a copy ([`Pixels`]).
-fn image_array(py: Python<'_>, im: golden::image::Image) -> PyResult<Bound<'_, PyAny>> {
-    let shape = [im.height, im.width, 4];
-    let mut data = im.data;
-    let address = data.as_mut_ptr() as usize;
-    let pixels = Bound::new(
-        py,
-        Pixels {
-            _data: data,
-            address,
-            shape,
-        },
-    )?;
-    numpy(py)?.call_method1("asarray", (pixels,))
-}
-
-/// A volume's voxels as a numpy array `(z, y, x)` in their own type.
-fn voxels_array<'py>(py: Python<'py>, v: &Volume) -> PyResult<Bound<'py, PyAny>> {
-    let [x, y, z] = v.dims();
-    match v.voxels() {
-        Voxels::U8(d) => array(py, d, &[z, y, x], "uint8"),
-        Voxels::U16(d) => array(py, d, &[z, y, x], "uint16"),
-    }
-}
-
-/// numpy's `PyArrayInterface`: the C struct of the array interface
-/// protocol (version 3), which `__array_struct__` hands over in a capsule.
-#[repr(C)]
-struct ArrayInterface {
-    /// 2, always.
-    two: c_int,
-    /// The number of dimensions.
-    nd: c_int,
-    /// The kind of element: `b'u'` for an unsigned integer.
-    typekind: c_char,
-    /// Bytes an element.
-    itemsize: c_int,
-    /// `C_CONTIGUOUS`, `ALIGNED`, `NOT_SWAPPED`, ...
-    flags: c_int,
-    /// `nd` extents, slowest first.
-    shape: *const isize,
-    /// `nd` strides in bytes.
-    strides: *const isize,
-    /// The first element.
-    data: *mut std::ffi::c_void,
-    /// A description of the elements (unused here).
-    descr: *mut std::ffi::c_void,
-}
-
-impl ArrayInterface {
-    /// The elements lie in C order without gaps.
-    const C_CONTIGUOUS: c_int = 0x1;
-    /// The data is aligned for its element type.
-    const ALIGNED: c_int = 0x100;
-    /// The elements are in the machine's byte order.
-    const NOT_SWAPPED: c_int = 0x200;
-}
-
-/// A numpy array's voxels, borrowed: the array, C-contiguous and aligned
-/// (`numpy.require`; an array that already is one is not copied), held so
-/// its buffer stays alive while the voxels are read, and where that buffer
-/// is.
-struct Input<'py> {
-    _array: Bound<'py, PyAny>,
-    /// (x, y, z).
-    dims: [usize; 3],
-    u16: bool,
-    address: usize,
-    count: usize,
-}
-
-impl<'py> Input<'py> {
-    /// `voxels` (an array-like `(z, y, x)` of uint8 or uint16).
-    fn of(voxels: &Bound<'py, PyAny>) -> PyResult<Input<'py>> {
-        if let Some(input) = Input::ready(voxels)? {
-            return Ok(input);
-        }
-        let py = voxels.py();
-        let a = numpy(py)?.call_method1("require", (voxels, py.None(), "CA"))?;
-        let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-        if shape.len() != 3 {
-            return Err(Error::new_err(format!(
-                "voxels must be a 3-D array (z, y, x); got {} dimensions",
-                shape.len()
-            )));
-        }
-        // `str(dtype)` names a byte order only when it is not the
-        // machine's: ">u2" is refused.
-        let u16 = match a.getattr("dtype")?.str()?.to_string().as_str() {
-            "uint8" => false,
-            "uint16" => true,
-            other => {
-                return Err(Error::new_err(format!(
-                    "voxels must be uint8 or uint16; got {other}"
-                )))
-            }
-        };
-        let (address, _readonly): (usize, bool) = a
-            .getattr("__array_interface__")?
-            .get_item("data")?
-            .extract()?;
-        let align = if u16 { 2 } else { 1 };
-        if address % align != 0 {
-            return Err(Error::new_err("voxels: the array's buffer is not aligned"));
-        }
-        Ok(Input {
-            _array: a,
-            dims: [shape[2], shape[1], shape[0]],
-            u16,
-            address,
-            count: shape.iter().product(),
-        })
-    }
-
-    /// `voxels` when it is a numpy array that `numpy.require` would return
-    /// as it is (3-D, C-contiguous, aligned, uint8 or native uint16), read
-    /// from its `__array_struct__` alone (one capsule: no dict, tuple or
-    /// string is made, as `__array_interface__` makes them); `None` for
-    /// anything else, which [`Input::of`] converts or refuses.
-    fn ready(voxels: &Bound<'py, PyAny>) -> PyResult<Option<Input<'py>>> {
-        let py = voxels.py();
-        static NDARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
-        let ndarray = NDARRAY.get_or_try_init(py, || {
-            Ok::<_, PyErr>(numpy(py)?.getattr("ndarray")?.unbind())
-        })?;
-        if !voxels.is_instance(ndarray.bind(py))? {
-            return Ok(None);
-        }
-        let Ok(capsule) = voxels
-            .getattr(pyo3::intern!(py, "__array_struct__"))?
-            .cast_into::<PyCapsule>()
-        else {
-            return Ok(None);
-        };
-        let p = capsule.pointer_checked(None)?;
-        // SAFETY: numpy's `__array_struct__` is a capsule holding a
-        // `PyArrayInterface` (numpy's array interface protocol, the C
-        // struct `ArrayInterface` mirrors), alive with the capsule, whose
-        // `shape` points at `nd` dimensions; the capsule is held here.
-        let ai = unsafe { &*(p.as_ptr() as *const ArrayInterface) };
-        let want =
-            ArrayInterface::C_CONTIGUOUS | ArrayInterface::ALIGNED | ArrayInterface::NOT_SWAPPED;
-        if ai.two != 2 || ai.nd != 3 || ai.typekind != b'u' as c_char || ai.flags & want != want {
-            return Ok(None);
-        }
-        let u16 = match ai.itemsize {
-            1 => false,
-            2 => true,
-            _ => return Ok(None),
-        };
-        // SAFETY: as above; `nd` is 3.
-        let shape: [isize; 3] = unsafe { [*ai.shape, *ai.shape.add(1), *ai.shape.add(2)] };
-        let Ok(shape) = shape
-            .map(usize::try_from)
-            .into_iter()
-            .collect::<Result<Vec<_>, _>>()
-        else {
-            return Ok(None);
-        };
-        Ok(Some(Input {
-            _array: voxels.clone(),
-            dims: [shape[2], shape[1], shape[0]],
-            u16,
-            address: ai.data as usize,
-            count: shape.iter().product(),
-        }))
-    }
-
-    /// The voxels, x fastest.
-    ///
-    /// They are read with the GIL released; the array must not be resized
-    /// or written by another thread meanwhile (as for numpy's own
-    /// functions, which release it too).
-    fn voxels(&self) -> VoxelsRef<'_> {
-        if self.count == 0 {
-            return if self.u16 {
-                VoxelsRef::U16(&[])
-            } else {
-                VoxelsRef::U8(&[])
-            };
-        }
-        // SAFETY: `_array` is a C-contiguous, aligned numpy array of
-        // `count` elements of this type, alive as long as `self`, whose
-        // buffer starts at `address` (`__array_struct__` or
-        // `__array_interface__`); numpy does not resize an array while
-        // another reference to it (this one) exists.
-        unsafe {
-            if self.u16 {
-                VoxelsRef::U16(std::slice::from_raw_parts(
-                    self.address as *const u16,
-                    self.count,
-                ))
-            } else {
-                VoxelsRef::U8(std::slice::from_raw_parts(
-                    self.address as *const u8,
-                    self.count,
-                ))
-            }
-        }
-    }
-}
-
-/// A volume from a numpy array `(z, y, x)` of uint8 or uint16 (copied
-/// once).
-fn volume_of(voxels: &Bound<'_, PyAny>, spacing: [f64; 3]) -> PyResult<Volume> {
-    let input = Input::of(voxels)?;
-    let v = Volume::from_voxels(input.dims, input.voxels().to_voxels())
-        .map_err(|e| Error::new_err(e.to_string()))?;
-    v.with_spacing(spacing)
-        .map_err(|e| Error::new_err(e.to_string()))
-}
-
-/// A volume's voxels, borrowed.
-fn voxels_ref(v: &Volume) -> VoxelsRef<'_> {
-    match v.voxels() {
-        Voxels::U8(d) => VoxelsRef::U8(d),
-        Voxels::U16(d) => VoxelsRef::U16(d),
-    }
 }
 
 /// The camera and method flags of [`render`] and [`Chip::run_frame`].
@@ -421,16 +144,19 @@ static REUSE: Mutex<Reuse> = Mutex::new(Reuse::new());
 fn run<'py>(
     py: Python<'py>,
     args: Vec<String>,
-    source: ([usize; 3], [f64; 3], VoxelsRef<'_>),
+    (source, frozen): (([usize; 3], [f64; 3], VoxelsRef<'_>), Option<Frozen>),
     config: Option<String>,
     with_raw: bool,
 ) -> PyResult<Out<'py>> {
     let r = py
         .detach(|| {
             let config = config.as_deref();
+            let frame = |reuse: &mut Reuse| {
+                ercube::frame::render_borrowed(&args, source, frozen, config, reuse)
+            };
             match REUSE.try_lock() {
-                Ok(mut reuse) => ercube::frame::render_borrowed(&args, source, config, &mut reuse),
-                Err(_) => ercube::frame::render_borrowed(&args, source, config, &mut Reuse::new()),
+                Ok(mut reuse) => frame(&mut reuse),
+                Err(_) => frame(&mut Reuse::new()),
             }
         })
         .map_err(error)?;
@@ -448,6 +174,11 @@ fn outputs(py: Python<'_>, mut r: ercube::frame::Rendered, with_raw: bool) -> Py
     };
     let stats = json_value(py, &r.stats)?;
     let im = std::mem::replace(&mut r.image, golden::image::Image::new(0, 0));
+    // The baseplane goes back to the frames' pool of spare buffers, as the
+    // command line's `--repeat` frames give theirs back.
+    if let Some(b) = r.baseplane.take() {
+        golden::merge::recycle(b.data);
+    }
     Ok(Out {
         image: image_array(py, im)?,
         raw,
@@ -489,8 +220,9 @@ fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py
 }
 
 /// Loads a volume file, in any format `ercube render --volume` reads:
-/// returns `(voxels, spacing)`, voxels a numpy array `(z, y, x)` in the
-/// file's type (uint8 or uint16) and spacing `(x, y, z)`. Options are the
+/// returns `(voxels, spacing)`, voxels a read-only numpy array `(z, y,
+/// x)` in the file's type (uint8 or uint16) over the loaded volume's own
+/// buffer (`voxels.copy()` gives one to change) and spacing `(x, y, z)`. Options are the
 /// command line's source flags: `raw_dims=(x, y, z)`, `raw_type="u16le"`,
 /// `raw_offset`, `spacing`, `window`, `max_memory`.
 #[pyfunction]
@@ -504,16 +236,17 @@ fn load<'py>(
     args.extend(flags(options)?);
     let v = py.detach(|| ercube::frame::volume(&args)).map_err(error)?;
     let s = v.spacing();
-    Ok((voxels_array(py, &v)?, (s[0], s[1], s[2])))
+    Ok((voxels_array(py, v)?, (s[0], s[1], s[2])))
 }
 
 /// Builds a synthetic scene as `--scene SPEC` does (`"ml:40"`,
-/// `"checker:32"`, `"sphere:64"`, `"impulse:16"`): voxels `(z, y, x)`.
+/// `"checker:32"`, `"sphere:64"`, `"impulse:16"`): voxels `(z, y, x)`,
+/// read-only as [`load`]'s.
 #[pyfunction]
 fn scene<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
     let args = vec![format!("--scene={spec}")];
     let v = py.detach(|| ercube::frame::volume(&args)).map_err(error)?;
-    voxels_array(py, &v)
+    voxels_array(py, v)
 }
 
 /// Renders `voxels` (numpy `(z, y, x)`, uint8 or uint16) as `ercube
@@ -554,7 +287,13 @@ fn render<'py>(
         tf: tf.map(str::to_string),
     };
     let source = (input.dims, spacing, input.voxels());
-    let out = run(py, view.args(options)?, source, config, false)?;
+    let out = run(
+        py,
+        view.args(options)?,
+        (source, input.frozen()?),
+        config,
+        false,
+    )?;
     Ok((out.image, out.stats))
 }
 

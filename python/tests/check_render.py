@@ -51,6 +51,7 @@ def main() -> int:
                     print(f"  {k}: python {stats.get(k)!r} cli {cli.get(k)!r}")
         bad += (not same) + (not same_stats)
     bad += check_kept(brain, spacing)
+    bad += check_frozen(brain, spacing, cases[0]["scene"])
     # An error is an ercube.Error carrying the command line's message.
     try:
         ercube.render(scene, size=(0, 0))
@@ -91,6 +92,53 @@ def check_kept(brain, spacing) -> int:
     w2 = ercube.render(brain, spacing=spacing, size=(64, 64), window=(20, 200))[0]
     ok = same(w, w2) and same(w, fresh(brain, size=(64, 64), window=(20, 200)))
     print(f"windowed twice: {'same' if ok else 'DIFFERENT'}")
+    bad += not ok
+    return bad
+
+
+def check_frozen(brain, spacing, scene) -> int:
+    """Arrays of ercube.load and ercube.scene are read-only over a buffer
+    that cannot change, so a call with one is not compared with the kept
+    volume: every such frame (a sub-block, another buffer of the same
+    shape, the same view again after another) equals the frame of a fresh
+    copy; an image handed out stays as it was while later frames run."""
+    bad = 0
+
+    def same(a, b):
+        return np.array_equal(a.view(np.uint32), b.view(np.uint32))
+
+    def fresh(voxels, **kw):
+        ercube.clear_cache()
+        return ercube.render(np.array(voxels), **kw)[0]
+
+    try:
+        brain.flags.writeable = True
+        print("frozen: the loaded array was made writable")
+        bad += 1
+    except ValueError:
+        print("frozen: the loaded array stays read-only")
+    kw = dict(spacing=spacing, size=(48, 40))
+    low, high = brain[10:60], brain[30:80]
+    images = [ercube.render(v, **kw)[0] for v in (brain, low, high, brain, low)]
+    want = [fresh(v, **kw) for v in (brain, low, high)]
+    ok = all(same(a, b) for a, b in zip(images, want + want[:2])) and not same(want[1], want[2])
+    print(f"frozen sub-blocks: {'fresh' if ok else 'STALE'}")
+    bad += not ok
+    kind, side = scene.split(":")
+    a, b = ercube.scene(scene), ercube.scene(("checker:" if kind == "sphere" else "sphere:") + side)
+    ok = a.shape == b.shape
+    if ok:
+        got = [ercube.render(v, size=(48, 40))[0] for v in (a, b, a)]
+        want = [fresh(v, size=(48, 40)) for v in (a, b)]
+        ok = same(got[0], want[0]) and same(got[1], want[1]) and same(got[2], want[0]) and not same(want[0], want[1])
+    print(f"frozen buffers of one shape: {'fresh' if ok else 'STALE'}")
+    bad += not ok
+    first = ercube.render(brain, **kw)[0]
+    keep = first.copy()
+    moved = [ercube.render(brain, eye=(64, 64 + 10 * k, -150), **kw)[0] for k in range(6)]
+    back = ercube.render(brain, **kw)[0]
+    ok = same(first, keep) and same(back, keep) and not same(moved[3], keep)
+    print(f"images held across frames: {'unchanged' if ok else 'OVERWRITTEN'}")
     bad += not ok
     return bad
 

@@ -1,6 +1,7 @@
 //! `ercube render`: one image of a volume with one method.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Result;
@@ -270,9 +271,30 @@ pub fn frame_tapped(
 pub struct Reuse {
     /// The kept volume (`None` while it is lent to a frame) and its
     /// preparation.
-    last: Option<(Option<golden::volume::Volume>, Prepared)>,
+    last: Option<(Option<golden::volume::Volume>, Arc<Prepared>)>,
     /// The last pipeline frame's memories and datapath.
     spare: Option<pipeline::Resident>,
+    /// The buffer the kept volume's voxels were copied from, when it is
+    /// one that cannot change ([`Frozen`]): the same buffer seen again
+    /// holds the same voxels, so they need no comparison. Reset whenever
+    /// another volume is kept.
+    frozen: Option<Frozen>,
+    /// The camera and options the kept preparation was placed for (set
+    /// with it, read only beside it).
+    placed: Option<(golden::camera::Camera, golden::render::PrepareOptions)>,
+}
+
+/// Where a caller's voxels lie in a buffer that cannot change while it
+/// is alive (the Python module's read-only arrays of `ercube.load`): the
+/// buffer's identity, never given to another buffer in the process, and
+/// the voxels' first byte's offset in it. Two borrowed volumes with the
+/// same `Frozen`, dimensions and voxel type hold the same voxels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Frozen {
+    /// The buffer's identity.
+    pub buffer: u64,
+    /// The voxels' offset in it, in bytes.
+    pub offset: usize,
 }
 
 impl Reuse {
@@ -281,6 +303,8 @@ impl Reuse {
         Reuse {
             last: None,
             spare: None,
+            frozen: None,
+            placed: None,
         }
     }
 
@@ -288,6 +312,21 @@ impl Reuse {
     pub fn clear(&mut self) {
         self.last = None;
         self.spare = None;
+        self.frozen = None;
+        self.placed = None;
+    }
+
+    /// The unchanging buffer the kept volume was copied from, if any.
+    pub fn frozen(&self) -> Option<Frozen> {
+        self.frozen
+            .filter(|_| matches!(self.last, Some((Some(_), _))))
+    }
+
+    /// Records that the kept volume, which the frame just ended was given,
+    /// was copied from (or is still) the voxels at `frozen`; nothing when
+    /// no volume is kept.
+    pub fn kept_from(&mut self, frozen: Option<Frozen>) {
+        self.frozen = frozen.filter(|_| matches!(self.last, Some((Some(_), _))));
     }
 
     /// The kept volume, lent for the next frame when `same` says it is
@@ -325,21 +364,28 @@ impl Reuse {
         vol: golden::volume::Volume,
         cam: &golden::camera::Camera,
         slice: &SliceArgs,
-    ) -> Result<Prepared> {
+    ) -> Result<Arc<Prepared>> {
         let opts = slice.prepare()?;
         let same = |v: &golden::volume::Volume| {
             v.dims() == vol.dims() && v.spacing() == vol.spacing() && v.voxels() == vol.voxels()
         };
+        // The same camera and options keep the whole preparation, the
+        // camera's own parts (the view, its coarse levels) too.
+        let placed = self.placed.as_ref() == Some(&(*cam, opts.clone()));
         let prep = match &self.last {
-            Some((None, p)) => p.moved(&vol, cam, &opts)?,
-            Some((Some(v), p)) if same(v) => p.moved(v, cam, &opts)?,
+            Some((None, p)) if placed => Arc::clone(p),
+            Some((None, p)) => Arc::new(p.moved(&vol, cam, &opts)?),
+            Some((Some(v), p)) if same(v) && placed => Arc::clone(p),
+            Some((Some(v), p)) if same(v) => Arc::new(p.moved(v, cam, &opts)?),
             _ => {
                 // The old volume goes before the new one is prepared.
                 self.last = None;
-                Prepared::with(&vol, cam, &opts)?
+                Arc::new(Prepared::with(&vol, cam, &opts)?)
             }
         };
-        self.last = Some((Some(vol), prep.clone()));
+        self.last = Some((Some(vol), Arc::clone(&prep)));
+        self.placed = Some((*cam, opts));
+        self.frozen = None;
         Ok(prep)
     }
 }
@@ -351,10 +397,10 @@ fn prepare_for(
     vol: golden::volume::Volume,
     cam: &golden::camera::Camera,
     reuse: Option<&mut Reuse>,
-) -> Result<Prepared> {
+) -> Result<Arc<Prepared>> {
     match reuse {
         Some(r) => r.prepared(vol, cam, slice),
-        None => slice.prepared_owning(vol, cam),
+        None => Ok(Arc::new(slice.prepared_owning(vol, cam)?)),
     }
 }
 
@@ -405,7 +451,7 @@ fn frame_golden(
         (Some(g), Technique::Slice(_)) => {
             let prep = a.slice.prepared(&vol, &cam)?;
             let _s = Stage::start("preparing the gaze levels");
-            prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?
+            Arc::new(prep.with_gaze_levels(&vol, &cam, &a.slice.prepare()?, g.levels)?)
         }
         _ => prepare_for(&a.slice, vol, &cam, reuse)?,
     };

@@ -44,7 +44,12 @@ pub(super) fn frame_pipeline(
     };
     let prep = if level > 0 {
         let _s = Stage::start(format!("prefiltering the volume to level {level}"));
-        golden::ergaze::prepare_level(&vol, &cam, &slice.prepare()?, level)?
+        std::sync::Arc::new(golden::ergaze::prepare_level(
+            &vol,
+            &cam,
+            &slice.prepare()?,
+            level,
+        )?)
     } else {
         // The PEs load from golden's stack, which takes the volume's
         // voxels: the frame holds them once.
