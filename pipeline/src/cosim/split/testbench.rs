@@ -87,7 +87,7 @@ pub fn write_files(s: &SplitShape, passes: &[SplitCapture], dir: &Path) -> Resul
             let _ = writeln!(t, "{n:x}");
         }
         for tick in &p.ticks {
-            for (k, e) in tick.iter().enumerate() {
+            for e in tick {
                 let mut f: Vec<String> = vec![
                     hex(i64::from(e.x.is_some()), 1),
                     format!("{:x}", e.x.unwrap_or(0)),
@@ -96,8 +96,8 @@ pub fn write_files(s: &SplitShape, passes: &[SplitCapture], dir: &Path) -> Resul
                     format!("{:x}", e.col),
                 ];
                 for w in e.parents {
-                    for ch in 0..4 {
-                        f.push(hex(w[ch], u32::from(s.acc_of(ch).bits())));
+                    for (ch, v) in w.iter().enumerate() {
+                        f.push(hex(*v, u32::from(s.acc_of(ch).bits())));
                     }
                 }
                 let line = e.line.unwrap_or_default();
@@ -112,7 +112,6 @@ pub fn write_files(s: &SplitShape, passes: &[SplitCapture], dir: &Path) -> Resul
                 }
                 f.push(hex(i64::from(done), 1));
                 let _ = writeln!(t, "{}", f.join(" "));
-                let _ = k;
             }
         }
         ticks += p.ticks.len() as u64;
