@@ -210,8 +210,8 @@ fn split_module_lints_without_latches() {
 }
 
 /// yosys `synth -top`, `synth_ice40` and `synth_xilinx` finish without
-/// error and leave no latch (about two minutes: the line buffer, a
-/// register file read without a clock, is mapped to flip-flops).
+/// error and leave no latch (about 85 s: the line buffer, a register
+/// file read without a clock, is mapped to flip-flops).
 /// `cargo test --release -p pipeline --test it -- --ignored split_rtl::`
 #[test]
 #[ignore]
