@@ -57,8 +57,9 @@ pub struct CosimArgs {
     /// What is emitted and compared: the datapath stage with the readout
     /// (`datapath`), or each PE's sample stage with its control, voxel
     /// memory and compositing buffer, then the readout from its buffers
-    /// (`pe`; either order, column blocks).
-    #[arg(long, value_parser = ["datapath", "pe"], default_value = "datapath")]
+    /// (`pe`; either order, column blocks), or every dense split of a
+    /// front-to-back frame in the PE's split module (`split`).
+    #[arg(long, value_parser = ["datapath", "pe", "split"], default_value = "datapath")]
     pub stage: String,
 }
 
@@ -120,6 +121,9 @@ fn rate(n: u64, s: f64) -> f64 {
 pub fn run(a: &CosimArgs) -> Result<()> {
     if a.stage == "pe" {
         return super::cosim_pe::run(a);
+    }
+    if a.stage == "split" {
+        return super::cosim_split::run(a);
     }
     super::outputs::check_files(&[a.stats.as_deref(), a.vcd.as_deref()])?;
     if a.max_cycles == Some(0) {

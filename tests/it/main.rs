@@ -28,6 +28,7 @@ mod bound;
 mod cli;
 mod cosim;
 mod cosim_preint;
+mod cosim_split;
 mod docs;
 mod explore;
 mod frame_rate;

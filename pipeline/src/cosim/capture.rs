@@ -176,6 +176,9 @@ pub trait IssueSink: Send {
     /// One readout clock: every PE's host port in it and its
     /// `readout_done` report line after it.
     fn readout_tick(&mut self, _tick: &ReadoutTick) {}
+    /// A dense split pass, every clock of it
+    /// ([`crate::cosim::split`]), after its last clock.
+    fn split_pass(&mut self, _pass: &crate::cosim::split::SplitCapture) {}
     /// A sampling clock's broadcast, before the clock runs
     /// ([`crate::cosim::pe_sample`]).
     fn sample_bus(&mut self, _bus: &crate::cosim::pe_sample::BusCycle) {}

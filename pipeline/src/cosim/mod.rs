@@ -28,4 +28,5 @@ pub mod pe_sample;
 pub mod pe_vectors;
 pub mod readout;
 pub mod replay;
+pub mod split;
 pub mod vectors;

@@ -48,6 +48,7 @@ pub mod sample;
 pub mod schedule;
 pub mod shading;
 pub mod sim;
+pub mod split_rtl;
 pub mod state;
 pub mod tents;
 pub mod testbench;

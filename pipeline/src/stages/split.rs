@@ -236,6 +236,10 @@ impl Array {
                 inside([py, py + my.rem_euclid(2)].into_iter(), prows)
             })
             .collect();
+        if let Some(c) = self.clock.capture().cloned() {
+            self.split_captured(&c, &dp, (fg, bg), (prows, &needs))?;
+            return Ok((rays(fg), rays(bg)));
+        }
         self.run_pass(
             Stage::Split,
             (prows, &needs),
@@ -247,6 +251,75 @@ impl Array {
             Broadcast::EndSplit,
         )?;
         Ok((rays(fg), rays(bg)))
+    }
+
+    /// The dense split of [`Array::split`] with each PE's clocks recorded
+    /// for the co-simulation ([`crate::cosim::split`]): the broadcast, the
+    /// parents the x pass reads and what both passes write. The same
+    /// clocks as the uncaptured split.
+    fn split_captured(
+        &mut self,
+        capture: &crate::cosim::capture::Capture,
+        dp: &Datapath,
+        (fg, bg): (&RayGrid, &RayGrid),
+        (prows, needs): (usize, &[Option<(usize, usize)>]),
+    ) -> Result<(), RunError> {
+        use crate::cosim::split::{SplitCapture, SplitTick};
+        let p = self.clock.pes().len();
+        let mut rec = SplitCapture {
+            first: self.clock.now(),
+            grids: (fg.lo[1], prows, bg.lo[1]),
+            children: vec![0; p],
+            ticks: Vec::new(),
+        };
+        let mut per_pe: Vec<Vec<SplitTick>> = vec![Vec::new(); p];
+        let grid = (fg.lo[0], fg.hi[0]);
+        self.run_pass(
+            Stage::Split,
+            (prows, needs),
+            Broadcast::BeginSplit {
+                front: fg,
+                back: bg,
+            },
+            |pe, bus, links, out| {
+                let pass = SplitPass { fg, bg };
+                let (c, n) = (bus.col, pe.pass.children.len());
+                let mut t = SplitTick {
+                    x: bus.x,
+                    y: bus.y,
+                    col: c,
+                    ..SplitTick::default()
+                };
+                if let Some(q) = bus.x.filter(|_| c < n) {
+                    if let Ok((a, b)) = pe.split_parents(c, q, grid, Edges::on(&links).right) {
+                        t.parents = [a.raw, b.raw];
+                    }
+                }
+                pe.pass_step(&pass, dp, bus, links, out)?;
+                if let Some(q) = bus.x.filter(|_| c < n) {
+                    t.line = pe.pass.line.read(pe.k, q, c).ok();
+                }
+                if let Some(i) = bus.y.filter(|_| c < n) {
+                    let col = &pe.pass.next[c];
+                    t.child = Some((col.acc[i].raw, col.ftb[i].done));
+                }
+                rec.children[pe.k] = n;
+                per_pe[pe.k].push(t);
+                Ok(())
+            },
+            Broadcast::EndSplit,
+        )?;
+        let ticks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
+        rec.ticks = (0..ticks)
+            .map(|i| {
+                per_pe
+                    .iter()
+                    .map(|v| v.get(i).copied().unwrap_or_default())
+                    .collect()
+            })
+            .collect();
+        crate::cosim::split::captured(capture, &rec);
+        Ok(())
     }
 
     /// The sparse split (`pass_skip_empty`), planned as the sparse merge

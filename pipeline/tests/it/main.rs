@@ -39,6 +39,7 @@ mod rtl;
 mod rtl_units;
 mod shading;
 mod skip;
+mod split_rtl;
 mod stepper;
 mod stress;
 mod support;

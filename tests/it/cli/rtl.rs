@@ -38,7 +38,7 @@ fn rtl_writes_the_module_filelist_and_readme() {
             run.describe()
         );
         let o = d.join(&out);
-        let want = vec![
+        let mut want = vec![
             "README.md",
             "ercube_pe_readout.v",
             "ercube_pe_sample.v",
@@ -46,12 +46,21 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "ercube_sample.v",
             "filelist.f",
         ];
+        // Front to back, the PE's dense split too.
+        let split = if order == "ftb" {
+            want.insert(3, "ercube_pe_split.v");
+            "ercube_pe_split.v\n"
+        } else {
+            ""
+        };
         assert_eq!(entries(&o), want);
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
         let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
         assert_eq!(
             std::fs::read_to_string(o.join("filelist.f")).unwrap(),
-            "ercube_sample.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+            format!(
+                "ercube_sample.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n{split}"
+            )
         );
         for m in ["ercube_pe_readout", "ercube_readout_array"] {
             let text = std::fs::read_to_string(o.join(format!("{m}.v"))).unwrap();

@@ -78,6 +78,9 @@ impl IssueSink for Tee {
     fn readout_tick(&mut self, tick: &ReadoutTick) {
         self.each(|s| s.readout_tick(tick));
     }
+    fn split_pass(&mut self, pass: &crate::cosim::split::SplitCapture) {
+        self.each(|s| s.split_pass(pass));
+    }
 }
 
 /// A readout stage simulated and compared.
