@@ -49,7 +49,8 @@ pub(crate) fn array<'py, T: bytemuck::Pod>(
 
 /// A frame's pixels lent to numpy without a copy: the array numpy makes
 /// of it (`__array_struct__`, writable) reads and writes the frame's own
-/// buffer and keeps this object, and so the buffer, alive as its base.
+/// buffer and keeps this object, and so the buffer, alive as its base (as
+/// does the capsule numpy reads it from).
 #[pyclass(frozen, module = "ercube")]
 struct Pixels {
     /// The buffer, never read or moved again (moving the `Vec` would not
@@ -76,7 +77,9 @@ impl Pixels {
     /// 3, one capsule: no dict, tuple or type string to parse):
     /// native-order float32 of `shape`, C-contiguous, writable.
     #[getter]
-    fn __array_struct__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyCapsule>> {
+    fn __array_struct__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyCapsule>> {
+        let py = slf.py();
+        let me = slf.get();
         let ai = ArrayInterface {
             two: 2,
             nd: 3,
@@ -86,37 +89,52 @@ impl Pixels {
                 | ArrayInterface::ALIGNED
                 | ArrayInterface::NOT_SWAPPED
                 | ArrayInterface::WRITEABLE,
-            shape: self.shape.as_ptr(),
+            shape: me.shape.as_ptr(),
             // C order: numpy works the strides out.
             strides: std::ptr::null(),
-            data: self.address as *mut std::ffi::c_void,
+            data: me.address as *mut std::ffi::c_void,
             descr: std::ptr::null_mut(),
         };
         // numpy reads the capsule's pointer with no name
         // (`PyCapsule_GetPointer(capsule, NULL)`), which only a capsule
         // without one gives: made here, its box freed with it. The
-        // pointers in it lead into this object, which numpy holds as the
-        // array's base beyond the capsule's life.
+        // pointers in it lead into this object, which the capsule holds
+        // (its context, a strong reference) for as long as it lives.
         unsafe extern "C" fn free(capsule: *mut pyo3::ffi::PyObject) {
             // SAFETY: the capsule was made below from a boxed
-            // `ArrayInterface` and no name; this runs once, as it dies.
+            // `ArrayInterface`, no name and a strong reference to its
+            // `Pixels` as context; this runs once, as it dies, with the
+            // GIL held.
             unsafe {
                 let p = pyo3::ffi::PyCapsule_GetPointer(capsule, std::ptr::null());
                 if !p.is_null() {
                     drop(Box::from_raw(p.cast::<ArrayInterface>()));
                 }
+                let owner = pyo3::ffi::PyCapsule_GetContext(capsule);
+                if !owner.is_null() {
+                    pyo3::ffi::Py_DecRef(owner.cast());
+                }
             }
         }
         let boxed = Box::into_raw(Box::new(ai));
         // SAFETY: `boxed` is a valid pointer owned by the capsule from
-        // here on (freed by `free`, or below when no capsule is made).
+        // here on (freed by `free`, or below when no capsule is made); the
+        // context's reference is taken only once the capsule exists, so
+        // `free` releases exactly the one taken.
         unsafe {
             let obj = pyo3::ffi::PyCapsule_New(boxed.cast(), std::ptr::null(), Some(free));
             if obj.is_null() {
                 drop(Box::from_raw(boxed));
                 return Err(PyErr::fetch(py));
             }
-            Ok(Bound::from_owned_ptr(py, obj).cast_into_unchecked())
+            let capsule: Bound<'py, PyCapsule> =
+                Bound::from_owned_ptr(py, obj).cast_into_unchecked();
+            let owner = slf.clone().into_ptr();
+            if pyo3::ffi::PyCapsule_SetContext(obj, owner.cast()) != 0 {
+                pyo3::ffi::Py_DecRef(owner);
+                return Err(PyErr::fetch(py));
+            }
+            Ok(capsule)
         }
     }
 }
