@@ -256,8 +256,10 @@ pub fn frame_tapped(
 /// voxels seen again, by any camera, are prepared by [`Prepared::moved`],
 /// which keeps the permuted slice stack while the principal axis holds and
 /// the empty-space blocks and occupancy map while the block size does,
-/// instead of building them again. Frames are the same as without it; the
-/// cost is that the last volume and its stack stay in memory.
+/// instead of building them again; by the same camera and preparation
+/// options, the kept preparation is taken whole. Frames are the same as
+/// without it; the cost is that the last volume and its stack stay in
+/// memory.
 ///
 /// A caller holding the voxels elsewhere (a numpy array) can have the
 /// kept volume lent back for the next frame ([`Reuse::lend_if`]) instead
