@@ -63,6 +63,23 @@ pub struct CosimArgs {
     pub stage: String,
 }
 
+impl CosimArgs {
+    /// Refuses, in one line naming `cmd`, the flags only the datapath
+    /// stage takes (`--vcd`, `--max-cycles`, `--verilog`).
+    pub fn refuse_datapath_flags(&self, cmd: &str) -> Result<()> {
+        for (given, what) in [
+            (self.vcd.is_some(), "--vcd"),
+            (self.max_cycles.is_some(), "--max-cycles"),
+            (self.verilog.is_some(), "--verilog"),
+        ] {
+            if given {
+                bail!("{cmd}: {what} is for the datapath stage only");
+            }
+        }
+        Ok(())
+    }
+}
+
 pub use super::cosim_frame::{setup, FrameArgs, Setup};
 
 /// A failed comparison: the report is printed, the exit status is 1.

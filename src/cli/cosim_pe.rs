@@ -18,15 +18,7 @@ use super::cosim::{cache_dir, setup, simulator, CosimArgs};
 /// Runs the sample stage's co-simulation.
 pub fn run(a: &CosimArgs) -> Result<()> {
     super::outputs::check_files(&[a.stats.as_deref()])?;
-    for (given, what) in [
-        (a.vcd.is_some(), "--vcd"),
-        (a.max_cycles.is_some(), "--max-cycles"),
-        (a.verilog.is_some(), "--verilog"),
-    ] {
-        if given {
-            bail!("cosim --stage pe: {what} is for the datapath stage only");
-        }
-    }
+    a.refuse_datapath_flags("cosim --stage pe")?;
     let sim = simulator(&a.simulator)?;
     let s = setup(&a.frame, "cosim")?;
     s.refuse_preint("cosim --stage pe", "in the PE's sample stage (its pass broadcast, the ray's previous sample in the compositing buffer and slice 0's two steps in one sample are not emitted)")?;

@@ -20,15 +20,7 @@ use super::cosim::{cache_dir, setup, simulator, CosimArgs};
 /// Runs the split's co-simulation.
 pub fn run(a: &CosimArgs) -> Result<()> {
     super::outputs::check_files(&[a.stats.as_deref()])?;
-    for (given, what) in [
-        (a.vcd.is_some(), "--vcd"),
-        (a.max_cycles.is_some(), "--max-cycles"),
-        (a.verilog.is_some(), "--verilog"),
-    ] {
-        if given {
-            bail!("cosim --stage split: {what} is for the datapath stage only");
-        }
-    }
+    a.refuse_datapath_flags("cosim --stage split")?;
     let sim = simulator(&a.simulator)?;
     let s = setup(&a.frame, "cosim")?;
     let shape = SplitShape::for_view(&s.cfg, &s.prep.view)
