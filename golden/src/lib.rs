@@ -47,6 +47,7 @@ pub mod shearwarp;
 pub mod skip;
 pub mod slices;
 pub mod tf;
+pub mod values;
 pub mod voi;
 pub mod volume;
 pub mod warp;

@@ -189,33 +189,21 @@ impl TransferFunction {
     }
 
     /// Whether this table shows none, some or all of `vol`: the opacity
-    /// of each voxel value present, evaluated on the function itself.
-    /// Each value's opacity is evaluated the first time the scan meets it,
-    /// and the scan stops at the first pair of a visible and a clear voxel
-    /// (in a volume with a clear background, within its first rows): only
-    /// a volume shown wholly or not at all is read to its end.
+    /// of each voxel value present ([`Volume::values`], kept with the
+    /// volume), evaluated on the function itself, lowest value first,
+    /// stopping at the first pair of a visible and a clear value.
     pub fn coverage(&self, vol: &Volume) -> Coverage {
-        const UNSEEN: u8 = 0;
-        const VISIBLE: u8 = 1;
-        const CLEAR: u8 = 2;
-        let mut state = vec![UNSEEN; usize::from(vol.kind().max_value()) + 1];
         let (mut seen, mut clear) = (false, false);
-        crate::with_voxels!(vol.voxels(), d => {
-            for &v in d {
-                let i = usize::from(crate::volume::Voxel::value(v));
-                if state[i] == UNSEEN {
-                    state[i] = if self.eval(i as f64)[3] > 0.0 { VISIBLE } else { CLEAR };
-                }
-                if state[i] == VISIBLE {
-                    seen = true;
-                } else {
-                    clear = true;
-                }
-                if seen && clear {
-                    return Coverage::Some;
-                }
+        for v in vol.values().iter() {
+            if self.eval(f64::from(v))[3] > 0.0 {
+                seen = true;
+            } else {
+                clear = true;
             }
-        });
+            if seen && clear {
+                return Coverage::Some;
+            }
+        }
         match (seen, clear) {
             (false, _) => Coverage::None,
             (true, true) => Coverage::Some,
@@ -548,7 +536,8 @@ mod tests {
     }
 
     proptest::proptest! {
-        /// The scan that stops early tells what reading every voxel tells.
+        /// The walk over the values present, stopping early, tells what
+        /// reading every voxel tells.
         #[test]
         fn coverage_is_the_whole_volumes(values in proptest::collection::vec(0u16..=300, 1..64)) {
             let tf = ramp();

@@ -7,6 +7,7 @@
 //! `(x, y, z)` and at world position `(x, y, z) * spacing`; x varies fastest.
 
 use crate::error::{input, Error, Result};
+use crate::values::ValueSet;
 
 /// Memory a single volume may take unless the caller says otherwise (4 GiB):
 /// enough for 1024^3 u16 voxels twice over, far below the machine, and
@@ -186,6 +187,10 @@ pub struct Volume {
     kind: VoxelType,
     data: Voxels,
     units: Units,
+    /// The values the voxels hold, found the first time they are asked
+    /// for ([`Volume::values`]); the voxels never change after the volume
+    /// is built, so neither does the set.
+    values: std::sync::OnceLock<std::sync::Arc<ValueSet>>,
 }
 
 /// Checks that `dims` are sane and that `bytes_per_voxel * voxel count` fits
@@ -241,6 +246,7 @@ impl Volume {
             kind,
             data,
             units: Units::IDENTITY,
+            values: std::sync::OnceLock::new(),
         })
     }
 
@@ -306,6 +312,7 @@ impl Volume {
                 base: w.lo,
                 step: 1.0 / scale,
             },
+            values: std::sync::OnceLock::new(),
         }
     }
 
@@ -350,11 +357,18 @@ impl Volume {
     pub fn center_world(&self) -> [f64; 3] {
         std::array::from_fn(|k| (self.dims[k] as f64 - 1.0) * 0.5 * self.spacing[k])
     }
-    /// Smallest and largest voxel value.
+    /// Smallest and largest voxel value ([`Volume::values`]' ends).
     pub fn value_range(&self) -> (u16, u16) {
-        with_voxels!(&self.data, d => d.iter().fold((u16::MAX, 0), |(lo, hi), &v| {
-            (lo.min(v.value()), hi.max(v.value()))
-        }))
+        // A built volume has voxels, so the set is never empty.
+        self.values().range().unwrap_or((u16::MAX, 0))
+    }
+    /// The values the voxels hold: read from the voxels on the first call
+    /// and kept with the volume (its clones share it), so the value range
+    /// and a transfer function's coverage cost one pass over the voxels a
+    /// volume, not one a frame.
+    pub fn values(&self) -> &ValueSet {
+        self.values
+            .get_or_init(|| std::sync::Arc::new(ValueSet::of(&self.data)))
     }
 }
 
@@ -390,6 +404,19 @@ fn fill<T: Voxel>(dims: [usize; 3], f: impl Fn(usize, usize, usize) -> T + Sync)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_values_are_read_once_and_shared_by_clones() {
+        let v = Volume::new([3, 2, 1], VoxelType::U16, vec![9, 4, 4, 300, 9, 7]).unwrap();
+        assert_eq!(v.value_range(), (4, 300));
+        assert_eq!(v.values().iter().collect::<Vec<_>>(), vec![4, 7, 9, 300]);
+        // A clone made after the first call holds the same set, not a new one.
+        let c = v.clone();
+        assert!(std::ptr::eq(v.values(), c.values()));
+        // A windowed volume holds other values, so it finds its own.
+        let w = v.windowed(Window { lo: 4.0, hi: 9.0 });
+        assert_eq!(w.value_range(), (0, 65535));
+    }
 
     #[test]
     fn rejects_zero_absurd_and_oversized_dims() {
