@@ -11,7 +11,9 @@
 //! with `--shading` or `--voi`, the sample's datapath with those units
 //! composed into one module, as the model's PE runs them
 //! (`pipeline::hw::compose`); front to back, the PE's dense split (its
-//! filters and line buffer, `pipeline::hw::split_rtl`). What is not
+//! filters and line buffer, `pipeline::hw::split_rtl`), back to front its
+//! dense merge (its tents and line buffer, `pipeline::hw::merge_rtl`).
+//! What is not
 //! emitted yet (the other stages' state machines, the array's links, the
 //! controller) is refused in one line naming it.
 
@@ -92,13 +94,13 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let refused = [
         (
             a.pe,
-            "the PE's control and stage state machines other than the sample stage, the dense split and the readout are",
+            "the PE's control and stage state machines other than the sample stage, the dense split, the dense merge and the readout are",
         ),
         (a.array, "the PE array with its links is"),
         (a.controller, "the controller is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split and the readout stage are)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split, the dense merge and the readout stage are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -166,6 +168,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         .and_then(|shape| emit_pe_sample(&shape, &m).map(|r| (shape, r)))
         .map_err(|e| format!("rtl: {PE_SAMPLE} not written: {e}"));
     let split = super::rtl_split::split(&cfg, dims);
+    let merge = super::rtl_merge::merge(&cfg, dims);
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
@@ -196,6 +199,12 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             list.push_str(&name);
             list.push('\n');
         }
+        if let Ok((_, v)) = &merge {
+            let name = format!("{}.v", pipeline::hw::merge_rtl::MODULE);
+            write(&a.out_dir.join(&name), v)?;
+            list.push_str(&name);
+            list.push('\n');
+        }
         write(&a.out_dir.join("filelist.f"), &list)?;
         let mut text = readme(&cfg, &m);
         for u in &units {
@@ -209,6 +218,9 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         }
         if let Ok((shape, _)) = &split {
             text.push_str(&super::rtl_split::section(shape, dims));
+        }
+        if let Ok((shape, _)) = &merge {
+            text.push_str(&super::rtl_merge::section(shape, dims));
         }
         write(&a.out_dir.join("README.md"), &text)?;
         Ok(())
@@ -252,6 +264,14 @@ pub fn run(a: &RtlArgs) -> Result<()> {
             "{}: {}",
             a.out_dir.display(),
             super::rtl_split::summary(shape, v)
+        )),
+        Err(e) => super::say(e),
+    }
+    match &merge {
+        Ok((shape, v)) => super::say(&format!(
+            "{}: {}",
+            a.out_dir.display(),
+            super::rtl_merge::summary(shape, v)
         )),
         Err(e) => super::say(e),
     }
@@ -321,7 +341,8 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(
         w,
         "The PE's control and stage state machines other than the sample stage, the readout and \
-         the dense split's filters and line buffer (migrate, merge, fold, the sparse split's work \
+         the dense split's filters and the dense merge's tents with their line buffers (migrate, \
+         fold, the sparse split's and merge's work lists, the held parents' fetch, \
          lists, the parents' fetch), its FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \

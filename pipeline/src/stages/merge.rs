@@ -335,6 +335,10 @@ impl Array {
         }
         let prows = bg.counts()[1];
         let needs = tent_needs(fg, bg);
+        if let Some(c) = self.clock.capture().cloned() {
+            self.merge_captured(&c, &dp, (bg, fg), (prows, &needs))?;
+            return Ok((rays(bg), rays(fg)));
+        }
         if !self.clock.tracing() && !self.clocked {
             self.merge_untraced(&dp, (prows, &needs), (bg, fg))?;
             return Ok((rays(bg), rays(fg)));

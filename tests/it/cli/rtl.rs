@@ -46,12 +46,14 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "ercube_sample.v",
             "filelist.f",
         ];
-        // Front to back, the PE's dense split too.
+        // Front to back, the PE's dense split too; back to front its
+        // dense merge.
         let split = if order == "ftb" {
             want.insert(3, "ercube_pe_split.v");
             "ercube_pe_split.v\n"
         } else {
-            ""
+            want.insert(1, "ercube_pe_merge.v");
+            "ercube_pe_merge.v\n"
         };
         assert_eq!(entries(&o), want);
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
