@@ -327,7 +327,8 @@ impl Array {
     /// Bartlett merge of `back`'s rays into `front`'s. Returns the rays
     /// it read and wrote (an external ray buffer's traffic): every parent
     /// and child, or with `pass_skip_empty` the non-zero parents and the
-    /// children written.
+    /// children written. With a capture attached, the dense pass records
+    /// every clock for the co-simulation (`stages::merge_capture`).
     pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(u64, u64), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         if dp.cfg.pass_skip_empty {
