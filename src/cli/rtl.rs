@@ -167,8 +167,12 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let pe_sample = PeSampleShape::new(&cfg, &Geometry::new(dims, cfg.pes))
         .and_then(|shape| emit_pe_sample(&shape, &m).map(|r| (shape, r)))
         .map_err(|e| format!("rtl: {PE_SAMPLE} not written: {e}"));
-    let split = super::rtl_split::split(&cfg, dims);
-    let merge = super::rtl_merge::merge(&cfg, dims);
+    // The boundary passes of the order: (module, Verilog, summary, README
+    // section), or why not written.
+    let passes = [
+        super::rtl_split::written(&cfg, dims),
+        super::rtl_merge::written(&cfg, dims),
+    ];
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
@@ -193,14 +197,8 @@ pub fn run(a: &RtlArgs) -> Result<()> {
                 list.push('\n');
             }
         }
-        if let Ok((_, v)) = &split {
-            let name = format!("{}.v", pipeline::hw::split_rtl::MODULE);
-            write(&a.out_dir.join(&name), v)?;
-            list.push_str(&name);
-            list.push('\n');
-        }
-        if let Ok((_, v)) = &merge {
-            let name = format!("{}.v", pipeline::hw::merge_rtl::MODULE);
+        for (module, v, _, _) in passes.iter().flatten() {
+            let name = format!("{module}.v");
             write(&a.out_dir.join(&name), v)?;
             list.push_str(&name);
             list.push('\n');
@@ -216,11 +214,8 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         if let Ok(r) = &readout {
             text.push_str(&readout_section(r, dims));
         }
-        if let Ok((shape, _)) = &split {
-            text.push_str(&super::rtl_split::section(shape, dims));
-        }
-        if let Ok((shape, _)) = &merge {
-            text.push_str(&super::rtl_merge::section(shape, dims));
+        for (_, _, _, section) in passes.iter().flatten() {
+            text.push_str(section);
         }
         write(&a.out_dir.join("README.md"), &text)?;
         Ok(())
@@ -259,21 +254,11 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         )),
         Err(e) => super::say(e),
     }
-    match &split {
-        Ok((shape, v)) => super::say(&format!(
-            "{}: {}",
-            a.out_dir.display(),
-            super::rtl_split::summary(shape, v)
-        )),
-        Err(e) => super::say(e),
-    }
-    match &merge {
-        Ok((shape, v)) => super::say(&format!(
-            "{}: {}",
-            a.out_dir.display(),
-            super::rtl_merge::summary(shape, v)
-        )),
-        Err(e) => super::say(e),
+    for p in &passes {
+        match p {
+            Ok((_, _, said, _)) => super::say(&format!("{}: {said}", a.out_dir.display())),
+            Err(e) => super::say(e),
+        }
     }
     super::say(&format!("{}: filelist.f, README.md", a.out_dir.display()));
     Ok(())
