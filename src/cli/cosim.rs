@@ -58,8 +58,10 @@ pub struct CosimArgs {
     /// (`datapath`), or each PE's sample stage with its control, voxel
     /// memory and compositing buffer, then the readout from its buffers
     /// (`pe`; either order, column blocks), or every dense split of a
-    /// front-to-back frame in the PE's split module (`split`).
-    #[arg(long, value_parser = ["datapath", "pe", "split"], default_value = "datapath")]
+    /// front-to-back frame in the PE's split module (`split`), or every
+    /// dense merge of a back-to-front frame in the PE's merge module
+    /// (`merge`).
+    #[arg(long, value_parser = ["datapath", "pe", "split", "merge"], default_value = "datapath")]
     pub stage: String,
 }
 
@@ -138,6 +140,9 @@ fn rate(n: u64, s: f64) -> f64 {
 pub fn run(a: &CosimArgs) -> Result<()> {
     if a.stage == "pe" {
         return super::cosim_pe::run(a);
+    }
+    if a.stage == "merge" {
+        return super::cosim_merge::run(a);
     }
     if a.stage == "split" {
         return super::cosim_split::run(a);

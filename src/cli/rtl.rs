@@ -11,7 +11,9 @@
 //! with `--shading` or `--voi`, the sample's datapath with those units
 //! composed into one module, as the model's PE runs them
 //! (`pipeline::hw::compose`); front to back, the PE's dense split (its
-//! filters and line buffer, `pipeline::hw::split_rtl`). What is not
+//! filters and line buffer, `pipeline::hw::split_rtl`), back to front its
+//! dense merge (its tents and line buffer, `pipeline::hw::merge_rtl`).
+//! What is not
 //! emitted yet (the other stages' state machines, the array's links, the
 //! controller) is refused in one line naming it.
 
@@ -92,13 +94,13 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let refused = [
         (
             a.pe,
-            "the PE's control and stage state machines other than the sample stage, the dense split and the readout are",
+            "the PE's control and stage state machines other than the sample stage, the dense split, the dense merge and the readout are",
         ),
         (a.array, "the PE array with its links is"),
         (a.controller, "the controller is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split and the readout stage are)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split, the dense merge and the readout stage are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -165,7 +167,12 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let pe_sample = PeSampleShape::new(&cfg, &Geometry::new(dims, cfg.pes))
         .and_then(|shape| emit_pe_sample(&shape, &m).map(|r| (shape, r)))
         .map_err(|e| format!("rtl: {PE_SAMPLE} not written: {e}"));
-    let split = super::rtl_split::split(&cfg, dims);
+    // The boundary passes of the order: (module, Verilog, summary, README
+    // section), or why not written.
+    let passes = [
+        super::rtl_split::written(&cfg, dims),
+        super::rtl_merge::written(&cfg, dims),
+    ];
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
             .map_err(|e| anyhow!("cannot create {}: {e}", a.out_dir.display()))?;
@@ -190,8 +197,8 @@ pub fn run(a: &RtlArgs) -> Result<()> {
                 list.push('\n');
             }
         }
-        if let Ok((_, v)) = &split {
-            let name = format!("{}.v", pipeline::hw::split_rtl::MODULE);
+        for (module, v, _, _) in passes.iter().flatten() {
+            let name = format!("{module}.v");
             write(&a.out_dir.join(&name), v)?;
             list.push_str(&name);
             list.push('\n');
@@ -207,8 +214,8 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         if let Ok(r) = &readout {
             text.push_str(&readout_section(r, dims));
         }
-        if let Ok((shape, _)) = &split {
-            text.push_str(&super::rtl_split::section(shape, dims));
+        for (_, _, _, section) in passes.iter().flatten() {
+            text.push_str(section);
         }
         write(&a.out_dir.join("README.md"), &text)?;
         Ok(())
@@ -247,13 +254,11 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         )),
         Err(e) => super::say(e),
     }
-    match &split {
-        Ok((shape, v)) => super::say(&format!(
-            "{}: {}",
-            a.out_dir.display(),
-            super::rtl_split::summary(shape, v)
-        )),
-        Err(e) => super::say(e),
+    for p in &passes {
+        match p {
+            Ok((_, _, said, _)) => super::say(&format!("{}: {said}", a.out_dir.display())),
+            Err(e) => super::say(e),
+        }
     }
     super::say(&format!("{}: filelist.f, README.md", a.out_dir.display()));
     Ok(())
@@ -321,7 +326,8 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(
         w,
         "The PE's control and stage state machines other than the sample stage, the readout and \
-         the dense split's filters and line buffer (migrate, merge, fold, the sparse split's work \
+         the dense split's filters and the dense merge's tents with their line buffers (migrate, \
+         fold, the sparse split's and merge's work lists, the held parents' fetch, \
          lists, the parents' fetch), its FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \

@@ -19,6 +19,18 @@ pub fn split(cfg: &PipelineConfig, dims: [usize; 3]) -> Result<(SplitShape, Stri
         .map_err(|e| format!("rtl: {MODULE} not written: {e}"))
 }
 
+/// The split module for `cfg` as `ercube rtl` writes it: its name, its
+/// Verilog, what the run says of it and its README section; or the one
+/// line saying why it is not written.
+pub fn written(
+    cfg: &PipelineConfig,
+    dims: [usize; 3],
+) -> Result<(&'static str, String, String, String), String> {
+    let (shape, v) = split(cfg, dims)?;
+    let said = summary(&shape, &v);
+    Ok((MODULE, v, said, section(&shape, dims)))
+}
+
 /// What `ercube rtl` says of the written module.
 pub fn summary(shape: &SplitShape, v: &str) -> String {
     format!(

@@ -27,6 +27,7 @@ mod bench;
 mod bound;
 mod cli;
 mod cosim;
+mod cosim_merge;
 mod cosim_preint;
 mod cosim_split;
 mod docs;

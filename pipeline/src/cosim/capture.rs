@@ -179,6 +179,9 @@ pub trait IssueSink: Send {
     /// A dense split pass, every clock of it
     /// ([`crate::cosim::split`]), after its last clock.
     fn split_pass(&mut self, _pass: &crate::cosim::split::SplitCapture) {}
+    /// A dense merge pass, every clock of it
+    /// ([`crate::cosim::merge`]), after its last clock.
+    fn merge_pass(&mut self, _pass: &crate::cosim::merge::MergeCapture) {}
     /// A sampling clock's broadcast, before the clock runs
     /// ([`crate::cosim::pe_sample`]).
     fn sample_bus(&mut self, _bus: &crate::cosim::pe_sample::BusCycle) {}

@@ -23,6 +23,7 @@
 
 pub mod build;
 pub mod capture;
+pub mod merge;
 pub mod outcome;
 pub mod pe_sample;
 pub mod pe_vectors;

@@ -19,6 +19,35 @@ pub struct Mismatch {
     pub rtl: String,
 }
 
+impl Mismatch {
+    /// A mismatch line's fields after its tag (`cycle pe signal model
+    /// rtl`, the words in hexadecimal), each word read by `dec(signal,
+    /// hex)` (a decimal of the signal's port); an unreadable cycle or PE
+    /// reads as the largest, so it sorts last.
+    pub fn from_fields(
+        [cycle, pe, signal, model, rtl]: [&str; 5],
+        dec: impl Fn(&str, &str) -> String,
+    ) -> Mismatch {
+        Mismatch {
+            cycle: cycle.parse().unwrap_or(u64::MAX),
+            pe: pe.parse().unwrap_or(usize::MAX),
+            signal: signal.to_owned(),
+            model: dec(signal, model),
+            rtl: dec(signal, rtl),
+        }
+    }
+
+    /// Keeps in `first` the earlier (by cycle, then PE) of it and `self`.
+    pub fn keep_earliest(self, first: &mut Option<Mismatch>) {
+        if first
+            .as_ref()
+            .is_none_or(|f| (self.cycle, self.pe) < (f.cycle, f.pe))
+        {
+            *first = Some(self);
+        }
+    }
+}
+
 impl std::fmt::Display for Mismatch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
@@ -109,20 +138,10 @@ pub fn parse(replay: &Replay, pes: usize, text: &str) -> Outcome {
                 };
             }
             ["MISMATCH", cycle, pe, signal, model, rtl] => {
-                let m = Mismatch {
-                    cycle: cycle.parse().unwrap_or(u64::MAX),
-                    pe: pe.parse().unwrap_or(usize::MAX),
-                    signal: (*signal).to_owned(),
-                    model: decimal(replay, signal, model),
-                    rtl: decimal(replay, signal, rtl),
-                };
-                let earlier = o
-                    .first
-                    .as_ref()
-                    .is_none_or(|f| (m.cycle, m.pe) < (f.cycle, f.pe));
-                if earlier {
-                    o.first = Some(m);
-                }
+                Mismatch::from_fields([cycle, pe, signal, model, rtl], |sig, hex| {
+                    decimal(replay, sig, hex)
+                })
+                .keep_earliest(&mut o.first);
             }
             ["ERROR", ..] => o.errors.push(line.to_owned()),
             _ => {}

@@ -44,7 +44,7 @@ pub const MODULE: &str = "ercube_pe_split";
 pub const CHANNELS: [&str; 4] = ["r", "g", "b", "a"];
 
 /// Bits to hold `0 ..= n` (at least one).
-fn bits_for(n: u64) -> u32 {
+pub(super) fn bits_for(n: u64) -> u32 {
     (64 - n.leading_zeros()).max(1)
 }
 
@@ -189,7 +189,7 @@ pub fn halves(cfg: &PipelineConfig) -> Graph {
 }
 
 /// `[n-1:0]`.
-fn rng(bits: u32) -> String {
+pub(super) fn rng(bits: u32) -> String {
     format!("[{}:0]", bits - 1)
 }
 

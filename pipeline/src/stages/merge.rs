@@ -327,7 +327,8 @@ impl Array {
     /// Bartlett merge of `back`'s rays into `front`'s. Returns the rays
     /// it read and wrote (an external ray buffer's traffic): every parent
     /// and child, or with `pass_skip_empty` the non-zero parents and the
-    /// children written.
+    /// children written. With a capture attached, the dense pass records
+    /// every clock for the co-simulation (`stages::merge_capture`).
     pub(crate) fn merge(&mut self, bg: &RayGrid, fg: &RayGrid) -> Result<(u64, u64), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         if dp.cfg.pass_skip_empty {
@@ -335,6 +336,10 @@ impl Array {
         }
         let prows = bg.counts()[1];
         let needs = tent_needs(fg, bg);
+        if let Some(c) = self.clock.capture().cloned() {
+            self.merge_captured(&c, &dp, (bg, fg), (prows, &needs))?;
+            return Ok((rays(bg), rays(fg)));
+        }
         if !self.clock.tracing() && !self.clocked {
             self.merge_untraced(&dp, (prows, &needs), (bg, fg))?;
             return Ok((rays(bg), rays(fg)));

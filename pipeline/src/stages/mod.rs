@@ -26,6 +26,7 @@ pub mod boundary;
 pub mod drain;
 pub mod fold;
 pub mod merge;
+mod merge_capture;
 pub mod migrate;
 pub mod passes;
 pub mod raybuf;

@@ -26,6 +26,7 @@ mod kernel;
 mod links;
 mod load;
 mod mapping;
+mod merge_rtl;
 mod migration;
 mod model;
 mod occupancy;

@@ -46,12 +46,14 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "ercube_sample.v",
             "filelist.f",
         ];
-        // Front to back, the PE's dense split too.
+        // Front to back, the PE's dense split too; back to front its
+        // dense merge.
         let split = if order == "ftb" {
             want.insert(3, "ercube_pe_split.v");
             "ercube_pe_split.v\n"
         } else {
-            ""
+            want.insert(1, "ercube_pe_merge.v");
+            "ercube_pe_merge.v\n"
         };
         assert_eq!(entries(&o), want);
         let v = std::fs::read_to_string(o.join("ercube_sample.v")).unwrap();
@@ -159,6 +161,7 @@ fn rtl_writes_the_units() {
     ];
     let mut want: Vec<String> = [
         "README.md",
+        "ercube_pe_merge.v",
         "ercube_pe_readout.v",
         "ercube_pe_sample.v",
         "ercube_readout_array.v",
@@ -174,7 +177,7 @@ fn rtl_writes_the_units() {
     let list = std::fs::read_to_string(o.join("filelist.f")).unwrap();
     assert_eq!(
         list,
-        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_sample_composed.v\nercube_sample_preint.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\n"
+        "ercube_sample.v\nercube_shading.v\nercube_voi.v\nercube_preint.v\nercube_sample_composed.v\nercube_sample_preint.v\nercube_pe_sample.v\nercube_pe_readout.v\nercube_readout_array.v\nercube_pe_merge.v\n"
     );
     let readme = std::fs::read_to_string(o.join("README.md")).unwrap();
     for u in units {
@@ -244,6 +247,11 @@ fn rtl_leaves_out_the_readout_of_an_external_ray_buffer() {
     );
     assert_eq!(
         entries(&d.join("out")),
-        ["README.md", "ercube_sample.v", "filelist.f"]
+        [
+            "README.md",
+            "ercube_pe_merge.v",
+            "ercube_sample.v",
+            "filelist.f"
+        ]
     );
 }

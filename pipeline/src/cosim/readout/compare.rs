@@ -67,28 +67,18 @@ pub fn parse(shape: &ReadoutShape, start: &ReadoutStart, text: &str) -> ReadoutO
                 None => o.errors.push(line.to_owned()),
             },
             ["RMISMATCH", cycle, pe, signal, model, rtl] => {
-                let bits = match *signal {
-                    "host_valid" | "done" => (1, false),
-                    "host_mx" => (RAY_INDEX_BITS, true),
-                    "host_row" => (rb, false),
-                    "host_a" => widths[3],
-                    _ => widths[0],
+                let dec = |sig: &str, hex: &str| {
+                    let bits = match sig {
+                        "host_valid" | "done" => (1, false),
+                        "host_mx" => (RAY_INDEX_BITS, true),
+                        "host_row" => (rb, false),
+                        "host_a" => widths[3],
+                        _ => widths[0],
+                    };
+                    field(hex, bits.0, bits.1).map_or(hex.to_owned(), |v| v.to_string())
                 };
-                let dec =
-                    |s: &str| field(s, bits.0, bits.1).map_or(s.to_owned(), |v| v.to_string());
-                let m = Mismatch {
-                    cycle: cycle.parse().unwrap_or(u64::MAX),
-                    pe: pe.parse().unwrap_or(usize::MAX),
-                    signal: (*signal).to_owned(),
-                    model: dec(model),
-                    rtl: dec(rtl),
-                };
-                if o.first
-                    .as_ref()
-                    .is_none_or(|f| (m.cycle, m.pe) < (f.cycle, f.pe))
-                {
-                    o.first = Some(m);
-                }
+                Mismatch::from_fields([cycle, pe, signal, model, rtl], dec)
+                    .keep_earliest(&mut o.first);
             }
             ["HOST", _k, mx, row, r, g, b, a] => {
                 let mx = field(mx, RAY_INDEX_BITS, true);

@@ -81,6 +81,9 @@ impl IssueSink for Tee {
     fn split_pass(&mut self, pass: &crate::cosim::split::SplitCapture) {
         self.each(|s| s.split_pass(pass));
     }
+    fn merge_pass(&mut self, pass: &crate::cosim::merge::MergeCapture) {
+        self.each(|s| s.merge_pass(pass));
+    }
 }
 
 /// A readout stage simulated and compared.

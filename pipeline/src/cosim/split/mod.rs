@@ -127,29 +127,21 @@ pub fn parse(shape: &SplitShape, text: &str) -> SplitOutcome {
                 }
             }
             ["SMISMATCH", cycle, pe, signal, model, rtl] => {
-                let (bits, signed) = match signal.split_once('_') {
-                    Some(("lx", _)) => (mb, shape.merge.is_signed()),
-                    Some(("w", "a")) => (u32::from(shape.acc[1].bits()), shape.acc[1].is_signed()),
-                    Some(("w", "r" | "g" | "b")) => {
-                        (u32::from(shape.acc[0].bits()), shape.acc[0].is_signed())
-                    }
-                    _ => (1, false),
+                let dec = |sig: &str, hex: &str| {
+                    let (bits, signed) = match sig.split_once('_') {
+                        Some(("lx", _)) => (mb, shape.merge.is_signed()),
+                        Some(("w", "a")) => {
+                            (u32::from(shape.acc[1].bits()), shape.acc[1].is_signed())
+                        }
+                        Some(("w", "r" | "g" | "b")) => {
+                            (u32::from(shape.acc[0].bits()), shape.acc[0].is_signed())
+                        }
+                        _ => (1, false),
+                    };
+                    parse_hex(hex, bits, signed).map_or(hex.to_owned(), |v| v.to_string())
                 };
-                let dec =
-                    |s: &str| parse_hex(s, bits, signed).map_or(s.to_owned(), |v| v.to_string());
-                let m = Mismatch {
-                    cycle: cycle.parse().unwrap_or(u64::MAX),
-                    pe: pe.parse().unwrap_or(usize::MAX),
-                    signal: (*signal).to_owned(),
-                    model: dec(model),
-                    rtl: dec(rtl),
-                };
-                if o.first
-                    .as_ref()
-                    .is_none_or(|f| (m.cycle, m.pe) < (f.cycle, f.pe))
-                {
-                    o.first = Some(m);
-                }
+                Mismatch::from_fields([cycle, pe, signal, model, rtl], dec)
+                    .keep_earliest(&mut o.first);
             }
             ["ERROR", ..] => o.errors.push(line.to_owned()),
             _ => {}

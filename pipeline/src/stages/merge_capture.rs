@@ -1,0 +1,96 @@
+//! The dense merge of [`super::merge`] with each PE's clocks recorded for
+//! the co-simulation ([`crate::cosim::merge`]), run only when the frame
+//! carries a capture: the broadcast, the held parents and edge rays the
+//! x pass reads, and what both passes write. The same clocks (through
+//! [`Array::run_pass`]) and the same words as the uncaptured merge.
+
+use golden::geometry::RayGrid;
+
+use super::boundary::Edges;
+use super::merge::MergePass;
+use crate::array::{Array, RunError};
+use crate::cosim::capture::Capture;
+use crate::cosim::merge::{MergeCapture, MergeTick};
+use crate::datapath::Datapath;
+use crate::pe::{Broadcast, Pe};
+use crate::probes::Stage;
+
+impl Pe {
+    /// Held column `mx`'s accumulator words at `row`, zero for a column
+    /// this PE does not hold (what the compositing buffer's read gives the
+    /// emitted merge; the module picks the edge rays itself).
+    fn held_word(&self, mx: i64, row: usize) -> [i64; 4] {
+        match self.span() {
+            Some((lo, hi)) if (lo..=hi).contains(&mx) => self.rays[(mx - lo) as usize].acc[row].raw,
+            _ => [0; 4],
+        }
+    }
+}
+
+impl Array {
+    /// [`Array::merge`]'s dense pass with every PE's clocks recorded and
+    /// handed to `capture` after the pass.
+    pub(super) fn merge_captured(
+        &mut self,
+        capture: &Capture,
+        dp: &Datapath,
+        (bg, fg): (&RayGrid, &RayGrid),
+        (prows, needs): (usize, &[Option<(usize, usize)>]),
+    ) -> Result<(), RunError> {
+        let p = self.clock.pes().len();
+        let mut rec = MergeCapture {
+            first: self.clock.now(),
+            grids: (bg.lo[1], prows, fg.lo[1]),
+            children: vec![(0, 0, 0, 0); p],
+            ticks: Vec::new(),
+        };
+        let mut per_pe: Vec<Vec<MergeTick>> = vec![Vec::new(); p];
+        self.run_pass(
+            Stage::Merge,
+            (prows, needs),
+            Broadcast::BeginMerge {
+                back: bg,
+                front: fg,
+            },
+            |pe, bus, links, out| {
+                let (c, n) = (bus.col, pe.pass.children.len());
+                let e = Edges::on(&links);
+                let mut t = MergeTick {
+                    x: bus.x,
+                    y: bus.y,
+                    col: c,
+                    edges: [e.left.0.raw, e.right.0.raw],
+                    ..MergeTick::default()
+                };
+                if let Some(q) = bus.x.filter(|_| c < n) {
+                    let m = pe.pass.children[c];
+                    t.held = [2 * m - 1, 2 * m, 2 * m + 1].map(|mx| pe.held_word(mx, q));
+                }
+                pe.pass_step(&MergePass { bg, fg }, dp, bus, links, out)?;
+                if let Some(q) = bus.x.filter(|_| c < n) {
+                    t.line = pe.pass.line.read(pe.k, q, c).ok();
+                }
+                if let Some(i) = bus.y.filter(|_| c < n) {
+                    t.child = Some(pe.pass.next[c].acc[i].raw);
+                }
+                let (lo, hi) = pe.span().unwrap_or((0, 0));
+                let m0 = pe.pass.children.first().copied().unwrap_or(0);
+                rec.children[pe.k] = (n, m0, lo, hi);
+                per_pe[pe.k].push(t);
+                Ok(())
+            },
+            Broadcast::EndMerge,
+        )?;
+        let ticks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
+        rec.ticks = (0..ticks)
+            .map(|i| {
+                per_pe
+                    .iter()
+                    .map(|v| v.get(i).copied().unwrap_or_default())
+                    .collect()
+            })
+            .collect();
+        crate::cosim::merge::captured(capture, &rec);
+        Ok(())
+    }
+}
