@@ -317,15 +317,15 @@ fn steps_see_only_their_own_state_and_links() {
     assert!(steps.iter().all(|&f| f != 0));
     // Each stage's cycle is one of these named steps, the only thing the
     // clock ticks.
-    use pipeline::stages::{boundary::PassStep, migrate::LinkStep, readout::StreamStep};
+    use pipeline::stages::{boundary, migrate::LinkStep, readout::StreamStep};
     use pipeline::stages::{sample, Idle, Step};
     fn step<S: Step>() {}
     step::<sample::RowStep<'static>>();
     step::<sample::Hold<'static>>();
     step::<sample::Stall<'static>>();
-    step::<PassStep<'static, MergePass<'static>>>();
-    step::<PassStep<'static, SplitPass<'static>>>();
-    step::<PassStep<'static, FoldGrids<'static>>>();
+    step::<boundary::PassStep<'static, MergePass<'static>>>();
+    step::<boundary::PassStep<'static, SplitPass<'static>>>();
+    step::<boundary::PassStep<'static, FoldGrids<'static>>>();
     step::<LinkStep<'static, fn(i64) -> usize>>();
     step::<StreamStep>();
     step::<Idle>();
