@@ -25,14 +25,15 @@
 //! # use pipeline::pe::{Pe, Ports, StepError};
 //! # use pipeline::probes::{Ctrl, Stage};
 //! # use pipeline::stages::Step;
-//! // A step that peeks at PE 0's rays does not compile.
+//! // A step that reads PE 0's report lines while the clock ticks does not
+//! // compile (the one error is the borrow: the clock is ticking).
 //! struct Peek<'a>(&'a Clock);
 //! impl Step for Peek<'_> {
 //!     fn ctrl(&self) -> Ctrl {
 //!         Ctrl::at(Stage::Sample, 0, 0)
 //!     }
 //!     fn step(&mut self, _: &mut Pe, _: Links<'_>, _: &mut Ports) -> Result<(), StepError> {
-//!         let _ = self.0.pes()[0].rays.len();
+//!         let _ = self.0.pes()[0].report();
 //!         Ok(())
 //!     }
 //! }
