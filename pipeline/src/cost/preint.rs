@@ -1,5 +1,5 @@
 //! The pre-integration unit's hardware ([`crate::preint`]), for an array
-//! built with it ([`Geometry::preint`]). Such a PE classifies whole slice
+//! built with it ([`Geometry::units`]'s `preint`). Such a PE classifies whole slice
 //! steps: the unit takes the place of the classification (its table
 //! position, table, lerps and zero test) and of the opacity correction's
 //! `-log2(1 - a)` table and product, and feeds the correction's exp stage
@@ -41,7 +41,7 @@
 //!   and splits drop it, so the merge ports and the front-to-back
 //!   inherited states stay as they are.
 //!
-//! [`Geometry::preint`]: super::inventory::Geometry::preint
+//! [`Geometry::units`]: super::inventory::Geometry::units
 
 use super::inventory::{Geometry, Item};
 use super::memory::MemPorts;

@@ -12,8 +12,8 @@ use crate::stages::Step;
 use super::SampleBus;
 
 /// A sampling cycle of a row on a PE ([`Pe::sample_step`]): the cycle's
-/// scheduled ray through the datapath, the bit-exact twin of
-/// [`golden::sampling::sample_at`], and the edge voxels of the row on
+/// scheduled ray through the datapath, bit for bit golden's sample in
+/// [`golden::sampling::sample_region`], and the edge voxels of the row on
 /// `bus.next` driven on the ports.
 pub struct RowStep<'a> {
     /// The datapath.
