@@ -199,10 +199,11 @@ fn run_at(
     Ok(RunSummary::new(
         &cfg,
         label,
-        Geometry::for_view(&cfg, &prep.view)?
-            .with_shading(shade)
-            .with_voi(voi.is_some())
-            .with_preint(preint),
+        Geometry::for_view(&cfg, &prep.view)?.with_units(pipeline::hw::compose::Units {
+            lights: shade.then_some(1),
+            voi: voi.is_some(),
+            preint,
+        }),
         (&frame, &plan),
     ))
 }

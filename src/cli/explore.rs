@@ -247,7 +247,11 @@ fn explore(a: &ExploreArgs) -> Result<()> {
                     .run()
                     .with_context(|| pipeline::cost::arch::label(c))?;
                 let plan = pipeline::host::plan(c, &prep.view)?;
-                let geo = Geometry::for_view(c, &prep.view)?.with_shading(a.shade);
+                let geo =
+                    Geometry::for_view(c, &prep.view)?.with_units(pipeline::hw::compose::Units {
+                        lights: a.shade.then_some(1),
+                        ..Default::default()
+                    });
                 let run = RunSummary::new(c, label.as_str(), geo, (&frame, &plan));
                 Ok(design(c, Target::Xc7, &run))
             })

@@ -51,6 +51,7 @@ use crate::probes::{Ctrl, Probes, Stage};
 use crate::skip::SkipCounts;
 use crate::stages::raybuf::Channel;
 use crate::stages::sample::RowRuns;
+use crate::stages::Idle;
 use crate::tables::Tables;
 use golden::skip::SampleMask;
 
@@ -522,8 +523,7 @@ impl Array {
 
     /// A slice the controller skips: one cycle reading its summary bit.
     pub(crate) fn skip_slice(&mut self, z: usize) -> Result<(), RunError> {
-        self.clock
-            .tick(Ctrl::at(Stage::Skip, z, 0), |_, _, _| Ok(()))?;
+        self.clock.tick(&mut Idle(Ctrl::at(Stage::Skip, z, 0)))?;
         Ok(())
     }
 

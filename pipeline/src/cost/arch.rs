@@ -74,7 +74,7 @@ pub fn owned_columns(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
 pub fn stored_columns(cfg: &PipelineConfig, geo: &Geometry) -> u64 {
     match round_robin_width(cfg) {
         None => geo.block(),
-        Some(b) => blocks_per_pe(cfg, geo) * (b + apron(geo.shading)),
+        Some(b) => blocks_per_pe(cfg, geo) * (b + apron(geo.units.shading())),
     }
 }
 
@@ -304,7 +304,16 @@ mod tests {
         // 64 blocks of 4 over 16 PEs: 4 blocks, 16 columns, 20 stored.
         assert_eq!(owned_columns(&cfg, &geo), 16);
         assert_eq!(stored_columns(&cfg, &geo), 20);
-        assert_eq!(stored_columns(&cfg, &geo.clone().with_shading(true)), 28);
+        assert_eq!(
+            stored_columns(
+                &cfg,
+                &geo.clone().with_units(crate::hw::compose::Units {
+                    lights: Some(1),
+                    ..Default::default()
+                })
+            ),
+            28
+        );
         cfg.mapping = Mapping::Interleave;
         assert_eq!(stored_columns(&cfg, &geo), 32);
         // 100 columns over 16 PEs in blocks of 8: 13 blocks, 1 each.

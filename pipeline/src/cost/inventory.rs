@@ -158,19 +158,11 @@ pub struct Geometry {
     /// Exponential regions `K` of the view (front to back keeps the final
     /// states of `K - 1` boundaries for the fold).
     pub regions: u32,
-    /// The PEs carry the gradient and shading unit ([`super::shading`]).
-    #[serde(default)]
-    pub shading: bool,
-    /// The PEs carry the volume-of-interest stage ([`crate::hw::voi`]).
-    #[serde(default)]
-    pub voi: bool,
-    /// The PEs carry the pre-integration unit ([`super::preint`]) in place
-    /// of the classification: not with `shading` (golden does not shade
-    /// pre-integrated steps) nor `voi` (the unit has no VOI factor).
-    /// Left out of the JSON when false, so reports without it read as
-    /// before.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub preint: bool,
+    /// The units its PEs' sample datapath carries besides the plain
+    /// sample, as [`crate::hw::compose::sample`] composes them (the cost
+    /// prices the shading unit built for one light).
+    #[serde(flatten)]
+    pub units: crate::hw::compose::Units,
     /// What the PE this geometry describes declares in its ray memories:
     /// columns, rows, a pass's children, kept finals
     /// ([`crate::capacity`]). For the whole array (as made) the deepest
@@ -214,9 +206,7 @@ impl Geometry {
             dims,
             pes,
             regions: golden::geometry::Regions::new(d, dims[2]).count() as u32,
-            shading: false,
-            voi: false,
-            preint: false,
+            units: Default::default(),
             rays: pe_rays.max(),
             pe_rays,
         }
@@ -235,9 +225,7 @@ impl Geometry {
             dims: view.dims,
             pes: cfg.pes,
             regions: layout.grids.len() as u32,
-            shading: false,
-            voi: false,
-            preint: false,
+            units: Default::default(),
             rays: pe_rays.max(),
             pe_rays,
         })
@@ -292,31 +280,9 @@ impl Geometry {
         }
     }
 
-    /// This geometry with (or without) the gradient and shading unit.
-    pub fn with_shading(self, shading: bool) -> Geometry {
-        Geometry { shading, ..self }
-    }
-
-    /// This geometry with (or without) the volume-of-interest stage.
-    pub fn with_voi(self, voi: bool) -> Geometry {
-        Geometry { voi, ..self }
-    }
-
-    /// This geometry with (or without) the pre-integration unit.
-    pub fn with_preint(self, preint: bool) -> Geometry {
-        Geometry { preint, ..self }
-    }
-
-    /// The units its PEs' sample datapath carries, as
-    /// [`crate::hw::compose::sample`] composes them (the shading unit built
-    /// for one light: each further light adds a dot product pair, two
-    /// dividers and a power-table read per sample).
-    pub fn units(&self) -> crate::hw::compose::Units {
-        crate::hw::compose::Units {
-            lights: self.shading.then_some(1),
-            voi: self.voi,
-            preint: self.preint,
-        }
+    /// This geometry with its PEs carrying `units`.
+    pub fn with_units(self, units: crate::hw::compose::Units) -> Geometry {
+        Geometry { units, ..self }
     }
 
     /// Columns per PE, `W = ceil(nx / P)`.
@@ -398,7 +364,7 @@ fn links(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             },
         ],
     )];
-    if arch::round_robin_width(cfg).is_none() && geo.shading {
+    if arch::round_robin_width(cfg).is_none() && geo.units.shading() {
         items.push(super::shading::link(cfg));
     }
     items.extend(arch::owner_logic(cfg));

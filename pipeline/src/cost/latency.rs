@@ -113,7 +113,7 @@ pub fn preint_latency(cfg: &PipelineConfig) -> u32 {
 
 /// The latency of a datapath with the units of `geo`.
 pub fn geometry_latency(cfg: &PipelineConfig, geo: &inventory::Geometry) -> u32 {
-    sample_latency(cfg, geo.units())
+    sample_latency(cfg, geo.units)
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! The pre-integration unit's hardware ([`crate::preint`]), for an array
-//! built with it ([`Geometry::preint`]). Such a PE classifies whole slice
+//! built with it ([`Geometry::units`]'s `preint`). Such a PE classifies whole slice
 //! steps: the unit takes the place of the classification (its table
 //! position, table, lerps and zero test) and of the opacity correction's
 //! `-log2(1 - a)` table and product, and feeds the correction's exp stage
@@ -41,7 +41,7 @@
 //!   and splits drop it, so the merge ports and the front-to-back
 //!   inherited states stay as they are.
 //!
-//! [`Geometry::preint`]: super::inventory::Geometry::preint
+//! [`Geometry::units`]: super::inventory::Geometry::units
 
 use super::inventory::{Geometry, Item};
 use super::memory::MemPorts;
@@ -85,7 +85,7 @@ pub fn exact_layer_bits(cfg: &PipelineConfig) -> u64 {
 /// inherited state) in the buffers and on the links: its previous sample
 /// when `geo` pre-integrates, else none.
 pub fn ray_bits(cfg: &PipelineConfig, geo: &Geometry) -> u32 {
-    if geo.preint {
+    if geo.units.preint {
         bits(cfg.sample)
     } else {
         0
@@ -153,7 +153,13 @@ mod tests {
         let cfg = PipelineConfig::default();
         let geo = Geometry::new([128, 128, 128], 16);
         let plain = pe_inventory(&cfg, &geo);
-        let pre = pe_inventory(&cfg, &geo.clone().with_preint(true));
+        let pre = pe_inventory(
+            &cfg,
+            &geo.clone().with_units(crate::hw::compose::Units {
+                preint: true,
+                ..Default::default()
+            }),
+        );
         let unit = |items: &[Item]| items.iter().filter(|i| i.group == "preint").count();
         assert_eq!(unit(&plain.items), 0);
         assert!(table_item(&plain.items).is_none());
@@ -200,7 +206,10 @@ mod tests {
         // 256 bins at 4096 entries: 257^2 words of 3 x 22 + 22 bits.
         assert_eq!(table_bits(&cfg), 257 * 257 * 88);
         let check = |cfg: &PipelineConfig| {
-            let geo = Geometry::new([64, 64, 64], 8).with_preint(true);
+            let geo = Geometry::new([64, 64, 64], 8).with_units(crate::hw::compose::Units {
+                preint: true,
+                ..Default::default()
+            });
             let pe = pe_inventory(cfg, &geo);
             let n = bins(cfg) + 1;
             let word = 3 * u64::from(cfg.preint_color.bits()) + u64::from(cfg.preint_tau.bits());
@@ -222,9 +231,15 @@ mod tests {
     fn plain_cost_unchanged_without_the_flag() {
         let cfg = PipelineConfig::default();
         let geo = Geometry::new([128, 128, 128], 16);
-        assert_eq!(geo.clone().with_preint(false), geo);
+        assert_eq!(
+            geo.clone().with_units(crate::hw::compose::Units::default()),
+            geo
+        );
         assert_eq!(ray_bits(&cfg, &geo), 0);
-        let pe = pe_inventory(&cfg, &geo.clone().with_preint(true).with_preint(false));
+        let pe = pe_inventory(
+            &cfg,
+            &geo.clone().with_units(crate::hw::compose::Units::default()),
+        );
         // The default PE as `ercube cost` prices it without the unit (its
         // slice buffer two row banks of two slices, a write and two reads
         // each; its link FIFOs two rows deep in LUT-RAM, its ray memories sized for
@@ -256,9 +271,15 @@ mod tests {
         // it.
         let geo = Geometry::new([128, 128, 128], 16);
         assert_eq!(
-            pe_inventory(&cfg, &geo.clone().with_preint(true))
-                .schedule
-                .depth,
+            pe_inventory(
+                &cfg,
+                &geo.clone().with_units(crate::hw::compose::Units {
+                    preint: true,
+                    ..Default::default()
+                })
+            )
+            .schedule
+            .depth,
             pre
         );
         assert_eq!(pe_inventory(&cfg, &geo).schedule.depth, plain);

@@ -200,9 +200,7 @@ pub fn max_pes(cfg: &PipelineConfig, geo: &Geometry, part: &Part) -> MaxPes {
     let fit_at = |p: u16| {
         let g = Geometry::new(dims, p)
             .declared_by(cfg)
-            .with_shading(geo.shading)
-            .with_voi(geo.voi)
-            .with_preint(geo.preint);
+            .with_units(geo.units);
         let (r, _, mems) = design::array(cfg, &g, part.target);
         fit_memories(part, &r, &mems)
     };
@@ -280,9 +278,7 @@ pub fn build(
         for p in SCALE_P {
             let g = Geometry::new([n, n, n], p)
                 .declared_by(cfg)
-                .with_shading(geo.shading)
-                .with_voi(geo.voi)
-                .with_preint(geo.preint);
+                .with_units(geo.units);
             let b = bound_cycles(&g);
             let r = array_cost(cfg, &g, target);
             scaling.push(ScaleRow {

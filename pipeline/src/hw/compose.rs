@@ -41,17 +41,23 @@ use super::{Graph, MemId, Node, NodeId, Op};
 use crate::config::Order;
 use crate::config::PipelineConfig;
 
-/// The units a sample's datapath carries besides the plain sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The units a sample's datapath carries besides the plain sample: the
+/// one list of them, which the datapath, the PE's declaration and the
+/// cost's [`Geometry`](crate::cost::inventory::Geometry) carry as it is
+/// (its JSON keys are the cost report's: `shading`, `voi`, and `preint`
+/// when set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct Units {
     /// The gradient and shading unit, built for this many lights (none
     /// without shading).
+    #[serde(rename = "shading", serialize_with = "present")]
     pub lights: Option<usize>,
     /// The volume-of-interest stage.
     pub voi: bool,
     /// The pre-integration unit in the classification's and the log
     /// table's place (not with the others: golden neither shades nor
     /// weights pre-integrated steps).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub preint: bool,
 }
 
@@ -60,6 +66,16 @@ impl Units {
     pub fn plain(&self) -> bool {
         self.lights.is_none() && !self.voi && !self.preint
     }
+
+    /// Whether it carries the gradient and shading unit.
+    pub fn shading(&self) -> bool {
+        self.lights.is_some()
+    }
+}
+
+/// A unit built for some count, as the JSON's flag: whether it is there.
+fn present<S: serde::Serializer>(n: &Option<usize>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_bool(n.is_some())
 }
 
 /// The ports of the VOI stage the sample does not compute: the row's y

@@ -93,7 +93,7 @@ impl ReadoutShape {
                     .into(),
             );
         }
-        if geo.preint {
+        if geo.units.preint {
             return Err("the readout of pre-integrated rays (their previous sample beside the accumulators) is not emitted yet".into());
         }
         let decls = Pe::declaration(cfg, geo);

@@ -84,7 +84,7 @@ impl Pe {
         let mut out = vec![
             reg(
                 "ray_port",
-                if geo.preint {
+                if geo.units.preint {
                     "ray ports (left, right): accumulators, sample, m, row, valid"
                 } else {
                     "ray ports (left, right): accumulators, m, row, valid"
@@ -131,7 +131,7 @@ impl Pe {
                 1 + 2 * (row_bits + 1) + slot_bits + (acc + RAY_INDEX_BITS + row_bits + 1),
             ),
         ];
-        if geo.preint {
+        if geo.units.preint {
             // The pass's broadcast the pre-integration unit reads: the
             // table scale `K`, the three rectangles' bounds, the half-step
             // flag.
@@ -183,7 +183,7 @@ impl Pe {
         let edges = arch::round_robin_width(cfg).is_none();
         let stored = arch::stored_columns(cfg, geo);
         let mut out = Vec::new();
-        if geo.shading {
+        if geo.units.shading() {
             let quarter = ny.div_ceil(4);
             out.push(decl(
                 "slice_buffer",

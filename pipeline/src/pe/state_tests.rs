@@ -35,10 +35,25 @@ fn cases() -> Vec<(PipelineConfig, Geometry)> {
                 c.mapping = Mapping::Cyclic;
                 c.cyclic_width = 4;
             }),
-            geo.clone().with_shading(true),
+            geo.clone().with_units(crate::hw::compose::Units {
+                lights: Some(1),
+                ..Default::default()
+            }),
         ),
-        (base, geo.clone().with_shading(true)),
-        (base, geo.clone().with_preint(true)),
+        (
+            base,
+            geo.clone().with_units(crate::hw::compose::Units {
+                lights: Some(1),
+                ..Default::default()
+            }),
+        ),
+        (
+            base,
+            geo.clone().with_units(crate::hw::compose::Units {
+                preint: true,
+                ..Default::default()
+            }),
+        ),
         (base, Geometry::new([100, 64, 64], 8)),
         (with(&|c| c.link_fifo_depth = 1), geo.clone()),
         (with(&|c| c.link_fifo_depth = 300), geo.clone()),

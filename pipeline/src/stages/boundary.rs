@@ -14,13 +14,15 @@
 //!   registers and forms its work list; each cycle it works the list's
 //!   next entry with the latched edges, then drives as the dense pass does.
 //!
-//! The controller's side (the slots, the prologue, the broadcasts) is in
-//! [`super::passes`].
+//! [`PassStep`] is that clock as the pass's [`Step`]. The controller's
+//! side (the slots, the prologue, the broadcasts) is in [`super::passes`].
 
 use super::passes::PassBus;
+use super::Step;
 use crate::array::Links;
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Pe, Ports, StepError};
+use crate::probes::{Ctrl, Stage};
 
 /// A neighbour's edge ray as its port carries it: the accumulators and the
 /// ray's index (`None` when no edge ray is driven).
@@ -172,5 +174,78 @@ impl Pe {
         if let Some(r) = bus.drive {
             pass.drive(self, dp, r, out);
         }
+    }
+}
+
+/// A pass's step as its controller clocks it ([`super::passes`]): before
+/// each tick the controller shows it the cycle's bus and the row the
+/// probes show.
+pub trait OnPassBus: Step {
+    /// The next cycle's bus `bus`, shown at row `row`.
+    fn show(&mut self, bus: PassBus, row: usize);
+}
+
+/// A boundary pass's cycle on a PE: the `pass` of `stage` (a
+/// [`MergePass`](super::merge::MergePass), twin of
+/// [`golden::merge::merge`]; a [`SplitPass`](super::split::SplitPass),
+/// twin of [`golden::merge::split`]; or
+/// [`FoldGrids`](super::fold::FoldGrids), the fold of
+/// [`golden::methods::render`]) clocked dense ([`Pe::pass_step`]) or
+/// sparse ([`Pe::pass_step_sparse`]) on the bus the controller shows.
+pub struct PassStep<'a, P> {
+    pass: P,
+    dp: &'a Datapath,
+    sparse: bool,
+    stage: Stage,
+    bus: PassBus,
+    row: usize,
+}
+
+impl<'a, P: BoundaryPass> PassStep<'a, P> {
+    /// The step of `pass` in `stage`, sparse (`pass_skip_empty`) or dense.
+    pub fn new(stage: Stage, pass: P, dp: &'a Datapath, sparse: bool) -> Self {
+        PassStep {
+            pass,
+            dp,
+            sparse,
+            stage,
+            bus: PassBus::default(),
+            row: 0,
+        }
+    }
+
+    /// The pass it clocks.
+    pub fn pass(&self) -> &P {
+        &self.pass
+    }
+
+    /// The bus of the cycle it steps.
+    pub fn bus(&self) -> &PassBus {
+        &self.bus
+    }
+}
+
+impl<P: BoundaryPass> Step for PassStep<'_, P> {
+    fn ctrl(&self) -> Ctrl {
+        Ctrl {
+            pass: Some(self.bus),
+            ..Ctrl::at(self.stage, 0, self.row)
+        }
+    }
+
+    #[inline]
+    fn step(&mut self, pe: &mut Pe, links: Links<'_>, out: &mut Ports) -> Result<(), StepError> {
+        if self.sparse {
+            pe.pass_step_sparse(&self.pass, self.dp, &self.bus, links, out)
+        } else {
+            pe.pass_step(&self.pass, self.dp, &self.bus, links, out)
+        }
+    }
+}
+
+impl<P: BoundaryPass> OnPassBus for PassStep<'_, P> {
+    fn show(&mut self, bus: PassBus, row: usize) {
+        self.bus = bus;
+        self.row = row;
     }
 }

@@ -7,6 +7,7 @@
 
 use crate::array::{Array, RunError};
 use crate::probes::{Ctrl, Stage};
+use crate::stages::Idle;
 
 impl Array {
     /// Ticks until every PE's datapath is empty, then (with the rays'
@@ -17,8 +18,7 @@ impl Array {
             if self.clock.reports().all(|r| r.drained_at <= now) {
                 return self.wait_for_ray_buffer();
             }
-            self.clock
-                .tick(Ctrl::at(Stage::Drain, 0, 0), |_, _, _| Ok(()))?;
+            self.clock.tick(&mut Idle(Ctrl::at(Stage::Drain, 0, 0)))?;
         }
     }
 }

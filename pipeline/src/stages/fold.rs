@@ -12,7 +12,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::boundary::{BoundaryPass, Edges};
+use super::boundary::{BoundaryPass, Edges, PassStep};
 use super::passes::{plan_slots, tent_needs, PassBus};
 use crate::array::{Array, RunError};
 use crate::datapath::{Acc, Datapath};
@@ -261,19 +261,17 @@ impl Array {
         let needs = tent_needs(g.front, g.back);
         if !dp.cfg.pass_skip_empty {
             return self.run_pass(
-                Stage::Fold,
                 (g.back.counts()[1], &needs),
                 Broadcast::BeginFold { front: g.front },
-                |pe, bus, links, out| pe.pass_step(&g, &dp, bus, links, out),
+                &mut PassStep::new(Stage::Fold, g, &dp, false),
                 Broadcast::EndFold,
             );
         }
         let slots = plan_slots(g.back.counts()[1], &needs)?;
         self.run_sparse_pass(
-            Stage::Fold,
             &slots,
             Broadcast::BeginFold { front: g.front },
-            |pe, bus, links, out| pe.pass_step_sparse(&g, &dp, bus, links, out),
+            &mut PassStep::new(Stage::Fold, g, &dp, true),
             Broadcast::EndFold,
         )
     }

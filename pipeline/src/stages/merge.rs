@@ -9,7 +9,7 @@
 
 use golden::geometry::RayGrid;
 
-use super::boundary::{BoundaryPass, Edges};
+use super::boundary::{BoundaryPass, Edges, PassStep};
 use super::passes::{inside, plan_slots, plan_slots_where, tent_needs, PassBus, Slot};
 use crate::array::{Array, RunError};
 use crate::datapath::{Acc, Datapath, Tents};
@@ -345,13 +345,12 @@ impl Array {
             return Ok((rays(bg), rays(fg)));
         }
         self.run_pass(
-            Stage::Merge,
             (prows, &needs),
             Broadcast::BeginMerge {
                 back: bg,
                 front: fg,
             },
-            |pe, bus, links, out| pe.pass_step(&MergePass { bg, fg }, &dp, bus, links, out),
+            &mut PassStep::new(Stage::Merge, MergePass { bg, fg }, &dp, false),
             Broadcast::EndMerge,
         )?;
         Ok((rays(bg), rays(fg)))
@@ -415,13 +414,12 @@ impl Array {
         let lows: Vec<_> = tent_needs(fg, bg).iter().map(|n| n.map(|n| n.0)).collect();
         let slots = plan_slots_where(prows, &needs, &lows, |q| live[q], false)?;
         self.run_sparse_pass(
-            Stage::Merge,
             &slots,
             Broadcast::BeginMerge {
                 back: bg,
                 front: fg,
             },
-            |pe, bus, links, out| pe.pass_step_sparse(&MergePass { bg, fg }, dp, bus, links, out),
+            &mut PassStep::new(Stage::Merge, MergePass { bg, fg }, dp, true),
             Broadcast::EndMerge,
         )?;
         Ok((reads, written(self) - before))

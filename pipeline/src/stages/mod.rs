@@ -1,8 +1,8 @@
 //! The array's stages, one module each. A stage is two halves: the PE's
-//! step (a method on [`Pe`](crate::pe::Pe) that sees only the PE's state,
-//! the [`Links`](crate::array::Links) and the broadcast the controller
-//! hands it) and the controller's side, which plans the stage's cycles and
-//! ticks the [`Clock`](crate::array::Clock) through them.
+//! step (a named [`Step`], which sees only the PE's state, the
+//! [`Links`](crate::array::Links) and the broadcast the controller hands
+//! it) and the controller's side, which plans the stage's cycles and ticks
+//! the [`Clock`](crate::array::Clock) through them.
 //!
 //! - [`migrate`]: rays travel one link per cycle to the PE that samples
 //!   them next.
@@ -33,3 +33,6 @@ pub mod raybuf;
 pub mod readout;
 pub mod sample;
 pub mod split;
+pub mod step;
+
+pub use step::{Idle, Step};

@@ -23,12 +23,11 @@
 
 use golden::geometry::RayGrid;
 
-use super::boundary::Edges;
+use super::boundary::{Edges, OnPassBus};
 
-use crate::array::{Array, Links, RunError};
+use crate::array::{Array, RunError};
 use crate::datapath::Tally;
-use crate::pe::{Broadcast, Pe, Ports, RayColumn, StepError};
-use crate::probes::{Ctrl, Stage};
+use crate::pe::{Broadcast, Pe, RayColumn, StepError};
 
 /// Rows of the line buffer (as `crate::cost` charges).
 pub const LINE_ROWS: usize = 3;
@@ -319,22 +318,21 @@ pub(crate) fn inside(taps: impl Iterator<Item = i64>, prows: usize) -> Option<(u
 }
 
 impl Array {
-    /// Runs a pass of `stage` over `prows` parent rows whose child rows
-    /// need `needs`: the controller broadcasts `begin` (each PE reports how
-    /// many children it computes; the slots are as wide as the most),
-    /// clocks the prologue and the slots, each PE running `step` with the
-    /// cycle's broadcast, and broadcasts `end` (the bank select).
+    /// Runs a pass over `prows` parent rows whose child rows need
+    /// `needs`: the controller broadcasts `begin` (each PE reports how many
+    /// children it computes; the slots are as wide as the most), clocks
+    /// the prologue and the slots, each PE running `step` (its stage's)
+    /// on the cycle's bus, and broadcasts `end` (the bank select).
     pub(crate) fn run_pass(
         &mut self,
-        stage: Stage,
         (prows, needs): (usize, &[Option<(usize, usize)>]),
         begin: Broadcast<'_>,
-        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
+        step: &mut impl OnPassBus,
         end: Broadcast<'_>,
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
         let slots = plan_slots(prows, needs)?;
-        self.clock_slots(stage, width, &slots, &mut step)?;
+        self.clock_slots(width, &slots, step)?;
         self.clock.broadcast(&end);
         Ok(())
     }
@@ -354,15 +352,14 @@ impl Array {
     /// ([`plan_slots_where`]).
     pub(crate) fn run_sparse_pass(
         &mut self,
-        stage: Stage,
         slots: &[Slot],
         begin: Broadcast<'_>,
-        mut step: impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
+        step: &mut impl OnPassBus,
         end: Broadcast<'_>,
     ) -> Result<(), RunError> {
         let width = self.begin_pass(begin);
         if width > 0 {
-            self.clock_sparse_slots(stage, slots, &mut step)?;
+            self.clock_sparse_slots(slots, step)?;
         }
         self.clock.broadcast(&end);
         Ok(())
@@ -376,24 +373,15 @@ impl Array {
 
     /// The cycle ahead of a pass's first slot (with more than one PE) in
     /// which the PEs drive the first row's edge rays.
-    fn prologue(
-        &mut self,
-        stage: Stage,
-        slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
-    ) -> Result<(), RunError> {
+    fn prologue(&mut self, slots: &[Slot], step: &mut impl OnPassBus) -> Result<(), RunError> {
         let first = slots.first().and_then(|s| s.x);
         if self.has_prologue(slots) {
             let bus = PassBus {
                 drive: first,
                 ..PassBus::default()
             };
-            let ctrl = Ctrl {
-                pass: Some(bus),
-                ..Ctrl::at(stage, 0, 0)
-            };
-            self.clock
-                .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
+            step.show(bus, 0);
+            self.clock.tick(step)?;
         }
         Ok(())
     }
@@ -406,11 +394,10 @@ impl Array {
     /// sampling's report lines). The prologue drives the first row's edges.
     fn clock_sparse_slots(
         &mut self,
-        stage: Stage,
         slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
+        step: &mut impl OnPassBus,
     ) -> Result<(), RunError> {
-        self.prologue(stage, slots, step)?;
+        self.prologue(slots, step)?;
         for (s, slot) in slots.iter().enumerate() {
             let after = slots.get(s + 1).and_then(|n| n.x);
             let shown = slot.x.or(slot.y).unwrap_or(0);
@@ -421,12 +408,8 @@ impl Array {
                     col,
                     drive: after,
                 };
-                let ctrl = Ctrl {
-                    pass: Some(bus),
-                    ..Ctrl::at(stage, 0, shown)
-                };
-                self.clock
-                    .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
+                step.show(bus, shown);
+                self.clock.tick(step)?;
                 if self
                     .clock
                     .reports()
@@ -442,15 +425,14 @@ impl Array {
     /// Clocks `slots` of `width` cycles (after the prologue).
     fn clock_slots(
         &mut self,
-        stage: Stage,
         width: usize,
         slots: &[Slot],
-        step: &mut impl FnMut(&mut Pe, &PassBus, Links<'_>, &mut Ports) -> Result<(), StepError>,
+        step: &mut impl OnPassBus,
     ) -> Result<(), RunError> {
         if width == 0 {
             return Ok(());
         }
-        self.prologue(stage, slots, step)?;
+        self.prologue(slots, step)?;
         for (s, slot) in slots.iter().enumerate() {
             let after = slots.get(s + 1).and_then(|n| n.x);
             let shown = slot.x.or(slot.y).unwrap_or(0);
@@ -461,12 +443,8 @@ impl Array {
                     col,
                     drive: if col + 1 < width { slot.x } else { after },
                 };
-                let ctrl = Ctrl {
-                    pass: Some(bus),
-                    ..Ctrl::at(stage, 0, shown)
-                };
-                self.clock
-                    .tick(ctrl, |pe, links, out| step(pe, &bus, links, out))?;
+                step.show(bus, shown);
+                self.clock.tick(step)?;
             }
         }
         Ok(())

@@ -27,6 +27,7 @@ use serde::Serialize;
 use crate::array::{Array, RunError};
 use crate::config::{Order, PipelineConfig, RayBuffer};
 use crate::probes::{Ctrl, Stage};
+use crate::stages::Idle;
 
 /// What a frame moved through the external ray buffer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -158,8 +159,7 @@ impl Array {
         };
         let until = ch.idle_at();
         while self.clock.now() < until {
-            self.clock
-                .tick(Ctrl::at(Stage::Memory, 0, 0), |_, _, _| Ok(()))?;
+            self.clock.tick(&mut Idle(Ctrl::at(Stage::Memory, 0, 0)))?;
         }
         Ok(())
     }

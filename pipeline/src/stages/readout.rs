@@ -9,9 +9,10 @@
 
 use golden::geometry::RayGrid;
 
-use crate::array::{Array, RunError};
+use super::Step;
+use crate::array::{Array, Links, RunError};
 use crate::cosim::capture;
-use crate::pe::{Broadcast, Pe, Ports, Readout};
+use crate::pe::{Broadcast, Pe, Ports, Readout, StepError};
 use crate::probes::{Ctrl, Stage};
 
 /// The readout's registers in a PE, as `ercube_pe_readout` holds them
@@ -143,6 +144,23 @@ impl Pe {
     }
 }
 
+/// The readout's cycle on a PE: [`Pe::readout_step`], streaming its next
+/// ray on the host port (the twin of the host's read of
+/// [`golden::warp::Baseplane`]'s rays before [`golden::warp::warp`]).
+#[derive(Debug, Clone, Copy)]
+pub struct StreamStep;
+
+impl Step for StreamStep {
+    fn ctrl(&self) -> Ctrl {
+        Ctrl::at(Stage::Readout, 0, 0)
+    }
+
+    fn step(&mut self, pe: &mut Pe, _: Links<'_>, out: &mut Ports) -> Result<(), StepError> {
+        pe.readout_step(out);
+        Ok(())
+    }
+}
+
 impl Array {
     /// Streams the rays of region 0 (grid `g`) out: raw words, row-major.
     pub(crate) fn readout(&mut self, g: &RayGrid) -> Result<Vec<[i64; 4]>, RunError> {
@@ -161,11 +179,7 @@ impl Array {
         let mut store =
             |o: &Readout| raw[o.row as usize * w + (o.mx - g.lo[0]) as usize] = o.acc.raw;
         while !self.clock.reports().all(|r| r.readout_done) {
-            self.clock
-                .tick(Ctrl::at(Stage::Readout, 0, 0), |pe, _, out| {
-                    pe.readout_step(out);
-                    Ok(())
-                })?;
+            self.clock.tick(&mut StreamStep)?;
             for port in self.clock.ports() {
                 if let Some(o) = &port.host {
                     store(o);

@@ -11,12 +11,14 @@
 
 use golden::geometry::RayGrid;
 
-use super::boundary::{BoundaryPass, Edges};
+use super::boundary::{BoundaryPass, Edges, OnPassBus, PassStep};
 use super::passes::{inside, plan_slots_where, PassBus};
-use crate::array::{clamp, Array, RunError};
+use super::Step;
+use crate::array::{clamp, Array, Links, RunError};
+use crate::cosim::split::SplitTick;
 use crate::datapath::{Acc, Datapath};
 use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, StepError};
-use crate::probes::Stage;
+use crate::probes::{Ctrl, Stage};
 use crate::schedule::btf::rays;
 
 impl Pe {
@@ -215,6 +217,59 @@ impl BoundaryPass for SplitPass<'_> {
     }
 }
 
+/// The dense split's cycle on a PE with what it reads and writes recorded
+/// for the co-simulation ([`crate::cosim::split`]): the [`PassStep`] of a
+/// [`SplitPass`] (twin of [`golden::merge::split`]) and, per PE, one
+/// [`SplitTick`] a cycle: the bus, the
+/// parents the x pass reads and what both passes write.
+struct CapturedSplit<'a> {
+    step: PassStep<'a, SplitPass<'a>>,
+    /// The parents' columns.
+    grid: (i64, i64),
+    /// Each PE's children.
+    children: &'a mut [usize],
+    per_pe: Vec<Vec<SplitTick>>,
+}
+
+impl Step for CapturedSplit<'_> {
+    fn ctrl(&self) -> Ctrl {
+        self.step.ctrl()
+    }
+
+    fn step(&mut self, pe: &mut Pe, links: Links<'_>, out: &mut Ports) -> Result<(), StepError> {
+        let bus = *self.step.bus();
+        let (c, n) = (bus.col, pe.pass.children.len());
+        let mut t = SplitTick {
+            x: bus.x,
+            y: bus.y,
+            col: c,
+            ..Default::default()
+        };
+        if let Some(q) = bus.x.filter(|_| c < n) {
+            if let Ok((a, b)) = pe.split_parents(c, q, self.grid, Edges::on(&links).right) {
+                t.parents = [a.raw, b.raw];
+            }
+        }
+        self.step.step(pe, links, out)?;
+        if let Some(q) = bus.x.filter(|_| c < n) {
+            t.line = pe.pass.line.read(pe.k, q, c).ok();
+        }
+        if let Some(i) = bus.y.filter(|_| c < n) {
+            let col = &pe.pass.next[c];
+            t.child = Some((col.acc[i].raw, col.ftb[i].done));
+        }
+        self.children[pe.k] = n;
+        self.per_pe[pe.k].push(t);
+        Ok(())
+    }
+}
+
+impl OnPassBus for CapturedSplit<'_> {
+    fn show(&mut self, bus: PassBus, row: usize) {
+        self.step.show(bus, row);
+    }
+}
+
 impl Array {
     /// Front to back: the split of `fg`'s rays (on their rear plane) into
     /// `bg`'s. Returns the rays it read and wrote (an external ray
@@ -241,13 +296,12 @@ impl Array {
             return Ok((rays(fg), rays(bg)));
         }
         self.run_pass(
-            Stage::Split,
             (prows, &needs),
             Broadcast::BeginSplit {
                 front: fg,
                 back: bg,
             },
-            |pe, bus, links, out| pe.pass_step(&SplitPass { fg, bg }, &dp, bus, links, out),
+            &mut PassStep::new(Stage::Split, SplitPass { fg, bg }, &dp, false),
             Broadcast::EndSplit,
         )?;
         Ok((rays(fg), rays(bg)))
@@ -264,7 +318,7 @@ impl Array {
         (fg, bg): (&RayGrid, &RayGrid),
         (prows, needs): (usize, &[Option<(usize, usize)>]),
     ) -> Result<(), RunError> {
-        use crate::cosim::split::{SplitCapture, SplitTick};
+        use crate::cosim::split::SplitCapture;
         let p = self.clock.pes().len();
         let mut rec = SplitCapture {
             first: self.clock.now(),
@@ -272,43 +326,22 @@ impl Array {
             children: vec![0; p],
             ticks: Vec::new(),
         };
-        let mut per_pe: Vec<Vec<SplitTick>> = vec![Vec::new(); p];
-        let grid = (fg.lo[0], fg.hi[0]);
+        let mut step = CapturedSplit {
+            step: PassStep::new(Stage::Split, SplitPass { fg, bg }, dp, false),
+            grid: (fg.lo[0], fg.hi[0]),
+            children: &mut rec.children,
+            per_pe: vec![Vec::new(); p],
+        };
         self.run_pass(
-            Stage::Split,
             (prows, needs),
             Broadcast::BeginSplit {
                 front: fg,
                 back: bg,
             },
-            |pe, bus, links, out| {
-                let pass = SplitPass { fg, bg };
-                let (c, n) = (bus.col, pe.pass.children.len());
-                let mut t = SplitTick {
-                    x: bus.x,
-                    y: bus.y,
-                    col: c,
-                    ..SplitTick::default()
-                };
-                if let Some(q) = bus.x.filter(|_| c < n) {
-                    if let Ok((a, b)) = pe.split_parents(c, q, grid, Edges::on(&links).right) {
-                        t.parents = [a.raw, b.raw];
-                    }
-                }
-                pe.pass_step(&pass, dp, bus, links, out)?;
-                if let Some(q) = bus.x.filter(|_| c < n) {
-                    t.line = pe.pass.line.read(pe.k, q, c).ok();
-                }
-                if let Some(i) = bus.y.filter(|_| c < n) {
-                    let col = &pe.pass.next[c];
-                    t.child = Some((col.acc[i].raw, col.ftb[i].done));
-                }
-                rec.children[pe.k] = n;
-                per_pe[pe.k].push(t);
-                Ok(())
-            },
+            &mut step,
             Broadcast::EndSplit,
         )?;
+        let per_pe = step.per_pe;
         let ticks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
         rec.ticks = (0..ticks)
             .map(|i| {
@@ -353,13 +386,12 @@ impl Array {
             .collect();
         let slots = plan_slots_where(prows, &needs, &lows, |q| live[q], false)?;
         self.run_sparse_pass(
-            Stage::Split,
             &slots,
             Broadcast::BeginSplit {
                 front: fg,
                 back: bg,
             },
-            |pe, bus, links, out| pe.pass_step_sparse(&SplitPass { fg, bg }, dp, bus, links, out),
+            &mut PassStep::new(Stage::Split, SplitPass { fg, bg }, dp, true),
             Broadcast::EndSplit,
         )?;
         Ok((reads, written(self) - before))

@@ -78,7 +78,10 @@ fn round_robin_aprons() {
         assert!(has(&pe.items, "ray owner"), "{mapping:?}: owner compares");
         assert!(has(&controller_inventory(&c, &geo), "wrap link"));
         // Shaded: one apron column left, two right.
-        let shaded = geo.clone().with_shading(true);
+        let shaded = geo.clone().with_units(pipeline::hw::compose::Units {
+            lights: Some(1),
+            ..Default::default()
+        });
         let sb = pe_inventory(&cfg(Mapping::Blocks, 4, RayBuffer::OnChip), &shaded);
         let sp = pe_inventory(&c, &shaded);
         assert_eq!(

@@ -271,7 +271,7 @@ fn target_mhz_is_validated() {
 /// Every stage's step has the shape of a clocked process: the PE's own
 /// state, the controller's broadcast and the links (its neighbours' port
 /// outputs of the last cycle, by value) in; its own port registers out
-/// (written in place). The
+/// (written in place), each stage's as a named [`Step`](pipeline::stages::Step). The
 /// types are the check: these coercions compile only while no step takes
 /// anything that could reach another PE (the clock's rustdoc holds a
 /// `compile_fail` example of a step that tries).
@@ -315,6 +315,20 @@ fn steps_see_only_their_own_state_and_links() {
         readout as usize,
     ];
     assert!(steps.iter().all(|&f| f != 0));
+    // Each stage's cycle is one of these named steps, the only thing the
+    // clock ticks.
+    use pipeline::stages::{boundary, migrate::LinkStep, readout::StreamStep};
+    use pipeline::stages::{sample, Idle, Step};
+    fn step<S: Step>() {}
+    step::<sample::RowStep<'static>>();
+    step::<sample::Hold<'static>>();
+    step::<sample::Stall<'static>>();
+    step::<boundary::PassStep<'static, MergePass<'static>>>();
+    step::<boundary::PassStep<'static, SplitPass<'static>>>();
+    step::<boundary::PassStep<'static, FoldGrids<'static>>>();
+    step::<LinkStep<'static, fn(i64) -> usize>>();
+    step::<StreamStep>();
+    step::<Idle>();
 }
 
 /// The untraced dense merge (each PE's whole merge at once, in parallel,

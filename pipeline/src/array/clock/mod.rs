@@ -1,13 +1,14 @@
 //! The array's one clock: a two-phase tick that every stage uses.
 //!
-//! In a tick each PE steps from its own state, the [`Links`] (what its
-//! neighbours drove on their ports in the previous cycle, read only) and the
-//! controller's broadcast, which the step closure captures, and writes
-//! what it drives this cycle into its next port registers, handed to it
-//! idle (in place: a PE's `Ports` is a few hundred bytes, and copying them
-//! out of every step was a tenth of a frame). Only after every PE has stepped do
-//! the new port outputs commit, so the order in which PEs step cannot
-//! matter (tests step them in other orders and compare every bit).
+//! In a tick each PE runs the stage's [`Step`] from its own state, the
+//! [`Links`] (what its neighbours drove on their ports in the previous
+//! cycle, read only) and the controller's broadcast, which the step holds,
+//! and writes what it drives this cycle into its next port registers,
+//! handed to it idle (in place: a PE's `Ports` is a few hundred bytes, and
+//! copying them out of every step would cost a tenth of a frame). Only
+//! after every PE has stepped do the new port outputs commit, so the order
+//! in which PEs step cannot matter (tests step them in other orders and
+//! compare every bit).
 //!
 //! The tick counts the cycle under its [`Stage`] and records the probes.
 //! No stage counts cycles of its own: [`StageCycles`] is what the ticks
@@ -21,13 +22,23 @@
 //!
 //! ```compile_fail
 //! # use pipeline::array::{Clock, Links};
+//! # use pipeline::pe::{Pe, Ports, StepError};
 //! # use pipeline::probes::{Ctrl, Stage};
+//! # use pipeline::stages::Step;
+//! // A step that reads PE 0's report lines while the clock ticks does not
+//! // compile (the one error is the borrow: the clock is ticking).
+//! struct Peek<'a>(&'a Clock);
+//! impl Step for Peek<'_> {
+//!     fn ctrl(&self) -> Ctrl {
+//!         Ctrl::at(Stage::Sample, 0, 0)
+//!     }
+//!     fn step(&mut self, _: &mut Pe, _: Links<'_>, _: &mut Ports) -> Result<(), StepError> {
+//!         let _ = self.0.pes()[0].report();
+//!         Ok(())
+//!     }
+//! }
 //! # fn f(clock: &mut Clock) {
-//! // A step that peeks at PE 0's rays does not compile.
-//! clock.tick(Ctrl::at(Stage::Sample, 0, 0), |pe, _links: Links, _out| {
-//!     let _ = clock.pes()[0].rays.len();
-//!     Ok(())
-//! });
+//! clock.tick(&mut Peek(clock));
 //! # }
 //! ```
 
@@ -36,8 +47,9 @@ mod events;
 
 use crate::datapath::Acc;
 use crate::pe::{Broadcast, Pe, PeReport, Port, Ports, RayColumn, StepError, VoxelMem};
-use crate::probes::{Ctrl, Probes, Stage};
+use crate::probes::{Probes, Stage};
 use crate::stages::sample::EdgeWords;
+use crate::stages::Step;
 
 use super::warm::each_mut;
 use super::StageCycles;
@@ -62,7 +74,7 @@ fn step_all(
     (ports, next): (&[Ports], &mut [Ports]),
     order: &[usize],
     ring: bool,
-    mut step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
+    step: &mut impl Step,
 ) -> Result<(), StepError> {
     let p = pes.len();
     let (wrap_in_first, wrap_in_last) = if ring {
@@ -96,7 +108,7 @@ fn step_all(
         // idle, in place (a `Ports` is a few hundred bytes).
         let out = &mut next[k];
         *out = IDLE_PORTS;
-        step(&mut pes[k], links, out)?;
+        step.step(&mut pes[k], links, out)?;
     }
     Ok(())
 }
@@ -292,13 +304,10 @@ impl Clock {
         self.probes.take()
     }
 
-    /// One cycle of `ctrl.stage`, the controller showing `ctrl`: every PE
-    /// steps, then the ports commit.
-    pub fn tick(
-        &mut self,
-        ctrl: Ctrl,
-        step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
-    ) -> Result<(), StepError> {
+    /// One cycle of `step`'s stage, the controller showing its
+    /// [`Step::ctrl`]: every PE steps, then the ports commit.
+    pub fn tick(&mut self, step: &mut impl Step) -> Result<(), StepError> {
+        let ctrl = step.ctrl();
         if let Some(t) = self.tap.as_mut() {
             t.wait()?;
         }
@@ -331,11 +340,12 @@ impl Clock {
     /// One cycle of the links alone, run alongside the sampling stage's
     /// cycles (the overlapped migration): every PE steps on `ports`, the
     /// link registers of that second stage, which then commit. The cycle
-    /// counter, the stage counts and the probes are the sampling stage's.
+    /// counter, the stage counts and the probes are the sampling stage's
+    /// (`step`'s [`Step::ctrl`] is not shown).
     pub(crate) fn tick_links(
         &mut self,
         ports: &mut (Vec<Ports>, Vec<Ports>),
-        step: impl FnMut(&mut Pe, Links<'_>, &mut Ports) -> Result<(), StepError>,
+        step: &mut impl Step,
     ) -> Result<(), StepError> {
         let (now, next) = ports;
         step_all(&mut self.pes, (now, next), &self.order, self.ring, step)?;

@@ -34,9 +34,9 @@ pub(super) struct Datapath {
 pub const SAMPLE_STAGE: &str = "sample stage: ";
 
 pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
-    let g = crate::hw::compose::sample(cfg, geo.units());
+    let g = crate::hw::compose::sample(cfg, geo.units);
     let mut items = described_items(&g);
-    if geo.shading {
+    if geo.units.shading() {
         items.extend(crate::cost::shading::table_item(&g));
     }
     // The PE's control around the module: the emitted sample stage's
@@ -44,7 +44,11 @@ pub(super) fn datapath(cfg: &PipelineConfig, geo: &Geometry) -> Datapath {
     // step's run compare and clamps), and the pre-integrated pass's ray
     // tests.
     let col_bits = addr_bits(geo.block() + 1);
-    let address = described_items(&crate::hw::address::address(cfg, col_bits, geo.preint));
+    let address = described_items(&crate::hw::address::address(
+        cfg,
+        col_bits,
+        geo.units.preint,
+    ));
     match crate::hw::pe_sample_rtl::PeSampleShape::new(cfg, geo) {
         Ok(shape) => {
             let x0_bits = u32::from(cfg.position.bits() - cfg.position.frac()).max(1);
@@ -151,7 +155,7 @@ impl Emitted {
 /// the configuration's schedule; `None` for a configuration the Verilog
 /// refuses (a rounding mode it does not emit).
 pub(crate) fn emitted(cfg: &PipelineConfig, geo: &Geometry) -> Option<Emitted> {
-    let g = crate::hw::compose::sample(cfg, geo.units());
+    let g = crate::hw::compose::sample(cfg, geo.units);
     let s = crate::cost::latency::graph_schedule(cfg, &g);
     emitted_graph(&g, &s)
 }

@@ -103,7 +103,7 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             .collect(),
         None => {
             let mut v = Vec::new();
-            if !geo.preint {
+            if !geo.units.preint {
                 v.push(Item::new(
                     "memories",
                     "classification table",
@@ -138,7 +138,7 @@ pub(super) fn memories(cfg: &PipelineConfig, geo: &Geometry) -> Vec<Item> {
             v
         }
     };
-    if geo.preint {
+    if geo.units.preint {
         tables.extend(crate::cost::preint::memories(cfg));
     }
     items.extend(tables);

@@ -136,7 +136,7 @@ impl CostReport {
             c.accum_color.bits(),
             c.accum_alpha.bits()
         );
-        if g.preint {
+        if g.units.preint {
             let n = crate::cost::preint::bins(c) + 1;
             let _ = writeln!(
                 o,

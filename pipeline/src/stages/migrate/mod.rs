@@ -20,8 +20,9 @@ use crate::config::Migration;
 use crate::datapath::Acc;
 use crate::host::SlicePlan;
 use crate::mapping::Route;
-use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, RayMove};
+use crate::pe::{Broadcast, FtbState, Pe, Ports, RayColumn, RayMove, StepError};
 use crate::probes::{Ctrl, Stage};
+use crate::stages::{Idle, Step};
 
 impl Pe {
     /// Queues every held column whose owner for the next slice is another
@@ -236,6 +237,35 @@ fn queue(q: &mut LinkQueue, c: RayColumn, sparse: bool) {
     }
 }
 
+/// The migration's cycle of one lane on a PE ([`Pe::migrate_step`]): the
+/// rays the neighbours sent last cycle arrive, and one ray leaves each way
+/// towards its owner for slice `z` under `owner`. Golden has no twin (the
+/// module's doc): this keeps the array's share of
+/// [`golden::sampling::slice_rays`]' rays where the next slice samples them.
+pub struct LinkStep<'a, F> {
+    /// The slice the rays move for.
+    pub z: usize,
+    /// The cycle's number (a received ray leaves no earlier than the next).
+    pub now: u64,
+    /// The rays' owners for slice `z`.
+    pub owner: &'a F,
+    /// The links' route (a line or a ring).
+    pub route: Route,
+    /// Whether this is the cycle's last lane (it counts the waits).
+    pub last: bool,
+}
+
+impl<F: Fn(i64) -> usize> Step for LinkStep<'_, F> {
+    fn ctrl(&self) -> Ctrl {
+        Ctrl::at(Stage::Migrate, self.z, 0)
+    }
+
+    fn step(&mut self, pe: &mut Pe, links: Links<'_>, out: &mut Ports) -> Result<(), StepError> {
+        pe.migrate_step(links, self.now, self.owner, (self.route, self.last), out);
+        Ok(())
+    }
+}
+
 impl Array {
     /// Migration before `slice`: clocks until every ray sits in its owner,
     /// or, overlapped, runs the links in the cycles the slice samples.
@@ -243,7 +273,7 @@ impl Array {
         let dp = std::sync::Arc::clone(&self.dp);
         let owners = self.owners(&dp, slice);
         if self.dp.cfg.migration == Migration::Overlapped && self.channel.is_none() {
-            return self.migrate_overlapped(|mx| owners.of(mx));
+            return self.migrate_overlapped(slice.z, |mx| owners.of(mx));
         }
         self.migrate_by(slice.z, |mx| owners.of(mx))
     }
@@ -259,7 +289,11 @@ impl Array {
     /// write-backs. The link cycles are the sampling stage's, so they add
     /// no cycle of their own; the waveforms do not show these moves on
     /// the ports.
-    fn migrate_overlapped(&mut self, owner: impl Fn(i64) -> usize + Sync) -> Result<(), RunError> {
+    fn migrate_overlapped(
+        &mut self,
+        z: usize,
+        owner: impl Fn(i64) -> usize + Sync,
+    ) -> Result<(), RunError> {
         let route = self.map.route();
         self.clock.broadcast(&Broadcast::PlanMoves {
             owner: &owner,
@@ -280,10 +314,14 @@ impl Array {
         while !(self.clock.reports().all(|r| r.settled) && ports.iter().all(idle)) {
             for (i, lane) in ports.iter_mut().enumerate() {
                 let last = i + 1 == lanes;
-                self.clock.tick_links(lane, |pe, links, out| {
-                    pe.migrate_step(links, now, &owner, (route, last), out);
-                    Ok(())
-                })?;
+                let mut step = LinkStep {
+                    z,
+                    now,
+                    owner: &owner,
+                    route,
+                    last,
+                };
+                self.clock.tick_links(lane, &mut step)?;
             }
             now += 1;
         }
@@ -320,10 +358,9 @@ impl Array {
         if self.dp.cfg.migration != Migration::Overlapped || self.channel.is_some() {
             return self.migrate_by(z, owner);
         }
-        self.migrate_overlapped(owner)?;
+        self.migrate_overlapped(z, owner)?;
         while self.clock.now() < self.links_free {
-            self.clock
-                .tick(Ctrl::at(Stage::Migrate, z, 0), |_, _, _| Ok(()))?;
+            self.clock.tick(&mut Idle(Ctrl::at(Stage::Migrate, z, 0)))?;
         }
         self.settle_links();
         Ok(())
@@ -360,12 +397,14 @@ impl Array {
                 .iter()
                 .all(|p| p.left.ray.is_none() && p.right.ray.is_none()))
         {
-            let now = self.clock.now();
-            self.clock
-                .tick(Ctrl::at(Stage::Migrate, z, 0), |pe, links, out| {
-                    pe.migrate_step(links, now, &owner, (route, true), out);
-                    Ok(())
-                })?;
+            let mut step = LinkStep {
+                z,
+                now: self.clock.now(),
+                owner: &owner,
+                route,
+                last: true,
+            };
+            self.clock.tick(&mut step)?;
         }
         self.settle_links();
         Ok(())

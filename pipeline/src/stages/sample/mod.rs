@@ -18,6 +18,7 @@ mod pe;
 mod plain;
 mod plan;
 mod preint;
+mod step;
 
 pub use edges::EdgeWords;
 pub(crate) use fast::WholeSlice;
@@ -26,6 +27,7 @@ pub use plain::ColumnOrder;
 pub(crate) use plain::ColumnTaps;
 pub use plan::{RowPlan, RowRuns};
 pub use preint::{PrePlan, PreRuns};
+pub use step::{Hold, RowStep, Stall};
 
 use crate::array::{Array, RunError};
 use crate::config::Order;
@@ -335,26 +337,21 @@ impl Array {
             if len == 0 {
                 continue;
             }
-            for _ in 0..times.plan[r] {
-                self.clock
-                    .tick(Ctrl::at(Stage::Plan, slice.z, row), |pe, _, out| {
-                        pe.hold_step(&dp, out);
-                        Ok(())
-                    })?;
-            }
-            for _ in 0..times.memory[r] {
-                self.clock
-                    .tick(Ctrl::at(Stage::Memory, slice.z, row), |pe, _, out| {
-                        pe.hold_step(&dp, out);
-                        Ok(())
-                    })?;
+            let (z, dp) = (slice.z, &*dp);
+            for (n, stage) in [
+                (times.plan[r], Stage::Plan),
+                (times.memory[r], Stage::Memory),
+            ] {
+                let mut hold = Hold {
+                    dp,
+                    ctrl: Ctrl::at(stage, z, row),
+                };
+                for _ in 0..n {
+                    self.clock.tick(&mut hold)?;
+                }
             }
             for _ in 0..times.stalls[r] {
-                self.clock
-                    .tick(Ctrl::at(Stage::Stall, slice.z, row), |pe, _, out| {
-                        pe.stall_step(&dp, out);
-                        Ok(())
-                    })?;
+                self.clock.tick(&mut Stall { dp, z, row })?;
             }
             if r == sampled[0] && p > 1 {
                 // Prologue: one cycle in which every PE only drives its edge
@@ -375,10 +372,7 @@ impl Array {
                 if let Some(c) = self.clock.capture() {
                     crate::cosim::pe_sample::sample_bus(c, &bus);
                 }
-                self.clock
-                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
-                        pe.sample_step(&dp, &bus, links, nx, out)
-                    })?;
+                self.clock.tick(&mut RowStep { dp, bus, nx })?;
             }
             debug_assert_eq!(self.clock.now(), times.starts[r]);
             let after = following
@@ -405,10 +399,7 @@ impl Array {
                 if let Some(c) = self.clock.capture() {
                     crate::cosim::pe_sample::sample_bus(c, &bus);
                 }
-                self.clock
-                    .tick(Ctrl::at(Stage::Sample, slice.z, row), |pe, links, out| {
-                        pe.sample_step(&dp, &bus, links, nx, out)
-                    })?;
+                self.clock.tick(&mut RowStep { dp, bus, nx })?;
             }
         }
         Ok(())
