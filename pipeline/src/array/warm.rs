@@ -124,12 +124,36 @@ pub(crate) fn each_mut<T: Send, R: Send>(
     items: &mut [T],
     f: impl Fn(usize, &mut T) -> R + Sync,
 ) -> Vec<R> {
+    each_mut_beside(items, f, || ()).0
+}
+
+/// [`each_mut`], with `side` run beside the items as one more item (the
+/// first a waiting worker steals): host work that shares nothing with
+/// the items runs in the step instead of before or after it, while the
+/// other thread would wait.
+pub(crate) fn each_mut_beside<T: Send, R: Send, S: Send>(
+    items: &mut [T],
+    f: impl Fn(usize, &mut T) -> R + Sync,
+    side: impl FnOnce() -> S + Send,
+) -> (Vec<R>, S) {
     if rayon::current_num_threads() < 2 || items.len() < 2 {
-        return items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect();
+        let side = side();
+        return (
+            items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect(),
+            side,
+        );
     }
     let mut out: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
-    let left = AtomicUsize::new(items.len());
+    let mut beside: Option<S> = None;
+    let left = AtomicUsize::new(items.len() + 1);
     rayon::in_place_scope(|s| {
+        {
+            let (slot, left) = (&mut beside, &left);
+            s.spawn(move |_| {
+                let _done = Done(left);
+                *slot = Some(side());
+            });
+        }
         for (k, (item, slot)) in items.iter_mut().zip(out.iter_mut()).enumerate() {
             let (f, left) = (&f, &left);
             s.spawn(move |_| {
@@ -146,9 +170,14 @@ pub(crate) fn each_mut<T: Send, R: Send>(
             }
         }
     });
-    out.into_iter()
+    let out = out
+        .into_iter()
         .map(|r| r.expect("every item ran before the scope ended"))
-        .collect()
+        .collect();
+    (
+        out,
+        beside.expect("the side job ran before the scope ended"),
+    )
 }
 
 /// Counts an item done when dropped.

@@ -29,7 +29,8 @@ pub use preint::{PrePlan, PreRuns};
 
 use crate::array::{Array, RunError};
 use crate::config::Order;
-use crate::fixed::{Fx, QuantStats, Wide};
+use crate::datapath::Datapath;
+use crate::fixed::{Counts, Fx, QuantStats, Quantized, Wide};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::{Broadcast, EdgeRead};
 use crate::probes::{Ctrl, Stage};
@@ -135,19 +136,25 @@ impl Array {
         let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
         let shade = self.dp.shade.is_some();
-        self.clock.broadcast(&Broadcast::PlanRows {
-            first_row,
-            rows: nrows,
-            runs: &runs,
-            ftb,
-            waits,
-            pre: pre.as_ref(),
-            edges: rows.as_ref().ok().filter(|_| whole).map(|rows| EdgeRead {
-                z: slice.z,
-                rows,
-                shade,
-            }),
-        });
+        let dp = &self.dp;
+        // The whole-slice path's buses, worked out while the PEs plan.
+        let for_whole = rows.as_ref().ok().filter(|_| whole);
+        let buses = self.clock.broadcast_beside(
+            &Broadcast::PlanRows {
+                first_row,
+                rows: nrows,
+                runs: &runs,
+                ftb,
+                waits,
+                pre: pre.as_ref(),
+                edges: for_whole.map(|rows| EdgeRead {
+                    z: slice.z,
+                    rows,
+                    shade,
+                }),
+            },
+            || for_whole.map(|rows| fast::row_buses(dp, region, slice, rows)),
+        );
         if let Some(c) = self.clock.capture() {
             crate::cosim::pe_sample::rows_planned(
                 c,
@@ -200,10 +207,9 @@ impl Array {
         self.links_from = self.clock.now();
         let rows = rows?;
         self.host_stats.merge(&host);
-        let r = if !whole {
-            self.sample_clocked(region, slice, &rows, &times)
-        } else {
-            self.sample_whole(region, slice, &rows, &times)
+        let r = match buses {
+            Some(buses) if whole => self.sample_whole(slice, &buses, &times),
+            _ => self.sample_clocked(region, slice, &rows, &times),
         };
         self.runs = runs;
         self.pre_runs = pre_runs;
@@ -275,7 +281,10 @@ impl Array {
 
     /// The rows' broadcast values: voxel rows, y weight, y slope, with the
     /// host's quantisation events computing them counted into `st` (which
-    /// the caller adds once the slice samples).
+    /// the caller adds once the slice samples). The events are summed in
+    /// registers per format and added once (sums commute), the
+    /// assignments being [`Datapath::position`](crate::datapath::Datapath::position)'s
+    /// and [`Datapath::address`](crate::datapath::Datapath::address)'s.
     fn rows(
         &self,
         region: &RegionPlan,
@@ -285,14 +294,27 @@ impl Array {
         let (ylo, yhi) = slice.range[1];
         let ny = self.ny;
         let dp = &self.dp;
+        let (position, weight) = (crate::reg!(dp.cfg, position), crate::reg!(dp.cfg, weight));
+        // Position's events, then weight's.
+        let mut counts = [Counts::default(); 2];
+        let note = |c: &mut Counts, q: Quantized| {
+            c.assignments += 1;
+            c.overflows += u64::from(q.overflow);
+            c.inexact += u64::from(q.inexact);
+            q.value
+        };
         let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
-        for my in ylo..=yhi {
-            let y = dp.position(slice.a[1], slice.t[1], my, st)?;
-            let (y0, wy) = dp.address(y, st);
+        let out = (ylo..=yhi).try_for_each(|my| -> Result<(), RunError> {
+            let exact = Datapath::position_exact(slice.a[1], slice.t[1], my)?;
+            let y = note(&mut counts[0], position.quantize(exact));
+            let (y0, w) = dp.address_exact(y);
+            let wy = note(&mut counts[1], weight.quantize(w));
             let last = ny as i64 - 1;
             let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
-            let sy = crate::reg!(dp.cfg, position)
-                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, st);
+            let sy = note(
+                &mut counts[0],
+                position.quantize(Wide::from(region.slope_b[1]).checked_add(mt)?),
+            );
             rows.push((
                 my,
                 (
@@ -303,8 +325,11 @@ impl Array {
                 sy,
                 y,
             ));
-        }
-        Ok(rows)
+            Ok(())
+        });
+        st.add_as(position.id, &counts[0]);
+        st.add_as(weight.id, &counts[1]);
+        out.map(|()| rows)
     }
 
     /// The clocked sampling of a slice: stall cycles, the prologue, then
