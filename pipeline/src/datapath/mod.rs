@@ -199,23 +199,17 @@ impl Datapath {
     /// host broadcasts `a` in `position` and `t` in `step`).
     #[inline(always)]
     pub fn position(&self, a: Fx, t: Fx, m: i64, st: &mut QuantStats) -> Result<Fx, FxError> {
-        Ok(crate::reg!(self.cfg, position).assign(Self::position_exact(a, t, m)?, st))
-    }
-
-    /// The exact `a + m t` that [`Datapath::position`] assigns into the
-    /// `position` format (64-bit words when they hold it, else 128).
-    #[inline(always)]
-    pub fn position_exact(a: Fx, t: Fx, m: i64) -> Result<Wide, FxError> {
         let fast = Word64::int(m)
             .checked_mul(Word64::of(t))
             .and_then(|mt| Word64::of(a).checked_add(mt));
-        Ok(match fast {
+        let v = match fast {
             Some(v) => Wide::from(v),
             None => {
                 let mt = Wide::new(i128::from(m), 0).checked_mul(t)?;
                 Wide::from(a).checked_add(mt)?
             }
-        })
+        };
+        Ok(crate::reg!(self.cfg, position).assign(v, st))
     }
 
     /// Voxel address and interpolation weight of a position:
@@ -223,17 +217,12 @@ impl Datapath {
     /// assigned into the `weight` format.
     #[inline(always)]
     pub fn address(&self, x: Fx, st: &mut QuantStats) -> (i64, Fx) {
-        let (i, r) = self.address_exact(x);
-        (i, crate::reg!(self.cfg, weight).assign(r, st))
-    }
-
-    /// The voxel address `floor(x)` and the exact fraction that
-    /// [`Datapath::address`] assigns into the `weight` format.
-    #[inline(always)]
-    pub fn address_exact(&self, x: Fx) -> (i64, Wide) {
         let f = u32::from(self.cfg.position.frac());
         let (i, r) = split(x.raw(), f);
-        (i, Wide::new(i128::from(r), f as i32))
+        (
+            i,
+            crate::reg!(self.cfg, weight).assign(Wide::new(i128::from(r), f as i32), st),
+        )
     }
 
     /// Bilinear interpolation of four voxel codes (`v[row][col]`, rows

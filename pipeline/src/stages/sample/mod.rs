@@ -29,8 +29,7 @@ pub use preint::{PrePlan, PreRuns};
 
 use crate::array::{Array, RunError};
 use crate::config::Order;
-use crate::datapath::Datapath;
-use crate::fixed::{Counts, Fx, QuantStats, Quantized, Wide};
+use crate::fixed::{Fx, QuantStats, Wide};
 use crate::host::{RegionPlan, SlicePlan};
 use crate::pe::{Broadcast, EdgeRead};
 use crate::probes::{Ctrl, Stage};
@@ -281,10 +280,7 @@ impl Array {
 
     /// The rows' broadcast values: voxel rows, y weight, y slope, with the
     /// host's quantisation events computing them counted into `st` (which
-    /// the caller adds once the slice samples). The events are summed in
-    /// registers per format and added once (sums commute), the
-    /// assignments being [`Datapath::position`](crate::datapath::Datapath::position)'s
-    /// and [`Datapath::address`](crate::datapath::Datapath::address)'s.
+    /// the caller adds once the slice samples).
     fn rows(
         &self,
         region: &RegionPlan,
@@ -294,27 +290,14 @@ impl Array {
         let (ylo, yhi) = slice.range[1];
         let ny = self.ny;
         let dp = &self.dp;
-        let (position, weight) = (crate::reg!(dp.cfg, position), crate::reg!(dp.cfg, weight));
-        // Position's events, then weight's.
-        let mut counts = [Counts::default(); 2];
-        let note = |c: &mut Counts, q: Quantized| {
-            c.assignments += 1;
-            c.overflows += u64::from(q.overflow);
-            c.inexact += u64::from(q.inexact);
-            q.value
-        };
         let mut rows = Vec::with_capacity((yhi - ylo + 1) as usize);
-        let out = (ylo..=yhi).try_for_each(|my| -> Result<(), RunError> {
-            let exact = Datapath::position_exact(slice.a[1], slice.t[1], my)?;
-            let y = note(&mut counts[0], position.quantize(exact));
-            let (y0, w) = dp.address_exact(y);
-            let wy = note(&mut counts[1], weight.quantize(w));
+        for my in ylo..=yhi {
+            let y = dp.position(slice.a[1], slice.t[1], my, st)?;
+            let (y0, wy) = dp.address(y, st);
             let last = ny as i64 - 1;
             let mt = Wide::new(i128::from(my), 0).checked_mul(region.slope_k[1])?;
-            let sy = note(
-                &mut counts[0],
-                position.quantize(Wide::from(region.slope_b[1]).checked_add(mt)?),
-            );
+            let sy = crate::reg!(dp.cfg, position)
+                .assign(Wide::from(region.slope_b[1]).checked_add(mt)?, st);
             rows.push((
                 my,
                 (
@@ -325,11 +308,8 @@ impl Array {
                 sy,
                 y,
             ));
-            Ok(())
-        });
-        st.add_as(position.id, &counts[0]);
-        st.add_as(weight.id, &counts[1]);
-        out.map(|()| rows)
+        }
+        Ok(rows)
     }
 
     /// The clocked sampling of a slice: stall cycles, the prologue, then
