@@ -229,6 +229,32 @@ mod tests {
         }
     }
 
+    /// The side job runs once beside the items and its result comes
+    /// back with theirs, on one thread and on several.
+    #[test]
+    fn each_mut_beside_runs_the_side_job_once() {
+        for threads in [1, 2, 3] {
+            let pool = pool(threads);
+            let ran = AtomicUsize::new(0);
+            let (got, side) = pool.install(|| {
+                with_warm_pool(|| {
+                    let mut items: Vec<u64> = (0..11).collect();
+                    each_mut_beside(
+                        &mut items,
+                        |k, x| *x * 3 + k as u64,
+                        || {
+                            ran.fetch_add(1, Ordering::Relaxed);
+                            (0..100u64).sum::<u64>()
+                        },
+                    )
+                })
+            });
+            let want: Vec<u64> = (0..11u64).map(|k| k * 4).collect();
+            assert_eq!((got, side), (want, 4950), "{threads} threads");
+            assert_eq!(ran.load(Ordering::Relaxed), 1, "{threads} threads");
+        }
+    }
+
     /// Steps after serial stretches longer than [`SPIN`] (the pollers
     /// parked) still run every item once and in order, and the frame
     /// ends: posting the items wakes the parked pollers, and the frame's
