@@ -137,11 +137,10 @@ pub(crate) fn each_mut_beside<T: Send, R: Send, S: Send>(
     side: impl FnOnce() -> S + Send,
 ) -> (Vec<R>, S) {
     if rayon::current_num_threads() < 2 || items.len() < 2 {
-        let side = side();
-        return (
-            items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect(),
-            side,
-        );
+        // The side job last, as the serial frame would run it: its
+        // result is what the caller reads next, still in cache.
+        let out = items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect();
+        return (out, side());
     }
     let mut out: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
     let mut beside: Option<S> = None;
