@@ -124,35 +124,12 @@ pub(crate) fn each_mut<T: Send, R: Send>(
     items: &mut [T],
     f: impl Fn(usize, &mut T) -> R + Sync,
 ) -> Vec<R> {
-    each_mut_beside(items, f, || ()).0
-}
-
-/// [`each_mut`], with `side` run beside the items as one more item (the
-/// first a waiting worker steals): host work that shares nothing with
-/// the items runs in the step instead of before or after it, while the
-/// other thread would wait.
-pub(crate) fn each_mut_beside<T: Send, R: Send, S: Send>(
-    items: &mut [T],
-    f: impl Fn(usize, &mut T) -> R + Sync,
-    side: impl FnOnce() -> S + Send,
-) -> (Vec<R>, S) {
     if rayon::current_num_threads() < 2 || items.len() < 2 {
-        // The side job last, as the serial frame would run it: its
-        // result is what the caller reads next, still in cache.
-        let out = items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect();
-        return (out, side());
+        return items.iter_mut().enumerate().map(|(k, t)| f(k, t)).collect();
     }
     let mut out: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
-    let mut beside: Option<S> = None;
-    let left = AtomicUsize::new(items.len() + 1);
+    let left = AtomicUsize::new(items.len());
     rayon::in_place_scope(|s| {
-        {
-            let (slot, left) = (&mut beside, &left);
-            s.spawn(move |_| {
-                let _done = Done(left);
-                *slot = Some(side());
-            });
-        }
         for (k, (item, slot)) in items.iter_mut().zip(out.iter_mut()).enumerate() {
             let (f, left) = (&f, &left);
             s.spawn(move |_| {
@@ -169,14 +146,9 @@ pub(crate) fn each_mut_beside<T: Send, R: Send, S: Send>(
             }
         }
     });
-    let out = out
-        .into_iter()
+    out.into_iter()
         .map(|r| r.expect("every item ran before the scope ended"))
-        .collect();
-    (
-        out,
-        beside.expect("the side job ran before the scope ended"),
-    )
+        .collect()
 }
 
 /// Counts an item done when dropped.
@@ -225,32 +197,6 @@ mod tests {
                 .map(|k| (0..k * 5).map(|j| k * 100 + j + j + 1).sum())
                 .collect();
             assert_eq!(got, want, "{threads} threads");
-        }
-    }
-
-    /// The side job runs once beside the items and its result comes
-    /// back with theirs, on one thread and on several.
-    #[test]
-    fn each_mut_beside_runs_the_side_job_once() {
-        for threads in [1, 2, 3] {
-            let pool = pool(threads);
-            let ran = AtomicUsize::new(0);
-            let (got, side) = pool.install(|| {
-                with_warm_pool(|| {
-                    let mut items: Vec<u64> = (0..11).collect();
-                    each_mut_beside(
-                        &mut items,
-                        |k, x| *x * 3 + k as u64,
-                        || {
-                            ran.fetch_add(1, Ordering::Relaxed);
-                            (0..100u64).sum::<u64>()
-                        },
-                    )
-                })
-            });
-            let want: Vec<u64> = (0..11u64).map(|k| k * 4).collect();
-            assert_eq!((got, side), (want, 4950), "{threads} threads");
-            assert_eq!(ran.load(Ordering::Relaxed), 1, "{threads} threads");
         }
     }
 

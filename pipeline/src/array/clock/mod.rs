@@ -39,7 +39,7 @@ use crate::pe::{Broadcast, Pe, PeReport, Port, Ports, RayColumn, StepError, Voxe
 use crate::probes::{Ctrl, Probes, Stage};
 use crate::stages::sample::EdgeWords;
 
-use super::warm::{each_mut, each_mut_beside};
+use super::warm::each_mut;
 use super::StageCycles;
 
 /// What a PE receives from its neighbours in a cycle: read-only views of
@@ -171,17 +171,6 @@ impl Clock {
     /// untraced sampler also reads each PE's edge words in its rows
     /// ([`crate::pe::EdgeRead`]), in the same step.
     pub fn broadcast(&mut self, b: &Broadcast<'_>) {
-        self.broadcast_beside(b, || ());
-    }
-
-    /// [`Clock::broadcast`], with the controller's `side` work (which
-    /// touches no PE) run beside the PEs' when they run in parallel, and
-    /// its result.
-    pub(crate) fn broadcast_beside<S: Send>(
-        &mut self,
-        b: &Broadcast<'_>,
-        side: impl FnOnce() -> S + Send,
-    ) -> S {
         if let Some(t) = self.tap.as_mut() {
             t.command(b);
         }
@@ -195,27 +184,19 @@ impl Clock {
             let mut edges = std::mem::take(&mut self.edge_rows);
             edges.resize_with(self.pes.len(), Vec::new);
             let mut pairs: Vec<_> = self.pes.iter_mut().zip(&mut edges).collect();
-            let (_, side) = each_mut_beside(
-                &mut pairs,
-                |_, (pe, out)| {
-                    pe.on_broadcast(b);
-                    pe.edges_for(e.z, (e.rows, runs), e.shade, out);
-                },
-                side,
-            );
+            each_mut(&mut pairs, |_, (pe, out)| {
+                pe.on_broadcast(b);
+                pe.edges_for(e.z, (e.rows, runs), e.shade, out);
+            });
             drop(pairs);
             self.edge_rows = edges;
-            return side;
-        }
-        let side = side();
-        if b.heavy() {
+        } else if b.heavy() {
             each_mut(&mut self.pes, |_, pe| pe.on_broadcast(b));
         } else {
             for pe in &mut self.pes {
                 pe.on_broadcast(b);
             }
         }
-        side
     }
 
     /// Every PE's report lines, in PE order: what the controller reads of

@@ -10,46 +10,37 @@ use crate::array::{Array, RunError};
 use crate::datapath::Datapath;
 use crate::host::{RegionPlan, SlicePlan};
 
-/// Every row's bus for the whole-slice path: the broadcast values with
-/// the kernel's row constants, worked out once for every PE. The
-/// controller computes them while the PEs plan the slice's rows
-/// ([`crate::array::Clock::broadcast_beside`]): they read no PE.
-pub(super) fn row_buses<'a>(
-    dp: &Datapath,
-    region: &RegionPlan,
-    slice: &'a SlicePlan,
-    rows: &[Row],
-) -> Vec<RowBus<'a>> {
-    let glo = region.grid.lo[1];
-    let kernel = dp.kernel();
-    let slope_x = (region.slope_b[0], region.slope_k[0]);
-    rows.iter()
-        .map(|&(my, y, sy, yp)| RowBus {
-            slice,
-            my,
-            row: (my - glo) as usize,
-            y,
-            yp,
-            slope_yz: (sy, region.slope_z),
-            slope_x,
-            plain: kernel
-                .and_then(|k| k.row((slice.a[0], slice.t[0]), slope_x, y.2, (sy, region.slope_z))),
-        })
-        .collect()
-}
-
 impl Array {
-    /// Samples `slice` on the rows' `buses` without per-cycle stepping
-    /// (the clock's untraced sampler), which then counts the cycles the
-    /// clocked path would have ticked.
+    /// Samples `slice` without per-cycle stepping (the clock's untraced
+    /// sampler), which then counts the cycles the clocked path would have
+    /// ticked.
     pub(super) fn sample_whole(
         &mut self,
+        region: &RegionPlan,
         slice: &SlicePlan,
-        buses: &[RowBus<'_>],
+        rows: &[Row],
         times: &RowTimes,
     ) -> Result<(), RunError> {
         let p = self.clock.pes().len();
+        let glo = region.grid.lo[1];
         let lens = &times.lens;
+        let kernel = self.dp.kernel();
+        let slope_x = (region.slope_b[0], region.slope_k[0]);
+        let buses: Vec<RowBus> = rows
+            .iter()
+            .map(|&(my, y, sy, yp)| RowBus {
+                slice,
+                my,
+                row: (my - glo) as usize,
+                y,
+                yp,
+                slope_yz: (sy, region.slope_z),
+                slope_x,
+                plain: kernel.and_then(|k| {
+                    k.row((slice.a[0], slice.t[0]), slope_x, y.2, (sy, region.slope_z))
+                }),
+            })
+            .collect();
         // The rows the bus announces as next, in the clocked path's order:
         // the prologue announces the first row (several PEs only); with
         // rows one cycle long a lone PE never announces the first.
@@ -64,7 +55,7 @@ impl Array {
             .collect();
         let whole = WholeSlice {
             dp: &self.dp,
-            buses,
+            buses: &buses,
             times,
             seq: &seq,
             shade: self.dp.shade.is_some(),

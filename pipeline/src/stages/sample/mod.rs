@@ -135,25 +135,19 @@ impl Array {
         let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
         let shade = self.dp.shade.is_some();
-        let dp = &self.dp;
-        // The whole-slice path's buses, worked out while the PEs plan.
-        let for_whole = rows.as_ref().ok().filter(|_| whole);
-        let buses = self.clock.broadcast_beside(
-            &Broadcast::PlanRows {
-                first_row,
-                rows: nrows,
-                runs: &runs,
-                ftb,
-                waits,
-                pre: pre.as_ref(),
-                edges: for_whole.map(|rows| EdgeRead {
-                    z: slice.z,
-                    rows,
-                    shade,
-                }),
-            },
-            || for_whole.map(|rows| fast::row_buses(dp, region, slice, rows)),
-        );
+        self.clock.broadcast(&Broadcast::PlanRows {
+            first_row,
+            rows: nrows,
+            runs: &runs,
+            ftb,
+            waits,
+            pre: pre.as_ref(),
+            edges: rows.as_ref().ok().filter(|_| whole).map(|rows| EdgeRead {
+                z: slice.z,
+                rows,
+                shade,
+            }),
+        });
         if let Some(c) = self.clock.capture() {
             crate::cosim::pe_sample::rows_planned(
                 c,
@@ -206,9 +200,10 @@ impl Array {
         self.links_from = self.clock.now();
         let rows = rows?;
         self.host_stats.merge(&host);
-        let r = match buses {
-            Some(buses) if whole => self.sample_whole(slice, &buses, &times),
-            _ => self.sample_clocked(region, slice, &rows, &times),
+        let r = if !whole {
+            self.sample_clocked(region, slice, &rows, &times)
+        } else {
+            self.sample_whole(region, slice, &rows, &times)
         };
         self.runs = runs;
         self.pre_runs = pre_runs;
