@@ -6,14 +6,16 @@
 
 use golden::geometry::RayGrid;
 
-use super::boundary::Edges;
+use super::boundary::{Edges, OnPassBus, PassStep};
 use super::merge::MergePass;
-use crate::array::{Array, RunError};
+use super::passes::PassBus;
+use super::Step;
+use crate::array::{Array, Links, RunError};
 use crate::cosim::capture::Capture;
 use crate::cosim::merge::{MergeCapture, MergeTick};
 use crate::datapath::Datapath;
-use crate::pe::{Broadcast, Pe};
-use crate::probes::Stage;
+use crate::pe::{Broadcast, Pe, Ports, StepError};
+use crate::probes::{Ctrl, Stage};
 
 impl Pe {
     /// Held column `mx`'s accumulator words at `row`, zero for a column
@@ -24,6 +26,58 @@ impl Pe {
             Some((lo, hi)) if (lo..=hi).contains(&mx) => self.rays[(mx - lo) as usize].acc[row].raw,
             _ => [0; 4],
         }
+    }
+}
+
+/// The dense merge's step ([`PassStep`] of [`MergePass`], twin of
+/// [`golden::merge::merge`]) recording, per PE, one [`MergeTick`] a
+/// cycle: the bus, the held parents and edge rays the x pass reads and
+/// what both passes write.
+struct CapturedMerge<'a> {
+    step: PassStep<'a, MergePass<'a>>,
+    /// Each PE's children, first child and held span.
+    children: &'a mut [(usize, i64, i64, i64)],
+    per_pe: Vec<Vec<MergeTick>>,
+}
+
+impl Step for CapturedMerge<'_> {
+    fn ctrl(&self) -> Ctrl {
+        self.step.ctrl()
+    }
+
+    fn step(&mut self, pe: &mut Pe, links: Links<'_>, out: &mut Ports) -> Result<(), StepError> {
+        let bus = *self.step.bus();
+        let (c, n) = (bus.col, pe.pass.children.len());
+        let e = Edges::on(&links);
+        let mut t = MergeTick {
+            x: bus.x,
+            y: bus.y,
+            col: c,
+            edges: [e.left.0.raw, e.right.0.raw],
+            ..MergeTick::default()
+        };
+        if let Some(q) = bus.x.filter(|_| c < n) {
+            let m = pe.pass.children[c];
+            t.held = [2 * m - 1, 2 * m, 2 * m + 1].map(|mx| pe.held_word(mx, q));
+        }
+        self.step.step(pe, links, out)?;
+        if let Some(q) = bus.x.filter(|_| c < n) {
+            t.line = pe.pass.line.read(pe.k, q, c).ok();
+        }
+        if let Some(i) = bus.y.filter(|_| c < n) {
+            t.child = Some(pe.pass.next[c].acc[i].raw);
+        }
+        let (lo, hi) = pe.span().unwrap_or((0, 0));
+        let m0 = pe.pass.children.first().copied().unwrap_or(0);
+        self.children[pe.k] = (n, m0, lo, hi);
+        self.per_pe[pe.k].push(t);
+        Ok(())
+    }
+}
+
+impl OnPassBus for CapturedMerge<'_> {
+    fn show(&mut self, bus: PassBus, row: usize) {
+        self.step.show(bus, row);
     }
 }
 
@@ -44,43 +98,21 @@ impl Array {
             children: vec![(0, 0, 0, 0); p],
             ticks: Vec::new(),
         };
-        let mut per_pe: Vec<Vec<MergeTick>> = vec![Vec::new(); p];
+        let mut step = CapturedMerge {
+            step: PassStep::new(Stage::Merge, MergePass { bg, fg }, dp, false),
+            children: &mut rec.children,
+            per_pe: vec![Vec::new(); p],
+        };
         self.run_pass(
-            Stage::Merge,
             (prows, needs),
             Broadcast::BeginMerge {
                 back: bg,
                 front: fg,
             },
-            |pe, bus, links, out| {
-                let (c, n) = (bus.col, pe.pass.children.len());
-                let e = Edges::on(&links);
-                let mut t = MergeTick {
-                    x: bus.x,
-                    y: bus.y,
-                    col: c,
-                    edges: [e.left.0.raw, e.right.0.raw],
-                    ..MergeTick::default()
-                };
-                if let Some(q) = bus.x.filter(|_| c < n) {
-                    let m = pe.pass.children[c];
-                    t.held = [2 * m - 1, 2 * m, 2 * m + 1].map(|mx| pe.held_word(mx, q));
-                }
-                pe.pass_step(&MergePass { bg, fg }, dp, bus, links, out)?;
-                if let Some(q) = bus.x.filter(|_| c < n) {
-                    t.line = pe.pass.line.read(pe.k, q, c).ok();
-                }
-                if let Some(i) = bus.y.filter(|_| c < n) {
-                    t.child = Some(pe.pass.next[c].acc[i].raw);
-                }
-                let (lo, hi) = pe.span().unwrap_or((0, 0));
-                let m0 = pe.pass.children.first().copied().unwrap_or(0);
-                rec.children[pe.k] = (n, m0, lo, hi);
-                per_pe[pe.k].push(t);
-                Ok(())
-            },
+            &mut step,
             Broadcast::EndMerge,
         )?;
+        let per_pe = step.per_pe;
         let ticks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
         rec.ticks = (0..ticks)
             .map(|i| {
