@@ -12,7 +12,8 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Result};
 use serde_json::json;
 
-use pipeline::cosim::merge::{simulate, MergeRecord};
+use pipeline::cosim::merge::{Merge, MergeRecord};
+use pipeline::cosim::pass::PassKind;
 use pipeline::hw::merge_rtl::{emit, MergeShape, MODULE};
 
 use super::cosim::{cache_dir, setup, simulator, CosimArgs};
@@ -44,7 +45,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         .prefix("ercube-merge-cosim-")
         .tempdir()?;
     let cache = cache_dir(a.cache_dir.as_deref());
-    let r = simulate(&shape, &module, &passes, sim, &cache, dir.path())
+    let r = Merge::simulate(&shape, &module, &passes, sim, &cache, dir.path())
         .map_err(|e| anyhow!("cosim: merge: {e}"))?;
     let o = &r.outcome;
     let (lines_c, words_c) = o.compared();

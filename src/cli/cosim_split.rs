@@ -12,7 +12,8 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Result};
 use serde_json::json;
 
-use pipeline::cosim::split::{simulate, SplitRecord};
+use pipeline::cosim::pass::PassKind;
+use pipeline::cosim::split::{Split, SplitRecord};
 use pipeline::hw::split_rtl::{emit, SplitShape, MODULE};
 
 use super::cosim::{cache_dir, setup, simulator, CosimArgs};
@@ -44,7 +45,7 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         .prefix("ercube-split-cosim-")
         .tempdir()?;
     let cache = cache_dir(a.cache_dir.as_deref());
-    let r = simulate(&shape, &module, &passes, sim, &cache, dir.path())
+    let r = Split::simulate(&shape, &module, &passes, sim, &cache, dir.path())
         .map_err(|e| anyhow!("cosim: split: {e}"))?;
     let o = &r.outcome;
     let (lines_c, words_c) = o.compared();
