@@ -53,7 +53,7 @@ pub fn run<K: CliPass>(a: &CosimArgs) -> Result<()> {
     let o = &r.outcome;
     let (lines_c, words_c) = o.compared();
     let frame_cycles = K::cycles(&plain.stages);
-    let f = K::figures(&shape);
+    let f = K::dims(&shape);
     let lines = vec![
         format!(
             "cosim ({st} stage): {}, {} PEs, {}: {} {st} passes, {} clocks simulated x {} PEs (the frame's {st} cycles: {}); {} line-buffer writes and {} child words compared, {} mismatches",
@@ -76,7 +76,7 @@ pub fn run<K: CliPass>(a: &CosimArgs) -> Result<()> {
             r.lines[1],
             f.rows,
             f.width,
-            f.word_bits,
+            4 * u32::from(f.merge.bits()),
             f.memory_bits,
             f.register_bits,
             if r.built.cached {

@@ -1,6 +1,6 @@
 //! The boundary passes (the split, front to back; the merge, back to
 //! front) as `ercube cosim --stage split|merge` and `ercube rtl` use them:
-//! their modules' shapes, Verilog, figures and README sections, one
+//! their README sections and what the co-simulation replays, one
 //! [`CliPass`] each, for one runner of each command ([`super::cosim_pass`],
 //! [`super::rtl_pass`]).
 
@@ -12,29 +12,12 @@ use pipeline::cosim::split::Split;
 use pipeline::hw::merge_rtl::MergeShape;
 use pipeline::hw::split_rtl::SplitShape;
 
-/// The line buffer's figures: rows, entries, word bits; memory and
-/// register bits a PE.
-pub struct Figures {
-    /// Rows of the line buffer.
-    pub rows: u32,
-    /// Entries of a row (the most children a PE computes).
-    pub width: u64,
-    /// Bits of an entry (four `merge` words).
-    pub word_bits: u32,
-    /// Memory bits a PE (the line buffer).
-    pub memory_bits: u64,
-    /// Register bits a PE.
-    pub register_bits: u64,
-}
-
 /// What the commands need of a pass beyond its co-simulation.
 pub trait CliPass: PassKind {
     /// The pass's name in the README's heading (`dense split`).
     const TITLE: &'static str;
     /// What the co-simulation replays from the model.
     const REPLAYED: &'static str;
-    /// The line buffer's and registers' figures.
-    fn figures(shape: &Self::Shape) -> Figures;
     /// The README section's paragraph on the module, for a view-space
     /// volume of `dims`.
     fn paragraph(shape: &Self::Shape, dims: [usize; 3]) -> String;
@@ -43,17 +26,8 @@ pub trait CliPass: PassKind {
 impl CliPass for Split {
     const TITLE: &'static str = "dense split";
     const REPLAYED: &'static str = "the pass broadcast and the parents";
-    fn figures(s: &SplitShape) -> Figures {
-        Figures {
-            rows: s.rows,
-            width: s.width,
-            word_bits: 4 * u32::from(s.merge.bits()),
-            memory_bits: s.memory_bits(),
-            register_bits: s.register_bits(),
-        }
-    }
     fn paragraph(s: &SplitShape, dims: [usize; 3]) -> String {
-        let f = Self::figures(s);
+        let f = Self::dims(s);
         format!(
             "From `pipeline::hw::split_rtl`, for a view-space volume of {}x{}x{} (`--dims`): the \
              bilinear split's x filter (the mean of a child's two parents, accumulator words on \
@@ -65,7 +39,7 @@ impl CliPass for Split {
              `y_row`, `col` are the pass broadcast; `lx_*` and `w_*` are the registered line-buffer \
              and bank writes. Not in the module: the parents' fetch (compositing buffer and link), \
              the edge drive, the children's bank, the sparse split's work lists and the bank swap.\n",
-            dims[0], dims[1], dims[2], f.rows, f.width, f.word_bits, f.memory_bits, f.register_bits
+            dims[0], dims[1], dims[2], f.rows, f.width, 4 * u32::from(f.merge.bits()), f.memory_bits, f.register_bits
         )
     }
 }
@@ -73,17 +47,8 @@ impl CliPass for Split {
 impl CliPass for Merge {
     const TITLE: &'static str = "dense merge";
     const REPLAYED: &'static str = "the pass broadcast, the held parents and the edge rays";
-    fn figures(s: &MergeShape) -> Figures {
-        Figures {
-            rows: s.rows,
-            width: s.width,
-            word_bits: 4 * u32::from(s.merge.bits()),
-            memory_bits: s.memory_bits(),
-            register_bits: s.register_bits(),
-        }
-    }
     fn paragraph(s: &MergeShape, dims: [usize; 3]) -> String {
-        let f = Self::figures(s);
+        let f = Self::dims(s);
         format!(
             "From `pipeline::hw::merge_rtl`, for a view-space volume of {}x{}x{} (`--dims`): the \
              Bartlett merge's x tent (parents 2m - 1, 2m, 2m + 1 of child m, each a held column's \
@@ -96,7 +61,7 @@ impl CliPass for Merge {
              `col` are the pass broadcast; `lx_*` and `w_*` are the registered line-buffer and bank \
              writes. Not in the module: the held parents' fetch (the compositing buffer's read), \
              the edge drive, the children's bank, the sparse merge's work lists and the bank swap.\n",
-            dims[0], dims[1], dims[2], f.rows, f.width, f.word_bits, f.memory_bits, f.register_bits
+            dims[0], dims[1], dims[2], f.rows, f.width, 4 * u32::from(f.merge.bits()), f.memory_bits, f.register_bits
         )
     }
 }

@@ -31,7 +31,7 @@ pub fn written<K: CliPass>(
     dims: [usize; 3],
 ) -> Result<(&'static str, String, String, String), String> {
     let (shape, v) = module::<K>(cfg, dims)?;
-    let f = K::figures(&shape);
+    let f = K::dims(&shape);
     let said = format!(
         "{}.v ({} lines), {} memory bits (the line buffer) and {} register bits a PE",
         K::MODULE,

@@ -108,6 +108,9 @@ impl PassKind for Split {
             width: s.width,
             col_bits: s.col_bits(),
             row_bits: s.row_bits(),
+            rows: s.rows,
+            memory_bits: s.memory_bits(),
+            register_bits: s.register_bits(),
         }
     }
 

@@ -30,7 +30,8 @@ pub mod testbench;
 
 use testbench::Bench;
 
-/// The widths a pass's testbench and outcome read from its shape.
+/// The widths a pass's testbench and outcome read from its shape, and
+/// the module's figures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PassDims {
     /// PEs in the array.
@@ -45,6 +46,12 @@ pub struct PassDims {
     pub col_bits: u32,
     /// Bits of a row counter.
     pub row_bits: u32,
+    /// Rows of the line buffer.
+    pub rows: u32,
+    /// Memory bits a PE (the line buffer).
+    pub memory_bits: u64,
+    /// Register bits a PE.
+    pub register_bits: u64,
 }
 
 impl PassDims {
