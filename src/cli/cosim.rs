@@ -20,9 +20,11 @@ use serde_json::json;
 
 use pipeline::config::Order;
 use pipeline::cosim::build::{build, run as run_sim, Simulator};
+use pipeline::cosim::merge::Merge;
 use pipeline::cosim::outcome::{parse, Outcome};
 use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun, Tee};
 use pipeline::cosim::replay::{Replay, StreamFiles, TOP};
+use pipeline::cosim::split::Split;
 use pipeline::hw::readout_rtl::{emit as emit_readout, ReadoutShape};
 
 use super::rtl::MODULE;
@@ -142,10 +144,10 @@ pub fn run(a: &CosimArgs) -> Result<()> {
         return super::cosim_pe::run(a);
     }
     if a.stage == "merge" {
-        return super::cosim_merge::run(a);
+        return super::cosim_pass::run::<Merge>(a);
     }
     if a.stage == "split" {
-        return super::cosim_split::run(a);
+        return super::cosim_pass::run::<Split>(a);
     }
     super::outputs::check_files(&[a.stats.as_deref(), a.vcd.as_deref()])?;
     if a.max_cycles == Some(0) {

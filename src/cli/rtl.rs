@@ -24,6 +24,8 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::cosim::merge::Merge;
+use pipeline::cosim::split::Split;
 use pipeline::cost::inventory::Geometry;
 use pipeline::hw::compose::Units;
 use pipeline::hw::pe_sample_rtl::{emit as emit_pe_sample, PeSampleShape, MODULE as PE_SAMPLE};
@@ -170,8 +172,8 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     // The boundary passes of the order: (module, Verilog, summary, README
     // section), or why not written.
     let passes = [
-        super::rtl_split::written(&cfg, dims),
-        super::rtl_merge::written(&cfg, dims),
+        super::rtl_pass::written::<Split>(&cfg, dims),
+        super::rtl_pass::written::<Merge>(&cfg, dims),
     ];
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)

@@ -28,6 +28,7 @@ mod bound;
 mod cli;
 mod cosim;
 mod cosim_merge;
+mod cosim_pass;
 mod cosim_preint;
 mod cosim_split;
 mod docs;

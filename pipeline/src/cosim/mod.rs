@@ -25,6 +25,7 @@ pub mod build;
 pub mod capture;
 pub mod merge;
 pub mod outcome;
+pub mod pass;
 pub mod pe_sample;
 pub mod pe_vectors;
 pub mod readout;

@@ -30,6 +30,7 @@ mod merge_rtl;
 mod migration;
 mod model;
 mod occupancy;
+mod pass_rtl;
 mod pe_maps;
 mod pe_sample;
 mod pe_units;

@@ -12,49 +12,22 @@
 //! `cargo test --release -p pipeline --test it -- merge_rtl::`
 
 use std::collections::HashMap;
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
 
 use pipeline::config::PipelineConfig;
 use pipeline::cosim::build::Simulator;
-use pipeline::cosim::merge::{simulate, MergeRecord, MergeRun};
-use pipeline::hw::merge_rtl::{emit, MergeShape, MODULE};
-use pipeline::FrameRun;
+use pipeline::cosim::merge::{Merge, MergeRun};
+use pipeline::hw::merge_rtl::MergeShape;
 
-use crate::chip::{subject, view_from};
+use crate::pass_rtl::{
+    assert_lints_without_latches, assert_ran_clean, assert_synthesizes_without_latches, run,
+};
 use crate::tools::have;
 
 /// A frame's merge passes as the model ran them, and the emitted module.
-struct Merge {
-    shape: MergeShape,
-    module: String,
-    rec: MergeRecord,
-}
+type Frame = crate::pass_rtl::Frame<Merge>;
 
-fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Merge {
-    let s = subject(scene);
-    let prep = view_from(&s.vol, eye, size);
-    let rec = Arc::new(Mutex::new(MergeRecord::default()));
-    let captured = FrameRun::new(cfg, &s.lut, &s.vol, &prep.view)
-        .capture(rec.clone())
-        .run()
-        .unwrap();
-    // A capture changes no word and no cycle.
-    let plain = FrameRun::new(cfg, &s.lut, &s.vol, &prep.view)
-        .run()
-        .unwrap();
-    assert_eq!(captured.raw, plain.raw, "{scene}: raw words");
-    assert_eq!(captured.cycles, plain.cycles, "{scene}: cycles");
-    let shape = MergeShape::for_view(cfg, &prep.view).unwrap();
-    let module = emit(cfg, &shape).unwrap();
-    let rec = rec.lock().unwrap().clone();
-    Merge { shape, module, rec }
-}
-
-fn run(f: &Merge, module: &str, sim: Simulator) -> MergeRun {
-    let dir = tempfile::tempdir().unwrap();
-    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("merge-cosim");
-    simulate(&f.shape, module, &f.rec.passes, sim, &cache, dir.path()).unwrap()
+fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Frame {
+    crate::pass_rtl::frame(cfg, scene, eye, size)
 }
 
 fn cfg(pes: u16) -> PipelineConfig {
@@ -67,12 +40,8 @@ fn cfg(pes: u16) -> PipelineConfig {
 /// 0 mismatches, every model clock simulated, every write compared,
 /// non-zero children written (a merge of empty rays checks little) and
 /// some parent taken from a neighbour's edge ray.
-fn assert_matches(f: &Merge, s: &MergeRun, what: &str) {
-    let p = s.problems();
-    assert!(p.is_empty(), "{what}: {p:?}");
-    assert!(s.passes > 0, "{what}: the frame merges");
-    let (lines, words) = s.outcome.compared();
-    assert!(lines > 0 && words > 0, "{what}");
+fn assert_matches(f: &Frame, s: &MergeRun, what: &str) {
+    assert_ran_clean(s, what);
     let nonzero = f
         .rec
         .passes
@@ -136,7 +105,7 @@ fn merge_matches_the_model_in_icarus() {
 /// x pass left there, zero outside the back grid) tells apart from the
 /// model's: where a mutated y tent must first differ.
 fn first_y_difference(
-    f: &Merge,
+    f: &Frame,
     tent: impl Fn([i64; 3]) -> i64,
     rows: impl Fn(i64) -> [i64; 3],
 ) -> Option<(u64, usize)> {
@@ -300,53 +269,11 @@ fn an_x_tent_with_the_wrong_centre_is_caught() {
     );
 }
 
-/// The module of a small view (8^3, 4 PEs), written to a temporary
-/// folder.
-fn small_module() -> (tempfile::TempDir, PathBuf) {
-    let geo = pipeline::cost::inventory::Geometry::new([8, 8, 8], 4);
-    let c = cfg(4);
-    let module = emit(&c, &MergeShape::new(&c, &geo).unwrap()).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join(format!("{MODULE}.v"));
-    std::fs::write(&path, &module).unwrap();
-    (dir, path)
-}
-
-/// Runs yosys `script` on the module at `path` and fails on an error or a
-/// latch.
-fn yosys_without_latches(path: &std::path::Path, flow: &str) {
-    let script = format!(
-        "read_verilog {}; {flow}; select -assert-none t:$dlatch t:$adlatch t:$dlatchsr t:$_DLATCH* t:LD* t:SB_LATCH*",
-        path.display()
-    );
-    let out = std::process::Command::new("yosys")
-        .args(["-q", "-p", &script])
-        .output()
-        .expect("yosys runs");
-    assert!(
-        out.status.success(),
-        "yosys {flow}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 /// `verilator --lint-only -Wall` and `iverilog -Wall` print nothing on the
 /// module (its waivers named in the file); yosys's `proc` infers no latch.
 #[test]
 fn merge_module_lints_without_latches() {
-    let (_dir, path) = small_module();
-    let quiet = |prog: &str, args: &[&str]| {
-        crate::tools::assert_quiet(prog, args, &[&path], "the merge module")
-    };
-    if have("verilator", "verilator", "the merge lint") {
-        quiet("verilator", &["--lint-only", "-Wall"]);
-    }
-    if have("iverilog", "iverilog", "the merge compile") {
-        quiet("iverilog", &["-g2005", "-Wall", "-o", "/dev/null"]);
-    }
-    if have("yosys", "yosys", "the merge's processes") {
-        yosys_without_latches(&path, &format!("hierarchy -top {MODULE}; proc"));
-    }
+    assert_lints_without_latches::<Merge>(&cfg(4));
 }
 
 /// Front to back and the sparse merge are refused in one line each.
@@ -375,15 +302,5 @@ fn the_shape_refuses_what_the_module_does_not_cover() {
 #[test]
 #[ignore]
 fn merge_module_synthesizes_without_latches() {
-    if !have("yosys", "yosys", "the merge synthesis") {
-        return;
-    }
-    let (_dir, path) = small_module();
-    for flow in [
-        format!("synth -top {MODULE}"),
-        format!("synth_ice40 -top {MODULE}"),
-        format!("synth_xilinx -top {MODULE}"),
-    ] {
-        yosys_without_latches(&path, &flow);
-    }
+    assert_synthesizes_without_latches::<Merge>(&cfg(4));
 }

@@ -10,43 +10,20 @@
 //!
 //! `cargo test --release -p pipeline --test it -- split_rtl::`
 
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
-
 use pipeline::config::{Order, PipelineConfig};
 use pipeline::cosim::build::Simulator;
-use pipeline::cosim::split::{simulate, SplitRecord, SplitRun};
-use pipeline::hw::split_rtl::{emit, SplitShape, MODULE};
-use pipeline::FrameRun;
+use pipeline::cosim::split::{Split, SplitRun};
 
-use crate::chip::{subject, view_from};
+use crate::pass_rtl::{
+    assert_lints_without_latches, assert_ran_clean, assert_synthesizes_without_latches, run,
+};
 use crate::tools::have;
 
 /// A frame's split passes as the model ran them, and the emitted module.
-struct Split {
-    shape: SplitShape,
-    module: String,
-    rec: SplitRecord,
-}
+type Frame = crate::pass_rtl::Frame<Split>;
 
-fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Split {
-    let s = subject(scene);
-    let prep = view_from(&s.vol, eye, size);
-    let rec = Arc::new(Mutex::new(SplitRecord::default()));
-    FrameRun::new(cfg, &s.lut, &s.vol, &prep.view)
-        .capture(rec.clone())
-        .run()
-        .unwrap();
-    let shape = SplitShape::for_view(cfg, &prep.view).unwrap();
-    let module = emit(cfg, &shape).unwrap();
-    let rec = rec.lock().unwrap().clone();
-    Split { shape, module, rec }
-}
-
-fn run(f: &Split, module: &str, sim: Simulator) -> SplitRun {
-    let dir = tempfile::tempdir().unwrap();
-    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("split-cosim");
-    simulate(&f.shape, module, &f.rec.passes, sim, &cache, dir.path()).unwrap()
+fn frame(cfg: &PipelineConfig, scene: &str, eye: [f64; 3], size: u32) -> Frame {
+    crate::pass_rtl::frame(cfg, scene, eye, size)
 }
 
 fn cfg(pes: u16) -> PipelineConfig {
@@ -59,12 +36,8 @@ fn cfg(pes: u16) -> PipelineConfig {
 
 /// 0 mismatches, every model clock simulated, every write compared, and
 /// non-zero children written (a split of empty rays checks little).
-fn assert_matches(f: &Split, s: &SplitRun, what: &str) {
-    let p = s.problems();
-    assert!(p.is_empty(), "{what}: {p:?}");
-    assert!(s.passes > 0, "{what}: the frame splits");
-    let (lines, words) = s.outcome.compared();
-    assert!(lines > 0 && words > 0, "{what}");
+fn assert_matches(f: &Frame, s: &SplitRun, what: &str) {
+    assert_ran_clean(s, what);
     let nonzero = f
         .rec
         .passes
@@ -160,53 +133,11 @@ fn a_y_pass_that_reads_the_wrong_parent_row_is_caught() {
     );
 }
 
-/// The module of a small view (8^3, 4 PEs), written to a temporary
-/// folder.
-fn small_module() -> (tempfile::TempDir, PathBuf) {
-    let geo = pipeline::cost::inventory::Geometry::new([8, 8, 8], 4);
-    let c = cfg(4);
-    let module = emit(&c, &SplitShape::new(&c, &geo).unwrap()).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join(format!("{MODULE}.v"));
-    std::fs::write(&path, &module).unwrap();
-    (dir, path)
-}
-
-/// Runs yosys `script` on the module at `path` and fails on an error or a
-/// latch.
-fn yosys_without_latches(path: &std::path::Path, flow: &str) {
-    let script = format!(
-        "read_verilog {}; {flow}; select -assert-none t:$dlatch t:$adlatch t:$dlatchsr t:$_DLATCH* t:LD* t:SB_LATCH*",
-        path.display()
-    );
-    let out = std::process::Command::new("yosys")
-        .args(["-q", "-p", &script])
-        .output()
-        .expect("yosys runs");
-    assert!(
-        out.status.success(),
-        "yosys {flow}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 /// `verilator --lint-only -Wall` and `iverilog -Wall` print nothing on the
 /// module (its waivers named in the file); yosys's `proc` infers no latch.
 #[test]
 fn split_module_lints_without_latches() {
-    let (_dir, path) = small_module();
-    let quiet = |prog: &str, args: &[&str]| {
-        crate::tools::assert_quiet(prog, args, &[&path], "the split module")
-    };
-    if have("verilator", "verilator", "the split lint") {
-        quiet("verilator", &["--lint-only", "-Wall"]);
-    }
-    if have("iverilog", "iverilog", "the split compile") {
-        quiet("iverilog", &["-g2005", "-Wall", "-o", "/dev/null"]);
-    }
-    if have("yosys", "yosys", "the split's processes") {
-        yosys_without_latches(&path, &format!("hierarchy -top {MODULE}; proc"));
-    }
+    assert_lints_without_latches::<Split>(&cfg(4));
 }
 
 /// yosys `synth -top`, `synth_ice40` and `synth_xilinx` finish without
@@ -216,15 +147,5 @@ fn split_module_lints_without_latches() {
 #[test]
 #[ignore]
 fn split_module_synthesizes_without_latches() {
-    if !have("yosys", "yosys", "the split synthesis") {
-        return;
-    }
-    let (_dir, path) = small_module();
-    for flow in [
-        format!("synth -top {MODULE}"),
-        format!("synth_ice40 -top {MODULE}"),
-        format!("synth_xilinx -top {MODULE}"),
-    ] {
-        yosys_without_latches(&path, &flow);
-    }
+    assert_synthesizes_without_latches::<Split>(&cfg(4));
 }
