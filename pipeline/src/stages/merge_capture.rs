@@ -112,16 +112,7 @@ impl Array {
             &mut step,
             Broadcast::EndMerge,
         )?;
-        let per_pe = step.per_pe;
-        let ticks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
-        rec.ticks = (0..ticks)
-            .map(|i| {
-                per_pe
-                    .iter()
-                    .map(|v| v.get(i).copied().unwrap_or_default())
-                    .collect()
-            })
-            .collect();
+        rec.ticks = crate::cosim::pass::by_clock(&step.per_pe);
         crate::cosim::merge::captured(capture, &rec);
         Ok(())
     }

@@ -327,3 +327,18 @@ pub fn simulate<K: PassKind>(
         kind: PhantomData,
     })
 }
+
+/// A pass's per-PE records (one a clock the PE stepped) turned into one
+/// row a clock of every PE's record, a PE that stepped fewer clocks
+/// padded with the default (idle) record.
+pub(crate) fn by_clock<T: Copy + Default>(per_pe: &[Vec<T>]) -> Vec<Vec<T>> {
+    let clocks = per_pe.iter().map(Vec::len).max().unwrap_or(0);
+    (0..clocks)
+        .map(|i| {
+            per_pe
+                .iter()
+                .map(|v| v.get(i).copied().unwrap_or_default())
+                .collect()
+        })
+        .collect()
+}
