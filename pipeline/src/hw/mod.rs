@@ -34,6 +34,7 @@ mod div_rtl;
 pub mod eval;
 mod isqrt_rtl;
 pub mod merge_rtl;
+mod pass_rtl;
 mod pe_carry_rtl;
 mod pe_columns_rtl;
 mod pe_plan_rtl;
