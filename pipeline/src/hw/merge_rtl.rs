@@ -71,10 +71,22 @@ impl MergeShape {
         if cfg.order != Order::BackToFront {
             return Err("front to back has no merge (only back to front merges rays)".into());
         }
+        MergeShape::declared(cfg, geo, "merge")
+    }
+
+    /// The shape of a dense boundary pass `what` that writes the line
+    /// buffer `cfg`'s PE declares for `geo` (the merge's, the fold's),
+    /// refused in one line for the sparse pass or a line buffer of another
+    /// word.
+    pub(crate) fn declared(
+        cfg: &PipelineConfig,
+        geo: &Geometry,
+        what: &str,
+    ) -> Result<MergeShape, String> {
         if cfg.pass_skip_empty {
-            return Err(
-                "the sparse merge (pass_skip_empty: its work lists) is not emitted yet".into(),
-            );
+            return Err(format!(
+                "the sparse {what} (pass_skip_empty: its work lists) is not emitted yet"
+            ));
         }
         let decls = Pe::declaration(cfg, geo);
         let lb = decls
@@ -84,7 +96,7 @@ impl MergeShape {
         let mb = u32::from(cfg.merge.bits());
         if lb.width != 4 * mb {
             return Err(format!(
-                "the line buffer's word is declared {} bits; the merge writes 4 merge words of {mb}",
+                "the line buffer's word is declared {} bits; the {what} writes 4 merge words of {mb}",
                 lb.width
             ));
         }

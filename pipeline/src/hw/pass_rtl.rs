@@ -162,6 +162,27 @@ module {m} (
 /// `0..taps` (nodes `<pass>.<ch>.<k>`), outputs `<out><pass>_<ch>`
 /// (nodes `<pass>_<ch>`); refused when the cut needs a register.
 pub(super) fn cut_passes(g: &Graph, taps: usize, out: &str, what: &str) -> Result<Cut, RtlError> {
+    let mut ports: Vec<(String, String)> = Vec::new();
+    let mut outs: Vec<(String, String)> = Vec::new();
+    for pass in ["x", "y"] {
+        for ch in CHANNELS {
+            for k in 0..taps {
+                ports.push((format!("{pass}{k}_{ch}"), format!("{pass}.{ch}.{k}")));
+            }
+            outs.push((format!("{out}{pass}_{ch}"), format!("{pass}_{ch}")));
+        }
+    }
+    cut_named(g, &ports, &outs, what)
+}
+
+/// The cut of `g` from `ports` to `outs` (each a Verilog name and the
+/// graph node's); refused when the cut needs a register.
+pub(super) fn cut_named(
+    g: &Graph,
+    ports: &[(String, String)],
+    outs: &[(String, String)],
+    what: &str,
+) -> Result<Cut, RtlError> {
     let find = |n: &str| -> NodeId {
         g.nodes
             .iter()
@@ -169,18 +190,8 @@ pub(super) fn cut_passes(g: &Graph, taps: usize, out: &str, what: &str) -> Resul
             .map(NodeId)
             .unwrap_or_else(|| panic!("a node {n} of {what}"))
     };
-    let mut ports: Vec<(String, NodeId)> = Vec::new();
-    let mut outs: Vec<(String, NodeId)> = Vec::new();
-    for pass in ["x", "y"] {
-        for ch in CHANNELS {
-            for k in 0..taps {
-                ports.push((format!("{pass}{k}_{ch}"), find(&format!("{pass}.{ch}.{k}"))));
-            }
-            outs.push((format!("{out}{pass}_{ch}"), find(&format!("{pass}_{ch}"))));
-        }
-    }
-    let pr: Vec<(&str, NodeId)> = ports.iter().map(|(n, i)| (n.as_str(), *i)).collect();
-    let or: Vec<(&str, NodeId)> = outs.iter().map(|(n, i)| (n.as_str(), *i)).collect();
+    let pr: Vec<(&str, NodeId)> = ports.iter().map(|(v, n)| (v.as_str(), find(n))).collect();
+    let or: Vec<(&str, NodeId)> = outs.iter().map(|(v, n)| (v.as_str(), find(n))).collect();
     let cut = super::verilog::cut(g, &pr, &or)?;
     if !cut.regs.is_empty() {
         return Err(RtlError::Unsupported(format!(
