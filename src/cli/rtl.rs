@@ -334,8 +334,7 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
         "The PE's control and stage state machines other than the sample stage, the readout and \
          the dense split's filters, the dense merge's tents and the dense fold's differences, \
          tents and adds with their line buffers (migrate, the sparse split's, merge's and fold's \
-         work lists, the held parents' fetch, \
-         lists, the parents' fetch), its FIFOs, the array's links and \
+         work lists, the parents' fetch), its FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \
          `--shading` or `--voi` the datapath with them composed (`{COMPOSED}`), with `--preint` \

@@ -38,7 +38,7 @@
 
 use std::fmt::Write as _;
 
-use super::merge_rtl::{tap, y_taps, y_words, MergeShape};
+use super::merge_rtl::{x_taps, y_taps, y_words, MergeShape};
 use super::pass_rtl::{self, Latch, PassHead};
 use super::split_rtl::rng;
 use super::tents::{tent, CHANNELS};
@@ -228,34 +228,8 @@ pub fn emit(cfg: &PipelineConfig, shape: &FoldShape) -> Result<String, RtlError>
             row_bits: rb,
         },
     );
-    let _ = writeln!(
-        o,
-        "  // The x pass: child m = m0 + col takes back columns 2m - 1 + k, each
-  // held (lo ..= hi), the left neighbour's last (lo - 1) or zero.
-  wire signed {xwr} m = m0 + $signed({{1'b0, col}});
-  wire signed {xwr} lo_x = lo;
-  wire signed {xwr} hi_x = hi;",
-        xwr = rng(xw),
-    );
-    for k in 0..3 {
-        let _ = writeln!(
-            o,
-            "  wire signed {xwr} mx{k} = {t};
-  wire held{k} = mx{k} >= lo_x && mx{k} <= hi_x;
-  wire left{k} = mx{k} + {xw}'sd1 == lo_x;",
-            xwr = rng(xw),
-            t = tap("m", k, xw),
-        );
-    }
-    let _ = writeln!(
-        o,
-        "  // The y pass: child row my = fg_lo + y_row reads back rows
-  // 2 my - 1 + k (relative to the back grid), zero outside it.
-  wire signed {xwr} my = fg_lo + $signed({{1'b0, y_row}});
-  wire signed {xwr} bg_x = bg_lo;",
-        xwr = rng(xw),
-    );
-    y_taps(o, s, xw, lw);
+    x_taps(o, xw, "back", "the left neighbour's last (lo - 1)", false);
+    y_taps(o, s, xw, lw, "back");
     // The x tents' taps are the differences as the x pass picks them,
     // assigned after the logic that forms them; the y tents' the line
     // buffer's words.

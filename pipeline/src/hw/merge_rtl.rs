@@ -154,7 +154,7 @@ impl MergeShape {
 
 /// Ray index `{m}{k}`, tap `k`'s of `2 {m} - 1 ..= 2 {m} + 1`, as a
 /// Verilog expression of `xw`-bit signed words.
-pub(super) fn tap(m: &str, k: usize, xw: u32) -> String {
+fn tap(m: &str, k: usize, xw: u32) -> String {
     match k {
         0 => format!("{m} + {m} - {xw}'sd1"),
         1 => format!("{m} + {m}"),
@@ -224,35 +224,14 @@ pub fn emit(cfg: &PipelineConfig, s: &MergeShape) -> Result<String, RtlError> {
             row_bits: rb,
         },
     );
-    let _ = writeln!(
+    x_taps(
         o,
-        "  // The x pass: child m = m0 + col takes parent columns 2m - 1 + k, each
-  // held (lo ..= hi), the left edge ray (lo - 1), the right (hi + 1) or zero.
-  wire signed {xwr} m = m0 + $signed({{1'b0, col}});
-  wire signed {xwr} lo_x = lo;
-  wire signed {xwr} hi_x = hi;",
-        xwr = rng(xw),
+        xw,
+        "parent",
+        "the left edge ray (lo - 1), the right (hi + 1)",
+        true,
     );
-    for k in 0..3 {
-        let _ = writeln!(
-            o,
-            "  wire signed {xwr} mx{k} = {t};
-  wire held{k} = mx{k} >= lo_x && mx{k} <= hi_x;
-  wire left{k} = mx{k} + {xw}'sd1 == lo_x;
-  wire right{k} = mx{k} - {xw}'sd1 == hi_x;",
-            xwr = rng(xw),
-            t = tap("m", k, xw),
-        );
-    }
-    let _ = writeln!(
-        o,
-        "  // The y pass: child row my = fg_lo + y_row reads parent rows
-  // 2 my - 1 + k (relative to the back grid), zero outside it.
-  wire signed {xwr} my = fg_lo + $signed({{1'b0, y_row}});
-  wire signed {xwr} bg_x = bg_lo;",
-        xwr = rng(xw),
-    );
-    y_taps(o, s, xw, lw);
+    y_taps(o, s, xw, lw, "parent");
     // The tents' ports: the parents as the x pass picks them and the line
     // buffer's taps.
     for (ch, n) in CHANNELS.iter().enumerate() {
@@ -275,10 +254,48 @@ pub fn emit(cfg: &PipelineConfig, s: &MergeShape) -> Result<String, RtlError> {
     Ok(v)
 }
 
-/// The y pass's three line-buffer taps `t0` .. `t2` of child row `my`
-/// (parent rows `2 my - 1 ..= 2 my + 1` less `bg_x`, zero outside the
-/// `bg_rows` rows), and the x pass's write address.
-pub(super) fn y_taps(o: &mut String, s: &MergeShape, xw: u32, lw: u32) {
+/// The x pass's three taps of child `m = m0 + col`: ray indices
+/// `mx<k>` of its `what` columns `2m - 1 ..= 2m + 1`, each `held<k>`
+/// (`lo ..= hi`), `left<k>` (just below the span) and with `right`
+/// `right<k>` (just above); `beyond` names the taps beyond the span.
+pub(super) fn x_taps(o: &mut String, xw: u32, what: &str, beyond: &str, right: bool) {
+    let _ = writeln!(
+        o,
+        "  // The x pass: child m = m0 + col takes {what} columns 2m - 1 + k, each
+  // held (lo ..= hi), {beyond} or zero.
+  wire signed {xwr} m = m0 + $signed({{1'b0, col}});
+  wire signed {xwr} lo_x = lo;
+  wire signed {xwr} hi_x = hi;",
+        xwr = rng(xw),
+    );
+    for k in 0..3 {
+        let _ = writeln!(
+            o,
+            "  wire signed {xwr} mx{k} = {t};
+  wire held{k} = mx{k} >= lo_x && mx{k} <= hi_x;
+  wire left{k} = mx{k} + {xw}'sd1 == lo_x;",
+            xwr = rng(xw),
+            t = tap("m", k, xw),
+        );
+        if right {
+            let _ = writeln!(o, "  wire right{k} = mx{k} - {xw}'sd1 == hi_x;");
+        }
+    }
+}
+
+/// The y pass's three line-buffer taps `t0` .. `t2` of child row
+/// `my = fg_lo + y_row` (its `what` rows `2 my - 1 ..= 2 my + 1` less
+/// `bg_x`, zero outside the `bg_rows` rows), and the x pass's write
+/// address.
+pub(super) fn y_taps(o: &mut String, s: &MergeShape, xw: u32, lw: u32, what: &str) {
+    let _ = writeln!(
+        o,
+        "  // The y pass: child row my = fg_lo + y_row reads {what} rows
+  // 2 my - 1 + k (relative to the back grid), zero outside it.
+  wire signed {xwr} my = fg_lo + $signed({{1'b0, y_row}});
+  wire signed {xwr} bg_x = bg_lo;",
+        xwr = rng(xw),
+    );
     let (rb, ab, w) = (s.row_bits(), s.addr_bits(), s.width);
     for k in 0..3 {
         let _ = writeln!(

@@ -71,15 +71,8 @@ impl Step for CapturedFold<'_> {
             t.kept = pe.finals.last().map_or([0; 4], |f| f[c].acc[i].raw);
         }
         self.step.step(pe, links, out)?;
-        if let Some(q) = bus.x.filter(|_| c < n) {
-            t.line = pe.pass.line.read(pe.k, q, c).ok();
-        }
-        if let Some(i) = bus.y.filter(|_| c < n) {
-            t.child = Some(pe.pass.next[c].acc[i].raw);
-        }
-        let (lo, hi) = pe.span().unwrap_or((0, 0));
-        let m0 = pe.pass.children.first().copied().unwrap_or(0);
-        self.children[pe.k] = (n, m0, lo, hi);
+        (t.line, t.child) = pe.pass_writes(&bus);
+        self.children[pe.k] = pe.pass_children();
         self.per_pe[pe.k].push(t);
         Ok(())
     }
