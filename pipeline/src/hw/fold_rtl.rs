@@ -233,9 +233,9 @@ pub fn emit(cfg: &PipelineConfig, shape: &FoldShape) -> Result<String, RtlError>
     // The x tents' taps are the differences as the x pass picks them,
     // assigned after the logic that forms them; the y tents' the line
     // buffer's words.
-    for ch in 0..4 {
+    for (ch, n) in CHANNELS.iter().enumerate() {
         for k in 0..3 {
-            let _ = writeln!(o, "  wire {} x{k}_{};", rng(mb), CHANNELS[ch]);
+            let _ = writeln!(o, "  wire {} x{k}_{n};", rng(mb));
         }
         y_words(o, mb, ch);
     }
