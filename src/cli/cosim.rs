@@ -20,6 +20,7 @@ use serde_json::json;
 
 use pipeline::config::Order;
 use pipeline::cosim::build::{build, run as run_sim, Simulator};
+use pipeline::cosim::fold::Fold;
 use pipeline::cosim::merge::Merge;
 use pipeline::cosim::outcome::{parse, Outcome};
 use pipeline::cosim::readout::{simulate, ReadoutRecord, StageRun, Tee};
@@ -62,8 +63,9 @@ pub struct CosimArgs {
     /// (`pe`; either order, column blocks), or every dense split of a
     /// front-to-back frame in the PE's split module (`split`), or every
     /// dense merge of a back-to-front frame in the PE's merge module
-    /// (`merge`).
-    #[arg(long, value_parser = ["datapath", "pe", "split", "merge"], default_value = "datapath")]
+    /// (`merge`), or every dense fold of a front-to-back frame in the PE's
+    /// fold module (`fold`).
+    #[arg(long, value_parser = ["datapath", "pe", "split", "merge", "fold"], default_value = "datapath")]
     pub stage: String,
 }
 
@@ -145,6 +147,9 @@ pub fn run(a: &CosimArgs) -> Result<()> {
     }
     if a.stage == "merge" {
         return super::cosim_pass::run::<Merge>(a);
+    }
+    if a.stage == "fold" {
+        return super::cosim_pass::run::<Fold>(a);
     }
     if a.stage == "split" {
         return super::cosim_pass::run::<Split>(a);

@@ -1,12 +1,16 @@
-//! `ercube cosim --stage split|merge`: every dense boundary pass of a
+//! `ercube cosim --stage split|merge|fold`: every dense boundary pass of a
 //! frame replayed into its emitted module, one a PE, each PE's
 //! line-buffer writes and child words compared on every clock with the
 //! model's (`pipeline::cosim::pass`). The split (front to back,
 //! `pipeline::hw::split_rtl`: the x and y filters and the line buffer)
 //! also compares the termination flags; the merge (back to front,
 //! `pipeline::hw::merge_rtl`: the x and y tents and the line buffer) takes
-//! the held parents and the neighbours' edge rays from the model. The pass
-//! broadcast and the parents come from the model. Exit status 1 on any
+//! the held parents and the neighbours' edge rays from the model; the fold
+//! (front to back, `pipeline::hw::fold_rtl`: the differences, the x and y
+//! tents, the line buffer and the adds of the kept finals) takes the held
+//! results and inherited states, the left edge difference and the kept
+//! finals from the model. The pass broadcast and the parents come from the
+//! model. Exit status 1 on any
 //! mismatch.
 
 use std::sync::{Arc, Mutex};

@@ -11,8 +11,10 @@
 //! with `--shading` or `--voi`, the sample's datapath with those units
 //! composed into one module, as the model's PE runs them
 //! (`pipeline::hw::compose`); front to back, the PE's dense split (its
-//! filters and line buffer, `pipeline::hw::split_rtl`), back to front its
-//! dense merge (its tents and line buffer, `pipeline::hw::merge_rtl`).
+//! filters and line buffer, `pipeline::hw::split_rtl`) and dense fold (its
+//! differences, tents, line buffer and adds, `pipeline::hw::fold_rtl`),
+//! back to front its dense merge (its tents and line buffer,
+//! `pipeline::hw::merge_rtl`).
 //! What is not
 //! emitted yet (the other stages' state machines, the array's links, the
 //! controller) is refused in one line naming it.
@@ -24,6 +26,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::Args;
 
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::cosim::fold::Fold;
 use pipeline::cosim::merge::Merge;
 use pipeline::cosim::split::Split;
 use pipeline::cost::inventory::Geometry;
@@ -96,13 +99,13 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let refused = [
         (
             a.pe,
-            "the PE's control and stage state machines other than the sample stage, the dense split, the dense merge and the readout are",
+            "the PE's control and stage state machines other than the sample stage, the dense split, the dense merge, the dense fold and the readout are",
         ),
         (a.array, "the PE array with its links is"),
         (a.controller, "the controller is"),
     ];
     if let Some((_, what)) = refused.iter().find(|r| r.0) {
-        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split, the dense merge and the readout stage are)");
+        bail!("rtl: {what} not emitted yet (only the datapath's units, the sample stage, the dense split, the dense merge, the dense fold and the readout stage are)");
     }
     super::outputs::check_dirs(&[Some(a.out_dir.as_path())])?;
     let mut cfg = match &a.config {
@@ -174,6 +177,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
     let passes = [
         super::rtl_pass::written::<Split>(&cfg, dims),
         super::rtl_pass::written::<Merge>(&cfg, dims),
+        super::rtl_pass::written::<Fold>(&cfg, dims),
     ];
     super::outputs::all_or_nothing(&[&a.out_dir], || {
         std::fs::create_dir_all(&a.out_dir)
@@ -328,9 +332,9 @@ fn readme(cfg: &PipelineConfig, m: &PipelinedModule) -> String {
     let _ = writeln!(
         w,
         "The PE's control and stage state machines other than the sample stage, the readout and \
-         the dense split's filters and the dense merge's tents with their line buffers (migrate, \
-         fold, the sparse split's and merge's work lists, the held parents' fetch, \
-         lists, the parents' fetch), its FIFOs, the array's links and \
+         the dense split's filters, the dense merge's tents and the dense fold's differences, \
+         tents and adds with their line buffers (migrate, the sparse split's, merge's and fold's \
+         work lists, the parents' fetch), its FIFOs, the array's links and \
          the controller: `ercube rtl` refuses them by name. The shading unit, the volume-of-interest stage and the \
          pre-integration unit are written with `--shading`, `--voi`, `--preint`, and with \
          `--shading` or `--voi` the datapath with them composed (`{COMPOSED}`), with `--preint` \

@@ -1,7 +1,9 @@
 //! `ercube rtl`'s PE boundary-pass modules (`pipeline::hw::split_rtl`,
 //! written front to back, the only order that splits;
 //! `pipeline::hw::merge_rtl`, written back to front, the only order that
-//! merges), each with its README section ([`super::pass::section`]).
+//! merges; `pipeline::hw::fold_rtl`, written front to back, the only
+//! order that folds), each with its README section
+//! ([`super::pass::section`]).
 
 use pipeline::config::PipelineConfig;
 use pipeline::cost::inventory::Geometry;

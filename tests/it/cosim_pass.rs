@@ -1,5 +1,5 @@
 //! Helpers shared by the boundary passes' command tests
-//! ([`crate::cosim_split`], [`crate::cosim_merge`]): a pass's
+//! ([`crate::cosim_split`], [`crate::cosim_merge`], [`crate::cosim_fold`]): a pass's
 //! co-simulation in both simulators and `ercube rtl` writing its module in
 //! one order only.
 

@@ -27,6 +27,7 @@ mod bench;
 mod bound;
 mod cli;
 mod cosim;
+mod cosim_fold;
 mod cosim_merge;
 mod cosim_pass;
 mod cosim_preint;

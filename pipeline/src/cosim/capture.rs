@@ -182,6 +182,9 @@ pub trait IssueSink: Send {
     /// A dense merge pass, every clock of it
     /// ([`crate::cosim::merge`]), after its last clock.
     fn merge_pass(&mut self, _pass: &crate::cosim::merge::MergeCapture) {}
+    /// A dense fold pass, every clock of it
+    /// ([`crate::cosim::fold`]), after its last clock.
+    fn fold_pass(&mut self, _pass: &crate::cosim::fold::FoldCapture) {}
     /// A sampling clock's broadcast, before the clock runs
     /// ([`crate::cosim::pe_sample`]).
     fn sample_bus(&mut self, _bus: &crate::cosim::pe_sample::BusCycle) {}

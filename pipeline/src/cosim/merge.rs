@@ -159,6 +159,8 @@ impl PassKind for Merge {
             per_pe: &["m0", "lo", "hi"],
             grids: ["bg_lo", "bg_rows", "fg_lo"],
             ports_a_line: 2,
+            merge_parents: &[],
+            merge_child: false,
         }
     }
 }

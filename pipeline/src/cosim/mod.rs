@@ -23,6 +23,7 @@
 
 pub mod build;
 pub mod capture;
+pub mod fold;
 pub mod merge;
 pub mod outcome;
 pub mod pass;

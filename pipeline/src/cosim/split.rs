@@ -152,6 +152,8 @@ impl PassKind for Split {
             per_pe: &[],
             grids: ["fg_lo", "fg_rows", "bg_lo"],
             ports_a_line: 3,
+            merge_parents: &[],
+            merge_child: false,
         }
     }
 }

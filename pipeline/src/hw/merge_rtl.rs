@@ -33,9 +33,9 @@
 
 use std::fmt::Write as _;
 
+use super::pass_rtl::{self, Latch, PassHead};
 use super::split_rtl::{bits_for, rng};
 use super::tents::{tents, CHANNELS};
-use super::NodeId;
 use crate::config::{Order, PipelineConfig};
 use crate::cost::inventory::Geometry;
 use crate::cost::shapes::RAY_INDEX_BITS;
@@ -71,10 +71,22 @@ impl MergeShape {
         if cfg.order != Order::BackToFront {
             return Err("front to back has no merge (only back to front merges rays)".into());
         }
+        MergeShape::declared(cfg, geo, "merge")
+    }
+
+    /// The shape of a dense boundary pass `what` that writes the line
+    /// buffer `cfg`'s PE declares for `geo` (the merge's, the fold's),
+    /// refused in one line for the sparse pass or a line buffer of another
+    /// word.
+    pub(crate) fn declared(
+        cfg: &PipelineConfig,
+        geo: &Geometry,
+        what: &str,
+    ) -> Result<MergeShape, String> {
         if cfg.pass_skip_empty {
-            return Err(
-                "the sparse merge (pass_skip_empty: its work lists) is not emitted yet".into(),
-            );
+            return Err(format!(
+                "the sparse {what} (pass_skip_empty: its work lists) is not emitted yet"
+            ));
         }
         let decls = Pe::declaration(cfg, geo);
         let lb = decls
@@ -84,7 +96,7 @@ impl MergeShape {
         let mb = u32::from(cfg.merge.bits());
         if lb.width != 4 * mb {
             return Err(format!(
-                "the line buffer's word is declared {} bits; the merge writes 4 merge words of {mb}",
+                "the line buffer's word is declared {} bits; the {what} writes 4 merge words of {mb}",
                 lb.width
             ));
         }
@@ -140,55 +152,36 @@ impl MergeShape {
     }
 }
 
+/// Ray index `{m}{k}`, tap `k`'s of `2 {m} - 1 ..= 2 {m} + 1`, as a
+/// Verilog expression of `xw`-bit signed words.
+fn tap(m: &str, k: usize, xw: u32) -> String {
+    match k {
+        0 => format!("{m} + {m} - {xw}'sd1"),
+        1 => format!("{m} + {m}"),
+        _ => format!("{m} + {m} + {xw}'sd1"),
+    }
+}
+
 /// The merge module of `shape` for `cfg` (whose formats `shape` holds).
 pub fn emit(cfg: &PipelineConfig, s: &MergeShape) -> Result<String, RtlError> {
-    let g = tents(cfg);
-    let find = |n: &str| -> NodeId {
-        g.nodes
-            .iter()
-            .position(|x| x.name == n)
-            .map(NodeId)
-            .expect("a node of tents")
-    };
-    let mut ports: Vec<(String, NodeId)> = Vec::new();
-    let mut outs: Vec<(String, NodeId)> = Vec::new();
-    for pass in ["x", "y"] {
-        for ch in CHANNELS {
-            for k in 0..3 {
-                ports.push((format!("{pass}{k}_{ch}"), find(&format!("{pass}.{ch}.{k}"))));
-            }
-            outs.push((format!("t{pass}_{ch}"), find(&format!("{pass}_{ch}"))));
-        }
-    }
-    let pr: Vec<(&str, NodeId)> = ports.iter().map(|(n, i)| (n.as_str(), *i)).collect();
-    let or: Vec<(&str, NodeId)> = outs.iter().map(|(n, i)| (n.as_str(), *i)).collect();
-    let cut = super::verilog::cut(&g, &pr, &or)?;
-    if !cut.regs.is_empty() {
-        return Err(RtlError::Unsupported(
-            "a register inside the merge's tents".into(),
-        ));
-    }
+    let cut = pass_rtl::cut_passes(&tents(cfg), 3, "t", "merge's tents")?;
     let mb = u32::from(s.merge.bits());
     let lw = 4 * mb;
-    let (cb, rb, ab, ib) = (s.col_bits(), s.row_bits(), s.addr_bits(), RAY_INDEX_BITS);
+    let (rb, ib) = (s.row_bits(), RAY_INDEX_BITS);
     // Ray index arithmetic: 2m + 1 of an index of ib bits, signed.
     let xw = ib + 3;
     let w = s.width;
-    let depth = u64::from(s.rows) * w;
+    let acc = pass_rtl::acc_bits(s.acc);
     let mut v = String::new();
     let o = &mut v;
-    let _ = writeln!(
+    pass_rtl::head(
         o,
-        "// {MODULE}: one PE's dense merge (the Bartlett merge's x and y tents and
-// the line buffer between them), emitted by ercube (pipeline::hw::merge_rtl).
-//
-// line_buffer: {rows} rows x {w} children x {lw} bits ({{a, b, g, r}} merge words of
-//   {mb} bits, r at bit 0), child c of parent row q at (q mod {rows}) * {w} + c; a
-//   register file read without a clock (the y pass reads before the x pass
-//   writes at the clock edge).
-// Ports:
-//   clk, rst               synchronous reset of every register
-//   begin_merge, begin_n, begin_m0, begin_lo, begin_hi, begin_bg_lo, begin_bg_rows,
+        &PassHead {
+            module: MODULE,
+            what: "dense merge (the Bartlett merge's x and y tents and
+// the line buffer between them)",
+            source: "merge_rtl",
+            notes: "//   begin_merge, begin_n, begin_m0, begin_lo, begin_hi, begin_bg_lo, begin_bg_rows,
 //   begin_fg_lo            BeginMerge: the children this PE computes (its report) and
 //                          the first, its held columns' first and last index, the back
 //                          grid's first row and rows, the front grid's first row
@@ -204,130 +197,115 @@ pub fn emit(cfg: &PipelineConfig, s: &MergeShape) -> Result<String, RtlError> {
 // Lint: WIDTH is waived: counters and ray indices compare and add at their own
 // widths (sign-extended where signed); UNUSEDSIGNAL is waived: a row's slot
 // takes the low bits of its index.
-/* verilator lint_off WIDTH */
-/* verilator lint_off UNUSEDSIGNAL */
-module {MODULE} (
-  input  wire clk,
-  input  wire rst,
-  input  wire begin_merge,
-  input  wire {cbr} begin_n,
-  input  wire signed {ibr} begin_m0,
-  input  wire signed {ibr} begin_lo,
-  input  wire signed {ibr} begin_hi,
-  input  wire signed {ibr} begin_bg_lo,
-  input  wire {rbr} begin_bg_rows,
-  input  wire signed {ibr} begin_fg_lo,
-  input  wire x_valid,
-  input  wire {rbr} x_row,
-  input  wire y_valid,
-  input  wire {rbr} y_row,
-  input  wire {cbr} col,",
-        rows = s.rows,
-        cbr = rng(cb),
-        ibr = rng(ib),
-        rbr = rng(rb),
+",
+            begin: "begin_merge",
+            latched: &[
+                ("n", Latch::Count),
+                ("m0", Latch::Index),
+                ("lo", Latch::Index),
+                ("hi", Latch::Index),
+                ("bg_lo", Latch::Index),
+                ("bg_rows", Latch::Rows),
+                ("fg_lo", Latch::Index),
+            ],
+            parents: &[
+                ("h0", acc),
+                ("h1", acc),
+                ("h2", acc),
+                ("el", acc),
+                ("er", acc),
+            ],
+            flags: &[],
+            rows: s.rows,
+            width: w,
+            merge: s.merge,
+            child: acc,
+            col_bits: s.col_bits(),
+            row_bits: rb,
+        },
     );
-    for p in ["h0", "h1", "h2", "el", "er"] {
-        for (ch, n) in CHANNELS.iter().enumerate() {
+    x_taps(
+        o,
+        xw,
+        "parent",
+        "the left edge ray (lo - 1), the right (hi + 1)",
+        true,
+    );
+    y_taps(o, s, xw, lw, "parent");
+    // The tents' ports: the parents as the x pass picks them and the line
+    // buffer's taps.
+    for (ch, n) in CHANNELS.iter().enumerate() {
+        let b = u32::from(s.acc_of(ch).bits());
+        for k in 0..3 {
             let _ = writeln!(
                 o,
-                "  input  wire {} {p}_{n},",
-                rng(u32::from(s.acc_of(ch).bits()))
+                "  wire {r} x{k}_{n} = held{k} ? h{k}_{n} : left{k} ? el_{n} : right{k} ? er_{n} : {b}'d0;",
+                r = rng(b),
             );
         }
+        y_words(o, mb, ch);
     }
-    let _ = writeln!(o, "  output wire lx_valid,");
-    for n in CHANNELS {
-        let _ = writeln!(o, "  output wire {} lx_{n},", rng(mb));
-    }
-    let _ = writeln!(o, "  output wire w_valid,");
-    for (ch, n) in CHANNELS.iter().enumerate() {
-        let sep = if ch == 3 { "" } else { "," };
-        let _ = writeln!(
-            o,
-            "  output wire {} w_{n}{sep}",
-            rng(u32::from(s.acc_of(ch).bits()))
-        );
-    }
+    pass_rtl::body(o, &cut);
+    // The write ports' registers: the x pass's merge words as the line
+    // buffer takes them, the y pass's child word as the bank takes it,
+    // each on the outputs the clock after.
+    let child = [0, 1, 2, 3].map(|ch| (acc[ch], format!("ty_{}_w", CHANNELS[ch])));
+    pass_rtl::write_ports(o, s.merge, "t", child, &[]);
+    Ok(v)
+}
+
+/// The x pass's three taps of child `m = m0 + col`: ray indices
+/// `mx<k>` of its `what` columns `2m - 1 ..= 2m + 1`, each `held<k>`
+/// (`lo ..= hi`), `left<k>` (just below the span) and with `right`
+/// `right<k>` (just above); `beyond` names the taps beyond the span.
+pub(super) fn x_taps(o: &mut String, xw: u32, what: &str, beyond: &str, right: bool) {
     let _ = writeln!(
         o,
-        ");
-  (* no_rw_check *) reg {lwr} line_buffer [0:{d1}];
-  reg {cbr} n;
-  reg signed {ibr} m0;
-  reg signed {ibr} lo;
-  reg signed {ibr} hi;
-  reg signed {ibr} bg_lo;
-  reg {rbr} bg_rows;
-  reg signed {ibr} fg_lo;
-  always @(posedge clk) begin
-    if (rst) begin
-      n <= {cb}'d0;
-      m0 <= {ib}'sd0;
-      lo <= {ib}'sd0;
-      hi <= {ib}'sd0;
-      bg_lo <= {ib}'sd0;
-      bg_rows <= {rb}'d0;
-      fg_lo <= {ib}'sd0;
-    end else if (begin_merge) begin
-      n <= begin_n;
-      m0 <= begin_m0;
-      lo <= begin_lo;
-      hi <= begin_hi;
-      bg_lo <= begin_bg_lo;
-      bg_rows <= begin_bg_rows;
-      fg_lo <= begin_fg_lo;
-    end
-  end
-  wire here = col < n;
-  // The x pass: child m = m0 + col takes parent columns 2m - 1 + k, each
-  // held (lo ..= hi), the left edge ray (lo - 1), the right (hi + 1) or zero.
+        "  // The x pass: child m = m0 + col takes {what} columns 2m - 1 + k, each
+  // held (lo ..= hi), {beyond} or zero.
   wire signed {xwr} m = m0 + $signed({{1'b0, col}});
   wire signed {xwr} lo_x = lo;
   wire signed {xwr} hi_x = hi;",
-        lwr = rng(lw),
-        d1 = depth - 1,
-        cbr = rng(cb),
-        ibr = rng(ib),
-        rbr = rng(rb),
         xwr = rng(xw),
     );
-    for k in 0..3i32 {
-        let off = match k {
-            0 => format!(" - {xw}'sd1"),
-            1 => String::new(),
-            _ => format!(" + {xw}'sd1"),
-        };
+    for k in 0..3 {
         let _ = writeln!(
             o,
-            "  wire signed {xwr} mx{k} = m + m{off};
+            "  wire signed {xwr} mx{k} = {t};
   wire held{k} = mx{k} >= lo_x && mx{k} <= hi_x;
-  wire left{k} = mx{k} + {xw}'sd1 == lo_x;
-  wire right{k} = mx{k} - {xw}'sd1 == hi_x;",
+  wire left{k} = mx{k} + {xw}'sd1 == lo_x;",
             xwr = rng(xw),
+            t = tap("m", k, xw),
         );
+        if right {
+            let _ = writeln!(o, "  wire right{k} = mx{k} - {xw}'sd1 == hi_x;");
+        }
     }
+}
+
+/// The y pass's three line-buffer taps `t0` .. `t2` of child row
+/// `my = fg_lo + y_row` (its `what` rows `2 my - 1 ..= 2 my + 1` less
+/// `bg_x`, zero outside the `bg_rows` rows), and the x pass's write
+/// address.
+pub(super) fn y_taps(o: &mut String, s: &MergeShape, xw: u32, lw: u32, what: &str) {
     let _ = writeln!(
         o,
-        "  // The y pass: child row my = fg_lo + y_row reads parent rows
+        "  // The y pass: child row my = fg_lo + y_row reads {what} rows
   // 2 my - 1 + k (relative to the back grid), zero outside it.
   wire signed {xwr} my = fg_lo + $signed({{1'b0, y_row}});
   wire signed {xwr} bg_x = bg_lo;",
         xwr = rng(xw),
     );
-    for k in 0..3i32 {
-        let off = match k {
-            0 => format!(" - {xw}'sd1"),
-            1 => String::new(),
-            _ => format!(" + {xw}'sd1"),
-        };
+    let (rb, ab, w) = (s.row_bits(), s.addr_bits(), s.width);
+    for k in 0..3 {
         let _ = writeln!(
             o,
-            "  wire signed {xwr} r{k} = my + my{off} - bg_x;
+            "  wire signed {xwr} r{k} = {t} - bg_x;
   wire in{k} = !r{k}[{xw1}] && r{k} < $signed({{1'b0, bg_rows}});
   wire {abr} t{k}_addr = (r{k}[{rb1}:0] % {rows}) * {w} + col;
   wire {lwr} t{k} = in{k} ? line_buffer[t{k}_addr] : {lw}'d0;",
             xwr = rng(xw),
+            t = tap("my", k, xw),
             xw1 = xw - 1,
             abr = rng(ab),
             rb1 = rb - 1,
@@ -341,77 +319,19 @@ module {MODULE} (
         rng(ab),
         s.rows
     );
-    // The tents' ports: the parents as the x pass picks them and the line
-    // buffer's taps.
-    for (ch, n) in CHANNELS.iter().enumerate() {
-        let b = u32::from(s.acc_of(ch).bits());
-        for k in 0..3 {
-            let _ = writeln!(
-                o,
-                "  wire {r} x{k}_{n} = held{k} ? h{k}_{n} : left{k} ? el_{n} : right{k} ? er_{n} : {b}'d0;",
-                r = rng(b),
-            );
-        }
-        let lo = ch as u32 * mb;
-        for k in 0..3 {
-            let _ = writeln!(
-                o,
-                "  wire {m} y{k}_{n} = t{k}[{hi}:{lo}];",
-                m = rng(mb),
-                hi = lo + mb - 1,
-            );
-        }
+}
+
+/// The y pass's tent ports of channel `ch`: its `merge` word of each
+/// line-buffer tap.
+pub(super) fn y_words(o: &mut String, mb: u32, ch: usize) {
+    let n = CHANNELS[ch];
+    let lo = ch as u32 * mb;
+    for k in 0..3 {
+        let _ = writeln!(
+            o,
+            "  wire {m} y{k}_{n} = t{k}[{hi}:{lo}];",
+            m = rng(mb),
+            hi = lo + mb - 1,
+        );
     }
-    o.push_str(cut.body.text());
-    for (name, bits, src) in &cut.outputs {
-        let _ = writeln!(o, "  wire {} {name}_w = {src};", rng(*bits));
-    }
-    // The write ports' registers: the x pass's merge words as the line
-    // buffer takes them, the y pass's child word as the bank takes it,
-    // each on the outputs the clock after.
-    let mut regs: Vec<(String, u32, String)> =
-        vec![("lx_valid".into(), 1, "x_valid && here".into())];
-    regs.extend(CHANNELS.iter().map(|n| {
-        (
-            format!("lx_{n}"),
-            mb,
-            format!("x_valid && here ? tx_{n}_w : {mb}'d0"),
-        )
-    }));
-    regs.push(("w_valid".into(), 1, "y_valid && here".into()));
-    for (ch, n) in CHANNELS.iter().enumerate() {
-        let b = u32::from(s.acc_of(ch).bits());
-        regs.push((
-            format!("w_{n}"),
-            b,
-            format!("y_valid && here ? ty_{n}_w : {b}'d0"),
-        ));
-    }
-    for (n, b, _) in &regs {
-        let _ = writeln!(o, "  reg {} q_{n};\n  assign {n} = q_{n};", rng(*b));
-    }
-    let _ = writeln!(
-        o,
-        "  always @(posedge clk) begin
-    if (x_valid && here) line_buffer[x_addr] <= {{tx_a_w, tx_b_w, tx_g_w, tx_r_w}};
-  end
-  always @(posedge clk) begin
-    if (rst) begin"
-    );
-    for (n, b, _) in &regs {
-        let _ = writeln!(o, "      q_{n} <= {b}'d0;");
-    }
-    let _ = writeln!(o, "    end else begin");
-    for (n, _, d) in &regs {
-        let _ = writeln!(o, "      q_{n} <= {d};");
-    }
-    let _ = writeln!(
-        o,
-        "    end
-  end
-endmodule
-/* verilator lint_on UNUSEDSIGNAL */
-/* verilator lint_on WIDTH */"
-    );
-    Ok(v)
 }

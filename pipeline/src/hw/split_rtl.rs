@@ -29,7 +29,8 @@
 
 use std::fmt::Write as _;
 
-use super::{Graph, NodeId, Word};
+use super::pass_rtl::{self, Latch, PassHead};
+use super::{Graph, Word};
 use crate::config::{Order, PipelineConfig};
 use crate::cost::inventory::Geometry;
 use crate::cost::shapes::RAY_INDEX_BITS;
@@ -195,51 +196,22 @@ pub(super) fn rng(bits: u32) -> String {
 
 /// The split module of `shape` for `cfg` (whose formats `shape` holds).
 pub fn emit(cfg: &PipelineConfig, s: &SplitShape) -> Result<String, RtlError> {
-    let g = halves(cfg);
-    let find = |n: &str| -> NodeId {
-        g.nodes
-            .iter()
-            .position(|x| x.name == n)
-            .map(NodeId)
-            .expect("a node of halves")
-    };
-    let mut ports: Vec<(String, NodeId)> = Vec::new();
-    let mut outs: Vec<(String, NodeId)> = Vec::new();
-    for pass in ["x", "y"] {
-        for ch in CHANNELS {
-            for k in 0..2 {
-                ports.push((format!("{pass}{k}_{ch}"), find(&format!("{pass}.{ch}.{k}"))));
-            }
-            outs.push((format!("h{pass}_{ch}"), find(&format!("{pass}_{ch}"))));
-        }
-    }
-    let pr: Vec<(&str, NodeId)> = ports.iter().map(|(n, i)| (n.as_str(), *i)).collect();
-    let or: Vec<(&str, NodeId)> = outs.iter().map(|(n, i)| (n.as_str(), *i)).collect();
-    let cut = super::verilog::cut(&g, &pr, &or)?;
-    if !cut.regs.is_empty() {
-        return Err(RtlError::Unsupported(
-            "a register inside the split's halves".into(),
-        ));
-    }
+    let cut = pass_rtl::cut_passes(&halves(cfg), 2, "h", "split's halves")?;
     let mb = u32::from(s.merge.bits());
     let lw = 4 * mb;
-    let (cb, rb, ab, ib) = (s.col_bits(), s.row_bits(), s.addr_bits(), RAY_INDEX_BITS);
+    let (rb, ab, ib) = (s.row_bits(), s.addr_bits(), RAY_INDEX_BITS);
     let w = s.width;
-    let depth = u64::from(s.rows) * w;
+    let acc = pass_rtl::acc_bits(s.acc);
     let mut v = String::new();
     let o = &mut v;
-    let _ = writeln!(
+    pass_rtl::head(
         o,
-        "// {MODULE}: one PE's dense split (the bilinear split's x and y filters and
-// the line buffer between them), emitted by ercube (pipeline::hw::split_rtl).
-//
-// line_buffer: {rows} rows x {w} children x {lw} bits ({{a, b, g, r}} merge words of
-//   {mb} bits, r at bit 0), child c of parent row q at (q mod {rows}) * {w} + c; a
-//   register file read without a clock (the y pass reads before the x pass
-//   writes at the clock edge).
-// Ports:
-//   clk, rst               synchronous reset of every register
-//   begin_split, begin_n, begin_fg_lo, begin_fg_rows, begin_bg_lo
+        &PassHead {
+            module: MODULE,
+            what: "dense split (the bilinear split's x and y filters and
+// the line buffer between them)",
+            source: "split_rtl",
+            notes: "//   begin_split, begin_n, begin_fg_lo, begin_fg_rows, begin_bg_lo
 //                          BeginSplit: the children this PE computes (its report), the
 //                          front grid's first row and rows, the back grid's first row
 //   x_valid, x_row, y_valid, y_row, col
@@ -252,47 +224,24 @@ pub fn emit(cfg: &PipelineConfig, s: &SplitShape) -> Result<String, RtlError> {
 //                          on the children's bank write port
 // Lint: WIDTH is waived: counters compare and add at their own widths;
 // UNUSEDSIGNAL is waived: a row's slot takes the low bits of its index.
-/* verilator lint_off WIDTH */
-/* verilator lint_off UNUSEDSIGNAL */
-module {MODULE} (
-  input  wire clk,
-  input  wire rst,
-  input  wire begin_split,
-  input  wire {cbr} begin_n,
-  input  wire signed {ibr} begin_fg_lo,
-  input  wire {rbr} begin_fg_rows,
-  input  wire signed {ibr} begin_bg_lo,
-  input  wire x_valid,
-  input  wire {rbr} x_row,
-  input  wire y_valid,
-  input  wire {rbr} y_row,
-  input  wire {cbr} col,",
-        rows = s.rows,
-        cbr = rng(cb),
-        ibr = rng(ib),
-        rbr = rng(rb),
+",
+            begin: "begin_split",
+            latched: &[
+                ("n", Latch::Count),
+                ("fg_lo", Latch::Index),
+                ("fg_rows", Latch::Rows),
+                ("bg_lo", Latch::Index),
+            ],
+            parents: &[("a", acc), ("b", acc)],
+            flags: &["w_done"],
+            rows: s.rows,
+            width: w,
+            merge: s.merge,
+            child: acc,
+            col_bits: s.col_bits(),
+            row_bits: rb,
+        },
     );
-    for p in ["a", "b"] {
-        for (ch, n) in CHANNELS.iter().enumerate() {
-            let _ = writeln!(
-                o,
-                "  input  wire {} {p}_{n},",
-                rng(u32::from(s.acc_of(ch).bits()))
-            );
-        }
-    }
-    let _ = writeln!(o, "  output wire lx_valid,");
-    for n in CHANNELS {
-        let _ = writeln!(o, "  output wire {} lx_{n},", rng(mb));
-    }
-    let _ = writeln!(o, "  output wire w_valid,");
-    for (ch, n) in CHANNELS.iter().enumerate() {
-        let _ = writeln!(
-            o,
-            "  output wire {} w_{n},",
-            rng(u32::from(s.acc_of(ch).bits()))
-        );
-    }
     let done = match s.threshold {
         Some(t) if t <= 0 => "1'b1".to_owned(),
         Some(t) => {
@@ -307,28 +256,7 @@ module {MODULE} (
     };
     let _ = writeln!(
         o,
-        "  output wire w_done
-);
-  (* no_rw_check *) reg {lwr} line_buffer [0:{d1}];
-  reg {cbr} n;
-  reg signed {ibr} fg_lo;
-  reg {rbr} fg_rows;
-  reg signed {ibr} bg_lo;
-  always @(posedge clk) begin
-    if (rst) begin
-      n <= {cb}'d0;
-      fg_lo <= {ib}'sd0;
-      fg_rows <= {rb}'d0;
-      bg_lo <= {ib}'sd0;
-    end else if (begin_split) begin
-      n <= begin_n;
-      fg_lo <= begin_fg_lo;
-      fg_rows <= begin_fg_rows;
-      bg_lo <= begin_bg_lo;
-    end
-  end
-  wire here = col < n;
-  // The y pass: child row my = bg_lo + y_row reads parent rows floor(my / 2)
+        "  // The y pass: child row my = bg_lo + y_row reads parent rows floor(my / 2)
   // and, when my is odd, the next (relative to the front grid).
   wire signed [{ib}:0] my = bg_lo + $signed({{1'b0, y_row}});
   wire signed [{ib}:0] py = my >>> 1;
@@ -342,10 +270,6 @@ module {MODULE} (
   wire {lwr} t1 = in1 ? line_buffer[t1_addr] : {lw}'d0;
   wire {abr} x_addr = (x_row % {rows}) * {w} + col;",
         lwr = rng(lw),
-        d1 = depth - 1,
-        cbr = rng(cb),
-        ibr = rng(ib),
-        rbr = rng(rb),
         abr = rng(ab),
         ib1 = ib + 1,
         rb1 = rb - 1,
@@ -362,61 +286,12 @@ module {MODULE} (
             hi = lo + mb - 1,
         );
     }
-    o.push_str(cut.body.text());
-    for (name, bits, src) in &cut.outputs {
-        let _ = writeln!(o, "  wire {} {name}_w = {src};", rng(*bits));
-    }
+    pass_rtl::body(o, &cut);
     // The write ports' registers: the x pass's merge words as the line
     // buffer takes them, the y pass's child word and flag as the bank
     // takes them, each on the outputs the clock after.
-    let mut regs: Vec<(String, u32, String)> =
-        vec![("lx_valid".into(), 1, "x_valid && here".into())];
-    regs.extend(CHANNELS.iter().map(|n| {
-        (
-            format!("lx_{n}"),
-            mb,
-            format!("x_valid && here ? hx_{n}_w : {mb}'d0"),
-        )
-    }));
-    regs.push(("w_valid".into(), 1, "y_valid && here".into()));
-    for (ch, n) in CHANNELS.iter().enumerate() {
-        let b = u32::from(s.acc_of(ch).bits());
-        regs.push((
-            format!("w_{n}"),
-            b,
-            format!("y_valid && here ? hy_{n}_w : {b}'d0"),
-        ));
-    }
-    regs.push((
-        "w_done".into(),
-        1,
-        format!("y_valid && here && ({})", done.replace("w_a", "hy_a_w")),
-    ));
-    for (n, b, _) in &regs {
-        let _ = writeln!(o, "  reg {} q_{n};\n  assign {n} = q_{n};", rng(*b));
-    }
-    let _ = writeln!(
-        o,
-        "  always @(posedge clk) begin
-    if (x_valid && here) line_buffer[x_addr] <= {{hx_a_w, hx_b_w, hx_g_w, hx_r_w}};
-  end
-  always @(posedge clk) begin
-    if (rst) begin"
-    );
-    for (n, b, _) in &regs {
-        let _ = writeln!(o, "      q_{n} <= {b}'d0;");
-    }
-    let _ = writeln!(o, "    end else begin");
-    for (n, _, d) in &regs {
-        let _ = writeln!(o, "      q_{n} <= {d};");
-    }
-    let _ = writeln!(
-        o,
-        "    end
-  end
-endmodule
-/* verilator lint_on UNUSEDSIGNAL */
-/* verilator lint_on WIDTH */"
-    );
+    let child = [0, 1, 2, 3].map(|ch| (acc[ch], format!("hy_{}_w", CHANNELS[ch])));
+    let flag = done.replace("w_a", "hy_a_w");
+    pass_rtl::write_ports(o, s.merge, "h", child, &[("w_done", flag)]);
     Ok(v)
 }

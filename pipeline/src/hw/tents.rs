@@ -20,7 +20,7 @@ pub const CHANNELS: [&str; 4] = ["r", "g", "b", "a"];
 
 /// One tent of taps `p` (in `from`) into `to`: `p0 + p2`, plus `2 p1`
 /// (wires), read at two more fraction bits, assigned.
-fn tent(g: &mut Graph, name: &str, p: [NodeId; 3], to: Format) -> NodeId {
+pub(super) fn tent(g: &mut Graph, name: &str, p: [NodeId; 3], to: Format) -> NodeId {
     let s02 = g.sum(&format!("{name}.s02"), p[0], p[2], false);
     let w1 = g.word(p[1]);
     let two = g.field(

@@ -255,11 +255,15 @@ impl Array {
     /// `g.front`'s. With `pass_skip_empty` every slot lasts as long as the
     /// busiest PE's work list ([`Pe::pass_step_sparse`]); every row keeps
     /// its slot, since which back rows hold a difference is known only
-    /// once each PE forms them.
+    /// once each PE forms them. With a capture attached, the dense pass
+    /// records every clock for the co-simulation (`stages::fold_capture`).
     pub(crate) fn fold(&mut self, g: FoldGrids) -> Result<(), RunError> {
         let dp = std::sync::Arc::clone(&self.dp);
         let needs = tent_needs(g.front, g.back);
         if !dp.cfg.pass_skip_empty {
+            if let Some(c) = self.clock.capture().cloned() {
+                return self.fold_captured(&c, &dp, g);
+            }
             return self.run_pass(
                 (g.back.counts()[1], &needs),
                 Broadcast::BeginFold { front: g.front },

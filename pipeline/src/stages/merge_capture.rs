@@ -27,6 +27,28 @@ impl Pe {
             _ => [0; 4],
         }
     }
+
+    /// What this PE's pass wrote in a clock of `bus`: the x pass's
+    /// line-buffer word and the y pass's child word (the merge's and the
+    /// fold's captures).
+    pub(super) fn pass_writes(&self, bus: &PassBus) -> (Option<[i64; 4]>, Option<[i64; 4]>) {
+        let c = bus.col;
+        let here = c < self.pass.children.len();
+        let line = bus
+            .x
+            .filter(|_| here)
+            .and_then(|q| self.pass.line.read(self.k, q, c).ok());
+        let child = bus.y.filter(|_| here).map(|i| self.pass.next[c].acc[i].raw);
+        (line, child)
+    }
+
+    /// This PE's child count, first child and held span (zeros when it
+    /// holds none), as its pass latches them.
+    pub(super) fn pass_children(&self) -> (usize, i64, i64, i64) {
+        let (lo, hi) = self.span().unwrap_or((0, 0));
+        let m0 = self.pass.children.first().copied().unwrap_or(0);
+        (self.pass.children.len(), m0, lo, hi)
+    }
 }
 
 /// The dense merge's step ([`PassStep`] of [`MergePass`], twin of
@@ -61,15 +83,8 @@ impl Step for CapturedMerge<'_> {
             t.held = [2 * m - 1, 2 * m, 2 * m + 1].map(|mx| pe.held_word(mx, q));
         }
         self.step.step(pe, links, out)?;
-        if let Some(q) = bus.x.filter(|_| c < n) {
-            t.line = pe.pass.line.read(pe.k, q, c).ok();
-        }
-        if let Some(i) = bus.y.filter(|_| c < n) {
-            t.child = Some(pe.pass.next[c].acc[i].raw);
-        }
-        let (lo, hi) = pe.span().unwrap_or((0, 0));
-        let m0 = pe.pass.children.first().copied().unwrap_or(0);
-        self.children[pe.k] = (n, m0, lo, hi);
+        (t.line, t.child) = pe.pass_writes(&bus);
+        self.children[pe.k] = pe.pass_children();
         self.per_pe[pe.k].push(t);
         Ok(())
     }

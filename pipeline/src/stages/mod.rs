@@ -25,6 +25,7 @@
 pub mod boundary;
 pub mod drain;
 pub mod fold;
+mod fold_capture;
 pub mod merge;
 mod merge_capture;
 pub mod migrate;

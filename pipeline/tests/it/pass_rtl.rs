@@ -1,5 +1,5 @@
 //! Helpers shared by the boundary passes' RTL tests ([`crate::split_rtl`],
-//! [`crate::merge_rtl`]): a frame's passes captured with the emitted
+//! [`crate::merge_rtl`], [`crate::fold_rtl`]): a frame's passes captured with the emitted
 //! module, their co-simulation, the checks every pass's match passes, and
 //! the small module's lint and synthesis runs.
 

@@ -1,6 +1,7 @@
 //! The co-simulation of a dense boundary pass (the split, front to back,
 //! [`crate::cosim::split`]; the merge, back to front,
-//! [`crate::cosim::merge`]): one emitted module a PE, every pass of a
+//! [`crate::cosim::merge`]; the fold, front to back,
+//! [`crate::cosim::fold`]): one emitted module a PE, every pass of a
 //! frame replayed from the model's capture and every clock's line-buffer
 //! write and child word compared with the model's.
 //!
@@ -151,6 +152,10 @@ impl<K: PassKind> IssueSink for PassRecord<K> {
     fn merge_pass(&mut self, pass: &crate::cosim::merge::MergeCapture) {
         self.keep(pass);
     }
+
+    fn fold_pass(&mut self, pass: &crate::cosim::fold::FoldCapture) {
+        self.keep(pass);
+    }
 }
 
 /// What a pass's simulation printed, read back.
@@ -185,6 +190,7 @@ pub fn parse<K: PassKind>(shape: &K::Shape, text: &str) -> PassOutcome {
         ..PassOutcome::default()
     };
     let mb = u32::from(d.merge.bits());
+    let merge_child = K::bench().merge_child;
     let mut seen = vec![false; d.pes];
     let (ticks_tag, pe_tag, mism_tag) = (
         format!("{}TICKS", K::PREFIX),
@@ -212,6 +218,7 @@ pub fn parse<K: PassKind>(shape: &K::Shape, text: &str) -> PassOutcome {
                 let dec = |sig: &str, hex: &str| {
                     let (bits, signed) = match sig.split_once('_') {
                         Some(("lx", _)) => (mb, d.merge.is_signed()),
+                        Some(("w", _)) if merge_child => (mb, d.merge.is_signed()),
                         Some(("w", "a")) => (u32::from(d.acc[1].bits()), d.acc[1].is_signed()),
                         Some(("w", "r" | "g" | "b")) => {
                             (u32::from(d.acc[0].bits()), d.acc[0].is_signed())

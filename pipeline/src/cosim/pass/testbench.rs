@@ -40,6 +40,13 @@ pub fn acc_words(f: &mut Vec<String>, d: &PassDims, w: &[i64; 4]) {
     }
 }
 
+/// Pushes onto `f` the four `merge` words `w`.
+pub fn merge_words(f: &mut Vec<String>, d: &PassDims, w: &[i64; 4]) {
+    for v in w {
+        f.push(hex(*v, u32::from(d.merge.bits())));
+    }
+}
+
 /// Pushes onto `f` the line-buffer write: its valid bit and merge words.
 pub fn line_words(f: &mut Vec<String>, d: &PassDims, line: Option<[i64; 4]>) {
     f.push(hex(i64::from(line.is_some()), 1));
@@ -52,8 +59,12 @@ pub fn line_words(f: &mut Vec<String>, d: &PassDims, line: Option<[i64; 4]>) {
 #[derive(Debug, Clone, Default)]
 pub struct Bench {
     /// The parents' port prefixes (`a`, `b` or `h0` .. `er`), four
-    /// accumulator words each.
+    /// accumulator words each unless named in `merge_parents`.
     pub parents: &'static [&'static str],
+    /// The parents whose four words are `merge` words.
+    pub merge_parents: &'static [&'static str],
+    /// Whether the child word is four `merge` words (else accumulators).
+    pub merge_child: bool,
     /// Whether the module drives a termination flag (`w_done`).
     pub done: bool,
     /// The begin strobe's port (`begin_split`).
@@ -119,11 +130,17 @@ fn inputs(d: &PassDims, b: &Bench) -> Vec<(String, u32)> {
         ("col".into(), cb),
     ];
     for p in b.parents {
+        let merge = b.merge_parents.contains(p);
         for (ch, n) in CHANNELS.iter().enumerate() {
-            v.push((format!("{p}_{n}"), u32::from(d.acc_of(ch).bits())));
+            v.push((format!("{p}_{n}"), word_bits(d, ch, merge)));
         }
     }
     v
+}
+
+/// Bits of channel `ch`'s word: a `merge` word, or the accumulator's.
+pub fn word_bits(d: &PassDims, ch: usize, merge: bool) -> u32 {
+    u32::from(if merge { d.merge } else { d.acc_of(ch) }.bits())
 }
 
 /// The module's outputs compared, with their widths.
@@ -136,7 +153,7 @@ fn outputs(d: &PassDims, b: &Bench) -> Vec<(String, u32)> {
         CHANNELS
             .iter()
             .enumerate()
-            .map(|(ch, n)| (format!("w_{n}"), u32::from(d.acc_of(ch).bits()))),
+            .map(|(ch, n)| (format!("w_{n}"), word_bits(d, ch, b.merge_child))),
     );
     if b.done {
         v.push(("w_done".into(), 1));

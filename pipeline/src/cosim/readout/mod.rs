@@ -84,6 +84,9 @@ impl IssueSink for Tee {
     fn merge_pass(&mut self, pass: &crate::cosim::merge::MergeCapture) {
         self.each(|s| s.merge_pass(pass));
     }
+    fn fold_pass(&mut self, pass: &crate::cosim::fold::FoldCapture) {
+        self.each(|s| s.fold_pass(pass));
+    }
 }
 
 /// A readout stage simulated and compared.
