@@ -133,6 +133,33 @@ pub enum ShadeError {
     Fixed(#[from] FxError),
 }
 
+/// The frame's shading ([`crate::datapath::FrameUnit`]): the unit's
+/// constants for the frame's view and data width (the gradient's code
+/// scale). Under column blocks every PE's block must hold at least two
+/// columns (the gradient's right taps reach the neighbour's second);
+/// round-robin PEs read their aprons.
+impl crate::datapath::FrameUnit for Shade {
+    fn load(
+        &self,
+        f: &crate::datapath::UnitFrame<'_>,
+        units: &mut crate::hw::compose::FrameUnits,
+        st: &mut QuantStats,
+    ) -> Result<(), crate::RunError> {
+        let m = &f.map;
+        if m.pes > 1 && !m.round_robin() && m.width < 2 {
+            return Err(crate::RunError::Shade(ShadeError::Unsupported(format!(
+                "shading needs at least 2 voxel columns per PE, but {} columns over {} PEs give {}",
+                m.nx, m.pes, m.width
+            ))));
+        }
+        f.dp.cfg.check_shading()?;
+        let unit = ShadeUnit::new(&f.dp.cfg, self, f.view, f.data_bits, st)
+            .map_err(crate::RunError::Shade)?;
+        units.shade = Some(unit);
+        Ok(())
+    }
+}
+
 impl ShadeUnit {
     /// The unit's constants for `shade` in `view`, for voxel words of
     /// `data_bits`-bit data (the gradient's code scale).

@@ -83,6 +83,21 @@ pub struct VoiUnit {
     gain: Fx,
 }
 
+/// The frame's volume of interest ([`crate::datapath::FrameUnit`]): the
+/// stage's constants for the frame's view.
+impl crate::datapath::FrameUnit for Voi {
+    fn load(
+        &self,
+        f: &crate::datapath::UnitFrame<'_>,
+        units: &mut crate::hw::compose::FrameUnits,
+        st: &mut QuantStats,
+    ) -> Result<(), crate::RunError> {
+        let unit = VoiUnit::new(&f.dp.cfg, self, f.view, st).map_err(crate::RunError::Voi)?;
+        units.voi = Some(unit);
+        Ok(())
+    }
+}
+
 impl VoiUnit {
     /// The stage's constants for `voi` in `view`.
     pub fn new(

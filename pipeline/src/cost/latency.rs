@@ -87,7 +87,7 @@ pub fn unit_latency(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
         Units {
             lights: shading.then_some(1),
             voi,
-            preint: false,
+            ..Units::default()
         },
     )
 }
