@@ -135,7 +135,7 @@ fn captured_unit_issues_are_the_composed_datapaths_words() {
         let units = Units {
             lights: shading.then_some(1),
             voi: with_voi,
-            preint: false,
+            ..Units::default()
         };
         let g = sample(&cfg, units);
         let depth = pipeline::hw::schedule::schedule(&g).depth;

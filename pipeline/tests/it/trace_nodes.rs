@@ -77,7 +77,7 @@ fn check(order: Order, shading: bool, with_voi: bool, patterns: &[&str]) {
     let units = Units {
         lights: shading.then_some(1),
         voi: with_voi,
-        preint: false,
+        ..Units::default()
     };
     let g = sample(&cfg, units);
     let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);
