@@ -21,6 +21,7 @@ mod clock;
 mod cost;
 mod datapath_cost;
 mod equivalence;
+mod fade;
 mod ftb;
 mod kernel;
 mod links;
