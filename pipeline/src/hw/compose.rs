@@ -59,15 +59,12 @@ pub struct Units {
     /// weights pre-integrated steps).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub preint: bool,
-    /// The fade unit ([`super::fade`]).
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub fade: bool,
 }
 
 impl Units {
     /// Whether the datapath is the plain sample's.
     pub fn plain(&self) -> bool {
-        self.lights.is_none() && !self.voi && !self.preint && !self.fade
+        self.lights.is_none() && !self.voi && !self.preint
     }
 
     /// Whether it carries the gradient and shading unit.
@@ -89,8 +86,6 @@ pub struct FrameUnits {
     pub voi: Option<crate::voi::VoiUnit>,
     /// The pre-integration unit's table and scale.
     pub preint: Option<crate::preint::PreintUnit>,
-    /// The fade unit's factor.
-    pub fade: Option<super::fade::FadeUnit>,
 }
 
 impl FrameUnits {
@@ -100,7 +95,6 @@ impl FrameUnits {
             lights: self.shade.as_ref().map(|s| s.light_count()),
             voi: self.voi.is_some(),
             preint: self.preint.is_some(),
-            fade: self.fade.is_some(),
         }
     }
 
@@ -237,10 +231,6 @@ pub fn sample(cfg: &PipelineConfig, units: Units) -> Graph {
             let unit = super::voi::voi(cfg);
             let out = splice(g, &unit, "voi.", &[("x", c.x), ("class.a", alpha)]);
             alpha = out["alpha"];
-        }
-        if units.fade {
-            let unit = super::fade::fade(cfg);
-            alpha = splice(g, &unit, "fade.", &[("class.a", alpha)])["alpha"];
         }
         if let Some(lights) = units.lights {
             let unit = super::shading::shading(cfg, lights);

@@ -32,7 +32,6 @@ pub mod compose;
 pub mod cut;
 mod div_rtl;
 pub mod eval;
-pub mod fade;
 mod isqrt_rtl;
 pub mod merge_rtl;
 mod pe_carry_rtl;

@@ -21,7 +21,6 @@ mod clock;
 mod cost;
 mod datapath_cost;
 mod equivalence;
-mod fade;
 mod ftb;
 mod kernel;
 mod links;

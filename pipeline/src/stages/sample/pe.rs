@@ -245,9 +245,6 @@ impl Pe {
             (f, voi) = unit.factor(&dp.cfg, (x, bus.yp, s.z), st)?;
             alpha = crate::voi::VoiUnit::scale(&dp.cfg, alpha, f, st);
         }
-        if let Some(unit) = &dp.loaded.fade {
-            alpha = unit.scale(&dp.cfg, alpha, st);
-        }
         let mut shade = Default::default();
         if let (Some(unit), Some(t)) = (&dp.loaded.shade, &taps) {
             // The gradient and shading of a sample that is visible
