@@ -70,8 +70,9 @@
 use golden::preint::{Colouring, PreTable, LAYERS, LAYER_MAX_EXP, LAYER_MIN_EXP};
 
 use crate::config::PipelineConfig;
-use crate::datapath::{lerp, Datapath};
+use crate::datapath::{lerp, Datapath, FrameUnit, Loaded, UnitFrame};
 use crate::fixed::{Fx, FxError, QuantStats, Wide};
+use crate::hw::compose::FrameUnits;
 
 /// Guard bits of the colour divider's quotient below `color`'s LSB.
 pub const GUARD_BITS: i32 = 8;
@@ -141,13 +142,8 @@ pub enum PreintError {
 /// pre-integrated from the frame's classification table: quantised into
 /// the unit. A frame clipped by planes is refused (the unit integrates
 /// whole steps).
-impl crate::datapath::FrameUnit for PreTable {
-    fn load(
-        &self,
-        f: &crate::datapath::UnitFrame<'_>,
-        units: &mut crate::hw::compose::FrameUnits,
-        st: &mut QuantStats,
-    ) -> Result<(), crate::RunError> {
+impl FrameUnit for PreTable {
+    fn load(&self, f: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded {
         if f.clipped {
             return Err(PreintError::Unsupported(
                 "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"

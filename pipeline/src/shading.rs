@@ -45,8 +45,9 @@ use golden::geometry::View;
 use golden::shading::{GradientMode, Lighting, Shade};
 
 use crate::config::PipelineConfig;
-use crate::datapath::{isqrt_into, lerp};
+use crate::datapath::{isqrt_into, lerp, FrameUnit, Loaded, UnitFrame};
 use crate::fixed::{Fx, FxError, QuantStats, Wide};
+use crate::hw::compose::FrameUnits;
 
 /// Words the right neighbour drives beside its edge voxels while the
 /// array shades, for the row announced next: its first column at rows
@@ -138,13 +139,8 @@ pub enum ShadeError {
 /// scale). Under column blocks every PE's block must hold at least two
 /// columns (the gradient's right taps reach the neighbour's second);
 /// round-robin PEs read their aprons.
-impl crate::datapath::FrameUnit for Shade {
-    fn load(
-        &self,
-        f: &crate::datapath::UnitFrame<'_>,
-        units: &mut crate::hw::compose::FrameUnits,
-        st: &mut QuantStats,
-    ) -> Result<(), crate::RunError> {
+impl FrameUnit for Shade {
+    fn load(&self, f: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded {
         let m = &f.map;
         if m.pes > 1 && !m.round_robin() && m.width < 2 {
             return Err(crate::RunError::Shade(ShadeError::Unsupported(format!(

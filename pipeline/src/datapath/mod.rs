@@ -23,7 +23,7 @@ pub use kernel::{Kernel, KernelRow};
 pub(crate) use ops::isqrt;
 use ops::split;
 pub use ops::{isqrt_into, lerp};
-pub use units::{units_for, FrameUnit, UnitFrame};
+pub use units::{units_for, FrameUnit, Loaded, UnitFrame};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
 /// as raw words of `accum_color` / `accum_alpha`.

@@ -35,18 +35,17 @@ pub struct UnitFrame<'a> {
     pub clipped: bool,
 }
 
+/// What loading a unit's constants gives: nothing, or why the frame
+/// cannot take the unit.
+pub type Loaded = Result<(), RunError>;
+
 /// A unit's per-frame input (golden's description of a light, a region,
 /// a table), which the host quantises into the unit's constants.
 pub trait FrameUnit {
     /// Builds the unit's constants for `frame` into its slot of `units`,
     /// counting the host's roundings into `st`; refuses a frame the unit
     /// does not model in one line.
-    fn load(
-        &self,
-        frame: &UnitFrame<'_>,
-        units: &mut FrameUnits,
-        st: &mut QuantStats,
-    ) -> Result<(), RunError>;
+    fn load(&self, frame: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded;
 }
 
 impl UnitFrame<'_> {
