@@ -70,8 +70,9 @@
 use golden::preint::{Colouring, PreTable, LAYERS, LAYER_MAX_EXP, LAYER_MIN_EXP};
 
 use crate::config::PipelineConfig;
-use crate::datapath::{lerp, Datapath};
+use crate::datapath::{lerp, Datapath, FrameUnit, Loaded, UnitFrame};
 use crate::fixed::{Fx, FxError, QuantStats, Wide};
+use crate::hw::compose::FrameUnits;
 
 /// Guard bits of the colour divider's quotient below `color`'s LSB.
 pub const GUARD_BITS: i32 = 8;
@@ -90,6 +91,10 @@ pub struct PreintUnit {
     /// (`[(layer - 1) (bins + 1)^2 + front (bins + 1) + back]`), R, G, B
     /// in `preint_color`; empty for the fast colouring.
     layers: Vec<[Fx; 3]>,
+    /// Golden's classification-table entries per bin
+    /// ([`PreTable::stride`]), which the occupancy memory's bin ranges
+    /// follow ([`crate::skip::plan_preint_mask`]).
+    stride: f64,
 }
 
 /// A step's interpolated table words (step 3) and the bins and weights
@@ -131,6 +136,25 @@ pub enum PreintError {
     /// The frame asks for what a pre-integrated frame does not model.
     #[error("{0}")]
     Unsupported(String),
+}
+
+/// The frame's pre-integration table ([`crate::datapath::FrameUnit`]),
+/// pre-integrated from the frame's classification table: quantised into
+/// the unit. A frame clipped by planes is refused (the unit integrates
+/// whole steps).
+impl FrameUnit for PreTable {
+    fn load(&self, f: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded {
+        if f.clipped {
+            return Err(PreintError::Unsupported(
+                "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
+                    .into(),
+            )
+            .into());
+        }
+        let entries = f.dp.tables().color.len();
+        units.preint = Some(PreintUnit::new(&f.dp.cfg, self, entries, st)?);
+        Ok(())
+    }
 }
 
 impl PreintUnit {
@@ -206,7 +230,13 @@ impl PreintUnit {
             scale,
             table,
             layers,
+            stride: pt.stride(),
         })
+    }
+
+    /// Golden's classification-table entries per bin.
+    pub fn stride(&self) -> f64 {
+        self.stride
     }
 
     /// Whether the unit holds the exact colouring's layers.
@@ -275,6 +305,7 @@ impl PreintUnit {
             scale,
             table,
             layers: Vec::new(),
+            stride: 1.0,
         }
     }
 
@@ -393,7 +424,7 @@ impl PreintUnit {
         let p = crate::reg!(cfg, log_transmittance).assign(p, st);
         let a = dp.transmit(p, st)?;
         let mut colour = [e[0], e[1], e[2]];
-        if let Some(unit) = dp.preint.as_ref().filter(|u| u.exact()) {
+        if let Some(unit) = dp.loaded.preint.as_ref().filter(|u| u.exact()) {
             let (l, w) = PreintUnit::layer(cfg, p, st);
             if l > 0 {
                 colour = unit.layer_words(cfg, l, e.at, st)?;

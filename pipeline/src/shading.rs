@@ -45,8 +45,9 @@ use golden::geometry::View;
 use golden::shading::{GradientMode, Lighting, Shade};
 
 use crate::config::PipelineConfig;
-use crate::datapath::{isqrt_into, lerp};
+use crate::datapath::{isqrt_into, lerp, FrameUnit, Loaded, UnitFrame};
 use crate::fixed::{Fx, FxError, QuantStats, Wide};
+use crate::hw::compose::FrameUnits;
 
 /// Words the right neighbour drives beside its edge voxels while the
 /// array shades, for the row announced next: its first column at rows
@@ -131,6 +132,28 @@ pub enum ShadeError {
     /// A constant that does not fit its format.
     #[error("{0}")]
     Fixed(#[from] FxError),
+}
+
+/// The frame's shading ([`crate::datapath::FrameUnit`]): the unit's
+/// constants for the frame's view and data width (the gradient's code
+/// scale). Under column blocks every PE's block must hold at least two
+/// columns (the gradient's right taps reach the neighbour's second);
+/// round-robin PEs read their aprons.
+impl FrameUnit for Shade {
+    fn load(&self, f: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded {
+        let m = &f.map;
+        if m.pes > 1 && !m.round_robin() && m.width < 2 {
+            return Err(crate::RunError::Shade(ShadeError::Unsupported(format!(
+                "shading needs at least 2 voxel columns per PE, but {} columns over {} PEs give {}",
+                m.nx, m.pes, m.width
+            ))));
+        }
+        f.dp.cfg.check_shading()?;
+        let unit = ShadeUnit::new(&f.dp.cfg, self, f.view, f.data_bits, st)
+            .map_err(crate::RunError::Shade)?;
+        units.shade = Some(unit);
+        Ok(())
+    }
 }
 
 impl ShadeUnit {

@@ -41,8 +41,9 @@ use golden::geometry::View;
 use golden::voi::{Shape, ViewVoi, Voi};
 
 use crate::config::PipelineConfig;
-use crate::datapath::isqrt_into;
+use crate::datapath::{isqrt_into, FrameUnit, Loaded, UnitFrame};
 use crate::fixed::{Fx, FxError, QuantStats, Wide};
+use crate::hw::compose::FrameUnits;
 
 /// Why a frame's volume of interest cannot be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -81,6 +82,16 @@ pub struct VoiUnit {
     step: bool,
     /// `S - 1`, a `voi_gain` word.
     gain: Fx,
+}
+
+/// The frame's volume of interest ([`crate::datapath::FrameUnit`]): the
+/// stage's constants for the frame's view.
+impl FrameUnit for Voi {
+    fn load(&self, f: &UnitFrame, units: &mut FrameUnits, st: &mut QuantStats) -> Loaded {
+        let unit = VoiUnit::new(&f.dp.cfg, self, f.view, st).map_err(crate::RunError::Voi)?;
+        units.voi = Some(unit);
+        Ok(())
+    }
 }
 
 impl VoiUnit {

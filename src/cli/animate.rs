@@ -266,10 +266,10 @@ fn animate(a: &AnimateArgs) -> Result<()> {
                     .skips(opts.slice.skips)
                     .resident(resident);
                 let f = match &preint {
-                    Some(pt) => frame.preint(Some(pt)),
+                    Some(pt) => frame.unit(Some(pt)),
                     None => frame
-                        .shading(opts.slice.shade.as_ref())
-                        .voi(opts.slice.voi.as_ref()),
+                        .unit(opts.slice.shade.as_ref())
+                        .unit(opts.slice.voi.as_ref()),
                 }
                 .run()
                 .with_context(|| format!("frame {i}"))?;

@@ -367,8 +367,8 @@ fn frame_with(
         frame = frame.tap(t);
     }
     Ok(match preint {
-        Some(pt) => frame.preint(Some(pt)),
-        None => frame.shading(shade).voi(voi),
+        Some(pt) => frame.unit(Some(pt)),
+        None => frame.unit(shade).unit(voi),
     }
     .run()?)
 }

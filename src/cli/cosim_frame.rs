@@ -7,6 +7,7 @@ use clap::Args;
 use golden::render::Prepared;
 use golden::tf::Lut;
 use pipeline::config::{Order, PipelineConfig};
+use pipeline::datapath::FrameUnit;
 use pipeline::hw::compose::Units;
 use pipeline::hw::pipeline_rtl::{emit_scheduled, PipelinedModule};
 use pipeline::{FrameRun, Voxels};
@@ -72,9 +73,9 @@ impl Setup {
             },
         )
         .skips(self.skips)
-        .shading(self.shade.as_ref())
-        .voi(self.voi.as_ref())
-        .preint(self.preint.as_ref())
+        .unit(self.shade.as_ref())
+        .unit(self.voi.as_ref())
+        .unit(self.preint.as_ref())
     }
 
     /// Refuses a pre-integrated frame in one line (as `cmd`): what does not
@@ -133,27 +134,25 @@ pub fn setup_given(
     let lut = chip::pipeline_lut(&cfg, &vol, &tf);
     let bits = vol.kind().bits();
     let prep = slice.prepared_owning(vol, &cam)?;
-    // The shading unit is built for the frame's lights.
-    let lights = match &opts.slice.shade {
-        Some(shade) => {
-            let mut st = pipeline::fixed::QuantStats::default();
-            let unit = pipeline::shading::ShadeUnit::new(&cfg, shade, &prep.view, bits, &mut st)
-                .map_err(|e| anyhow!("{cmd}: {e}"))?;
-            Some(unit.light_count())
-        }
-        None => None,
-    };
-    let units = Units {
-        lights,
-        voi: opts.slice.voi.is_some(),
-        preint: opts.slice.preintegrate,
-    };
     // Golden's table from the classification table, which the unit
     // quantises (as `ercube render --preintegrate`).
     let preint = opts
         .slice
         .preintegrate
         .then(|| golden::preint::PreTable::with_colouring(&lut, opts.slice.pre_colouring));
+    // The units the frame loads (the shading unit built for its lights).
+    let (shade, voi) = (opts.slice.shade.as_ref(), opts.slice.voi.as_ref());
+    let inputs: Vec<&dyn FrameUnit> = [
+        shade.map(|u| u as &dyn FrameUnit),
+        voi.map(|u| u as &dyn FrameUnit),
+        preint.as_ref().map(|u| u as &dyn FrameUnit),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let clipped = !prep.clip.is_empty();
+    let units = pipeline::datapath::units_for(&cfg, &lut, &prep.view, bits, clipped, &inputs)
+        .map_err(|e| anyhow!("{cmd}: {e}"))?;
     // The schedule the model's latency is read from.
     let g = pipeline::hw::compose::sample(&cfg, units);
     let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);

@@ -190,20 +190,16 @@ fn run_at(
         // The unit's table is golden's, from the same classification
         // table; the frame's cycles include the prime and finish passes.
         let pt = golden::preint::PreTable::new(lut);
-        frame.preint(Some(&pt)).run()?
+        frame.unit(Some(&pt)).run()?
     } else {
         let sh = shade.then(golden::shading::Shade::default);
-        frame.shading(sh.as_ref()).voi(voi).run()?
+        frame.unit(sh.as_ref()).unit(voi).run()?
     };
     let plan = pipeline::host::plan(&cfg, &prep.view)?;
     Ok(RunSummary::new(
         &cfg,
         label,
-        Geometry::for_view(&cfg, &prep.view)?.with_units(pipeline::hw::compose::Units {
-            lights: shade.then_some(1),
-            voi: voi.is_some(),
-            preint,
-        }),
+        Geometry::for_view(&cfg, &prep.view)?.with_units(frame.units),
         (&frame, &plan),
     ))
 }

@@ -243,7 +243,7 @@ fn explore(a: &ExploreArgs) -> Result<()> {
                 let _done = Done(&stage);
                 let frame = FrameRun::prepared(c, &lut, &prep, Voxels::Volume(&vol))
                     .skips(skips)
-                    .shading(shade.as_ref())
+                    .unit(shade.as_ref())
                     .run()
                     .with_context(|| pipeline::cost::arch::label(c))?;
                 let plan = pipeline::host::plan(c, &prep.view)?;

@@ -149,7 +149,7 @@ pub fn run(a: &RtlArgs) -> Result<()> {
         let with = Units {
             lights: a.shading.then_some(1),
             voi: a.voi,
-            preint: false,
+            ..Units::default()
         };
         let g = pipeline::hw::compose::sample(&cfg, with);
         let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);

@@ -107,6 +107,8 @@ pub struct Frame {
     pub raw_format: [Format; 2],
     /// The compositing order the frame ran in.
     pub order: Order,
+    /// The units beside the plain sample the frame's datapath carried.
+    pub units: crate::hw::compose::Units,
     /// Cycles per frame.
     pub cycles: u64,
     /// Cycles per stage.

@@ -237,74 +237,34 @@ impl Array {
         })
     }
 
-    /// Shades the frame with `shade` ([`crate::shading`]): loads the
-    /// gradient and shading unit's constants for `view` and voxel words of
-    /// `data_bits`-bit data. Under column blocks every PE's block must hold
-    /// at least two columns (the gradient's right taps reach the
-    /// neighbour's second); round-robin PEs read their aprons.
-    pub fn set_shading(
+    /// Loads `units`' per-frame constants (each unit's own
+    /// [`FrameUnit`](crate::datapath::FrameUnit): shading, a volume of
+    /// interest, pre-integration) for a frame of `view` with
+    /// `data_bits`-bit data, clipped by planes when `clipped`, beside the
+    /// units already loaded; units the composed sample does not combine
+    /// are refused ([`FrameUnits::check`](crate::hw::compose::FrameUnits::check)).
+    /// A skip plan is made for the datapath's units: loading drops it.
+    pub fn set_units(
         &mut self,
-        shade: &golden::shading::Shade,
+        units: &[&dyn crate::datapath::FrameUnit],
         view: &View,
         data_bits: u32,
+        clipped: bool,
     ) -> Result<(), RunError> {
-        if self.clock.pes().len() > 1 && !self.map.round_robin() && self.map.width < 2 {
-            return Err(RunError::Shade(crate::shading::ShadeError::Unsupported(
-                format!(
-                "shading needs at least 2 voxel columns per PE, but {} columns over {} PEs give {}",
-                self.nx,
-                self.clock.pes().len(),
-                self.map.width
-            ),
-            )));
-        }
-        self.dp.cfg.check_shading()?;
+        let mut dp = (*self.dp).clone();
+        let mut loaded = std::mem::take(&mut dp.loaded);
         let mut st = QuantStats::default();
-        let unit = crate::shading::ShadeUnit::new(&self.dp.cfg, shade, view, data_bits, &mut st)
-            .map_err(RunError::Shade)?;
-        self.host_stats.merge(&st);
-        let dp = (*self.dp).clone().with_shading(unit);
-        self.dp = Arc::new(dp);
-        Ok(())
-    }
-
-    /// Pre-integrates the frame's classification ([`crate::preint`]):
-    /// loads golden's table `pt` (built from this array's classification
-    /// table) into the unit. A pre-integrated frame takes neither shading
-    /// nor a volume of interest; it skips only with a plan made for it
-    /// ([`crate::skip::plan_preint_mask`], [`FrameRun::preint`]):
-    /// loading the unit drops any other.
-    pub fn set_preint(&mut self, pt: &golden::preint::PreTable) -> Result<(), RunError> {
-        let unsupported = |what: &str| {
-            crate::preint::PreintError::Unsupported(format!(
-                "the pipeline's pre-integrated frames take no {what}; drop it or --preintegrate"
-            ))
+        let frame = crate::datapath::UnitFrame {
+            dp: &dp,
+            view,
+            data_bits,
+            map: self.map,
+            clipped,
         };
-        if self.dp.shade.is_some() {
-            return Err(unsupported("shading").into());
-        }
-        if self.dp.voi.is_some() {
-            return Err(unsupported("volume of interest").into());
-        }
-        let mut st = QuantStats::default();
-        let entries = self.dp.tables().color.len();
-        let unit = crate::preint::PreintUnit::new(&self.dp.cfg, pt, entries, &mut st)?;
+        frame.load(units, &mut loaded, &mut st)?;
         self.host_stats.merge(&st);
-        let dp = (*self.dp).clone().with_preint(unit);
-        self.dp = Arc::new(dp);
+        self.dp = Arc::new(dp.with_units(loaded));
         self.skip = None;
-        Ok(())
-    }
-
-    /// Scales the frame's opacities by `voi` ([`crate::voi`]): loads the
-    /// volume-of-interest stage's constants for `view`.
-    pub fn set_voi(&mut self, voi: &golden::voi::Voi, view: &View) -> Result<(), RunError> {
-        let mut st = QuantStats::default();
-        let unit =
-            crate::voi::VoiUnit::new(&self.dp.cfg, voi, view, &mut st).map_err(RunError::Voi)?;
-        self.host_stats.merge(&st);
-        let dp = (*self.dp).clone().with_voi(unit);
-        self.dp = Arc::new(dp);
         Ok(())
     }
 
@@ -401,6 +361,13 @@ impl Array {
         &self.dp
     }
 
+    /// The datapath's units as the probes select their signals: shading,
+    /// the VOI, pre-integration.
+    fn unit_flags(&self) -> (bool, bool, bool) {
+        let u = self.dp.units();
+        (u.shading(), u.voi, u.preint)
+    }
+
     /// Makes every sample of the whole-slice path run the general
     /// datapath instead of evaluating plain samples with the datapath's
     /// [`Kernel`](crate::datapath::Kernel), as it does by default. The same
@@ -428,25 +395,17 @@ impl Array {
         // only now.
         if let Some(t) = self.pending.take() {
             let p = self.clock.pes().len();
-            let units = (
-                self.dp.shade.is_some(),
-                self.dp.voi.is_some(),
-                self.dp.preint.is_some(),
-            );
+            let units = self.unit_flags();
             let nodes = (!self.trace_nodes.is_empty()).then(|| (&*self.dp, &self.trace_nodes[..]));
             let probes = Probes::new(t, p, &self.dp.cfg, units, nodes)?;
             self.clock.attach(probes);
         }
         self.clock.begin_tap(crate::probes::SignalSet::new(
             &self.dp.cfg,
-            (
-                self.dp.shade.is_some(),
-                self.dp.voi.is_some(),
-                self.dp.preint.is_some(),
-            ),
+            self.unit_flags(),
         ));
         let mut plan: FramePlan = plan(&self.dp.cfg, view)?;
-        if self.dp.preint.is_some() {
+        if self.dp.units().preint {
             let mut st = QuantStats::default();
             plan.passes = plan
                 .regions
@@ -565,6 +524,7 @@ impl Array {
             raw,
             raw_format,
             order: self.dp.cfg.order,
+            units: self.dp.units(),
             terminated_samples,
             cycles_saved: self.cycles_saved,
             skipped: self.skipped,

@@ -1,6 +1,6 @@
 //! The one entry point that runs a frame, [`FrameRun`]: where the PEs'
 //! voxels come from, the units the frame loads beside the datapath
-//! (shading, a volume of interest, pre-integration), what the controller
+//! ([`FrameUnit`]: shading, a volume of interest, pre-integration), what the controller
 //! skips, the waveform and the PE memories kept between frames. It loads
 //! an [`Array`], hands it those, clocks it and reads it out.
 
@@ -12,6 +12,7 @@ use golden::volume::Volume;
 use waves::Tracer;
 
 use crate::config::PipelineConfig;
+use crate::datapath::FrameUnit;
 use crate::host::{PlanError, VoxelSource};
 
 use super::{Array, Frame, Resident, RunError};
@@ -62,7 +63,7 @@ enum Camera<'a> {
 /// // frame of the same axis map.
 /// let frame = FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits: 8 })
 ///     .skips(golden::skip::Skips::EMPTY)
-///     .shading(Some(shade))
+///     .unit(Some(shade))
 ///     .resident(&mut kept)
 ///     .run()?;
 /// println!("{} cycles", frame.cycles);
@@ -75,7 +76,7 @@ pub struct FrameRun<'a> {
     camera: Camera<'a>,
     voxels: Voxels<'a>,
     skips: Option<Skips>,
-    units: Units<'a>,
+    units: Vec<&'a dyn FrameUnit>,
     tracer: Tracer,
     nodes: Vec<String>,
     resident: Option<&'a mut Option<Resident>>,
@@ -126,7 +127,7 @@ impl<'a> FrameRun<'a> {
             camera,
             voxels,
             skips: None,
-            units: Units::default(),
+            units: Vec::new(),
             tracer: Tracer::disabled(),
             nodes: Vec::new(),
             resident: None,
@@ -154,27 +155,17 @@ impl<'a> FrameRun<'a> {
         self
     }
 
-    /// Shades the frame with `shade` when given ([`Array::set_shading`]).
-    pub fn shading(mut self, shade: Option<&'a golden::shading::Shade>) -> Self {
-        self.units.shade = shade;
-        self
-    }
-
-    /// Scales the frame's opacities by the volume of interest `voi` when
-    /// given ([`Array::set_voi`]).
-    pub fn voi(mut self, voi: Option<&'a golden::voi::Voi>) -> Self {
-        self.units.voi = voi;
-        self
-    }
-
-    /// Pre-integrates the frame with golden's table `pt` when given
-    /// ([`crate::preint`], [`Array::set_preint`]): `pt` is pre-integrated
-    /// from this frame's `lut`; a prepared frame's occupancy memory is then
-    /// built for the unit's table ([`crate::skip::plan_preint_mask`]),
-    /// each step's runs over the segment it integrates. A pre-integrated
+    /// Loads `unit` beside the datapath when given ([`Array::set_units`]):
+    /// golden's shading (`golden::shading::Shade`), volume of interest
+    /// (`golden::voi::Voi`) or pre-integration table
+    /// (`golden::preint::PreTable`, pre-integrated from this frame's
+    /// `lut`; a prepared frame's occupancy memory is then built for the
+    /// unit's table, [`crate::skip::plan_preint_mask`]). A pre-integrated
     /// frame takes no shading, volume of interest or clip planes.
-    pub fn preint(mut self, pt: Option<&'a golden::preint::PreTable>) -> Self {
-        self.units.preint = pt;
+    pub fn unit<U: FrameUnit>(mut self, unit: Option<&'a U>) -> Self {
+        if let Some(u) = unit {
+            self.units.push(u);
+        }
         self
     }
 
@@ -274,7 +265,9 @@ impl<'a> FrameRun<'a> {
             Array::load_reusing(cfg, source, data_bits, lut, view, tracer, resident.take())?;
         array.trace_nodes = nodes;
         let clipped = matches!(camera, Camera::Prepared(prep) if !prep.clip.is_empty());
-        units.load(&mut array, view, (data_bits, clipped))?;
+        if !units.is_empty() {
+            array.set_units(&units, view, data_bits, clipped)?;
+        }
         if let (Camera::Prepared(prep), Some(mm)) = (camera, blocks) {
             plan_skipping(
                 &mut array,
@@ -282,7 +275,6 @@ impl<'a> FrameRun<'a> {
                 prep,
                 mm,
                 skips.unwrap_or_default(),
-                units,
             )?;
         }
         if let Some(c) = capture {
@@ -322,45 +314,6 @@ fn min_max(
     }
 }
 
-/// The units a frame loads beside the datapath: the gradient and shading
-/// unit's constants, a volume of interest, golden's pre-integration table.
-#[derive(Clone, Copy, Default)]
-struct Units<'a> {
-    shade: Option<&'a golden::shading::Shade>,
-    voi: Option<&'a golden::voi::Voi>,
-    preint: Option<&'a golden::preint::PreTable>,
-}
-
-impl Units<'_> {
-    /// Loads the units into `array`, a frame of `view` with
-    /// `data_bits`-bit data, clipped by planes when `clipped` (which a
-    /// pre-integrated frame refuses).
-    fn load(
-        &self,
-        array: &mut Array,
-        view: &View,
-        (data_bits, clipped): (u32, bool),
-    ) -> Result<(), RunError> {
-        if let Some(sh) = self.shade {
-            array.set_shading(sh, view, data_bits)?;
-        }
-        if let Some(v) = self.voi {
-            array.set_voi(v, view)?;
-        }
-        if let Some(pt) = self.preint {
-            if clipped {
-                return Err(crate::preint::PreintError::Unsupported(
-                    "the pipeline's pre-integrated frames take no clip planes; drop --clip or --preintegrate"
-                        .into(),
-                )
-                .into());
-            }
-            array.set_preint(pt)?;
-        }
-        Ok(())
-    }
-}
-
 /// Plans the skipping of `array`'s frame of `prep` over the min-max
 /// blocks `mm` (`lut` the classification table, for a pre-integrated
 /// frame's occupancy memory) and hands the plan to the controller.
@@ -370,24 +323,23 @@ fn plan_skipping(
     prep: &Prepared,
     mm: golden::occupancy::MinMax,
     skips: Skips,
-    units: Units,
 ) -> Result<(), RunError> {
     let layout = golden::methods::Method::Er
         .layout(&prep.view)
         .map_err(|e| RunError::Plan(PlanError::Golden(e)))?;
     let dp = &array.dp;
-    let (mask, counts) = match (units.preint, &dp.preint) {
-        (Some(pt), Some(unit)) => crate::skip::plan_preint_mask(
+    let (mask, counts) = match &dp.loaded.preint {
+        Some(unit) => crate::skip::plan_preint_mask(
             dp,
             unit,
-            (lut, pt.stride()),
+            (lut, unit.stride()),
             &mm,
             data_bits,
             prep,
             &layout,
             skips,
         ),
-        _ => crate::skip::plan_mask(dp, &mm, data_bits, prep, &layout, skips),
+        None => crate::skip::plan_mask(dp, &mm, data_bits, prep, &layout, skips),
     };
     array.set_skipping(mask, counts, &prep.view);
     Ok(())

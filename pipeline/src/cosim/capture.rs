@@ -381,13 +381,13 @@ pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
         .zip(cols)
         .map(|(n, w)| ((*n).to_owned(), w))
         .collect();
-    if let Some(unit) = &dp.shade {
+    if let Some(unit) = &dp.loaded.shade {
         v.push((
             crate::hw::shading::POWER_TABLE.to_owned(),
             unit.power_words(),
         ));
     }
-    if let Some(unit) = &dp.preint {
+    if let Some(unit) = &dp.loaded.preint {
         for ch in 0..crate::hw::preint::CHANNELS.len() {
             for odd in [false, true] {
                 v.push((
@@ -406,21 +406,21 @@ pub fn table_words(dp: &Datapath) -> Vec<(String, Vec<i64>)> {
 pub fn frame_words(dp: &Datapath) -> Vec<(String, i64)> {
     let mut v = Vec::new();
     let name = |p: &str, n: &str| crate::hw::pipeline_rtl::verilog_name(&format!("{p}{n}"));
-    if let Some(unit) = &dp.voi {
+    if let Some(unit) = &dp.loaded.voi {
         v.extend(
             unit.port_words()
                 .into_iter()
                 .map(|(n, w)| (name("voi.", &n), w)),
         );
     }
-    if let Some(unit) = &dp.shade {
+    if let Some(unit) = &dp.loaded.shade {
         v.extend(
             unit.port_words()
                 .into_iter()
                 .map(|(n, w)| (name("shade.", &n), w)),
         );
     }
-    if let Some(unit) = &dp.preint {
+    if let Some(unit) = &dp.loaded.preint {
         v.push((name("pre.", "scale"), unit.scale().raw()));
     }
     v

@@ -87,7 +87,7 @@ pub fn unit_latency(cfg: &PipelineConfig, (shading, voi): (bool, bool)) -> u32 {
         Units {
             lights: shading.then_some(1),
             voi,
-            preint: false,
+            ..Units::default()
         },
     )
 }
@@ -134,15 +134,18 @@ mod tests {
             };
             let plain = crate::hw::schedule::schedule(&crate::hw::sample::plain(&cfg)).depth;
             let composed = |lights: Option<usize>, voi: bool, preint: bool| {
-                let g = crate::hw::compose::sample(
-                    &cfg,
-                    Units {
+                let units = match preint {
+                    true => Units {
+                        preint,
+                        ..Units::default()
+                    },
+                    false => Units {
                         lights,
                         voi,
-                        preint,
+                        ..Units::default()
                     },
-                );
-                crate::hw::schedule::schedule(&g).depth
+                };
+                crate::hw::schedule::schedule(&crate::hw::compose::sample(&cfg, units)).depth
             };
             let row = [
                 datapath_latency(&cfg),

@@ -13,6 +13,7 @@ mod classes;
 mod kernel;
 mod ops;
 mod passes;
+mod units;
 
 use classes::Classes;
 pub(crate) use kernel::Tents;
@@ -22,6 +23,7 @@ pub use kernel::{Kernel, KernelRow};
 pub(crate) use ops::isqrt;
 use ops::split;
 pub use ops::{isqrt_into, lerp};
+pub use units::{units_for, FrameUnit, Loaded, UnitFrame};
 
 /// One ray's compositing accumulators: premultiplied R, G, B and opacity,
 /// as raw words of `accum_color` / `accum_alpha`.
@@ -82,15 +84,9 @@ pub struct Datapath {
     /// Cycles from a sample's issue to its write-back into the compositing
     /// buffer ([`PipelineConfig::datapath_latency`], resolved).
     pub latency: u64,
-    /// The gradient and shading unit's per-frame constants, when the frame
-    /// is shaded ([`Datapath::with_shading`]).
-    pub shade: Option<crate::shading::ShadeUnit>,
-    /// The volume-of-interest stage's per-frame constants, when the frame
-    /// has one ([`Datapath::with_voi`]).
-    pub voi: Option<crate::voi::VoiUnit>,
-    /// The pre-integration unit's table and constants, when the frame is
-    /// pre-integrated ([`Datapath::with_preint`]).
-    pub preint: Option<crate::preint::PreintUnit>,
+    /// The units beside the plain sample with their per-frame constants
+    /// ([`Datapath::with_units`]; none by default).
+    pub loaded: crate::hw::compose::FrameUnits,
 }
 
 impl Datapath {
@@ -103,9 +99,7 @@ impl Datapath {
             tables,
             classes: None,
             kernel: None,
-            shade: None,
-            voi: None,
-            preint: None,
+            loaded: Default::default(),
         };
         dp.classes = Classes::list(&dp);
         dp.kernel = dp.classes.as_ref().and_then(|c| Kernel::new(&dp, c));
@@ -117,8 +111,7 @@ impl Datapath {
     /// one ([`Kernel`]).
     #[inline]
     pub fn kernel(&self) -> Option<&Kernel> {
-        let plain = self.shade.is_none() && self.voi.is_none() && self.preint.is_none();
-        self.kernel.as_ref().filter(|_| plain)
+        self.kernel.as_ref().filter(|_| self.loaded.plain())
     }
 
     /// The Bartlett merge's assignments worked out once ([`Kernel`]'s,
@@ -144,45 +137,17 @@ impl Datapath {
     /// with its light count, the VOI, pre-integration), as
     /// [`crate::hw::compose`] composes them.
     pub fn units(&self) -> crate::hw::compose::Units {
-        crate::hw::compose::Units {
-            lights: self.shade.as_ref().map(|s| s.light_count()),
-            voi: self.voi.is_some(),
-            preint: self.preint.is_some(),
-        }
+        self.loaded.units()
     }
 
-    /// This datapath with the volume-of-interest stage loaded with
-    /// `unit`'s constants. A derived latency becomes the depth of the
-    /// composed sample's schedule ([`crate::cost::sample_latency`]): the
-    /// stage's distance and weight run beside interpolation and
-    /// classification, its multiply between classification and the
-    /// opacity correction; the distance's square root makes the datapath
-    /// deeper, which lengthens only what waits for samples in flight. One
-    /// the configuration states is kept.
-    pub fn with_voi(mut self, unit: crate::voi::VoiUnit) -> Datapath {
-        self.voi = Some(unit);
-        self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
-        self
-    }
-
-    /// This datapath with the gradient and shading unit loaded with
-    /// `unit`'s constants. A derived latency becomes the depth of the
-    /// composed sample's schedule with the unit built for the frame's
-    /// lights ([`crate::cost::sample_latency`]); one the configuration
-    /// states is kept.
-    pub fn with_shading(mut self, unit: crate::shading::ShadeUnit) -> Datapath {
-        self.shade = Some(unit);
-        self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
-        self
-    }
-
-    /// This datapath with the pre-integration unit loaded
-    /// ([`crate::preint`]). A derived latency becomes the depth of the
-    /// composed sample's schedule with the unit in the classification's
-    /// and the log table's place ([`crate::cost::sample_latency`]); one
-    /// the configuration states is kept.
-    pub fn with_preint(mut self, unit: crate::preint::PreintUnit) -> Datapath {
-        self.preint = Some(unit);
+    /// This datapath with `loaded`'s units and their constants. A derived
+    /// latency becomes the depth of the composed sample's schedule
+    /// ([`crate::cost::sample_latency`]): a unit beside the interpolation
+    /// or the classification (the VOI's distance and weight, the shading
+    /// unit) makes the datapath deeper, which lengthens only what waits
+    /// for samples in flight. One the configuration states is kept.
+    pub fn with_units(mut self, loaded: crate::hw::compose::FrameUnits) -> Datapath {
+        self.loaded = loaded;
         self.latency = u64::from(crate::cost::sample_latency(&self.cfg, self.units()));
         self
     }

@@ -73,6 +73,53 @@ impl Units {
     }
 }
 
+/// The units of [`Units`] with their per-frame constants, one slot each:
+/// a unit's model file fills its slot from golden's input
+/// ([`crate::datapath::FrameUnit`]), the datapath carries them
+/// ([`crate::datapath::Datapath::loaded`]) and the PE's sample reads
+/// them (`crate::stages::sample`).
+#[derive(Debug, Clone, Default)]
+pub struct FrameUnits {
+    /// The gradient and shading unit's lights, material and tables.
+    pub shade: Option<crate::shading::ShadeUnit>,
+    /// The volume-of-interest stage's region and weighting.
+    pub voi: Option<crate::voi::VoiUnit>,
+    /// The pre-integration unit's table and scale.
+    pub preint: Option<crate::preint::PreintUnit>,
+}
+
+impl FrameUnits {
+    /// The units these constants are loaded for.
+    pub fn units(&self) -> Units {
+        Units {
+            lights: self.shade.as_ref().map(|s| s.light_count()),
+            voi: self.voi.is_some(),
+            preint: self.preint.is_some(),
+        }
+    }
+
+    /// Whether none is loaded (the plain sample).
+    #[inline]
+    pub fn plain(&self) -> bool {
+        self.units().plain()
+    }
+
+    /// Refuses units [`sample`] does not compose together: the
+    /// pre-integration unit takes the classification's place, which the
+    /// shading unit and the VOI stage act on.
+    pub fn check(&self) -> Result<(), crate::preint::PreintError> {
+        let u = self.units();
+        let other = match (u.preint, u.shading(), u.voi) {
+            (true, true, _) => "shading",
+            (true, false, true) => "volume of interest",
+            _ => return Ok(()),
+        };
+        Err(crate::preint::PreintError::Unsupported(format!(
+            "the pipeline's pre-integrated frames take no {other}; drop it or --preintegrate"
+        )))
+    }
+}
+
 /// A unit built for some count, as the JSON's flag: whether it is there.
 fn present<S: serde::Serializer>(n: &Option<usize>, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_bool(n.is_some())

@@ -149,7 +149,7 @@ impl NodeTrace {
             text: patterns.join(","),
             reason,
         };
-        let graph = description(&dp.cfg, dp.units(), dp.preint.is_some()).map_err(spec)?;
+        let graph = description(&dp.cfg, dp.units(), dp.units().preint).map_err(spec)?;
         let sel = select(&graph, patterns).map_err(spec)?;
         let sch = crate::cost::latency::graph_schedule(&dp.cfg, &graph);
         let nodes: Vec<(NodeId, u32)> = sel.iter().map(|&id| (id, sch.stage[id.0])).collect();

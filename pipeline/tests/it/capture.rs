@@ -123,8 +123,8 @@ fn captured_unit_issues_are_the_composed_datapaths_words() {
         };
         let run = || {
             FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
-                .shading(shading.then_some(&shade))
-                .voi(with_voi.then_some(&voi))
+                .unit(shading.then_some(&shade))
+                .unit(with_voi.then_some(&voi))
         };
         let plain = run().run().unwrap();
         let rec = Arc::new(Mutex::new(Recorded::new()));
@@ -135,7 +135,7 @@ fn captured_unit_issues_are_the_composed_datapaths_words() {
         let units = Units {
             lights: shading.then_some(1),
             voi: with_voi,
-            preint: false,
+            ..Units::default()
         };
         let g = sample(&cfg, units);
         let depth = pipeline::hw::schedule::schedule(&g).depth;
@@ -218,7 +218,7 @@ fn captured_preintegrated_issues_are_the_composed_datapaths_words() {
             order,
             ..PipelineConfig::default()
         };
-        let run = || FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view).preint(Some(&pt));
+        let run = || FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view).unit(Some(&pt));
         let plain = run().run().unwrap();
         let rec = Arc::new(Mutex::new(Recorded::new()));
         let captured = run().capture(rec.clone()).run().unwrap();

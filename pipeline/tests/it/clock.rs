@@ -37,7 +37,8 @@ fn run_with(
 ) -> Frame {
     let mut a = Array::new(cfg, &s.vol, &s.lut, &prep.view, Tracer::disabled()).expect("array");
     if preint {
-        a.set_preint(&golden::preint::PreTable::new(&s.lut))
+        let pt = golden::preint::PreTable::new(&s.lut);
+        a.set_units(&[&pt], &prep.view, s.vol.kind().bits(), false)
             .expect("pre-integration");
     }
     if let Some(seed) = clocked {

@@ -40,7 +40,7 @@ fn frame(
 ) -> Result<Frame, pipeline::RunError> {
     FrameRun::prepared(cfg, lut, prep, Voxels::Volume(vol))
         .skips(skips)
-        .shading(shade)
+        .unit(shade)
         .run()
 }
 

@@ -72,7 +72,7 @@ fn raw_words(c: &PipelineConfig, (scene, eye, size): Shot, voi: Option<&Voi>) ->
     let s = subject(scene);
     let prep = view_from(&s.vol, eye, size);
     let f = FrameRun::new(c, &s.lut, &s.vol, &prep.view)
-        .voi(voi)
+        .unit(voi)
         .run()
         .unwrap();
     f.raw
@@ -90,7 +90,7 @@ fn run(
     let s = subject(scene);
     let prep = view_from(&s.vol, eye, size);
     let dir = tempfile::tempdir().unwrap();
-    let frame = || FrameRun::new(c, &s.lut, &s.vol, &prep.view).voi(Some(voi));
+    let frame = || FrameRun::new(c, &s.lut, &s.vol, &prep.view).unit(Some(voi));
     simulate(
         &frame,
         c,

@@ -28,7 +28,8 @@ fn pipe(
 ) -> Frame {
     let mut a = Array::new(cfg, vol, lut, &prep.view, Tracer::disabled()).unwrap();
     if let Some(pt) = pt {
-        a.set_preint(pt).unwrap();
+        a.set_units(&[pt], &prep.view, vol.kind().bits(), false)
+            .unwrap();
     }
     a.set_clocked(false);
     a.run(&prep.view).unwrap()

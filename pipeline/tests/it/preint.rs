@@ -42,7 +42,7 @@ fn pipe_pre(
     tracer: Tracer,
 ) -> Result<Frame, pipeline::RunError> {
     let mut a = Array::new(cfg, vol, lut, &prep.view, tracer)?;
-    a.set_preint(&PreTable::new(lut))?;
+    a.set_units(&[&PreTable::new(lut)], &prep.view, vol.kind().bits(), false)?;
     a.set_clocked(clocked);
     if let Some(o) = order {
         a.set_step_order(o);
@@ -364,9 +364,23 @@ fn preint_refuses_shading_and_a_voi() {
     let view = &views[0].view;
     let pt = PreTable::new(&lut);
     let mut a = Array::new(&cfg, &vol, &lut, view, Tracer::disabled()).unwrap();
-    a.set_shading(&golden::shading::Shade::default(), view, 8)
-        .unwrap();
-    let e = a.set_preint(&pt).unwrap_err().to_string();
+    let shade = golden::shading::Shade::default();
+    a.set_units(&[&shade], view, 8, false).unwrap();
+    let e = a.set_units(&[&pt], view, 8, false).unwrap_err().to_string();
+    assert!(e.contains("shading") && !e.contains('\n'), "{e}");
+    // In either order, and in one load.
+    let mut a = Array::new(&cfg, &vol, &lut, view, Tracer::disabled()).unwrap();
+    a.set_units(&[&pt], view, 8, false).unwrap();
+    let e = a
+        .set_units(&[&shade], view, 8, false)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("shading") && !e.contains('\n'), "{e}");
+    let mut a = Array::new(&cfg, &vol, &lut, view, Tracer::disabled()).unwrap();
+    let e = a
+        .set_units(&[&pt, &shade], view, 8, false)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("shading") && !e.contains('\n'), "{e}");
     let mut a = Array::new(&cfg, &vol, &lut, view, Tracer::disabled()).unwrap();
     let voi = golden::voi::Voi {
@@ -378,8 +392,8 @@ fn preint_refuses_shading_and_a_voi() {
         outside: false,
         ramp: 0.0,
     };
-    a.set_voi(&voi, view).unwrap();
-    let e = a.set_preint(&pt).unwrap_err().to_string();
+    a.set_units(&[&voi], view, 8, false).unwrap();
+    let e = a.set_units(&[&pt], view, 8, false).unwrap_err().to_string();
     assert!(e.contains("volume of interest") && !e.contains('\n'), "{e}");
 }
 

@@ -45,7 +45,7 @@ fn pipe_shaded(
     tracer: Tracer,
 ) -> Result<Frame, pipeline::RunError> {
     let mut a = Array::new(cfg, vol, lut, &prep.view, tracer)?;
-    a.set_shading(sh, &prep.view, vol.kind().bits())?;
+    a.set_units(&[sh], &prep.view, vol.kind().bits(), false)?;
     if let Some(rot) = clocked {
         let n = usize::from(cfg.pes);
         a.set_step_order((0..n).map(|k| (k + rot) % n).collect());

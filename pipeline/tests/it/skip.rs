@@ -186,7 +186,7 @@ fn check_voi(c: &Case, v: VoiDraw) -> Result<(), TestCaseError> {
     let run = |skips| {
         FrameRun::prepared(&cfg, &lut, &prep, Voxels::Volume(&vol))
             .skips(skips)
-            .voi(Some(&voi))
+            .unit(Some(&voi))
             .run()
             .expect("frame runs")
     };
@@ -302,7 +302,7 @@ fn run_pre(cfg: &PipelineConfig, lut: &Lut, prep: &Prepared, skips: Skips) -> Fr
     let pt = golden::preint::PreTable::new(lut);
     FrameRun::prepared(cfg, lut, prep, Voxels::Stack { data_bits: 8 })
         .skips(skips)
-        .preint(Some(&pt))
+        .unit(Some(&pt))
         .run()
         .expect("pre-integrated frame runs")
 }

@@ -51,8 +51,8 @@ fn check(order: Order, shading: bool, with_voi: bool, patterns: &[&str]) {
     };
     let frame = || {
         FrameRun::new(&cfg, &s.lut, &s.vol, &prep.view)
-            .shading(shading.then_some(&shade))
-            .voi(with_voi.then_some(&voi))
+            .unit(shading.then_some(&shade))
+            .unit(with_voi.then_some(&voi))
     };
     let plain = frame().run().unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -77,7 +77,7 @@ fn check(order: Order, shading: bool, with_voi: bool, patterns: &[&str]) {
     let units = Units {
         lights: shading.then_some(1),
         voi: with_voi,
-        preint: false,
+        ..Units::default()
     };
     let g = sample(&cfg, units);
     let sch = pipeline::cost::latency::graph_schedule(&cfg, &g);

@@ -53,7 +53,7 @@ fn pipe_traced(
 ) -> Result<Frame, pipeline::RunError> {
     let mut a = Array::new(cfg, vol, lut, &prep.view, tracer)?;
     if let Some(v) = voi {
-        a.set_voi(v, &prep.view)?;
+        a.set_units(&[v], &prep.view, vol.kind().bits(), false)?;
     }
     a.set_clocked(clocked);
     a.run(&prep.view)

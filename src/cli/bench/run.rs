@@ -310,7 +310,7 @@ pub fn run_case_in(case: &Case, shard: Option<Shard>) -> Result<CaseResult> {
                                 pipeline::Voxels::Volume(&case.vol),
                             )
                             .skips(golden::skip::Skips::NONE)
-                            .shading(shade)
+                            .unit(shade)
                             .run(),
                         };
                         let t0 = Instant::now();

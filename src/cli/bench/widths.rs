@@ -417,7 +417,7 @@ pub fn run_sweep(
                 )
                 .and_then(|mut a| {
                     if let Some(sh) = &sw.shade {
-                        a.set_shading(sh, &prep.view, vol.kind().bits())?;
+                        a.set_units(&[sh], &prep.view, vol.kind().bits(), false)?;
                     }
                     a.run(&prep.view)
                 });

@@ -58,7 +58,7 @@ impl Array {
             buses: &buses,
             times,
             seq: &seq,
-            shade: self.dp.shade.is_some(),
+            shade: self.dp.loaded.shade.is_some(),
             nx: self.nx,
         };
         self.clock.sample_untraced(&whole)?;

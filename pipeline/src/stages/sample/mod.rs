@@ -136,7 +136,7 @@ impl Array {
         let mut host = QuantStats::default();
         let rows = self.rows(region, slice, &mut host);
         let whole = !(self.clock.tracing() || self.clocked);
-        let shade = self.dp.shade.is_some();
+        let shade = self.dp.loaded.shade.is_some();
         self.clock.broadcast(&Broadcast::PlanRows {
             first_row,
             rows: nrows,

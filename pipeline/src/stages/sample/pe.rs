@@ -103,7 +103,7 @@ impl Pe {
         nx: usize,
         out: &mut Ports,
     ) -> Result<(), StepError> {
-        let shade = dp.shade.is_some();
+        let shade = dp.loaded.shade.is_some();
         self.drive_edge(bus.next, shade);
         self.drive_ports(out, shade);
         out.left.edge_valid = bus.next.is_some() && !self.cols.is_empty();
@@ -132,7 +132,7 @@ impl Pe {
     /// registers hold their values; nothing is sampled or counted.
     pub fn hold_step(&mut self, dp: &Datapath, out: &mut Ports) {
         self.last.busy = false;
-        self.drive_ports(out, dp.shade.is_some());
+        self.drive_ports(out, dp.loaded.shade.is_some());
     }
 
     /// The sample of held column `j` in the bus's row, issued in cycle
@@ -205,7 +205,7 @@ impl Pe {
                 column: c1,
             });
         };
-        let taps = match &dp.shade {
+        let taps = match &dp.loaded.shade {
             Some(_) => {
                 Some(self.taps(s.z, x0, (c0, c1), (y0, y1), (left, right), edge_in, nx, mx)?)
             }
@@ -234,19 +234,19 @@ impl Pe {
         } else {
             Default::default()
         };
-        if let Some(unit) = &dp.preint {
+        if let Some(unit) = &dp.loaded.preint {
             return self.preint_sample::<TRACE>(dp, unit, bus, (j, flags), (sample, issue), st);
         }
         let (mut rgb, mut alpha) = dp.classify(sample, st)?;
         let mut voi = crate::voi::VoiTrace::default();
-        if let Some(unit) = &dp.voi {
+        if let Some(unit) = &dp.loaded.voi {
             // Golden scales the classified opacity before it shades.
             let f;
             (f, voi) = unit.factor(&dp.cfg, (x, bus.yp, s.z), st)?;
             alpha = crate::voi::VoiUnit::scale(&dp.cfg, alpha, f, st);
         }
         let mut shade = Default::default();
-        if let (Some(unit), Some(t)) = (&dp.shade, &taps) {
+        if let (Some(unit), Some(t)) = (&dp.loaded.shade, &taps) {
             // The gradient and shading of a sample that is visible
             // (golden's `c[3] > 0`): a clock-gated unit otherwise.
             if alpha.raw() > 0 {
@@ -292,8 +292,16 @@ impl Pe {
                         taps: taps
                             .as_ref()
                             .map_or([0; 16], crate::cosim::capture::UnitIn::shade_taps),
-                        y: if dp.voi.is_some() { bus.yp.raw() } else { 0 },
-                        z: if dp.voi.is_some() { s.z as i64 } else { 0 },
+                        y: if dp.loaded.voi.is_some() {
+                            bus.yp.raw()
+                        } else {
+                            0
+                        },
+                        z: if dp.loaded.voi.is_some() {
+                            s.z as i64
+                        } else {
+                            0
+                        },
                         pre: Default::default(),
                     },
                     ..issue
