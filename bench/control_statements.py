@@ -45,7 +45,7 @@ STATEMENTS = [
         ],
     ),
     (
-        "the plan FIFO's head: the head's and the next entry's registers, the write bypasses",
+        "the plan FIFO's head: its register, the memory's read ahead, the write bypasses",
         [(r"wire \[(\d+):0\] hq = p_byp \? p_bw : p_h;", r"wire [\1:0] hq = p_q;")],
     ),
     (

@@ -260,18 +260,15 @@ fn a_control_that_ignores_the_row_plan_is_caught() {
     assert_caught_issuing(&r);
 }
 
-/// The plan FIFO's registered head and next entry each see a run written
-/// in the last clock only through their bypass: a FIFO that drops the
-/// head's or the next entry's issues a row from a stale word on the
-/// skipping frame, where runs land up to the clock before their row's
-/// pick. (The memory's read-ahead bypass, a run written to the entry two
-/// after the head in the clock before the head's row starts, is not
-/// reached by this frame: its runs keep further ahead.)
+/// The plan FIFO's registered head and the memory's read ahead each see a
+/// run written in the last clock only through their bypass: a FIFO that
+/// drops either issues a row from a stale word on the skipping frame,
+/// where runs land up to the clock before their row's pick.
 #[test]
 fn a_plan_fifo_that_drops_a_bypass_is_caught() {
     for (from, to) in [
         ("hq = p_byp ? p_bw : p_h;", "hq = p_h;"),
-        ("p_nq = p_byp1 ? p_bw : p_n;", "p_nq = p_n;"),
+        ("p_nq = p_byp1 ? p_bw : p_q;", "p_nq = p_q;"),
     ] {
         let Some(r) = icarus_mutant(
             "the plan FIFO bypass mutation in Icarus",
