@@ -45,8 +45,8 @@ STATEMENTS = [
         ],
     ),
     (
-        "the plan FIFO's head: its read, the write bypass",
-        [(r"wire \[(\d+):0\] hq = p_byp \? p_bw : p_q;", r"wire [\1:0] hq = p_q;")],
+        "the plan FIFO's head: its register, the memory's read ahead, the write bypasses",
+        [(r"wire \[(\d+):0\] hq = p_byp \? p_bw : p_h;", r"wire [\1:0] hq = p_q;")],
     ),
     (
         "the accumulators' forwarding of a write-back",

@@ -62,19 +62,31 @@ pub fn control_logic(s: &PeSampleShape, x0_bits: u32) -> Vec<(&'static str, Vec<
             vec![mux(n, 2)],
         ),
         (
-            "plan FIFO: tail and head pointers, the entry written and read",
+            "plan FIFO: tail and head pointers, the entry written, the head and the entry after it",
             vec![
                 Unit::Inc { width: pb },
                 Unit::Inc { width: pb },
+                Unit::Inc { width: pb },
+                Unit::Reduce { width: pb },
                 Unit::Reduce { width: pb },
                 Unit::Reduce { width: pb },
                 mux(pb, 3),
                 mux(pb, 3),
+                mux(pb, 2),
             ],
         ),
         (
-            "plan FIFO: the head's write bypass",
-            vec![Unit::Cmp { width: pb }, mux(n, 2)],
+            "plan FIFO: the head's word and the memory's read ahead, each with its write bypass",
+            vec![
+                Unit::Cmp { width: pb },
+                Unit::Cmp { width: pb },
+                mux(n, 2),
+                mux(n, 2),
+            ],
+        ),
+        (
+            "plan FIFO: the head's register, the entry after it taken at a row's first clock",
+            vec![mux(n, 2)],
         ),
         (
             "issue: the row's bits (the head's word or those left)",

@@ -20,11 +20,16 @@
 //! The rows are sent in the order the controller samples them, and every
 //! row sent is sampled, so the plan memory is a FIFO of words: `pl_first`
 //! opens the entry after the tail, and the head entry is the row that
-//! issues next. Its word is read one clock ahead (a synchronous read, so
-//! the memory is a block RAM), the read moving to the next entry at a
-//! row's first clock; a run written to the entry being read in that clock
-//! bypasses the memory. The control sees the word a run writes from the
-//! next clock on, as a run's beat is at least
+//! issues next. The head's word is a register (`p_h`), so that the
+//! issue's pick starts at a flip-flop rather than at the block RAM's
+//! clock-to-out (the pick's carry chain over the slots is the stage's
+//! longest path): the memory (a synchronous read, so a block RAM) reads
+//! the entry after the head a clock ahead, which a row's first clock
+//! moves into the register. Each word is its entry as of two clocks
+//! back; a run written to it in the last clock bypasses it (`p_bw`, a
+//! flag a word). The control sees the word a run writes from the next
+//! clock on, as with the memory read in the pick's clock, so the register
+//! costs no clock of the issue: a run's beat is at least
 //! [`crate::stages::sample::PLAN_TO_ISSUE`] clocks before its row's first
 //! issue (which the model counts).
 
@@ -78,33 +83,41 @@ pub(super) fn write_side(s: &PeSampleShape) -> (String, u64) {
     else if (pl_valid) p_tail <= p_widx;
   end
   always @(posedge clk) if (pl_valid) plan[p_widx] <= pl_word;
-  // The head entry (the row that issues next) read a clock ahead, moving to
-  // the next entry at a row's first clock; a run written to the entry read
-  // in that clock bypasses the memory.
+  // The head entry (the row that issues next) held in a register, so that the
+  // pick starts at a flip-flop, not at the memory's clock-to-out: the memory
+  // reads the entry after it a clock ahead, for the row's first clock that
+  // moves the head up. Each word is its entry as of two clocks back, a run
+  // written to it in the last clock bypassing it.
   wire [{pb1}:0] p_next = p_head == {last} ? {pb}'d0 : p_head + {pb}'d1;
   wire [{pb1}:0] p_ra = bc_first ? p_next : p_head;
+  wire [{pb1}:0] p_ra1 = p_ra == {last} ? {pb}'d0 : p_ra + {pb}'d1;
   reg [{s1}:0] p_q;
-  always @(posedge clk) p_q <= plan[p_ra];
-  reg p_byp;
-  reg [{s1}:0] p_bw;
+  always @(posedge clk) p_q <= plan[p_ra1];
+  reg p_byp, p_byp1;
+  reg [{s1}:0] p_bw, p_h;
+  wire [{s1}:0] hq = p_byp ? p_bw : p_h;
+  wire [{s1}:0] p_nq = p_byp1 ? p_bw : p_q;
   always @(posedge clk) begin
     if (rst) begin
       p_head <= 0;
       p_byp <= 1'b0;
+      p_byp1 <= 1'b0;
       p_bw <= 0;
+      p_h <= 0;
     end else begin
       if (bc_first) p_head <= p_next;
       p_byp <= pl_valid && p_widx == p_ra;
+      p_byp1 <= pl_valid && p_widx == p_ra1;
       p_bw <= pl_word;
+      p_h <= bc_first ? p_nq : hq;
     end
-  end
-  wire [{s1}:0] hq = p_byp ? p_bw : p_q;",
+  end",
         s1 = slots - 1,
         pb1 = pb - 1,
         last = rows - 1,
         compare = super::pe_columns_rtl::plan_compare(s),
     );
-    // pl_acc, the FIFO's pointers, the head's bypass (the read register
-    // is the memory's).
-    (t, 2 * slots + 2 * u64::from(pb) + 1)
+    // pl_acc, the FIFO's pointers, the bypassed word and its two flags,
+    // the head's word (the read register is the memory's).
+    (t, 3 * slots + 2 * u64::from(pb) + 2)
 }

@@ -161,7 +161,7 @@ mod tests {
 
     use super::*;
 
-    /// The two clocks: the pick (from the plan's block RAM through
+    /// The two clocks: the pick (from the plan's head register through
     /// the carry chain over the slots) is predicted slower than the
     /// buffer's address (from the registered pick), over volumes, PEs and
     /// mappings, so the pick is the path the stage's clock quotes.

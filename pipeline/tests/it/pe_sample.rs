@@ -260,6 +260,28 @@ fn a_control_that_ignores_the_row_plan_is_caught() {
     assert_caught_issuing(&r);
 }
 
+/// The plan FIFO's registered head sees a run written to it in the last
+/// clock only through its bypass: a FIFO that drops it issues a row from
+/// a stale word on the skipping frame, where a row's last run lands in the
+/// clock before its pick. (The memory's read-ahead bypass, a run written
+/// to the entry after the head in the clock before the head's row
+/// starts, is not reached by this frame: its runs keep further ahead.)
+#[test]
+fn a_plan_fifo_that_drops_its_head_bypass_is_caught() {
+    let Some(r) = icarus_mutant(
+        "the plan FIFO bypass mutation in Icarus",
+        &cfg(2),
+        SKIPPING,
+        Some(Skips::default()),
+        ("hq = p_byp ? p_bw : p_h;", "hq = p_h;"),
+    ) else {
+        return;
+    };
+    let m = assert_caught_issuing(&r);
+    println!("first mismatch: {m}");
+    assert_ne!(m.model, m.rtl, "{m}");
+}
+
 /// A control that steps past two of the row plan's rays at each clock
 /// (every other ray skipped) is caught at the row's second clock, naming
 /// the PE and the ray index.

@@ -229,8 +229,9 @@ fn tree_levels(inputs: u64) -> u32 {
 /// The path of the sample stage's issue: the pick, in the clock before
 /// issue ([`crate::hw::pe_sample_rtl`]'s control, as
 /// [`crate::cost::sample_stage::control_logic`] prices its statements):
-/// the plan FIFO's block-RAM read, the head's bypass and the row's bits
-/// (two LUT levels), the one-hot pick's carry chain over the slots and its
+/// from the plan FIFO's head register (the block RAM reads ahead of it,
+/// off the path), the head's bypass and the row's bits (two LUT levels),
+/// the one-hot pick's carry chain over the slots and its
 /// AND and the index's OR tree (a LUT4 level per four inputs) into the
 /// pick's registers; under a round-robin mapping also the column map's
 /// ray index at that index (a multiplexer tree), where under column
@@ -245,15 +246,11 @@ pub fn issue_path(s: &crate::hw::pe_sample_rtl::PeSampleShape) -> Path {
     } else {
         Path::default()
     };
-    Path {
-        brams: 1.0,
-        ..Path::default()
-    }
-    .then(Path::luts(2))
-    .then(Path::chain(n as u32))
-    .then(Path::luts(1))
-    .then(Path::luts(tree_levels(n.div_ceil(2))))
-    .then(mx)
+    Path::luts(2)
+        .then(Path::chain(n as u32))
+        .then(Path::luts(1))
+        .then(Path::luts(tree_levels(n.div_ceil(2))))
+        .then(mx)
 }
 
 /// The issue's second clock's path: from the registered pick, the slot

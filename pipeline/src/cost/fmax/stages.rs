@@ -1,7 +1,7 @@
 //! The routing a whole sample stage adds along its own paths.
 //!
 //! The stage's control has two paths of its own ([`StagePath`]): the
-//! issue's pick ([`super::issue_path`], from the row plan's block RAM
+//! issue's pick ([`super::issue_path`], from the row plan's head register
 //! through the carry chain over the slots) and the tap address
 //! ([`super::tap_path`], from the datapath's tap column through the
 //! clamps and the local column into the slice buffer's read ports).
@@ -53,7 +53,7 @@ impl StagePath {
     /// What a report calls it.
     pub fn describe(self) -> &'static str {
         match self {
-            StagePath::Issue => "the sample stage's issue (plan FIFO read to the pick's registers)",
+            StagePath::Issue => "the sample stage's issue (plan FIFO head to the pick's registers)",
             StagePath::Tap => {
                 "the sample stage's tap address (the datapath's tap column to the slice buffer)"
             }
