@@ -7,13 +7,15 @@
 #   bench/equiv.sh BASE_BIN NEW_BIN [WORKDIR]
 #
 # Prints one line per case (`same` or `DIFF: files`) and exits 1 on any
-# difference. Run from the repository root (the brain volume is found at
-# ../shared/data/brainsmall.den, as the tests find it).
+# difference or failed render. The brain volume is ../shared/data/brainsmall.den
+# beside the repository, as the tests find it, or $ERCUBE_BRAIN.
 set -u
 base=${1:?base binary}
 new=${2:?new binary}
 work=${3:-/tmp/ercube-equiv}
-brain=../shared/data/brainsmall.den
+root=$(cd "$(dirname "$0")/.." && pwd)
+brain=${ERCUBE_BRAIN:-$root/../shared/data/brainsmall.den}
+[ -r "$brain" ] || { echo "equiv.sh: no brain volume at $brain (set ERCUBE_BRAIN)"; exit 2; }
 rm -rf "$work"
 mkdir -p "$work/cfg"
 
@@ -77,6 +79,7 @@ cases=(
 status=0
 for c in "${cases[@]}"; do
   IFS='|' read -r name threads args <<<"$c"
+  failed=""
   for side in base new; do
     bin=$base
     [ "$side" = new ] && bin=$new
@@ -89,6 +92,7 @@ for c in "${cases[@]}"; do
       --raw-npy "$d/r.npy" --npy "$d/i.npy" --stats "$d/s.json" --out "$d/i.png" \
       >"$d/out.txt" 2>"$d/err.txt"; then
       echo "$name: $side failed: $(head -c 300 "$d/err.txt")"
+      failed=1
       status=1
     fi
     python3 - "$d/s.json" >"$d/s.cmp.json" <<'P'
@@ -108,7 +112,9 @@ P
   done
   # The waveforms are large: keep them only when they differ.
   [ -z "$diffs" ] && rm -f "$work"/{base,new}/"$name"/w.vcd
-  if [ -z "$diffs" ]; then
+  if [ -n "$failed" ]; then
+    echo "$name: FAILED"
+  elif [ -z "$diffs" ]; then
     echo "$name: same ($(grep -o '[0-9]* cycles' "$work/new/$name/out.txt" | head -1))"
   else
     echo "$name: DIFF:$diffs"
