@@ -216,7 +216,7 @@ fn same<T: PartialEq + Sync>(a: &[T], b: &[T]) -> bool {
 /// when they are in a buffer that cannot change. When `reuse` keeps a
 /// volume with the same dimensions, spacing and voxels and the arguments
 /// render a given volume as it is
-/// ([`crate::cli::args::ViewArgs::keeps_given`]), the kept volume and its
+/// (`ViewArgs::keeps_given`), the kept volume and its
 /// preparation render the frame and nothing is copied; otherwise the
 /// voxels are copied once into a new volume. The voxels are the same when
 /// the kept volume was copied from the same place of the same unchanging

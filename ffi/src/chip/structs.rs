@@ -162,7 +162,7 @@ pub struct ErcubePe {
 
 /// The controller in a cycle (`top.ctrl`) and how many commands it
 /// broadcast to every PE since the previous cycle
-/// ([`ercube_chip_command`]).
+/// ([`ercube_chip_command`](crate::chip::ercube_chip_command)).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ErcubeBroadcast {
