@@ -18,7 +18,9 @@ use pipeline::cosim::build::Simulator;
 use pipeline::cosim::fold::{Fold, FoldRun};
 use pipeline::hw::fold_rtl::FoldShape;
 
-use crate::pass_rtl::{assert_lints_without_latches, assert_ran_clean, run};
+use crate::pass_rtl::{
+    assert_lints_without_latches, assert_ran_clean, assert_synthesizes_without_latches, run,
+};
 use crate::tools::have;
 
 /// A frame's fold passes as the model ran them, and the emitted module.
@@ -212,4 +214,15 @@ fn the_shape_refuses_what_the_module_does_not_cover() {
     };
     let e = FoldShape::new(&sparse, &geo).unwrap_err();
     assert!(e.contains("the sparse fold"), "{e}");
+}
+
+/// yosys `synth -top`, `synth_ice40` and `synth_xilinx` finish without
+/// error and leave no latch (the line buffer, a register file read three
+/// times without a clock, is mapped to flip-flops; minutes on the shared
+/// 2-core machine, docs/rtl.md gives the time).
+/// `cargo test --release -p pipeline --test it -- --ignored fold_rtl::`
+#[test]
+#[ignore]
+fn fold_module_synthesizes_without_latches() {
+    assert_synthesizes_without_latches::<Fold>(&cfg(4));
 }

@@ -46,11 +46,12 @@ fn rtl_writes_the_module_filelist_and_readme() {
             "ercube_sample.v",
             "filelist.f",
         ];
-        // Front to back, the PE's dense split too; back to front its
-        // dense merge.
+        // Front to back, the PE's dense split and fold too; back to front
+        // its dense merge.
         let split = if order == "ftb" {
             want.insert(3, "ercube_pe_split.v");
-            "ercube_pe_split.v\n"
+            want.insert(1, "ercube_pe_fold.v");
+            "ercube_pe_split.v\nercube_pe_fold.v\n"
         } else {
             want.insert(1, "ercube_pe_merge.v");
             "ercube_pe_merge.v\n"
