@@ -124,7 +124,9 @@ if len(sys.argv) > 2:
 
 for call, says in [
     (lambda: ercube.pe_vectors(ercube.scene("ml:16"), pe=3, pes=3, size=(12, 12)), "--pe 3: the frame has 3 PEs"),
-    (lambda: ercube.pe_vectors(ercube.scene("ml:16"), size=(12, 12), shade=True), "plain sample only"),
+    # 4 PEs: the shading unit loads (4 voxel columns a PE), so what refuses is the vectors' plain sample.
+    (lambda: ercube.pe_vectors(ercube.scene("ml:16"), pes=4, size=(12, 12), shade=True), "plain sample only"),
+    (lambda: ercube.pe_vectors(ercube.scene("ml:16"), size=(12, 12), shade=True), "at least 2 voxel columns per PE"),
     (lambda: ercube.pe_vectors(ercube.scene("ml:16"), order="up"), "order"),
     (lambda: ercube.pe_vectors(ercube.scene("ml:16"), config="pes = 0"), "pes"),
 ]:
