@@ -252,7 +252,7 @@ mod tests {
         // sample stage's control, `cost::sample_stage`, statement by
         // statement).
         let r = pe.cost(Target::Xc7);
-        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 3777, 7274, 139));
+        assert_eq!((r.dsp, r.lut, r.ff, r.bram), (29, 3981, 7274, 139));
         assert_eq!(pe.schedule.depth, crate::cost::datapath_latency(&cfg));
         // A report's JSON leaves the flag out unless it is set.
         let json = serde_json::to_string(&geo).unwrap();
