@@ -39,7 +39,7 @@
 use std::fmt::Write as _;
 
 use super::merge_rtl::{x_taps, y_taps, y_words, MergeShape};
-use super::pass_rtl::{self, Latch, PassHead};
+use super::pass_rtl::{self, PassHead, TENT_PASS_LATCHED};
 use super::split_rtl::rng;
 use super::tents::{tent, CHANNELS};
 use super::Graph;
@@ -200,15 +200,7 @@ pub fn emit(cfg: &PipelineConfig, shape: &FoldShape) -> Result<String, RtlError>
 // takes the low bits of its index.
 ",
             begin: "begin_fold",
-            latched: &[
-                ("n", Latch::Count),
-                ("m0", Latch::Index),
-                ("lo", Latch::Index),
-                ("hi", Latch::Index),
-                ("bg_lo", Latch::Index),
-                ("bg_rows", Latch::Rows),
-                ("fg_lo", Latch::Index),
-            ],
+            latched: TENT_PASS_LATCHED,
             parents: &[
                 ("h0", mw),
                 ("h1", mw),

@@ -33,7 +33,7 @@
 
 use std::fmt::Write as _;
 
-use super::pass_rtl::{self, Latch, PassHead};
+use super::pass_rtl::{self, PassHead, TENT_PASS_LATCHED};
 use super::split_rtl::{bits_for, rng};
 use super::tents::{tents, CHANNELS};
 use crate::config::{Order, PipelineConfig};
@@ -199,15 +199,7 @@ pub fn emit(cfg: &PipelineConfig, s: &MergeShape) -> Result<String, RtlError> {
 // takes the low bits of its index.
 ",
             begin: "begin_merge",
-            latched: &[
-                ("n", Latch::Count),
-                ("m0", Latch::Index),
-                ("lo", Latch::Index),
-                ("hi", Latch::Index),
-                ("bg_lo", Latch::Index),
-                ("bg_rows", Latch::Rows),
-                ("fg_lo", Latch::Index),
-            ],
+            latched: TENT_PASS_LATCHED,
             parents: &[
                 ("h0", acc),
                 ("h1", acc),

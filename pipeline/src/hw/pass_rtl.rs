@@ -25,6 +25,20 @@ pub(super) enum Latch {
     Rows,
 }
 
+/// The registers a tent pass over the held columns (the merge, the fold)
+/// latches from its `begin_*`, in port order: the PE's child count, its
+/// first child, its held span, the back grid's first row and rows, the
+/// front grid's first row.
+pub(super) const TENT_PASS_LATCHED: &[(&str, Latch)] = &[
+    ("n", Latch::Count),
+    ("m0", Latch::Index),
+    ("lo", Latch::Index),
+    ("hi", Latch::Index),
+    ("bg_lo", Latch::Index),
+    ("bg_rows", Latch::Rows),
+    ("fg_lo", Latch::Index),
+];
+
 /// A boundary pass module's shared parts.
 pub(super) struct PassHead<'a> {
     /// The module's name.
